@@ -1,0 +1,179 @@
+//! `bench`: environment steps per second (one step = `step_mul` game loops plus every
+//! agent's observation, the state and the available actions, as a MARL training loop
+//! consumes them), single thread, with random available actions; and bytes per env.
+
+use anyhow::Result;
+use avacraft_engine::{Env, EnvConfig, Scenario, Team, builtin_names};
+use clap::Args;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+use stats_alloc::{Region, StatsAlloc};
+use std::alloc::System;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// The goal for 2s3z on one core.
+const GOAL_STEPS_PER_SEC: f64 = 100_000.0;
+
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Scenario names or files; `all` for every built-in scenario.
+    #[arg(long, num_args = 1.., default_values_t = ["3m".to_owned(), "2s3z".to_owned(), "2c_vs_64zg".to_owned(), "pvz_ht".to_owned()])]
+    scenario: Vec<String>,
+    /// Seconds of measurement per scenario and configuration.
+    #[arg(long, default_value_t = 2.0)]
+    seconds: f64,
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Serialize)]
+struct BenchRow {
+    scenario: String,
+    units: usize,
+    steps: u64,
+    episodes: u64,
+    steps_per_sec: f64,
+    /// Baseline measured in the same run: the same stepping without observations.
+    sim_only_steps_per_sec: f64,
+    /// steps_per_sec / sim_only_steps_per_sec: what observations cost.
+    ratio_to_sim_only: f64,
+    /// steps_per_sec / 100,000 (the 2s3z goal).
+    ratio_to_goal: f64,
+    game_loops_per_sec: f64,
+    bytes_per_env: usize,
+}
+
+fn measure(scenario: &Arc<Scenario>, seconds: f64, with_obs: bool) -> (u64, u64, u64, f64) {
+    let mut env = Env::new(Arc::clone(scenario), EnvConfig::default(), 1);
+    let layout = env.smac_layout(Team::One).clone();
+    let mut obs = vec![0f32; layout.obs_size];
+    let mut state = vec![0f32; layout.state_size];
+    let mut avail = vec![0u8; layout.n_actions];
+    let mut actions = vec![0usize; layout.n_agents];
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let (mut steps, mut episodes, mut loops) = (0u64, 0u64, 0u64);
+    let start = Instant::now();
+    let mut sink = 0f32;
+    loop {
+        for (agent, slot) in actions.iter_mut().enumerate() {
+            env.avail_agent(Team::One, agent, &mut avail);
+            let n = avail.iter().filter(|&&a| a == 1).count();
+            let mut k = rng.random_range(0..n.max(1));
+            *slot = avail
+                .iter()
+                .position(|&a| {
+                    a == 1 && {
+                        let hit = k == 0;
+                        k = k.saturating_sub(1);
+                        hit
+                    }
+                })
+                .unwrap_or(0);
+        }
+        env.submit_indices(Team::One, &actions);
+        let before = env.world().tick();
+        let r = env.step();
+        loops += (env.world().tick() - before) as u64;
+        if with_obs {
+            for agent in 0..layout.n_agents {
+                env.obs_agent(Team::One, agent, &mut obs);
+                env.avail_agent(Team::One, agent, &mut avail);
+                sink += obs[0];
+            }
+            env.state(Team::One, &mut state);
+            sink += state[0];
+        }
+        steps += 1;
+        if r.done {
+            episodes += 1;
+            env.reset(steps);
+        }
+        if steps % 256 == 0 && start.elapsed().as_secs_f64() >= seconds {
+            break;
+        }
+    }
+    std::hint::black_box(sink);
+    (steps, episodes, loops, start.elapsed().as_secs_f64())
+}
+
+fn bytes_per_env(scenario: &Arc<Scenario>, alloc: &'static StatsAlloc<System>) -> usize {
+    const N: usize = 32;
+    let region = Region::new(alloc);
+    let mut envs = Vec::with_capacity(N);
+    let base = region.change();
+    for i in 0..N {
+        let mut e = Env::new(Arc::clone(scenario), EnvConfig::default(), i as u64);
+        e.step();
+        envs.push(e);
+    }
+    let c = region.change();
+    let heap = (c.bytes_allocated - c.bytes_deallocated).saturating_sub(base.bytes_allocated - base.bytes_deallocated);
+    std::hint::black_box(&envs);
+    heap / N + size_of::<Env>()
+}
+
+pub fn run(a: &BenchArgs, alloc: &'static StatsAlloc<System>) -> Result<()> {
+    let names: Vec<String> =
+        if a.scenario.iter().any(|s| s == "all") { builtin_names().map(str::to_owned).collect() } else { a.scenario.clone() };
+    let mut rows = Vec::new();
+    for name in &names {
+        let scenario = Arc::new(Scenario::load(name)?);
+        let (steps, episodes, loops, secs) = measure(&scenario, a.seconds, true);
+        let (base_steps, _, _, base_secs) = measure(&scenario, a.seconds / 2.0, false);
+        let sps = steps as f64 / secs;
+        let base = base_steps as f64 / base_secs;
+        rows.push(BenchRow {
+            scenario: scenario.name.clone(),
+            units: scenario.units.len(),
+            steps,
+            episodes,
+            steps_per_sec: sps,
+            sim_only_steps_per_sec: base,
+            ratio_to_sim_only: sps / base,
+            ratio_to_goal: sps / GOAL_STEPS_PER_SEC,
+            game_loops_per_sec: loops as f64 / secs,
+            bytes_per_env: bytes_per_env(&scenario, alloc),
+        });
+        if !a.json {
+            eprintln!("measured {name}");
+        }
+    }
+    if a.json {
+        if rows.len() == 1 {
+            println!("{}", serde_json::to_string_pretty(&rows[0])?);
+        } else {
+            println!("{}", serde_json::to_string_pretty(&rows)?);
+        }
+        return Ok(());
+    }
+    let mut t = comfy_table::Table::new();
+    t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header([
+        "scenario",
+        "units",
+        "steps/s",
+        "sim-only steps/s",
+        "ratio to sim-only",
+        "ratio to 100k goal",
+        "game loops/s",
+        "bytes/env",
+    ]);
+    for r in &rows {
+        t.add_row([
+            r.scenario.clone(),
+            r.units.to_string(),
+            format!("{:.0}", r.steps_per_sec),
+            format!("{:.0}", r.sim_only_steps_per_sec),
+            format!("{:.2}", r.ratio_to_sim_only),
+            format!("{:.2}", r.ratio_to_goal),
+            format!("{:.0}", r.game_loops_per_sec),
+            r.bytes_per_env.to_string(),
+        ]);
+    }
+    println!("{t}");
+    println!(
+        "one step = 8 game loops + every agent's observation and available actions + the state; single thread, random available actions"
+    );
+    Ok(())
+}

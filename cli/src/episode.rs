@@ -1,0 +1,185 @@
+//! `episode`: run episodes in-process with scripted policies and summarise the results.
+
+use crate::info::team_of;
+use anyhow::{Context, Result, bail};
+use avacraft_engine::{Env, EnvConfig, Mode, OpponentKind, Outcome, RewardMode, Rules, Scenario, Team, loops_to_seconds, policy};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+use std::io::IsTerminal;
+use std::sync::Arc;
+
+#[derive(Args, Debug)]
+pub struct EpisodeArgs {
+    /// Built-in scenario name or path to a scenario file.
+    #[arg(long)]
+    pub scenario: String,
+    /// Policy for team 1 (focus-fire, kite, attack-move, builtin, aggressive, defensive, focus, random, noop).
+    #[arg(long, default_value = "kite")]
+    pub agent: String,
+    /// Policy for team 2 in PvP scenarios (default: the same as --agent).
+    #[arg(long)]
+    pub agent2: Option<String>,
+    /// Opponent in PvE: builtin, aggressive, defensive, focus or random (default: the scenario's).
+    #[arg(long)]
+    pub opponent: Option<String>,
+    #[arg(long, default_value_t = 10)]
+    pub episodes: u32,
+    /// Seed of the first episode; episode k uses seed + k.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Turn fog of war off.
+    #[arg(long)]
+    pub full_vision: bool,
+    /// Turn off StarCraft II's random attack delay.
+    #[arg(long)]
+    pub no_jitter: bool,
+    /// Print team 1's text observation to stderr every N steps (0: never).
+    #[arg(long, default_value_t = 0)]
+    pub trace_every: u32,
+    /// Print a JSON result instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Serialize)]
+struct EpisodeRecord {
+    seed: u64,
+    result: Outcome,
+    opponent: Option<OpponentKind>,
+    game_loops: u32,
+    game_seconds: f32,
+    steps: u32,
+    units_left: [usize; 2],
+    refused_actions: [u32; 2],
+    trajectory_hash: String,
+}
+
+#[derive(Serialize)]
+struct Rate {
+    mean: f64,
+    std: f64,
+}
+
+#[derive(Serialize)]
+struct Summary {
+    scenario: String,
+    mode: String,
+    agent: String,
+    agent2: Option<String>,
+    opponent: Option<String>,
+    episodes: usize,
+    win: Rate,
+    draw: Rate,
+    loss: Rate,
+    game_seconds: Rate,
+}
+
+#[derive(Serialize)]
+struct Report {
+    summary: Summary,
+    episodes: Vec<EpisodeRecord>,
+}
+
+fn rate(xs: impl Iterator<Item = f64>) -> Rate {
+    let v: Vec<f64> = xs.collect();
+    let n = v.len().max(1) as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let var = if v.len() > 1 { v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0) } else { 0.0 };
+    Rate { mean, std: var.sqrt() }
+}
+
+pub fn run(a: &EpisodeArgs) -> Result<()> {
+    if a.episodes == 0 {
+        bail!("--episodes must be at least 1");
+    }
+    let scenario = Arc::new(Scenario::load(&a.scenario)?);
+    let opponent = a.opponent.as_deref().map(str::parse::<OpponentKind>).transpose().map_err(anyhow::Error::msg).context("--opponent")?;
+    if scenario.mode == Mode::Pvp && opponent.is_some() {
+        bail!("--opponent applies to PvE scenarios; {} is PvP: pick team 2's policy with --agent2", scenario.name);
+    }
+    let mut p1 = policy::by_name(&a.agent).context("--agent")?;
+    let agent2 = a.agent2.clone().unwrap_or_else(|| a.agent.clone());
+    let mut p2 = if scenario.mode == Mode::Pvp { Some(policy::by_name(&agent2).context("--agent2")?) } else { None };
+    let cfg = EnvConfig {
+        rules: Rules { full_vision: a.full_vision, cooldown_jitter: !a.no_jitter, ..Rules::default() },
+        reward: RewardMode::Sparse,
+        opponent,
+        ..EnvConfig::default()
+    };
+    let bar = if a.json || !std::io::stderr().is_terminal() { ProgressBar::hidden() } else { ProgressBar::new(a.episodes as u64) };
+    bar.set_style(ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} episodes ({eta})")?.progress_chars("=> "));
+    bar.set_message(scenario.name.clone());
+    let mut env = Env::new(Arc::clone(&scenario), cfg, a.seed);
+    let mut records = Vec::new();
+    for k in 0..a.episodes as u64 {
+        let seed = a.seed.wrapping_add(k);
+        env.reset(seed);
+        let mut rng1 = ChaCha8Rng::seed_from_u64(seed ^ 0x5151);
+        let mut rng2 = ChaCha8Rng::seed_from_u64(seed ^ 0xa2a2);
+        p1.reset(&scenario, Team::One);
+        if let Some(p) = p2.as_mut() {
+            p.reset(&scenario, Team::Two);
+        }
+        while !env.done() {
+            if a.trace_every > 0 && env.steps() % a.trace_every == 0 {
+                eprintln!("--- seed {seed}, step {}\n{}", env.steps(), avacraft_engine::describe(&env, Team::One));
+            }
+            let acts = p1.act(&env.view(Team::One), &mut rng1);
+            env.submit(Team::One, &acts);
+            if let Some(p) = p2.as_mut() {
+                let acts = p.act(&env.view(Team::Two), &mut rng2);
+                env.submit(Team::Two, &acts);
+            }
+            env.step();
+        }
+        let w = env.world();
+        records.push(EpisodeRecord {
+            seed,
+            result: env.outcome().unwrap_or(Outcome::Draw),
+            opponent: env.opponent(),
+            game_loops: w.tick(),
+            game_seconds: loops_to_seconds(w.tick()),
+            steps: env.steps(),
+            units_left: [w.alive(Team::One).count(), w.alive(Team::Two).count()],
+            refused_actions: env.refused(),
+            trajectory_hash: format!("{:016x}", env.trajectory_hash()),
+        });
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let is = |o: Outcome| move |r: &EpisodeRecord| if r.result == o { 1.0 } else { 0.0 };
+    let summary = Summary {
+        scenario: scenario.name.clone(),
+        mode: scenario.mode.to_string(),
+        agent: a.agent.clone(),
+        agent2: p2.as_ref().map(|_| agent2.clone()),
+        opponent: (scenario.mode == Mode::Pve).then(|| opponent.unwrap_or(scenario.opponent).to_string()),
+        episodes: records.len(),
+        win: rate(records.iter().map(is(Outcome::Win))),
+        draw: rate(records.iter().map(is(Outcome::Draw))),
+        loss: rate(records.iter().map(is(Outcome::Loss))),
+        game_seconds: rate(records.iter().map(|r| r.game_seconds as f64)),
+    };
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&Report { summary, episodes: records })?);
+        return Ok(());
+    }
+    let who = match (&summary.opponent, &summary.agent2) {
+        (Some(o), _) => format!("{} vs opponent {}", summary.agent, o),
+        (None, Some(b)) => format!("{} (team 1) vs {} (team 2)", summary.agent, b),
+        _ => summary.agent.clone(),
+    };
+    println!("{} ({}), {}: {} episodes from seed {}", summary.scenario, summary.mode, who, summary.episodes, a.seed);
+    let mut t = comfy_table::Table::new();
+    t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header(["", "mean", "std"]);
+    for (name, r) in [("win rate", &summary.win), ("draw rate", &summary.draw), ("loss rate", &summary.loss)] {
+        t.add_row([name.to_owned(), format!("{:.3}", r.mean), format!("{:.3}", r.std)]);
+    }
+    t.add_row(["game seconds".to_owned(), format!("{:.1}", summary.game_seconds.mean), format!("{:.1}", summary.game_seconds.std)]);
+    println!("{t}");
+    let _ = team_of;
+    Ok(())
+}

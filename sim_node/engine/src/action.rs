@@ -1,0 +1,220 @@
+//! The typed action interface shared by every agent kind, its validation, and the 10x10
+//! movement grid that screenshots label.
+
+use crate::combat::weapon_for;
+use crate::geom::Vec2;
+use crate::ids::{Team, UnitId};
+use crate::terrain::Rect;
+use crate::units::Attrs;
+use crate::world::{Order, World};
+use serde::{Deserialize, Serialize};
+
+/// Cells per side of the movement grid.
+pub const GRID: u8 = 10;
+/// SMAC's `move_amount`: distance of a directional move.
+pub const MOVE_AMOUNT: f32 = 2.0;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Direction {
+    Up,
+    Down,
+    Left,
+    Right,
+}
+
+impl Direction {
+    pub const ALL: [Direction; 4] = [Direction::Up, Direction::Down, Direction::Left, Direction::Right];
+    /// Unit vector on the map: up is north (+y), as the screen shows it.
+    pub fn vector(self) -> Vec2 {
+        match self {
+            Direction::Up => Vec2::new(0.0, 1.0),
+            Direction::Down => Vec2::new(0.0, -1.0),
+            Direction::Left => Vec2::new(-1.0, 0.0),
+            Direction::Right => Vec2::new(1.0, 0.0),
+        }
+    }
+}
+
+/// What a unit is told to do.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Command {
+    /// Keep the current order.
+    NoOp,
+    Stop,
+    Hold,
+    /// Attack an enemy; for a healer (Medivac), heal an ally.
+    Attack {
+        target: UnitId,
+    },
+    /// Move to the centre of grid cell (x, y), both in 1..=10, (1, 1) top left.
+    MoveGrid {
+        x: u8,
+        y: u8,
+    },
+    /// Move `MOVE_AMOUNT` in a direction.
+    MoveDir {
+        dir: Direction,
+    },
+    MoveTo {
+        to: Vec2,
+    },
+    AttackMoveTo {
+        to: Vec2,
+    },
+}
+
+/// A command for one unit.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Action {
+    pub unit: UnitId,
+    pub command: Command,
+}
+
+impl Action {
+    pub fn new(unit: UnitId, command: Command) -> Self {
+        Self { unit, command }
+    }
+}
+
+/// Why an action was refused. The unit keeps its current order.
+#[derive(Clone, Debug, PartialEq, thiserror::Error, Serialize, Deserialize)]
+#[serde(tag = "reason", rename_all = "snake_case")]
+pub enum ActionError {
+    #[error("unit {unit} does not exist")]
+    UnknownUnit { unit: UnitId },
+    #[error("unit {unit} belongs to {owner}, not to {team}")]
+    NotYourUnit { unit: UnitId, owner: Team, team: Team },
+    #[error("unit {unit} is dead")]
+    DeadUnit { unit: UnitId },
+    #[error("target {target} does not exist")]
+    UnknownTarget { target: UnitId },
+    #[error("target {target} is dead")]
+    TargetDead { target: UnitId },
+    #[error("target {target} is not visible to {team}")]
+    TargetNotVisible { target: UnitId, team: Team },
+    #[error("unit {unit} cannot attack target {target} ({why})")]
+    InvalidTarget { unit: UnitId, target: UnitId, why: String },
+    #[error("grid cell ({x}, {y}) is off the 1..=10 grid")]
+    OffGrid { x: u8, y: u8 },
+    #[error("point ({x}, {y}) is outside the playable area")]
+    OffMap { x: f32, y: f32 },
+    #[error("unit {unit} cannot do that: {why}")]
+    Unavailable { unit: UnitId, why: String },
+}
+
+/// Centre of grid cell (x, y) in map coordinates; (1, 1) is the top-left cell.
+pub fn grid_cell_center(playable: Rect, x: u8, y: u8) -> Vec2 {
+    let cw = playable.width() / GRID as f32;
+    let ch = playable.height() / GRID as f32;
+    Vec2::new(playable.left + (x as f32 - 0.5) * cw, playable.top - (y as f32 - 0.5) * ch)
+}
+
+/// The grid cell (x, y) containing a point, clamped to the grid.
+pub fn grid_cell_of(playable: Rect, p: Vec2) -> (u8, u8) {
+    let fx = (p.x - playable.left) / playable.width() * GRID as f32;
+    let fy = (playable.top - p.y) / playable.height() * GRID as f32;
+    let c = |f: f32| (f.floor().clamp(0.0, GRID as f32 - 1.0) as u8) + 1;
+    (c(fx), c(fy))
+}
+
+impl World {
+    /// Checks an action for `team` and, if valid, gives the unit its new order.
+    pub fn apply(&mut self, team: Team, a: &Action) -> Result<(), ActionError> {
+        let order = self.validate(team, a)?;
+        if let Some(o) = order {
+            self.set_order(a.unit, o);
+        }
+        Ok(())
+    }
+
+    /// The order an action would give, or why it is refused; `None` keeps the current order.
+    pub fn validate(&self, team: Team, a: &Action) -> Result<Option<Order>, ActionError> {
+        let unit = a.unit;
+        let u = self.unit(unit).ok_or(ActionError::UnknownUnit { unit })?;
+        if u.team != team {
+            return Err(ActionError::NotYourUnit { unit, owner: u.team, team });
+        }
+        if !u.alive {
+            return Err(ActionError::DeadUnit { unit });
+        }
+        let playable = self.terrain.playable();
+        let mobile = || {
+            if u.speed > 0.0 { Ok(()) } else { Err(ActionError::Unavailable { unit, why: format!("{} cannot move", u.kind) }) }
+        };
+        let in_map = |p: Vec2| {
+            if p.is_finite() && playable.contains(p) { Ok(p) } else { Err(ActionError::OffMap { x: p.x, y: p.y }) }
+        };
+        Ok(match a.command {
+            Command::NoOp => None,
+            Command::Stop => Some(Order::Idle),
+            Command::Hold => Some(Order::Hold),
+            Command::Attack { target } => {
+                let t = self.unit(target).ok_or(ActionError::UnknownTarget { target })?;
+                if !t.alive {
+                    return Err(ActionError::TargetDead { target });
+                }
+                if !self.visible_to(team, target) {
+                    return Err(ActionError::TargetNotVisible { target, team });
+                }
+                let invalid = |why: &str| ActionError::InvalidTarget { unit, target, why: why.to_owned() };
+                if u.spec().heal.is_some() {
+                    if t.team != team || t.id == unit {
+                        return Err(invalid("a healer targets other friendly units"));
+                    }
+                    if !t.spec().attrs.has(Attrs::BIOLOGICAL) {
+                        return Err(invalid("heal needs a biological target"));
+                    }
+                } else {
+                    if t.team == team {
+                        return Err(invalid("friendly unit"));
+                    }
+                    if weapon_for(u, t).is_none() {
+                        return Err(invalid(if t.flying() { "no weapon hits air units" } else { "no weapon hits ground units" }));
+                    }
+                    if u.speed <= 0.0 && !crate::combat::in_weapon_range(u, t) {
+                        return Err(invalid("out of range of an immobile unit"));
+                    }
+                }
+                Some(Order::Attack { target })
+            }
+            Command::MoveGrid { x, y } => {
+                if !(1..=GRID).contains(&x) || !(1..=GRID).contains(&y) {
+                    return Err(ActionError::OffGrid { x, y });
+                }
+                mobile()?;
+                Some(Order::Move { to: grid_cell_center(playable, x, y) })
+            }
+            Command::MoveDir { dir } => {
+                mobile()?;
+                Some(Order::Move { to: playable.clamp(u.pos + dir.vector() * MOVE_AMOUNT, 0.0) })
+            }
+            Command::MoveTo { to } => {
+                mobile()?;
+                Some(Order::Move { to: in_map(to)? })
+            }
+            Command::AttackMoveTo { to } => {
+                mobile()?;
+                Some(Order::AttackMove { to: in_map(to)? })
+            }
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grid_round_trip() {
+        let r = Rect { left: 10.0, bottom: 8.0, right: 54.0, top: 44.0 };
+        for x in 1..=GRID {
+            for y in 1..=GRID {
+                assert_eq!(grid_cell_of(r, grid_cell_center(r, x, y)), (x, y));
+            }
+        }
+        assert_eq!(grid_cell_of(r, Vec2::new(10.1, 43.9)), (1, 1));
+        assert_eq!(grid_cell_of(r, Vec2::new(53.9, 8.1)), (10, 10));
+    }
+}

@@ -1,0 +1,218 @@
+//! Targeting and attacks: acquisition as StarCraft II does it (threats before harmless
+//! units, then distance; keep a target while it stays valid and in range), simultaneous
+//! resolution of every attack made in a loop, and each splash shape.
+
+use crate::damage::{Dealt, apply_hits, hit_damage};
+use crate::geom::{Vec2, point_segment_dist};
+use crate::ids::UnitId;
+use crate::units::{Attrs, Splash, Weapon};
+use crate::world::{Shot, Unit, World, sq};
+
+/// How far past its acquisition range a unit keeps chasing an auto-acquired target.
+pub(crate) const LEASH: f32 = 2.0;
+
+/// An attack made this loop, applied after every unit has decided.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PendingHit {
+    pub attacker: UnitId,
+    pub target: Option<UnitId>,
+    pub weapon: &'static Weapon,
+    pub impact: Vec2,
+    pub dir: Vec2,
+}
+
+pub(crate) fn edge_dist(a: &Unit, b: &Unit) -> f32 {
+    a.pos.dist(b.pos) - a.spec().radius - b.spec().radius
+}
+
+/// The weapon of `a` that can hit `b`'s layer, with its index.
+pub(crate) fn weapon_for(a: &Unit, b: &Unit) -> Option<(usize, &'static Weapon)> {
+    let flying = b.flying();
+    a.spec().weapons.iter().enumerate().find(|(_, w)| w.reach.hits(flying))
+}
+
+pub(crate) fn in_weapon_range(a: &Unit, b: &Unit) -> bool {
+    weapon_for(a, b).is_some_and(|(_, w)| {
+        let d = edge_dist(a, b);
+        d <= w.range && d >= w.min_range
+    })
+}
+
+/// Acquisition range: the longest weapon or the unit's minimum scan range.
+pub(crate) fn acquire_range(u: &Unit) -> f32 {
+    let s = u.spec();
+    s.weapons.iter().map(|w| w.range).fold(s.scan_range, f32::max)
+}
+
+impl World {
+    /// Whether `t` is an enemy of `u` that `u` may attack now (alive, seen, reachable layer).
+    pub(crate) fn valid_enemy(&self, u: &Unit, t: UnitId) -> bool {
+        self.unit(t).is_some_and(|t| t.alive && t.team != u.team && self.visible_to(u.team, t.id) && weapon_for(u, t).is_some())
+    }
+
+    /// The best enemy within `max_edge` of `u`: units that can hit back first, then the
+    /// closest, ties by id. With `in_range_only`, only targets its weapons reach now.
+    pub(crate) fn acquire(&self, u: &Unit, max_edge: f32, in_range_only: bool) -> Option<UnitId> {
+        let mut best: Option<(u8, f32, UnitId)> = None;
+        let reach = max_edge + u.spec().radius + 1.25;
+        self.grid.for_each_near(u.pos, reach, |j| {
+            let t = &self.units[j];
+            if !t.alive || t.team == u.team || !self.vis[u.team.index()][j] {
+                return;
+            }
+            let Some((_, w)) = weapon_for(u, t) else { return };
+            let d = edge_dist(u, t);
+            if d > max_edge || d < w.min_range || (in_range_only && d > w.range) {
+                return;
+            }
+            let threat = t.spec().weapons.iter().any(|tw| tw.reach.hits(u.flying()));
+            let tier = if threat {
+                2
+            } else if t.spec().attrs.has(Attrs::STRUCTURE) {
+                0
+            } else {
+                1
+            };
+            let better = match best {
+                None => true,
+                Some((bt, bd, bid)) => tier > bt || (tier == bt && (d < bd || (d == bd && t.id < bid))),
+            };
+            if better {
+                best = Some((tier, d, t.id));
+            }
+        });
+        best.map(|b| b.2)
+    }
+
+    /// Keeps the current target while it is valid and in range; otherwise prefers any enemy
+    /// already in range, then keeps chasing the current one within the leash, then acquires.
+    pub(crate) fn keep_or_acquire(&self, u: &Unit, in_range_only: bool) -> Option<UnitId> {
+        let cur = u.target.filter(|&t| self.valid_enemy(u, t));
+        if let Some(t) = cur
+            && in_weapon_range(u, &self.units[t.index()])
+        {
+            return Some(t);
+        }
+        let range = acquire_range(u);
+        if let Some(t) = self.acquire(u, range, true) {
+            return Some(t);
+        }
+        if in_range_only {
+            return None;
+        }
+        if let Some(t) = cur
+            && edge_dist(u, &self.units[t.index()]) <= range + LEASH
+        {
+            return Some(t);
+        }
+        self.acquire(u, range, false)
+    }
+
+    /// Applies every attack made this loop, then splash, then deaths; Banelings killed this
+    /// way detonate in turn. [U] Killed Banelings explode as if they had attacked. A unit
+    /// that attacks with a suicide weapon is already marked dead by the caller.
+    pub(crate) fn resolve_hits(&mut self, mut pending: Vec<PendingHit>) -> Vec<PendingHit> {
+        while !pending.is_empty() {
+            for h in pending.drain(..) {
+                self.apply_hit(&h);
+            }
+            for i in 0..self.units.len() {
+                let u = &self.units[i];
+                if u.alive && u.hp <= 0.0 {
+                    let (team, pos, kind) = (u.team, u.pos, u.kind);
+                    let u = &mut self.units[i];
+                    u.alive = false;
+                    u.hp = 0.0;
+                    u.activity = crate::world::Activity::Dead;
+                    u.vel = Vec2::ZERO;
+                    self.stats[team.other().index()].kills += 1;
+                    if let Some(w) = kind.spec().weapons.first().filter(|w| w.suicide) {
+                        pending.push(PendingHit { attacker: UnitId::new(i as u16), target: None, weapon: w, impact: pos, dir: Vec2::ZERO });
+                    }
+                }
+            }
+        }
+        pending
+    }
+
+    fn apply_hit(&mut self, h: &PendingHit) {
+        let (a_team, a_pos) = {
+            let a = &self.units[h.attacker.index()];
+            (a.team, a.pos)
+        };
+        let w = h.weapon;
+        let mut primary_layer_flying = false;
+        if let Some(t) = h.target {
+            let tu = &mut self.units[t.index()];
+            primary_layer_flying = tu.spec().flying;
+            if tu.alive && !w.suicide {
+                let dealt = damage_unit(tu, w, 1.0, self.tick);
+                self.stats[a_team.index()].damage_dealt += dealt.total();
+            }
+        }
+        if matches!(w.splash, Splash::None) {
+            return;
+        }
+        let centre = if matches!(w.splash, Splash::Cone { .. }) { a_pos } else { h.impact };
+        let mut victims: Vec<(usize, f32)> = Vec::new();
+        self.grid.for_each_near(centre, 4.0, |j| {
+            let v = &self.units[j];
+            if !v.alive || Some(v.id) == h.target || v.id == h.attacker || v.spec().flying != primary_layer_flying {
+                return;
+            }
+            let r = v.spec().radius;
+            let frac = match w.splash {
+                Splash::None => 0.0,
+                Splash::Radial { zones, friendly_fire } => {
+                    if !friendly_fire && v.team == a_team {
+                        return;
+                    }
+                    let d = v.pos.dist(h.impact) - r;
+                    zones.iter().find(|(rad, _)| d <= *rad).map_or(0.0, |z| z.1)
+                }
+                Splash::Line { half_length, fraction } => {
+                    if v.team == a_team {
+                        return;
+                    }
+                    let across = h.dir.perp() * half_length;
+                    if point_segment_dist(v.pos, h.impact - across, h.impact + across) <= r { fraction } else { 0.0 }
+                }
+                Splash::Cone { length, half_angle, fraction } => {
+                    if v.team == a_team {
+                        return;
+                    }
+                    let to = v.pos - a_pos;
+                    let d = to.len();
+                    let ang = if d > 1e-4 { (to.dot(h.dir) / d).clamp(-1.0, 1.0).acos() } else { 0.0 };
+                    if d - r <= length && ang <= half_angle { fraction } else { 0.0 }
+                }
+            };
+            if frac > 0.0 {
+                victims.push((j, frac));
+            }
+        });
+        for (j, frac) in victims {
+            let tick = self.tick;
+            let dealt = damage_unit(&mut self.units[j], w, frac, tick);
+            let friendly = self.units[j].team == a_team;
+            if !friendly {
+                self.stats[a_team.index()].damage_dealt += dealt.total();
+            }
+        }
+    }
+
+    pub(crate) fn record_shot(&mut self, from: UnitId, to: UnitId, impact: Vec2) {
+        self.shots.push(Shot { from, to, impact });
+    }
+}
+
+fn damage_unit(t: &mut Unit, w: &Weapon, fraction: f32, tick: u32) -> Dealt {
+    let per_hit = hit_damage(w, t.spec().attrs) * fraction;
+    let armor = t.spec().armor;
+    t.last_damaged = tick;
+    apply_hits(per_hit, w.hits, armor, &mut t.shield, &mut t.hp)
+}
+
+pub(crate) fn in_heal_range(h: &Unit, t: &Unit, range: f32) -> bool {
+    h.pos.dist_sq(t.pos) <= sq(range + h.spec().radius + t.spec().radius)
+}

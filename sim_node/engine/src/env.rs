@@ -1,0 +1,373 @@
+//! Episodes: a world plus the opponent, the step of `step_mul` loops, rewards and the end
+//! of the episode. The same `Env` serves MARL training loops, the CLI and the nodes.
+
+use crate::action::{Action, ActionError};
+use crate::hash::Fnv;
+use crate::ids::{Team, UnitId};
+use crate::obs::SmacLayout;
+use crate::policy::{self, Policy, TeamView};
+use crate::scenario::{Mode, OpponentKind, Scenario, StartOrder};
+use crate::time::DEFAULT_STEP_MUL;
+use crate::world::{Order, Rules, World};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RewardMode {
+    /// +1 win, -1 loss, 0 otherwise (the paper).
+    Sparse,
+    /// SMAC's shaped reward: damage and kills dealt, +200 on win, scaled to 20 at most.
+    Dense,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EnvConfig {
+    pub step_mul: u32,
+    pub rules: Rules,
+    pub reward: RewardMode,
+    /// Opponent for PvE; `None` uses the scenario's default.
+    pub opponent: Option<OpponentKind>,
+    /// Overrides the scenario's time limit (loops).
+    pub time_limit_loops: Option<u32>,
+}
+
+impl Default for EnvConfig {
+    fn default() -> Self {
+        Self { step_mul: DEFAULT_STEP_MUL, rules: Rules::default(), reward: RewardMode::Sparse, opponent: None, time_limit_loops: None }
+    }
+}
+
+/// How an episode ended, from team 1's side.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Outcome {
+    Win,
+    Loss,
+    Draw,
+}
+
+impl Outcome {
+    /// The same end seen from `team`.
+    pub fn for_team(self, team: Team) -> Outcome {
+        match (self, team) {
+            (o, Team::One) | (o @ Outcome::Draw, _) => o,
+            (Outcome::Win, Team::Two) => Outcome::Loss,
+            (Outcome::Loss, Team::Two) => Outcome::Win,
+        }
+    }
+    pub fn sparse_reward(self) -> f32 {
+        match self {
+            Outcome::Win => 1.0,
+            Outcome::Loss => -1.0,
+            Outcome::Draw => 0.0,
+        }
+    }
+}
+
+/// Result of one environment step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepResult {
+    /// Reward per team (index by [`Team::index`]).
+    pub reward: [f32; 2],
+    pub done: bool,
+    pub outcome: Option<Outcome>,
+}
+
+/// Per-team SMAC reward bookkeeping.
+#[derive(Clone, Debug, Default)]
+struct DenseTracker {
+    prev: Vec<f32>,
+    dead: Vec<bool>,
+}
+
+pub struct Env {
+    scenario: Arc<Scenario>,
+    cfg: EnvConfig,
+    world: World,
+    seed: u64,
+    agents: [Vec<UnitId>; 2],
+    opponent: Option<Box<dyn Policy>>,
+    opponent_kind: Option<OpponentKind>,
+    policy_rng: ChaCha8Rng,
+    start_issued: bool,
+    start_target: Option<crate::geom::Vec2>,
+    outcome: Option<Outcome>,
+    steps: u32,
+    refused: [u32; 2],
+    last_actions: [Vec<Option<usize>>; 2],
+    dense: DenseTracker,
+    trajectory: Fnv,
+    layouts: [SmacLayout; 2],
+}
+
+impl std::fmt::Debug for Env {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Env").field("scenario", &self.scenario.name).field("seed", &self.seed).field("tick", &self.world.tick()).finish()
+    }
+}
+
+impl Env {
+    pub fn new(scenario: Arc<Scenario>, cfg: EnvConfig, seed: u64) -> Env {
+        let world = World::new(&scenario, cfg.rules, seed);
+        let scenario_ref = Arc::clone(&scenario);
+        let mut env = Env {
+            agents: [Vec::new(), Vec::new()],
+            world,
+            scenario,
+            cfg,
+            seed,
+            opponent: None,
+            opponent_kind: None,
+            policy_rng: ChaCha8Rng::seed_from_u64(seed),
+            start_issued: false,
+            start_target: None,
+            outcome: None,
+            steps: 0,
+            refused: [0, 0],
+            last_actions: [Vec::new(), Vec::new()],
+            dense: DenseTracker::default(),
+            trajectory: Fnv::default(),
+            layouts: [SmacLayout::new(&scenario_ref, Team::One), SmacLayout::new(&scenario_ref, Team::Two)],
+        };
+        env.reset(seed);
+        env
+    }
+
+    /// Starts a new episode; everything random in it follows from `seed`.
+    pub fn reset(&mut self, seed: u64) {
+        self.seed = seed;
+        self.world = World::new(&self.scenario, self.cfg.rules, seed);
+        // Policies draw from their own stream so adding a draw there never shifts the world's.
+        self.policy_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x9e37_79b9_7f4a_7c15);
+        for team in Team::BOTH {
+            self.agents[team.index()] = self.scenario.team_units(team).map(|(i, _)| UnitId::new(i as u16)).collect();
+            self.last_actions[team.index()] = vec![None; self.agents[team.index()].len()];
+        }
+        self.outcome = None;
+        self.steps = 0;
+        self.refused = [0, 0];
+        self.start_issued = false;
+        self.start_target = None;
+        self.trajectory = Fnv::default();
+        self.trajectory.u64(seed);
+        self.dense = DenseTracker {
+            prev: self.world.units().iter().map(|u| u.hp + u.shield).collect(),
+            dead: vec![false; self.world.units().len()],
+        };
+        self.opponent = None;
+        self.opponent_kind = None;
+        if self.scenario.mode == Mode::Pve {
+            let mut kind = self.cfg.opponent.unwrap_or(self.scenario.opponent);
+            if kind == OpponentKind::Random {
+                let pool = [OpponentKind::Builtin, OpponentKind::Aggressive, OpponentKind::Defensive, OpponentKind::Focus];
+                kind = pool[self.policy_rng.random_range(0..pool.len())];
+            }
+            self.opponent_kind = Some(kind);
+            if kind != OpponentKind::Builtin {
+                let mut p = policy::opponent(kind);
+                p.reset(&self.scenario, Team::Two);
+                self.opponent = Some(p);
+            }
+        }
+        if let StartOrder::AttackMoveRandom { from, to, .. } = self.scenario.start {
+            let t: f32 = self.world.rng().random_range(0.0..=1.0);
+            self.start_target = Some(from + (to - from) * t);
+        }
+        self.issue_start_order();
+    }
+
+    fn issue_start_order(&mut self) {
+        if self.start_issued || self.opponent_kind != Some(OpponentKind::Builtin) {
+            return;
+        }
+        let (to, delay) = match self.scenario.start {
+            StartOrder::None => return,
+            StartOrder::AttackMove { to, delay_loops } => (to, delay_loops),
+            StartOrder::AttackMoveRandom { delay_loops, .. } => (self.start_target.unwrap_or_default(), delay_loops),
+        };
+        if self.world.tick() < delay {
+            return;
+        }
+        for id in self.agents[Team::Two.index()].clone() {
+            if self.world.unit(id).is_some_and(|u| u.alive && u.speed > 0.0) {
+                self.world.set_order(id, Order::AttackMove { to });
+            }
+        }
+        self.start_issued = true;
+    }
+
+    pub fn scenario(&self) -> &Arc<Scenario> {
+        &self.scenario
+    }
+    pub fn config(&self) -> &EnvConfig {
+        &self.cfg
+    }
+    pub fn world(&self) -> &World {
+        &self.world
+    }
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+    /// The opponent policy drawn for this episode (PvE).
+    pub fn opponent(&self) -> Option<OpponentKind> {
+        self.opponent_kind
+    }
+    /// Units a team's agents control, in agent order.
+    pub fn agents(&self, team: Team) -> &[UnitId] {
+        &self.agents[team.index()]
+    }
+    /// Whether a team's units take actions from agents (team 1 always; team 2 in PvP).
+    pub fn is_agent_team(&self, team: Team) -> bool {
+        team == Team::One || self.scenario.mode == Mode::Pvp
+    }
+    pub fn outcome(&self) -> Option<Outcome> {
+        self.outcome
+    }
+    pub fn done(&self) -> bool {
+        self.outcome.is_some()
+    }
+    pub fn steps(&self) -> u32 {
+        self.steps
+    }
+    pub fn time_limit_loops(&self) -> u32 {
+        self.cfg.time_limit_loops.unwrap_or(self.scenario.time_limit_loops)
+    }
+    /// Actions refused so far this episode, per team.
+    pub fn refused(&self) -> [u32; 2] {
+        self.refused
+    }
+    /// Running hash of the trajectory: every step's full state, chained.
+    pub fn trajectory_hash(&self) -> u64 {
+        self.trajectory.finish()
+    }
+    pub(crate) fn layouts(&self) -> &[SmacLayout; 2] {
+        &self.layouts
+    }
+    pub(crate) fn count_refused(&mut self, team: Team, n: u32) {
+        self.refused[team.index()] += n;
+    }
+    pub(crate) fn last_actions(&self, team: Team) -> &[Option<usize>] {
+        &self.last_actions[team.index()]
+    }
+    pub(crate) fn set_last_action(&mut self, team: Team, agent: usize, idx: Option<usize>) {
+        if let Some(slot) = self.last_actions[team.index()].get_mut(agent) {
+            *slot = idx;
+        }
+    }
+    /// A fog-of-war-respecting view of the battle for `team`.
+    pub fn view(&self, team: Team) -> TeamView<'_> {
+        TeamView::new(&self.world, &self.scenario, team)
+    }
+
+    /// Gives orders to `team`'s units. Each action is checked on its own; a refused one is
+    /// counted and leaves that unit's order unchanged.
+    pub fn submit(&mut self, team: Team, actions: &[Action]) -> Vec<Result<(), ActionError>> {
+        let controllable = self.is_agent_team(team);
+        actions
+            .iter()
+            .map(|a| {
+                let r = if controllable || self.world.unit(a.unit).is_none() {
+                    self.world.apply(team, a)
+                } else {
+                    Err(ActionError::Unavailable { unit: a.unit, why: format!("{team} is driven by the opponent policy in PvE") })
+                };
+                if r.is_err() {
+                    self.refused[team.index()] += 1;
+                }
+                if r.is_ok()
+                    && let Some(agent) = self.agents[team.index()].iter().position(|&u| u == a.unit)
+                {
+                    let idx = crate::obs::smac::command_index(self, team, agent, &a.command);
+                    self.set_last_action(team, agent, idx);
+                }
+                r
+            })
+            .collect()
+    }
+
+    /// Runs the opponent (PvE), then `step_mul` game loops, and scores the step. Stepping a
+    /// finished episode does nothing and returns its outcome again.
+    pub fn step(&mut self) -> StepResult {
+        if let Some(o) = self.outcome {
+            return StepResult { reward: [0.0, 0.0], done: true, outcome: Some(o) };
+        }
+        if let Some(mut p) = self.opponent.take() {
+            let mut rng = std::mem::replace(&mut self.policy_rng, ChaCha8Rng::seed_from_u64(0));
+            let actions = p.act(&self.view(Team::Two), &mut rng);
+            self.policy_rng = rng;
+            for a in &actions {
+                // A scripted opponent's invalid action is its own bug, not the agent's: it
+                // is dropped without counting against anyone.
+                let _ = self.world.apply(Team::Two, a);
+            }
+            self.opponent = Some(p);
+        }
+        let limit = self.time_limit_loops();
+        for _ in 0..self.cfg.step_mul {
+            self.issue_start_order();
+            self.world.step_loop();
+            if self.terminal().is_some() || self.world.tick() >= limit {
+                break;
+            }
+        }
+        self.steps += 1;
+        let outcome = self.terminal().or_else(|| (self.world.tick() >= limit).then_some(Outcome::Draw));
+        self.outcome = outcome;
+        self.trajectory.u64(self.world.state_hash());
+        let reward = match self.cfg.reward {
+            RewardMode::Sparse => outcome.map_or([0.0, 0.0], |o| [o.sparse_reward(), o.for_team(Team::Two).sparse_reward()]),
+            RewardMode::Dense => self.dense_reward(outcome),
+        };
+        StepResult { reward, done: outcome.is_some(), outcome }
+    }
+
+    /// Submits team 1's actions and steps: the single-team convenience for PvE loops.
+    pub fn step_with(&mut self, actions: &[Action]) -> (StepResult, Vec<Result<(), ActionError>>) {
+        let r = self.submit(Team::One, actions);
+        (self.step(), r)
+    }
+
+    /// Win when the other side can no longer fight, loss when this side cannot, draw when
+    /// neither can (SMAC's rule, with "only Medivacs left" generalised to units without weapons).
+    fn terminal(&self) -> Option<Outcome> {
+        match (self.world.can_fight(Team::One), self.world.can_fight(Team::Two)) {
+            (true, true) => None,
+            (true, false) => Some(Outcome::Win),
+            (false, true) => Some(Outcome::Loss),
+            (false, false) => Some(Outcome::Draw),
+        }
+    }
+
+    fn dense_reward(&mut self, outcome: Option<Outcome>) -> [f32; 2] {
+        // SMAC's reward_battle with reward_only_positive: |damage + shield dealt + 10 per kill|.
+        let mut delta = [0.0f32; 2];
+        for (i, u) in self.world.units().iter().enumerate() {
+            if self.dense.dead[i] {
+                continue;
+            }
+            let scorer = u.team.other().index();
+            let now = u.hp.max(0.0) + u.shield.max(0.0);
+            if !u.alive {
+                self.dense.dead[i] = true;
+                delta[scorer] += self.dense.prev[i] + 10.0;
+            } else {
+                delta[scorer] += self.dense.prev[i] - now;
+            }
+            self.dense.prev[i] = now;
+        }
+        let mut out = [0.0; 2];
+        for team in Team::BOTH {
+            let mut r = delta[team.index()].abs();
+            if outcome.map(|o| o.for_team(team)) == Some(Outcome::Win) {
+                r += 200.0;
+            }
+            let enemies = self.scenario.units.iter().filter(|u| u.team == team.other());
+            let max_reward: f32 = enemies.map(|u| 10.0 + u.kind.spec().hp + u.kind.spec().shield).sum::<f32>() + 200.0;
+            out[team.index()] = r / (max_reward / 20.0);
+        }
+        out
+    }
+}

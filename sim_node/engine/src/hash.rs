@@ -1,0 +1,68 @@
+//! A stable 64-bit hash of the simulation state (FNV-1a over exact float bits), so two runs
+//! can be compared for byte-identical trajectories without storing them.
+
+use crate::world::{Order, World};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Fnv(u64);
+
+impl Default for Fnv {
+    fn default() -> Self {
+        Fnv(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Fnv {
+    pub fn bytes(&mut self, b: &[u8]) {
+        for &x in b {
+            self.0 ^= x as u64;
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+    pub fn u32(&mut self, v: u32) {
+        self.bytes(&v.to_le_bytes());
+    }
+    pub fn u64(&mut self, v: u64) {
+        self.bytes(&v.to_le_bytes());
+    }
+    pub fn f32(&mut self, v: f32) {
+        self.u32(v.to_bits());
+    }
+    pub fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+impl World {
+    /// Hash of everything that evolves: loop, and every unit's state and order.
+    pub fn state_hash(&self) -> u64 {
+        let mut h = Fnv::default();
+        h.u32(self.tick);
+        for u in &self.units {
+            h.u32(u.alive as u32 | (u.kind as u32) << 8);
+            for v in [u.pos.x, u.pos.y, u.hp, u.shield, u.energy, u.cooldown, u.facing] {
+                h.f32(v);
+            }
+            match u.order {
+                Order::Idle => h.u32(0),
+                Order::Hold => h.u32(1),
+                Order::Move { to } => {
+                    h.u32(2);
+                    h.f32(to.x);
+                    h.f32(to.y);
+                }
+                Order::AttackMove { to } => {
+                    h.u32(3);
+                    h.f32(to.x);
+                    h.f32(to.y);
+                }
+                Order::Attack { target } => {
+                    h.u32(4);
+                    h.u32(target.tag());
+                }
+            }
+            h.u32(u.target.map_or(0, |t| t.tag()));
+        }
+        h.finish()
+    }
+}

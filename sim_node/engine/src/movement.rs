@@ -1,0 +1,188 @@
+//! Movement: preferred velocity from the path, ORCA among ground units, terrain and map
+//! bounds, then a positional pass that pushes apart any ground units still overlapping.
+
+use crate::geom::Vec2;
+use crate::orca::Neighbour;
+use crate::sim::Intent;
+use crate::world::{Activity, World};
+
+/// ORCA's time horizon in loops.
+const TAU: f32 = 6.0;
+/// Largest collision radius in the unit table (Photon Cannon, Spine Crawler).
+const MAX_RADIUS: f32 = 1.125;
+/// Loops a computed waypoint is reused while the goal stays in place.
+const WAYPOINT_TTL: u32 = 8;
+
+impl World {
+    pub(crate) fn move_units(&mut self, intents: &[Intent]) {
+        let mut neighbours = std::mem::take(&mut self.scratch.neighbours);
+        for i in 0..self.units.len() {
+            let Some((goal, stop)) = intents[i].goal else {
+                if self.units[i].alive {
+                    self.units[i].vel = Vec2::ZERO;
+                }
+                continue;
+            };
+            let u = &self.units[i];
+            if !u.alive || u.speed <= 0.0 {
+                continue;
+            }
+            let (pos, speed, radius, flying, cliff_walk) = (u.pos, u.speed, u.spec().radius, u.flying(), u.spec().cliff_walk);
+            let remaining = pos.dist(goal) - stop;
+            if remaining <= 0.0 {
+                self.units[i].vel = Vec2::ZERO;
+                continue;
+            }
+            let waypoint = if flying { Some(goal) } else { self.waypoint_for(i, goal, cliff_walk) };
+            let Some(wp) = waypoint else {
+                self.units[i].vel = Vec2::ZERO;
+                continue;
+            };
+            let pref = (wp - pos).normalized() * speed.min(remaining);
+            let vel = if flying {
+                pref
+            } else {
+                neighbours.clear();
+                let query = radius + MAX_RADIUS + 2.0 * speed * TAU;
+                let me = &self.units[i];
+                self.grid.for_each_near(pos, query, |j| {
+                    let o = &self.units[j];
+                    if j == i || !o.alive || o.flying() || Some(o.id) == intents[i].closing_on {
+                        return;
+                    }
+                    let r = radius + o.spec().radius + 2.0 * speed * TAU;
+                    if o.pos.dist_sq(me.pos) > r * r {
+                        return;
+                    }
+                    let moving = intents[j].goal.is_some() && o.speed > 0.0;
+                    neighbours.push(Neighbour {
+                        pos: o.pos,
+                        vel: o.vel,
+                        radius: o.spec().radius,
+                        responsibility: if moving { 0.5 } else { 1.0 },
+                    });
+                });
+                self.orca.solve(pos, me.vel, radius, pref, speed, TAU, &neighbours)
+            };
+            let new = self.constrain(pos, pos + vel, radius, flying, cliff_walk);
+            let u = &mut self.units[i];
+            u.vel = new - pos;
+            u.pos = new;
+            if u.vel.len_sq() > 1e-8 {
+                u.facing = u.vel.angle();
+                if u.activity == Activity::Idle {
+                    u.activity = Activity::Moving;
+                }
+            }
+        }
+        self.scratch.neighbours = neighbours;
+    }
+
+    fn waypoint_for(&mut self, i: usize, goal: Vec2, cliff_walk: bool) -> Option<Vec2> {
+        let u = &self.units[i];
+        if let Some((g, wp, at)) = u.waypoint
+            && g.dist_sq(goal) < 0.25
+            && self.tick.saturating_sub(at) < WAYPOINT_TTL
+            && wp.dist_sq(u.pos) > 0.04
+        {
+            return Some(wp);
+        }
+        let from = u.pos;
+        let wp = self.paths.waypoint(&self.terrain, from, goal, cliff_walk);
+        let tick = self.tick;
+        self.units[i].waypoint = wp.map(|wp| (goal, wp, tick));
+        wp
+    }
+
+    /// Where a unit moving from `from` towards `to` may end up: inside the playable area,
+    /// and for ground units on ground it can step onto, sliding along walls.
+    pub(crate) fn constrain(&self, from: Vec2, to: Vec2, radius: f32, flying: bool, cliff_walk: bool) -> Vec2 {
+        let to = self.terrain.playable().clamp(to, radius);
+        if flying {
+            return to;
+        }
+        let t = &self.terrain;
+        let ok = |p: Vec2| t.walkable(p) && t.segment_clear(from, p, cliff_walk);
+        if ok(to) {
+            return to;
+        }
+        let sx = Vec2::new(to.x, from.y);
+        if ok(sx) {
+            return sx;
+        }
+        let sy = Vec2::new(from.x, to.y);
+        if ok(sy) {
+            return sy;
+        }
+        from
+    }
+
+    /// Pushes overlapping ground units apart. Immobile units do not move; moving units give
+    /// way to standing ones twice as readily as the reverse.
+    pub(crate) fn separate(&mut self, intents: &[Intent]) {
+        self.grid.rebuild(self.units.iter().map(|u| (u.pos, u.alive && !u.flying())));
+        for _ in 0..2 {
+            for i in 0..self.units.len() {
+                let a = &self.units[i];
+                if !a.alive || a.flying() {
+                    continue;
+                }
+                let (pa, ra) = (a.pos, a.spec().radius);
+                let wa = weight(a.speed, intents[i].goal.is_some());
+                let mut pushes: [(usize, Vec2); 8] = [(usize::MAX, Vec2::ZERO); 8];
+                let mut np = 0;
+                self.grid.for_each_near(pa, ra + MAX_RADIUS, |j| {
+                    if j <= i || np == pushes.len() {
+                        return;
+                    }
+                    let b = &self.units[j];
+                    let min = ra + b.spec().radius;
+                    let d2 = b.pos.dist_sq(pa);
+                    if d2 >= min * min {
+                        return;
+                    }
+                    let wb = weight(b.speed, intents[j].goal.is_some());
+                    if wa + wb <= 0.0 {
+                        return;
+                    }
+                    let d = d2.sqrt();
+                    let n = if d > 1e-4 {
+                        (b.pos - pa) * (1.0 / d)
+                    } else {
+                        // Coincident centres: a fixed direction from the id pair.
+                        Vec2::from_angle((i * 7 + j * 13) as f32)
+                    };
+                    let overlap = min - d;
+                    pushes[np] = (j, n * overlap);
+                    np += 1;
+                    let _ = wb;
+                });
+                for &(j, push) in &pushes[..np] {
+                    let (wa, wb) =
+                        (weight(self.units[i].speed, intents[i].goal.is_some()), weight(self.units[j].speed, intents[j].goal.is_some()));
+                    let sum = wa + wb;
+                    let (pa, pb) = (self.units[i].pos, self.units[j].pos);
+                    let (ca, cb) = (self.units[i].spec().cliff_walk, self.units[j].spec().cliff_walk);
+                    let (ra, rb) = (self.units[i].spec().radius, self.units[j].spec().radius);
+                    if wa > 0.0 {
+                        self.units[i].pos = self.constrain(pa, pa - push * (wa / sum), ra, false, ca);
+                    }
+                    if wb > 0.0 {
+                        self.units[j].pos = self.constrain(pb, pb + push * (wb / sum), rb, false, cb);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Share of a push a unit takes: none if it cannot move, more if it is moving anyway.
+fn weight(speed: f32, moving: bool) -> f32 {
+    if speed <= 0.0 {
+        0.0
+    } else if moving {
+        1.0
+    } else {
+        0.5
+    }
+}

@@ -1,0 +1,10 @@
+//! Observations built from the world: SMAC features, the structured unit list and the
+//! natural-language battlefield description. All of them obey the team's fog of war.
+
+pub(crate) mod smac;
+mod text;
+mod units;
+
+pub use smac::{EnvInfo, IndexError, N_ACTIONS_NO_ATTACK, SHOOT_RANGE, SIGHT_RANGE, SmacLayout};
+pub use text::describe;
+pub use units::{OrderInfo, UnitInfo, unit_list};

@@ -1,0 +1,374 @@
+//! SMAC-compatible features: per-agent observation, global state, available actions and
+//! the discrete action index, with SMAC's layout, order and normalisation
+//! (`oxwhirl/smac`, `starcraft2.py`, default options). Observations obey fog of war on top
+//! of SMAC's own sight rule; the state is SMAC's privileged global state for centralised
+//! training and does not.
+
+use crate::action::{Action, ActionError, Command, Direction};
+use crate::env::Env;
+use crate::geom::Vec2;
+use crate::ids::{Team, UnitId};
+use crate::policy::TeamView;
+use crate::scenario::Scenario;
+use crate::units::{Race, UnitKind};
+use crate::world::World;
+use serde::Serialize;
+
+/// SMAC's fixed sight range for features (every unit).
+pub const SIGHT_RANGE: f32 = 9.0;
+/// SMAC's fixed shoot range for available attack actions (every unit).
+pub const SHOOT_RANGE: f32 = 6.0;
+/// Actions before the first attack index: no-op, stop, north, south, east, west.
+pub const N_ACTIONS_NO_ATTACK: usize = 6;
+const MOVE_FEATS: usize = 4;
+
+/// SMAC's `get_env_info()`.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct EnvInfo {
+    pub n_agents: usize,
+    pub n_actions: usize,
+    pub obs_shape: usize,
+    pub state_shape: usize,
+    pub episode_limit: usize,
+}
+
+/// The feature layout of one team's agents.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SmacLayout {
+    pub team: Team,
+    pub n_agents: usize,
+    pub n_enemies: usize,
+    pub n_actions: usize,
+    pub agents: Vec<UnitId>,
+    pub enemies: Vec<UnitId>,
+    /// One-hot order of unit types for allies and for enemies (empty: no type bits).
+    pub ally_types: Vec<UnitKind>,
+    pub enemy_types: Vec<UnitKind>,
+    pub shield_ally: usize,
+    pub shield_enemy: usize,
+    pub obs_size: usize,
+    pub state_size: usize,
+    map_center: Vec2,
+    playable_w: f32,
+    playable_h: f32,
+}
+
+impl SmacLayout {
+    pub fn new(scenario: &Scenario, team: Team) -> Self {
+        let agents: Vec<UnitId> = scenario.team_units(team).map(|(i, _)| UnitId::new(i as u16)).collect();
+        let enemies: Vec<UnitId> = scenario.team_units(team.other()).map(|(i, _)| UnitId::new(i as u16)).collect();
+        let base = |t: Team| {
+            let mut v: Vec<UnitKind> = scenario.team_units(t).map(|(_, u)| u.kind.base()).collect();
+            v.sort_by_key(|k| k.name());
+            v.dedup();
+            v
+        };
+        let (own, all) = (base(team), {
+            let mut v: Vec<UnitKind> = scenario.units.iter().map(|u| u.kind.base()).collect();
+            v.sort_by_key(|k| k.name());
+            v.dedup();
+            v
+        });
+        // SMAC sets unit_type_bits only for maps whose agents mix types; the one-hot then
+        // covers every type in the map, in alphabetical order (MMM: marauder, marine, medivac).
+        let ally_types = if own.len() > 1 { all.clone() } else { Vec::new() };
+        let mut enemy_types = ally_types.clone();
+        // SMAC quirk kept for drop-in compatibility: for stalkers-and-zealots maps the enemy
+        // one-hot is zealot, stalker (`get_unit_type_id` with ally=False), the reverse of the allies'.
+        if enemy_types == [UnitKind::Stalker, UnitKind::Zealot] {
+            enemy_types.reverse();
+        }
+        let shields = |t: Team| scenario.team_units(t).any(|(_, u)| u.kind.spec().race == Race::Protoss) as usize;
+        let (shield_ally, shield_enemy) = (shields(team), shields(team.other()));
+        let tb = ally_types.len();
+        let (n_agents, n_enemies) = (agents.len(), enemies.len());
+        let n_actions = N_ACTIONS_NO_ATTACK + n_enemies;
+        let fe = 4 + 1 + shield_enemy + tb;
+        let fa = 4 + 1 + shield_ally + tb;
+        let own_feats = 1 + shield_ally + tb;
+        let obs_size = MOVE_FEATS + n_enemies * fe + (n_agents - 1) * fa + own_feats;
+        let state_size = n_agents * (4 + shield_ally + tb) + n_enemies * (3 + shield_enemy + tb) + n_agents * n_actions;
+        let p = scenario.terrain.playable();
+        Self {
+            team,
+            n_agents,
+            n_enemies,
+            n_actions,
+            agents,
+            enemies,
+            ally_types,
+            enemy_types,
+            shield_ally,
+            shield_enemy,
+            obs_size,
+            state_size,
+            map_center: Vec2::new(scenario.terrain.width() as f32 / 2.0, scenario.terrain.height() as f32 / 2.0),
+            playable_w: p.width(),
+            playable_h: p.height(),
+        }
+    }
+
+    fn one_hot(types: &[UnitKind], kind: UnitKind, out: &mut [f32]) {
+        if let Some(i) = types.iter().position(|&k| k == kind.base()) {
+            out[i] = 1.0;
+        }
+    }
+
+    /// SMAC's `can_move`: the pathing grid half a move away.
+    fn can_move(world: &World, id: UnitId, d: Direction) -> bool {
+        let Some(u) = world.unit(id) else { return false };
+        if u.speed <= 0.0 {
+            return false;
+        }
+        let p = u.pos + d.vector() * (crate::action::MOVE_AMOUNT / 2.0);
+        if u.flying() { world.terrain().playable().contains(p) } else { world.terrain().walkable(p) }
+    }
+
+    /// SMAC's attack-action targets for an agent: enemies, or for a healer its allies.
+    fn targets(&self, world: &World, agent: usize) -> &[UnitId] {
+        let healer = world.unit(self.agents[agent]).is_some_and(|u| u.spec().heal.is_some());
+        if healer { &self.agents } else { &self.enemies }
+    }
+
+    pub fn avail_actions(&self, world: &World, agent: usize, out: &mut [u8]) {
+        out.fill(0);
+        let id = self.agents[agent];
+        let Some(u) = world.unit(id).filter(|u| u.alive) else {
+            out[0] = 1;
+            return;
+        };
+        out[1] = 1;
+        for (k, d) in [Direction::Up, Direction::Down, Direction::Right, Direction::Left].into_iter().enumerate() {
+            out[2 + k] = Self::can_move(world, id, d) as u8;
+        }
+        let healer = u.spec().heal.is_some();
+        for (j, &t) in self.targets(world, agent).iter().take(self.n_enemies).enumerate() {
+            let Some(tu) = world.unit(t) else { continue };
+            let ok = tu.alive
+                && world.visible_to(self.team, t)
+                && u.pos.dist(tu.pos) <= SHOOT_RANGE
+                && if healer { t != id && tu.kind.base() != UnitKind::Medivac } else { crate::combat::weapon_for(u, tu).is_some() };
+            out[N_ACTIONS_NO_ATTACK + j] = ok as u8;
+        }
+    }
+
+    pub(crate) fn avail_actions_view(&self, view: &TeamView<'_>, agent: usize, out: &mut [u8]) {
+        self.avail_actions(view.world(), agent, out)
+    }
+
+    pub fn obs(&self, world: &World, agent: usize, out: &mut [f32]) {
+        out.fill(0.0);
+        let id = self.agents[agent];
+        let Some(u) = world.unit(id).filter(|u| u.alive) else { return };
+        let mut avail = [0u8; 256];
+        let n = self.n_actions.min(avail.len());
+        self.avail_actions(world, agent, &mut avail[..n]);
+        out[..4].copy_from_slice(&[avail[2] as f32, avail[3] as f32, avail[4] as f32, avail[5] as f32]);
+        let tb = self.ally_types.len();
+        let fe = 5 + self.shield_enemy + tb;
+        let mut off = MOVE_FEATS;
+        for (j, &e) in self.enemies.iter().enumerate() {
+            let f = &mut out[off + j * fe..off + (j + 1) * fe];
+            if let Some(eu) = world.unit(e)
+                && eu.alive
+                && world.visible_to(self.team, e)
+            {
+                let d = eu.pos - u.pos;
+                let dist = d.len();
+                if dist < SIGHT_RANGE {
+                    f[0] = avail.get(N_ACTIONS_NO_ATTACK + j).copied().unwrap_or(0) as f32;
+                    f[1] = dist / SIGHT_RANGE;
+                    f[2] = d.x / SIGHT_RANGE;
+                    f[3] = d.y / SIGHT_RANGE;
+                    f[4] = eu.hp / eu.max_hp;
+                    if self.shield_enemy > 0 && eu.max_shield > 0.0 {
+                        f[5] = eu.shield / eu.max_shield;
+                    }
+                    Self::one_hot(&self.enemy_types, eu.kind, &mut f[5 + self.shield_enemy..]);
+                }
+            }
+        }
+        off += self.n_enemies * fe;
+        let fa = 5 + self.shield_ally + tb;
+        for (k, &a) in self.agents.iter().filter(|&&a| a != id).enumerate() {
+            let f = &mut out[off + k * fa..off + (k + 1) * fa];
+            if let Some(au) = world.unit(a).filter(|au| au.alive) {
+                let d = au.pos - u.pos;
+                let dist = d.len();
+                if dist < SIGHT_RANGE {
+                    f[0] = 1.0;
+                    f[1] = dist / SIGHT_RANGE;
+                    f[2] = d.x / SIGHT_RANGE;
+                    f[3] = d.y / SIGHT_RANGE;
+                    f[4] = au.hp / au.max_hp;
+                    if self.shield_ally > 0 && au.max_shield > 0.0 {
+                        f[5] = au.shield / au.max_shield;
+                    }
+                    Self::one_hot(&self.ally_types, au.kind, &mut f[5 + self.shield_ally..]);
+                }
+            }
+        }
+        off += (self.n_agents - 1) * fa;
+        let f = &mut out[off..];
+        f[0] = u.hp / u.max_hp;
+        if self.shield_ally > 0 && u.max_shield > 0.0 {
+            f[1] = u.shield / u.max_shield;
+        }
+        Self::one_hot(&self.ally_types, u.kind, &mut f[1 + self.shield_ally..]);
+    }
+
+    pub fn state(&self, world: &World, last_actions: &[Option<usize>], out: &mut [f32]) {
+        out.fill(0.0);
+        let tb = self.ally_types.len();
+        let na = 4 + self.shield_ally + tb;
+        for (i, &a) in self.agents.iter().enumerate() {
+            let f = &mut out[i * na..(i + 1) * na];
+            let Some(u) = world.unit(a).filter(|u| u.alive) else { continue };
+            f[0] = u.hp / u.max_hp;
+            f[1] = if u.spec().heal.is_some() { u.energy / u.spec().smac_max_cd } else { u.cooldown.max(0.0) / u.spec().smac_max_cd };
+            f[2] = (u.pos.x - self.map_center.x) / self.playable_w;
+            f[3] = (u.pos.y - self.map_center.y) / self.playable_h;
+            if self.shield_ally > 0 && u.max_shield > 0.0 {
+                f[4] = u.shield / u.max_shield;
+            }
+            Self::one_hot(&self.ally_types, u.kind, &mut f[4 + self.shield_ally..]);
+        }
+        let base = self.n_agents * na;
+        let ne = 3 + self.shield_enemy + tb;
+        for (j, &e) in self.enemies.iter().enumerate() {
+            let f = &mut out[base + j * ne..base + (j + 1) * ne];
+            let Some(u) = world.unit(e).filter(|u| u.alive) else { continue };
+            f[0] = u.hp / u.max_hp;
+            f[1] = (u.pos.x - self.map_center.x) / self.playable_w;
+            f[2] = (u.pos.y - self.map_center.y) / self.playable_h;
+            if self.shield_enemy > 0 && u.max_shield > 0.0 {
+                f[3] = u.shield / u.max_shield;
+            }
+            Self::one_hot(&self.enemy_types, u.kind, &mut f[3 + self.shield_enemy..]);
+        }
+        let base = base + self.n_enemies * ne;
+        for (i, la) in last_actions.iter().enumerate().take(self.n_agents) {
+            if let Some(a) = la.filter(|&a| a < self.n_actions) {
+                out[base + i * self.n_actions + a] = 1.0;
+            }
+        }
+    }
+
+    /// The typed action for SMAC index `idx` of `agent`; `None` for an index out of range.
+    pub fn command_for(&self, world: &World, agent: usize, idx: usize) -> Option<Command> {
+        Some(match idx {
+            0 => Command::NoOp,
+            1 => Command::Stop,
+            2 => Command::MoveDir { dir: Direction::Up },
+            3 => Command::MoveDir { dir: Direction::Down },
+            4 => Command::MoveDir { dir: Direction::Right },
+            5 => Command::MoveDir { dir: Direction::Left },
+            i if i < self.n_actions => Command::Attack { target: *self.targets(world, agent).get(i - N_ACTIONS_NO_ATTACK)? },
+            _ => return None,
+        })
+    }
+
+    pub(crate) fn action_from_index(&self, view: &TeamView<'_>, agent: usize, idx: usize) -> Option<Action> {
+        Some(Action::new(self.agents[agent], self.command_for(view.world(), agent, idx)?))
+    }
+
+    /// SMAC index of a typed command, where SMAC has one.
+    pub fn index_for(&self, world: &World, agent: usize, c: &Command) -> Option<usize> {
+        Some(match c {
+            Command::NoOp => 0,
+            Command::Stop => 1,
+            Command::MoveDir { dir: Direction::Up } => 2,
+            Command::MoveDir { dir: Direction::Down } => 3,
+            Command::MoveDir { dir: Direction::Right } => 4,
+            Command::MoveDir { dir: Direction::Left } => 5,
+            Command::Attack { target } => {
+                N_ACTIONS_NO_ATTACK + self.targets(world, agent).iter().take(self.n_enemies).position(|t| t == target)?
+            }
+            _ => return None,
+        })
+    }
+}
+
+pub(crate) fn command_index(env: &Env, team: Team, agent: usize, c: &Command) -> Option<usize> {
+    env.smac_layout(team).index_for(env.world(), agent, c)
+}
+
+/// Why a SMAC action index was refused.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum IndexError {
+    #[error("agent {agent}: action index {index} is out of range (n_actions = {n_actions})")]
+    OutOfRange { agent: usize, index: usize, n_actions: usize },
+    #[error("agent {agent}: action {index} is not available now")]
+    Unavailable { agent: usize, index: usize },
+    #[error("{0} actions given for {1} agents")]
+    WrongCount(usize, usize),
+    #[error(transparent)]
+    Action(#[from] ActionError),
+}
+
+impl Env {
+    pub fn smac_layout(&self, team: Team) -> &SmacLayout {
+        &self.layouts()[team.index()]
+    }
+
+    /// SMAC's `get_env_info()` for a team's agents.
+    pub fn env_info(&self, team: Team) -> EnvInfo {
+        let l = self.smac_layout(team);
+        EnvInfo {
+            n_agents: l.n_agents,
+            n_actions: l.n_actions,
+            obs_shape: l.obs_size,
+            state_shape: l.state_size,
+            episode_limit: self.time_limit_loops().div_ceil(self.config().step_mul) as usize,
+        }
+    }
+
+    pub fn obs_agent(&self, team: Team, agent: usize, out: &mut [f32]) {
+        self.smac_layout(team).obs(self.world(), agent, out)
+    }
+
+    pub fn state(&self, team: Team, out: &mut [f32]) {
+        self.smac_layout(team).state(self.world(), self.last_actions(team), out)
+    }
+
+    pub fn avail_agent(&self, team: Team, agent: usize, out: &mut [u8]) {
+        self.smac_layout(team).avail_actions(self.world(), agent, out)
+    }
+
+    /// Submits one SMAC action index per agent of `team`; unavailable indices are refused
+    /// and counted like any invalid action.
+    pub fn submit_indices(&mut self, team: Team, indices: &[usize]) -> Vec<Result<(), IndexError>> {
+        let l = self.smac_layout(team).clone();
+        if indices.len() != l.n_agents {
+            self.count_refused(team, 1);
+            return vec![Err(IndexError::WrongCount(indices.len(), l.n_agents))];
+        }
+        let mut avail = vec![0u8; l.n_actions];
+        let mut out = Vec::with_capacity(indices.len());
+        for (agent, &index) in indices.iter().enumerate() {
+            if index >= l.n_actions {
+                self.count_refused(team, 1);
+                out.push(Err(IndexError::OutOfRange { agent, index, n_actions: l.n_actions }));
+                continue;
+            }
+            l.avail_actions(self.world(), agent, &mut avail);
+            if avail[index] == 0 {
+                self.count_refused(team, 1);
+                out.push(Err(IndexError::Unavailable { agent, index }));
+                continue;
+            }
+            let Some(command) = l.command_for(self.world(), agent, index) else {
+                out.push(Err(IndexError::OutOfRange { agent, index, n_actions: l.n_actions }));
+                continue;
+            };
+            if command == Command::NoOp {
+                self.set_last_action(team, agent, Some(0));
+                out.push(Ok(()));
+                continue;
+            }
+            let r = self.submit(team, &[Action::new(l.agents[agent], command)]);
+            out.push(r.into_iter().next().unwrap_or(Ok(())).map_err(IndexError::from));
+        }
+        out
+    }
+}

@@ -1,0 +1,127 @@
+//! The structured unit list (the paper's U_t): one record per unit a team knows of.
+
+use crate::action::grid_cell_of;
+use crate::ids::Team;
+use crate::time::LOOPS_PER_SECOND;
+use crate::units::{Attrs, UnitKind};
+use crate::world::{Activity, Order, Unit, World};
+use serde::Serialize;
+
+/// A unit's current order, with targets named by tag.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum OrderInfo {
+    Idle,
+    Hold,
+    Move { x: f32, y: f32 },
+    AttackMove { x: f32, y: f32 },
+    Attack { target: u32 },
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct UnitInfo {
+    /// Permanent numeric tag (also drawn on screenshots).
+    pub tag: u32,
+    /// `Marine_1`: base type and number within its team, kept for the whole episode.
+    pub name: String,
+    #[serde(rename = "type")]
+    pub kind: UnitKind,
+    pub team: u8,
+    pub own: bool,
+    pub x: f32,
+    pub y: f32,
+    /// Cell (x, y) of the 10x10 movement grid, (1, 1) top left.
+    pub grid: [u8; 2],
+    pub hp: f32,
+    pub max_hp: f32,
+    pub shield: f32,
+    pub max_shield: f32,
+    pub energy: f32,
+    pub max_energy: f32,
+    /// Seconds of game time until the weapon is ready (0 when ready).
+    pub weapon_cooldown_s: f32,
+    pub order: OrderInfo,
+    pub activity: Activity,
+    pub target: Option<u32>,
+    pub flags: Vec<&'static str>,
+}
+
+impl UnitInfo {
+    pub fn from_unit(w: &World, team: Team, u: &Unit) -> Self {
+        let s = u.spec();
+        let mut flags = Vec::new();
+        if s.flying {
+            flags.push("flying");
+        }
+        if s.attrs.has(Attrs::STRUCTURE) {
+            flags.push("structure");
+        }
+        if s.detector {
+            flags.push("detector");
+        }
+        if s.heal.is_some() {
+            flags.push("healer");
+        }
+        if s.cliff_walk {
+            flags.push("cliff_walker");
+        }
+        match u.kind {
+            UnitKind::SiegeTankSieged => flags.push("sieged"),
+            UnitKind::WarpPrismPhasing => flags.push("phasing"),
+            UnitKind::VikingAssault => flags.push("assault_mode"),
+            UnitKind::VikingFighter => flags.push("fighter_mode"),
+            _ => {}
+        }
+        if u.speed <= 0.0 {
+            flags.push("immobile");
+        }
+        flags.extend(s.attrs.names().map(attr_flag));
+        let (gx, gy) = grid_cell_of(w.terrain().playable(), u.pos);
+        UnitInfo {
+            tag: u.id.tag(),
+            name: u.name(),
+            kind: u.kind,
+            team: u.team.player(),
+            own: u.team == team,
+            x: u.pos.x,
+            y: u.pos.y,
+            grid: [gx, gy],
+            hp: u.hp,
+            max_hp: u.max_hp,
+            shield: u.shield,
+            max_shield: u.max_shield,
+            energy: u.energy,
+            max_energy: s.energy_max,
+            weapon_cooldown_s: u.cooldown.max(0.0) / LOOPS_PER_SECOND,
+            order: match u.order {
+                Order::Idle => OrderInfo::Idle,
+                Order::Hold => OrderInfo::Hold,
+                Order::Move { to } => OrderInfo::Move { x: to.x, y: to.y },
+                Order::AttackMove { to } => OrderInfo::AttackMove { x: to.x, y: to.y },
+                Order::Attack { target } => OrderInfo::Attack { target: target.tag() },
+            },
+            activity: u.activity,
+            target: u.target.map(|t| t.tag()),
+            flags,
+        }
+    }
+}
+
+fn attr_flag(a: &'static str) -> &'static str {
+    match a {
+        "Light" => "light",
+        "Armored" => "armored",
+        "Biological" => "biological",
+        "Mechanical" => "mechanical",
+        "Psionic" => "psionic",
+        "Massive" => "massive",
+        _ => "structure_attr",
+    }
+}
+
+/// Every living unit `team` knows of: its own, then the enemies it sees, each by tag order.
+pub fn unit_list(w: &World, team: Team) -> Vec<UnitInfo> {
+    let own = w.alive(team);
+    let seen = w.alive(team.other()).filter(|u| w.visible_to(team, u.id));
+    own.chain(seen).map(|u| UnitInfo::from_unit(w, team, u)).collect()
+}

@@ -1,0 +1,46 @@
+//! The paper's 21 scenarios, compiled into the library so every tool works from any
+//! directory. The files are generated from the reference map data by
+//! `tools/gen_scenarios.py` and are meant to be read and copied by users.
+
+use super::{Scenario, ScenarioError};
+
+macro_rules! scenarios {
+    ($($name:literal),* $(,)?) => {
+        /// Names and TOML text of the built-in scenarios, in the paper's table order.
+        pub const BUILTIN: &[(&str, &str)] = &[$(($name, include_str!(concat!("../../scenarios/", $name, ".toml")))),*];
+    };
+}
+
+scenarios!(
+    "2c_vs_64zg",
+    "2m_vs_1z",
+    "2s_vs_1sc",
+    "3s_vs_3z",
+    "6r_vs_8z",
+    "8m1mv_vs_2st",
+    "8m2st_vs_35zg4b",
+    "8m_vs_2pc1wp",
+    "2s3z",
+    "3m",
+    "mixed_units",
+    "8m3mr1mv1st_mirror",
+    "8s_vs_8m3mr1mv1st",
+    "8m3mr1mv1st_vs_5s2c",
+    "pvz_ht",
+    "MMM_vs_MMM",
+    "mixed_units_pvp",
+    "terran_mirror",
+    "7s_vs_11m1mv1st",
+    "8s_vs_8m3mr1mv1st_pvp",
+    "8m3mr1mv1st_mirror_pvp",
+);
+
+pub fn builtin_names() -> impl Iterator<Item = &'static str> {
+    BUILTIN.iter().map(|(n, _)| *n)
+}
+
+/// A built-in scenario by name.
+pub fn builtin(name: &str) -> Result<Scenario, ScenarioError> {
+    let (_, text) = BUILTIN.iter().find(|(n, _)| *n == name).ok_or_else(|| ScenarioError::Unknown(name.to_owned()))?;
+    Scenario::from_toml(&format!("<built-in>/{name}.toml"), text)
+}

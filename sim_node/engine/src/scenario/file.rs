@@ -1,0 +1,95 @@
+//! The scenario file format (TOML) exactly as written on disk. Everything here is raw:
+//! [`super::validate`] turns it into a [`super::Scenario`] or an error naming the field.
+
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawScenario {
+    pub name: String,
+    /// `pve` (an opponent policy drives team 2) or `pvp` (agents drive both teams).
+    pub mode: String,
+    #[serde(default)]
+    pub description: String,
+    #[serde(default)]
+    pub objective: String,
+    #[serde(default)]
+    pub source: String,
+    /// Map size in cells: [width, height].
+    pub map_size: [u32; 2],
+    /// Playable rectangle: [left, bottom, right, top]; defaults to the whole map.
+    #[serde(default)]
+    pub playable: Option<[f32; 4]>,
+    /// Episode limit in seconds of game time (default 300).
+    #[serde(default)]
+    pub time_limit_s: Option<f32>,
+    #[serde(default)]
+    pub upgrades: Vec<RawUpgrade>,
+    pub units: Vec<RawUnit>,
+    #[serde(default)]
+    pub opponent: RawOpponent,
+    #[serde(default)]
+    pub terrain: Option<RawTerrain>,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawUpgrade {
+    pub team: i64,
+    pub name: String,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawUnit {
+    #[serde(rename = "type")]
+    pub kind: String,
+    pub team: i64,
+    pub x: f32,
+    pub y: f32,
+    /// Radians, counter-clockwise from east.
+    #[serde(default)]
+    pub facing: f32,
+}
+
+#[derive(Debug, Clone, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawOpponent {
+    /// Default opponent policy for PvE: builtin, aggressive, defensive, focus or random.
+    #[serde(default)]
+    pub policy: Option<String>,
+    /// The built-in AI's opening order.
+    #[serde(default)]
+    pub start: Option<RawStart>,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum RawStart {
+    /// Stand and defend.
+    None,
+    AttackMove {
+        x: f32,
+        y: f32,
+        #[serde(default)]
+        delay_s: f32,
+    },
+    /// Attack-move to a point drawn uniformly on the segment `from`-`to` each episode.
+    AttackMoveRandom {
+        from: [f32; 2],
+        to: [f32; 2],
+        #[serde(default)]
+        delay_s: f32,
+    },
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawTerrain {
+    /// Character to height in cliff levels; a height that is not a whole number marks a ramp.
+    /// `.` is reserved for cells with no ground.
+    pub legend: BTreeMap<String, f32>,
+    /// One string per row, the top row (highest y) first, one character per cell.
+    pub rows: Vec<String>,
+}

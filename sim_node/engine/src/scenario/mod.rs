@@ -1,0 +1,200 @@
+//! Scenarios: the typed, validated description of a battle, loaded from the project's TOML
+//! format. The paper's 21 scenarios are built in; users load their own files the same way.
+
+mod builtin;
+mod file;
+
+pub use builtin::{BUILTIN, builtin, builtin_names};
+pub use file::{RawOpponent, RawScenario, RawStart, RawTerrain, RawUnit, RawUpgrade};
+
+use crate::geom::Vec2;
+use crate::ids::Team;
+use crate::terrain::{Rect, Terrain};
+use crate::time::{DEFAULT_TIME_LIMIT_S, seconds_to_loops};
+use crate::units::UnitKind;
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::path::Path;
+use std::str::FromStr;
+use std::sync::Arc;
+
+/// Who drives team 2.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Mode {
+    Pve,
+    Pvp,
+}
+
+impl fmt::Display for Mode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Mode::Pve => "PvE",
+            Mode::Pvp => "PvP",
+        })
+    }
+}
+
+/// Upgrades a scenario can grant at the start. Names of the source maps are aliases.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum Upgrade {
+    Stimpack,
+    CombatShield,
+    ConcussiveShells,
+    Blink,
+    PsionicStorm,
+    MetabolicBoost,
+}
+
+impl FromStr for Upgrade {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Ok(match s {
+            "Stimpack" => Upgrade::Stimpack,
+            "CombatShield" | "ShieldWall" => Upgrade::CombatShield,
+            "ConcussiveShells" | "PunisherGrenades" => Upgrade::ConcussiveShells,
+            "Blink" | "BlinkTech" => Upgrade::Blink,
+            "PsionicStorm" | "PsiStormTech" => Upgrade::PsionicStorm,
+            "MetabolicBoost" | "zerglingmovementspeed" => Upgrade::MetabolicBoost,
+            _ => {
+                return Err("unknown upgrade (known: Stimpack, CombatShield, ConcussiveShells, Blink, PsionicStorm, MetabolicBoost)".into());
+            }
+        })
+    }
+}
+
+/// The built-in AI's opening order.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum StartOrder {
+    None,
+    AttackMove { to: Vec2, delay_loops: u32 },
+    AttackMoveRandom { from: Vec2, to: Vec2, delay_loops: u32 },
+}
+
+/// Opponent policies for team 2 in PvE.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum OpponentKind {
+    Builtin,
+    Aggressive,
+    Defensive,
+    Focus,
+    Random,
+}
+
+impl OpponentKind {
+    pub const ALL: [OpponentKind; 5] =
+        [OpponentKind::Builtin, OpponentKind::Aggressive, OpponentKind::Defensive, OpponentKind::Focus, OpponentKind::Random];
+    pub fn name(self) -> &'static str {
+        match self {
+            OpponentKind::Builtin => "builtin",
+            OpponentKind::Aggressive => "aggressive",
+            OpponentKind::Defensive => "defensive",
+            OpponentKind::Focus => "focus",
+            OpponentKind::Random => "random",
+        }
+    }
+}
+
+impl FromStr for OpponentKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        OpponentKind::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| "unknown opponent (known: builtin, aggressive, defensive, focus, random)".to_owned())
+    }
+}
+
+impl fmt::Display for OpponentKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScenarioUnit {
+    pub kind: UnitKind,
+    pub team: Team,
+    pub pos: Vec2,
+    pub facing: f32,
+}
+
+/// A validated scenario.
+#[derive(Clone, Debug)]
+pub struct Scenario {
+    pub name: String,
+    pub mode: Mode,
+    pub description: String,
+    pub objective: String,
+    pub source: String,
+    pub terrain: Arc<Terrain>,
+    pub units: Vec<ScenarioUnit>,
+    pub upgrades: [Vec<Upgrade>; 2],
+    pub opponent: OpponentKind,
+    pub start: StartOrder,
+    pub time_limit_loops: u32,
+}
+
+impl Scenario {
+    pub fn count(&self, team: Team) -> usize {
+        self.units.iter().filter(|u| u.team == team).count()
+    }
+
+    /// Units of a team, in scenario order: agent `i` of that team controls the `i`-th.
+    pub fn team_units(&self, team: Team) -> impl Iterator<Item = (usize, &ScenarioUnit)> {
+        self.units.iter().enumerate().filter(move |(_, u)| u.team == team)
+    }
+
+    /// Centroid of a team's starting positions (its spawn).
+    pub fn spawn(&self, team: Team) -> Vec2 {
+        let (mut s, mut n) = (Vec2::ZERO, 0.0);
+        for (_, u) in self.team_units(team) {
+            s += u.pos;
+            n += 1.0;
+        }
+        if n > 0.0 { s * (1.0 / n) } else { self.terrain.playable().center() }
+    }
+
+    /// Parses and validates TOML text; `file` names the source in errors.
+    pub fn from_toml(file: &str, text: &str) -> Result<Scenario, ScenarioError> {
+        let raw: RawScenario = toml::from_str(text)
+            .map_err(|e| ScenarioError::Syntax { file: file.to_owned(), message: e.to_string().trim_end().to_owned() })?;
+        validate::validate(file, raw)
+    }
+
+    /// Loads a scenario file, or a built-in scenario by name when no such file exists.
+    pub fn load(name_or_path: &str) -> Result<Scenario, ScenarioError> {
+        let p = Path::new(name_or_path);
+        if p.extension().is_some_and(|e| e == "toml") || p.exists() {
+            let text =
+                std::fs::read_to_string(p).map_err(|e| ScenarioError::Io { file: name_or_path.to_owned(), message: e.to_string() })?;
+            return Scenario::from_toml(name_or_path, &text);
+        }
+        builtin(name_or_path)
+    }
+}
+
+/// Why a scenario could not be loaded. Every variant names the file.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ScenarioError {
+    #[error("{file}: cannot read: {message}")]
+    Io { file: String, message: String },
+    #[error("{file}: {message}")]
+    Syntax { file: String, message: String },
+    #[error("{file}: field `{field}` = {value}: {reason}")]
+    Invalid { file: String, field: String, value: String, reason: String },
+    #[error("unknown scenario `{0}`: not a file, and not a built-in scenario (see `avacraft scenarios`)")]
+    Unknown(String),
+}
+
+mod validate;
+
+pub(crate) fn default_time_limit() -> u32 {
+    seconds_to_loops(DEFAULT_TIME_LIMIT_S)
+}
+
+pub(crate) fn rect(p: [f32; 4]) -> Rect {
+    Rect { left: p[0], bottom: p[1], right: p[2], top: p[3] }
+}

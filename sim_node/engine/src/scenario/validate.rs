@@ -1,0 +1,200 @@
+//! Raw scenario file to validated [`Scenario`], with errors naming file, field and value.
+
+use super::{
+    Mode, OpponentKind, RawScenario, RawStart, RawTerrain, Scenario, ScenarioError, ScenarioUnit, StartOrder, Upgrade, default_time_limit,
+    rect,
+};
+use crate::geom::Vec2;
+use crate::ids::Team;
+use crate::terrain::{Rect, Terrain};
+use crate::time::seconds_to_loops;
+use crate::units::UnitKind;
+use std::sync::Arc;
+
+/// Units per scenario at most (ids are 16-bit; the game caps armies far lower).
+pub const MAX_UNITS: usize = 1024;
+
+struct Ctx<'a> {
+    file: &'a str,
+}
+
+impl Ctx<'_> {
+    fn err(&self, field: impl Into<String>, value: impl std::fmt::Display, reason: impl Into<String>) -> ScenarioError {
+        ScenarioError::Invalid { file: self.file.to_owned(), field: field.into(), value: value.to_string(), reason: reason.into() }
+    }
+}
+
+pub(super) fn validate(file: &str, raw: RawScenario) -> Result<Scenario, ScenarioError> {
+    let cx = Ctx { file };
+    if raw.name.is_empty() || !raw.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
+        return Err(cx.err("name", format!("{:?}", raw.name), "must be non-empty ASCII letters, digits, '_' or '-'"));
+    }
+    let mode = match raw.mode.as_str() {
+        "pve" => Mode::Pve,
+        "pvp" => Mode::Pvp,
+        other => return Err(cx.err("mode", format!("{other:?}"), "must be \"pve\" or \"pvp\"")),
+    };
+    let [w, h] = raw.map_size;
+    for (i, v) in [w, h].into_iter().enumerate() {
+        if !(8..=512).contains(&v) {
+            return Err(cx.err(format!("map_size[{i}]"), v, "must be between 8 and 512 cells"));
+        }
+    }
+    let playable = match raw.playable {
+        None => Rect { left: 0.0, bottom: 0.0, right: w as f32, top: h as f32 },
+        Some(p) => {
+            let r = rect(p);
+            let ok = p.iter().all(|v| v.is_finite())
+                && r.left >= 0.0
+                && r.bottom >= 0.0
+                && r.right <= w as f32
+                && r.top <= h as f32
+                && r.right - r.left >= 4.0
+                && r.top - r.bottom >= 4.0;
+            if !ok {
+                return Err(cx.err(
+                    "playable",
+                    format!("{p:?}"),
+                    format!("must be [left, bottom, right, top] inside the {w}x{h} map, at least 4 wide and high"),
+                ));
+            }
+            r
+        }
+    };
+    let time_limit_loops = match raw.time_limit_s {
+        None => default_time_limit(),
+        Some(t) if t.is_finite() && t > 0.0 && t <= 3600.0 => seconds_to_loops(t).max(1),
+        Some(t) => return Err(cx.err("time_limit_s", t, "must be a number of game seconds in (0, 3600]")),
+    };
+    let terrain = match &raw.terrain {
+        None => Terrain::flat(w, h, playable),
+        Some(t) => terrain(&cx, t, w, h, playable)?,
+    };
+    let mut upgrades: [Vec<Upgrade>; 2] = Default::default();
+    for (i, u) in raw.upgrades.iter().enumerate() {
+        let team = Team::from_player(u.team).ok_or_else(|| cx.err(format!("upgrades[{i}].team"), u.team, "must be 1 or 2"))?;
+        let up: Upgrade = u.name.parse().map_err(|e: String| cx.err(format!("upgrades[{i}].name"), format!("{:?}", u.name), e))?;
+        if !upgrades[team.index()].contains(&up) {
+            upgrades[team.index()].push(up);
+        }
+    }
+    for list in &mut upgrades {
+        list.sort();
+    }
+    if raw.units.len() > MAX_UNITS {
+        return Err(cx.err("units", raw.units.len(), format!("at most {MAX_UNITS} units")));
+    }
+    let mut units = Vec::with_capacity(raw.units.len());
+    for (i, u) in raw.units.iter().enumerate() {
+        let f = |name: &str| format!("units[{i}].{name}");
+        let kind: UnitKind =
+            u.kind.parse().map_err(|e: crate::units::UnknownUnitKind| cx.err(f("type"), format!("{:?}", u.kind), e.to_string()))?;
+        let team = Team::from_player(u.team).ok_or_else(|| cx.err(f("team"), u.team, "must be 1 or 2"))?;
+        let pos = Vec2::new(u.x, u.y);
+        if !pos.is_finite() || !playable.contains(pos) {
+            return Err(cx.err(
+                format!("units[{i}].x/y"),
+                format!("({}, {})", u.x, u.y),
+                format!("outside the playable area {playable:?}"),
+            ));
+        }
+        if !kind.spec().flying && !terrain.walkable(pos) {
+            return Err(cx.err(
+                format!("units[{i}].x/y"),
+                format!("({}, {})", u.x, u.y),
+                format!("a ground unit ({kind}) placed where there is no ground"),
+            ));
+        }
+        if !u.facing.is_finite() {
+            return Err(cx.err(f("facing"), u.facing, "must be a finite angle in radians"));
+        }
+        units.push(ScenarioUnit { kind, team, pos, facing: u.facing });
+    }
+    for team in Team::BOTH {
+        if !units.iter().any(|u| u.team == team) {
+            return Err(cx.err("units", format!("{} units", units.len()), format!("{team} has no units")));
+        }
+    }
+    let opponent = match &raw.opponent.policy {
+        None => OpponentKind::Builtin,
+        Some(p) => p.parse().map_err(|e: String| cx.err("opponent.policy", format!("{p:?}"), e))?,
+    };
+    let start = match &raw.opponent.start {
+        None | Some(RawStart::None) => StartOrder::None,
+        Some(RawStart::AttackMove { x, y, delay_s }) => {
+            let to = point(&cx, "opponent.start", [*x, *y], playable)?;
+            StartOrder::AttackMove { to, delay_loops: delay(&cx, *delay_s)? }
+        }
+        Some(RawStart::AttackMoveRandom { from, to, delay_s }) => StartOrder::AttackMoveRandom {
+            from: point(&cx, "opponent.start.from", *from, playable)?,
+            to: point(&cx, "opponent.start.to", *to, playable)?,
+            delay_loops: delay(&cx, *delay_s)?,
+        },
+    };
+    Ok(Scenario {
+        name: raw.name,
+        mode,
+        description: raw.description,
+        objective: if raw.objective.is_empty() { "Destroy every enemy unit before time runs out.".into() } else { raw.objective },
+        source: raw.source,
+        terrain: Arc::new(terrain),
+        units,
+        upgrades,
+        opponent,
+        start,
+        time_limit_loops,
+    })
+}
+
+fn point(cx: &Ctx, field: &str, p: [f32; 2], playable: Rect) -> Result<Vec2, ScenarioError> {
+    let v = Vec2::new(p[0], p[1]);
+    if !v.is_finite() || !playable.contains(v) {
+        return Err(cx.err(field, format!("({}, {})", p[0], p[1]), "outside the playable area"));
+    }
+    Ok(v)
+}
+
+fn delay(cx: &Ctx, s: f32) -> Result<u32, ScenarioError> {
+    if !(s.is_finite() && (0.0..=3600.0).contains(&s)) {
+        return Err(cx.err("opponent.start.delay_s", s, "must be between 0 and 3600 seconds"));
+    }
+    Ok(seconds_to_loops(s))
+}
+
+fn terrain(cx: &Ctx, t: &RawTerrain, w: u32, h: u32, playable: Rect) -> Result<Terrain, ScenarioError> {
+    let mut legend: Vec<(char, f32)> = Vec::new();
+    for (k, &v) in &t.legend {
+        let mut chars = k.chars();
+        let (Some(c), None) = (chars.next(), chars.next()) else {
+            return Err(cx.err(format!("terrain.legend.{k:?}"), v, "keys must be single characters"));
+        };
+        if c == '.' {
+            return Err(cx.err("terrain.legend.\".\"", v, "'.' is reserved for cells with no ground"));
+        }
+        if !(v.is_finite() && (0.0..=8.0).contains(&v)) {
+            return Err(cx.err(format!("terrain.legend.{k:?}"), v, "heights are cliff levels between 0 and 8"));
+        }
+        legend.push((c, v));
+    }
+    if t.rows.len() != h as usize {
+        return Err(cx.err("terrain.rows", format!("{} rows", t.rows.len()), format!("the map is {h} cells high")));
+    }
+    let mut cells = vec![None; (w * h) as usize];
+    for (r, row) in t.rows.iter().enumerate() {
+        let y = h as usize - 1 - r;
+        let n = row.chars().count();
+        if n != w as usize {
+            return Err(cx.err(format!("terrain.rows[{r}]"), format!("{n} characters"), format!("the map is {w} cells wide")));
+        }
+        for (x, c) in row.chars().enumerate() {
+            cells[y * w as usize + x] = match c {
+                '.' => None,
+                c => match legend.iter().find(|(k, _)| *k == c) {
+                    Some((_, v)) => Some(*v),
+                    None => return Err(cx.err(format!("terrain.rows[{r}][{x}]"), format!("{c:?}"), "character not in terrain.legend")),
+                },
+            };
+        }
+    }
+    Ok(Terrain::new(w, h, cells, playable))
+}

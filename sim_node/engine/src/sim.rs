@@ -1,0 +1,280 @@
+//! One game loop: every unit decides (targets, orders), attacks resolve simultaneously,
+//! units move, overlaps are resolved, then regeneration and cooldowns tick.
+
+use crate::combat::{LEASH, PendingHit, acquire_range, edge_dist, in_heal_range, weapon_for};
+use crate::geom::Vec2;
+use crate::ids::UnitId;
+use crate::orca::Neighbour;
+use crate::units::{Attrs, Race};
+use crate::world::{Activity, Order, Unit, World};
+use rand::Rng;
+
+/// Shields regenerate after this many loops without damage (10 Normal seconds).
+pub const SHIELD_REGEN_DELAY: u32 = 160;
+/// Shield points per loop (2 per Normal second).
+pub const SHIELD_REGEN: f32 = 2.0 / 16.0;
+/// Zerg HP per loop (0.38 per Faster second).
+pub const ZERG_REGEN: f32 = 0.38 / 22.4;
+/// Energy per loop (0.5625 per Normal second).
+pub const ENERGY_REGEN: f32 = 0.5625 / 16.0;
+/// Distance within which a move order counts as arrived.
+const ARRIVE: f32 = 0.5;
+
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Intent {
+    /// Where to go and how close (centre to centre) is close enough.
+    pub goal: Option<(Vec2, f32)>,
+    pub fire: Option<(UnitId, usize)>,
+    pub heal: Option<UnitId>,
+    /// Unit to ignore in collision avoidance (the one it is closing on).
+    pub closing_on: Option<UnitId>,
+}
+
+#[derive(Debug, Default)]
+pub(crate) struct Scratch {
+    pub intents: Vec<Intent>,
+    pub neighbours: Vec<Neighbour>,
+}
+
+impl World {
+    /// Advances the world by one game loop.
+    pub fn step_loop(&mut self) {
+        self.shots.clear();
+        let mut intents = std::mem::take(&mut self.scratch.intents);
+        intents.clear();
+        for u in self.units.iter_mut().filter(|u| u.alive) {
+            u.was_healing = u.activity == Activity::Healing;
+            u.activity = Activity::Idle;
+        }
+        for i in 0..self.units.len() {
+            let it = if self.units[i].alive { self.decide(i) } else { Intent::default() };
+            intents.push(it);
+        }
+        self.attack(&intents);
+        self.move_units(&intents);
+        self.separate(&intents);
+        self.regen();
+        self.scratch.intents = intents;
+        self.tick += 1;
+        self.refresh();
+    }
+
+    fn decide(&mut self, i: usize) -> Intent {
+        let u = &self.units[i];
+        if u.spec().heal.is_some() {
+            return self.decide_healer(i);
+        }
+        if u.spec().weapons.is_empty() {
+            return match u.order {
+                Order::Move { to } | Order::AttackMove { to } => self.go(i, to),
+                _ => Intent::default(),
+            };
+        }
+        let auto = self.rules.auto_acquire[u.team.index()];
+        match u.order {
+            Order::Attack { target } => {
+                if self.valid_enemy(u, target) {
+                    return self.engage(i, target, true);
+                }
+                self.set_order(u.id, Order::Idle);
+                self.decide(i)
+            }
+            Order::Hold => match self.keep_or_acquire(u, true) {
+                Some(t) => self.engage(i, t, false),
+                None => {
+                    self.units[i].target = None;
+                    Intent::default()
+                }
+            },
+            Order::Idle => {
+                let t = if auto { self.keep_or_acquire(u, false) } else { None };
+                match t {
+                    Some(t) => self.engage(i, t, true),
+                    None => {
+                        self.units[i].target = None;
+                        Intent::default()
+                    }
+                }
+            }
+            Order::AttackMove { to } => match self.keep_or_acquire(u, false) {
+                Some(t) => self.engage(i, t, true),
+                None => {
+                    self.units[i].target = None;
+                    self.go(i, to)
+                }
+            },
+            Order::Move { to } => self.go(i, to),
+        }
+    }
+
+    /// Move towards `to`; the order completes on arrival.
+    fn go(&mut self, i: usize, to: Vec2) -> Intent {
+        let u = &mut self.units[i];
+        if u.pos.dist(to) <= ARRIVE.max(u.spec().radius) {
+            u.order = Order::Idle;
+            return Intent::default();
+        }
+        Intent { goal: Some((to, 0.05)), ..Intent::default() }
+    }
+
+    fn engage(&mut self, i: usize, t: UnitId, chase: bool) -> Intent {
+        let (u, tu) = (&self.units[i], &self.units[t.index()]);
+        let Some((wi, w)) = weapon_for(u, tu) else { return Intent::default() };
+        let d = edge_dist(u, tu);
+        let (tpos, ready) = (tu.pos, u.cooldown <= 0.0);
+        let stop = w.range + u.spec().radius + tu.spec().radius - 0.05;
+        let u = &mut self.units[i];
+        u.target = Some(t);
+        if d <= w.range && d >= w.min_range {
+            u.facing = (tpos - u.pos).angle();
+            u.activity = Activity::Attacking;
+            return Intent { fire: ready.then_some((t, wi)), closing_on: Some(t), ..Intent::default() };
+        }
+        if chase && u.speed > 0.0 && d > w.range {
+            return Intent { goal: Some((tpos, stop)), closing_on: Some(t), ..Intent::default() };
+        }
+        Intent::default()
+    }
+
+    fn decide_healer(&mut self, i: usize) -> Intent {
+        let u = &self.units[i];
+        let heal = u.spec().heal.unwrap_or_else(|| unreachable!("healer without heal"));
+        let healing = u.was_healing;
+        let chase = !matches!(u.order, Order::Hold);
+        let target = match u.order {
+            Order::Move { to } => return self.go(i, to),
+            Order::Attack { target } => {
+                let ok = self.unit(target).is_some_and(|t| heal_ok(u, t));
+                if !ok {
+                    self.set_order(u.id, Order::Idle);
+                    return Intent::default();
+                }
+                Some(target)
+            }
+            _ => {
+                let reach = heal.range + if chase { LEASH + 2.0 } else { 0.0 };
+                self.heal_target(u, reach)
+            }
+        };
+        let u = &self.units[i];
+        if let Some(t) = target {
+            let tu = &self.units[t.index()];
+            let can = u.energy >= heal.min_energy_to_start || (healing && u.energy > 0.0);
+            if in_heal_range(u, tu, heal.range) {
+                self.units[i].target = Some(t);
+                return Intent { heal: can.then_some(t), ..Intent::default() };
+            }
+            if chase {
+                let stop = heal.range + u.spec().radius + tu.spec().radius - 0.1;
+                return Intent { goal: Some((tu.pos, stop)), ..Intent::default() };
+            }
+        }
+        let (order, team) = (u.order, u.team);
+        self.units[i].target = None;
+        if let Order::AttackMove { to } = order {
+            // A healer on attack-move stays with its army instead of flying ahead of it.
+            let (mut sum, mut n) = (Vec2::ZERO, 0);
+            for o in self.units.iter().filter(|o| o.alive && o.team == team && o.spec().heal.is_none() && o.kind.can_fight()) {
+                sum += o.pos;
+                n += 1;
+            }
+            return if n > 0 { Intent { goal: Some((sum * (1.0 / n as f32), 2.0)), ..Intent::default() } } else { self.go(i, to) };
+        }
+        Intent::default()
+    }
+
+    /// The damaged biological ally with the most HP missing within `reach` (edge to edge).
+    fn heal_target(&self, h: &Unit, reach: f32) -> Option<UnitId> {
+        let mut best: Option<(f32, f32, UnitId)> = None;
+        self.grid.for_each_near(h.pos, reach + h.spec().radius + 1.25, |j| {
+            let t = &self.units[j];
+            if !heal_ok(h, t) {
+                return;
+            }
+            let d = edge_dist(h, t);
+            if d > reach {
+                return;
+            }
+            let missing = t.max_hp - t.hp;
+            if best.is_none_or(|(bm, bd, _)| missing > bm || (missing == bm && d < bd)) {
+                best = Some((missing, d, t.id));
+            }
+        });
+        best.map(|b| b.2)
+    }
+
+    fn attack(&mut self, intents: &[Intent]) {
+        let mut pending = Vec::new();
+        for (i, it) in intents.iter().enumerate() {
+            let Some((t, wi)) = it.fire else { continue };
+            let w = &self.units[i].spec().weapons[wi];
+            let jitter = if self.rules.cooldown_jitter { self.rng().random_range(-1.0f32..=2.0) } else { 0.0 };
+            let tpos = self.units[t.index()].pos;
+            let u = &mut self.units[i];
+            u.cooldown = w.cooldown + jitter + u.cooldown.clamp(-1.0, 0.0);
+            u.activity = Activity::Attacking;
+            let dir = (tpos - u.pos).normalized();
+            let (id, team, pos) = (u.id, u.team, u.pos);
+            if w.suicide {
+                u.alive = false;
+                u.hp = 0.0;
+                u.activity = Activity::Dead;
+                pending.push(PendingHit { attacker: id, target: None, weapon: w, impact: pos, dir });
+            } else {
+                pending.push(PendingHit { attacker: id, target: Some(t), weapon: w, impact: tpos, dir });
+            }
+            self.stats[team.index()].attacks += 1;
+            self.record_shot(id, t, tpos);
+        }
+        for (i, it) in intents.iter().enumerate() {
+            let Some(t) = it.heal else { continue };
+            let heal = self.units[i].spec().heal.unwrap_or_else(|| unreachable!("heal intent without heal"));
+            let energy = self.units[i].energy;
+            let tu = &mut self.units[t.index()];
+            let amount = heal.hp_per_loop.min(tu.max_hp - tu.hp).min(energy / heal.energy_per_hp).max(0.0);
+            tu.hp += amount;
+            let (tid, tpos) = (tu.id, tu.pos);
+            let h = &mut self.units[i];
+            h.energy -= amount * heal.energy_per_hp;
+            h.activity = Activity::Healing;
+            let team = h.team;
+            self.stats[team.index()].healing_done += amount;
+            let hid = self.units[i].id;
+            self.record_shot(hid, tid, tpos);
+        }
+        self.resolve_hits(pending);
+    }
+
+    fn regen(&mut self) {
+        let tick = self.tick;
+        for u in self.units.iter_mut().filter(|u| u.alive) {
+            u.cooldown = (u.cooldown - 1.0).max(-1.0);
+            if u.shield < u.max_shield && tick.saturating_sub(u.last_damaged) >= SHIELD_REGEN_DELAY {
+                u.shield = (u.shield + SHIELD_REGEN).min(u.max_shield);
+            }
+            let s = u.spec();
+            if s.race == Race::Zerg && u.hp < u.max_hp {
+                u.hp = (u.hp + ZERG_REGEN).min(u.max_hp);
+            }
+            if s.energy_max > 0.0 {
+                u.energy = (u.energy + ENERGY_REGEN).min(s.energy_max);
+            }
+        }
+    }
+
+    /// Euclidean distance from `u` to its engagement range of `t`, for scripted policies.
+    pub fn range_gap(&self, u: UnitId, t: UnitId) -> Option<f32> {
+        let (a, b) = (self.unit(u)?, self.unit(t)?);
+        let (_, w) = weapon_for(a, b)?;
+        Some(edge_dist(a, b) - w.range)
+    }
+
+    /// How far `u` auto-acquires targets (edge to edge).
+    pub fn acquisition_range(&self, u: UnitId) -> f32 {
+        self.unit(u).map_or(0.0, acquire_range)
+    }
+}
+
+fn heal_ok(h: &Unit, t: &Unit) -> bool {
+    t.alive && t.team == h.team && t.id != h.id && t.spec().attrs.has(Attrs::BIOLOGICAL) && t.hp < t.max_hp
+}

@@ -1,0 +1,297 @@
+//! The world state: units, terrain, the loop counter and the seeded RNG. `sim.rs` advances
+//! it one game loop at a time.
+
+use crate::geom::Vec2;
+use crate::ids::{Team, UnitId};
+use crate::orca::Orca;
+use crate::pathing::PathCache;
+use crate::scenario::{Scenario, Upgrade};
+use crate::spatial::SpatialGrid;
+use crate::terrain::Terrain;
+use crate::units::{UnitKind, UnitSpec};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+
+/// What a unit has been told to do.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Order {
+    /// No order: stands, and (if auto-acquisition is on for its team) engages what comes in range.
+    Idle,
+    /// Never moves; fires at enemies in weapon range.
+    Hold,
+    /// Moves to a point ignoring enemies.
+    Move { to: Vec2 },
+    /// Moves to a point, engaging enemies met on the way.
+    AttackMove { to: Vec2 },
+    /// Attacks one unit (for a healer: heals one ally) until it dies or is lost from sight.
+    Attack { target: UnitId },
+}
+
+/// What a unit did in the last loop, for observations and text.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Activity {
+    Idle,
+    Moving,
+    Attacking,
+    Healing,
+    Dead,
+}
+
+/// One unit's state.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Unit {
+    pub id: UnitId,
+    pub team: Team,
+    pub kind: UnitKind,
+    /// 1-based number among the units of the same team and base type (`Marine_3`).
+    pub ordinal: u16,
+    pub pos: Vec2,
+    pub vel: Vec2,
+    pub facing: f32,
+    pub hp: f32,
+    pub max_hp: f32,
+    pub shield: f32,
+    pub max_shield: f32,
+    pub energy: f32,
+    /// Loops until the weapon may fire again (at most 0 when ready).
+    pub cooldown: f32,
+    pub speed: f32,
+    pub order: Order,
+    /// The unit currently engaged (ordered or auto-acquired).
+    pub target: Option<UnitId>,
+    pub last_damaged: u32,
+    pub alive: bool,
+    pub activity: Activity,
+    pub(crate) was_healing: bool,
+    pub(crate) waypoint: Option<(Vec2, Vec2, u32)>,
+}
+
+impl Unit {
+    pub fn spec(&self) -> &'static UnitSpec {
+        self.kind.spec()
+    }
+    /// The name shown in observations: base type and ordinal, e.g. `Marine_1`.
+    pub fn name(&self) -> String {
+        format!("{}_{}", self.kind.base().name(), self.ordinal)
+    }
+    pub fn flying(&self) -> bool {
+        self.spec().flying
+    }
+    pub fn hp_fraction(&self) -> f32 {
+        if self.max_hp > 0.0 { self.hp / self.max_hp } else { 0.0 }
+    }
+}
+
+/// Switches that change the rules of a world.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Rules {
+    /// Everyone sees everything (fog of war off).
+    pub full_vision: bool,
+    /// StarCraft II's random attack delay (-1 to +2 loops after each attack).
+    pub cooldown_jitter: bool,
+    /// Whether idle units of each team acquire targets on their own. SMAC's allied units
+    /// are "passive" editor copies; StarCraft II units are not.
+    pub auto_acquire: [bool; 2],
+}
+
+impl Default for Rules {
+    fn default() -> Self {
+        Self { full_vision: false, cooldown_jitter: true, auto_acquire: [true, true] }
+    }
+}
+
+/// Counters kept over an episode.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TeamStats {
+    pub damage_dealt: f32,
+    pub healing_done: f32,
+    pub kills: u32,
+    pub attacks: u32,
+}
+
+/// An attack or heal made in the last loop (drawn as lines by renderers, counted by stats).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Shot {
+    pub from: UnitId,
+    pub to: UnitId,
+    pub impact: Vec2,
+}
+
+/// The simulated world.
+#[derive(Debug)]
+pub struct World {
+    pub(crate) terrain: Arc<Terrain>,
+    pub(crate) units: Vec<Unit>,
+    pub(crate) tick: u32,
+    pub(crate) rng: ChaCha8Rng,
+    pub(crate) rules: Rules,
+    pub(crate) upgrades: [Vec<Upgrade>; 2],
+    pub(crate) vis: [Vec<bool>; 2],
+    pub(crate) grid: SpatialGrid,
+    pub(crate) paths: PathCache,
+    pub(crate) orca: Orca,
+    pub(crate) stats: [TeamStats; 2],
+    pub(crate) shots: Vec<Shot>,
+    pub(crate) scratch: crate::sim::Scratch,
+}
+
+impl World {
+    /// Instantiates a scenario with a seed. Everything random downstream draws from `rng`.
+    pub fn new(scenario: &Scenario, rules: Rules, seed: u64) -> Self {
+        let terrain = Arc::clone(&scenario.terrain);
+        let mut units = Vec::with_capacity(scenario.units.len());
+        let mut ordinals: Vec<(Team, UnitKind, u16)> = Vec::new();
+        for (i, su) in scenario.units.iter().enumerate() {
+            let base = su.kind.base();
+            let ord = match ordinals.iter_mut().find(|(t, k, _)| *t == su.team && *k == base) {
+                Some(e) => {
+                    e.2 += 1;
+                    e.2
+                }
+                None => {
+                    ordinals.push((su.team, base, 1));
+                    1
+                }
+            };
+            let s = su.kind.spec();
+            let ups = &scenario.upgrades[su.team.index()];
+            let mut max_hp = s.hp;
+            if su.kind == UnitKind::Marine && ups.contains(&Upgrade::CombatShield) {
+                max_hp += 10.0;
+            }
+            let mut speed = s.speed;
+            if su.kind == UnitKind::Zergling && ups.contains(&Upgrade::MetabolicBoost) {
+                speed *= 1.6;
+            }
+            units.push(Unit {
+                id: UnitId::new(i as u16),
+                team: su.team,
+                kind: su.kind,
+                ordinal: ord,
+                pos: su.pos,
+                vel: Vec2::ZERO,
+                facing: su.facing,
+                hp: max_hp,
+                max_hp,
+                shield: s.shield,
+                max_shield: s.shield,
+                energy: s.energy_start,
+                cooldown: 0.0,
+                speed,
+                order: Order::Idle,
+                target: None,
+                last_damaged: 0,
+                alive: true,
+                activity: Activity::Idle,
+                was_healing: false,
+                waypoint: None,
+            });
+        }
+        let n = units.len();
+        let grid = SpatialGrid::new(terrain.width(), terrain.height());
+        let mut w = Self {
+            terrain,
+            units,
+            tick: 0,
+            rng: ChaCha8Rng::seed_from_u64(seed),
+            rules,
+            upgrades: scenario.upgrades.clone(),
+            vis: [vec![false; n], vec![false; n]],
+            grid,
+            paths: PathCache::default(),
+            orca: Orca::default(),
+            stats: Default::default(),
+            shots: Vec::new(),
+            scratch: Default::default(),
+        };
+        w.refresh();
+        w
+    }
+
+    pub fn terrain(&self) -> &Terrain {
+        &self.terrain
+    }
+    pub fn units(&self) -> &[Unit] {
+        &self.units
+    }
+    pub fn unit(&self, id: UnitId) -> Option<&Unit> {
+        self.units.get(id.index())
+    }
+    pub fn tick(&self) -> u32 {
+        self.tick
+    }
+    pub fn rules(&self) -> &Rules {
+        &self.rules
+    }
+    pub fn stats(&self, team: Team) -> &TeamStats {
+        &self.stats[team.index()]
+    }
+    pub fn has_upgrade(&self, team: Team, up: Upgrade) -> bool {
+        self.upgrades[team.index()].contains(&up)
+    }
+    /// Attacks and heals made in the last loop.
+    pub fn shots(&self) -> &[Shot] {
+        &self.shots
+    }
+    pub(crate) fn rng(&mut self) -> &mut ChaCha8Rng {
+        &mut self.rng
+    }
+
+    /// Whether `team` currently sees unit `id` (its own units always).
+    pub fn visible_to(&self, team: Team, id: UnitId) -> bool {
+        self.vis[team.index()].get(id.index()).copied().unwrap_or(false)
+    }
+
+    pub fn alive(&self, team: Team) -> impl Iterator<Item = &Unit> {
+        self.units.iter().filter(move |u| u.alive && u.team == team)
+    }
+
+    /// Whether a side still has a unit that can deal damage.
+    pub fn can_fight(&self, team: Team) -> bool {
+        self.alive(team).any(|u| u.kind.can_fight())
+    }
+
+    pub(crate) fn set_order(&mut self, id: UnitId, order: Order) {
+        if let Some(u) = self.units.get_mut(id.index()) {
+            u.order = order;
+            u.target = match order {
+                Order::Attack { target } => Some(target),
+                _ => None,
+            };
+            u.waypoint = None;
+        }
+    }
+
+    /// Recomputes the spatial grid and both teams' vision from current positions.
+    pub(crate) fn refresh(&mut self) {
+        self.grid.rebuild(self.units.iter().map(|u| (u.pos, u.alive)));
+        for team in Team::BOTH {
+            let ti = team.index();
+            for i in 0..self.units.len() {
+                let t = &self.units[i];
+                self.vis[ti][i] = t.alive && (t.team == team || self.rules.full_vision || self.sees(team, t));
+            }
+        }
+    }
+
+    /// Line of sight with StarCraft II's cliff rule: a ground viewer does not see ground
+    /// units on higher ground than itself (half a level or more above).
+    fn sees(&self, team: Team, target: &Unit) -> bool {
+        let th = self.terrain.height_at(target.pos);
+        let tflying = target.flying();
+        self.units.iter().any(|v| {
+            v.alive
+                && v.team == team
+                && v.pos.dist_sq(target.pos) <= sq(v.spec().sight + target.spec().radius)
+                && (tflying || v.flying() || th < self.terrain.height_at(v.pos) + 0.5)
+        })
+    }
+}
+
+pub(crate) fn sq(x: f32) -> f32 {
+    x * x
+}
