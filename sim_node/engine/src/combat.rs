@@ -10,6 +10,8 @@ use crate::world::{Shot, Unit, World, sq};
 
 /// How far past its acquisition range a unit keeps chasing an auto-acquired target.
 pub(crate) const LEASH: f32 = 2.0;
+/// Loops between target re-evaluations while chasing a valid target.
+const RESCAN_EVERY: u32 = 4;
 
 /// An attack made this loop, applied after every unit has decided.
 #[derive(Clone, Copy, Debug)]
@@ -50,38 +52,46 @@ impl World {
         self.unit(t).is_some_and(|t| t.alive && t.team != u.team && self.visible_to(u.team, t.id) && weapon_for(u, t).is_some())
     }
 
-    /// The best enemy within `max_edge` of `u`: units that can hit back first, then the
-    /// closest, ties by id. With `in_range_only`, only targets its weapons reach now.
-    pub(crate) fn acquire(&self, u: &Unit, max_edge: f32, in_range_only: bool) -> Option<UnitId> {
-        let mut best: Option<(u8, f32, UnitId)> = None;
+    /// One pass over the enemies near `u` within `max_edge` (edge to edge): the best one its
+    /// weapons reach now, and the best one overall. Best means units that can hit back
+    /// first, then structures last, then the closest, ties by id.
+    pub(crate) fn scan(&self, u: &Unit, max_edge: f32) -> (Option<UnitId>, Option<UnitId>) {
+        type Best = Option<(u8, f32, UnitId)>;
+        let better = |b: &Best, tier: u8, d: f32, id: UnitId| match *b {
+            None => true,
+            Some((bt, bd, bid)) => tier > bt || (tier == bt && (d < bd || (d == bd && id < bid))),
+        };
+        let (mut in_range, mut any): (Best, Best) = (None, None);
         let reach = max_edge + u.spec().radius + 1.25;
+        let vis = &self.vis[u.team.index()];
+        let u_flying = u.flying();
         self.grid.for_each_near(u.pos, reach, |j| {
             let t = &self.units[j];
-            if !t.alive || t.team == u.team || !self.vis[u.team.index()][j] {
+            if !t.alive || t.team == u.team || !vis[j] {
                 return;
             }
             let Some((_, w)) = weapon_for(u, t) else { return };
             let d = edge_dist(u, t);
-            if d > max_edge || d < w.min_range || (in_range_only && d > w.range) {
+            if d > max_edge || d < w.min_range {
                 return;
             }
-            let threat = t.spec().weapons.iter().any(|tw| tw.reach.hits(u.flying()));
+            let ts = t.spec();
+            let threat = ts.weapons.iter().any(|tw| tw.reach.hits(u_flying));
             let tier = if threat {
                 2
-            } else if t.spec().attrs.has(Attrs::STRUCTURE) {
+            } else if ts.attrs.has(Attrs::STRUCTURE) {
                 0
             } else {
                 1
             };
-            let better = match best {
-                None => true,
-                Some((bt, bd, bid)) => tier > bt || (tier == bt && (d < bd || (d == bd && t.id < bid))),
-            };
-            if better {
-                best = Some((tier, d, t.id));
+            if d <= w.range && better(&in_range, tier, d, t.id) {
+                in_range = Some((tier, d, t.id));
+            }
+            if better(&any, tier, d, t.id) {
+                any = Some((tier, d, t.id));
             }
         });
-        best.map(|b| b.2)
+        (in_range.map(|b| b.2), any.map(|b| b.2))
     }
 
     /// Keeps the current target while it is valid and in range; otherwise prefers any enemy
@@ -94,18 +104,17 @@ impl World {
             return Some(t);
         }
         let range = acquire_range(u);
-        if let Some(t) = self.acquire(u, range, true) {
-            return Some(t);
+        let chasing = cur.filter(|t| edge_dist(u, &self.units[t.index()]) <= range + LEASH);
+        // A unit closing on a valid target looks for a better one every few loops, not every
+        // loop (staggered by id so the work spreads evenly and stays deterministic).
+        if !in_range_only && chasing.is_some() && (self.tick + u.id.index() as u32) % RESCAN_EVERY != 0 {
+            return chasing;
         }
-        if in_range_only {
-            return None;
+        let (in_range, any) = self.scan(u, range);
+        if in_range.is_some() || in_range_only {
+            return in_range;
         }
-        if let Some(t) = cur
-            && edge_dist(u, &self.units[t.index()]) <= range + LEASH
-        {
-            return Some(t);
-        }
-        self.acquire(u, range, false)
+        chasing.or(any)
     }
 
     /// Applies every attack made this loop, then splash, then deaths; Banelings killed this

@@ -10,10 +10,13 @@ use crate::world::{Activity, World};
 const TAU: f32 = 6.0;
 /// Largest collision radius in the unit table (Photon Cannon, Spine Crawler).
 const MAX_RADIUS: f32 = 1.125;
+/// Neighbours each unit avoids at most.
+const MAX_NEIGHBOURS: usize = 10;
 /// Loops a computed waypoint is reused while the goal stays in place.
 const WAYPOINT_TTL: u32 = 8;
 
 impl World {
+    #[inline(never)]
     pub(crate) fn move_units(&mut self, intents: &[Intent]) {
         let mut neighbours = std::mem::take(&mut self.scratch.neighbours);
         for i in 0..self.units.len() {
@@ -43,14 +46,14 @@ impl World {
                 pref
             } else {
                 neighbours.clear();
-                let query = radius + MAX_RADIUS + 2.0 * speed * TAU;
+                let query = radius + MAX_RADIUS + speed * TAU;
                 let me = &self.units[i];
                 self.grid.for_each_near(pos, query, |j| {
                     let o = &self.units[j];
                     if j == i || !o.alive || o.flying() || Some(o.id) == intents[i].closing_on {
                         return;
                     }
-                    let r = radius + o.spec().radius + 2.0 * speed * TAU;
+                    let r = radius + o.spec().radius + speed * TAU;
                     if o.pos.dist_sq(me.pos) > r * r {
                         return;
                     }
@@ -62,6 +65,11 @@ impl World {
                         responsibility: if moving { 0.5 } else { 1.0 },
                     });
                 });
+                if neighbours.len() > MAX_NEIGHBOURS {
+                    // Like RVO2's maxNeighbors: only the closest matter for the next loops.
+                    neighbours.select_nth_unstable_by(MAX_NEIGHBOURS, |a, b| a.pos.dist_sq(pos).total_cmp(&b.pos.dist_sq(pos)));
+                    neighbours.truncate(MAX_NEIGHBOURS);
+                }
                 self.orca.solve(pos, me.vel, radius, pref, speed, TAU, &neighbours)
             };
             let new = self.constrain(pos, pos + vel, radius, flying, cliff_walk);
@@ -78,10 +86,11 @@ impl World {
         self.scratch.neighbours = neighbours;
     }
 
+    #[inline(never)]
     fn waypoint_for(&mut self, i: usize, goal: Vec2, cliff_walk: bool) -> Option<Vec2> {
         let u = &self.units[i];
         if let Some((g, wp, at)) = u.waypoint
-            && g.dist_sq(goal) < 0.25
+            && g.dist_sq(goal) < 1.0
             && self.tick.saturating_sub(at) < WAYPOINT_TTL
             && wp.dist_sq(u.pos) > 0.04
         {
@@ -96,6 +105,7 @@ impl World {
 
     /// Where a unit moving from `from` towards `to` may end up: inside the playable area,
     /// and for ground units on ground it can step onto, sliding along walls.
+    #[inline(never)]
     pub(crate) fn constrain(&self, from: Vec2, to: Vec2, radius: f32, flying: bool, cliff_walk: bool) -> Vec2 {
         let to = self.terrain.playable().clamp(to, radius);
         if flying {
@@ -119,9 +129,12 @@ impl World {
 
     /// Pushes overlapping ground units apart. Immobile units do not move; moving units give
     /// way to standing ones twice as readily as the reverse.
+    #[inline(never)]
     pub(crate) fn separate(&mut self, intents: &[Intent]) {
-        self.grid.rebuild(self.units.iter().map(|u| (u.pos, u.alive && !u.flying())));
+        // The grid is from the start of this loop; nobody moved more than a third of a cell
+        // since, which the query margin covers.
         for _ in 0..2 {
+            let mut pushed = false;
             for i in 0..self.units.len() {
                 let a = &self.units[i];
                 if !a.alive || a.flying() {
@@ -131,11 +144,14 @@ impl World {
                 let wa = weight(a.speed, intents[i].goal.is_some());
                 let mut pushes: [(usize, Vec2); 8] = [(usize::MAX, Vec2::ZERO); 8];
                 let mut np = 0;
-                self.grid.for_each_near(pa, ra + MAX_RADIUS, |j| {
+                self.grid.for_each_near(pa, ra + MAX_RADIUS + 0.5, |j| {
                     if j <= i || np == pushes.len() {
                         return;
                     }
                     let b = &self.units[j];
+                    if !b.alive || b.flying() {
+                        return;
+                    }
                     let min = ra + b.spec().radius;
                     let d2 = b.pos.dist_sq(pa);
                     if d2 >= min * min {
@@ -155,8 +171,8 @@ impl World {
                     let overlap = min - d;
                     pushes[np] = (j, n * overlap);
                     np += 1;
-                    let _ = wb;
                 });
+                pushed |= np > 0;
                 for &(j, push) in &pushes[..np] {
                     let (wa, wb) =
                         (weight(self.units[i].speed, intents[i].goal.is_some()), weight(self.units[j].speed, intents[j].goal.is_some()));
@@ -171,6 +187,9 @@ impl World {
                         self.units[j].pos = self.constrain(pb, pb + push * (wb / sum), rb, false, cb);
                     }
                 }
+            }
+            if !pushed {
+                break;
             }
         }
     }

@@ -59,6 +59,7 @@ impl World {
         self.refresh();
     }
 
+    #[inline(never)]
     fn decide(&mut self, i: usize) -> Intent {
         let u = &self.units[i];
         if u.spec().heal.is_some() {
@@ -117,6 +118,7 @@ impl World {
         Intent { goal: Some((to, 0.05)), ..Intent::default() }
     }
 
+    #[inline(never)]
     fn engage(&mut self, i: usize, t: UnitId, chase: bool) -> Intent {
         let (u, tu) = (&self.units[i], &self.units[t.index()]);
         let Some((wi, w)) = weapon_for(u, tu) else { return Intent::default() };
@@ -203,6 +205,7 @@ impl World {
         best.map(|b| b.2)
     }
 
+    #[inline(never)]
     fn attack(&mut self, intents: &[Intent]) {
         let mut pending = Vec::new();
         for (i, it) in intents.iter().enumerate() {
@@ -245,6 +248,7 @@ impl World {
         self.resolve_hits(pending);
     }
 
+    #[inline(never)]
     fn regen(&mut self) {
         let tick = self.tick;
         for u in self.units.iter_mut().filter(|u| u.alive) {

@@ -4,6 +4,8 @@
 use crate::geom::Vec2;
 
 const CELL: f32 = 2.0;
+/// Up to this many entries a query simply visits them all: cheaper than cells.
+const BRUTE_FORCE_MAX: usize = 24;
 
 #[derive(Clone, Debug, Default)]
 pub struct SpatialGrid {
@@ -12,13 +14,15 @@ pub struct SpatialGrid {
     starts: Vec<u32>,
     items: Vec<u16>,
     cell_of: Vec<u32>,
+    fill: Vec<u32>,
+    brute: bool,
 }
 
 impl SpatialGrid {
     pub fn new(map_w: u32, map_h: u32) -> Self {
         let cols = (map_w as f32 / CELL).ceil() as usize + 1;
         let rows = (map_h as f32 / CELL).ceil() as usize + 1;
-        Self { cols, rows, starts: vec![0; cols * rows + 1], items: Vec::new(), cell_of: Vec::new() }
+        Self { cols, rows, starts: vec![0; cols * rows + 1], items: Vec::new(), cell_of: Vec::new(), fill: Vec::new(), brute: false }
     }
 
     fn cell(&self, p: Vec2) -> (usize, usize) {
@@ -28,7 +32,13 @@ impl SpatialGrid {
     }
 
     /// Rebuilds from the positions of the entries for which `include` holds.
-    pub fn rebuild(&mut self, positions: impl Iterator<Item = (Vec2, bool)>) {
+    pub fn rebuild(&mut self, positions: impl ExactSizeIterator<Item = (Vec2, bool)>) {
+        self.brute = positions.len() <= BRUTE_FORCE_MAX;
+        if self.brute {
+            self.items.clear();
+            self.items.extend(positions.enumerate().filter(|(_, (_, inc))| *inc).map(|(i, _)| i as u16));
+            return;
+        }
         self.cell_of.clear();
         self.starts.iter_mut().for_each(|s| *s = 0);
         let mut n = 0;
@@ -49,10 +59,11 @@ impl SpatialGrid {
         }
         self.items.clear();
         self.items.resize(n, 0);
-        let mut fill = self.starts.clone();
+        self.fill.clear();
+        self.fill.extend_from_slice(&self.starts);
         for (i, &c) in self.cell_of.iter().enumerate() {
             if c != u32::MAX {
-                let slot = &mut fill[c as usize];
+                let slot = &mut self.fill[c as usize];
                 self.items[*slot as usize] = i as u16;
                 *slot += 1;
             }
@@ -62,6 +73,10 @@ impl SpatialGrid {
     /// Calls `f` for every entry whose grid cell overlaps the circle (a superset of the
     /// entries within `r` of `p`; callers check exact distances). Order is deterministic.
     pub fn for_each_near(&self, p: Vec2, r: f32, mut f: impl FnMut(usize)) {
+        if self.brute {
+            self.items.iter().for_each(|&i| f(i as usize));
+            return;
+        }
         let (x0, y0) = self.cell(Vec2::new(p.x - r, p.y - r));
         let (x1, y1) = self.cell(Vec2::new(p.x + r, p.y + r));
         for cy in y0..=y1 {

@@ -131,6 +131,10 @@ pub struct World {
     pub(crate) rules: Rules,
     pub(crate) upgrades: [Vec<Upgrade>; 2],
     pub(crate) vis: [Vec<bool>; 2],
+    /// Ground height under each unit, refreshed every loop.
+    pub(crate) heights: Vec<f32>,
+    /// Per team: (position, sight, ground height, flying) of each living unit.
+    viewers: [Vec<(Vec2, f32, f32, bool)>; 2],
     pub(crate) grid: SpatialGrid,
     pub(crate) paths: PathCache,
     pub(crate) orca: Orca,
@@ -201,6 +205,8 @@ impl World {
             rules,
             upgrades: scenario.upgrades.clone(),
             vis: [vec![false; n], vec![false; n]],
+            heights: vec![0.0; n],
+            viewers: [Vec::with_capacity(n), Vec::with_capacity(n)],
             grid,
             paths: PathCache::default(),
             orca: Orca::default(),
@@ -267,28 +273,36 @@ impl World {
     }
 
     /// Recomputes the spatial grid and both teams' vision from current positions.
+    #[inline(never)]
     pub(crate) fn refresh(&mut self) {
         self.grid.rebuild(self.units.iter().map(|u| (u.pos, u.alive)));
+        self.viewers[0].clear();
+        self.viewers[1].clear();
+        for (i, u) in self.units.iter().enumerate() {
+            let h = self.terrain.height_at(u.pos);
+            self.heights[i] = h;
+            if u.alive {
+                self.viewers[u.team.index()].push((u.pos, u.spec().sight, h, u.flying()));
+            }
+        }
         for team in Team::BOTH {
             let ti = team.index();
             for i in 0..self.units.len() {
                 let t = &self.units[i];
-                self.vis[ti][i] = t.alive && (t.team == team || self.rules.full_vision || self.sees(team, t));
+                let seen = t.alive && (t.team == team || self.rules.full_vision || self.sees(ti, t, self.heights[i]));
+                self.vis[ti][i] = seen;
             }
         }
     }
 
     /// Line of sight with StarCraft II's cliff rule: a ground viewer does not see ground
     /// units on higher ground than itself (half a level or more above).
-    fn sees(&self, team: Team, target: &Unit) -> bool {
-        let th = self.terrain.height_at(target.pos);
+    fn sees(&self, team: usize, target: &Unit, th: f32) -> bool {
         let tflying = target.flying();
-        self.units.iter().any(|v| {
-            v.alive
-                && v.team == team
-                && v.pos.dist_sq(target.pos) <= sq(v.spec().sight + target.spec().radius)
-                && (tflying || v.flying() || th < self.terrain.height_at(v.pos) + 0.5)
-        })
+        let tr = target.spec().radius;
+        self.viewers[team]
+            .iter()
+            .any(|&(p, sight, vh, vflying)| p.dist_sq(target.pos) <= sq(sight + tr) && (tflying || vflying || th < vh + 0.5))
     }
 }
 

@@ -338,36 +338,45 @@ impl Env {
     /// Submits one SMAC action index per agent of `team`; unavailable indices are refused
     /// and counted like any invalid action.
     pub fn submit_indices(&mut self, team: Team, indices: &[usize]) -> Vec<Result<(), IndexError>> {
-        let l = self.smac_layout(team).clone();
-        if indices.len() != l.n_agents {
+        let (n_agents, n_actions) = (self.smac_layout(team).n_agents, self.smac_layout(team).n_actions);
+        if indices.len() != n_agents {
             self.count_refused(team, 1);
-            return vec![Err(IndexError::WrongCount(indices.len(), l.n_agents))];
+            return vec![Err(IndexError::WrongCount(indices.len(), n_agents))];
         }
-        let mut avail = vec![0u8; l.n_actions];
+        let mut avail = [0u8; 512];
         let mut out = Vec::with_capacity(indices.len());
         for (agent, &index) in indices.iter().enumerate() {
-            if index >= l.n_actions {
-                self.count_refused(team, 1);
-                out.push(Err(IndexError::OutOfRange { agent, index, n_actions: l.n_actions }));
-                continue;
-            }
-            l.avail_actions(self.world(), agent, &mut avail);
-            if avail[index] == 0 {
-                self.count_refused(team, 1);
-                out.push(Err(IndexError::Unavailable { agent, index }));
-                continue;
-            }
-            let Some(command) = l.command_for(self.world(), agent, index) else {
-                out.push(Err(IndexError::OutOfRange { agent, index, n_actions: l.n_actions }));
-                continue;
+            let checked = {
+                let l = self.smac_layout(team);
+                if index >= n_actions || n_actions > avail.len() {
+                    Err(IndexError::OutOfRange { agent, index, n_actions })
+                } else {
+                    l.avail_actions(self.world(), agent, &mut avail[..n_actions]);
+                    if avail[index] == 0 {
+                        Err(IndexError::Unavailable { agent, index })
+                    } else {
+                        l.command_for(self.world(), agent, index).map(|c| (l.agents[agent], c)).ok_or(IndexError::OutOfRange {
+                            agent,
+                            index,
+                            n_actions,
+                        })
+                    }
+                }
             };
-            if command == Command::NoOp {
-                self.set_last_action(team, agent, Some(0));
-                out.push(Ok(()));
-                continue;
+            match checked {
+                Err(e) => {
+                    self.count_refused(team, 1);
+                    out.push(Err(e));
+                }
+                Ok((_, Command::NoOp)) => {
+                    self.set_last_action(team, agent, Some(0));
+                    out.push(Ok(()));
+                }
+                Ok((unit, command)) => {
+                    let r = self.submit(team, &[Action::new(unit, command)]);
+                    out.push(r.into_iter().next().unwrap_or(Ok(())).map_err(IndexError::from));
+                }
             }
-            let r = self.submit(team, &[Action::new(l.agents[agent], command)]);
-            out.push(r.into_iter().next().unwrap_or(Ok(())).map_err(IndexError::from));
         }
         out
     }
