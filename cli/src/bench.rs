@@ -10,6 +10,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 use stats_alloc::{Region, StatsAlloc};
 use std::alloc::System;
+use std::io::Write;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -28,8 +29,9 @@ pub struct BenchArgs {
     json: bool,
 }
 
-#[derive(Serialize)]
-struct BenchRow {
+/// One scenario's measurement.
+#[derive(Serialize, Debug, Clone)]
+pub struct BenchRow {
     scenario: String,
     units: usize,
     steps: u64,
@@ -42,7 +44,8 @@ struct BenchRow {
     /// steps_per_sec / 100,000 (the 2s3z goal).
     ratio_to_goal: f64,
     game_loops_per_sec: f64,
-    bytes_per_env: usize,
+    /// Heap and inline bytes of one environment (needs the binary's counting allocator).
+    bytes_per_env: Option<usize>,
 }
 
 fn measure(scenario: &Arc<Scenario>, seconds: f64, with_obs: bool) -> (u64, u64, u64, f64) {
@@ -114,7 +117,7 @@ fn bytes_per_env(scenario: &Arc<Scenario>, alloc: &'static StatsAlloc<System>) -
     heap / N + size_of::<Env>()
 }
 
-pub fn run(a: &BenchArgs, alloc: &'static StatsAlloc<System>) -> Result<()> {
+pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc<System>>) -> Result<()> {
     let names: Vec<String> =
         if a.scenario.iter().any(|s| s == "all") { builtin_names().map(str::to_owned).collect() } else { a.scenario.clone() };
     let mut rows = Vec::new();
@@ -134,7 +137,7 @@ pub fn run(a: &BenchArgs, alloc: &'static StatsAlloc<System>) -> Result<()> {
             ratio_to_sim_only: sps / base,
             ratio_to_goal: sps / GOAL_STEPS_PER_SEC,
             game_loops_per_sec: loops as f64 / secs,
-            bytes_per_env: bytes_per_env(&scenario, alloc),
+            bytes_per_env: alloc.map(|a| bytes_per_env(&scenario, a)),
         });
         if !a.json {
             eprintln!("measured {name}");
@@ -142,9 +145,9 @@ pub fn run(a: &BenchArgs, alloc: &'static StatsAlloc<System>) -> Result<()> {
     }
     if a.json {
         if rows.len() == 1 {
-            println!("{}", serde_json::to_string_pretty(&rows[0])?);
+            writeln!(out, "{}", serde_json::to_string_pretty(&rows[0])?)?;
         } else {
-            println!("{}", serde_json::to_string_pretty(&rows)?);
+            writeln!(out, "{}", serde_json::to_string_pretty(&rows)?)?;
         }
         return Ok(());
     }
@@ -168,12 +171,13 @@ pub fn run(a: &BenchArgs, alloc: &'static StatsAlloc<System>) -> Result<()> {
             format!("{:.2}", r.ratio_to_sim_only),
             format!("{:.2}", r.ratio_to_goal),
             format!("{:.0}", r.game_loops_per_sec),
-            r.bytes_per_env.to_string(),
+            r.bytes_per_env.map_or("-".to_owned(), |b| b.to_string()),
         ]);
     }
-    println!("{t}");
-    println!(
+    writeln!(out, "{t}")?;
+    writeln!(
+        out,
         "one step = 8 game loops + every agent's observation and available actions + the state; single thread, random available actions"
-    );
+    )?;
     Ok(())
 }

@@ -7,8 +7,9 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::io::IsTerminal;
+use std::io::Write;
 use std::sync::Arc;
 
 #[derive(Args, Debug)]
@@ -44,43 +45,47 @@ pub struct EpisodeArgs {
     pub json: bool,
 }
 
-#[derive(Serialize)]
-struct EpisodeRecord {
-    seed: u64,
-    result: Outcome,
-    opponent: Option<OpponentKind>,
-    game_loops: u32,
-    game_seconds: f32,
-    steps: u32,
-    units_left: [usize; 2],
-    refused_actions: [u32; 2],
-    trajectory_hash: String,
+/// One episode's result.
+#[derive(Serialize, Deserialize, Debug, Clone)]
+pub struct EpisodeRecord {
+    pub seed: u64,
+    pub result: Outcome,
+    pub opponent: Option<OpponentKind>,
+    pub game_loops: u32,
+    pub game_seconds: f32,
+    pub steps: u32,
+    pub units_left: [usize; 2],
+    pub refused_actions: [u32; 2],
+    pub trajectory_hash: String,
 }
 
-#[derive(Serialize)]
-struct Rate {
-    mean: f64,
-    std: f64,
+/// Mean and sample standard deviation.
+#[derive(Serialize, Deserialize, Debug, Clone)]
+pub struct Rate {
+    pub mean: f64,
+    pub std: f64,
 }
 
-#[derive(Serialize)]
-struct Summary {
-    scenario: String,
-    mode: String,
-    agent: String,
-    agent2: Option<String>,
-    opponent: Option<String>,
-    episodes: usize,
-    win: Rate,
-    draw: Rate,
-    loss: Rate,
-    game_seconds: Rate,
+/// Rates over all episodes.
+#[derive(Serialize, Deserialize, Debug, Clone)]
+pub struct Summary {
+    pub scenario: String,
+    pub mode: String,
+    pub agent: String,
+    pub agent2: Option<String>,
+    pub opponent: Option<String>,
+    pub episodes: usize,
+    pub win: Rate,
+    pub draw: Rate,
+    pub loss: Rate,
+    pub game_seconds: Rate,
 }
 
-#[derive(Serialize)]
-struct Report {
-    summary: Summary,
-    episodes: Vec<EpisodeRecord>,
+/// What `episode --json` prints.
+#[derive(Serialize, Deserialize, Debug, Clone)]
+pub struct Report {
+    pub summary: Summary,
+    pub episodes: Vec<EpisodeRecord>,
 }
 
 fn rate(xs: impl Iterator<Item = f64>) -> Rate {
@@ -91,7 +96,7 @@ fn rate(xs: impl Iterator<Item = f64>) -> Rate {
     Rate { mean, std: var.sqrt() }
 }
 
-pub fn run(a: &EpisodeArgs) -> Result<()> {
+pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
     if a.episodes == 0 {
         bail!("--episodes must be at least 1");
     }
@@ -124,7 +129,7 @@ pub fn run(a: &EpisodeArgs) -> Result<()> {
             p.reset(&scenario, Team::Two);
         }
         while !env.done() {
-            if a.trace_every > 0 && env.steps() % a.trace_every == 0 {
+            if a.trace_every > 0 && env.steps().is_multiple_of(a.trace_every) {
                 eprintln!("--- seed {seed}, step {}\n{}", env.steps(), avacraft_engine::describe(&env, Team::One));
             }
             let acts = p1.act(&env.view(Team::One), &mut rng1);
@@ -164,7 +169,7 @@ pub fn run(a: &EpisodeArgs) -> Result<()> {
         game_seconds: rate(records.iter().map(|r| r.game_seconds as f64)),
     };
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&Report { summary, episodes: records })?);
+        writeln!(out, "{}", serde_json::to_string_pretty(&Report { summary, episodes: records })?)?;
         return Ok(());
     }
     let who = match (&summary.opponent, &summary.agent2) {
@@ -172,14 +177,14 @@ pub fn run(a: &EpisodeArgs) -> Result<()> {
         (None, Some(b)) => format!("{} (team 1) vs {} (team 2)", summary.agent, b),
         _ => summary.agent.clone(),
     };
-    println!("{} ({}), {}: {} episodes from seed {}", summary.scenario, summary.mode, who, summary.episodes, a.seed);
+    writeln!(out, "{} ({}), {}: {} episodes from seed {}", summary.scenario, summary.mode, who, summary.episodes, a.seed)?;
     let mut t = comfy_table::Table::new();
     t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header(["", "mean", "std"]);
     for (name, r) in [("win rate", &summary.win), ("draw rate", &summary.draw), ("loss rate", &summary.loss)] {
         t.add_row([name.to_owned(), format!("{:.3}", r.mean), format!("{:.3}", r.std)]);
     }
     t.add_row(["game seconds".to_owned(), format!("{:.1}", summary.game_seconds.mean), format!("{:.1}", summary.game_seconds.std)]);
-    println!("{t}");
+    writeln!(out, "{t}")?;
     let _ = team_of;
     Ok(())
 }

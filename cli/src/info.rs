@@ -6,6 +6,7 @@ use clap::Args;
 use comfy_table::{Table, presets::UTF8_FULL_CONDENSED};
 use serde::Serialize;
 use std::collections::BTreeMap;
+use std::io::Write;
 use std::sync::Arc;
 
 #[derive(Args, Debug)]
@@ -52,7 +53,7 @@ fn composition(s: &Scenario, team: Team) -> String {
     m.into_iter().map(|(k, n)| format!("{n} {k}")).collect::<Vec<_>>().join(", ")
 }
 
-pub fn scenarios(a: &ScenariosArgs) -> Result<()> {
+pub fn scenarios(a: &ScenariosArgs, out: &mut dyn Write) -> Result<()> {
     let mut rows = Vec::new();
     for name in builtin_names() {
         let s = builtin(name).with_context(|| format!("built-in scenario {name}"))?;
@@ -68,7 +69,7 @@ pub fn scenarios(a: &ScenariosArgs) -> Result<()> {
         });
     }
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&rows)?);
+        writeln!(out, "{}", serde_json::to_string_pretty(&rows)?)?;
         return Ok(());
     }
     let mut t = Table::new();
@@ -76,21 +77,22 @@ pub fn scenarios(a: &ScenariosArgs) -> Result<()> {
     for r in rows {
         t.add_row([r.name, r.mode, r.team1.to_string(), r.team2.to_string(), r.team1_units, r.team2_units, r.map]);
     }
-    println!("{t}");
+    writeln!(out, "{t}")?;
     Ok(())
 }
 
-pub fn env_info(a: &EnvInfoArgs) -> Result<()> {
+pub fn env_info(a: &EnvInfoArgs, out: &mut dyn Write) -> Result<()> {
     let s = Scenario::load(&a.scenario)?;
     let env = Env::new(Arc::new(s), EnvConfig::default(), 0);
     let info = env.env_info(team_of(a.team));
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&info)?);
+        writeln!(out, "{}", serde_json::to_string_pretty(&info)?)?;
     } else {
-        println!(
+        writeln!(
+            out,
             "n_agents {}\nn_actions {}\nobs_shape {}\nstate_shape {}\nepisode_limit {}",
             info.n_agents, info.n_actions, info.obs_shape, info.state_shape, info.episode_limit
-        );
+        )?;
     }
     Ok(())
 }

@@ -1,1 +1,15 @@
+//! The integration test binary: one binary, one module per area.
 
+mod actions;
+mod cli;
+mod combat;
+mod determinism;
+mod helpers;
+mod movement;
+mod observations;
+mod properties;
+mod scenarios;
+mod smac;
+mod splash;
+mod targeting;
+mod vision;

@@ -107,7 +107,7 @@ impl World {
         let chasing = cur.filter(|t| edge_dist(u, &self.units[t.index()]) <= range + LEASH);
         // A unit closing on a valid target looks for a better one every few loops, not every
         // loop (staggered by id so the work spreads evenly and stays deterministic).
-        if !in_range_only && chasing.is_some() && (self.tick + u.id.index() as u32) % RESCAN_EVERY != 0 {
+        if !in_range_only && chasing.is_some() && !(self.tick + u.id.index() as u32).is_multiple_of(RESCAN_EVERY) {
             return chasing;
         }
         let (in_range, any) = self.scan(u, range);

@@ -3,14 +3,27 @@
 //! training, bindings and the ROS 2 / Zenoh nodes all drive this same library.
 //!
 //! ```
-//! use avacraft_engine::{Env, EnvConfig, Team, builtin};
+//! use avacraft_engine::{builtin, Env, EnvConfig, Team};
 //! use std::sync::Arc;
-//! let scenario = Arc::new(builtin("3m").unwrap());
-//! let mut env = Env::new(scenario, EnvConfig::default(), 1);
-//! while !env.step().done {}
-//! assert!(env.outcome().is_some());
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let mut env = Env::new(Arc::new(builtin("3m")?), EnvConfig::default(), 1);
 //! let info = env.env_info(Team::One);
 //! assert_eq!((info.obs_shape, info.state_shape, info.n_actions), (30, 48, 9));
+//! let (mut obs, mut avail) = (vec![0.0; info.obs_shape], vec![0u8; info.n_actions]);
+//! while !env.done() {
+//!     let mut actions = Vec::new();
+//!     for agent in 0..info.n_agents {
+//!         env.obs_agent(Team::One, agent, &mut obs);
+//!         env.avail_agent(Team::One, agent, &mut avail);
+//!         actions.push(avail.iter().rposition(|&a| a == 1).unwrap_or(0));
+//!     }
+//!     env.submit_indices(Team::One, &actions);
+//!     let step = env.step();
+//!     assert!(step.reward.iter().all(|r| r.is_finite()));
+//! }
+//! assert!(env.outcome().is_some());
+//! # Ok(())
+//! # }
 //! ```
 
 mod action;

@@ -2,7 +2,7 @@
 //! bounds, then a positional pass that pushes apart any ground units still overlapping.
 
 use crate::geom::Vec2;
-use crate::orca::Neighbour;
+use crate::orca::{Agent, Neighbour};
 use crate::sim::Intent;
 use crate::world::{Activity, World};
 
@@ -65,12 +65,26 @@ impl World {
                         responsibility: if moving { 0.5 } else { 1.0 },
                     });
                 });
+                let agent = Agent { pos, vel: me.vel, radius, max_speed: speed };
                 if neighbours.len() > MAX_NEIGHBOURS {
                     // Like RVO2's maxNeighbors: only the closest matter for the next loops.
                     neighbours.select_nth_unstable_by(MAX_NEIGHBOURS, |a, b| a.pos.dist_sq(pos).total_cmp(&b.pos.dist_sq(pos)));
                     neighbours.truncate(MAX_NEIGHBOURS);
                 }
-                self.orca.solve(pos, me.vel, radius, pref, speed, TAU, &neighbours)
+                let v = self.orca.solve(&agent, pref, TAU, &neighbours);
+                if v.len_sq() < 0.25 * pref.len_sq() {
+                    // Blocked head-on (ORCA's symmetric deadlock): try veering either way and
+                    // keep whichever makes more progress; left wins ties, so it is deterministic.
+                    let (c, s) = (std::f32::consts::FRAC_1_SQRT_2, std::f32::consts::FRAC_1_SQRT_2);
+                    let left = Vec2::new(pref.x * c - pref.y * s, pref.x * s + pref.y * c);
+                    let right = Vec2::new(pref.x * c + pref.y * s, -pref.x * s + pref.y * c);
+                    let vl = self.orca.solve(&agent, left, TAU, &neighbours);
+                    let vr = self.orca.solve(&agent, right, TAU, &neighbours);
+                    let best = if vr.dot(pref) > vl.dot(pref) { vr } else { vl };
+                    if best.len_sq() > v.len_sq() && best.dot(pref) > 0.0 { best } else { v }
+                } else {
+                    v
+                }
             };
             let new = self.constrain(pos, pos + vel, radius, flying, cliff_walk);
             let u = &mut self.units[i];

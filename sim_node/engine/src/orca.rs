@@ -25,6 +25,15 @@ pub struct Neighbour {
     pub responsibility: f32,
 }
 
+/// The avoiding unit itself.
+#[derive(Clone, Copy, Debug)]
+pub struct Agent {
+    pub pos: Vec2,
+    pub vel: Vec2,
+    pub radius: f32,
+    pub max_speed: f32,
+}
+
 /// Reusable buffers so the hot loop does not allocate.
 #[derive(Debug, Default)]
 pub struct Orca {
@@ -34,7 +43,8 @@ pub struct Orca {
 
 impl Orca {
     /// The new velocity (map units per loop) for a unit at `pos` with current velocity `vel`.
-    pub fn solve(&mut self, pos: Vec2, vel: Vec2, radius: f32, pref: Vec2, max_speed: f32, tau: f32, neighbours: &[Neighbour]) -> Vec2 {
+    pub fn solve(&mut self, me: &Agent, pref: Vec2, tau: f32, neighbours: &[Neighbour]) -> Vec2 {
+        let Agent { pos, vel, radius, max_speed } = *me;
         self.lines.clear();
         let inv_tau = 1.0 / tau;
         for n in neighbours {
@@ -176,7 +186,7 @@ mod tests {
     #[test]
     fn free_space_keeps_preferred_velocity() {
         let mut o = Orca::default();
-        let v = o.solve(Vec2::ZERO, Vec2::ZERO, 0.5, Vec2::new(0.1, 0.0), 0.2, 10.0, &[]);
+        let v = o.solve(&Agent { pos: Vec2::ZERO, vel: Vec2::ZERO, radius: 0.5, max_speed: 0.2 }, Vec2::new(0.1, 0.0), 10.0, &[]);
         assert!((v - Vec2::new(0.1, 0.0)).len() < 1e-6);
     }
 
@@ -184,7 +194,8 @@ mod tests {
     fn head_on_units_swerve() {
         let mut o = Orca::default();
         let n = Neighbour { pos: Vec2::new(2.0, 0.0), vel: Vec2::new(-0.1, 0.0), radius: 0.5, responsibility: 0.5 };
-        let v = o.solve(Vec2::ZERO, Vec2::new(0.1, 0.0), 0.5, Vec2::new(0.1, 0.0), 0.15, 10.0, &[n]);
+        let v =
+            o.solve(&Agent { pos: Vec2::ZERO, vel: Vec2::new(0.1, 0.0), radius: 0.5, max_speed: 0.15 }, Vec2::new(0.1, 0.0), 10.0, &[n]);
         assert!(v.y.abs() > 1e-3, "expected a sideways component, got {v:?}");
         assert!(v.len() <= 0.15 + 1e-5);
     }
@@ -193,7 +204,7 @@ mod tests {
     fn does_not_walk_into_a_standing_unit() {
         let mut o = Orca::default();
         let n = Neighbour { pos: Vec2::new(1.05, 0.0), vel: Vec2::ZERO, radius: 0.5, responsibility: 1.0 };
-        let v = o.solve(Vec2::ZERO, Vec2::ZERO, 0.5, Vec2::new(0.14, 0.0), 0.14, 10.0, &[n]);
+        let v = o.solve(&Agent { pos: Vec2::ZERO, vel: Vec2::ZERO, radius: 0.5, max_speed: 0.14 }, Vec2::new(0.14, 0.0), 10.0, &[n]);
         assert!(v.x < 0.05 + 1e-4, "closing speed too high: {v:?}");
     }
 }

@@ -1,0 +1,54 @@
+//! The `avacraft` command line as a library, so tests drive it in-process with the exact
+//! argument parsing and output of the binary.
+
+mod bench;
+mod episode;
+mod info;
+
+pub use bench::BenchRow;
+pub use episode::{EpisodeRecord, Report, Summary};
+
+use clap::{Parser, Subcommand};
+use stats_alloc::StatsAlloc;
+use std::alloc::System;
+use std::io::Write;
+
+#[derive(Parser, Debug)]
+#[command(name = "avacraft", version, about = "AVACraft: StarCraft II micro-combat benchmark for MARL and VLM agents")]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Cmd,
+}
+
+#[derive(Subcommand, Debug)]
+enum Cmd {
+    /// List the built-in scenarios with unit counts and mode.
+    Scenarios(info::ScenariosArgs),
+    /// Print SMAC's get_env_info() for a scenario.
+    EnvInfo(info::EnvInfoArgs),
+    /// Run episodes in-process and report win/draw/loss rates.
+    Episode(episode::EpisodeArgs),
+    /// Measure environment steps per second and memory per environment.
+    Bench(bench::BenchArgs),
+}
+
+/// Runs one command, writing its report to `out`. `alloc` is the process's counting
+/// allocator, when it has one (the binary does), for `bench`'s bytes per environment.
+pub fn run(cli: Cli, out: &mut dyn Write, alloc: Option<&'static StatsAlloc<System>>) -> anyhow::Result<()> {
+    match cli.command {
+        Cmd::Scenarios(a) => info::scenarios(&a, out),
+        Cmd::EnvInfo(a) => info::env_info(&a, out),
+        Cmd::Episode(a) => episode::run(&a, out),
+        Cmd::Bench(a) => bench::run(&a, out, alloc),
+    }
+}
+
+/// Parses `args` (program name first) and runs the command.
+pub fn run_args<I, T>(args: I, out: &mut dyn Write) -> anyhow::Result<()>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let cli = Cli::try_parse_from(args)?;
+    run(cli, out, None)
+}

@@ -1,0 +1,83 @@
+//! The command line, driven in-process with the binary's own parser.
+
+fn run(args: &[&str]) -> Result<String, String> {
+    let mut out = Vec::new();
+    let mut full = vec!["avacraft"];
+    full.extend_from_slice(args);
+    avacraft_cli::run_args(full, &mut out).map_err(|e| format!("{e:#}"))?;
+    String::from_utf8(out).map_err(|e| e.to_string())
+}
+
+#[test]
+fn env_info_prints_smac_keys() {
+    let out = run(&["env-info", "--scenario", "3m", "--json"]).expect("runs");
+    let v: serde_json::Value = serde_json::from_str(&out).expect("json");
+    assert_eq!(v["n_agents"], 3);
+    assert_eq!(v["obs_shape"], 30);
+    assert_eq!(v["state_shape"], 48);
+    assert_eq!(v["n_actions"], 9);
+    assert_eq!(v["episode_limit"], 840);
+    let out = run(&["env-info", "--scenario", "2s3z", "--json"]).expect("runs");
+    let v: serde_json::Value = serde_json::from_str(&out).expect("json");
+    assert_eq!((v["obs_shape"].as_u64(), v["state_shape"].as_u64(), v["n_actions"].as_u64()), (Some(80), Some(120), Some(11)));
+}
+
+#[test]
+fn scenarios_lists_all_21() {
+    let out = run(&["scenarios", "--json"]).expect("runs");
+    let v: Vec<serde_json::Value> = serde_json::from_str(&out).expect("json");
+    assert_eq!(v.len(), 21);
+    let pvz = v.iter().find(|r| r["name"] == "pvz_ht").expect("pvz_ht");
+    assert_eq!((pvz["team1"].as_u64(), pvz["team2"].as_u64(), pvz["mode"].as_str()), (Some(23), Some(102), Some("PvE")));
+    let table = run(&["scenarios"]).expect("runs");
+    assert!(table.contains("MMM_vs_MMM") && table.contains("PvP"));
+}
+
+#[test]
+fn episode_json_has_per_episode_records_and_rates() {
+    let out = run(&["episode", "--scenario", "3m", "--episodes", "4", "--seed", "7", "--json", "--opponent", "random"]).expect("runs");
+    let r: avacraft_cli::Report = serde_json::from_str(&out).expect("report");
+    assert_eq!(r.episodes.len(), 4);
+    assert_eq!(r.episodes.iter().map(|e| e.seed).collect::<Vec<_>>(), [7, 8, 9, 10]);
+    let total = r.summary.win.mean + r.summary.draw.mean + r.summary.loss.mean;
+    assert!((total - 1.0).abs() < 1e-9);
+    for e in &r.episodes {
+        assert_eq!(e.trajectory_hash.len(), 16);
+        assert!(e.game_loops > 0 && e.game_loops <= 6720);
+    }
+    // Same seeds, same hashes.
+    let again: avacraft_cli::Report = serde_json::from_str(
+        &run(&["episode", "--scenario", "3m", "--episodes", "4", "--seed", "7", "--json", "--opponent", "random"]).expect("runs"),
+    )
+    .expect("report");
+    let h = |r: &avacraft_cli::Report| r.episodes.iter().map(|e| e.trajectory_hash.clone()).collect::<Vec<_>>();
+    assert_eq!(h(&r), h(&again));
+    // PvP takes two agent policies.
+    let out = run(&["episode", "--scenario", "MMM_vs_MMM", "--episodes", "1", "--agent", "focus-fire", "--agent2", "kite"]).expect("runs");
+    assert!(out.contains("focus-fire (team 1) vs kite (team 2)"), "{out}");
+}
+
+#[test]
+fn bad_arguments_say_what_is_wrong() {
+    let e = run(&["episode", "--scenario", "nope"]).expect_err("unknown scenario");
+    assert!(e.contains("unknown scenario `nope`"), "{e}");
+    let e = run(&["episode", "--scenario", "3m", "--agent", "genius"]).expect_err("unknown policy");
+    assert!(e.contains("--agent") && e.contains("genius"), "{e}");
+    let e = run(&["episode", "--scenario", "3m", "--opponent", "genius"]).expect_err("unknown opponent");
+    assert!(e.contains("--opponent") && e.contains("unknown opponent"), "{e}");
+    let e = run(&["episode", "--scenario", "MMM_vs_MMM", "--opponent", "builtin"]).expect_err("pvp");
+    assert!(e.contains("--agent2"), "{e}");
+    let e = run(&["env-info", "--scenario", "3m", "--team", "3"]).expect_err("team");
+    assert!(e.contains("--team"), "{e}");
+    let e = run(&["episode", "--scenario", "3m", "--episodes", "0"]).expect_err("zero");
+    assert!(e.contains("--episodes"), "{e}");
+}
+
+#[test]
+fn bench_reports_steps_per_second() {
+    let out = run(&["bench", "--scenario", "3m", "--seconds", "0.05", "--json"]).expect("runs");
+    let v: serde_json::Value = serde_json::from_str(&out).expect("json");
+    assert!(v["steps_per_sec"].as_f64().is_some_and(|x| x > 0.0), "{v}");
+    assert!(v.get("bytes_per_env").is_some());
+    assert!(v["ratio_to_sim_only"].as_f64().is_some());
+}

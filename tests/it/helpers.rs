@@ -1,0 +1,66 @@
+//! Shared helpers: small hand-made scenarios and episode drivers.
+
+use avacraft_engine::{Env, EnvConfig, Rules, Scenario, Team, UnitId, policy};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use std::fmt::Write;
+use std::sync::Arc;
+
+/// A flat 32x32 arena with the given units `(type, team, x, y)`.
+pub fn arena(mode: &str, units: &[(&str, u8, f32, f32)]) -> String {
+    arena_with(mode, units, "")
+}
+
+/// Like [`arena`], with extra top-level TOML lines (upgrades, time limit...).
+pub fn arena_with(mode: &str, units: &[(&str, u8, f32, f32)], extra: &str) -> String {
+    let mut s = format!("name = \"test\"\nmode = \"{mode}\"\nmap_size = [32, 32]\n{extra}\nunits = [\n");
+    for (k, t, x, y) in units {
+        let _ = writeln!(s, "  {{ type = \"{k}\", team = {t}, x = {x}, y = {y} }},");
+    }
+    s.push_str("]\n[opponent]\nstart = { kind = \"none\" }\n");
+    s
+}
+
+pub fn load(toml: &str) -> Arc<Scenario> {
+    Arc::new(Scenario::from_toml("test.toml", toml).unwrap_or_else(|e| panic!("test scenario: {e}")))
+}
+
+/// Exact rules: fog on, no random attack delay.
+pub fn exact() -> EnvConfig {
+    EnvConfig { rules: Rules { cooldown_jitter: false, ..Rules::default() }, ..EnvConfig::default() }
+}
+
+/// Full vision, no random delay, and nobody attacks unless ordered: for exact damage tests.
+pub fn passive() -> EnvConfig {
+    EnvConfig { rules: Rules { cooldown_jitter: false, full_vision: true, auto_acquire: [false, false] }, ..EnvConfig::default() }
+}
+
+pub fn one_loop(mut cfg: EnvConfig) -> EnvConfig {
+    cfg.step_mul = 1;
+    cfg
+}
+
+pub fn uid(i: u16) -> UnitId {
+    UnitId::new(i)
+}
+
+/// Runs an episode with named policies for the agent teams; returns the env at its end.
+pub fn play(scenario: &Arc<Scenario>, cfg: EnvConfig, seed: u64, p1: &str, p2: &str) -> Env {
+    let mut env = Env::new(Arc::clone(scenario), cfg, seed);
+    let mut a = policy::by_name(p1).expect("policy");
+    let mut b = policy::by_name(p2).expect("policy");
+    a.reset(scenario, Team::One);
+    b.reset(scenario, Team::Two);
+    let mut r1 = ChaCha8Rng::seed_from_u64(seed);
+    let mut r2 = ChaCha8Rng::seed_from_u64(seed + 1);
+    while !env.done() {
+        let acts = a.act(&env.view(Team::One), &mut r1);
+        env.submit(Team::One, &acts);
+        if env.is_agent_team(Team::Two) {
+            let acts = b.act(&env.view(Team::Two), &mut r2);
+            env.submit(Team::Two, &acts);
+        }
+        env.step();
+    }
+    env
+}

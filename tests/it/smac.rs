@@ -1,0 +1,121 @@
+//! SMAC-compatible layouts, values and action indices.
+
+use crate::helpers::*;
+use avacraft_engine::{Env, EnvConfig, EnvInfo, Team, builtin};
+use std::sync::Arc;
+
+fn info(name: &str) -> EnvInfo {
+    Env::new(Arc::new(builtin(name).expect("scenario")), EnvConfig::default(), 0).env_info(Team::One)
+}
+
+#[test]
+fn sizes_match_smac_for_the_same_unit_mix() {
+    // (n_agents, n_actions, obs, state) from SMAC's formulas; the SMAC-derived maps.
+    for (name, want) in [
+        ("3m", (3, 9, 30, 48)),
+        ("2m_vs_1z", (2, 7, 16, 26)),
+        ("2s_vs_1sc", (2, 7, 17, 27)),
+        ("3s_vs_3z", (3, 9, 36, 54)),
+        ("2s3z", (5, 11, 80, 120)),
+        ("2c_vs_64zg", (2, 70, 332, 342)),
+        // 12 per side, 3 types: 4 + 12*8 + 11*8 + 4 = 192; 12*7 + 12*6 + 12*18 = 372.
+        ("MMM_vs_MMM", (12, 18, 192, 372)),
+    ] {
+        let i = info(name);
+        assert_eq!((i.n_agents, i.n_actions, i.obs_shape, i.state_shape), want, "{name}");
+        assert_eq!(i.episode_limit, 840, "300 s / 8 loops per step");
+    }
+}
+
+#[test]
+fn observation_values_are_smac_normalised() {
+    // Agent at (10, 16), enemy 4 cells east: attackable (<= 6), dist/9, dx/9, dy/9, health.
+    let s = load(&arena("pve", &[("Marine", 1, 10.0, 16.0), ("Marine", 1, 10.0, 19.0), ("Marine", 2, 14.0, 16.0)]));
+    let env = Env::new(s, passive(), 0);
+    let l = env.smac_layout(Team::One);
+    assert_eq!(l.obs_size, 4 + 5 + 5 + 1);
+    let mut o = vec![0f32; l.obs_size];
+    env.obs_agent(Team::One, 0, &mut o);
+    let close = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6);
+    assert!(close(&o[..4], &[1.0, 1.0, 1.0, 1.0]), "move N S E W: {o:?}");
+    assert!(close(&o[4..9], &[1.0, 4.0 / 9.0, 4.0 / 9.0, 0.0, 1.0]), "enemy: {o:?}");
+    assert!(close(&o[9..14], &[1.0, 3.0 / 9.0, 0.0, 3.0 / 9.0, 1.0]), "ally: {o:?}");
+    assert!(close(&o[14..], &[1.0]), "own: {o:?}");
+    // State: health, cooldown/15, (x - 16)/32, (y - 16)/32 per ally; health, rel x, rel y per enemy.
+    let mut st = vec![0f32; l.state_size];
+    env.state(Team::One, &mut st);
+    assert!(close(&st[..4], &[1.0, 0.0, (10.0 - 16.0) / 32.0, 0.0]), "{st:?}");
+    assert!(close(&st[8..11], &[1.0, (14.0 - 16.0) / 32.0, 0.0]), "{st:?}");
+}
+
+#[test]
+fn available_actions_and_dead_agents() {
+    let s = load(&arena("pve", &[("Marine", 1, 10.0, 16.0), ("Marine", 2, 14.0, 16.0), ("Marine", 2, 20.0, 16.0)]));
+    let mut env = Env::new(s, passive(), 0);
+    let mut av = vec![0u8; env.smac_layout(Team::One).n_actions];
+    env.avail_agent(Team::One, 0, &mut av);
+    // no-op only when dead; stop; four moves; enemy 0 within 6, enemy 1 at 10 is not.
+    assert_eq!(av, [0, 1, 1, 1, 1, 1, 1, 0]);
+    // An unavailable index is refused and counted; an available one is taken.
+    let r = env.submit_indices(Team::One, &[7]);
+    assert!(r[0].is_err());
+    assert_eq!(env.refused()[0], 1);
+    let r = env.submit_indices(Team::One, &[6]);
+    assert!(r[0].is_ok(), "{r:?}");
+    assert_eq!(env.world().unit(uid(0)).map(|u| u.order), Some(avacraft_engine::Order::Attack { target: uid(1) }));
+    // Last action one-hot lands in the state.
+    let l = env.smac_layout(Team::One).clone();
+    let mut st = vec![0f32; l.state_size];
+    env.state(Team::One, &mut st);
+    assert_eq!(st[st.len() - l.n_actions + 6], 1.0);
+    // A dead agent: only no-op, and an all-zero observation.
+    let s = load(&arena("pvp", &[("Marine", 1, 10.0, 16.0), ("Marine", 1, 30.0, 30.0), ("Zealot", 2, 10.9, 16.0)]));
+    let mut env = Env::new(s, one_loop(exact()), 0);
+    while env.world().unit(uid(0)).is_some_and(|u| u.alive) {
+        env.step();
+    }
+    env.avail_agent(Team::One, 0, &mut av[..8]);
+    assert_eq!(&av[..7], &[1, 0, 0, 0, 0, 0, 0]);
+    let mut o = vec![1f32; env.smac_layout(Team::One).obs_size];
+    env.obs_agent(Team::One, 0, &mut o);
+    assert!(o.iter().all(|&x| x == 0.0));
+}
+
+#[test]
+fn index_and_typed_action_round_trip() {
+    let s = Arc::new(builtin("MMM_vs_MMM").expect("scenario"));
+    let env = Env::new(s, EnvConfig::default(), 0);
+    let l = env.smac_layout(Team::One);
+    for agent in 0..l.n_agents {
+        for idx in 0..l.n_actions {
+            let c = l.command_for(env.world(), agent, idx).expect("command");
+            assert_eq!(l.index_for(env.world(), agent, &c), Some(idx), "agent {agent} index {idx}: {c:?}");
+        }
+    }
+    // The Medivac's attack indices name allies (heal), as in SMAC's MMM.
+    let medivac = l.agents.iter().position(|&u| env.world().unit(u).is_some_and(|u| u.spec().heal.is_some())).expect("medivac");
+    let c = l.command_for(env.world(), medivac, 6).expect("command");
+    assert_eq!(c, avacraft_engine::Command::Attack { target: l.agents[0] });
+}
+
+#[test]
+fn stalkers_and_zealots_keep_smacs_reversed_enemy_one_hot() {
+    let s = Arc::new(builtin("2s3z").expect("scenario"));
+    let env = Env::new(s, EnvConfig::default(), 0);
+    let l = env.smac_layout(Team::One);
+    use avacraft_engine::UnitKind::{Stalker, Zealot};
+    assert_eq!(l.ally_types, [Stalker, Zealot]);
+    assert_eq!(l.enemy_types, [Zealot, Stalker]);
+}
+
+#[test]
+fn dense_reward_follows_smac() {
+    // One Marine shot (6) on a 3-Marine enemy team: 6 / ((3 * (45 + 10) + 200) / 20).
+    let s =
+        load(&arena("pve", &[("Marine", 1, 10.0, 16.0), ("Marine", 2, 14.0, 16.0), ("Marine", 2, 30.0, 30.0), ("Marine", 2, 30.0, 28.0)]));
+    let cfg = EnvConfig { reward: avacraft_engine::RewardMode::Dense, ..passive() };
+    let mut env = Env::new(s, one_loop(cfg), 0);
+    env.submit(Team::One, &[avacraft_engine::Action::new(uid(0), avacraft_engine::Command::Attack { target: uid(1) })]);
+    let r = env.step();
+    assert!((r.reward[0] - 6.0 / (365.0 / 20.0)).abs() < 1e-5, "{r:?}");
+}
