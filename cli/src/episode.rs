@@ -34,6 +34,9 @@ pub struct EpisodeArgs {
     /// Turn fog of war off.
     #[arg(long)]
     pub full_vision: bool,
+    /// Team 1's idle units do not acquire targets on their own (SMAC's passive allies).
+    #[arg(long)]
+    pub passive_agents: bool,
     /// Turn off StarCraft II's random attack delay.
     #[arg(long)]
     pub no_jitter: bool,
@@ -109,7 +112,7 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
     let agent2 = a.agent2.clone().unwrap_or_else(|| a.agent.clone());
     let mut p2 = if scenario.mode == Mode::Pvp { Some(policy::by_name(&agent2).context("--agent2")?) } else { None };
     let cfg = EnvConfig {
-        rules: Rules { full_vision: a.full_vision, cooldown_jitter: !a.no_jitter, ..Rules::default() },
+        rules: Rules { full_vision: a.full_vision, cooldown_jitter: !a.no_jitter, auto_acquire: [!a.passive_agents, true] },
         reward: RewardMode::Sparse,
         opponent,
         ..EnvConfig::default()

@@ -2,13 +2,14 @@
 //! of the episode. The same `Env` serves MARL training loops, the CLI and the nodes.
 
 use crate::action::{Action, ActionError};
+use crate::builtin_ai::BuiltinAi;
 use crate::hash::Fnv;
 use crate::ids::{Team, UnitId};
 use crate::obs::SmacLayout;
 use crate::policy::{self, Policy, TeamView};
-use crate::scenario::{Mode, OpponentKind, Scenario, StartOrder};
+use crate::scenario::{Mode, OpponentKind, Scenario};
 use crate::time::DEFAULT_STEP_MUL;
-use crate::world::{Order, Rules, World};
+use crate::world::{Rules, World};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -92,13 +93,14 @@ pub struct Env {
     opponent: Option<Box<dyn Policy>>,
     opponent_kind: Option<OpponentKind>,
     policy_rng: ChaCha8Rng,
-    start_issued: bool,
-    start_target: Option<crate::geom::Vec2>,
+    builtin: Option<BuiltinAi>,
     outcome: Option<Outcome>,
     steps: u32,
     refused: [u32; 2],
     last_actions: [Vec<Option<usize>>; 2],
     dense: DenseTracker,
+    /// SMAC's max_reward per team: 10 per enemy, its full HP and shields, plus 200.
+    max_reward: [f32; 2],
     trajectory: Fnv,
     layouts: [SmacLayout; 2],
 }
@@ -122,13 +124,13 @@ impl Env {
             opponent: None,
             opponent_kind: None,
             policy_rng: ChaCha8Rng::seed_from_u64(seed),
-            start_issued: false,
-            start_target: None,
+            builtin: None,
             outcome: None,
             steps: 0,
             refused: [0, 0],
             last_actions: [Vec::new(), Vec::new()],
             dense: DenseTracker::default(),
+            max_reward: [0.0, 0.0],
             trajectory: Fnv::default(),
             layouts: [SmacLayout::new(&scenario_ref, Team::One), SmacLayout::new(&scenario_ref, Team::Two)],
         };
@@ -149,14 +151,16 @@ impl Env {
         self.outcome = None;
         self.steps = 0;
         self.refused = [0, 0];
-        self.start_issued = false;
-        self.start_target = None;
         self.trajectory = Fnv::default();
         self.trajectory.u64(seed);
         self.dense = DenseTracker {
             prev: self.world.units().iter().map(|u| u.hp + u.shield).collect(),
             dead: vec![false; self.world.units().len()],
         };
+        for team in Team::BOTH {
+            let enemies = self.world.units().iter().filter(|u| u.team == team.other());
+            self.max_reward[team.index()] = enemies.map(|u| 10.0 + u.max_hp + u.max_shield).sum::<f32>() + 200.0;
+        }
         self.opponent = None;
         self.opponent_kind = None;
         if self.scenario.mode == Mode::Pve {
@@ -172,31 +176,10 @@ impl Env {
                 self.opponent = Some(p);
             }
         }
-        if let StartOrder::AttackMoveRandom { from, to, .. } = self.scenario.start {
-            let t: f32 = self.world.rng().random_range(0.0..=1.0);
-            self.start_target = Some(from + (to - from) * t);
+        self.builtin = (self.opponent_kind == Some(OpponentKind::Builtin)).then(|| BuiltinAi::new(&self.scenario, &mut self.world));
+        if let Some(ai) = self.builtin.as_mut() {
+            ai.before_loop(&mut self.world, &self.agents[Team::Two.index()]);
         }
-        self.issue_start_order();
-    }
-
-    fn issue_start_order(&mut self) {
-        if self.start_issued || self.opponent_kind != Some(OpponentKind::Builtin) {
-            return;
-        }
-        let (to, delay) = match self.scenario.start {
-            StartOrder::None => return,
-            StartOrder::AttackMove { to, delay_loops } => (to, delay_loops),
-            StartOrder::AttackMoveRandom { delay_loops, .. } => (self.start_target.unwrap_or_default(), delay_loops),
-        };
-        if self.world.tick() < delay {
-            return;
-        }
-        for id in self.agents[Team::Two.index()].clone() {
-            if self.world.unit(id).is_some_and(|u| u.alive && u.speed > 0.0) {
-                self.world.set_order(id, Order::AttackMove { to });
-            }
-        }
-        self.start_issued = true;
     }
 
     pub fn scenario(&self) -> &Arc<Scenario> {
@@ -305,9 +288,14 @@ impl Env {
             }
             self.opponent = Some(p);
         }
+        if let Some(ai) = self.builtin.as_mut() {
+            ai.before_step(&mut self.world, &self.agents[Team::Two.index()], Team::Two);
+        }
         let limit = self.time_limit_loops();
         for _ in 0..self.cfg.step_mul {
-            self.issue_start_order();
+            if let Some(ai) = self.builtin.as_mut() {
+                ai.before_loop(&mut self.world, &self.agents[Team::Two.index()]);
+            }
             self.world.step_loop();
             if self.terminal().is_some() || self.world.tick() >= limit {
                 break;
@@ -364,9 +352,7 @@ impl Env {
             if outcome.map(|o| o.for_team(team)) == Some(Outcome::Win) {
                 r += 200.0;
             }
-            let enemies = self.scenario.units.iter().filter(|u| u.team == team.other());
-            let max_reward: f32 = enemies.map(|u| 10.0 + u.kind.spec().hp + u.kind.spec().shield).sum::<f32>() + 200.0;
-            out[team.index()] = r / (max_reward / 20.0);
+            out[team.index()] = r / (self.max_reward[team.index()] / 20.0);
         }
         out
     }

@@ -43,7 +43,7 @@ impl World {
         h.u32(self.tick);
         for u in &self.units {
             h.u32(u.alive as u32 | (u.kind as u32) << 8);
-            for v in [u.pos.x, u.pos.y, u.hp, u.shield, u.energy, u.cooldown, u.facing] {
+            for v in [u.pos.x, u.pos.y, u.hp, u.shield, u.energy, u.cooldown, u.heading.x, u.heading.y] {
                 h.f32(v);
             }
             match u.order {

@@ -27,6 +27,7 @@
 //! ```
 
 mod action;
+mod builtin_ai;
 mod combat;
 mod damage;
 mod env;

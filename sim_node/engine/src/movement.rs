@@ -12,6 +12,8 @@ const TAU: f32 = 6.0;
 const MAX_RADIUS: f32 = 1.125;
 /// Neighbours each unit avoids at most.
 const MAX_NEIGHBOURS: usize = 10;
+/// Relaxation passes of the overlap resolution per loop.
+const SEPARATION_PASSES: usize = 2;
 /// Loops a computed waypoint is reused while the goal stays in place.
 const WAYPOINT_TTL: u32 = 8;
 
@@ -46,7 +48,7 @@ impl World {
                 pref
             } else {
                 neighbours.clear();
-                let query = radius + MAX_RADIUS + speed * TAU;
+                let query = radius + MAX_RADIUS + speed * TAU + 0.5;
                 let me = &self.units[i];
                 self.grid.for_each_near(pos, query, |j| {
                     let o = &self.units[j];
@@ -91,7 +93,7 @@ impl World {
             u.vel = new - pos;
             u.pos = new;
             if u.vel.len_sq() > 1e-8 {
-                u.facing = u.vel.angle();
+                u.heading = u.vel.normalized();
                 if u.activity == Activity::Idle {
                     u.activity = Activity::Moving;
                 }
@@ -147,7 +149,7 @@ impl World {
     pub(crate) fn separate(&mut self, intents: &[Intent]) {
         // The grid is from the start of this loop; nobody moved more than a third of a cell
         // since, which the query margin covers.
-        for _ in 0..2 {
+        for _ in 0..SEPARATION_PASSES {
             let mut pushed = false;
             for i in 0..self.units.len() {
                 let a = &self.units[i];

@@ -128,7 +128,7 @@ impl World {
         let u = &mut self.units[i];
         u.target = Some(t);
         if d <= w.range && d >= w.min_range {
-            u.facing = (tpos - u.pos).angle();
+            u.heading = (tpos - u.pos).normalized();
             u.activity = Activity::Attacking;
             return Intent { fire: ready.then_some((t, wi)), closing_on: Some(t), ..Intent::default() };
         }

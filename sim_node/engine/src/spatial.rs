@@ -1,5 +1,6 @@
 //! A uniform grid over the map, rebuilt every loop by counting sort, so neighbour queries
-//! cost what the neighbourhood holds rather than the whole unit count.
+//! cost what the neighbourhood holds rather than the whole unit count. Entries carry their
+//! position at rebuild time, so a query rejects far entries without touching unit data.
 
 use crate::geom::Vec2;
 
@@ -7,14 +8,21 @@ const CELL: f32 = 2.0;
 /// Up to this many entries a query simply visits them all: cheaper than cells.
 const BRUTE_FORCE_MAX: usize = 24;
 
+#[derive(Clone, Copy, Debug, Default)]
+struct Item {
+    pos: Vec2,
+    index: u32,
+}
+
 #[derive(Clone, Debug, Default)]
 pub struct SpatialGrid {
     cols: usize,
     rows: usize,
     starts: Vec<u32>,
-    items: Vec<u16>,
+    items: Vec<Item>,
     cell_of: Vec<u32>,
     fill: Vec<u32>,
+    pos: Vec<Vec2>,
     brute: bool,
 }
 
@@ -22,7 +30,7 @@ impl SpatialGrid {
     pub fn new(map_w: u32, map_h: u32) -> Self {
         let cols = (map_w as f32 / CELL).ceil() as usize + 1;
         let rows = (map_h as f32 / CELL).ceil() as usize + 1;
-        Self { cols, rows, starts: vec![0; cols * rows + 1], items: Vec::new(), cell_of: Vec::new(), fill: Vec::new(), brute: false }
+        Self { cols, rows, starts: vec![0; cols * rows + 1], ..Self::default() }
     }
 
     fn cell(&self, p: Vec2) -> (usize, usize) {
@@ -34,14 +42,16 @@ impl SpatialGrid {
     /// Rebuilds from the positions of the entries for which `include` holds.
     pub fn rebuild(&mut self, positions: impl ExactSizeIterator<Item = (Vec2, bool)>) {
         self.brute = positions.len() <= BRUTE_FORCE_MAX;
+        self.items.clear();
         if self.brute {
-            self.items.clear();
-            self.items.extend(positions.enumerate().filter(|(_, (_, inc))| *inc).map(|(i, _)| i as u16));
+            self.items.extend(positions.enumerate().filter(|(_, (_, inc))| *inc).map(|(i, (pos, _))| Item { pos, index: i as u32 }));
             return;
         }
         self.cell_of.clear();
         self.starts.iter_mut().for_each(|s| *s = 0);
         let mut n = 0;
+        let mut pos = std::mem::take(&mut self.pos);
+        pos.clear();
         for (p, include) in positions {
             let c = if include {
                 let (cx, cy) = self.cell(p);
@@ -53,38 +63,43 @@ impl SpatialGrid {
                 u32::MAX
             };
             self.cell_of.push(c);
+            pos.push(p);
         }
         for i in 1..self.starts.len() {
             self.starts[i] += self.starts[i - 1];
         }
-        self.items.clear();
-        self.items.resize(n, 0);
+        self.items.resize(n, Item::default());
         self.fill.clear();
         self.fill.extend_from_slice(&self.starts);
         for (i, &c) in self.cell_of.iter().enumerate() {
             if c != u32::MAX {
                 let slot = &mut self.fill[c as usize];
-                self.items[*slot as usize] = i as u16;
+                self.items[*slot as usize] = Item { pos: pos[i], index: i as u32 };
                 *slot += 1;
             }
         }
+        self.pos = pos;
     }
 
-    /// Calls `f` for every entry whose grid cell overlaps the circle (a superset of the
-    /// entries within `r` of `p`; callers check exact distances). Order is deterministic.
+    /// Calls `f` for (at least) every entry whose position at rebuild time is within `r` of
+    /// `p`; callers check exact distances, and pad `r` when entries may have moved since.
+    /// Order is deterministic.
     pub fn for_each_near(&self, p: Vec2, r: f32, mut f: impl FnMut(usize)) {
+        let r2 = r * r;
         if self.brute {
-            self.items.iter().for_each(|&i| f(i as usize));
+            // Few entries: the caller's own exact distance check is all the filtering needed.
+            self.items.iter().for_each(|it| f(it.index as usize));
             return;
         }
         let (x0, y0) = self.cell(Vec2::new(p.x - r, p.y - r));
         let (x1, y1) = self.cell(Vec2::new(p.x + r, p.y + r));
         for cy in y0..=y1 {
             let row = cy * self.cols;
-            for cx in x0..=x1 {
-                let c = row + cx;
-                for &i in &self.items[self.starts[c] as usize..self.starts[c + 1] as usize] {
-                    f(i as usize);
+            // Cells of one row are contiguous in `items`.
+            let (a, b) = (self.starts[row + x0] as usize, self.starts[row + x1 + 1] as usize);
+            for it in &self.items[a..b] {
+                if it.pos.dist_sq(p) <= r2 {
+                    f(it.index as usize);
                 }
             }
         }

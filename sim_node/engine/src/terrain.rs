@@ -8,6 +8,8 @@
 
 use crate::geom::Vec2;
 
+const NEIGHBOURS: [(i64, i64); 8] = [(-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (1, -1), (-1, 1), (1, 1)];
+
 /// Largest height difference between neighbouring cells a ground unit can step over.
 pub const MAX_STEP: f32 = 0.5;
 
@@ -48,13 +50,54 @@ pub struct Terrain {
     /// Height in levels per cell; `None` where there is no ground (outside the arena).
     cells: Vec<Option<f32>>,
     playable: Rect,
+    /// Per cell, Chebyshev distance (in cells) to the nearest cell from which some step is
+    /// blocked (void, cliff edge, map edge): a straight move shorter than this minus one
+    /// cannot meet an obstacle, which makes most path checks O(1).
+    clearance: Vec<u16>,
 }
 
 impl Terrain {
     /// Builds a terrain from per-cell heights, row 0 at y = 0. The caller validated sizes.
     pub(crate) fn new(width: u32, height: u32, cells: Vec<Option<f32>>, playable: Rect) -> Self {
         debug_assert_eq!(cells.len(), (width * height) as usize);
-        Self { width, height, cells, playable }
+        let mut t = Self { width, height, cells, playable, clearance: Vec::new() };
+        t.clearance = t.compute_clearance();
+        t
+    }
+
+    fn compute_clearance(&self) -> Vec<u16> {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let n = self.cells.len();
+        let mut dist = vec![u16::MAX; n];
+        let mut queue = std::collections::VecDeque::new();
+        for i in 0..n {
+            let (x, y) = (i as i64 % w, i as i64 / w);
+            let mut blocked = self.cells[i].is_none() || x == 0 || y == 0 || x == w - 1 || y == h - 1;
+            for (dx, dy) in NEIGHBOURS {
+                let (nx, ny) = (x + dx, y + dy);
+                if !blocked && nx >= 0 && ny >= 0 && nx < w && ny < h && !self.can_step(i, (ny * w + nx) as usize) {
+                    blocked = true;
+                }
+            }
+            if blocked {
+                dist[i] = 0;
+                queue.push_back(i);
+            }
+        }
+        while let Some(i) = queue.pop_front() {
+            let (x, y) = (i as i64 % w, i as i64 / w);
+            for (dx, dy) in NEIGHBOURS {
+                let (nx, ny) = (x + dx, y + dy);
+                if nx >= 0 && ny >= 0 && nx < w && ny < h {
+                    let j = (ny * w + nx) as usize;
+                    if dist[j] == u16::MAX {
+                        dist[j] = dist[i] + 1;
+                        queue.push_back(j);
+                    }
+                }
+            }
+        }
+        dist
     }
 
     /// Flat ground at level 1 everywhere.
@@ -124,6 +167,11 @@ impl Terrain {
     /// `cliff_walk` units (Colossus) only need ground under them.
     pub fn segment_clear(&self, from: Vec2, to: Vec2, cliff_walk: bool) -> bool {
         let d = to - from;
+        if let Some(c) = self.cell_index(from)
+            && self.clearance[c] as f32 >= d.len() + 2.0
+        {
+            return true;
+        }
         let steps = (d.len() * 4.0).ceil().max(1.0) as u32;
         let mut prev = match self.cell_index(from) {
             Some(i) => i,

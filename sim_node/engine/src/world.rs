@@ -51,7 +51,8 @@ pub struct Unit {
     pub ordinal: u16,
     pub pos: Vec2,
     pub vel: Vec2,
-    pub facing: f32,
+    /// Unit vector the unit faces (kept as a vector: the angle is only needed for display).
+    pub heading: Vec2,
     pub hp: f32,
     pub max_hp: f32,
     pub shield: f32,
@@ -80,6 +81,10 @@ impl Unit {
     }
     pub fn flying(&self) -> bool {
         self.spec().flying
+    }
+    /// Facing in radians, counter-clockwise from east.
+    pub fn facing(&self) -> f32 {
+        self.heading.angle()
     }
     pub fn hp_fraction(&self) -> f32 {
         if self.max_hp > 0.0 { self.hp / self.max_hp } else { 0.0 }
@@ -178,7 +183,7 @@ impl World {
                 ordinal: ord,
                 pos: su.pos,
                 vel: Vec2::ZERO,
-                facing: su.facing,
+                heading: Vec2::from_angle(su.facing),
                 hp: max_hp,
                 max_hp,
                 shield: s.shield,

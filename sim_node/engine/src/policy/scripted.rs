@@ -220,12 +220,14 @@ impl Defensive {
     fn pick_anchor(scenario: &Scenario, team: Team) -> Vec2 {
         let t = &scenario.terrain;
         let spawn = scenario.spawn(team);
+        let enemy = scenario.spawn(team.other());
         let base = t.height_at(spawn);
         let mut best = (base, f32::MAX, spawn);
         for idx in 0..t.cell_count() {
             let c = t.cell_center(idx);
             let d = c.dist(spawn);
-            if d > 8.0 || !t.walkable(c) || t.is_ramp(idx) {
+            // High ground on our side of the map only: never walk into the enemy to find it.
+            if d > 8.0 || !t.walkable(c) || t.is_ramp(idx) || c.dist(enemy) < d {
                 continue;
             }
             let h = t.height_at(c);
