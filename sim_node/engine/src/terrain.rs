@@ -70,17 +70,16 @@ impl Terrain {
         let n = self.cells.len();
         let mut dist = vec![u16::MAX; n];
         let mut queue = std::collections::VecDeque::new();
-        for i in 0..n {
+        for (i, d) in dist.iter_mut().enumerate() {
             let (x, y) = (i as i64 % w, i as i64 / w);
-            let mut blocked = self.cells[i].is_none() || x == 0 || y == 0 || x == w - 1 || y == h - 1;
-            for (dx, dy) in NEIGHBOURS {
-                let (nx, ny) = (x + dx, y + dy);
-                if !blocked && nx >= 0 && ny >= 0 && nx < w && ny < h && !self.can_step(i, (ny * w + nx) as usize) {
-                    blocked = true;
-                }
-            }
+            let edge = self.cells[i].is_none() || x == 0 || y == 0 || x == w - 1 || y == h - 1;
+            let blocked = edge
+                || NEIGHBOURS.iter().any(|(dx, dy)| {
+                    let (nx, ny) = (x + dx, y + dy);
+                    nx >= 0 && ny >= 0 && nx < w && ny < h && !self.can_step(i, (ny * w + nx) as usize)
+                });
             if blocked {
-                dist[i] = 0;
+                *d = 0;
                 queue.push_back(i);
             }
         }
