@@ -25,8 +25,72 @@ pub struct BenchArgs {
     /// Seconds of measurement per scenario and configuration.
     #[arg(long, default_value_t = 2.0)]
     seconds: f64,
+    /// Run exactly this many steps per configuration instead of a time budget (for
+    /// instruction counts under callgrind, which do not depend on machine load).
+    #[arg(long)]
+    steps: Option<u64>,
     #[arg(long)]
     json: bool,
+    /// Instead: measure how the cost per unit grows with army size (N Marines against N
+    /// Marines, N = 4 .. 256, on a flat 96x96 map), to check near-linear scaling.
+    #[arg(long)]
+    scaling: bool,
+}
+
+/// One army size of the scaling measurement.
+#[derive(Serialize, Debug, Clone)]
+pub struct ScalingRow {
+    pub units: usize,
+    pub game_loops_per_sec: f64,
+    /// Nanoseconds per unit per game loop; flat when cost grows linearly with units.
+    pub ns_per_unit_loop: f64,
+    /// ns_per_unit_loop relative to the smallest army, measured in the same run.
+    pub ratio_to_smallest: f64,
+}
+
+fn scaling_scenario(n: usize) -> Result<Scenario> {
+    let side = (n as f32).sqrt().ceil() as usize;
+    let mut units = String::new();
+    for team in [1, 2] {
+        for k in 0..n {
+            let (row, col) = (k / side, k % side);
+            let x = if team == 1 { 30.0 - col as f32 * 1.0 } else { 66.0 + col as f32 * 1.0 };
+            let y = 48.0 - side as f32 * 0.5 + row as f32 * 1.0;
+            units.push_str(&format!("  {{ type = \"Marine\", team = {team}, x = {x}, y = {y} }},\n"));
+        }
+    }
+    let text = format!(
+        "name = \"scaling_{n}\"\nmode = \"pve\"\nmap_size = [96, 96]\nunits = [\n{units}]\n[opponent]\nstart = {{ kind = \"attack_move\", x = 30.0, y = 48.0 }}\n"
+    );
+    Ok(Scenario::from_toml(&format!("<scaling {n}>"), &text)?)
+}
+
+fn run_scaling(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
+    let mut rows: Vec<ScalingRow> = Vec::new();
+    for n in [4usize, 8, 16, 32, 64, 128, 256] {
+        let scenario = Arc::new(scaling_scenario(n)?);
+        let (_, _, loops, secs) = measure(&scenario, a.seconds / 2.0, a.steps, false, true);
+        let lps = loops as f64 / secs;
+        let ns = 1e9 / lps / (2 * n) as f64;
+        let base = rows.first().map_or(ns, |r| r.ns_per_unit_loop);
+        rows.push(ScalingRow { units: 2 * n, game_loops_per_sec: lps, ns_per_unit_loop: ns, ratio_to_smallest: ns / base });
+    }
+    if a.json {
+        writeln!(out, "{}", serde_json::to_string_pretty(&rows)?)?;
+        return Ok(());
+    }
+    let mut t = comfy_table::Table::new();
+    t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header(["units", "game loops/s", "ns per unit-loop", "ratio to smallest"]);
+    for r in &rows {
+        t.add_row([
+            r.units.to_string(),
+            format!("{:.0}", r.game_loops_per_sec),
+            format!("{:.0}", r.ns_per_unit_loop),
+            format!("{:.2}", r.ratio_to_smallest),
+        ]);
+    }
+    writeln!(out, "{t}")?;
+    Ok(())
 }
 
 /// One scenario's measurement.
@@ -48,7 +112,7 @@ pub struct BenchRow {
     bytes_per_env: Option<usize>,
 }
 
-fn measure(scenario: &Arc<Scenario>, seconds: f64, with_obs: bool) -> (u64, u64, u64, f64) {
+fn measure(scenario: &Arc<Scenario>, seconds: f64, max_steps: Option<u64>, with_obs: bool, random_actions: bool) -> (u64, u64, u64, f64) {
     let mut env = Env::new(Arc::clone(scenario), EnvConfig::default(), 1);
     let layout = env.smac_layout(Team::One).clone();
     let mut obs = vec![0f32; layout.obs_size];
@@ -60,7 +124,7 @@ fn measure(scenario: &Arc<Scenario>, seconds: f64, with_obs: bool) -> (u64, u64,
     let start = Instant::now();
     let mut sink = 0f32;
     loop {
-        for (agent, slot) in actions.iter_mut().enumerate() {
+        for (agent, slot) in actions.iter_mut().enumerate().filter(|_| random_actions) {
             env.avail_agent(Team::One, agent, &mut avail);
             let n = avail.iter().filter(|&&a| a == 1).count();
             let mut k = rng.random_range(0..n.max(1));
@@ -75,7 +139,9 @@ fn measure(scenario: &Arc<Scenario>, seconds: f64, with_obs: bool) -> (u64, u64,
                 })
                 .unwrap_or(0);
         }
-        env.submit_indices(Team::One, &actions);
+        if random_actions {
+            env.submit_indices(Team::One, &actions);
+        }
         let before = env.world().tick();
         let r = env.step();
         loops += (env.world().tick() - before) as u64;
@@ -93,7 +159,11 @@ fn measure(scenario: &Arc<Scenario>, seconds: f64, with_obs: bool) -> (u64, u64,
             episodes += 1;
             env.reset(steps);
         }
-        if steps % 256 == 0 && start.elapsed().as_secs_f64() >= seconds {
+        let done = match max_steps {
+            Some(n) => steps >= n,
+            None => steps % 256 == 0 && start.elapsed().as_secs_f64() >= seconds,
+        };
+        if done {
             break;
         }
     }
@@ -118,13 +188,16 @@ fn bytes_per_env(scenario: &Arc<Scenario>, alloc: &'static StatsAlloc<System>) -
 }
 
 pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc<System>>) -> Result<()> {
+    if a.scaling {
+        return run_scaling(a, out);
+    }
     let names: Vec<String> =
         if a.scenario.iter().any(|s| s == "all") { builtin_names().map(str::to_owned).collect() } else { a.scenario.clone() };
     let mut rows = Vec::new();
     for name in &names {
         let scenario = Arc::new(Scenario::load(name)?);
-        let (steps, episodes, loops, secs) = measure(&scenario, a.seconds, true);
-        let (base_steps, _, _, base_secs) = measure(&scenario, a.seconds / 2.0, false);
+        let (steps, episodes, loops, secs) = measure(&scenario, a.seconds, a.steps, true, true);
+        let (base_steps, _, _, base_secs) = measure(&scenario, a.seconds / 2.0, a.steps, false, true);
         let sps = steps as f64 / secs;
         let base = base_steps as f64 / base_secs;
         rows.push(BenchRow {

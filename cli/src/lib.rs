@@ -5,7 +5,7 @@ mod bench;
 mod episode;
 mod info;
 
-pub use bench::BenchRow;
+pub use bench::{BenchRow, ScalingRow};
 pub use episode::{EpisodeRecord, Report, Summary};
 
 use clap::{Parser, Subcommand};

@@ -119,3 +119,26 @@ fn dense_reward_follows_smac() {
     let r = env.step();
     assert!((r.reward[0] - 6.0 / (365.0 / 20.0)).abs() < 1e-5, "{r:?}");
 }
+
+#[test]
+fn layouts_scale_past_256_actions() {
+    // 300 Zerglings: 306 actions per agent; observation, mask and indices all work.
+    let mut units = vec![("Marine", 1u8, 4.0f32, 16.0f32)];
+    for k in 0..300 {
+        units.push(("Zergling", 2, 10.0 + (k % 20) as f32, 2.0 + (k / 20) as f32 * 1.5));
+    }
+    let s = load(&arena("pve", &units));
+    let mut env = Env::new(s, EnvConfig::default(), 0);
+    let l = env.smac_layout(Team::One).clone();
+    assert_eq!(l.n_actions, 306);
+    let mut o = vec![0f32; l.obs_size];
+    env.obs_agent(Team::One, 0, &mut o);
+    let mut av = vec![0u8; l.n_actions];
+    env.avail_agent(Team::One, 0, &mut av);
+    assert_eq!(av[1], 1);
+    for idx in 0..l.n_actions {
+        assert_eq!(l.is_available(env.world(), 0, idx), av[idx] == 1, "index {idx}");
+    }
+    let r = env.submit_indices(Team::One, &[1]);
+    assert!(r[0].is_ok(), "{r:?}");
+}

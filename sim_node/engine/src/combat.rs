@@ -65,9 +65,9 @@ impl World {
         let reach = max_edge + u.spec().radius + 1.25;
         let vis = &self.vis[u.team.index()];
         let u_flying = u.flying();
-        self.grid.for_each_near(u.pos, reach, |j| {
+        self.team_grid[u.team.other().index()].for_each_near(u.pos, reach, |j| {
             let t = &self.units[j];
-            if !t.alive || t.team == u.team || !vis[j] {
+            if !t.alive || !vis[j] {
                 return;
             }
             let Some((_, w)) = weapon_for(u, t) else { return };

@@ -8,8 +8,6 @@ use crate::world::{Activity, World};
 
 /// ORCA's time horizon in loops.
 const TAU: f32 = 6.0;
-/// Largest collision radius in the unit table (Photon Cannon, Spine Crawler).
-const MAX_RADIUS: f32 = 1.125;
 /// Neighbours each unit avoids at most.
 const MAX_NEIGHBOURS: usize = 10;
 /// Relaxation passes of the overlap resolution per loop.
@@ -48,7 +46,7 @@ impl World {
                 pref
             } else {
                 neighbours.clear();
-                let query = radius + MAX_RADIUS + speed * TAU + 0.5;
+                let query = radius + self.max_radius + speed * TAU + 0.5;
                 let me = &self.units[i];
                 self.grid.for_each_near(pos, query, |j| {
                     let o = &self.units[j];
@@ -60,23 +58,28 @@ impl World {
                         return;
                     }
                     let moving = intents[j].goal.is_some() && o.speed > 0.0;
-                    neighbours.push(Neighbour {
-                        pos: o.pos,
-                        vel: o.vel,
-                        radius: o.spec().radius,
-                        responsibility: if moving { 0.5 } else { 1.0 },
-                    });
+                    let n = Neighbour { pos: o.pos, vel: o.vel, radius: o.spec().radius, responsibility: if moving { 0.5 } else { 1.0 } };
+                    // Keep the MAX_NEIGHBOURS closest (RVO2's maxNeighbors), replacing the
+                    // farthest kept one; ties keep the earlier, so the set is deterministic.
+                    if neighbours.len() < MAX_NEIGHBOURS {
+                        neighbours.push(n);
+                    } else {
+                        let d = n.pos.dist_sq(pos);
+                        let (far, fd) = neighbours.iter().enumerate().fold((0, f32::MIN), |acc, (k, m)| {
+                            let md = m.pos.dist_sq(pos);
+                            if md > acc.1 { (k, md) } else { acc }
+                        });
+                        if d < fd {
+                            neighbours[far] = n;
+                        }
+                    }
                 });
                 let agent = Agent { pos, vel: me.vel, radius, max_speed: speed };
-                if neighbours.len() > MAX_NEIGHBOURS {
-                    // Like RVO2's maxNeighbors: only the closest matter for the next loops.
-                    neighbours.select_nth_unstable_by(MAX_NEIGHBOURS, |a, b| a.pos.dist_sq(pos).total_cmp(&b.pos.dist_sq(pos)));
-                    neighbours.truncate(MAX_NEIGHBOURS);
-                }
                 let v = self.orca.solve(&agent, pref, TAU, &neighbours);
-                if v.len_sq() < 0.25 * pref.len_sq() {
-                    // Blocked head-on (ORCA's symmetric deadlock): try veering either way and
-                    // keep whichever makes more progress; left wins ties, so it is deterministic.
+                if v.len_sq() < 0.25 * pref.len_sq() && neighbours.len() <= 3 {
+                    // Blocked head-on by a few units (ORCA's symmetric deadlock): try veering
+                    // either way and keep whichever makes more progress; left wins ties, so it
+                    // is deterministic. In a crowd, waiting is what StarCraft II units do too.
                     let (c, s) = (std::f32::consts::FRAC_1_SQRT_2, std::f32::consts::FRAC_1_SQRT_2);
                     let left = Vec2::new(pref.x * c - pref.y * s, pref.x * s + pref.y * c);
                     let right = Vec2::new(pref.x * c + pref.y * s, -pref.x * s + pref.y * c);
@@ -160,7 +163,7 @@ impl World {
                 let wa = weight(a.speed, intents[i].goal.is_some());
                 let mut pushes: [(usize, Vec2); 8] = [(usize::MAX, Vec2::ZERO); 8];
                 let mut np = 0;
-                self.grid.for_each_near(pa, ra + MAX_RADIUS + 0.5, |j| {
+                self.grid.for_each_near(pa, ra + self.max_radius + 0.5, |j| {
                     if j <= i || np == pushes.len() {
                         return;
                     }

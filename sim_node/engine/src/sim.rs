@@ -188,7 +188,7 @@ impl World {
     /// The damaged biological ally with the most HP missing within `reach` (edge to edge).
     fn heal_target(&self, h: &Unit, reach: f32) -> Option<UnitId> {
         let mut best: Option<(f32, f32, UnitId)> = None;
-        self.grid.for_each_near(h.pos, reach + h.spec().radius + 1.25, |j| {
+        self.team_grid[h.team.index()].for_each_near(h.pos, reach + h.spec().radius + 1.25, |j| {
             let t = &self.units[j];
             if !heal_ok(h, t) {
                 return;

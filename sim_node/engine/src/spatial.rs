@@ -4,7 +4,8 @@
 
 use crate::geom::Vec2;
 
-const CELL: f32 = 2.0;
+/// Smallest cell side: about the reach of the shortest queries (collisions).
+const MIN_CELL: f32 = 2.0;
 /// Up to this many entries a query simply visits them all: cheaper than cells.
 const BRUTE_FORCE_MAX: usize = 24;
 
@@ -16,6 +17,7 @@ struct Item {
 
 #[derive(Clone, Debug, Default)]
 pub struct SpatialGrid {
+    cell: f32,
     cols: usize,
     rows: usize,
     starts: Vec<u32>,
@@ -27,15 +29,20 @@ pub struct SpatialGrid {
 }
 
 impl SpatialGrid {
-    pub fn new(map_w: u32, map_h: u32) -> Self {
-        let cols = (map_w as f32 / CELL).ceil() as usize + 1;
-        let rows = (map_h as f32 / CELL).ceil() as usize + 1;
-        Self { cols, rows, starts: vec![0; cols * rows + 1], ..Self::default() }
+    /// A grid for a map of `map_w` x `map_h` cells holding up to `capacity` entries. Cells
+    /// are sized so there are about four per entry (never smaller than 2 map units), which
+    /// keeps a rebuild proportional to the entries rather than to the map.
+    pub fn new(map_w: u32, map_h: u32, capacity: usize) -> Self {
+        let area = (map_w * map_h) as f32;
+        let cell = (area / (4 * capacity.max(1)) as f32).sqrt().max(MIN_CELL);
+        let cols = (map_w as f32 / cell).ceil() as usize + 1;
+        let rows = (map_h as f32 / cell).ceil() as usize + 1;
+        Self { cell, cols, rows, starts: vec![0; cols * rows + 1], ..Self::default() }
     }
 
     fn cell(&self, p: Vec2) -> (usize, usize) {
-        let cx = ((p.x / CELL).max(0.0) as usize).min(self.cols - 1);
-        let cy = ((p.y / CELL).max(0.0) as usize).min(self.rows - 1);
+        let cx = ((p.x / self.cell).max(0.0) as usize).min(self.cols - 1);
+        let cy = ((p.y / self.cell).max(0.0) as usize).min(self.rows - 1);
         (cx, cy)
     }
 
@@ -103,5 +110,21 @@ impl SpatialGrid {
                 }
             }
         }
+    }
+
+    /// Whether any entry within `r` of `p` (at rebuild time) satisfies `pred`; stops at the
+    /// first one. Brute-force mode tests every entry.
+    pub fn any_near(&self, p: Vec2, r: f32, mut pred: impl FnMut(usize) -> bool) -> bool {
+        if self.brute {
+            return self.items.iter().any(|it| pred(it.index as usize));
+        }
+        let r2 = r * r;
+        let (x0, y0) = self.cell(Vec2::new(p.x - r, p.y - r));
+        let (x1, y1) = self.cell(Vec2::new(p.x + r, p.y + r));
+        (y0..=y1).any(|cy| {
+            let row = cy * self.cols;
+            let (a, b) = (self.starts[row + x0] as usize, self.starts[row + x1 + 1] as usize);
+            self.items[a..b].iter().any(|it| it.pos.dist_sq(p) <= r2 && pred(it.index as usize))
+        })
     }
 }

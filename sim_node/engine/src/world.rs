@@ -138,9 +138,14 @@ pub struct World {
     pub(crate) vis: [Vec<bool>; 2],
     /// Ground height under each unit, refreshed every loop.
     pub(crate) heights: Vec<f32>,
-    /// Per team: (position, sight, ground height, flying) of each living unit.
-    viewers: [Vec<(Vec2, f32, f32, bool)>; 2],
+    /// The longest sight range of any unit type in the scenario.
+    max_sight: f32,
+    /// The largest ground unit radius in the scenario (bounds collision queries).
+    pub(crate) max_radius: f32,
+    /// Every living unit.
     pub(crate) grid: SpatialGrid,
+    /// Living units of each team, for queries that only want one side (vision, targets).
+    pub(crate) team_grid: [SpatialGrid; 2],
     pub(crate) paths: PathCache,
     pub(crate) orca: Orca,
     pub(crate) stats: [TeamStats; 2],
@@ -201,7 +206,7 @@ impl World {
             });
         }
         let n = units.len();
-        let grid = SpatialGrid::new(terrain.width(), terrain.height());
+        let grid = SpatialGrid::new(terrain.width(), terrain.height(), n);
         let mut w = Self {
             terrain,
             units,
@@ -211,7 +216,9 @@ impl World {
             upgrades: scenario.upgrades.clone(),
             vis: [vec![false; n], vec![false; n]],
             heights: vec![0.0; n],
-            viewers: [Vec::with_capacity(n), Vec::with_capacity(n)],
+            max_sight: scenario.units.iter().map(|u| u.kind.spec().sight).fold(0.0, f32::max),
+            max_radius: scenario.units.iter().map(|u| u.kind.spec().radius).fold(0.0, f32::max),
+            team_grid: [grid.clone(), grid.clone()],
             grid,
             paths: PathCache::default(),
             orca: Orca::default(),
@@ -278,36 +285,34 @@ impl World {
     }
 
     /// Recomputes the spatial grid and both teams' vision from current positions.
-    #[inline(never)]
     pub(crate) fn refresh(&mut self) {
         self.grid.rebuild(self.units.iter().map(|u| (u.pos, u.alive)));
-        self.viewers[0].clear();
-        self.viewers[1].clear();
+        for team in Team::BOTH {
+            self.team_grid[team.index()].rebuild(self.units.iter().map(|u| (u.pos, u.alive && u.team == team)));
+        }
         for (i, u) in self.units.iter().enumerate() {
-            let h = self.terrain.height_at(u.pos);
-            self.heights[i] = h;
-            if u.alive {
-                self.viewers[u.team.index()].push((u.pos, u.spec().sight, h, u.flying()));
-            }
+            self.heights[i] = self.terrain.height_at(u.pos);
         }
         for team in Team::BOTH {
             let ti = team.index();
             for i in 0..self.units.len() {
                 let t = &self.units[i];
-                let seen = t.alive && (t.team == team || self.rules.full_vision || self.sees(ti, t, self.heights[i]));
+                let seen = t.alive && (t.team == team || self.rules.full_vision || self.sees(team, i));
                 self.vis[ti][i] = seen;
             }
         }
     }
 
-    /// Line of sight with StarCraft II's cliff rule: a ground viewer does not see ground
-    /// units on higher ground than itself (half a level or more above).
-    fn sees(&self, team: usize, target: &Unit, th: f32) -> bool {
-        let tflying = target.flying();
-        let tr = target.spec().radius;
-        self.viewers[team]
-            .iter()
-            .any(|&(p, sight, vh, vflying)| p.dist_sq(target.pos) <= sq(sight + tr) && (tflying || vflying || th < vh + 0.5))
+    /// Whether any unit of `team` sees unit `target`, with StarCraft II's cliff rule: a
+    /// ground viewer does not see ground units on higher ground (half a level or more above).
+    /// Only units within the longest sight range are visited, so the cost is local.
+    fn sees(&self, team: Team, target: usize) -> bool {
+        let t = &self.units[target];
+        let (tflying, tr, th) = (t.flying(), t.spec().radius, self.heights[target]);
+        self.team_grid[team.index()].any_near(t.pos, self.max_sight + tr, |j| {
+            let v = &self.units[j];
+            v.pos.dist_sq(t.pos) <= sq(v.spec().sight + tr) && (tflying || v.flying() || th < self.heights[j] + 0.5)
+        })
     }
 }
 

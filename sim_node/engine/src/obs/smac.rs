@@ -11,7 +11,7 @@ use crate::ids::{Team, UnitId};
 use crate::policy::TeamView;
 use crate::scenario::Scenario;
 use crate::units::{Race, UnitKind};
-use crate::world::World;
+use crate::world::{Unit, World};
 use serde::Serialize;
 
 /// SMAC's fixed sight range for features (every unit).
@@ -141,14 +141,37 @@ impl SmacLayout {
         for (k, d) in [Direction::Up, Direction::Down, Direction::Right, Direction::Left].into_iter().enumerate() {
             out[2 + k] = Self::can_move(world, id, d) as u8;
         }
-        let healer = u.spec().heal.is_some();
-        for (j, &t) in self.targets(world, agent).iter().take(self.n_enemies).enumerate() {
-            let Some(tu) = world.unit(t) else { continue };
-            let ok = tu.alive
-                && world.visible_to(self.team, t)
-                && u.pos.dist(tu.pos) <= SHOOT_RANGE
-                && if healer { t != id && tu.kind.base() != UnitKind::Medivac } else { crate::combat::weapon_for(u, tu).is_some() };
-            out[N_ACTIONS_NO_ATTACK + j] = ok as u8;
+        for j in 0..self.n_enemies {
+            out[N_ACTIONS_NO_ATTACK + j] = self.attack_slot(world, agent, u, j) as u8;
+        }
+    }
+
+    /// Whether attack index `6 + j` is available to living agent `u`: target `j` (an enemy, or
+    /// for a healer an ally) is alive, seen, within SMAC's shoot range and hittable.
+    fn attack_slot(&self, world: &World, agent: usize, u: &Unit, j: usize) -> bool {
+        let Some(&t) = self.targets(world, agent).get(j) else { return false };
+        let Some(tu) = world.unit(t) else { return false };
+        tu.alive
+            && world.visible_to(self.team, t)
+            && u.pos.dist(tu.pos) <= SHOOT_RANGE
+            && if u.spec().heal.is_some() {
+                t != u.id && tu.kind.base() != UnitKind::Medivac
+            } else {
+                crate::combat::weapon_for(u, tu).is_some()
+            }
+    }
+
+    /// Whether one action index is available, without building the whole mask.
+    pub fn is_available(&self, world: &World, agent: usize, idx: usize) -> bool {
+        let Some(u) = self.agents.get(agent).and_then(|&id| world.unit(id)).filter(|u| u.alive) else {
+            return idx == 0;
+        };
+        match idx {
+            0 => false,
+            1 => true,
+            2..=5 => Self::can_move(world, u.id, [Direction::Up, Direction::Down, Direction::Right, Direction::Left][idx - 2]),
+            i if i < self.n_actions => self.attack_slot(world, agent, u, i - N_ACTIONS_NO_ATTACK),
+            _ => false,
         }
     }
 
@@ -160,10 +183,10 @@ impl SmacLayout {
         out.fill(0.0);
         let id = self.agents[agent];
         let Some(u) = world.unit(id).filter(|u| u.alive) else { return };
-        let mut avail = [0u8; 256];
-        let n = self.n_actions.min(avail.len());
-        self.avail_actions(world, agent, &mut avail[..n]);
-        out[..4].copy_from_slice(&[avail[2] as f32, avail[3] as f32, avail[4] as f32, avail[5] as f32]);
+        let moves = [Direction::Up, Direction::Down, Direction::Right, Direction::Left];
+        for (k, d) in moves.into_iter().enumerate() {
+            out[k] = Self::can_move(world, id, d) as u8 as f32;
+        }
         let tb = self.ally_types.len();
         let fe = 5 + self.shield_enemy + tb;
         let mut off = MOVE_FEATS;
@@ -176,7 +199,9 @@ impl SmacLayout {
                 let d = eu.pos - u.pos;
                 let dist = d.len();
                 if dist < SIGHT_RANGE {
-                    f[0] = avail.get(N_ACTIONS_NO_ATTACK + j).copied().unwrap_or(0) as f32;
+                    // SMAC reads this from the available actions: for a healer that is the
+                    // heal slot of ally j, a quirk kept for compatibility.
+                    f[0] = self.attack_slot(world, agent, u, j) as u8 as f32;
                     f[1] = dist / SIGHT_RANGE;
                     f[2] = d.x / SIGHT_RANGE;
                     f[3] = d.y / SIGHT_RANGE;
@@ -343,24 +368,20 @@ impl Env {
             self.count_refused(team, 1);
             return vec![Err(IndexError::WrongCount(indices.len(), n_agents))];
         }
-        let mut avail = [0u8; 512];
         let mut out = Vec::with_capacity(indices.len());
         for (agent, &index) in indices.iter().enumerate() {
             let checked = {
                 let l = self.smac_layout(team);
-                if index >= n_actions || n_actions > avail.len() {
+                if index >= n_actions {
                     Err(IndexError::OutOfRange { agent, index, n_actions })
+                } else if !l.is_available(self.world(), agent, index) {
+                    Err(IndexError::Unavailable { agent, index })
                 } else {
-                    l.avail_actions(self.world(), agent, &mut avail[..n_actions]);
-                    if avail[index] == 0 {
-                        Err(IndexError::Unavailable { agent, index })
-                    } else {
-                        l.command_for(self.world(), agent, index).map(|c| (l.agents[agent], c)).ok_or(IndexError::OutOfRange {
-                            agent,
-                            index,
-                            n_actions,
-                        })
-                    }
+                    l.command_for(self.world(), agent, index).map(|c| (l.agents[agent], c)).ok_or(IndexError::OutOfRange {
+                        agent,
+                        index,
+                        n_actions,
+                    })
                 }
             };
             match checked {
