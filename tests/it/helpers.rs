@@ -36,7 +36,7 @@ pub fn passive() -> EnvConfig {
 }
 
 pub fn one_loop(mut cfg: EnvConfig) -> EnvConfig {
-    cfg.step_mul = 1;
+    cfg.step_mul = std::num::NonZeroU32::MIN;
     cfg
 }
 

@@ -63,11 +63,15 @@ fn available_actions_and_dead_agents() {
     let r = env.submit_indices(Team::One, &[6]);
     assert!(r[0].is_ok(), "{r:?}");
     assert_eq!(env.world().unit(uid(0)).map(|u| u.order), Some(avacraft_engine::Order::Attack { target: uid(1) }));
-    // Last action one-hot lands in the state.
+    // The step's action lands in the state's last-action one-hot, and only for that step.
     let l = env.smac_layout(Team::One).clone();
     let mut st = vec![0f32; l.state_size];
+    env.step();
     env.state(Team::One, &mut st);
     assert_eq!(st[st.len() - l.n_actions + 6], 1.0);
+    env.step();
+    env.state(Team::One, &mut st);
+    assert!(st[st.len() - l.n_actions..].iter().all(|&x| x == 0.0), "no action given this step");
     // A dead agent: only no-op, and an all-zero observation.
     let s = load(&arena("pvp", &[("Marine", 1, 10.0, 16.0), ("Marine", 1, 30.0, 30.0), ("Zealot", 2, 10.9, 16.0)]));
     let mut env = Env::new(s, one_loop(exact()), 0);
@@ -76,6 +80,8 @@ fn available_actions_and_dead_agents() {
     }
     env.avail_agent(Team::One, 0, &mut av[..8]);
     assert_eq!(&av[..7], &[1, 0, 0, 0, 0, 0, 0]);
+    assert!(env.submit_indices(Team::One, &[0, 1])[0].is_ok(), "no-op is the dead agent's action");
+    assert_eq!(env.refused()[0], 0);
     let mut o = vec![1f32; env.smac_layout(Team::One).obs_size];
     env.obs_agent(Team::One, 0, &mut o);
     assert!(o.iter().all(|&x| x == 0.0));
@@ -136,9 +142,37 @@ fn layouts_scale_past_256_actions() {
     let mut av = vec![0u8; l.n_actions];
     env.avail_agent(Team::One, 0, &mut av);
     assert_eq!(av[1], 1);
-    for idx in 0..l.n_actions {
-        assert_eq!(l.is_available(env.world(), 0, idx), av[idx] == 1, "index {idx}");
+    for (idx, a) in av.iter().enumerate() {
+        assert_eq!(l.is_available(env.world(), 0, idx), *a == 1, "index {idx}");
     }
     let r = env.submit_indices(Team::One, &[1]);
     assert!(r[0].is_ok(), "{r:?}");
+}
+
+#[test]
+fn agents_are_ordered_like_smac() {
+    // SMAC sorts allies by unit type, then x, then y: 2s3z is S, S, Z, Z, Z.
+    let s = Arc::new(builtin("2s3z").expect("scenario"));
+    let env = Env::new(Arc::clone(&s), EnvConfig::default(), 0);
+    let kinds: Vec<_> = env.agents(Team::One).iter().map(|&u| env.world().unit(u).map(|u| u.kind)).collect();
+    use avacraft_engine::UnitKind::{Stalker, Zealot};
+    assert_eq!(kinds, [Some(Stalker), Some(Stalker), Some(Zealot), Some(Zealot), Some(Zealot)]);
+    assert_eq!(env.smac_layout(Team::One).agents, env.agents(Team::One));
+    let xs: Vec<f32> = env.agents(Team::One)[2..].iter().filter_map(|&u| env.world().unit(u).map(|u| u.pos.x)).collect();
+    assert!(xs.windows(2).all(|w| w[0] <= w[1]), "{xs:?}");
+}
+
+#[test]
+fn a_medivac_can_heal_every_ally_even_with_few_enemies() {
+    // 8m1mv_vs_2st: 9 agents, 2 enemies; the attack block widens to 9 so the Medivac
+    // reaches every Marine.
+    let s = Arc::new(builtin("8m1mv_vs_2st").expect("scenario"));
+    let env = Env::new(s, EnvConfig::default(), 0);
+    let l = env.smac_layout(Team::One);
+    assert_eq!(l.n_actions, 6 + 9);
+    let medivac = l.agents.iter().position(|&u| env.world().unit(u).is_some_and(|u| u.spec().heal.is_some())).expect("medivac");
+    for j in 0..l.n_agents {
+        let c = l.command_for(env.world(), medivac, 6 + j).expect("command");
+        assert_eq!(c, avacraft_engine::Command::Attack { target: l.agents[j] });
+    }
 }

@@ -136,6 +136,10 @@ impl World {
         if u.team != team {
             return Err(ActionError::NotYourUnit { unit, owner: u.team, team });
         }
+        if a.command == Command::NoOp {
+            // SMAC's required action for dead agents; for living ones, keep the order.
+            return Ok(None);
+        }
         if !u.alive {
             return Err(ActionError::DeadUnit { unit });
         }
@@ -145,6 +149,16 @@ impl World {
         };
         let in_map = |p: Vec2| {
             if p.is_finite() && playable.contains(p) { Ok(p) } else { Err(ActionError::OffMap { x: p.x, y: p.y }) }
+        };
+        // Ground units head for the nearest point they can actually reach (a grid cell over
+        // a cliff or outside the arena means "as close as you can get").
+        let reach = |p: Vec2| -> Result<Vec2, ActionError> {
+            if u.flying() {
+                return Ok(p);
+            }
+            self.terrain
+                .reachable_point(u.pos, p, u.spec().cliff_walk)
+                .ok_or_else(|| ActionError::Unavailable { unit, why: "no ground it can reach".into() })
         };
         Ok(match a.command {
             Command::NoOp => None,
@@ -184,19 +198,19 @@ impl World {
                     return Err(ActionError::OffGrid { x, y });
                 }
                 mobile()?;
-                Some(Order::Move { to: grid_cell_center(playable, x, y) })
+                Some(Order::Move { to: reach(grid_cell_center(playable, x, y))? })
             }
             Command::MoveDir { dir } => {
                 mobile()?;
-                Some(Order::Move { to: playable.clamp(u.pos + dir.vector() * MOVE_AMOUNT, 0.0) })
+                Some(Order::Move { to: reach(playable.clamp(u.pos + dir.vector() * MOVE_AMOUNT, 0.0))? })
             }
             Command::MoveTo { to } => {
                 mobile()?;
-                Some(Order::Move { to: in_map(to)? })
+                Some(Order::Move { to: reach(in_map(to)?)? })
             }
             Command::AttackMoveTo { to } => {
                 mobile()?;
-                Some(Order::AttackMove { to: in_map(to)? })
+                Some(Order::AttackMove { to: reach(in_map(to)?)? })
             }
         })
     }

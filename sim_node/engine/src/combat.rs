@@ -114,7 +114,9 @@ impl World {
         if in_range.is_some() || in_range_only {
             return in_range;
         }
-        chasing.or(any)
+        // Answer whoever is shooting at it from beyond its acquisition range.
+        let attacker = u.last_attacker.filter(|&a| self.valid_enemy(u, a));
+        chasing.or(any).or(attacker)
     }
 
     /// Applies every attack made this loop, then splash, then deaths; Banelings killed this
@@ -155,6 +157,7 @@ impl World {
             let tu = &mut self.units[t.index()];
             primary_layer_flying = tu.spec().flying;
             if tu.alive && !w.suicide {
+                tu.last_attacker = Some(h.attacker);
                 let dealt = damage_unit(tu, w, 1.0, self.tick);
                 self.stats[a_team.index()].damage_dealt += dealt.total();
             }
@@ -202,6 +205,9 @@ impl World {
         });
         for (j, frac) in victims {
             let tick = self.tick;
+            if self.units[j].team != a_team {
+                self.units[j].last_attacker = Some(h.attacker);
+            }
             let dealt = damage_unit(&mut self.units[j], w, frac, tick);
             let friendly = self.units[j].team == a_team;
             if !friendly {

@@ -13,6 +13,7 @@ use crate::world::{Rules, World};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
+use std::num::NonZeroU32;
 use std::sync::Arc;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -26,13 +27,22 @@ pub enum RewardMode {
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct EnvConfig {
-    pub step_mul: u32,
+    /// Game loops per environment step.
+    pub step_mul: NonZeroU32,
     pub rules: Rules,
     pub reward: RewardMode,
     /// Opponent for PvE; `None` uses the scenario's default.
     pub opponent: Option<OpponentKind>,
     /// Overrides the scenario's time limit (loops).
-    pub time_limit_loops: Option<u32>,
+    pub time_limit_loops: Option<NonZeroU32>,
+}
+
+impl EnvConfig {
+    /// SMAC's setting: allied units are passive (they neither acquire targets nor autocast
+    /// heal on their own), so every engagement is the agents' decision.
+    pub fn smac() -> Self {
+        Self { rules: Rules { auto_acquire: [false, true], ..Rules::default() }, ..Self::default() }
+    }
 }
 
 impl Default for EnvConfig {
@@ -97,7 +107,10 @@ pub struct Env {
     outcome: Option<Outcome>,
     steps: u32,
     refused: [u32; 2],
+    /// SMAC index of each agent's action in the last step (None: no action given).
     last_actions: [Vec<Option<usize>>; 2],
+    /// Actions given for the step being prepared; they become `last_actions` at `step`.
+    pending_actions: [Vec<Option<usize>>; 2],
     dense: DenseTracker,
     /// SMAC's max_reward per team: 10 per enemy, its full HP and shields, plus 200.
     max_reward: [f32; 2],
@@ -129,6 +142,7 @@ impl Env {
             steps: 0,
             refused: [0, 0],
             last_actions: [Vec::new(), Vec::new()],
+            pending_actions: [Vec::new(), Vec::new()],
             dense: DenseTracker::default(),
             max_reward: [0.0, 0.0],
             trajectory: Fnv::default(),
@@ -145,8 +159,9 @@ impl Env {
         // Policies draw from their own stream so adding a draw there never shifts the world's.
         self.policy_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x9e37_79b9_7f4a_7c15);
         for team in Team::BOTH {
-            self.agents[team.index()] = self.scenario.team_units(team).map(|(i, _)| UnitId::new(i as u16)).collect();
+            self.agents[team.index()] = self.scenario.agent_order(team);
             self.last_actions[team.index()] = vec![None; self.agents[team.index()].len()];
+            self.pending_actions[team.index()] = vec![None; self.agents[team.index()].len()];
         }
         self.outcome = None;
         self.steps = 0;
@@ -216,7 +231,7 @@ impl Env {
         self.steps
     }
     pub fn time_limit_loops(&self) -> u32 {
-        self.cfg.time_limit_loops.unwrap_or(self.scenario.time_limit_loops)
+        self.cfg.time_limit_loops.map_or(self.scenario.time_limit_loops, NonZeroU32::get)
     }
     /// Actions refused so far this episode, per team.
     pub fn refused(&self) -> [u32; 2] {
@@ -236,7 +251,7 @@ impl Env {
         &self.last_actions[team.index()]
     }
     pub(crate) fn set_last_action(&mut self, team: Team, agent: usize, idx: Option<usize>) {
-        if let Some(slot) = self.last_actions[team.index()].get_mut(agent) {
+        if let Some(slot) = self.pending_actions[team.index()].get_mut(agent) {
             *slot = idx;
         }
     }
@@ -292,7 +307,7 @@ impl Env {
             ai.before_step(&mut self.world, &self.agents[Team::Two.index()], Team::Two);
         }
         let limit = self.time_limit_loops();
-        for _ in 0..self.cfg.step_mul {
+        for _ in 0..self.cfg.step_mul.get() {
             if let Some(ai) = self.builtin.as_mut() {
                 ai.before_loop(&mut self.world, &self.agents[Team::Two.index()]);
             }
@@ -300,6 +315,11 @@ impl Env {
             if self.terminal().is_some() || self.world.tick() >= limit {
                 break;
             }
+        }
+        for team in Team::BOTH {
+            let t = team.index();
+            std::mem::swap(&mut self.last_actions[t], &mut self.pending_actions[t]);
+            self.pending_actions[t].iter_mut().for_each(|a| *a = None);
         }
         self.steps += 1;
         let outcome = self.terminal().or_else(|| (self.world.tick() >= limit).then_some(Outcome::Draw));

@@ -4,7 +4,7 @@
 use crate::geom::Vec2;
 use crate::orca::{Agent, Neighbour};
 use crate::sim::Intent;
-use crate::world::{Activity, World};
+use crate::world::{Activity, Order, World};
 
 /// ORCA's time horizon in loops.
 const TAU: f32 = 6.0;
@@ -38,7 +38,12 @@ impl World {
             }
             let waypoint = if flying { Some(goal) } else { self.waypoint_for(i, goal, cliff_walk) };
             let Some(wp) = waypoint else {
-                self.units[i].vel = Vec2::ZERO;
+                // No path to the goal at all: the order cannot be carried out.
+                let u = &mut self.units[i];
+                u.vel = Vec2::ZERO;
+                if matches!(u.order, Order::Move { .. } | Order::AttackMove { .. }) {
+                    u.order = Order::Idle;
+                }
                 continue;
             };
             let pref = (wp - pos).normalized() * speed.min(remaining);
@@ -50,7 +55,7 @@ impl World {
                 let me = &self.units[i];
                 self.grid.for_each_near(pos, query, |j| {
                     let o = &self.units[j];
-                    if j == i || !o.alive || o.flying() || Some(o.id) == intents[i].closing_on {
+                    if j == i || !o.alive || !me.collides_with(o) || Some(o.id) == intents[i].closing_on {
                         return;
                     }
                     let r = radius + o.spec().radius + speed * TAU;
@@ -95,6 +100,7 @@ impl World {
             let u = &mut self.units[i];
             u.vel = new - pos;
             u.pos = new;
+            u.blocked_loops = if u.vel.len_sq() < 0.01 * speed * speed { u.blocked_loops.saturating_add(1) } else { 0 };
             if u.vel.len_sq() > 1e-8 {
                 u.heading = u.vel.normalized();
                 if u.activity == Activity::Idle {
@@ -161,14 +167,14 @@ impl World {
                 }
                 let (pa, ra) = (a.pos, a.spec().radius);
                 let wa = weight(a.speed, intents[i].goal.is_some());
-                let mut pushes: [(usize, Vec2); 8] = [(usize::MAX, Vec2::ZERO); 8];
+                let mut pushes: [(usize, Vec2); 16] = [(usize::MAX, Vec2::ZERO); 16];
                 let mut np = 0;
                 self.grid.for_each_near(pa, ra + self.max_radius + 0.5, |j| {
                     if j <= i || np == pushes.len() {
                         return;
                     }
                     let b = &self.units[j];
-                    if !b.alive || b.flying() {
+                    if !b.alive || !a.collides_with(b) {
                         return;
                     }
                     let min = ra + b.spec().radius;
@@ -199,11 +205,15 @@ impl World {
                     let (pa, pb) = (self.units[i].pos, self.units[j].pos);
                     let (ca, cb) = (self.units[i].spec().cliff_walk, self.units[j].spec().cliff_walk);
                     let (ra, rb) = (self.units[i].spec().radius, self.units[j].spec().radius);
+                    // Whatever one side cannot take (a wall, a cliff) the other takes.
+                    let mut left = push;
                     if wa > 0.0 {
-                        self.units[i].pos = self.constrain(pa, pa - push * (wa / sum), ra, false, ca);
+                        let moved = self.constrain(pa, pa - push * (wa / sum), ra, false, ca) - pa;
+                        self.units[i].pos = pa + moved;
+                        left = push + moved;
                     }
                     if wb > 0.0 {
-                        self.units[j].pos = self.constrain(pb, pb + push * (wb / sum), rb, false, cb);
+                        self.units[j].pos = self.constrain(pb, pb + left, rb, false, cb);
                     }
                 }
             }

@@ -18,7 +18,9 @@ pub const ZERG_REGEN: f32 = 0.38 / 22.4;
 /// Energy per loop (0.5625 per Normal second).
 pub const ENERGY_REGEN: f32 = 0.5625 / 16.0;
 /// Distance within which a move order counts as arrived.
-const ARRIVE: f32 = 0.5;
+const ARRIVE: f32 = 0.05;
+/// Loops of being blocked near its goal after which a move order ends.
+const BLOCKED_GIVE_UP: u16 = 16;
 
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Intent {
@@ -64,6 +66,11 @@ impl World {
         let u = &self.units[i];
         if u.spec().heal.is_some() {
             return self.decide_healer(i);
+        }
+        if !self.powered(u) {
+            // An unpowered cannon does nothing at all.
+            self.units[i].target = None;
+            return Intent::default();
         }
         if u.spec().weapons.is_empty() {
             return match u.order {
@@ -111,11 +118,15 @@ impl World {
     /// Move towards `to`; the order completes on arrival.
     fn go(&mut self, i: usize, to: Vec2) -> Intent {
         let u = &mut self.units[i];
-        if u.pos.dist(to) <= ARRIVE.max(u.spec().radius) {
+        let d = u.pos.dist(to);
+        // Arrived, or pressed against others short of the point for a while (StarCraft II
+        // gives up the same way instead of pushing forever).
+        if d <= ARRIVE || (u.blocked_loops >= BLOCKED_GIVE_UP && d <= 2.0 + u.spec().radius) {
             u.order = Order::Idle;
+            u.blocked_loops = 0;
             return Intent::default();
         }
-        Intent { goal: Some((to, 0.05)), ..Intent::default() }
+        Intent { goal: Some((to, 0.0)), ..Intent::default() }
     }
 
     #[inline(never)]
@@ -153,6 +164,8 @@ impl World {
                 }
                 Some(target)
             }
+            // Passive teams (SMAC's allies) autocast nothing while idle.
+            Order::Idle if !self.rules.auto_acquire[u.team.index()] => None,
             _ => {
                 let reach = heal.range + if chase { LEASH + 2.0 } else { 0.0 };
                 self.heal_target(u, reach)

@@ -54,15 +54,67 @@ pub struct Terrain {
     /// blocked (void, cliff edge, map edge): a straight move shorter than this minus one
     /// cannot meet an obstacle, which makes most path checks O(1).
     clearance: Vec<u16>,
+    /// Connected region of every cell for ordinary ground units, and for cliff walkers
+    /// (`u32::MAX` where there is no ground).
+    regions: [Vec<u32>; 2],
 }
 
 impl Terrain {
     /// Builds a terrain from per-cell heights, row 0 at y = 0. The caller validated sizes.
     pub(crate) fn new(width: u32, height: u32, cells: Vec<Option<f32>>, playable: Rect) -> Self {
         debug_assert_eq!(cells.len(), (width * height) as usize);
-        let mut t = Self { width, height, cells, playable, clearance: Vec::new() };
+        let mut t = Self { width, height, cells, playable, clearance: Vec::new(), regions: [Vec::new(), Vec::new()] };
         t.clearance = t.compute_clearance();
+        t.regions = [t.label_regions(false), t.label_regions(true)];
         t
+    }
+
+    fn label_regions(&self, cliff_walk: bool) -> Vec<u32> {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let mut label = vec![u32::MAX; self.cells.len()];
+        let mut next = 0;
+        let mut stack = Vec::new();
+        for start in 0..self.cells.len() {
+            if label[start] != u32::MAX || self.cells[start].is_none() {
+                continue;
+            }
+            label[start] = next;
+            stack.push(start);
+            while let Some(i) = stack.pop() {
+                let (x, y) = (i as i64 % w, i as i64 / w);
+                for (dx, dy) in NEIGHBOURS {
+                    let (nx, ny) = (x + dx, y + dy);
+                    if nx < 0 || ny < 0 || nx >= w || ny >= h {
+                        continue;
+                    }
+                    let j = (ny * w + nx) as usize;
+                    if label[j] == u32::MAX && self.step_ok(i, j, cliff_walk) {
+                        label[j] = next;
+                        stack.push(j);
+                    }
+                }
+            }
+            next += 1;
+        }
+        label
+    }
+
+    /// The point nearest to `to` that a ground unit standing at `from` can walk to: `to`
+    /// itself when reachable, else the centre of the closest playable cell of its region.
+    pub fn reachable_point(&self, from: Vec2, to: Vec2, cliff_walk: bool) -> Option<Vec2> {
+        let regions = &self.regions[cliff_walk as usize];
+        let region = regions[self.cell_index(from)?];
+        if region == u32::MAX {
+            return None;
+        }
+        if self.walkable(to) && self.cell_index(to).is_some_and(|c| regions[c] == region) {
+            return Some(to);
+        }
+        (0..self.cells.len())
+            .filter(|&c| regions[c] == region && self.playable.contains(self.cell_center(c)))
+            .map(|c| (self.cell_center(c).dist_sq(to), c))
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+            .map(|(_, c)| self.cell_center(c))
     }
 
     fn compute_clearance(&self) -> Vec<u16> {

@@ -7,7 +7,7 @@ pub const LOOPS_PER_SECOND: f32 = 22.4;
 /// Game loops per Normal-speed game second (python-sc2's data file uses this base).
 pub const LOOPS_PER_NORMAL_SECOND: f32 = 16.0;
 /// SMAC's `step_mul`: one environment step is this many game loops.
-pub const DEFAULT_STEP_MUL: u32 = 8;
+pub const DEFAULT_STEP_MUL: std::num::NonZeroU32 = std::num::NonZeroU32::new(8).expect("8 is not zero");
 /// The paper's episode limit: 300 s of game time.
 pub const DEFAULT_TIME_LIMIT_S: f32 = 300.0;
 

@@ -205,6 +205,10 @@ pub struct UnitSpec {
     /// Walks up and down cliffs (Colossus).
     pub cliff_walk: bool,
     pub detector: bool,
+    /// Fires only inside a friendly power field (Photon Cannon).
+    pub needs_power: bool,
+    /// Radius of the power field it projects (phasing Warp Prism), 0 for none.
+    pub power_radius: f32,
     /// SMAC's normalisation of the weapon cooldown in the state vector, in loops.
     pub smac_max_cd: f32,
 }
@@ -228,6 +232,8 @@ const fn spec(kind: UnitKind, race: Race, hp: f32, shield: f32, armor: f32, attr
         heal: None,
         cliff_walk: false,
         detector: false,
+        needs_power: false,
+        power_radius: 0.0,
         smac_max_cd: 1.0,
     }
 }
@@ -366,9 +372,11 @@ static SPECS: [UnitSpec; 28] = [
         50.0,
     ),
     air(body(spec(K::WarpPrism, Pr, 80.0, 100.0, 0.0, A.union(M).union(P)), 2.953125, 10.0, 0.875)),
-    air(body(spec(K::WarpPrismPhasing, Pr, 80.0, 100.0, 0.0, A.union(M).union(P)), 0.0, 11.0, 0.875)),
+    // [U] power field radius 3.75.
+    UnitSpec { power_radius: 3.75, ..air(body(spec(K::WarpPrismPhasing, Pr, 80.0, 100.0, 0.0, A.union(M).union(P)), 0.0, 11.0, 0.875)) },
     UnitSpec {
         detector: true,
+        needs_power: true,
         ..armed(body(spec(K::PhotonCannon, Pr, 150.0, 150.0, 1.0, A.union(S)), 0.0, 11.0, 1.125), &[weapon(RX, 20.0, 1, 1.25, 7.0)], 20.0)
     },
     armed(body(spec(K::Zergling, Zg, 35.0, 0.0, 0.0, L.union(B)), 2.953125, 8.0, 0.375), &[weapon(RG, 5.0, 1, 0.696, 0.1)], 11.0),

@@ -68,6 +68,10 @@ pub struct Unit {
     pub alive: bool,
     pub activity: Activity,
     pub(crate) was_healing: bool,
+    /// The last enemy that damaged this unit, so an idle unit can answer it.
+    pub last_attacker: Option<UnitId>,
+    /// Consecutive loops in which it wanted to move but hardly could (blocked).
+    pub(crate) blocked_loops: u16,
     pub(crate) waypoint: Option<(Vec2, Vec2, u32)>,
 }
 
@@ -82,6 +86,17 @@ impl Unit {
     pub fn flying(&self) -> bool {
         self.spec().flying
     }
+    /// Whether two units push each other. Air units never collide; a Colossus strides over
+    /// ground units that are not massive (and they walk under it), as in StarCraft II.
+    pub fn collides_with(&self, other: &Unit) -> bool {
+        if self.flying() || other.flying() {
+            return false;
+        }
+        let tall = |u: &Unit| u.spec().cliff_walk;
+        let massive = |u: &Unit| u.spec().attrs.has(crate::units::Attrs::MASSIVE);
+        !((tall(self) && !massive(other)) || (tall(other) && !massive(self)))
+    }
+
     /// Facing in radians, counter-clockwise from east.
     pub fn facing(&self) -> f32 {
         self.heading.angle()
@@ -202,6 +217,8 @@ impl World {
                 alive: true,
                 activity: Activity::Idle,
                 was_healing: false,
+                last_attacker: None,
+                blocked_loops: 0,
                 waypoint: None,
             });
         }
@@ -268,6 +285,15 @@ impl World {
         self.units.iter().filter(move |u| u.alive && u.team == team)
     }
 
+    /// Whether a unit that needs power (Photon Cannon) stands in a friendly power field.
+    pub fn powered(&self, u: &Unit) -> bool {
+        !u.spec().needs_power
+            || self.alive(u.team).any(|p| {
+                let r = p.spec().power_radius;
+                r > 0.0 && p.pos.dist_sq(u.pos) <= r * r
+            })
+    }
+
     /// Whether a side still has a unit that can deal damage.
     pub fn can_fight(&self, team: Team) -> bool {
         self.alive(team).any(|u| u.kind.can_fight())
@@ -281,6 +307,7 @@ impl World {
                 _ => None,
             };
             u.waypoint = None;
+            u.blocked_loops = 0;
         }
     }
 

@@ -55,7 +55,7 @@ pub struct SmacLayout {
 
 impl SmacLayout {
     pub fn new(scenario: &Scenario, team: Team) -> Self {
-        let agents: Vec<UnitId> = scenario.team_units(team).map(|(i, _)| UnitId::new(i as u16)).collect();
+        let agents: Vec<UnitId> = scenario.agent_order(team);
         let enemies: Vec<UnitId> = scenario.team_units(team.other()).map(|(i, _)| UnitId::new(i as u16)).collect();
         let base = |t: Team| {
             let mut v: Vec<UnitKind> = scenario.team_units(t).map(|(_, u)| u.kind.base()).collect();
@@ -82,7 +82,12 @@ impl SmacLayout {
         let (shield_ally, shield_enemy) = (shields(team), shields(team.other()));
         let tb = ally_types.len();
         let (n_agents, n_enemies) = (agents.len(), enemies.len());
-        let n_actions = N_ACTIONS_NO_ATTACK + n_enemies;
+        // SMAC's healers target allies through the attack slots; where a team has more agents
+        // than enemies, the block widens so a healer can reach every ally (SMAC's own maps
+        // never need this: MMM has as many agents as enemies).
+        let healer = scenario.team_units(team).any(|(_, u)| u.kind.spec().heal.is_some());
+        let n_targets = if healer { n_enemies.max(n_agents) } else { n_enemies };
+        let n_actions = N_ACTIONS_NO_ATTACK + n_targets;
         let fe = 4 + 1 + shield_enemy + tb;
         let fa = 4 + 1 + shield_ally + tb;
         let own_feats = 1 + shield_ally + tb;
@@ -141,7 +146,7 @@ impl SmacLayout {
         for (k, d) in [Direction::Up, Direction::Down, Direction::Right, Direction::Left].into_iter().enumerate() {
             out[2 + k] = Self::can_move(world, id, d) as u8;
         }
-        for j in 0..self.n_enemies {
+        for j in 0..self.n_actions - N_ACTIONS_NO_ATTACK {
             out[N_ACTIONS_NO_ATTACK + j] = self.attack_slot(world, agent, u, j) as u8;
         }
     }
@@ -307,7 +312,8 @@ impl SmacLayout {
             Command::MoveDir { dir: Direction::Right } => 4,
             Command::MoveDir { dir: Direction::Left } => 5,
             Command::Attack { target } => {
-                N_ACTIONS_NO_ATTACK + self.targets(world, agent).iter().take(self.n_enemies).position(|t| t == target)?
+                N_ACTIONS_NO_ATTACK
+                    + self.targets(world, agent).iter().take(self.n_actions - N_ACTIONS_NO_ATTACK).position(|t| t == target)?
             }
             _ => return None,
         })
@@ -344,7 +350,7 @@ impl Env {
             n_actions: l.n_actions,
             obs_shape: l.obs_size,
             state_shape: l.state_size,
-            episode_limit: self.time_limit_loops().div_ceil(self.config().step_mul) as usize,
+            episode_limit: self.time_limit_loops().div_ceil(self.config().step_mul.get()) as usize,
         }
     }
 

@@ -142,9 +142,19 @@ impl Scenario {
         self.units.iter().filter(|u| u.team == team).count()
     }
 
-    /// Units of a team, in scenario order: agent `i` of that team controls the `i`-th.
+    /// Units of a team, in scenario order.
     pub fn team_units(&self, team: Team) -> impl Iterator<Item = (usize, &ScenarioUnit)> {
         self.units.iter().enumerate().filter(move |(_, u)| u.team == team)
+    }
+
+    /// A team's units in agent order: SMAC sorts agents by unit type, then x, then y (its
+    /// `init_units`); agent `i` of a team controls the `i`-th of these.
+    pub fn agent_order(&self, team: Team) -> Vec<crate::ids::UnitId> {
+        let mut v: Vec<(usize, &ScenarioUnit)> = self.team_units(team).collect();
+        v.sort_by(|(_, a), (_, b)| {
+            a.kind.base().name().cmp(b.kind.base().name()).then(a.pos.x.total_cmp(&b.pos.x)).then(a.pos.y.total_cmp(&b.pos.y))
+        });
+        v.into_iter().map(|(i, _)| crate::ids::UnitId::new(i as u16)).collect()
     }
 
     /// Centroid of a team's starting positions (its spawn).
