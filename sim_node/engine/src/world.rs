@@ -94,7 +94,7 @@ impl Unit {
         }
         let tall = |u: &Unit| u.spec().cliff_walk;
         let massive = |u: &Unit| u.spec().attrs.has(crate::units::Attrs::MASSIVE);
-        !((tall(self) && !massive(other)) || (tall(other) && !massive(self)))
+        (massive(self) || !tall(other)) && (massive(other) || !tall(self))
     }
 
     /// Facing in radians, counter-clockwise from east.
