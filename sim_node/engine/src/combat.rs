@@ -24,7 +24,7 @@ pub(crate) struct PendingHit {
 }
 
 pub(crate) fn edge_dist(a: &Unit, b: &Unit) -> f32 {
-    a.pos.dist(b.pos) - a.spec().radius - b.spec().radius
+    a.pos.dist(b.pos) - a.radius - b.radius
 }
 
 /// The weapon of `a` that can hit `b`'s layer, with its index.
@@ -62,7 +62,7 @@ impl World {
             Some((bt, bd, bid)) => tier > bt || (tier == bt && (d < bd || (d == bd && id < bid))),
         };
         let (mut in_range, mut any): (Best, Best) = (None, None);
-        let reach = max_edge + u.spec().radius + 1.25;
+        let reach = max_edge + u.radius + 1.25;
         let vis = &self.vis[u.team.index()];
         let u_flying = u.flying();
         self.team_grid[u.team.other().index()].for_each_near(u.pos, reach, |j| {
@@ -172,7 +172,7 @@ impl World {
             if !v.alive || Some(v.id) == h.target || v.id == h.attacker || v.spec().flying != primary_layer_flying {
                 return;
             }
-            let r = v.spec().radius;
+            let r = v.radius;
             let frac = match w.splash {
                 Splash::None => 0.0,
                 Splash::Radial { zones, friendly_fire } => {
@@ -229,5 +229,5 @@ fn damage_unit(t: &mut Unit, w: &Weapon, fraction: f32, tick: u32) -> Dealt {
 }
 
 pub(crate) fn in_heal_range(h: &Unit, t: &Unit, range: f32) -> bool {
-    h.pos.dist_sq(t.pos) <= sq(range + h.spec().radius + t.spec().radius)
+    h.pos.dist_sq(t.pos) <= sq(range + h.radius + t.radius)
 }

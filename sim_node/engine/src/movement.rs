@@ -10,6 +10,8 @@ use crate::world::{Activity, Order, World};
 const TAU: f32 = 6.0;
 /// Neighbours each unit avoids at most.
 const MAX_NEIGHBOURS: usize = 10;
+/// Overlap small enough that resolving it in the next loop is as good as now.
+const SLIVER: f32 = 0.02;
 /// Relaxation passes of the overlap resolution per loop.
 const SEPARATION_PASSES: usize = 2;
 /// Loops a computed waypoint is reused while the goal stays in place.
@@ -30,7 +32,7 @@ impl World {
             if !u.alive || u.speed <= 0.0 {
                 continue;
             }
-            let (pos, speed, radius, flying, cliff_walk) = (u.pos, u.speed, u.spec().radius, u.flying(), u.spec().cliff_walk);
+            let (pos, speed, radius, flying, cliff_walk) = (u.pos, u.speed, u.radius, u.flying(), u.spec().cliff_walk);
             let remaining = pos.dist(goal) - stop;
             if remaining <= 0.0 {
                 self.units[i].vel = Vec2::ZERO;
@@ -58,12 +60,12 @@ impl World {
                     if j == i || !o.alive || !me.collides_with(o) || Some(o.id) == intents[i].closing_on {
                         return;
                     }
-                    let r = radius + o.spec().radius + speed * TAU;
+                    let r = radius + o.radius + speed * TAU;
                     if o.pos.dist_sq(me.pos) > r * r {
                         return;
                     }
                     let moving = intents[j].goal.is_some() && o.speed > 0.0;
-                    let n = Neighbour { pos: o.pos, vel: o.vel, radius: o.spec().radius, responsibility: if moving { 0.5 } else { 1.0 } };
+                    let n = Neighbour { pos: o.pos, vel: o.vel, radius: o.radius, responsibility: if moving { 0.5 } else { 1.0 } };
                     // Keep the MAX_NEIGHBOURS closest (RVO2's maxNeighbors), replacing the
                     // farthest kept one; ties keep the earlier, so the set is deterministic.
                     if neighbours.len() < MAX_NEIGHBOURS {
@@ -101,6 +103,9 @@ impl World {
             u.vel = new - pos;
             u.pos = new;
             u.blocked_loops = if u.vel.len_sq() < 0.01 * speed * speed { u.blocked_loops.saturating_add(1) } else { 0 };
+            if u.vel.len_sq() > 0.0 {
+                self.dirty[i] = true;
+            }
             if u.vel.len_sq() > 1e-8 {
                 u.heading = u.vel.normalized();
                 if u.activity == Activity::Idle {
@@ -157,27 +162,34 @@ impl World {
     #[inline(never)]
     pub(crate) fn separate(&mut self, intents: &[Intent]) {
         // The grid is from the start of this loop; nobody moved more than a third of a cell
-        // since, which the query margin covers.
+        // since, which the query margin covers. Only a unit that moved this loop, or was left
+        // overlapping by the last pass, can be part of an overlap: the rest are skipped.
+        let n = self.units.len();
+        let mut dirty = std::mem::take(&mut self.dirty);
+        let mut next = std::mem::take(&mut self.dirty_next);
         for _ in 0..SEPARATION_PASSES {
-            let mut pushed = false;
-            for i in 0..self.units.len() {
+            next.clear();
+            next.resize(n, false);
+            let mut worst = 0.0f32;
+            for i in 0..n {
                 let a = &self.units[i];
-                if !a.alive || a.flying() {
+                if !dirty[i] || !a.alive || a.flying() {
                     continue;
                 }
-                let (pa, ra) = (a.pos, a.spec().radius);
+                let (pa, ra) = (a.pos, a.radius);
                 let wa = weight(a.speed, intents[i].goal.is_some());
                 let mut pushes: [(usize, Vec2); 16] = [(usize::MAX, Vec2::ZERO); 16];
                 let mut np = 0;
                 self.grid.for_each_near(pa, ra + self.max_radius + 0.5, |j| {
-                    if j <= i || np == pushes.len() {
+                    // A pair of dirty units is handled once, from its lower index.
+                    if j == i || (dirty[j] && j < i) || np == pushes.len() {
                         return;
                     }
                     let b = &self.units[j];
                     if !b.alive || !a.collides_with(b) {
                         return;
                     }
-                    let min = ra + b.spec().radius;
+                    let min = ra + b.radius;
                     let d2 = b.pos.dist_sq(pa);
                     if d2 >= min * min {
                         return;
@@ -193,18 +205,19 @@ impl World {
                         // Coincident centres: a fixed direction from the id pair.
                         Vec2::from_angle((i * 7 + j * 13) as f32)
                     };
-                    let overlap = min - d;
-                    pushes[np] = (j, n * overlap);
+                    pushes[np] = (j, n * (min - d));
+                    worst = worst.max(min - d);
                     np += 1;
                 });
-                pushed |= np > 0;
                 for &(j, push) in &pushes[..np] {
+                    next[i] = true;
+                    next[j] = true;
                     let (wa, wb) =
                         (weight(self.units[i].speed, intents[i].goal.is_some()), weight(self.units[j].speed, intents[j].goal.is_some()));
                     let sum = wa + wb;
                     let (pa, pb) = (self.units[i].pos, self.units[j].pos);
                     let (ca, cb) = (self.units[i].spec().cliff_walk, self.units[j].spec().cliff_walk);
-                    let (ra, rb) = (self.units[i].spec().radius, self.units[j].spec().radius);
+                    let (ra, rb) = (self.units[i].radius, self.units[j].radius);
                     // Whatever one side cannot take (a wall, a cliff) the other takes.
                     let mut left = push;
                     if wa > 0.0 {
@@ -217,10 +230,15 @@ impl World {
                     }
                 }
             }
-            if !pushed {
+            std::mem::swap(&mut dirty, &mut next);
+            // Another pass only when this one had to undo more than a sliver of overlap.
+            if worst < SLIVER {
                 break;
             }
         }
+        // Units pushed in the last pass may still overlap: they are checked again next loop.
+        self.dirty = dirty;
+        self.dirty_next = next;
     }
 }
 

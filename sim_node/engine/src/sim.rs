@@ -121,7 +121,7 @@ impl World {
         let d = u.pos.dist(to);
         // Arrived, or pressed against others short of the point for a while (StarCraft II
         // gives up the same way instead of pushing forever).
-        if d <= ARRIVE || (u.blocked_loops >= BLOCKED_GIVE_UP && d <= 2.0 + u.spec().radius) {
+        if d <= ARRIVE || (u.blocked_loops >= BLOCKED_GIVE_UP && d <= 2.0 + u.radius) {
             u.order = Order::Idle;
             u.blocked_loops = 0;
             return Intent::default();
@@ -135,7 +135,7 @@ impl World {
         let Some((wi, w)) = weapon_for(u, tu) else { return Intent::default() };
         let d = edge_dist(u, tu);
         let (tpos, ready) = (tu.pos, u.cooldown <= 0.0);
-        let stop = w.range + u.spec().radius + tu.spec().radius - 0.05;
+        let stop = w.range + u.radius + tu.radius - 0.05;
         let u = &mut self.units[i];
         u.target = Some(t);
         if d <= w.range && d >= w.min_range {
@@ -180,7 +180,7 @@ impl World {
                 return Intent { heal: can.then_some(t), ..Intent::default() };
             }
             if chase {
-                let stop = heal.range + u.spec().radius + tu.spec().radius - 0.1;
+                let stop = heal.range + u.radius + tu.radius - 0.1;
                 return Intent { goal: Some((tu.pos, stop)), ..Intent::default() };
             }
         }
@@ -201,7 +201,7 @@ impl World {
     /// The damaged biological ally with the most HP missing within `reach` (edge to edge).
     fn heal_target(&self, h: &Unit, reach: f32) -> Option<UnitId> {
         let mut best: Option<(f32, f32, UnitId)> = None;
-        self.team_grid[h.team.index()].for_each_near(h.pos, reach + h.spec().radius + 1.25, |j| {
+        self.team_grid[h.team.index()].for_each_near(h.pos, reach + h.radius + 1.25, |j| {
             let t = &self.units[j];
             if !heal_ok(h, t) {
                 return;

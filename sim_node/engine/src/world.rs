@@ -41,12 +41,40 @@ pub enum Activity {
     Dead,
 }
 
+/// How a unit takes up space, cached from its type (hot in collision queries).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Body {
+    Air,
+    Ground,
+    /// Massive ground units (a Colossus does not stride over them).
+    Massive,
+    /// Strides over smaller ground units (Colossus).
+    Tall,
+}
+
+impl Body {
+    pub fn of(kind: UnitKind) -> Body {
+        let s = kind.spec();
+        if s.flying {
+            Body::Air
+        } else if s.cliff_walk {
+            Body::Tall
+        } else if s.attrs.has(crate::units::Attrs::MASSIVE) {
+            Body::Massive
+        } else {
+            Body::Ground
+        }
+    }
+}
+
 /// One unit's state.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Unit {
     pub id: UnitId,
     pub team: Team,
     pub kind: UnitKind,
+    pub(crate) body: Body,
+    pub(crate) radius: f32,
     /// 1-based number among the units of the same team and base type (`Marine_3`).
     pub ordinal: u16,
     pub pos: Vec2,
@@ -84,17 +112,20 @@ impl Unit {
         format!("{}_{}", self.kind.base().name(), self.ordinal)
     }
     pub fn flying(&self) -> bool {
-        self.spec().flying
+        self.body == Body::Air
+    }
+    /// Collision radius.
+    pub fn radius(&self) -> f32 {
+        self.radius
     }
     /// Whether two units push each other. Air units never collide; a Colossus strides over
     /// ground units that are not massive (and they walk under it), as in StarCraft II.
     pub fn collides_with(&self, other: &Unit) -> bool {
-        if self.flying() || other.flying() {
-            return false;
+        match (self.body, other.body) {
+            (Body::Air, _) | (_, Body::Air) => false,
+            (Body::Tall, b) | (b, Body::Tall) => b == Body::Massive || b == Body::Tall,
+            _ => true,
         }
-        let tall = |u: &Unit| u.spec().cliff_walk;
-        let massive = |u: &Unit| u.spec().attrs.has(crate::units::Attrs::MASSIVE);
-        (massive(self) || !tall(other)) && (massive(other) || !tall(self))
     }
 
     /// Facing in radians, counter-clockwise from east.
@@ -155,6 +186,9 @@ pub struct World {
     pub(crate) heights: Vec<f32>,
     /// The longest sight range of any unit type in the scenario.
     max_sight: f32,
+    /// Units that may overlap another (moved, or pushed last pass); see `separate`.
+    pub(crate) dirty: Vec<bool>,
+    pub(crate) dirty_next: Vec<bool>,
     /// The largest ground unit radius in the scenario (bounds collision queries).
     pub(crate) max_radius: f32,
     /// Every living unit.
@@ -200,6 +234,8 @@ impl World {
                 id: UnitId::new(i as u16),
                 team: su.team,
                 kind: su.kind,
+                body: Body::of(su.kind),
+                radius: s.radius,
                 ordinal: ord,
                 pos: su.pos,
                 vel: Vec2::ZERO,
@@ -233,6 +269,8 @@ impl World {
             upgrades: scenario.upgrades.clone(),
             vis: [vec![false; n], vec![false; n]],
             heights: vec![0.0; n],
+            dirty: vec![true; n],
+            dirty_next: vec![false; n],
             max_sight: scenario.units.iter().map(|u| u.kind.spec().sight).fold(0.0, f32::max),
             max_radius: scenario.units.iter().map(|u| u.kind.spec().radius).fold(0.0, f32::max),
             team_grid: [grid.clone(), grid.clone()],
@@ -335,7 +373,7 @@ impl World {
     /// Only units within the longest sight range are visited, so the cost is local.
     fn sees(&self, team: Team, target: usize) -> bool {
         let t = &self.units[target];
-        let (tflying, tr, th) = (t.flying(), t.spec().radius, self.heights[target]);
+        let (tflying, tr, th) = (t.flying(), t.radius, self.heights[target]);
         self.team_grid[team.index()].any_near(t.pos, self.max_sight + tr, |j| {
             let v = &self.units[j];
             v.pos.dist_sq(t.pos) <= sq(v.spec().sight + tr) && (tflying || v.flying() || th < self.heights[j] + 0.5)
