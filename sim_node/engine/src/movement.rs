@@ -53,7 +53,7 @@ impl World {
                 pref
             } else {
                 neighbours.clear();
-                let query = radius + self.max_radius + speed * TAU + 0.5;
+                let query = radius + self.units[i].collision_reach(self) + speed * TAU;
                 let me = &self.units[i];
                 self.grid.for_each_near(pos, query, |j| {
                     let o = &self.units[j];
@@ -180,7 +180,7 @@ impl World {
                 let wa = weight(a.speed, intents[i].goal.is_some());
                 let mut pushes: [(usize, Vec2); 16] = [(usize::MAX, Vec2::ZERO); 16];
                 let mut np = 0;
-                self.grid.for_each_near(pa, ra + self.max_radius + 0.5, |j| {
+                self.grid.for_each_near(pa, ra + a.collision_reach(self), |j| {
                     // A pair of dirty units is handled once, from its lower index.
                     if j == i || (dirty[j] && j < i) || np == pushes.len() {
                         return;

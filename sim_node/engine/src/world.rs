@@ -118,6 +118,10 @@ impl Unit {
     pub fn radius(&self) -> f32 {
         self.radius
     }
+    /// How far a collision query around this unit must reach beyond its own radius.
+    pub(crate) fn collision_reach(&self, w: &World) -> f32 {
+        w.reach_radius[(self.body == Body::Tall) as usize] + w.max_step
+    }
     /// Whether two units push each other. Air units never collide; a Colossus strides over
     /// ground units that are not massive (and they walk under it), as in StarCraft II.
     pub fn collides_with(&self, other: &Unit) -> bool {
@@ -189,8 +193,12 @@ pub struct World {
     /// Units that may overlap another (moved, or pushed last pass); see `separate`.
     pub(crate) dirty: Vec<bool>,
     pub(crate) dirty_next: Vec<bool>,
-    /// The largest ground unit radius in the scenario (bounds collision queries).
-    pub(crate) max_radius: f32,
+    /// The largest radius of a unit each body kind can collide with (bounds collision
+    /// queries): Colossi stride over small units, so a Zergling never needs to look as far
+    /// as a Colossus's radius.
+    pub(crate) reach_radius: [f32; 2],
+    /// The fastest unit's speed per loop: how stale grid positions can be within a loop.
+    pub(crate) max_step: f32,
     /// Every living unit.
     pub(crate) grid: SpatialGrid,
     /// Living units of each team, for queries that only want one side (vision, targets).
@@ -272,7 +280,13 @@ impl World {
             dirty: vec![true; n],
             dirty_next: vec![false; n],
             max_sight: scenario.units.iter().map(|u| u.kind.spec().sight).fold(0.0, f32::max),
-            max_radius: scenario.units.iter().map(|u| u.kind.spec().radius).fold(0.0, f32::max),
+            reach_radius: {
+                let r = |f: &dyn Fn(Body) -> bool| {
+                    scenario.units.iter().filter(|u| f(Body::of(u.kind))).map(|u| u.kind.spec().radius).fold(0.0, f32::max)
+                };
+                [r(&|b| b != Body::Air && b != Body::Tall), r(&|b| b == Body::Massive || b == Body::Tall)]
+            },
+            max_step: scenario.units.iter().map(|u| u.kind.spec().speed * 1.6).fold(0.0, f32::max),
             team_grid: [grid.clone(), grid.clone()],
             grid,
             paths: PathCache::default(),
