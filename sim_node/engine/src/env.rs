@@ -263,27 +263,26 @@ impl Env {
     /// Gives orders to `team`'s units. Each action is checked on its own; a refused one is
     /// counted and leaves that unit's order unchanged.
     pub fn submit(&mut self, team: Team, actions: &[Action]) -> Vec<Result<(), ActionError>> {
-        let controllable = self.is_agent_team(team);
-        actions
-            .iter()
-            .map(|a| {
-                let r = if controllable || self.world.unit(a.unit).is_none() {
-                    self.world.apply(team, a)
-                } else {
-                    Err(ActionError::Unavailable { unit: a.unit, why: format!("{team} is driven by the opponent policy in PvE") })
-                };
-                if r.is_err() {
-                    self.refused[team.index()] += 1;
-                }
-                if r.is_ok()
-                    && let Some(agent) = self.agents[team.index()].iter().position(|&u| u == a.unit)
-                {
-                    let idx = crate::obs::smac::command_index(self, team, agent, &a.command);
+        actions.iter().map(|a| self.submit_one(team, a, None)).collect()
+    }
+
+    /// Applies one action; `known_index` is its SMAC index when the caller has it already.
+    pub(crate) fn submit_one(&mut self, team: Team, a: &Action, known_index: Option<usize>) -> Result<(), ActionError> {
+        let r = if self.is_agent_team(team) || self.world.unit(a.unit).is_none() {
+            self.world.apply(team, a)
+        } else {
+            Err(ActionError::Unavailable { unit: a.unit, why: format!("{team} is driven by the opponent policy in PvE") })
+        };
+        match r {
+            Err(_) => self.refused[team.index()] += 1,
+            Ok(()) => {
+                if let Some(agent) = self.agents[team.index()].iter().position(|&u| u == a.unit) {
+                    let idx = known_index.or_else(|| crate::obs::smac::command_index(self, team, agent, &a.command));
                     self.set_last_action(team, agent, idx);
                 }
-                r
-            })
-            .collect()
+            }
+        }
+        r
     }
 
     /// Runs the opponent (PvE), then `step_mul` game loops, and scores the step. Stepping a

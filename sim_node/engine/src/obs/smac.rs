@@ -400,8 +400,7 @@ impl Env {
                     out.push(Ok(()));
                 }
                 Ok((unit, command)) => {
-                    let r = self.submit(team, &[Action::new(unit, command)]);
-                    out.push(r.into_iter().next().unwrap_or(Ok(())).map_err(IndexError::from));
+                    out.push(self.submit_one(team, &Action::new(unit, command), Some(index)).map_err(IndexError::from));
                 }
             }
         }
