@@ -4,6 +4,7 @@
 mod bench;
 mod episode;
 mod info;
+mod render;
 
 pub use bench::{BenchRow, ScalingRow};
 pub use episode::{EpisodeRecord, Report, Summary};
@@ -30,6 +31,8 @@ enum Cmd {
     Episode(episode::EpisodeArgs),
     /// Measure environment steps per second and memory per environment.
     Bench(bench::BenchArgs),
+    /// Play up to a game loop and save what a team sees (VLM screenshot, screen or minimap) as PNG.
+    Render(render::RenderArgs),
 }
 
 /// Runs one command, writing its report to `out`. `alloc` is the process's counting
@@ -40,6 +43,7 @@ pub fn run(cli: Cli, out: &mut dyn Write, alloc: Option<&'static StatsAlloc<Syst
         Cmd::EnvInfo(a) => info::env_info(&a, out),
         Cmd::Episode(a) => episode::run(&a, out),
         Cmd::Bench(a) => bench::run(&a, out, alloc),
+        Cmd::Render(a) => render::run(&a, out),
     }
 }
 

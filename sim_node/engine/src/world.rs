@@ -346,6 +346,39 @@ impl World {
             })
     }
 
+    /// Fog of war per terrain cell for `team` (row 0 at y = 0): a cell is visible when one of
+    /// the team's units sees its centre, with the same cliff rule as for units. Renderers
+    /// darken the rest. `out` is resized to the cell count.
+    pub fn cell_visibility(&self, team: Team, out: &mut Vec<bool>) {
+        let t = &self.terrain;
+        out.clear();
+        out.resize(t.cell_count(), self.rules.full_vision);
+        if self.rules.full_vision {
+            return;
+        }
+        let (w, h) = (t.width() as i64, t.height() as i64);
+        for (i, v) in self.units.iter().enumerate() {
+            if !v.alive || v.team != team {
+                continue;
+            }
+            let sight = v.spec().sight;
+            let (vh, vf) = (self.heights[i], v.flying());
+            let (x0, x1) = (((v.pos.x - sight).floor() as i64).max(0), ((v.pos.x + sight).ceil() as i64).min(w - 1));
+            let (y0, y1) = (((v.pos.y - sight).floor() as i64).max(0), ((v.pos.y + sight).ceil() as i64).min(h - 1));
+            for cy in y0..=y1 {
+                for cx in x0..=x1 {
+                    let c = (cy * w + cx) as usize;
+                    if out[c] {
+                        continue;
+                    }
+                    let centre = Vec2::new(cx as f32 + 0.5, cy as f32 + 0.5);
+                    let ch = t.cell_height(c).unwrap_or(0.0);
+                    out[c] = centre.dist_sq(v.pos) <= sq(sight) && (vf || ch < vh + 0.5);
+                }
+            }
+        }
+    }
+
     /// Whether a side still has a unit that can deal damage.
     pub fn can_fight(&self, team: Team) -> bool {
         self.alive(team).any(|u| u.kind.can_fight())

@@ -1,0 +1,133 @@
+//! `render`: play a scenario up to a game loop and save what a team sees as a PNG.
+
+use crate::info::team_of;
+use anyhow::{Context, Result, bail};
+use avacraft_engine::{Env, EnvConfig, Mode, OpponentKind, Scenario, Team, UnitId, policy};
+use avacraft_render::{CpuBackend, FrameBuilder, VlmOptions};
+use clap::{Args, ValueEnum};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use std::io::Write;
+use std::num::NonZeroU32;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FrameKind {
+    /// The annotated VLM screenshot (default 1920x1080).
+    Vlm,
+    /// The MARL screen (default 160x120).
+    Screen,
+    /// The minimap (default 32x32).
+    Minimap,
+}
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// Built-in scenario name or path to a scenario file.
+    #[arg(long)]
+    scenario: String,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Game loop to render (the episode is played with the policies up to it).
+    #[arg(long = "loop", default_value_t = 0)]
+    at_loop: u32,
+    #[arg(long, value_enum, default_value_t = FrameKind::Vlm)]
+    mode: FrameKind,
+    /// Whose view (fog of war, colours).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=2))]
+    team: u8,
+    /// Image size WIDTHxHEIGHT (default: the mode's).
+    #[arg(long)]
+    size: Option<String>,
+    /// Unit tags to mark as priority (comma-separated), as a VLM agent would.
+    #[arg(long, value_delimiter = ',')]
+    highlight: Vec<u32>,
+    #[arg(long, default_value = "kite")]
+    agent: String,
+    #[arg(long)]
+    agent2: Option<String>,
+    #[arg(long)]
+    opponent: Option<String>,
+    #[arg(long)]
+    full_vision: bool,
+    /// Output PNG file.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+pub(crate) fn parse_size(s: &str) -> Result<(u32, u32)> {
+    let (w, h) = s.split_once('x').with_context(|| format!("--size {s:?}: expected WIDTHxHEIGHT, e.g. 640x360"))?;
+    let (w, h): (u32, u32) =
+        (w.parse().with_context(|| format!("--size {s:?}: bad width"))?, h.parse().with_context(|| format!("--size {s:?}: bad height"))?);
+    if !(8..=8192).contains(&w) || !(8..=8192).contains(&h) {
+        bail!("--size {s:?}: width and height must be between 8 and 8192");
+    }
+    Ok((w, h))
+}
+
+pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
+    let scenario = Arc::new(Scenario::load(&a.scenario)?);
+    let opponent = a.opponent.as_deref().map(str::parse::<OpponentKind>).transpose().map_err(anyhow::Error::msg).context("--opponent")?;
+    let size = match (&a.size, a.mode) {
+        (Some(s), _) => parse_size(s)?,
+        (None, FrameKind::Vlm) => (1920, 1080),
+        (None, FrameKind::Screen) => (160, 120),
+        (None, FrameKind::Minimap) => (32, 32),
+    };
+    let mut cfg = EnvConfig { opponent, step_mul: NonZeroU32::MIN, ..EnvConfig::default() };
+    cfg.rules.full_vision = a.full_vision;
+    let mut env = Env::new(Arc::clone(&scenario), cfg, a.seed);
+    let mut p1 = policy::by_name(&a.agent).context("--agent")?;
+    let mut p2 =
+        if scenario.mode == Mode::Pvp { Some(policy::by_name(a.agent2.as_deref().unwrap_or(&a.agent)).context("--agent2")?) } else { None };
+    p1.reset(&scenario, Team::One);
+    if let Some(p) = p2.as_mut() {
+        p.reset(&scenario, Team::Two);
+    }
+    let (mut r1, mut r2) = (ChaCha8Rng::seed_from_u64(a.seed ^ 0x5151), ChaCha8Rng::seed_from_u64(a.seed ^ 0xa2a2));
+    while env.world().tick() < a.at_loop && !env.done() {
+        if env.world().tick().is_multiple_of(8) {
+            let acts = p1.act(&env.view(Team::One), &mut r1);
+            env.submit(Team::One, &acts);
+            if let Some(p) = p2.as_mut() {
+                let acts = p.act(&env.view(Team::Two), &mut r2);
+                env.submit(Team::Two, &acts);
+            }
+        }
+        env.step();
+    }
+    let team = team_of(a.team);
+    let n = env.world().units().len() as u32;
+    let highlights: Vec<UnitId> = a
+        .highlight
+        .iter()
+        .map(|&t| {
+            if (1..=n).contains(&t) {
+                Ok(UnitId::new((t - 1) as u16))
+            } else {
+                Err(anyhow::anyhow!("--highlight {t}: no unit has that tag (1..={n})"))
+            }
+        })
+        .collect::<Result<_>>()?;
+    let mut frames = FrameBuilder::new();
+    let scene = match a.mode {
+        FrameKind::Vlm => frames.vlm(env.world(), team, size.0, size.1, &VlmOptions { highlights }),
+        FrameKind::Screen => frames.screen(env.world(), team, size.0, size.1),
+        FrameKind::Minimap => frames.minimap(env.world(), team, size.0, size.1),
+    };
+    let img = CpuBackend::new().render(&scene);
+    img.save(&a.out).with_context(|| format!("{}: cannot write the PNG", a.out.display()))?;
+    writeln!(
+        out,
+        "{}: {}x{} {:?} of {} at loop {} for {}",
+        a.out.display(),
+        size.0,
+        size.1,
+        a.mode,
+        scenario.name,
+        env.world().tick(),
+        team
+    )?;
+    Ok(())
+}

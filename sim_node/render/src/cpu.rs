@@ -1,0 +1,211 @@
+//! The CPU back end: a small scanline rasteriser over an RGB buffer. Used on every machine,
+//! and as the reference the GPU back end is compared against.
+
+use crate::scene::{Prim, Rgba, Scene};
+use image::RgbImage;
+
+/// Draws scenes on the CPU.
+#[derive(Debug, Default, Clone)]
+pub struct CpuBackend {
+    xs: Vec<u32>,
+    ys: Vec<u32>,
+}
+
+fn blend(dst: &mut [u8], c: Rgba) {
+    let a = c.0[3] as u32;
+    if a == 255 {
+        dst.copy_from_slice(&c.0[..3]);
+        return;
+    }
+    for (d, &s) in dst.iter_mut().zip(&c.0[..3]) {
+        *d = ((s as u32 * a + *d as u32 * (255 - a) + 127) / 255) as u8;
+    }
+}
+
+/// Pixel index range whose centres lie in [lo, hi).
+fn span(lo: f32, hi: f32, max: u32) -> std::ops::Range<u32> {
+    let a = (lo - 0.5).ceil().max(0.0) as u32;
+    let b = ((hi - 0.5).ceil().max(0.0) as u32).min(max);
+    a.min(b)..b
+}
+
+impl CpuBackend {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Renders a scene into a new image.
+    pub fn render(&mut self, scene: &Scene) -> RgbImage {
+        let mut img = RgbImage::new(scene.width, scene.height);
+        self.render_into(scene, &mut img);
+        img
+    }
+
+    /// Renders into an existing image of the scene's size (reused across frames).
+    pub fn render_into(&mut self, scene: &Scene, img: &mut RgbImage) {
+        if img.dimensions() != (scene.width, scene.height) {
+            *img = RgbImage::new(scene.width, scene.height);
+        }
+        let bg = scene.background.0;
+        for px in img.as_mut().chunks_exact_mut(3) {
+            px.copy_from_slice(&bg[..3]);
+        }
+        for p in &scene.prims {
+            self.draw(p, img);
+        }
+    }
+
+    fn draw(&mut self, p: &Prim, img: &mut RgbImage) {
+        let (w, h) = img.dimensions();
+        let stride = w as usize * 3;
+        let buf: &mut [u8] = img.as_mut();
+        let mut put = |x: u32, y: u32, c: Rgba| {
+            let i = y as usize * stride + x as usize * 3;
+            blend(&mut buf[i..i + 3], c);
+        };
+        match p {
+            Prim::Cells { rect, cols, rows, colors } => {
+                let (cw, ch) = ((rect[2] - rect[0]) / *cols as f32, (rect[3] - rect[1]) / *rows as f32);
+                let xr = span(rect[0], rect[2], w);
+                let yr = span(rect[1], rect[3], h);
+                self.xs.clear();
+                self.xs.extend(xr.clone().map(|x| (((x as f32 + 0.5 - rect[0]) / cw) as u32).min(cols - 1)));
+                self.ys.clear();
+                self.ys.extend(yr.clone().map(|y| (((y as f32 + 0.5 - rect[1]) / ch) as u32).min(rows - 1)));
+                for (y, &cy) in yr.zip(self.ys.iter()) {
+                    let row = &colors[(cy * cols) as usize..((cy + 1) * cols) as usize];
+                    for (x, &cx) in xr.clone().zip(self.xs.iter()) {
+                        let c = row[cx as usize];
+                        if c.0[3] != 0 {
+                            put(x, y, c);
+                        }
+                    }
+                }
+            }
+            Prim::Rect { rect, color } => {
+                for y in span(rect[1], rect[3], h) {
+                    for x in span(rect[0], rect[2], w) {
+                        put(x, y, *color);
+                    }
+                }
+            }
+            Prim::Disc { c, r, color } => {
+                let r2 = r * r;
+                for y in span(c[1] - r, c[1] + r + 1.0, h) {
+                    let dy = y as f32 + 0.5 - c[1];
+                    for x in span(c[0] - r, c[0] + r + 1.0, w) {
+                        let dx = x as f32 + 0.5 - c[0];
+                        if dx * dx + dy * dy <= r2 {
+                            put(x, y, *color);
+                        }
+                    }
+                }
+            }
+            Prim::Ring { c, r, width, color } => {
+                let (ri, ro) = ((r - width * 0.5).max(0.0), r + width * 0.5);
+                let (ri2, ro2) = (ri * ri, ro * ro);
+                for y in span(c[1] - ro, c[1] + ro + 1.0, h) {
+                    let dy = y as f32 + 0.5 - c[1];
+                    for x in span(c[0] - ro, c[0] + ro + 1.0, w) {
+                        let dx = x as f32 + 0.5 - c[0];
+                        let d2 = dx * dx + dy * dy;
+                        if d2 <= ro2 && d2 >= ri2 {
+                            put(x, y, *color);
+                        }
+                    }
+                }
+            }
+            Prim::Polygon { points, color } => fill_convex(points, *color, w, h, &mut put),
+            Prim::Line { a, b, width, color } => {
+                let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+                let len = (dx * dx + dy * dy).sqrt();
+                if len < 1e-6 {
+                    return;
+                }
+                let (nx, ny) = (-dy / len * width * 0.5, dx / len * width * 0.5);
+                let quad = [[a[0] + nx, a[1] + ny], [b[0] + nx, b[1] + ny], [b[0] - nx, b[1] - ny], [a[0] - nx, a[1] - ny]];
+                fill_convex(&quad, *color, w, h, &mut put);
+            }
+            Prim::Text { pos, scale, text, color } => {
+                let s = (*scale).max(1) as f32;
+                for (k, ch) in text.chars().enumerate() {
+                    let glyph = crate::font::glyph(ch);
+                    for (row, bits) in glyph.iter().enumerate() {
+                        for col in 0..8 {
+                            if bits & (1 << col) == 0 {
+                                continue;
+                            }
+                            let x0 = pos[0] + (k * 8 + col) as f32 * s;
+                            let y0 = pos[1] + row as f32 * s;
+                            for y in span(y0, y0 + s, h) {
+                                for x in span(x0, x0 + s, w) {
+                                    put(x, y, *color);
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Fills a convex polygon: a pixel is in when its centre is on the inner side of every edge.
+fn fill_convex(points: &[[f32; 2]], color: Rgba, w: u32, h: u32, put: &mut impl FnMut(u32, u32, Rgba)) {
+    if points.len() < 3 {
+        return;
+    }
+    let (mut x0, mut y0, mut x1, mut y1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
+    for p in points {
+        x0 = x0.min(p[0]);
+        y0 = y0.min(p[1]);
+        x1 = x1.max(p[0]);
+        y1 = y1.max(p[1]);
+    }
+    // Signed area decides which side is inside.
+    let area: f32 = (0..points.len())
+        .map(|i| {
+            let (a, b) = (points[i], points[(i + 1) % points.len()]);
+            a[0] * b[1] - a[1] * b[0]
+        })
+        .sum();
+    let sign = if area >= 0.0 { 1.0 } else { -1.0 };
+    for y in span(y0, y1 + 1.0, h) {
+        let py = y as f32 + 0.5;
+        for x in span(x0, x1 + 1.0, w) {
+            let px = x as f32 + 0.5;
+            let inside = (0..points.len()).all(|i| {
+                let (a, b) = (points[i], points[(i + 1) % points.len()]);
+                sign * ((b[0] - a[0]) * (py - a[1]) - (b[1] - a[1]) * (px - a[0])) >= 0.0
+            });
+            if inside {
+                put(x, y, color);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn disc_covers_pixel_centres_within_radius() {
+        let mut s = Scene::new(10, 10, Rgba::rgb(0, 0, 0));
+        s.push(Prim::Disc { c: [5.0, 5.0], r: 2.0, color: Rgba::rgb(255, 0, 0) });
+        let img = CpuBackend::new().render(&s);
+        assert_eq!(img.get_pixel(5, 5).0, [255, 0, 0]);
+        assert_eq!(img.get_pixel(4, 4).0, [255, 0, 0]);
+        assert_eq!(img.get_pixel(7, 5).0, [0, 0, 0], "centre (7.5, 5.5) is 2.55 away");
+        assert_eq!(img.get_pixel(0, 0).0, [0, 0, 0]);
+    }
+
+    #[test]
+    fn alpha_blends_and_rgb_order_is_kept() {
+        let mut s = Scene::new(2, 1, Rgba::rgb(0, 0, 200));
+        s.push(Prim::Rect { rect: [0.0, 0.0, 1.0, 1.0], color: Rgba::rgb(255, 0, 0).with_alpha(128) });
+        let img = CpuBackend::new().render(&s);
+        assert_eq!(img.get_pixel(0, 0).0, [128, 0, 100]);
+        assert_eq!(img.get_pixel(1, 0).0, [0, 0, 200]);
+    }
+}

@@ -1,0 +1,308 @@
+//! Building display lists from the world as one team sees it: the MARL screen and minimap,
+//! and the annotated VLM screenshot. Fog of war: enemies a team does not see are not drawn,
+//! and cells it does not see are darkened.
+
+use crate::font::text_width;
+use crate::scene::{Prim, Rgba, Scene};
+use crate::style::{self, Shape};
+use avacraft_engine::{GRID, Team, Unit, UnitId, Vec2, World, grid_cell_center, loops_to_seconds};
+use std::collections::BTreeSet;
+use std::sync::Arc;
+
+/// Map-to-pixel transform for the playable area fitted into a pixel rectangle.
+#[derive(Clone, Copy, Debug)]
+pub struct MapView {
+    left: f32,
+    top: f32,
+    scale: f32,
+    ox: f32,
+    oy: f32,
+}
+
+impl MapView {
+    /// Fits the playable area into `area` = [x0, y0, x1, y1] keeping its aspect ratio, centred.
+    pub fn fit(world: &World, area: [f32; 4]) -> Self {
+        let p = world.terrain().playable();
+        let scale = ((area[2] - area[0]) / p.width()).min((area[3] - area[1]) / p.height());
+        let ox = area[0] + ((area[2] - area[0]) - p.width() * scale) * 0.5;
+        let oy = area[1] + ((area[3] - area[1]) - p.height() * scale) * 0.5;
+        Self { left: p.left, top: p.top, scale, ox, oy }
+    }
+    pub fn px(&self, p: Vec2) -> [f32; 2] {
+        [self.ox + (p.x - self.left) * self.scale, self.oy + (self.top - p.y) * self.scale]
+    }
+    pub fn scale(&self) -> f32 {
+        self.scale
+    }
+}
+
+/// What to annotate on a VLM screenshot beyond the defaults.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct VlmOptions {
+    /// Units an agent marked as priority: drawn with a highlight ring.
+    pub highlights: Vec<UnitId>,
+}
+
+/// Caches what does not change within an episode (terrain colours).
+#[derive(Debug, Default)]
+pub struct FrameBuilder {
+    terrain: Option<(usize, Arc<Vec<Rgba>>, [u32; 4])>,
+    fog: Vec<bool>,
+}
+
+impl FrameBuilder {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Terrain colours of the cells covering the playable area, top row first, and that
+    /// cell range [x0, y0, x1, y1) in map cells.
+    fn terrain(&mut self, world: &World) -> (Arc<Vec<Rgba>>, [u32; 4]) {
+        let t = world.terrain();
+        let key = t as *const _ as usize;
+        if let Some((k, colors, range)) = &self.terrain
+            && *k == key
+        {
+            return (Arc::clone(colors), *range);
+        }
+        let p = t.playable();
+        let range =
+            [p.left.floor() as u32, p.bottom.floor() as u32, (p.right.ceil() as u32).min(t.width()), (p.top.ceil() as u32).min(t.height())];
+        let mut colors = Vec::new();
+        for cy in (range[1]..range[3]).rev() {
+            for cx in range[0]..range[2] {
+                colors.push(style::terrain(t.cell_height((cy * t.width() + cx) as usize)));
+            }
+        }
+        let colors = Arc::new(colors);
+        self.terrain = Some((key, Arc::clone(&colors), range));
+        (colors, range)
+    }
+
+    fn ground(&mut self, world: &World, team: Team, view: &MapView, scene: &mut Scene) {
+        let (colors, r) = self.terrain(world);
+        let t = world.terrain();
+        let rect = {
+            let a = view.px(Vec2::new(r[0] as f32, r[3] as f32));
+            let b = view.px(Vec2::new(r[2] as f32, r[1] as f32));
+            [a[0], a[1], b[0], b[1]]
+        };
+        let (cols, rows) = (r[2] - r[0], r[3] - r[1]);
+        scene.push(Prim::Cells { rect, cols, rows, colors });
+        world.cell_visibility(team, &mut self.fog);
+        if self.fog.iter().all(|&v| v) {
+            return;
+        }
+        let mut shade = Vec::with_capacity((cols * rows) as usize);
+        for cy in (r[1]..r[3]).rev() {
+            for cx in r[0]..r[2] {
+                let seen = self.fog[(cy * t.width() + cx) as usize];
+                shade.push(if seen { Rgba([0, 0, 0, 0]) } else { style::FOG });
+            }
+        }
+        scene.push(Prim::Cells { rect, cols, rows, colors: Arc::new(shade) });
+    }
+
+    /// The MARL screen: terrain, fog, units as coloured shapes (no text).
+    pub fn screen(&mut self, world: &World, team: Team, width: u32, height: u32) -> Scene {
+        let mut scene = Scene::new(width, height, style::BACKGROUND);
+        let view = MapView::fit(world, [0.0, 0.0, width as f32, height as f32]);
+        self.ground(world, team, &view, &mut scene);
+        units(world, team, &view, &mut scene, 1.0, false);
+        scene
+    }
+
+    /// The minimap: the whole playable area, units as dots of at least one pixel.
+    pub fn minimap(&mut self, world: &World, team: Team, width: u32, height: u32) -> Scene {
+        let mut scene = Scene::new(width, height, style::BACKGROUND);
+        let view = MapView::fit(world, [0.0, 0.0, width as f32, height as f32]);
+        self.ground(world, team, &view, &mut scene);
+        for u in seen_units(world, team) {
+            let c = view.px(u.pos);
+            let r = (u.radius() * view.scale()).max(0.75);
+            scene.push(Prim::Disc { c, r, color: side(u, team) });
+        }
+        scene
+    }
+
+    /// The VLM screenshot: terrain levels, fog, the labelled 10x10 movement grid, units by
+    /// shape and side with tag numbers and HP/shield/energy bars, attack and heal lines,
+    /// splash, highlight rings, and a legend panel.
+    pub fn vlm(&mut self, world: &World, team: Team, width: u32, height: u32, opts: &VlmOptions) -> Scene {
+        let mut scene = Scene::new(width, height, style::BACKGROUND);
+        let label = ((height as f32 / 1080.0) * 3.0).round().max(1.0) as u32;
+        let margin = 8.0 * label as f32 + 12.0;
+        let panel = (width as f32 * 0.22).min(width as f32 - height as f32).max(0.0);
+        let view = MapView::fit(world, [margin, margin, width as f32 - panel - 4.0, height as f32 - 4.0]);
+        self.ground(world, team, &view, &mut scene);
+        grid(world, &view, &mut scene, label);
+        shots(world, team, &view, &mut scene);
+        units(world, team, &view, &mut scene, 1.0, true);
+        for id in &opts.highlights {
+            if let Some(u) = world.unit(*id).filter(|u| u.alive && world.visible_to(team, u.id)) {
+                let r = u.radius() * view.scale() + 6.0 * label as f32;
+                scene.push(Prim::Ring { c: view.px(u.pos), r, width: 2.0 * label as f32, color: style::HIGHLIGHT });
+            }
+        }
+        legend(world, team, &mut scene, width as f32 - panel, label);
+        scene
+    }
+}
+
+fn side(u: &Unit, team: Team) -> Rgba {
+    if u.team == team { style::OWN } else { style::ENEMY }
+}
+
+/// Living units the team may see, in drawing order: small ground units, then units that
+/// stride over them (Colossus), then air units.
+fn seen_units(world: &World, team: Team) -> impl Iterator<Item = &Unit> {
+    let layer = |l: u8| {
+        world.units().iter().filter(move |u| {
+            let ul = if u.flying() {
+                2
+            } else if u.spec().cliff_walk {
+                1
+            } else {
+                0
+            };
+            u.alive && ul == l && world.visible_to(team, u.id)
+        })
+    };
+    layer(0).chain(layer(1)).chain(layer(2))
+}
+
+fn shape_prims(s: Shape, c: [f32; 2], r: f32, color: Rgba, scene: &mut Scene) {
+    match s {
+        Shape::Disc => scene.push(Prim::Disc { c, r, color }),
+        Shape::Star => {
+            scene.push(Prim::Polygon { points: style::polygon(Shape::Triangle, c, r), color });
+            scene.push(Prim::Polygon { points: style::polygon(Shape::InvTriangle, c, r), color });
+        }
+        Shape::Cross => {
+            let (a, b) = (r, r * 0.38);
+            scene.push(Prim::Rect { rect: [c[0] - a, c[1] - b, c[0] + a, c[1] + b], color });
+            scene.push(Prim::Rect { rect: [c[0] - b, c[1] - a, c[0] + b, c[1] + a], color });
+        }
+        _ => scene.push(Prim::Polygon { points: style::polygon(s, c, r), color }),
+    }
+}
+
+fn units(world: &World, team: Team, view: &MapView, scene: &mut Scene, min_r: f32, annotate: bool) {
+    for u in seen_units(world, team) {
+        let c = view.px(u.pos);
+        let r = (u.radius() * view.scale()).max(min_r);
+        let s = style::shape(u.kind);
+        if u.flying() || u.spec().cliff_walk {
+            // Air units and Colossi: a white outline sets them apart from the ground layer.
+            shape_prims(s, c, r + (r * 0.15).max(1.0), style::AIR_OUTLINE, scene);
+        }
+        shape_prims(s, c, r, side(u, team), scene);
+        if annotate {
+            bars(u, c, r, scene);
+            let tag = format!("{} {}", u.id.tag(), style::code(u.kind));
+            let scale = ((r / 6.0).round() as u32).clamp(1, 3);
+            let pos = [c[0] - text_width(&tag, scale) * 0.5, c[1] + r + 3.0];
+            outlined_text(scene, pos, scale, &tag, style::LABEL);
+        }
+    }
+}
+
+fn bars(u: &Unit, c: [f32; 2], r: f32, scene: &mut Scene) {
+    let w = (2.4 * r).max(12.0);
+    let h = (r * 0.3).clamp(2.0, 7.0);
+    let mut y = c[1] - r - 3.0 - h;
+    let mut bar = |frac: f32, color: Rgba, y: f32| {
+        scene.push(Prim::Rect { rect: [c[0] - w * 0.5, y, c[0] + w * 0.5, y + h], color: style::BAR_BACK });
+        scene.push(Prim::Rect { rect: [c[0] - w * 0.5, y, c[0] - w * 0.5 + w * frac.clamp(0.0, 1.0), y + h], color });
+    };
+    let hp = u.hp_fraction();
+    bar(hp, if hp > 0.35 { style::HP_OK } else { style::HP_LOW }, y);
+    if u.max_shield > 0.0 {
+        y -= h + 1.0;
+        bar(u.shield / u.max_shield, style::SHIELD, y);
+    }
+    if u.spec().energy_max > 0.0 {
+        y -= h + 1.0;
+        bar(u.energy / u.spec().energy_max, style::ENERGY, y);
+    }
+}
+
+fn outlined_text(scene: &mut Scene, pos: [f32; 2], scale: u32, text: &str, color: Rgba) {
+    let s = scale as f32;
+    for (dx, dy) in [(-s, 0.0), (s, 0.0), (0.0, -s), (0.0, s)] {
+        scene.push(Prim::Text { pos: [pos[0] + dx, pos[1] + dy], scale, text: text.to_owned(), color: style::SHADOW });
+    }
+    scene.push(Prim::Text { pos, scale, text: text.to_owned(), color });
+}
+
+/// The 10x10 grid of the grid-move action, labelled 1..10 along the top (x) and left (y),
+/// exactly where `grid_cell_center` puts each cell.
+fn grid(world: &World, view: &MapView, scene: &mut Scene, label: u32) {
+    let p = world.terrain().playable();
+    let tl = view.px(Vec2::new(p.left, p.top));
+    let br = view.px(Vec2::new(p.right, p.bottom));
+    for k in 0..=GRID {
+        let f = k as f32 / GRID as f32;
+        let x = tl[0] + (br[0] - tl[0]) * f;
+        let y = tl[1] + (br[1] - tl[1]) * f;
+        scene.push(Prim::Line { a: [x, tl[1]], b: [x, br[1]], width: 1.0, color: style::GRID });
+        scene.push(Prim::Line { a: [tl[0], y], b: [br[0], y], width: 1.0, color: style::GRID });
+    }
+    for k in 1..=GRID {
+        let c = view.px(grid_cell_center(p, k, k));
+        let t = k.to_string();
+        let tw = text_width(&t, label);
+        let th = 8.0 * label as f32;
+        scene.push(Prim::Text { pos: [c[0] - tw * 0.5, tl[1] - th - 4.0], scale: label, text: t.clone(), color: style::LABEL });
+        scene.push(Prim::Text { pos: [tl[0] - tw - 4.0, c[1] - th * 0.5], scale: label, text: t, color: style::LABEL });
+    }
+}
+
+/// Attack and heal lines of the last loop, and splash rings, where the team sees both ends.
+fn shots(world: &World, team: Team, view: &MapView, scene: &mut Scene) {
+    for s in world.shots() {
+        let (Some(a), Some(t)) = (world.unit(s.from), world.unit(s.to)) else { continue };
+        if !world.visible_to(team, a.id) && a.team != team {
+            continue;
+        }
+        let heal = a.team == t.team;
+        let color = if heal { style::HEAL_LINE } else { style::ATTACK_LINE };
+        scene.push(Prim::Line { a: view.px(a.pos), b: view.px(s.impact), width: 2.0, color });
+        let splash = a.spec().weapons.iter().find_map(|w| match w.splash {
+            avacraft_engine::Splash::Radial { zones, .. } => zones.last().map(|z| z.0),
+            avacraft_engine::Splash::Line { half_length, .. } => Some(half_length),
+            _ => None,
+        });
+        if let Some(r) = splash.filter(|_| !heal) {
+            scene.push(Prim::Ring { c: view.px(s.impact), r: r * view.scale(), width: 2.0, color: style::SPLASH });
+        }
+    }
+}
+
+fn legend(world: &World, team: Team, scene: &mut Scene, x: f32, label: u32) {
+    if x >= scene.width as f32 - 40.0 {
+        return;
+    }
+    let s = (label.max(2) - 1).max(1);
+    let line = 8.0 * s as f32 + 8.0;
+    let mut y = 12.0;
+    let text = |scene: &mut Scene, t: String, color: Rgba, y: &mut f32| {
+        scene.push(Prim::Text { pos: [x + 10.0, *y], scale: s, text: t, color });
+        *y += line;
+    };
+    text(scene, format!("{team}, loop {} ({:.1} s)", world.tick(), loops_to_seconds(world.tick())), style::LABEL, &mut y);
+    text(scene, "blue: yours   red: enemy".into(), style::LABEL, &mut y);
+    text(scene, "dark cells: fog of war".into(), style::LABEL, &mut y);
+    text(scene, "outlined: air, Colossus".into(), style::LABEL, &mut y);
+    text(scene, "labels: tag and type".into(), style::LABEL, &mut y);
+    text(scene, "bars: HP, shields, energy".into(), style::LABEL, &mut y);
+    y += line * 0.5;
+    let kinds: BTreeSet<&str> =
+        world.units().iter().filter(|u| u.alive && world.visible_to(team, u.id)).map(|u| u.kind.base().name()).collect();
+    for k in kinds {
+        let kind = k.parse().unwrap_or(avacraft_engine::UnitKind::Marine);
+        let r = 4.0 * s as f32;
+        shape_prims(style::shape(kind), [x + 10.0 + r, y + r], r, style::LABEL, scene);
+        text(scene, format!("   {} {k}", style::code(kind)), style::LABEL, &mut y);
+    }
+}

@@ -1,0 +1,22 @@
+//! Pixels for AVACraft: the MARL screen and minimap, the annotated screenshot for VLM agents,
+//! and episode videos, all obeying the viewing team's fog of war.
+//!
+//! Frames are built as a back-end-independent display list ([`Scene`]) and drawn by a back
+//! end; [`CpuBackend`] runs everywhere.
+
+mod cpu;
+mod font;
+mod frame;
+mod modes;
+mod scene;
+mod style;
+mod video;
+
+pub use cpu::CpuBackend;
+pub use frame::{FrameBuilder, MapView, VlmOptions};
+pub use modes::{ObsMode, Observation, Observer, RenderConfig};
+pub use scene::{Prim, Rgba, Scene};
+pub use style::{ENEMY, OWN};
+pub use video::{VideoError, VideoWriter};
+
+pub use image::RgbImage;
