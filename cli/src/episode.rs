@@ -43,6 +43,12 @@ pub struct EpisodeArgs {
     /// Print team 1's text observation to stderr every N steps (0: never).
     #[arg(long, default_value_t = 0)]
     pub trace_every: u32,
+    /// Record the first episode as an animated GIF (team 1's annotated view), e.g. out.gif.
+    #[arg(long)]
+    pub video: Option<std::path::PathBuf>,
+    /// Frame size of the video, WIDTHxHEIGHT.
+    #[arg(long, default_value = "960x540")]
+    pub video_size: String,
     /// Print a JSON result instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -122,6 +128,20 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
     bar.set_message(scenario.name.clone());
     let mut env = Env::new(Arc::clone(&scenario), cfg, a.seed);
     let mut records = Vec::new();
+    let mut video = match &a.video {
+        Some(path) => {
+            let (w, h) = crate::render::parse_size(&a.video_size)?;
+            // One step (8 loops, 0.36 s of game time) per frame, played at about 2x.
+            Some((
+                avacraft_render::VideoWriter::create(path, 180)?,
+                avacraft_render::FrameBuilder::new(),
+                avacraft_render::CpuBackend::new(),
+                w,
+                h,
+            ))
+        }
+        None => None,
+    };
     for k in 0..a.episodes as u64 {
         let seed = a.seed.wrapping_add(k);
         env.reset(seed);
@@ -132,6 +152,12 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
             p.reset(&scenario, Team::Two);
         }
         while !env.done() {
+            if k == 0
+                && let Some((writer, frames, cpu, w, h)) = video.as_mut()
+            {
+                let scene = frames.vlm(env.world(), Team::One, *w, *h, &avacraft_render::VlmOptions::default());
+                writer.push(&cpu.render(&scene))?;
+            }
             if a.trace_every > 0 && env.steps().is_multiple_of(a.trace_every) {
                 eprintln!("--- seed {seed}, step {}\n{}", env.steps(), avacraft_engine::describe(&env, Team::One));
             }
@@ -142,6 +168,12 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
                 env.submit(Team::Two, &acts);
             }
             env.step();
+        }
+        if k == 0
+            && let Some((writer, frames, cpu, w, h)) = video.as_mut()
+        {
+            let scene = frames.vlm(env.world(), Team::One, *w, *h, &avacraft_render::VlmOptions::default());
+            writer.push(&cpu.render(&scene))?;
         }
         let w = env.world();
         records.push(EpisodeRecord {
@@ -158,6 +190,9 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
         bar.inc(1);
     }
     bar.finish_and_clear();
+    if let (Some((writer, ..)), Some(path)) = (&video, &a.video) {
+        eprintln!("{}: {} frames of the first episode", path.display(), writer.frames());
+    }
     let is = |o: Outcome| move |r: &EpisodeRecord| if r.result == o { 1.0 } else { 0.0 };
     let summary = Summary {
         scenario: scenario.name.clone(),

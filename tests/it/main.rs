@@ -8,6 +8,7 @@ mod helpers;
 mod movement;
 mod observations;
 mod properties;
+mod render;
 mod scenarios;
 mod smac;
 mod splash;

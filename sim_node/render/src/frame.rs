@@ -108,7 +108,7 @@ impl FrameBuilder {
         let mut scene = Scene::new(width, height, style::BACKGROUND);
         let view = MapView::fit(world, [0.0, 0.0, width as f32, height as f32]);
         self.ground(world, team, &view, &mut scene);
-        units(world, team, &view, &mut scene, 1.0, false);
+        units(world, team, &view, &mut scene, 1.0, None);
         scene
     }
 
@@ -132,19 +132,24 @@ impl FrameBuilder {
         let mut scene = Scene::new(width, height, style::BACKGROUND);
         let label = ((height as f32 / 1080.0) * 3.0).round().max(1.0) as u32;
         let margin = 8.0 * label as f32 + 12.0;
+        // A legend panel on the right when a 22-character line fits there.
+        let legend_scale = (label.max(2) - 1).max(1);
         let panel = (width as f32 * 0.22).min(width as f32 - height as f32).max(0.0);
+        let panel = if panel >= 22.0 * 8.0 * legend_scale as f32 + 20.0 { panel } else { 0.0 };
         let view = MapView::fit(world, [margin, margin, width as f32 - panel - 4.0, height as f32 - 4.0]);
         self.ground(world, team, &view, &mut scene);
         grid(world, &view, &mut scene, label);
         shots(world, team, &view, &mut scene);
-        units(world, team, &view, &mut scene, 1.0, true);
+        units(world, team, &view, &mut scene, 1.0, Some((label.max(2) - 1).max(1)));
         for id in &opts.highlights {
             if let Some(u) = world.unit(*id).filter(|u| u.alive && world.visible_to(team, u.id)) {
                 let r = u.radius() * view.scale() + 6.0 * label as f32;
                 scene.push(Prim::Ring { c: view.px(u.pos), r, width: 2.0 * label as f32, color: style::HIGHLIGHT });
             }
         }
-        legend(world, team, &mut scene, width as f32 - panel, label);
+        if panel > 0.0 {
+            legend(world, team, &mut scene, width as f32 - panel, legend_scale);
+        }
         scene
     }
 }
@@ -187,7 +192,9 @@ fn shape_prims(s: Shape, c: [f32; 2], r: f32, color: Rgba, scene: &mut Scene) {
     }
 }
 
-fn units(world: &World, team: Team, view: &MapView, scene: &mut Scene, min_r: f32, annotate: bool) {
+fn units(world: &World, team: Team, view: &MapView, scene: &mut Scene, min_r: f32, label: Option<u32>) {
+    let mut labels: Vec<([f32; 2], u32, String)> = Vec::new();
+    let mut taken: Vec<[f32; 4]> = Vec::new();
     for u in seen_units(world, team) {
         let c = view.px(u.pos);
         let r = (u.radius() * view.scale()).max(min_r);
@@ -197,13 +204,34 @@ fn units(world: &World, team: Team, view: &MapView, scene: &mut Scene, min_r: f3
             shape_prims(s, c, r + (r * 0.15).max(1.0), style::AIR_OUTLINE, scene);
         }
         shape_prims(s, c, r, side(u, team), scene);
-        if annotate {
+        if let Some(scale) = label {
             bars(u, c, r, scene);
             let tag = format!("{} {}", u.id.tag(), style::code(u.kind));
-            let scale = ((r / 6.0).round() as u32).clamp(1, 3);
-            let pos = [c[0] - text_width(&tag, scale) * 0.5, c[1] + r + 3.0];
-            outlined_text(scene, pos, scale, &tag, style::LABEL);
+            let (tw, th) = (text_width(&tag, scale), 8.0 * scale as f32);
+            // Greedy placement: below, right, left, above, then further out; the first spot
+            // not covering an earlier label wins, so crowds stay readable.
+            let gap = 3.0;
+            let spots = [
+                [c[0] - tw * 0.5, c[1] + r + gap],
+                [c[0] + r + gap, c[1] - th * 0.5],
+                [c[0] - r - gap - tw, c[1] - th * 0.5],
+                [c[0] - tw * 0.5, c[1] - r - gap - th - 3.0 * th * 0.5],
+                [c[0] - tw * 0.5, c[1] + r + gap + th + 2.0],
+                [c[0] + r + gap, c[1] + th],
+                [c[0] - r - gap - tw, c[1] + th],
+            ];
+            let overlaps = |p: [f32; 2]| {
+                let b = [p[0] - 1.0, p[1] - 1.0, p[0] + tw + 1.0, p[1] + th + 1.0];
+                taken.iter().any(|t| b[0] < t[2] && t[0] < b[2] && b[1] < t[3] && t[1] < b[3])
+            };
+            let pos = spots.iter().copied().find(|&p| !overlaps(p)).unwrap_or(spots[0]);
+            taken.push([pos[0], pos[1], pos[0] + tw, pos[1] + th]);
+            labels.push((pos, scale, tag));
         }
+    }
+    // Labels last, above every unit.
+    for (pos, scale, tag) in labels {
+        outlined_text(scene, pos, scale, &tag, style::LABEL);
     }
 }
 
@@ -279,23 +307,21 @@ fn shots(world: &World, team: Team, view: &MapView, scene: &mut Scene) {
     }
 }
 
-fn legend(world: &World, team: Team, scene: &mut Scene, x: f32, label: u32) {
-    if x >= scene.width as f32 - 40.0 {
-        return;
-    }
-    let s = (label.max(2) - 1).max(1);
+fn legend(world: &World, team: Team, scene: &mut Scene, x: f32, s: u32) {
     let line = 8.0 * s as f32 + 8.0;
     let mut y = 12.0;
     let text = |scene: &mut Scene, t: String, color: Rgba, y: &mut f32| {
         scene.push(Prim::Text { pos: [x + 10.0, *y], scale: s, text: t, color });
         *y += line;
     };
-    text(scene, format!("{team}, loop {} ({:.1} s)", world.tick(), loops_to_seconds(world.tick())), style::LABEL, &mut y);
-    text(scene, "blue: yours   red: enemy".into(), style::LABEL, &mut y);
-    text(scene, "dark cells: fog of war".into(), style::LABEL, &mut y);
-    text(scene, "outlined: air, Colossus".into(), style::LABEL, &mut y);
-    text(scene, "labels: tag and type".into(), style::LABEL, &mut y);
-    text(scene, "bars: HP, shields, energy".into(), style::LABEL, &mut y);
+    text(scene, format!("{team}, loop {}", world.tick()), style::LABEL, &mut y);
+    text(scene, format!("game time {:.1} s", loops_to_seconds(world.tick())), style::LABEL, &mut y);
+    text(scene, "blue: yours".into(), style::OWN, &mut y);
+    text(scene, "red: enemy".into(), style::ENEMY, &mut y);
+    text(scene, "dark: fog of war".into(), style::LABEL, &mut y);
+    text(scene, "outline: air/Colossus".into(), style::LABEL, &mut y);
+    text(scene, "label: tag + type".into(), style::LABEL, &mut y);
+    text(scene, "bars: HP/shield/energy".into(), style::LABEL, &mut y);
     y += line * 0.5;
     let kinds: BTreeSet<&str> =
         world.units().iter().filter(|u| u.alive && world.visible_to(team, u.id)).map(|u| u.kind.base().name()).collect();

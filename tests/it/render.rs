@@ -1,0 +1,173 @@
+//! Rendering: team colours, fog of war, grid labels, determinism, golden images, modes.
+
+use crate::helpers::*;
+use avacraft_engine::{Env, EnvConfig, Rules, Team, Vec2, builtin, grid_cell_center};
+use avacraft_render::{CpuBackend, ENEMY, FrameBuilder, MapView, OWN, ObsMode, Observation, Observer, RenderConfig, RgbImage, VlmOptions};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+fn rgb(c: avacraft_render::Rgba) -> [u8; 3] {
+    [c.0[0], c.0[1], c.0[2]]
+}
+
+fn count(img: &RgbImage, c: [u8; 3]) -> usize {
+    img.pixels().filter(|p| p.0 == c).count()
+}
+
+#[test]
+fn units_carry_their_sides_colour_and_unseen_enemies_are_not_drawn() {
+    // Own Marine near the centre, one enemy within sight, one far outside it.
+    let s = load(&arena("pvp", &[("Marine", 1, 16.0, 16.0), ("Marine", 2, 20.0, 16.0), ("Zergling", 2, 30.0, 30.0)]));
+    let env = Env::new(Arc::clone(&s), passive(), 0);
+    let mut fog_env = Env::new(
+        s,
+        EnvConfig { rules: Rules { full_vision: false, cooldown_jitter: false, auto_acquire: [false; 2] }, ..EnvConfig::default() },
+        0,
+    );
+    fog_env.step();
+    let (w, h) = (320, 240);
+    let mut fb = FrameBuilder::new();
+    let img = CpuBackend::new().render(&fb.screen(fog_env.world(), Team::One, w, h));
+    let view = MapView::fit(fog_env.world(), [0.0, 0.0, w as f32, h as f32]);
+    let px = |p: Vec2| {
+        let q = view.px(p);
+        img.get_pixel(q[0] as u32, q[1] as u32).0
+    };
+    assert_eq!(px(Vec2::new(16.0, 16.0)), rgb(OWN), "own unit is blue");
+    assert_eq!(px(Vec2::new(20.0, 16.0)), rgb(ENEMY), "seen enemy is red");
+    assert_ne!(px(Vec2::new(30.0, 30.0)), rgb(ENEMY), "the Zergling outside sight is not drawn");
+    // From team 2's side the colours swap.
+    let img2 = CpuBackend::new().render(&fb.screen(fog_env.world(), Team::Two, w, h));
+    let q = view.px(Vec2::new(20.0, 16.0));
+    assert_eq!(img2.get_pixel(q[0] as u32, q[1] as u32).0, rgb(OWN));
+    // With full vision the far Zergling is drawn.
+    let full = CpuBackend::new().render(&fb.screen(env.world(), Team::One, w, h));
+    let q = view.px(Vec2::new(30.0, 30.0));
+    assert_eq!(full.get_pixel(q[0] as u32, q[1] as u32).0, rgb(ENEMY));
+}
+
+#[test]
+fn fog_darkens_unseen_ground() {
+    let s = load(&arena("pvp", &[("Marine", 1, 6.0, 16.0), ("Marine", 2, 28.0, 28.0)]));
+    let env = Env::new(s, EnvConfig::default(), 0);
+    let img = CpuBackend::new().render(&FrameBuilder::new().screen(env.world(), Team::One, 320, 320));
+    let view = MapView::fit(env.world(), [0.0, 0.0, 320.0, 320.0]);
+    let lum = |p: Vec2| {
+        let q = view.px(p);
+        img.get_pixel(q[0] as u32, q[1] as u32).0.iter().map(|&c| c as u32).sum::<u32>()
+    };
+    // Same flat ground, one cell in sight, one far away.
+    assert!(
+        lum(Vec2::new(10.5, 16.5)) > lum(Vec2::new(25.5, 16.5)) + 60,
+        "{} vs {}",
+        lum(Vec2::new(10.5, 16.5)),
+        lum(Vec2::new(25.5, 16.5))
+    );
+}
+
+#[test]
+fn grid_labels_sit_over_their_cells() {
+    // The label k above the grid is centred on the column of cell (k, *), exactly where the
+    // grid-move action sends a unit.
+    let s = Arc::new(builtin("mixed_units").expect("scenario"));
+    let env = Env::new(s, EnvConfig::default(), 0);
+    let (w, h) = (1920, 1080);
+    let img = CpuBackend::new().render(&FrameBuilder::new().vlm(env.world(), Team::One, w, h, &VlmOptions::default()));
+    let playable = env.world().terrain().playable();
+    // Find the map's pixel frame the way the renderer fits it.
+    let margin = 8.0 * 3.0 + 12.0;
+    let panel = (w as f32 * 0.22).min(w as f32 - h as f32);
+    let view = MapView::fit(env.world(), [margin, margin, w as f32 - panel - 4.0, h as f32 - 4.0]);
+    let top = view.px(Vec2::new(playable.left, playable.top))[1];
+    for k in 1..=10u8 {
+        let cx = view.px(grid_cell_center(playable, k, 1))[0];
+        // Label pixels (light grey) in a band above the map, within half a cell of the centre.
+        let half = view.scale() * playable.width() / 20.0;
+        let mut hit = 0;
+        for y in (top - 30.0).max(0.0) as u32..top as u32 {
+            for x in (cx - half) as u32..(cx + half) as u32 {
+                if img.get_pixel(x, y).0 == [235, 235, 235] {
+                    hit += 1;
+                }
+            }
+        }
+        assert!(hit > 10, "label {k} not found above its column at x = {cx}");
+    }
+}
+
+#[test]
+fn rendering_is_deterministic_and_png_round_trips() {
+    let s = Arc::new(builtin("2s3z").expect("scenario"));
+    let mut env = Env::new(s, EnvConfig::default(), 3);
+    for _ in 0..15 {
+        env.step();
+    }
+    let mut a = Observer::new(ObsMode::Vlm, RenderConfig::default().with_vlm(640, 360));
+    let mut b = Observer::new(ObsMode::Vlm, RenderConfig::default().with_vlm(640, 360));
+    let (x, y) = (a.screenshot(&env, Team::One, &VlmOptions::default()), b.screenshot(&env, Team::One, &VlmOptions::default()));
+    assert_eq!(x.as_raw(), y.as_raw());
+    let mut png = Vec::new();
+    x.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).expect("png");
+    let back = image::load_from_memory(&png).expect("decode").to_rgb8();
+    assert_eq!(back.as_raw(), x.as_raw());
+}
+
+#[test]
+fn observation_modes() {
+    let s = Arc::new(builtin("3m").expect("scenario"));
+    let env = Env::new(s, EnvConfig::default(), 0);
+    let cfg = RenderConfig::default().with_vlm(480, 270);
+    match Observer::new(ObsMode::Rgb, cfg).observe(&env, Team::One, &VlmOptions::default()) {
+        Observation::Rgb { screen, minimap } => {
+            assert_eq!((screen.dimensions(), minimap.dimensions()), ((160, 120), (32, 32)));
+        }
+        other => panic!("{other:?}"),
+    }
+    match Observer::new(ObsMode::Hybrid, cfg).observe(&env, Team::One, &VlmOptions::default()) {
+        Observation::Hybrid { screen, features, .. } => {
+            assert_eq!(screen.dimensions(), (160, 120));
+            assert_eq!((features.obs.len(), features.obs[0].len(), features.state.len()), (3, 30, 48));
+        }
+        other => panic!("{other:?}"),
+    }
+    match Observer::new(ObsMode::Vlm, cfg).observe(&env, Team::One, &VlmOptions::default()) {
+        Observation::Vlm { screenshot, text, units } => {
+            assert_eq!(screenshot.dimensions(), (480, 270));
+            assert!(text.contains("Objective"));
+            assert!(units.iter().any(|u| u.name == "Marine_1"));
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(matches!(Observer::new(ObsMode::Features, cfg).observe(&env, Team::One, &VlmOptions::default()), Observation::Features(_)));
+}
+
+/// Compares with a stored image: at most 0.5% of pixels may differ by more than 8 per channel.
+/// `AVACRAFT_BLESS=1` rewrites the stored images after an intended change.
+fn golden(name: &str, img: &RgbImage) {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("golden").join(format!("{name}.png"));
+    if std::env::var_os("AVACRAFT_BLESS").is_some() {
+        img.save(&path).expect("bless");
+        return;
+    }
+    let want = image::open(&path).unwrap_or_else(|e| panic!("{}: {e} (run with AVACRAFT_BLESS=1 to create it)", path.display())).to_rgb8();
+    assert_eq!(want.dimensions(), img.dimensions(), "{name}");
+    let bad = want.pixels().zip(img.pixels()).filter(|(a, b)| a.0.iter().zip(b.0.iter()).any(|(x, y)| x.abs_diff(*y) > 8)).count();
+    let total = (img.width() * img.height()) as usize;
+    assert!(bad * 200 <= total, "{name}: {bad} of {total} pixels differ from {}", path.display());
+}
+
+#[test]
+fn golden_frames() {
+    for (name, scenario, steps) in [("3m_start", "3m", 0), ("2s3z_fight", "2s3z", 20), ("2c_vs_64zg_fight", "2c_vs_64zg", 25)] {
+        let s = Arc::new(builtin(scenario).expect("scenario"));
+        let mut env = Env::new(s, exact(), 1);
+        for _ in 0..steps {
+            env.step();
+        }
+        let mut fb = FrameBuilder::new();
+        let mut cpu = CpuBackend::new();
+        golden(&format!("{name}_screen"), &cpu.render(&fb.screen(env.world(), Team::One, 160, 120)));
+        golden(&format!("{name}_minimap"), &cpu.render(&fb.minimap(env.world(), Team::One, 32, 32)));
+        golden(&format!("{name}_vlm"), &cpu.render(&fb.vlm(env.world(), Team::One, 640, 360, &VlmOptions::default())));
+    }
+}
