@@ -10,10 +10,6 @@ fn rgb(c: avacraft_render::Rgba) -> [u8; 3] {
     [c.0[0], c.0[1], c.0[2]]
 }
 
-fn count(img: &RgbImage, c: [u8; 3]) -> usize {
-    img.pixels().filter(|p| p.0 == c).count()
-}
-
 #[test]
 fn units_carry_their_sides_colour_and_unseen_enemies_are_not_drawn() {
     // Own Marine near the centre, one enemy within sight, one far outside it.
