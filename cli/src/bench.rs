@@ -35,6 +35,83 @@ pub struct BenchArgs {
     /// Marines, N = 4 .. 256, on a flat 96x96 map), to check near-linear scaling.
     #[arg(long)]
     scaling: bool,
+    /// Instead: measure rendering (screen + minimap pairs per second at 160x120 and 32x32,
+    /// milliseconds per 1920x1080 VLM screenshot) on each available back end.
+    #[arg(long)]
+    render: bool,
+}
+
+/// One back end's rendering speed on one scenario.
+#[derive(Serialize, Debug, Clone)]
+pub struct RenderRow {
+    pub backend: String,
+    pub scenario: String,
+    pub screen_minimap_pairs_per_sec: f64,
+    pub ms_per_vlm_1080p: f64,
+    /// pairs per second / 5,000 (the goal on one core).
+    pub pairs_ratio_to_goal: f64,
+    /// 20 ms / ms per screenshot (above 1 meets the goal).
+    pub vlm_ratio_to_goal: f64,
+}
+
+fn run_render(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
+    use avacraft_render::{CpuBackend, FrameBuilder, VlmOptions};
+    let mut rows = Vec::new();
+    for name in &a.scenario {
+        let scenario = Arc::new(Scenario::load(name)?);
+        let mut env = Env::new(Arc::clone(&scenario), EnvConfig::default(), 1);
+        for _ in 0..20 {
+            env.step();
+        }
+        let mut frames = FrameBuilder::new();
+        let mut cpu = CpuBackend::new();
+        let (mut screen, mut mini) = (avacraft_render::RgbImage::new(160, 120), avacraft_render::RgbImage::new(32, 32));
+        let start = Instant::now();
+        let mut pairs = 0u64;
+        while start.elapsed().as_secs_f64() < a.seconds / 2.0 {
+            cpu.render_into(&frames.screen(env.world(), Team::One, 160, 120), &mut screen);
+            cpu.render_into(&frames.minimap(env.world(), Team::One, 32, 32), &mut mini);
+            pairs += 1;
+        }
+        let pps = pairs as f64 / start.elapsed().as_secs_f64();
+        let mut shot = avacraft_render::RgbImage::new(1920, 1080);
+        let start = Instant::now();
+        let mut shots = 0u64;
+        while start.elapsed().as_secs_f64() < a.seconds / 2.0 || shots < 3 {
+            cpu.render_into(&frames.vlm(env.world(), Team::One, 1920, 1080, &VlmOptions::default()), &mut shot);
+            shots += 1;
+        }
+        let ms = start.elapsed().as_secs_f64() * 1000.0 / shots as f64;
+        std::hint::black_box((&screen, &mini, &shot));
+        rows.push(RenderRow {
+            backend: "cpu".into(),
+            scenario: scenario.name.clone(),
+            screen_minimap_pairs_per_sec: pps,
+            ms_per_vlm_1080p: ms,
+            pairs_ratio_to_goal: pps / 5000.0,
+            vlm_ratio_to_goal: 20.0 / ms,
+        });
+    }
+    if a.json {
+        writeln!(out, "{}", serde_json::to_string_pretty(&rows)?)?;
+        return Ok(());
+    }
+    let mut t = comfy_table::Table::new();
+    t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header([
+        "back end", "scenario", "screen+minimap/s", "ratio to 5k goal", "ms per 1080p VLM", "ratio to 20 ms goal",
+    ]);
+    for r in &rows {
+        t.add_row([
+            r.backend.clone(),
+            r.scenario.clone(),
+            format!("{:.0}", r.screen_minimap_pairs_per_sec),
+            format!("{:.2}", r.pairs_ratio_to_goal),
+            format!("{:.2}", r.ms_per_vlm_1080p),
+            format!("{:.2}", r.vlm_ratio_to_goal),
+        ]);
+    }
+    writeln!(out, "{t}")?;
+    Ok(())
 }
 
 /// One army size of the scaling measurement.
@@ -190,6 +267,9 @@ fn bytes_per_env(scenario: &Arc<Scenario>, alloc: &'static StatsAlloc<System>) -
 pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc<System>>) -> Result<()> {
     if a.scaling {
         return run_scaling(a, out);
+    }
+    if a.render {
+        return run_render(a, out);
     }
     let names: Vec<String> =
         if a.scenario.iter().any(|s| s == "all") { builtin_names().map(str::to_owned).collect() } else { a.scenario.clone() };

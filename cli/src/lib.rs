@@ -6,7 +6,7 @@ mod episode;
 mod info;
 mod render;
 
-pub use bench::{BenchRow, ScalingRow};
+pub use bench::{BenchRow, RenderRow, ScalingRow};
 pub use episode::{EpisodeRecord, Report, Summary};
 
 use clap::{Parser, Subcommand};

@@ -167,3 +167,47 @@ fn golden_frames() {
         golden(&format!("{name}_vlm"), &cpu.render(&fb.vlm(env.world(), Team::One, 640, 360, &VlmOptions::default())));
     }
 }
+
+/// The wgpu back end, or why there is none. `.ci/run` installs Mesa's CPU Vulkan driver and
+/// sets AVACRAFT_REQUIRE_GPU=1, so in CI a missing adapter fails instead of passing silently.
+fn gpu() -> Option<avacraft_render::WgpuBackend> {
+    match avacraft_render::WgpuBackend::new() {
+        Ok(b) => Some(b),
+        Err(e) if std::env::var_os("AVACRAFT_REQUIRE_GPU").is_some() => panic!("AVACRAFT_REQUIRE_GPU is set but {e}"),
+        Err(e) => {
+            eprintln!("wgpu back end not tested here: {e}");
+            None
+        }
+    }
+}
+
+#[test]
+fn cpu_and_wgpu_back_ends_agree() {
+    let Some(mut gpu) = gpu() else { return };
+    for (scenario, steps) in [("3m", 12), ("2c_vs_64zg", 25), ("mixed_units", 30)] {
+        let s = Arc::new(builtin(scenario).expect("scenario"));
+        let mut env = Env::new(s, exact(), 1);
+        for _ in 0..steps {
+            env.step();
+        }
+        let mut fb = FrameBuilder::new();
+        let highlight = VlmOptions { highlights: vec![avacraft_engine::UnitId::new(0)] };
+        for scene in [
+            fb.screen(env.world(), Team::One, 160, 120),
+            fb.minimap(env.world(), Team::One, 32, 32),
+            fb.vlm(env.world(), Team::One, 1280, 720, &highlight),
+        ] {
+            let a = CpuBackend::new().render(&scene);
+            let b = gpu.render(&scene).expect("gpu frame");
+            assert_eq!(a.dimensions(), b.dimensions());
+            let differ = a.pixels().zip(b.pixels()).filter(|(x, y)| x.0.iter().zip(y.0.iter()).any(|(p, q)| p.abs_diff(*q) > 2)).count();
+            let total = (a.width() * a.height()) as usize;
+            assert!(differ * 500 <= total, "{scenario} {}x{}: {differ} of {total} pixels differ", a.width(), a.height());
+        }
+    }
+    // Deterministic on the GPU too.
+    let s = Arc::new(builtin("2s3z").expect("scenario"));
+    let env = Env::new(s, exact(), 1);
+    let scene = FrameBuilder::new().vlm(env.world(), Team::One, 640, 360, &VlmOptions::default());
+    assert_eq!(gpu.render(&scene).expect("frame").as_raw(), gpu.render(&scene).expect("frame").as_raw());
+}

@@ -236,12 +236,13 @@ fn units(world: &World, team: Team, view: &MapView, scene: &mut Scene, min_r: f3
 }
 
 fn bars(u: &Unit, c: [f32; 2], r: f32, scene: &mut Scene) {
-    let w = (2.4 * r).max(12.0);
-    let h = (r * 0.3).clamp(2.0, 7.0);
-    let mut y = c[1] - r - 3.0 - h;
+    let w = ((1.2 * r).max(6.0).round()) * 2.0;
+    let h = (r * 0.3).clamp(2.0, 7.0).round();
+    let c = [c[0].round(), c[1].round()];
+    let mut y = c[1] - r.round() - 3.0 - h;
     let mut bar = |frac: f32, color: Rgba, y: f32| {
         scene.push(Prim::Rect { rect: [c[0] - w * 0.5, y, c[0] + w * 0.5, y + h], color: style::BAR_BACK });
-        scene.push(Prim::Rect { rect: [c[0] - w * 0.5, y, c[0] - w * 0.5 + w * frac.clamp(0.0, 1.0), y + h], color });
+        scene.push(Prim::Rect { rect: [c[0] - w * 0.5, y, (c[0] - w * 0.5 + w * frac.clamp(0.0, 1.0)).round(), y + h], color });
     };
     let hp = u.hp_fraction();
     bar(hp, if hp > 0.35 { style::HP_OK } else { style::HP_LOW }, y);
@@ -257,6 +258,7 @@ fn bars(u: &Unit, c: [f32; 2], r: f32, scene: &mut Scene) {
 
 fn outlined_text(scene: &mut Scene, pos: [f32; 2], scale: u32, text: &str, color: Rgba) {
     let s = scale as f32;
+    let pos = [pos[0].round(), pos[1].round()];
     for (dx, dy) in [(-s, 0.0), (s, 0.0), (0.0, -s), (0.0, s)] {
         scene.push(Prim::Text { pos: [pos[0] + dx, pos[1] + dy], scale, text: text.to_owned(), color: style::SHADOW });
     }
@@ -271,8 +273,9 @@ fn grid(world: &World, view: &MapView, scene: &mut Scene, label: u32) {
     let br = view.px(Vec2::new(p.right, p.bottom));
     for k in 0..=GRID {
         let f = k as f32 / GRID as f32;
-        let x = tl[0] + (br[0] - tl[0]) * f;
-        let y = tl[1] + (br[1] - tl[1]) * f;
+        // One-pixel lines run through pixel centres, so no back end has to break a tie.
+        let x = (tl[0] + (br[0] - tl[0]) * f).floor() + 0.5;
+        let y = (tl[1] + (br[1] - tl[1]) * f).floor() + 0.5;
         scene.push(Prim::Line { a: [x, tl[1]], b: [x, br[1]], width: 1.0, color: style::GRID });
         scene.push(Prim::Line { a: [tl[0], y], b: [br[0], y], width: 1.0, color: style::GRID });
     }
@@ -281,8 +284,9 @@ fn grid(world: &World, view: &MapView, scene: &mut Scene, label: u32) {
         let t = k.to_string();
         let tw = text_width(&t, label);
         let th = 8.0 * label as f32;
-        scene.push(Prim::Text { pos: [c[0] - tw * 0.5, tl[1] - th - 4.0], scale: label, text: t.clone(), color: style::LABEL });
-        scene.push(Prim::Text { pos: [tl[0] - tw - 4.0, c[1] - th * 0.5], scale: label, text: t, color: style::LABEL });
+        let (a, b) = ([c[0] - tw * 0.5, tl[1] - th - 4.0], [tl[0] - tw - 4.0, c[1] - th * 0.5]);
+        scene.push(Prim::Text { pos: [a[0].round(), a[1].round()], scale: label, text: t.clone(), color: style::LABEL });
+        scene.push(Prim::Text { pos: [b[0].round(), b[1].round()], scale: label, text: t, color: style::LABEL });
     }
 }
 
@@ -311,7 +315,7 @@ fn legend(world: &World, team: Team, scene: &mut Scene, x: f32, s: u32) {
     let line = 8.0 * s as f32 + 8.0;
     let mut y = 12.0;
     let text = |scene: &mut Scene, t: String, color: Rgba, y: &mut f32| {
-        scene.push(Prim::Text { pos: [x + 10.0, *y], scale: s, text: t, color });
+        scene.push(Prim::Text { pos: [(x + 10.0).round(), y.round()], scale: s, text: t, color });
         *y += line;
     };
     text(scene, format!("{team}, loop {}", world.tick()), style::LABEL, &mut y);

@@ -2,11 +2,13 @@
 //! and episode videos, all obeying the viewing team's fog of war.
 //!
 //! Frames are built as a back-end-independent display list ([`Scene`]) and drawn by a back
-//! end; [`CpuBackend`] runs everywhere.
+//! end: [`CpuBackend`] runs everywhere, [`WgpuBackend`] wherever wgpu finds an adapter
+//! (Mesa's lavapipe gives one on machines without a GPU).
 
 mod cpu;
 mod font;
 mod frame;
+mod gpu;
 mod modes;
 mod scene;
 mod style;
@@ -14,6 +16,7 @@ mod video;
 
 pub use cpu::CpuBackend;
 pub use frame::{FrameBuilder, MapView, VlmOptions};
+pub use gpu::{GpuError, WgpuBackend};
 pub use modes::{ObsMode, Observation, Observer, RenderConfig};
 pub use scene::{Prim, Rgba, Scene};
 pub use style::{ENEMY, OWN};

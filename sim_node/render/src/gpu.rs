@@ -1,0 +1,321 @@
+//! The wgpu back end: draws the same display list as the CPU back end, headless, into an
+//! offscreen texture and reads it back. On machines without a GPU, Mesa's lavapipe gives a
+//! CPU Vulkan device. Circles are exact (a signed-distance test per pixel centre), so both
+//! back ends cover the same pixels; blending may differ by one level of rounding.
+
+use crate::scene::{Prim, Rgba, Scene};
+use image::RgbImage;
+
+const SHADER: &str = r#"
+struct VsIn {
+    @location(0) pos: vec2<f32>,
+    @location(1) color: vec4<f32>,
+    @location(2) circle: vec4<f32>,
+};
+struct VsOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) color: vec4<f32>,
+    @location(1) circle: vec4<f32>,
+};
+@vertex fn vs(v: VsIn) -> VsOut {
+    var o: VsOut;
+    o.clip = vec4<f32>(v.pos, 0.0, 1.0);
+    o.color = v.color;
+    o.circle = v.circle;
+    return o;
+}
+@fragment fn fs(i: VsOut) -> @location(0) vec4<f32> {
+    // circle = (centre x, centre y, outer radius, inner radius) in pixels; z < 0: not a circle.
+    if (i.circle.z >= 0.0) {
+        let d = i.clip.xy - i.circle.xy;
+        let d2 = dot(d, d);
+        if (d2 > i.circle.z * i.circle.z || d2 < i.circle.w * i.circle.w) {
+            discard;
+        }
+    }
+    return i.color;
+}
+"#;
+
+/// 2 position + 4 colour + 4 circle floats.
+const FLOATS_PER_VERTEX: usize = 10;
+
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error("no GPU adapter (on Debian, `apt-get install mesa-vulkan-drivers` gives a CPU one): {0}")]
+    NoAdapter(String),
+    #[error("the GPU device could not be created: {0}")]
+    Device(String),
+    #[error("reading the frame back failed: {0}")]
+    Readback(String),
+}
+
+/// Draws scenes with wgpu.
+pub struct WgpuBackend {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    pipeline: wgpu::RenderPipeline,
+    adapter_name: String,
+    vertices: Vec<f32>,
+    target: Option<(u32, u32, wgpu::Texture, wgpu::Buffer)>,
+    vbuf: Option<wgpu::Buffer>,
+}
+
+impl std::fmt::Debug for WgpuBackend {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("WgpuBackend").field("adapter", &self.adapter_name).finish()
+    }
+}
+
+impl WgpuBackend {
+    /// Opens the first adapter wgpu finds (any kind, including CPU ones).
+    pub fn new() -> Result<Self, GpuError> {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter: false,
+            compatible_surface: None,
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
+        let info = adapter.get_info();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("avacraft-render"),
+            required_limits: wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits()),
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::Device(e.to_string()))?;
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("scene"),
+            source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("scene"),
+            bind_group_layouts: &[],
+            immediate_size: 0,
+        });
+        let attributes = [
+            wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x2, offset: 0, shader_location: 0 },
+            wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x4, offset: 8, shader_location: 1 },
+            wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x4, offset: 24, shader_location: 2 },
+        ];
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("scene"),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: (FLOATS_PER_VERTEX * 4) as u64,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &attributes,
+                })],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: None,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: wgpu::TextureFormat::Rgba8Unorm,
+                    blend: Some(wgpu::BlendState::ALPHA_BLENDING),
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        Ok(Self {
+            device,
+            queue,
+            pipeline,
+            adapter_name: format!("{} ({:?})", info.name, info.device_type),
+            vertices: Vec::new(),
+            target: None,
+            vbuf: None,
+        })
+    }
+
+    /// The adapter in use, e.g. "llvmpipe (LLVM 15.0.6, 256 bits) (Cpu)".
+    pub fn adapter(&self) -> &str {
+        &self.adapter_name
+    }
+
+    pub fn render(&mut self, scene: &Scene) -> Result<RgbImage, GpuError> {
+        let (w, h) = (scene.width, scene.height);
+        self.vertices.clear();
+        tessellate(scene, &mut self.vertices);
+        let padded = (w * 4).div_ceil(256) * 256;
+        if self.target.as_ref().is_none_or(|t| t.0 != w || t.1 != h) {
+            let texture = self.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("frame"),
+                size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba8Unorm,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[],
+            });
+            let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("readback"),
+                size: padded as u64 * h as u64,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            });
+            self.target = Some((w, h, texture, readback));
+        }
+        let bytes: Vec<u8> = self.vertices.iter().flat_map(|f| f.to_le_bytes()).collect();
+        let need = (bytes.len() as u64).max(4);
+        if self.vbuf.as_ref().is_none_or(|b| b.size() < need) {
+            self.vbuf = Some(self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("vertices"),
+                size: need.next_power_of_two(),
+                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }));
+        }
+        let (Some((_, _, texture, readback)), Some(vbuf)) = (&self.target, &self.vbuf) else {
+            return Err(GpuError::Readback("buffers missing".into()));
+        };
+        if !bytes.is_empty() {
+            self.queue.write_buffer(vbuf, 0, &bytes);
+        }
+        let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+        let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+        {
+            let bg = scene.background.0;
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("scene"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color {
+                            r: bg[0] as f64 / 255.0,
+                            g: bg[1] as f64 / 255.0,
+                            b: bg[2] as f64 / 255.0,
+                            a: 1.0,
+                        }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            if !bytes.is_empty() {
+                pass.set_pipeline(&self.pipeline);
+                pass.set_vertex_buffer(0, vbuf.slice(..bytes.len() as u64));
+                pass.draw(0..(self.vertices.len() / FLOATS_PER_VERTEX) as u32, 0..1);
+            }
+        }
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo { texture, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
+            wgpu::TexelCopyBufferInfo {
+                buffer: readback,
+                layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded), rows_per_image: Some(h) },
+            },
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        );
+        let index = self.queue.submit([encoder.finish()]);
+        readback.map_async(wgpu::MapMode::Read, .., |_| {});
+        self.device
+            .poll(wgpu::PollType::Wait { submission_index: Some(index), timeout: None })
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        let mut img = RgbImage::new(w, h);
+        {
+            let data = readback.get_mapped_range(..).map_err(|e| GpuError::Readback(e.to_string()))?;
+            for (y, row) in img.as_mut().chunks_exact_mut(w as usize * 3).enumerate() {
+                let src = &data[y * padded as usize..y * padded as usize + w as usize * 4];
+                for (d, s) in row.chunks_exact_mut(3).zip(src.chunks_exact(4)) {
+                    d.copy_from_slice(&s[..3]);
+                }
+            }
+        }
+        readback.unmap();
+        Ok(img)
+    }
+}
+
+const NO_CIRCLE: [f32; 4] = [0.0, 0.0, -1.0, 0.0];
+
+/// Appends one triangle: pixel coordinates to clip space, colour, circle test.
+fn tri(out: &mut Vec<f32>, size: [f32; 2], pts: [[f32; 2]; 3], c: Rgba, circle: [f32; 4]) {
+    let col = [c.0[0] as f32 / 255.0, c.0[1] as f32 / 255.0, c.0[2] as f32 / 255.0, c.0[3] as f32 / 255.0];
+    for p in pts {
+        out.extend_from_slice(&[p[0] / size[0] * 2.0 - 1.0, 1.0 - p[1] / size[1] * 2.0]);
+        out.extend_from_slice(&col);
+        out.extend_from_slice(&circle);
+    }
+}
+
+fn quad(out: &mut Vec<f32>, size: [f32; 2], r: [f32; 4], c: Rgba, circle: [f32; 4]) {
+    tri(out, size, [[r[0], r[1]], [r[2], r[1]], [r[2], r[3]]], c, circle);
+    tri(out, size, [[r[0], r[1]], [r[2], r[3]], [r[0], r[3]]], c, circle);
+}
+
+/// Triangles for every primitive, in order.
+fn tessellate(scene: &Scene, out: &mut Vec<f32>) {
+    let size = [scene.width as f32, scene.height as f32];
+    let quad = |out: &mut Vec<f32>, r: [f32; 4], c: Rgba, circle: [f32; 4]| quad(out, size, r, c, circle);
+    for p in &scene.prims {
+        match p {
+            Prim::Cells { rect, cols, rows, colors } => {
+                let (cw, ch) = ((rect[2] - rect[0]) / *cols as f32, (rect[3] - rect[1]) / *rows as f32);
+                for cy in 0..*rows {
+                    for cx in 0..*cols {
+                        let c = colors[(cy * cols + cx) as usize];
+                        if c.0[3] == 0 {
+                            continue;
+                        }
+                        let x0 = rect[0] + cx as f32 * cw;
+                        let y0 = rect[1] + cy as f32 * ch;
+                        quad(out, [x0, y0, x0 + cw, y0 + ch], c, NO_CIRCLE);
+                    }
+                }
+            }
+            Prim::Rect { rect, color } => quad(out, *rect, *color, NO_CIRCLE),
+            Prim::Disc { c, r, color } => quad(out, [c[0] - r - 1.0, c[1] - r - 1.0, c[0] + r + 1.0, c[1] + r + 1.0], *color, [c[0], c[1], *r, 0.0]),
+            Prim::Ring { c, r, width, color } => {
+                let (ri, ro) = ((r - width * 0.5).max(0.0), r + width * 0.5);
+                quad(out, [c[0] - ro - 1.0, c[1] - ro - 1.0, c[0] + ro + 1.0, c[1] + ro + 1.0], *color, [c[0], c[1], ro, ri]);
+            }
+            Prim::Polygon { points, color } => {
+                for k in 1..points.len().saturating_sub(1) {
+                    tri(out, size, [points[0], points[k], points[k + 1]], *color, NO_CIRCLE);
+                }
+            }
+            Prim::Line { a, b, width, color } => {
+                let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+                let len = (dx * dx + dy * dy).sqrt();
+                if len < 1e-6 {
+                    continue;
+                }
+                let (nx, ny) = (-dy / len * width * 0.5, dx / len * width * 0.5);
+                let q = [[a[0] + nx, a[1] + ny], [b[0] + nx, b[1] + ny], [b[0] - nx, b[1] - ny], [a[0] - nx, a[1] - ny]];
+                tri(out, size, [q[0], q[1], q[2]], *color, NO_CIRCLE);
+                tri(out, size, [q[0], q[2], q[3]], *color, NO_CIRCLE);
+            }
+            Prim::Text { pos, scale, text, color } => {
+                let s = (*scale).max(1) as f32;
+                for (k, ch) in text.chars().enumerate() {
+                    for (row, bits) in crate::font::glyph(ch).iter().enumerate() {
+                        for col in 0..8 {
+                            if bits & (1 << col) != 0 {
+                                let x0 = pos[0] + (k * 8 + col) as f32 * s;
+                                let y0 = pos[1] + row as f32 * s;
+                                quad(out, [x0, y0, x0 + s, y0 + s], *color, NO_CIRCLE);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
