@@ -54,6 +54,17 @@ pub struct RenderRow {
     pub vlm_ratio_to_goal: f64,
 }
 
+fn render_row(backend: &str, scenario: &str, pps: f64, ms: f64) -> RenderRow {
+    RenderRow {
+        backend: backend.to_owned(),
+        scenario: scenario.to_owned(),
+        screen_minimap_pairs_per_sec: pps,
+        ms_per_vlm_1080p: ms,
+        pairs_ratio_to_goal: pps / 5000.0,
+        vlm_ratio_to_goal: 20.0 / ms,
+    }
+}
+
 fn run_render(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
     use avacraft_render::{CpuBackend, FrameBuilder, VlmOptions};
     let mut rows = Vec::new();
@@ -66,31 +77,47 @@ fn run_render(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
         let mut frames = FrameBuilder::new();
         let mut cpu = CpuBackend::new();
         let (mut screen, mut mini) = (avacraft_render::RgbImage::new(160, 120), avacraft_render::RgbImage::new(32, 32));
-        let start = Instant::now();
-        let mut pairs = 0u64;
-        while start.elapsed().as_secs_f64() < a.seconds / 2.0 {
+        let timed = |budget: f64, min: u64, f: &mut dyn FnMut()| {
+            let start = Instant::now();
+            let mut n = 0u64;
+            while start.elapsed().as_secs_f64() < budget || n < min {
+                f();
+                n += 1;
+            }
+            (n, start.elapsed().as_secs_f64())
+        };
+        let (pairs, secs) = timed(a.seconds / 4.0, 1, &mut || {
             cpu.render_into(&frames.screen(env.world(), Team::One, 160, 120), &mut screen);
             cpu.render_into(&frames.minimap(env.world(), Team::One, 32, 32), &mut mini);
-            pairs += 1;
-        }
-        let pps = pairs as f64 / start.elapsed().as_secs_f64();
-        let mut shot = avacraft_render::RgbImage::new(1920, 1080);
-        let start = Instant::now();
-        let mut shots = 0u64;
-        while start.elapsed().as_secs_f64() < a.seconds / 2.0 || shots < 3 {
-            cpu.render_into(&frames.vlm(env.world(), Team::One, 1920, 1080, &VlmOptions::default()), &mut shot);
-            shots += 1;
-        }
-        let ms = start.elapsed().as_secs_f64() * 1000.0 / shots as f64;
-        std::hint::black_box((&screen, &mini, &shot));
-        rows.push(RenderRow {
-            backend: "cpu".into(),
-            scenario: scenario.name.clone(),
-            screen_minimap_pairs_per_sec: pps,
-            ms_per_vlm_1080p: ms,
-            pairs_ratio_to_goal: pps / 5000.0,
-            vlm_ratio_to_goal: 20.0 / ms,
         });
+        let mut shot = avacraft_render::RgbImage::new(1920, 1080);
+        let (shots, shot_secs) = timed(a.seconds / 4.0, 3, &mut || {
+            cpu.render_into(&frames.vlm(env.world(), Team::One, 1920, 1080, &VlmOptions::default()), &mut shot);
+        });
+        std::hint::black_box((&screen, &mini, &shot));
+        rows.push(render_row("cpu", &scenario.name, pairs as f64 / secs, shot_secs * 1000.0 / shots as f64));
+        match avacraft_render::WgpuBackend::new() {
+            Ok(mut gpu) => {
+                let mut ok = true;
+                let (pairs, secs) = timed(a.seconds / 4.0, 1, &mut || {
+                    ok &= gpu.render(&frames.screen(env.world(), Team::One, 160, 120)).is_ok();
+                    ok &= gpu.render(&frames.minimap(env.world(), Team::One, 32, 32)).is_ok();
+                });
+                let (shots, shot_secs) = timed(a.seconds / 4.0, 3, &mut || {
+                    ok &= gpu.render(&frames.vlm(env.world(), Team::One, 1920, 1080, &VlmOptions::default())).is_ok();
+                });
+                if !ok {
+                    anyhow::bail!("the wgpu back end failed to render a frame");
+                }
+                rows.push(render_row(
+                    &format!("wgpu: {}", gpu.adapter()),
+                    &scenario.name,
+                    pairs as f64 / secs,
+                    shot_secs * 1000.0 / shots as f64,
+                ));
+            }
+            Err(e) => eprintln!("wgpu back end not measured: {e}"),
+        }
     }
     if a.json {
         writeln!(out, "{}", serde_json::to_string_pretty(&rows)?)?;
@@ -98,7 +125,12 @@ fn run_render(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
     }
     let mut t = comfy_table::Table::new();
     t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header([
-        "back end", "scenario", "screen+minimap/s", "ratio to 5k goal", "ms per 1080p VLM", "ratio to 20 ms goal",
+        "back end",
+        "scenario",
+        "screen+minimap/s",
+        "ratio to 5k goal",
+        "ms per 1080p VLM",
+        "ratio to 20 ms goal",
     ]);
     for r in &rows {
         t.add_row([

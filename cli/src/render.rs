@@ -22,6 +22,12 @@ pub enum FrameKind {
     Minimap,
 }
 
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BackendKind {
+    Cpu,
+    Wgpu,
+}
+
 #[derive(Args, Debug)]
 pub struct RenderArgs {
     /// Built-in scenario name or path to a scenario file.
@@ -51,6 +57,9 @@ pub struct RenderArgs {
     opponent: Option<String>,
     #[arg(long)]
     full_vision: bool,
+    /// Back end: cpu (every machine) or wgpu (needs a Vulkan adapter; lavapipe is enough).
+    #[arg(long, value_enum, default_value_t = BackendKind::Cpu)]
+    backend: BackendKind,
     /// Output PNG file.
     #[arg(long)]
     out: PathBuf,
@@ -116,7 +125,10 @@ pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
         FrameKind::Screen => frames.screen(env.world(), team, size.0, size.1),
         FrameKind::Minimap => frames.minimap(env.world(), team, size.0, size.1),
     };
-    let img = CpuBackend::new().render(&scene);
+    let img = match a.backend {
+        BackendKind::Cpu => CpuBackend::new().render(&scene),
+        BackendKind::Wgpu => avacraft_render::WgpuBackend::new()?.render(&scene)?,
+    };
     img.save(&a.out).with_context(|| format!("{}: cannot write the PNG", a.out.display()))?;
     writeln!(
         out,

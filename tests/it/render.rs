@@ -211,3 +211,19 @@ fn cpu_and_wgpu_back_ends_agree() {
     let scene = FrameBuilder::new().vlm(env.world(), Team::One, 640, 360, &VlmOptions::default());
     assert_eq!(gpu.render(&scene).expect("frame").as_raw(), gpu.render(&scene).expect("frame").as_raw());
 }
+
+#[test]
+fn any_back_end_serves_observations() {
+    // Auto picks wgpu where an adapter exists and the CPU elsewhere; both give the frame.
+    let s = Arc::new(builtin("3m").expect("scenario"));
+    let env = Env::new(s, EnvConfig::default(), 0);
+    let backend = avacraft_render::BackendChoice::Auto.open().expect("auto never fails");
+    let name = backend.name();
+    let mut obs = Observer::new(ObsMode::Rgb, RenderConfig::default()).with_backend(backend);
+    let mut cpu = Observer::new(ObsMode::Rgb, RenderConfig::default());
+    let (a, b) = (obs.screen(&env, Team::One), cpu.screen(&env, Team::One));
+    assert_eq!(a.dimensions(), (160, 120), "{name}");
+    let differ = a.pixels().zip(b.pixels()).filter(|(x, y)| x.0.iter().zip(y.0.iter()).any(|(p, q)| p.abs_diff(*q) > 2)).count();
+    assert!(differ * 500 <= 160 * 120, "{name}: {differ} pixels differ from the CPU back end");
+    assert!(avacraft_render::BackendChoice::Cpu.open().expect("cpu").name() == "cpu");
+}

@@ -224,7 +224,15 @@ fn units(world: &World, team: Team, view: &MapView, scene: &mut Scene, min_r: f3
                 let b = [p[0] - 1.0, p[1] - 1.0, p[0] + tw + 1.0, p[1] + th + 1.0];
                 taken.iter().any(|t| b[0] < t[2] && t[0] < b[2] && b[1] < t[3] && t[1] < b[3])
             };
-            let pos = spots.iter().copied().find(|&p| !overlaps(p)).unwrap_or(spots[0]);
+            let (pos, tag, tw) = match spots.iter().copied().find(|&p| !overlaps(p)) {
+                Some(p) => (p, tag, tw),
+                None => {
+                    // Crowded: the bare tag under the unit, the least that must stay readable.
+                    let bare = u.id.tag().to_string();
+                    let w = text_width(&bare, scale);
+                    ([c[0] - w * 0.5, c[1] - th * 0.5], bare, w)
+                }
+            };
             taken.push([pos[0], pos[1], pos[0] + tw, pos[1] + th]);
             labels.push((pos, scale, tag));
         }

@@ -85,10 +85,8 @@ impl WgpuBackend {
             ..Default::default()
         }))
         .map_err(|e| GpuError::Device(e.to_string()))?;
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("scene"),
-            source: wgpu::ShaderSource::Wgsl(SHADER.into()),
-        });
+        let module = device
+            .create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("scene"), source: wgpu::ShaderSource::Wgsl(SHADER.into()) });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("scene"),
             bind_group_layouts: &[],
@@ -281,7 +279,9 @@ fn tessellate(scene: &Scene, out: &mut Vec<f32>) {
                 }
             }
             Prim::Rect { rect, color } => quad(out, *rect, *color, NO_CIRCLE),
-            Prim::Disc { c, r, color } => quad(out, [c[0] - r - 1.0, c[1] - r - 1.0, c[0] + r + 1.0, c[1] + r + 1.0], *color, [c[0], c[1], *r, 0.0]),
+            Prim::Disc { c, r, color } => {
+                quad(out, [c[0] - r - 1.0, c[1] - r - 1.0, c[0] + r + 1.0, c[1] + r + 1.0], *color, [c[0], c[1], *r, 0.0])
+            }
             Prim::Ring { c, r, width, color } => {
                 let (ri, ro) = ((r - width * 0.5).max(0.0), r + width * 0.5);
                 quad(out, [c[0] - ro - 1.0, c[1] - ro - 1.0, c[0] + ro + 1.0, c[1] + ro + 1.0], *color, [c[0], c[1], ro, ri]);

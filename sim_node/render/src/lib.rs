@@ -5,6 +5,7 @@
 //! end: [`CpuBackend`] runs everywhere, [`WgpuBackend`] wherever wgpu finds an adapter
 //! (Mesa's lavapipe gives one on machines without a GPU).
 
+mod backend;
 mod cpu;
 mod font;
 mod frame;
@@ -14,6 +15,7 @@ mod scene;
 mod style;
 mod video;
 
+pub use backend::{Backend, BackendChoice};
 pub use cpu::CpuBackend;
 pub use frame::{FrameBuilder, MapView, VlmOptions};
 pub use gpu::{GpuError, WgpuBackend};

@@ -1,5 +1,6 @@
 //! The paper's four observation modes, selectable per environment.
 
+use crate::backend::Backend;
 use crate::cpu::CpuBackend;
 use crate::frame::{FrameBuilder, VlmOptions};
 use avacraft_engine::{Env, Team, UnitInfo, describe, unit_list};
@@ -77,33 +78,52 @@ pub enum Observation {
     Vlm { screenshot: RgbImage, text: String, units: Vec<UnitInfo> },
 }
 
-/// Produces observations of one mode for an environment, reusing its buffers.
+/// Produces observations of one mode for an environment, reusing its buffers. Frames come
+/// from the CPU back end unless another is given ([`Observer::with_backend`]); a back end
+/// that fails on a frame falls back to the CPU for that frame, so no observation is lost.
 #[derive(Debug)]
 pub struct Observer {
     pub config: RenderConfig,
     pub mode: ObsMode,
     frames: FrameBuilder,
     cpu: CpuBackend,
+    backend: Option<Box<dyn Backend + Send>>,
 }
 
 impl Observer {
     pub fn new(mode: ObsMode, config: RenderConfig) -> Self {
-        Self { config, mode, frames: FrameBuilder::new(), cpu: CpuBackend::new() }
+        Self { config, mode, frames: FrameBuilder::new(), cpu: CpuBackend::new(), backend: None }
+    }
+
+    /// Draws with `backend` (e.g. `BackendChoice::Auto.open()?`).
+    pub fn with_backend(mut self, backend: Box<dyn Backend + Send>) -> Self {
+        self.backend = Some(backend);
+        self
+    }
+
+    fn draw(&mut self, scene: &crate::Scene) -> RgbImage {
+        match self.backend.as_mut().map(|b| b.render(scene)) {
+            Some(Ok(img)) => img,
+            _ => self.cpu.render(scene),
+        }
     }
 
     pub fn screen(&mut self, env: &Env, team: Team) -> RgbImage {
         let (w, h) = self.config.screen();
-        self.cpu.render(&self.frames.screen(env.world(), team, w, h))
+        let scene = self.frames.screen(env.world(), team, w, h);
+        self.draw(&scene)
     }
 
     pub fn minimap(&mut self, env: &Env, team: Team) -> RgbImage {
         let (w, h) = self.config.minimap();
-        self.cpu.render(&self.frames.minimap(env.world(), team, w, h))
+        let scene = self.frames.minimap(env.world(), team, w, h);
+        self.draw(&scene)
     }
 
     pub fn screenshot(&mut self, env: &Env, team: Team, opts: &VlmOptions) -> RgbImage {
         let (w, h) = self.config.vlm();
-        self.cpu.render(&self.frames.vlm(env.world(), team, w, h, opts))
+        let scene = self.frames.vlm(env.world(), team, w, h, opts);
+        self.draw(&scene)
     }
 
     fn features(env: &Env, team: Team) -> Features {
