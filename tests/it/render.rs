@@ -205,6 +205,21 @@ fn cpu_and_wgpu_back_ends_agree() {
             assert!(differ * 500 <= total, "{scenario} {}x{}: {differ} of {total} pixels differ", a.width(), a.height());
         }
     }
+    // A batch (one atlas, one submission) gives the same frames as one by one.
+    let s = Arc::new(builtin("MMM_vs_MMM").expect("scenario"));
+    let mut env = Env::new(s, exact(), 1);
+    let mut fb = FrameBuilder::new();
+    let mut scenes = Vec::new();
+    for _ in 0..5 {
+        env.step();
+        scenes.push(fb.screen(env.world(), Team::One, 160, 120));
+        scenes.push(fb.screen(env.world(), Team::Two, 160, 120));
+    }
+    let batch = gpu.render_batch(&scenes).expect("batch");
+    assert_eq!(batch.len(), scenes.len());
+    for (scene, img) in scenes.iter().zip(&batch) {
+        assert_eq!(gpu.render(scene).expect("frame").as_raw(), img.as_raw());
+    }
     // Deterministic on the GPU too.
     let s = Arc::new(builtin("2s3z").expect("scenario"));
     let env = Env::new(s, exact(), 1);

@@ -56,8 +56,10 @@ pub struct WgpuBackend {
     queue: wgpu::Queue,
     pipeline: wgpu::RenderPipeline,
     adapter_name: String,
-    vertices: Vec<f32>,
-    target: Option<(u32, u32, wgpu::Texture, wgpu::Buffer)>,
+    /// Vertex bytes, little-endian f32s, rebuilt per frame.
+    vertices: Vec<u8>,
+    /// Render targets and readback buffers by size, most recently used last.
+    targets: Vec<(u32, u32, wgpu::Texture, wgpu::Buffer)>,
     vbuf: Option<wgpu::Buffer>,
 }
 
@@ -132,7 +134,7 @@ impl WgpuBackend {
             pipeline,
             adapter_name: format!("{} ({:?})", info.name, info.device_type),
             vertices: Vec::new(),
-            target: None,
+            targets: Vec::new(),
             vbuf: None,
         })
     }
@@ -143,11 +145,55 @@ impl WgpuBackend {
     }
 
     pub fn render(&mut self, scene: &Scene) -> Result<RgbImage, GpuError> {
-        let (w, h) = (scene.width, scene.height);
+        let mut v = self.render_batch(std::slice::from_ref(scene))?;
+        v.pop().ok_or_else(|| GpuError::Readback("no frame".into()))
+    }
+
+    /// Renders many frames of one size in a single submission (an atlas), which is what
+    /// makes small MARL frames cheap on a GPU: one round trip instead of one per frame.
+    pub fn render_batch(&mut self, scenes: &[Scene]) -> Result<Vec<RgbImage>, GpuError> {
+        let Some(first) = scenes.first() else { return Ok(Vec::new()) };
+        let (fw, fh) = (first.width, first.height);
+        if scenes.iter().any(|s| (s.width, s.height) != (fw, fh)) {
+            return scenes.iter().map(|s| self.render(s)).collect();
+        }
+        let max = self.device.limits().max_texture_dimension_2d;
+        let cols = ((max / fw.max(1)).max(1) as usize).min(scenes.len()).min(64);
+        if scenes.len() > cols * (max / fh.max(1)).max(1) as usize {
+            let mut out = Vec::with_capacity(scenes.len());
+            for chunk in scenes.chunks(cols) {
+                out.extend(self.render_batch(chunk)?);
+            }
+            return Ok(out);
+        }
+        let rows = scenes.len().div_ceil(cols);
+        let (w, h) = (fw * cols as u32, fh * rows as u32);
         self.vertices.clear();
-        tessellate(scene, &mut self.vertices);
+        let single = scenes.len() == 1;
+        for (i, scene) in scenes.iter().enumerate() {
+            let off = [((i % cols) as u32 * fw) as f32, ((i / cols) as u32 * fh) as f32];
+            tessellate(scene, Xf { size: [w as f32, h as f32], off }, !single, &mut self.vertices);
+        }
+        let clear = if single { first.background } else { Rgba::rgb(0, 0, 0) };
+        let atlas = self.draw_target(w, h, clear)?;
+        if single {
+            return Ok(vec![atlas]);
+        }
+        let mut out = Vec::with_capacity(scenes.len());
+        for i in 0..scenes.len() {
+            let (ox, oy) = ((i % cols) as u32 * fw, (i / cols) as u32 * fh);
+            out.push(image::imageops::crop_imm(&atlas, ox, oy, fw, fh).to_image());
+        }
+        Ok(out)
+    }
+
+    /// Draws the prepared vertices into a `w` x `h` target and reads it back.
+    fn draw_target(&mut self, w: u32, h: u32, clear: Rgba) -> Result<RgbImage, GpuError> {
         let padded = (w * 4).div_ceil(256) * 256;
-        if self.target.as_ref().is_none_or(|t| t.0 != w || t.1 != h) {
+        if let Some(i) = self.targets.iter().position(|t| t.0 == w && t.1 == h) {
+            let t = self.targets.remove(i);
+            self.targets.push(t);
+        } else {
             let texture = self.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("frame"),
                 size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
@@ -164,9 +210,12 @@ impl WgpuBackend {
                 usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
                 mapped_at_creation: false,
             });
-            self.target = Some((w, h, texture, readback));
+            if self.targets.len() >= 4 {
+                self.targets.remove(0);
+            }
+            self.targets.push((w, h, texture, readback));
         }
-        let bytes: Vec<u8> = self.vertices.iter().flat_map(|f| f.to_le_bytes()).collect();
+        let bytes = &self.vertices;
         let need = (bytes.len() as u64).max(4);
         if self.vbuf.as_ref().is_none_or(|b| b.size() < need) {
             self.vbuf = Some(self.device.create_buffer(&wgpu::BufferDescriptor {
@@ -176,16 +225,15 @@ impl WgpuBackend {
                 mapped_at_creation: false,
             }));
         }
-        let (Some((_, _, texture, readback)), Some(vbuf)) = (&self.target, &self.vbuf) else {
+        let (Some((_, _, texture, readback)), Some(vbuf)) = (self.targets.last(), &self.vbuf) else {
             return Err(GpuError::Readback("buffers missing".into()));
         };
         if !bytes.is_empty() {
-            self.queue.write_buffer(vbuf, 0, &bytes);
+            self.queue.write_buffer(vbuf, 0, bytes);
         }
         let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
         let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
         {
-            let bg = scene.background.0;
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("scene"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -194,9 +242,9 @@ impl WgpuBackend {
                     resolve_target: None,
                     ops: wgpu::Operations {
                         load: wgpu::LoadOp::Clear(wgpu::Color {
-                            r: bg[0] as f64 / 255.0,
-                            g: bg[1] as f64 / 255.0,
-                            b: bg[2] as f64 / 255.0,
+                            r: clear.0[0] as f64 / 255.0,
+                            g: clear.0[1] as f64 / 255.0,
+                            b: clear.0[2] as f64 / 255.0,
                             a: 1.0,
                         }),
                         store: wgpu::StoreOp::Store,
@@ -210,7 +258,7 @@ impl WgpuBackend {
             if !bytes.is_empty() {
                 pass.set_pipeline(&self.pipeline);
                 pass.set_vertex_buffer(0, vbuf.slice(..bytes.len() as u64));
-                pass.draw(0..(self.vertices.len() / FLOATS_PER_VERTEX) as u32, 0..1);
+                pass.draw(0..(bytes.len() / (FLOATS_PER_VERTEX * 4)) as u32, 0..1);
             }
         }
         encoder.copy_texture_to_buffer(
@@ -243,38 +291,58 @@ impl WgpuBackend {
 
 const NO_CIRCLE: [f32; 4] = [0.0, 0.0, -1.0, 0.0];
 
-/// Appends one triangle: pixel coordinates to clip space, colour, circle test.
-fn tri(out: &mut Vec<f32>, size: [f32; 2], pts: [[f32; 2]; 3], c: Rgba, circle: [f32; 4]) {
+/// Where a frame sits in the render target: the target's size and the frame's offset.
+#[derive(Clone, Copy)]
+struct Xf {
+    size: [f32; 2],
+    off: [f32; 2],
+}
+
+/// Appends one triangle: frame pixels to clip space, colour, circle test.
+fn tri(out: &mut Vec<u8>, xf: Xf, pts: [[f32; 2]; 3], c: Rgba, circle: [f32; 4]) {
     let col = [c.0[0] as f32 / 255.0, c.0[1] as f32 / 255.0, c.0[2] as f32 / 255.0, c.0[3] as f32 / 255.0];
+    let circle = if circle[2] >= 0.0 { [circle[0] + xf.off[0], circle[1] + xf.off[1], circle[2], circle[3]] } else { circle };
     for p in pts {
-        out.extend_from_slice(&[p[0] / size[0] * 2.0 - 1.0, 1.0 - p[1] / size[1] * 2.0]);
-        out.extend_from_slice(&col);
-        out.extend_from_slice(&circle);
+        let (x, y) = (p[0] + xf.off[0], p[1] + xf.off[1]);
+        let xy = [x / xf.size[0] * 2.0 - 1.0, 1.0 - y / xf.size[1] * 2.0];
+        for v in xy.iter().chain(&col).chain(&circle) {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
     }
 }
 
-fn quad(out: &mut Vec<f32>, size: [f32; 2], r: [f32; 4], c: Rgba, circle: [f32; 4]) {
-    tri(out, size, [[r[0], r[1]], [r[2], r[1]], [r[2], r[3]]], c, circle);
-    tri(out, size, [[r[0], r[1]], [r[2], r[3]], [r[0], r[3]]], c, circle);
+fn quad(out: &mut Vec<u8>, xf: Xf, r: [f32; 4], c: Rgba, circle: [f32; 4]) {
+    tri(out, xf, [[r[0], r[1]], [r[2], r[1]], [r[2], r[3]]], c, circle);
+    tri(out, xf, [[r[0], r[1]], [r[2], r[3]], [r[0], r[3]]], c, circle);
 }
 
 /// Triangles for every primitive, in order.
-fn tessellate(scene: &Scene, out: &mut Vec<f32>) {
-    let size = [scene.width as f32, scene.height as f32];
-    let quad = |out: &mut Vec<f32>, r: [f32; 4], c: Rgba, circle: [f32; 4]| quad(out, size, r, c, circle);
+fn tessellate(scene: &Scene, xf: Xf, background: bool, out: &mut Vec<u8>) {
+    let size = xf;
+    let quad = |out: &mut Vec<u8>, r: [f32; 4], c: Rgba, circle: [f32; 4]| quad(out, xf, r, c, circle);
+    if background {
+        // Frames sharing a target each get their own background.
+        quad(out, [0.0, 0.0, scene.width as f32, scene.height as f32], scene.background, NO_CIRCLE);
+    }
     for p in &scene.prims {
         match p {
             Prim::Cells { rect, cols, rows, colors } => {
                 let (cw, ch) = ((rect[2] - rect[0]) / *cols as f32, (rect[3] - rect[1]) / *rows as f32);
+                // One quad per horizontal run of equal cells: terrain and fog rows are long runs.
                 for cy in 0..*rows {
-                    for cx in 0..*cols {
-                        let c = colors[(cy * cols + cx) as usize];
-                        if c.0[3] == 0 {
-                            continue;
+                    let row = &colors[(cy * cols) as usize..((cy + 1) * cols) as usize];
+                    let mut cx = 0;
+                    while cx < row.len() {
+                        let c = row[cx];
+                        let mut end = cx + 1;
+                        while end < row.len() && row[end] == c {
+                            end += 1;
                         }
-                        let x0 = rect[0] + cx as f32 * cw;
-                        let y0 = rect[1] + cy as f32 * ch;
-                        quad(out, [x0, y0, x0 + cw, y0 + ch], c, NO_CIRCLE);
+                        if c.0[3] != 0 {
+                            let y0 = rect[1] + cy as f32 * ch;
+                            quad(out, [rect[0] + cx as f32 * cw, y0, rect[0] + end as f32 * cw, y0 + ch], c, NO_CIRCLE);
+                        }
+                        cx = end;
                     }
                 }
             }
@@ -306,12 +374,20 @@ fn tessellate(scene: &Scene, out: &mut Vec<f32>) {
                 let s = (*scale).max(1) as f32;
                 for (k, ch) in text.chars().enumerate() {
                     for (row, bits) in crate::font::glyph(ch).iter().enumerate() {
-                        for col in 0..8 {
-                            if bits & (1 << col) != 0 {
-                                let x0 = pos[0] + (k * 8 + col) as f32 * s;
-                                let y0 = pos[1] + row as f32 * s;
-                                quad(out, [x0, y0, x0 + s, y0 + s], *color, NO_CIRCLE);
+                        // One quad per run of set bits in a glyph row.
+                        let mut col = 0;
+                        while col < 8 {
+                            if bits & (1 << col) == 0 {
+                                col += 1;
+                                continue;
                             }
+                            let start = col;
+                            while col < 8 && bits & (1 << col) != 0 {
+                                col += 1;
+                            }
+                            let x0 = pos[0] + (k * 8 + start) as f32 * s;
+                            let y0 = pos[1] + row as f32 * s;
+                            quad(out, [x0, y0, x0 + (col - start) as f32 * s, y0 + s], *color, NO_CIRCLE);
                         }
                     }
                 }
