@@ -2,11 +2,11 @@
 
 use crate::info::team_of;
 use anyhow::{Context, Result, bail};
-use avacraft_engine::{Env, EnvConfig, Mode, OpponentKind, Outcome, RewardMode, Rules, Scenario, Team, loops_to_seconds, policy};
+use avacraft_engine::{
+    Controllers, Env, EnvConfig, Mode, OpponentKind, Outcome, RewardMode, Rules, Scenario, Team, loops_to_seconds, policy,
+};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use std::io::IsTerminal;
 use std::io::Write;
@@ -114,9 +114,11 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
     if scenario.mode == Mode::Pvp && opponent.is_some() {
         bail!("--opponent applies to PvE scenarios; {} is PvP: pick team 2's policy with --agent2", scenario.name);
     }
-    let mut p1 = policy::by_name(&a.agent).context("--agent")?;
+    let p1 = policy::by_name(&a.agent).context("--agent")?;
     let agent2 = a.agent2.clone().unwrap_or_else(|| a.agent.clone());
-    let mut p2 = if scenario.mode == Mode::Pvp { Some(policy::by_name(&agent2).context("--agent2")?) } else { None };
+    let p2 = if scenario.mode == Mode::Pvp { Some(policy::by_name(&agent2).context("--agent2")?) } else { None };
+    let pvp = p2.is_some();
+    let mut controllers = Controllers::new(&scenario, p1, p2);
     let cfg = EnvConfig {
         rules: Rules { full_vision: a.full_vision, cooldown_jitter: !a.no_jitter, auto_acquire: [!a.passive_agents, true] },
         reward: RewardMode::Sparse,
@@ -145,12 +147,7 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
     for k in 0..a.episodes as u64 {
         let seed = a.seed.wrapping_add(k);
         env.reset(seed);
-        let mut rng1 = ChaCha8Rng::seed_from_u64(seed ^ 0x5151);
-        let mut rng2 = ChaCha8Rng::seed_from_u64(seed ^ 0xa2a2);
-        p1.reset(&scenario, Team::One);
-        if let Some(p) = p2.as_mut() {
-            p.reset(&scenario, Team::Two);
-        }
+        controllers.reset(&scenario, seed);
         while !env.done() {
             if k == 0
                 && let Some((writer, frames, cpu, w, h)) = video.as_mut()
@@ -161,12 +158,7 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
             if a.trace_every > 0 && env.steps().is_multiple_of(a.trace_every) {
                 eprintln!("--- seed {seed}, step {}\n{}", env.steps(), avacraft_engine::describe(&env, Team::One));
             }
-            let acts = p1.act(&env.view(Team::One), &mut rng1);
-            env.submit(Team::One, &acts);
-            if let Some(p) = p2.as_mut() {
-                let acts = p.act(&env.view(Team::Two), &mut rng2);
-                env.submit(Team::Two, &acts);
-            }
+            controllers.act(&mut env);
             env.step();
         }
         if k == 0
@@ -198,7 +190,7 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
         scenario: scenario.name.clone(),
         mode: scenario.mode.to_string(),
         agent: a.agent.clone(),
-        agent2: p2.as_ref().map(|_| agent2.clone()),
+        agent2: pvp.then(|| agent2.clone()),
         opponent: (scenario.mode == Mode::Pve).then(|| opponent.unwrap_or(scenario.opponent).to_string()),
         episodes: records.len(),
         win: rate(records.iter().map(is(Outcome::Win))),

@@ -2,11 +2,9 @@
 
 use crate::info::team_of;
 use anyhow::{Context, Result, bail};
-use avacraft_engine::{Env, EnvConfig, Mode, OpponentKind, Scenario, Team, UnitId, policy};
+use avacraft_engine::{Controllers, Env, EnvConfig, Mode, OpponentKind, Scenario, UnitId, policy};
 use avacraft_render::{CpuBackend, FrameBuilder, VlmOptions};
 use clap::{Args, ValueEnum};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 use std::io::Write;
 use std::num::NonZeroU32;
 use std::path::PathBuf;
@@ -87,22 +85,15 @@ pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
     let mut cfg = EnvConfig { opponent, step_mul: NonZeroU32::MIN, ..EnvConfig::default() };
     cfg.rules.full_vision = a.full_vision;
     let mut env = Env::new(Arc::clone(&scenario), cfg, a.seed);
-    let mut p1 = policy::by_name(&a.agent).context("--agent")?;
-    let mut p2 =
+    let p1 = policy::by_name(&a.agent).context("--agent")?;
+    let p2 =
         if scenario.mode == Mode::Pvp { Some(policy::by_name(a.agent2.as_deref().unwrap_or(&a.agent)).context("--agent2")?) } else { None };
-    p1.reset(&scenario, Team::One);
-    if let Some(p) = p2.as_mut() {
-        p.reset(&scenario, Team::Two);
-    }
-    let (mut r1, mut r2) = (ChaCha8Rng::seed_from_u64(a.seed ^ 0x5151), ChaCha8Rng::seed_from_u64(a.seed ^ 0xa2a2));
+    let mut controllers = Controllers::new(&scenario, p1, p2);
+    controllers.reset(&scenario, a.seed);
+    // The env steps one loop at a time so any loop can be shown; policies act every 8.
     while env.world().tick() < a.at_loop && !env.done() {
         if env.world().tick().is_multiple_of(8) {
-            let acts = p1.act(&env.view(Team::One), &mut r1);
-            env.submit(Team::One, &acts);
-            if let Some(p) = p2.as_mut() {
-                let acts = p.act(&env.view(Team::Two), &mut r2);
-                env.submit(Team::Two, &acts);
-            }
+            controllers.act(&mut env);
         }
         env.step();
     }

@@ -1,8 +1,6 @@
 //! Shared helpers: small hand-made scenarios and episode drivers.
 
-use avacraft_engine::{Env, EnvConfig, Rules, Scenario, Team, UnitId, policy};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
+use avacraft_engine::{Controllers, Env, EnvConfig, Rules, Scenario, UnitId, policy};
 use std::fmt::Write;
 use std::sync::Arc;
 
@@ -47,19 +45,10 @@ pub fn uid(i: u16) -> UnitId {
 /// Runs an episode with named policies for the agent teams; returns the env at its end.
 pub fn play(scenario: &Arc<Scenario>, cfg: EnvConfig, seed: u64, p1: &str, p2: &str) -> Env {
     let mut env = Env::new(Arc::clone(scenario), cfg, seed);
-    let mut a = policy::by_name(p1).expect("policy");
-    let mut b = policy::by_name(p2).expect("policy");
-    a.reset(scenario, Team::One);
-    b.reset(scenario, Team::Two);
-    let mut r1 = ChaCha8Rng::seed_from_u64(seed);
-    let mut r2 = ChaCha8Rng::seed_from_u64(seed + 1);
+    let mut c = Controllers::new(scenario, policy::by_name(p1).expect("policy"), Some(policy::by_name(p2).expect("policy")));
+    c.reset(scenario, seed);
     while !env.done() {
-        let acts = a.act(&env.view(Team::One), &mut r1);
-        env.submit(Team::One, &acts);
-        if env.is_agent_team(Team::Two) {
-            let acts = b.act(&env.view(Team::Two), &mut r2);
-            env.submit(Team::Two, &acts);
-        }
+        c.act(&mut env);
         env.step();
     }
     env

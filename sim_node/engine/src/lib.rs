@@ -54,7 +54,7 @@ pub use geom::Vec2;
 pub use hash::Fnv;
 pub use ids::{Team, Tick, UnitId};
 pub use obs::{EnvInfo, IndexError, N_ACTIONS_NO_ATTACK, OrderInfo, SHOOT_RANGE, SIGHT_RANGE, SmacLayout, UnitInfo, describe, unit_list};
-pub use policy::{POLICIES, Policy, TeamView, UnknownPolicy};
+pub use policy::{Controllers, POLICIES, Policy, TeamView, UnknownPolicy};
 pub use scenario::{
     BUILTIN, Mode, OpponentKind, RawOpponent, RawScenario, RawStart, RawTerrain, RawUnit, RawUpgrade, Scenario, ScenarioError,
     ScenarioUnit, StartOrder, Upgrade, builtin, builtin_names,

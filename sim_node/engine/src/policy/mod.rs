@@ -8,8 +8,10 @@ pub use scripted::{AttackMove, Defensive, FocusFire, NoOp, RandomActions, Style}
 pub use view::TeamView;
 
 use crate::action::Action;
+use crate::env::Env;
 use crate::ids::Team;
-use crate::scenario::{OpponentKind, Scenario};
+use crate::scenario::{Mode, OpponentKind, Scenario};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 pub trait Policy: Send {
@@ -58,5 +60,51 @@ pub(crate) fn opponent(kind: OpponentKind) -> Box<dyn Policy> {
         OpponentKind::Aggressive => Box::new(Style::aggressive()),
         OpponentKind::Defensive => Box::new(Defensive::default()),
         OpponentKind::Focus | OpponentKind::Builtin | OpponentKind::Random => Box::new(Style::focus()),
+    }
+}
+
+/// The policies driving an environment's agent teams (team 1; team 2 too in PvP), each with
+/// its own seeded RNG, so every tool plays episodes the same way.
+pub struct Controllers {
+    teams: Vec<(Team, Box<dyn Policy>, ChaCha8Rng)>,
+}
+
+impl std::fmt::Debug for Controllers {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_list().entries(self.teams.iter().map(|(t, p, _)| (t, p.name()))).finish()
+    }
+}
+
+impl Controllers {
+    /// `second` drives team 2 in PvP scenarios and is ignored in PvE.
+    pub fn new(scenario: &Scenario, first: Box<dyn Policy>, second: Option<Box<dyn Policy>>) -> Self {
+        let mut teams = vec![(Team::One, first, ChaCha8Rng::seed_from_u64(0))];
+        if scenario.mode == Mode::Pvp
+            && let Some(p) = second
+        {
+            teams.push((Team::Two, p, ChaCha8Rng::seed_from_u64(0)));
+        }
+        Self { teams }
+    }
+
+    /// Starts an episode: resets every policy and reseeds its RNG from `seed`.
+    pub fn reset(&mut self, scenario: &Scenario, seed: u64) {
+        for (team, p, rng) in &mut self.teams {
+            p.reset(scenario, *team);
+            *rng = ChaCha8Rng::seed_from_u64(seed ^ (0x5151_u64 << team.index()));
+        }
+    }
+
+    /// Each policy looks at its team's view and submits its actions.
+    pub fn act(&mut self, env: &mut Env) {
+        for (team, p, rng) in &mut self.teams {
+            let actions = p.act(&env.view(*team), rng);
+            env.submit(*team, &actions);
+        }
+    }
+
+    /// Names of the policies, team 1 first.
+    pub fn names(&self) -> Vec<String> {
+        self.teams.iter().map(|(_, p, _)| p.name().to_owned()).collect()
     }
 }
