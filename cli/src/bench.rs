@@ -33,11 +33,11 @@ pub struct BenchArgs {
     json: bool,
     /// Instead: measure how the cost per unit grows with army size (N Marines against N
     /// Marines, N = 4 .. 256, on a flat 96x96 map), to check near-linear scaling.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "render")]
     scaling: bool,
     /// Instead: measure rendering (screen + minimap pairs per second at 160x120 and 32x32,
     /// milliseconds per 1920x1080 VLM screenshot) on each available back end.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "steps")]
     render: bool,
 }
 
@@ -68,7 +68,7 @@ fn render_row(backend: &str, scenario: &str, pps: f64, ms: f64) -> RenderRow {
 fn run_render(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
     use avacraft_render::{CpuBackend, FrameBuilder, VlmOptions};
     let mut rows = Vec::new();
-    for name in &a.scenario {
+    for name in &scenario_names(a) {
         let scenario = Arc::new(Scenario::load(name)?);
         let mut env = Env::new(Arc::clone(&scenario), EnvConfig::default(), 1);
         for _ in 0..20 {
@@ -101,9 +101,10 @@ fn run_render(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
                 let mut ok = true;
                 // Batches of 64, as a vectorised MARL loop would hand them over.
                 const BATCH: usize = 64;
-                let screens: Vec<_> = (0..BATCH).map(|_| frames.screen(env.world(), Team::One, 160, 120)).collect();
-                let minis: Vec<_> = (0..BATCH).map(|_| frames.minimap(env.world(), Team::One, 32, 32)).collect();
                 let (batches, secs) = timed(a.seconds / 4.0, 1, &mut || {
+                    // Scenes are built inside the timing, as for the CPU.
+                    let screens: Vec<_> = (0..BATCH).map(|_| frames.screen(env.world(), Team::One, 160, 120)).collect();
+                    let minis: Vec<_> = (0..BATCH).map(|_| frames.minimap(env.world(), Team::One, 32, 32)).collect();
                     ok &= gpu.render_batch(&screens).is_ok();
                     ok &= gpu.render_batch(&minis).is_ok();
                 });
@@ -301,15 +302,21 @@ fn bytes_per_env(scenario: &Arc<Scenario>, alloc: &'static StatsAlloc<System>) -
     heap / N + size_of::<Env>()
 }
 
+fn scenario_names(a: &BenchArgs) -> Vec<String> {
+    if a.scenario.iter().any(|s| s == "all") { builtin_names().map(str::to_owned).collect() } else { a.scenario.clone() }
+}
+
 pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc<System>>) -> Result<()> {
+    if !(a.seconds.is_finite() && a.seconds > 0.0 && a.seconds <= 3600.0) {
+        anyhow::bail!("--seconds {}: must be a number of seconds in (0, 3600]", a.seconds);
+    }
     if a.scaling {
         return run_scaling(a, out);
     }
     if a.render {
         return run_render(a, out);
     }
-    let names: Vec<String> =
-        if a.scenario.iter().any(|s| s == "all") { builtin_names().map(str::to_owned).collect() } else { a.scenario.clone() };
+    let names = scenario_names(a);
     let mut rows = Vec::new();
     for name in &names {
         let scenario = Arc::new(Scenario::load(name)?);

@@ -182,8 +182,9 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
         bar.inc(1);
     }
     bar.finish_and_clear();
-    if let (Some((writer, ..)), Some(path)) = (&video, &a.video) {
-        eprintln!("{}: {} frames of the first episode", path.display(), writer.frames());
+    if let (Some((writer, ..)), Some(path)) = (video, &a.video) {
+        let frames = writer.finish()?;
+        eprintln!("{}: {} frames of the first episode", path.display(), frames);
     }
     let is = |o: Outcome| move |r: &EpisodeRecord| if r.result == o { 1.0 } else { 0.0 };
     let summary = Summary {

@@ -70,10 +70,7 @@ fn grid_labels_sit_over_their_cells() {
     let (w, h) = (1920, 1080);
     let img = CpuBackend::new().render(&FrameBuilder::new().vlm(env.world(), Team::One, w, h, &VlmOptions::default()));
     let playable = env.world().terrain().playable();
-    // Find the map's pixel frame the way the renderer fits it.
-    let margin = 8.0 * 3.0 + 12.0;
-    let panel = (w as f32 * 0.22).min(w as f32 - h as f32);
-    let view = MapView::fit(env.world(), [margin, margin, w as f32 - panel - 4.0, h as f32 - 4.0]);
+    let (view, _, label, _) = avacraft_render::vlm_layout(env.world(), w, h);
     let top = view.px(Vec2::new(playable.left, playable.top))[1];
     for k in 1..=10u8 {
         let cx = view.px(grid_cell_center(playable, k, 1))[0];
@@ -89,6 +86,10 @@ fn grid_labels_sit_over_their_cells() {
         }
         assert!(hit > 10, "label {k} not found above its column at x = {cx}");
     }
+    // Row labels, "10" included, are whole and inside the image, left of the map.
+    let left = view.px(Vec2::new(playable.left, playable.top))[0];
+    let tw = 16.0 * label as f32;
+    assert!(left - tw - 4.0 >= 0.0, "row label 10 would be cut off: map starts at x = {left}");
 }
 
 #[test]
@@ -220,6 +221,24 @@ fn cpu_and_wgpu_back_ends_agree() {
     for (scene, img) in scenes.iter().zip(&batch) {
         assert_eq!(gpu.render(scene).expect("frame").as_raw(), img.as_raw());
     }
+    // Nothing bleeds between frames of a batch: a disc at a frame's edge stays in its frame.
+    let plain = avacraft_render::Scene::new(40, 30, avacraft_render::Rgba::rgb(10, 20, 30));
+    let mut edge = plain.clone();
+    edge.push(avacraft_render::Prim::Disc { c: [1.0, 15.0], r: 6.0, color: avacraft_render::Rgba::rgb(0, 255, 0) });
+    edge.push(avacraft_render::Prim::Disc { c: [39.0, 15.0], r: 6.0, color: avacraft_render::Rgba::rgb(0, 255, 0) });
+    let batch = gpu.render_batch(&[plain.clone(), edge.clone(), plain.clone()]).expect("batch");
+    let flat = CpuBackend::new().render(&plain);
+    assert_eq!(batch[0].as_raw(), flat.as_raw(), "frame 0 got paint from frame 1");
+    assert_eq!(batch[2].as_raw(), flat.as_raw(), "frame 2 got paint from frame 1");
+    assert_eq!(batch[1].as_raw(), CpuBackend::new().render(&edge).as_raw());
+    // Degenerate sizes render on both back ends without panicking, and agree.
+    let s = Arc::new(builtin("pvz_ht").expect("scenario"));
+    let env = Env::new(s, exact(), 1);
+    for (w, h) in [(8, 8), (60, 20), (33, 200)] {
+        let scene = FrameBuilder::new().vlm(env.world(), Team::One, w, h, &VlmOptions::default());
+        assert_eq!(gpu.render(&scene).expect("frame").as_raw(), CpuBackend::new().render(&scene).as_raw(), "{w}x{h}");
+    }
+    assert!(gpu.render(&avacraft_render::Scene::new(0, 0, avacraft_render::Rgba::rgb(0, 0, 0))).is_err(), "0x0 is an error, not a panic");
     // Deterministic on the GPU too.
     let s = Arc::new(builtin("2s3z").expect("scenario"));
     let env = Env::new(s, exact(), 1);
@@ -241,4 +260,55 @@ fn any_back_end_serves_observations() {
     let differ = a.pixels().zip(b.pixels()).filter(|(x, y)| x.0.iter().zip(y.0.iter()).any(|(p, q)| p.abs_diff(*q) > 2)).count();
     assert!(differ * 500 <= 160 * 120, "{name}: {differ} pixels differ from the CPU back end");
     assert!(avacraft_render::BackendChoice::Cpu.open().expect("cpu").name() == "cpu");
+}
+
+#[test]
+fn videos_are_valid_gifs_and_write_errors_surface() {
+    let dir = std::env::temp_dir().join(format!("avacraft-video-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("tmp");
+    let path = dir.join("ep.gif");
+    let s = Arc::new(builtin("3m").expect("scenario"));
+    let mut env = Env::new(s, EnvConfig::default(), 0);
+    let mut fb = FrameBuilder::new();
+    let mut cpu = CpuBackend::new();
+    let mut v = avacraft_render::VideoWriter::create(&path, 100).expect("create");
+    for _ in 0..4 {
+        env.step();
+        v.push(&cpu.render(&fb.vlm(env.world(), Team::One, 320, 180, &VlmOptions::default()))).expect("frame");
+    }
+    assert_eq!(v.finish().expect("finish"), 4);
+    use image::AnimationDecoder;
+    let frames = image::codecs::gif::GifDecoder::new(std::io::BufReader::new(std::fs::File::open(&path).expect("open")))
+        .expect("gif")
+        .into_frames()
+        .collect_frames()
+        .expect("frames");
+    assert_eq!(frames.len(), 4);
+    // A full disk: the error reaches the caller instead of a silently truncated file.
+    if std::path::Path::new("/dev/full").exists() {
+        let img = RgbImage::new(64, 64);
+        let r = avacraft_render::VideoWriter::create(std::path::Path::new("/dev/full"), 100)
+            .and_then(|mut v| v.push(&img).and_then(|_| v.finish()));
+        assert!(r.is_err(), "writing to /dev/full must fail");
+    }
+}
+
+#[test]
+fn attack_lines_do_not_reveal_units_in_fog() {
+    // A visible enemy Marine shoots an own unit (always seen); a hidden one is drawn nowhere,
+    // and no line leads from the visible shooter into fog.
+    let s =
+        load(&arena("pvp", &[("Marine", 1, 10.0, 16.0), ("Marine", 2, 14.5, 16.0), ("Medivac", 2, 15.0, 17.0), ("Marine", 2, 25.0, 16.0)]));
+    let mut env = Env::new(s, exact(), 0);
+    env.step();
+    let scene = FrameBuilder::new().vlm(env.world(), Team::One, 1280, 720, &VlmOptions::default());
+    let (view, ..) = avacraft_render::vlm_layout(env.world(), 1280, 720);
+    let hidden = view.px(Vec2::new(25.0, 16.0));
+    for p in &scene.prims {
+        if let avacraft_render::Prim::Line { a, b, .. } = p {
+            for q in [a, b] {
+                assert!((q[0] - hidden[0]).abs() > 3.0 || (q[1] - hidden[1]).abs() > 3.0, "a line ends at a unit in fog");
+            }
+        }
+    }
 }

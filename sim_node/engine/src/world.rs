@@ -302,6 +302,10 @@ impl World {
     pub fn terrain(&self) -> &Terrain {
         &self.terrain
     }
+    /// The shared terrain, for caches that must know when it changes.
+    pub fn terrain_arc(&self) -> &Arc<Terrain> {
+        &self.terrain
+    }
     pub fn units(&self) -> &[Unit] {
         &self.units
     }

@@ -23,7 +23,9 @@ impl MapView {
     /// Fits the playable area into `area` = [x0, y0, x1, y1] keeping its aspect ratio, centred.
     pub fn fit(world: &World, area: [f32; 4]) -> Self {
         let p = world.terrain().playable();
-        let scale = ((area[2] - area[0]) / p.width()).min((area[3] - area[1]) / p.height());
+        // An area smaller than the margins degenerates to a point instead of mirroring.
+        let area = [area[0], area[1], area[2].max(area[0] + 1.0), area[3].max(area[1] + 1.0)];
+        let scale = ((area[2] - area[0]) / p.width()).min((area[3] - area[1]) / p.height()).max(1e-3);
         let ox = area[0] + ((area[2] - area[0]) - p.width() * scale) * 0.5;
         let oy = area[1] + ((area[3] - area[1]) - p.height() * scale) * 0.5;
         Self { left: p.left, top: p.top, scale, ox, oy }
@@ -43,10 +45,28 @@ pub struct VlmOptions {
     pub highlights: Vec<UnitId>,
 }
 
+/// Where the VLM screenshot puts the map: its transform, the legend panel's width (0: no
+/// legend), the grid label scale and the legend's text scale. Tests use it to find cells.
+pub fn vlm_layout(world: &World, width: u32, height: u32) -> (MapView, f32, u32, u32) {
+    let label = ((height as f32 / 1080.0) * 3.0).round().max(1.0) as u32;
+    // Room for the widest grid label, "10", left of the map and for a line above it.
+    let margin = text_width("10", label) + 8.0;
+    // A legend panel on the right when a 22-character line fits there.
+    let legend_scale = (label.max(2) - 1).max(1);
+    let panel = (width as f32 * 0.22).min(width as f32 - height as f32).max(0.0);
+    let panel = if panel >= 22.0 * 8.0 * legend_scale as f32 + 20.0 { panel } else { 0.0 };
+    let view = MapView::fit(world, [margin, margin, width as f32 - panel - 4.0, height as f32 - 4.0]);
+    (view, panel, label, legend_scale)
+}
+
+/// Terrain colours, keyed by the terrain itself (held, so its address cannot be reused), and
+/// the cell range they cover.
+type TerrainColors = (Arc<avacraft_engine::Terrain>, Arc<Vec<Rgba>>, [u32; 4]);
+
 /// Caches what does not change within an episode (terrain colours).
 #[derive(Debug, Default)]
 pub struct FrameBuilder {
-    terrain: Option<(usize, Arc<Vec<Rgba>>, [u32; 4])>,
+    terrain: Option<TerrainColors>,
     fog: Vec<bool>,
 }
 
@@ -59,9 +79,8 @@ impl FrameBuilder {
     /// cell range [x0, y0, x1, y1) in map cells.
     fn terrain(&mut self, world: &World) -> (Arc<Vec<Rgba>>, [u32; 4]) {
         let t = world.terrain();
-        let key = t as *const _ as usize;
         if let Some((k, colors, range)) = &self.terrain
-            && *k == key
+            && Arc::ptr_eq(k, world.terrain_arc())
         {
             return (Arc::clone(colors), *range);
         }
@@ -75,7 +94,7 @@ impl FrameBuilder {
             }
         }
         let colors = Arc::new(colors);
-        self.terrain = Some((key, Arc::clone(&colors), range));
+        self.terrain = Some((Arc::clone(world.terrain_arc()), Arc::clone(&colors), range));
         (colors, range)
     }
 
@@ -130,13 +149,7 @@ impl FrameBuilder {
     /// splash, highlight rings, and a legend panel.
     pub fn vlm(&mut self, world: &World, team: Team, width: u32, height: u32, opts: &VlmOptions) -> Scene {
         let mut scene = Scene::new(width, height, style::BACKGROUND);
-        let label = ((height as f32 / 1080.0) * 3.0).round().max(1.0) as u32;
-        let margin = 8.0 * label as f32 + 12.0;
-        // A legend panel on the right when a 22-character line fits there.
-        let legend_scale = (label.max(2) - 1).max(1);
-        let panel = (width as f32 * 0.22).min(width as f32 - height as f32).max(0.0);
-        let panel = if panel >= 22.0 * 8.0 * legend_scale as f32 + 20.0 { panel } else { 0.0 };
-        let view = MapView::fit(world, [margin, margin, width as f32 - panel - 4.0, height as f32 - 4.0]);
+        let (view, panel, label, legend_scale) = vlm_layout(world, width, height);
         self.ground(world, team, &view, &mut scene);
         grid(world, &view, &mut scene, label);
         shots(world, team, &view, &mut scene);
@@ -227,10 +240,22 @@ fn units(world: &World, team: Team, view: &MapView, scene: &mut Scene, min_r: f3
             let (pos, tag, tw) = match spots.iter().copied().find(|&p| !overlaps(p)) {
                 Some(p) => (p, tag, tw),
                 None => {
-                    // Crowded: the bare tag under the unit, the least that must stay readable.
+                    // Crowded: the bare tag, moved down until it covers no other label (so two
+                    // tags never merge into a number that is not there).
                     let bare = u.id.tag().to_string();
                     let w = text_width(&bare, scale);
-                    ([c[0] - w * 0.5, c[1] - th * 0.5], bare, w)
+                    let mut p = [c[0] - w * 0.5, c[1] - th * 0.5];
+                    let clear = |p: [f32; 2]| {
+                        let b = [p[0] - 1.0, p[1] - 1.0, p[0] + w + 1.0, p[1] + th + 1.0];
+                        !taken.iter().any(|t| b[0] < t[2] && t[0] < b[2] && b[1] < t[3] && t[1] < b[3])
+                    };
+                    for _ in 0..24 {
+                        if clear(p) {
+                            break;
+                        }
+                        p[1] += th + 2.0;
+                    }
+                    (p, bare, w)
                 }
             };
             taken.push([pos[0], pos[1], pos[0] + tw, pos[1] + th]);
@@ -302,7 +327,9 @@ fn grid(world: &World, view: &MapView, scene: &mut Scene, label: u32) {
 fn shots(world: &World, team: Team, view: &MapView, scene: &mut Scene) {
     for s in world.shots() {
         let (Some(a), Some(t)) = (world.unit(s.from), world.unit(s.to)) else { continue };
-        if !world.visible_to(team, a.id) && a.team != team {
+        // Both ends must be seen: a line into fog would give away what stands there.
+        let seen = |u: &Unit| u.team == team || world.visible_to(team, u.id);
+        if !seen(a) || !seen(t) {
             continue;
         }
         let heal = a.team == t.team;

@@ -48,6 +48,8 @@ pub enum GpuError {
     Device(String),
     #[error("reading the frame back failed: {0}")]
     Readback(String),
+    #[error("a {w}x{h} frame is outside what this device can render (1..={max} per side, {bytes} bytes to read back at most)")]
+    Size { w: u32, h: u32, max: u32, bytes: u64 },
 }
 
 /// Draws scenes with wgpu.
@@ -58,6 +60,9 @@ pub struct WgpuBackend {
     adapter_name: String,
     /// Vertex bytes, little-endian f32s, rebuilt per frame.
     vertices: Vec<u8>,
+    /// Vertex range and atlas offset of each frame in the current batch.
+    ranges: Vec<(std::ops::Range<u32>, [u32; 2])>,
+    frame_size: [u32; 2],
     /// Render targets and readback buffers by size, most recently used last.
     targets: Vec<(u32, u32, wgpu::Texture, wgpu::Buffer)>,
     vbuf: Option<wgpu::Buffer>,
@@ -134,6 +139,8 @@ impl WgpuBackend {
             pipeline,
             adapter_name: format!("{} ({:?})", info.name, info.device_type),
             vertices: Vec::new(),
+            ranges: Vec::new(),
+            frame_size: [0, 0],
             targets: Vec::new(),
             vbuf: None,
         })
@@ -157,11 +164,18 @@ impl WgpuBackend {
         if scenes.iter().any(|s| (s.width, s.height) != (fw, fh)) {
             return scenes.iter().map(|s| self.render(s)).collect();
         }
-        let max = self.device.limits().max_texture_dimension_2d;
-        let cols = ((max / fw.max(1)).max(1) as usize).min(scenes.len()).min(64);
-        if scenes.len() > cols * (max / fh.max(1)).max(1) as usize {
+        let limits = self.device.limits();
+        let (max, max_bytes) = (limits.max_texture_dimension_2d, limits.max_buffer_size.min(256 << 20));
+        let row_bytes = |w: u32| ((w as u64 * 4).div_ceil(256) * 256).max(256);
+        if fw == 0 || fh == 0 || fw > max || fh > max || row_bytes(fw) * fh as u64 > max_bytes {
+            return Err(GpuError::Size { w: fw, h: fh, max, bytes: max_bytes });
+        }
+        // As many frames per row as the texture allows, as many rows as the readback buffer does.
+        let cols = ((max / fw) as usize).clamp(1, 64).min(scenes.len());
+        let max_rows = ((max / fh) as u64).min(max_bytes / (row_bytes(fw * cols as u32) * fh as u64)).max(1) as usize;
+        if scenes.len() > cols * max_rows {
             let mut out = Vec::with_capacity(scenes.len());
-            for chunk in scenes.chunks(cols) {
+            for chunk in scenes.chunks(cols * max_rows) {
                 out.extend(self.render_batch(chunk)?);
             }
             return Ok(out);
@@ -169,10 +183,15 @@ impl WgpuBackend {
         let rows = scenes.len().div_ceil(cols);
         let (w, h) = (fw * cols as u32, fh * rows as u32);
         self.vertices.clear();
+        self.ranges.clear();
+        self.frame_size = [fw, fh];
         let single = scenes.len() == 1;
+        let stride = (FLOATS_PER_VERTEX * 4) as u32;
         for (i, scene) in scenes.iter().enumerate() {
-            let off = [((i % cols) as u32 * fw) as f32, ((i / cols) as u32 * fh) as f32];
-            tessellate(scene, Xf { size: [w as f32, h as f32], off }, !single, &mut self.vertices);
+            let off = [(i % cols) as u32 * fw, (i / cols) as u32 * fh];
+            let start = self.vertices.len() as u32 / stride;
+            tessellate(scene, Xf { size: [w as f32, h as f32], off: [off[0] as f32, off[1] as f32] }, !single, &mut self.vertices);
+            self.ranges.push((start..self.vertices.len() as u32 / stride, off));
         }
         let clear = if single { first.background } else { Rgba::rgb(0, 0, 0) };
         let atlas = self.draw_target(w, h, clear)?;
@@ -258,7 +277,11 @@ impl WgpuBackend {
             if !bytes.is_empty() {
                 pass.set_pipeline(&self.pipeline);
                 pass.set_vertex_buffer(0, vbuf.slice(..bytes.len() as u64));
-                pass.draw(0..(bytes.len() / (FLOATS_PER_VERTEX * 4)) as u32, 0..1);
+                // Each frame clipped to its own cell of the atlas: nothing bleeds across.
+                for (range, off) in &self.ranges {
+                    pass.set_scissor_rect(off[0], off[1], self.frame_size[0], self.frame_size[1]);
+                    pass.draw(range.clone(), 0..1);
+                }
             }
         }
         encoder.copy_texture_to_buffer(
@@ -326,6 +349,8 @@ fn tessellate(scene: &Scene, xf: Xf, background: bool, out: &mut Vec<u8>) {
     }
     for p in &scene.prims {
         match p {
+            Prim::Cells { rect, .. } if rect[2] <= rect[0] || rect[3] <= rect[1] => {}
+            Prim::Ring { r, width, .. } if r + width * 0.5 < 0.0 => {}
             Prim::Cells { rect, cols, rows, colors } => {
                 let (cw, ch) = ((rect[2] - rect[0]) / *cols as f32, (rect[3] - rect[1]) / *rows as f32);
                 // One quad per horizontal run of equal cells: terrain and fog rows are long runs.
@@ -346,7 +371,11 @@ fn tessellate(scene: &Scene, xf: Xf, background: bool, out: &mut Vec<u8>) {
                     }
                 }
             }
-            Prim::Rect { rect, color } => quad(out, *rect, *color, NO_CIRCLE),
+            Prim::Rect { rect, color } => {
+                if rect[2] > rect[0] && rect[3] > rect[1] {
+                    quad(out, *rect, *color, NO_CIRCLE);
+                }
+            }
             Prim::Disc { c, r, color } => {
                 quad(out, [c[0] - r - 1.0, c[1] - r - 1.0, c[0] + r + 1.0, c[1] + r + 1.0], *color, [c[0], c[1], *r, 0.0])
             }

@@ -17,7 +17,7 @@ mod video;
 
 pub use backend::{Backend, BackendChoice};
 pub use cpu::CpuBackend;
-pub use frame::{FrameBuilder, MapView, VlmOptions};
+pub use frame::{FrameBuilder, MapView, VlmOptions, vlm_layout};
 pub use gpu::{GpuError, WgpuBackend};
 pub use modes::{ObsMode, Observation, Observer, RenderConfig};
 pub use scene::{Prim, Rgba, Scene};
