@@ -240,22 +240,20 @@ fn units(world: &World, team: Team, view: &MapView, scene: &mut Scene, min_r: f3
             let (pos, tag, tw) = match spots.iter().copied().find(|&p| !overlaps(p)) {
                 Some(p) => (p, tag, tw),
                 None => {
-                    // Crowded: the bare tag, moved down until it covers no other label (so two
-                    // tags never merge into a number that is not there).
+                    // Crowded: the bare tag on the unit or just below it if that is clear; else
+                    // no label at all, rather than one far from its unit or merged with another
+                    // into a number that is not there (the unit list still names every unit).
                     let bare = u.id.tag().to_string();
                     let w = text_width(&bare, scale);
-                    let mut p = [c[0] - w * 0.5, c[1] - th * 0.5];
                     let clear = |p: [f32; 2]| {
                         let b = [p[0] - 1.0, p[1] - 1.0, p[0] + w + 1.0, p[1] + th + 1.0];
                         !taken.iter().any(|t| b[0] < t[2] && t[0] < b[2] && b[1] < t[3] && t[1] < b[3])
                     };
-                    for _ in 0..24 {
-                        if clear(p) {
-                            break;
-                        }
-                        p[1] += th + 2.0;
+                    let near = [[c[0] - w * 0.5, c[1] - th * 0.5], [c[0] - w * 0.5, c[1] + r]];
+                    match near.into_iter().find(|&p| clear(p)) {
+                        Some(p) => (p, bare, w),
+                        None => continue,
                     }
-                    (p, bare, w)
                 }
             };
             taken.push([pos[0], pos[1], pos[0] + tw, pos[1] + th]);
