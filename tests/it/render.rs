@@ -231,6 +231,14 @@ fn cpu_and_wgpu_back_ends_agree() {
     assert_eq!(batch[0].as_raw(), flat.as_raw(), "frame 0 got paint from frame 1");
     assert_eq!(batch[2].as_raw(), flat.as_raw(), "frame 2 got paint from frame 1");
     assert_eq!(batch[1].as_raw(), CpuBackend::new().render(&edge).as_raw());
+    // Ties: edges exactly on pixel centres follow the top-left rule on both back ends.
+    let mut ties = avacraft_render::Scene::new(32, 32, avacraft_render::Rgba::rgb(0, 0, 0));
+    let white = avacraft_render::Rgba::rgb(255, 255, 255);
+    ties.push(avacraft_render::Prim::Line { a: [10.0, 2.0], b: [10.0, 30.0], width: 1.0, color: white });
+    ties.push(avacraft_render::Prim::Line { a: [2.0, 20.0], b: [30.0, 20.0], width: 1.0, color: white });
+    ties.push(avacraft_render::Prim::Polygon { points: vec![[20.5, 2.5], [28.5, 2.5], [28.5, 10.5], [20.5, 10.5]], color: white });
+    ties.push(avacraft_render::Prim::Polygon { points: vec![[4.5, 24.5], [8.5, 28.5], [4.5, 28.5]], color: white });
+    assert_eq!(gpu.render(&ties).expect("frame").as_raw(), CpuBackend::new().render(&ties).as_raw(), "tie-breaking differs");
     // Degenerate sizes render on both back ends without panicking, and agree.
     let s = Arc::new(builtin("pvz_ht").expect("scenario"));
     let env = Env::new(s, exact(), 1);

@@ -151,8 +151,12 @@ impl CpuBackend {
 }
 
 /// Fills a convex polygon: a pixel is in when its centre is on the inner side of every edge.
+/// A centre exactly on an edge follows the top-left rule GPUs use (in when the edge is a top
+/// edge, horizontal with the inside below, or a left edge, with the inside to its right), so
+/// both back ends cover the same pixels even on ties.
 fn fill_convex(points: &[[f32; 2]], color: Rgba, w: u32, h: u32, put: &mut impl FnMut(u32, u32, Rgba)) {
-    if points.len() < 3 {
+    let n = points.len();
+    if n < 3 {
         return;
     }
     let (mut x0, mut y0, mut x1, mut y1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
@@ -163,20 +167,31 @@ fn fill_convex(points: &[[f32; 2]], color: Rgba, w: u32, h: u32, put: &mut impl 
         y1 = y1.max(p[1]);
     }
     // Signed area decides which side is inside.
-    let area: f32 = (0..points.len())
+    let area: f32 = (0..n)
         .map(|i| {
-            let (a, b) = (points[i], points[(i + 1) % points.len()]);
+            let (a, b) = (points[i], points[(i + 1) % n]);
             a[0] * b[1] - a[1] * b[0]
         })
         .sum();
-    let sign = if area >= 0.0 { 1.0 } else { -1.0 };
+    if area == 0.0 {
+        return;
+    }
+    let sign = if area > 0.0 { 1.0 } else { -1.0 };
+    let edges: Vec<([f32; 2], [f32; 2], bool)> = (0..n)
+        .map(|i| {
+            let (a, b) = (points[i], points[(i + 1) % n]);
+            let d = [b[0] - a[0], b[1] - a[1]];
+            let top_left = (d[1] == 0.0 && sign * d[0] > 0.0) || sign * d[1] < 0.0;
+            (a, d, top_left)
+        })
+        .collect();
     for y in span(y0, y1 + 1.0, h) {
         let py = y as f32 + 0.5;
         for x in span(x0, x1 + 1.0, w) {
             let px = x as f32 + 0.5;
-            let inside = (0..points.len()).all(|i| {
-                let (a, b) = (points[i], points[(i + 1) % points.len()]);
-                sign * ((b[0] - a[0]) * (py - a[1]) - (b[1] - a[1]) * (px - a[0])) >= 0.0
+            let inside = edges.iter().all(|(a, d, top_left)| {
+                let e = sign * (d[0] * (py - a[1]) - d[1] * (px - a[0]));
+                e > 0.0 || (e == 0.0 && *top_left)
             });
             if inside {
                 put(x, y, color);
