@@ -3,8 +3,8 @@
 
 use crate::geom::Vec2;
 use crate::orca::{Agent, Neighbour};
-use crate::sim::Intent;
-use crate::world::{Activity, Order, World};
+use crate::sim::{Intent, Snap};
+use crate::world::{Activity, Body, Order, World};
 
 /// ORCA's time horizon in loops.
 const TAU: f32 = 6.0;
@@ -18,9 +18,25 @@ const SEPARATION_PASSES: usize = 2;
 const WAYPOINT_TTL: u32 = 8;
 
 impl World {
-    #[inline(never)]
+    /// Moves every unit with a goal. Velocities are chosen from one snapshot of where
+    /// everyone is and how they move at the start of the loop (as RVO2 does), then applied,
+    /// so the result does not depend on the order units are processed in.
     pub(crate) fn move_units(&mut self, intents: &[Intent]) {
         let mut neighbours = std::mem::take(&mut self.scratch.neighbours);
+        let mut snaps = std::mem::take(&mut self.scratch.snaps);
+        snaps.clear();
+        snaps.extend(self.units.iter().zip(intents).map(|(u, it)| Snap {
+            pos: u.pos,
+            vel: u.vel,
+            radius: u.radius,
+            body: u.body,
+            alive: u.alive,
+            moving: it.goal.is_some() && u.speed > 0.0,
+            weight: weight(u.speed, it.goal.is_some()),
+            cliff_walk: u.spec().cliff_walk,
+        }));
+        let mut moves = std::mem::take(&mut self.scratch.moves);
+        moves.clear();
         for i in 0..self.units.len() {
             let Some((goal, stop)) = intents[i].goal else {
                 if self.units[i].alive {
@@ -53,19 +69,19 @@ impl World {
                 pref
             } else {
                 neighbours.clear();
+                let me = snaps[i];
                 let query = radius + self.units[i].collision_reach(self) + speed * TAU;
-                let me = &self.units[i];
+                let closing = intents[i].closing_on.map_or(usize::MAX, |t| t.index());
                 self.grid.for_each_near(pos, query, |j| {
-                    let o = &self.units[j];
-                    if j == i || !o.alive || !me.collides_with(o) || Some(o.id) == intents[i].closing_on {
+                    let o = &snaps[j];
+                    if j == i || j == closing || !o.alive || !me.collides_with(o) {
                         return;
                     }
                     let r = radius + o.radius + speed * TAU;
-                    if o.pos.dist_sq(me.pos) > r * r {
+                    if o.pos.dist_sq(pos) > r * r {
                         return;
                     }
-                    let moving = intents[j].goal.is_some() && o.speed > 0.0;
-                    let n = Neighbour { pos: o.pos, vel: o.vel, radius: o.radius, responsibility: if moving { 0.5 } else { 1.0 } };
+                    let n = Neighbour { pos: o.pos, vel: o.vel, radius: o.radius, responsibility: if o.moving { 0.5 } else { 1.0 } };
                     // Keep the MAX_NEIGHBOURS closest (RVO2's maxNeighbors), replacing the
                     // farthest kept one; ties keep the earlier, so the set is deterministic.
                     if neighbours.len() < MAX_NEIGHBOURS {
@@ -98,7 +114,13 @@ impl World {
                     v
                 }
             };
+            moves.push((i, vel));
+        }
+        for &(i, vel) in &moves {
+            let u = &self.units[i];
+            let (pos, speed, radius, flying, cliff_walk) = (u.pos, u.speed, u.radius, u.flying(), u.spec().cliff_walk);
             let new = self.constrain(pos, pos + vel, radius, flying, cliff_walk);
+            snaps[i].pos = new;
             let u = &mut self.units[i];
             u.vel = new - pos;
             u.pos = new;
@@ -114,9 +136,10 @@ impl World {
             }
         }
         self.scratch.neighbours = neighbours;
+        self.scratch.snaps = snaps;
+        self.scratch.moves = moves;
     }
 
-    #[inline(never)]
     fn waypoint_for(&mut self, i: usize, goal: Vec2, cliff_walk: bool) -> Option<Vec2> {
         let u = &self.units[i];
         if let Some((g, wp, at)) = u.waypoint
@@ -160,11 +183,13 @@ impl World {
     /// Pushes overlapping ground units apart. Immobile units do not move; moving units give
     /// way to standing ones twice as readily as the reverse.
     #[inline(never)]
-    pub(crate) fn separate(&mut self, intents: &[Intent]) {
+    pub(crate) fn separate(&mut self) {
         // The grid is from the start of this loop; nobody moved more than a third of a cell
         // since, which the query margin covers. Only a unit that moved this loop, or was left
         // overlapping by the last pass, can be part of an overlap: the rest are skipped.
+        // `snaps` (from `move_units`) hold current positions and are kept in step with pushes.
         let n = self.units.len();
+        let mut snaps = std::mem::take(&mut self.scratch.snaps);
         let mut dirty = std::mem::take(&mut self.dirty);
         let mut next = std::mem::take(&mut self.dirty_next);
         for _ in 0..SEPARATION_PASSES {
@@ -172,35 +197,29 @@ impl World {
             next.resize(n, false);
             let mut worst = 0.0f32;
             for i in 0..n {
-                let a = &self.units[i];
-                if !dirty[i] || !a.alive || a.flying() {
+                let a = snaps[i];
+                if !dirty[i] || !a.alive || a.body == Body::Air {
                     continue;
                 }
-                let (pa, ra) = (a.pos, a.radius);
-                let wa = weight(a.speed, intents[i].goal.is_some());
                 let mut pushes: [(usize, Vec2); 16] = [(usize::MAX, Vec2::ZERO); 16];
                 let mut np = 0;
-                self.grid.for_each_near(pa, ra + a.collision_reach(self), |j| {
+                self.grid.for_each_near(a.pos, a.radius + self.units[i].collision_reach(self), |j| {
                     // A pair of dirty units is handled once, from its lower index.
                     if j == i || (dirty[j] && j < i) || np == pushes.len() {
                         return;
                     }
-                    let b = &self.units[j];
-                    if !b.alive || !a.collides_with(b) {
+                    let b = &snaps[j];
+                    if !b.alive || !a.collides_with(b) || a.weight + b.weight <= 0.0 {
                         return;
                     }
-                    let min = ra + b.radius;
-                    let d2 = b.pos.dist_sq(pa);
+                    let min = a.radius + b.radius;
+                    let d2 = b.pos.dist_sq(a.pos);
                     if d2 >= min * min {
-                        return;
-                    }
-                    let wb = weight(b.speed, intents[j].goal.is_some());
-                    if wa + wb <= 0.0 {
                         return;
                     }
                     let d = d2.sqrt();
                     let n = if d > 1e-4 {
-                        (b.pos - pa) * (1.0 / d)
+                        (b.pos - a.pos) * (1.0 / d)
                     } else {
                         // Coincident centres: a fixed direction from the id pair.
                         Vec2::from_angle((i * 7 + j * 13) as f32)
@@ -212,21 +231,19 @@ impl World {
                 for &(j, push) in &pushes[..np] {
                     next[i] = true;
                     next[j] = true;
-                    let (wa, wb) =
-                        (weight(self.units[i].speed, intents[i].goal.is_some()), weight(self.units[j].speed, intents[j].goal.is_some()));
-                    let sum = wa + wb;
-                    let (pa, pb) = (self.units[i].pos, self.units[j].pos);
-                    let (ca, cb) = (self.units[i].spec().cliff_walk, self.units[j].spec().cliff_walk);
-                    let (ra, rb) = (self.units[i].radius, self.units[j].radius);
+                    let (sa, sb) = (snaps[i], snaps[j]);
+                    let sum = sa.weight + sb.weight;
                     // Whatever one side cannot take (a wall, a cliff) the other takes.
                     let mut left = push;
-                    if wa > 0.0 {
-                        let moved = self.constrain(pa, pa - push * (wa / sum), ra, false, ca) - pa;
-                        self.units[i].pos = pa + moved;
+                    if sa.weight > 0.0 {
+                        let moved = self.constrain(sa.pos, sa.pos - push * (sa.weight / sum), sa.radius, false, sa.cliff_walk) - sa.pos;
+                        snaps[i].pos = sa.pos + moved;
+                        self.units[i].pos = snaps[i].pos;
                         left = push + moved;
                     }
-                    if wb > 0.0 {
-                        self.units[j].pos = self.constrain(pb, pb + left, rb, false, cb);
+                    if sb.weight > 0.0 {
+                        snaps[j].pos = self.constrain(sb.pos, sb.pos + left, sb.radius, false, sb.cliff_walk);
+                        self.units[j].pos = snaps[j].pos;
                     }
                 }
             }
@@ -239,6 +256,7 @@ impl World {
         // Units pushed in the last pass may still overlap: they are checked again next loop.
         self.dirty = dirty;
         self.dirty_next = next;
+        self.scratch.snaps = snaps;
     }
 }
 

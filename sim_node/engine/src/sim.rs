@@ -32,10 +32,33 @@ pub(crate) struct Intent {
     pub closing_on: Option<UnitId>,
 }
 
+/// A unit as movement sees it at the start of a loop: compact, so neighbour scans stay cheap.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Snap {
+    pub pos: Vec2,
+    pub vel: Vec2,
+    pub radius: f32,
+    pub body: crate::world::Body,
+    pub alive: bool,
+    /// Has a goal this loop (ORCA shares the avoidance with it).
+    pub moving: bool,
+    /// Share of an overlap push it takes (0: immobile).
+    pub weight: f32,
+    pub cliff_walk: bool,
+}
+
+impl Snap {
+    pub fn collides_with(&self, o: &Snap) -> bool {
+        crate::world::Body::collide(self.body, o.body)
+    }
+}
+
 #[derive(Debug, Default)]
 pub(crate) struct Scratch {
     pub intents: Vec<Intent>,
     pub neighbours: Vec<Neighbour>,
+    pub snaps: Vec<Snap>,
+    pub moves: Vec<(usize, Vec2)>,
 }
 
 impl World {
@@ -54,7 +77,7 @@ impl World {
         }
         self.attack(&intents);
         self.move_units(&intents);
-        self.separate(&intents);
+        self.separate();
         self.regen();
         self.scratch.intents = intents;
         self.tick += 1;

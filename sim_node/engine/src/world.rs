@@ -53,6 +53,15 @@ pub enum Body {
 }
 
 impl Body {
+    /// Whether two bodies push each other.
+    pub fn collide(a: Body, b: Body) -> bool {
+        match (a, b) {
+            (Body::Air, _) | (_, Body::Air) => false,
+            (Body::Tall, o) | (o, Body::Tall) => o == Body::Massive || o == Body::Tall,
+            _ => true,
+        }
+    }
+
     pub fn of(kind: UnitKind) -> Body {
         let s = kind.spec();
         if s.flying {
@@ -125,11 +134,7 @@ impl Unit {
     /// Whether two units push each other. Air units never collide; a Colossus strides over
     /// ground units that are not massive (and they walk under it), as in StarCraft II.
     pub fn collides_with(&self, other: &Unit) -> bool {
-        match (self.body, other.body) {
-            (Body::Air, _) | (_, Body::Air) => false,
-            (Body::Tall, b) | (b, Body::Tall) => b == Body::Massive || b == Body::Tall,
-            _ => true,
-        }
+        Body::collide(self.body, other.body)
     }
 
     /// Facing in radians, counter-clockwise from east.
