@@ -117,35 +117,17 @@ impl CpuBackend {
             }
             Prim::Polygon { points, color } => fill_convex(points, *color, w, h, &mut put),
             Prim::Line { a, b, width, color } => {
-                let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-                let len = (dx * dx + dy * dy).sqrt();
-                if len < 1e-6 {
-                    return;
+                if let Some(quad) = crate::scene::line_quad(*a, *b, *width) {
+                    fill_convex(&quad, *color, w, h, &mut put);
                 }
-                let (nx, ny) = (-dy / len * width * 0.5, dx / len * width * 0.5);
-                let quad = [[a[0] + nx, a[1] + ny], [b[0] + nx, b[1] + ny], [b[0] - nx, b[1] - ny], [a[0] - nx, a[1] - ny]];
-                fill_convex(&quad, *color, w, h, &mut put);
             }
-            Prim::Text { pos, scale, text, color } => {
-                let s = (*scale).max(1) as f32;
-                for (k, ch) in text.chars().enumerate() {
-                    let glyph = crate::font::glyph(ch);
-                    for (row, bits) in glyph.iter().enumerate() {
-                        for col in 0..8 {
-                            if bits & (1 << col) == 0 {
-                                continue;
-                            }
-                            let x0 = pos[0] + (k * 8 + col) as f32 * s;
-                            let y0 = pos[1] + row as f32 * s;
-                            for y in span(y0, y0 + s, h) {
-                                for x in span(x0, x0 + s, w) {
-                                    put(x, y, *color);
-                                }
-                            }
-                        }
+            Prim::Text { pos, scale, text, color } => crate::font::runs(*pos, *scale, text, |r| {
+                for y in span(r[1], r[3], h) {
+                    for x in span(r[0], r[2], w) {
+                        put(x, y, *color);
                     }
                 }
-            }
+            }),
         }
     }
 }

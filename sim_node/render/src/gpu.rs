@@ -389,38 +389,12 @@ fn tessellate(scene: &Scene, xf: Xf, background: bool, out: &mut Vec<u8>) {
                 }
             }
             Prim::Line { a, b, width, color } => {
-                let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-                let len = (dx * dx + dy * dy).sqrt();
-                if len < 1e-6 {
-                    continue;
-                }
-                let (nx, ny) = (-dy / len * width * 0.5, dx / len * width * 0.5);
-                let q = [[a[0] + nx, a[1] + ny], [b[0] + nx, b[1] + ny], [b[0] - nx, b[1] - ny], [a[0] - nx, a[1] - ny]];
-                tri(out, size, [q[0], q[1], q[2]], *color, NO_CIRCLE);
-                tri(out, size, [q[0], q[2], q[3]], *color, NO_CIRCLE);
-            }
-            Prim::Text { pos, scale, text, color } => {
-                let s = (*scale).max(1) as f32;
-                for (k, ch) in text.chars().enumerate() {
-                    for (row, bits) in crate::font::glyph(ch).iter().enumerate() {
-                        // One quad per run of set bits in a glyph row.
-                        let mut col = 0;
-                        while col < 8 {
-                            if bits & (1 << col) == 0 {
-                                col += 1;
-                                continue;
-                            }
-                            let start = col;
-                            while col < 8 && bits & (1 << col) != 0 {
-                                col += 1;
-                            }
-                            let x0 = pos[0] + (k * 8 + start) as f32 * s;
-                            let y0 = pos[1] + row as f32 * s;
-                            quad(out, [x0, y0, x0 + (col - start) as f32 * s, y0 + s], *color, NO_CIRCLE);
-                        }
-                    }
+                if let Some(q) = crate::scene::line_quad(*a, *b, *width) {
+                    tri(out, size, [q[0], q[1], q[2]], *color, NO_CIRCLE);
+                    tri(out, size, [q[0], q[2], q[3]], *color, NO_CIRCLE);
                 }
             }
+            Prim::Text { pos, scale, text, color } => crate::font::runs(*pos, *scale, text, |r| quad(out, r, *color, NO_CIRCLE)),
         }
     }
 }

@@ -80,3 +80,15 @@ impl Scene {
         self.prims.push(p);
     }
 }
+
+/// The four corners of a line of `width` from `a` to `b` (None for a zero-length line), so
+/// both back ends draw exactly the same quad.
+pub(crate) fn line_quad(a: [f32; 2], b: [f32; 2], width: f32) -> Option<[[f32; 2]; 4]> {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let len = (dx * dx + dy * dy).sqrt();
+    if len < 1e-6 {
+        return None;
+    }
+    let (nx, ny) = (-dy / len * width * 0.5, dx / len * width * 0.5);
+    Some([[a[0] + nx, a[1] + ny], [b[0] + nx, b[1] + ny], [b[0] - nx, b[1] - ny], [a[0] - nx, a[1] - ny]])
+}
