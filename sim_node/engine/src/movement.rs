@@ -158,7 +158,6 @@ impl World {
 
     /// Where a unit moving from `from` towards `to` may end up: inside the playable area,
     /// and for ground units on ground it can step onto, sliding along walls.
-    #[inline(never)]
     pub(crate) fn constrain(&self, from: Vec2, to: Vec2, radius: f32, flying: bool, cliff_walk: bool) -> Vec2 {
         let to = self.terrain.playable().clamp(to, radius);
         if flying {
@@ -182,7 +181,6 @@ impl World {
 
     /// Pushes overlapping ground units apart. Immobile units do not move; moving units give
     /// way to standing ones twice as readily as the reverse.
-    #[inline(never)]
     pub(crate) fn separate(&mut self) {
         // The grid is from the start of this loop; nobody moved more than a third of a cell
         // since, which the query margin covers. Only a unit that moved this loop, or was left

@@ -84,7 +84,6 @@ impl World {
         self.refresh();
     }
 
-    #[inline(never)]
     fn decide(&mut self, i: usize) -> Intent {
         let u = &self.units[i];
         if u.spec().heal.is_some() {
@@ -152,7 +151,6 @@ impl World {
         Intent { goal: Some((to, 0.0)), ..Intent::default() }
     }
 
-    #[inline(never)]
     fn engage(&mut self, i: usize, t: UnitId, chase: bool) -> Intent {
         let (u, tu) = (&self.units[i], &self.units[t.index()]);
         let Some((wi, w)) = weapon_for(u, tu) else { return Intent::default() };
@@ -241,7 +239,6 @@ impl World {
         best.map(|b| b.2)
     }
 
-    #[inline(never)]
     fn attack(&mut self, intents: &[Intent]) {
         let mut pending = Vec::new();
         for (i, it) in intents.iter().enumerate() {
@@ -284,7 +281,6 @@ impl World {
         self.resolve_hits(pending);
     }
 
-    #[inline(never)]
     fn regen(&mut self) {
         let tick = self.tick;
         for u in self.units.iter_mut().filter(|u| u.alive) {
