@@ -129,25 +129,19 @@ fn run_render(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
         writeln!(out, "{}", serde_json::to_string_pretty(&rows)?)?;
         return Ok(());
     }
-    let mut t = comfy_table::Table::new();
-    t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header([
-        "back end",
-        "scenario",
-        "screen+minimap/s",
-        "ratio to 5k goal",
-        "ms per 1080p VLM",
-        "ratio to 20 ms goal",
-    ]);
-    for r in &rows {
-        t.add_row([
-            r.backend.clone(),
-            r.scenario.clone(),
-            format!("{:.0}", r.screen_minimap_pairs_per_sec),
-            format!("{:.2}", r.pairs_ratio_to_goal),
-            format!("{:.2}", r.ms_per_vlm_1080p),
-            format!("{:.2}", r.vlm_ratio_to_goal),
-        ]);
-    }
+    let t = table(
+        &["back end", "scenario", "screen+minimap/s", "ratio to 5k goal", "ms per 1080p VLM", "ratio to 20 ms goal"],
+        rows.iter().map(|r| {
+            vec![
+                r.backend.clone(),
+                r.scenario.clone(),
+                format!("{:.0}", r.screen_minimap_pairs_per_sec),
+                format!("{:.2}", r.pairs_ratio_to_goal),
+                format!("{:.2}", r.ms_per_vlm_1080p),
+                format!("{:.2}", r.vlm_ratio_to_goal),
+            ]
+        }),
+    );
     writeln!(out, "{t}")?;
     Ok(())
 }
@@ -194,16 +188,17 @@ fn run_scaling(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
         writeln!(out, "{}", serde_json::to_string_pretty(&rows)?)?;
         return Ok(());
     }
-    let mut t = comfy_table::Table::new();
-    t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header(["units", "game loops/s", "ns per unit-loop", "ratio to smallest"]);
-    for r in &rows {
-        t.add_row([
-            r.units.to_string(),
-            format!("{:.0}", r.game_loops_per_sec),
-            format!("{:.0}", r.ns_per_unit_loop),
-            format!("{:.2}", r.ratio_to_smallest),
-        ]);
-    }
+    let t = table(
+        &["units", "game loops/s", "ns per unit-loop", "ratio to smallest"],
+        rows.iter().map(|r| {
+            vec![
+                r.units.to_string(),
+                format!("{:.0}", r.game_loops_per_sec),
+                format!("{:.0}", r.ns_per_unit_loop),
+                format!("{:.2}", r.ratio_to_smallest),
+            ]
+        }),
+    );
     writeln!(out, "{t}")?;
     Ok(())
 }
@@ -348,33 +343,35 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
         }
         return Ok(());
     }
-    let mut t = comfy_table::Table::new();
-    t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header([
-        "scenario",
-        "units",
-        "steps/s",
-        "sim-only steps/s",
-        "ratio to sim-only",
-        "ratio to 100k goal",
-        "game loops/s",
-        "bytes/env",
-    ]);
-    for r in &rows {
-        t.add_row([
-            r.scenario.clone(),
-            r.units.to_string(),
-            format!("{:.0}", r.steps_per_sec),
-            format!("{:.0}", r.sim_only_steps_per_sec),
-            format!("{:.2}", r.ratio_to_sim_only),
-            format!("{:.2}", r.ratio_to_goal),
-            format!("{:.0}", r.game_loops_per_sec),
-            r.bytes_per_env.map_or("-".to_owned(), |b| b.to_string()),
-        ]);
-    }
+    let t = table(
+        &["scenario", "units", "steps/s", "sim-only steps/s", "ratio to sim-only", "ratio to 100k goal", "game loops/s", "bytes/env"],
+        rows.iter().map(|r| {
+            vec![
+                r.scenario.clone(),
+                r.units.to_string(),
+                format!("{:.0}", r.steps_per_sec),
+                format!("{:.0}", r.sim_only_steps_per_sec),
+                format!("{:.2}", r.ratio_to_sim_only),
+                format!("{:.2}", r.ratio_to_goal),
+                format!("{:.0}", r.game_loops_per_sec),
+                r.bytes_per_env.map_or("-".to_owned(), |b| b.to_string()),
+            ]
+        }),
+    );
     writeln!(out, "{t}")?;
     writeln!(
         out,
         "one step = 8 game loops + every agent's observation and available actions + the state; single thread, random available actions"
     )?;
     Ok(())
+}
+
+/// A condensed table with a header row, as every bench report prints.
+fn table(header: &[&str], rows: impl Iterator<Item = Vec<String>>) -> comfy_table::Table {
+    let mut t = comfy_table::Table::new();
+    t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header(header.to_vec());
+    for r in rows {
+        t.add_row(r);
+    }
+    t
 }
