@@ -20,7 +20,7 @@ const GOAL_STEPS_PER_SEC: f64 = 100_000.0;
 #[derive(Args, Debug)]
 pub struct BenchArgs {
     /// Scenario names or files; `all` for every built-in scenario.
-    #[arg(long, num_args = 1.., default_values_t = ["3m".to_owned(), "2s3z".to_owned(), "2c_vs_64zg".to_owned(), "pvz_ht".to_owned()])]
+    #[arg(long, num_args = 1.., default_values_t = ["3m".to_owned(), "2s3z".to_owned(), "2c_vs_64zg".to_owned(), "8m3mr1mv1st_mirror".to_owned(), "pvz_ht".to_owned()])]
     scenario: Vec<String>,
     /// Seconds of measurement per scenario and configuration.
     #[arg(long, default_value_t = 2.0)]
@@ -178,7 +178,8 @@ fn run_scaling(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
     let mut rows: Vec<ScalingRow> = Vec::new();
     for n in [4usize, 8, 16, 32, 64, 128, 256] {
         let scenario = Arc::new(scaling_scenario(n)?);
-        let (_, _, loops, secs) = measure(&scenario, a.seconds / 2.0, a.steps, false, true);
+        let (_, _, loops, secs) =
+            measure(&scenario, a.seconds / 2.0, a.steps, Config { with_obs: false, random_actions: true, abilities: true });
         let lps = loops as f64 / secs;
         let ns = 1e9 / lps / (2 * n) as f64;
         let base = rows.first().map_or(ns, |r| r.ns_per_unit_loop);
@@ -217,13 +218,30 @@ pub struct BenchRow {
     ratio_to_sim_only: f64,
     /// steps_per_sec / 100,000 (the 2s3z goal).
     ratio_to_goal: f64,
+    /// Baseline measured in the same run: abilities switched off (no casts, no scripted
+    /// ability use, SMAC's plain action set).
+    no_abilities_steps_per_sec: f64,
+    /// steps_per_sec / no_abilities_steps_per_sec (goal: at least 0.5).
+    ratio_to_no_abilities: f64,
     game_loops_per_sec: f64,
     /// Heap and inline bytes of one environment (needs the binary's counting allocator).
     bytes_per_env: Option<usize>,
 }
 
-fn measure(scenario: &Arc<Scenario>, seconds: f64, max_steps: Option<u64>, with_obs: bool, random_actions: bool) -> (u64, u64, u64, f64) {
-    let mut env = Env::new(Arc::clone(scenario), EnvConfig::default(), 1);
+/// What a measurement includes.
+#[derive(Clone, Copy)]
+struct Config {
+    with_obs: bool,
+    random_actions: bool,
+    /// Abilities on, and the random actions drawn from SMAC's actions plus the ability slots.
+    abilities: bool,
+}
+
+fn measure(scenario: &Arc<Scenario>, seconds: f64, max_steps: Option<u64>, c: Config) -> (u64, u64, u64, f64) {
+    let Config { with_obs, random_actions, abilities } = c;
+    let mut cfg = EnvConfig { ability_actions: abilities, ..EnvConfig::default() };
+    cfg.rules.abilities = abilities;
+    let mut env = Env::new(Arc::clone(scenario), cfg, 1);
     let layout = env.smac_layout(Team::One).clone();
     let mut obs = vec![0f32; layout.obs_size];
     let mut state = vec![0f32; layout.state_size];
@@ -315,10 +333,13 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
     let mut rows = Vec::new();
     for name in &names {
         let scenario = Arc::new(Scenario::load(name)?);
-        let (steps, episodes, loops, secs) = measure(&scenario, a.seconds, a.steps, true, true);
-        let (base_steps, _, _, base_secs) = measure(&scenario, a.seconds / 2.0, a.steps, false, true);
+        let full = Config { with_obs: true, random_actions: true, abilities: true };
+        let (steps, episodes, loops, secs) = measure(&scenario, a.seconds, a.steps, full);
+        let (base_steps, _, _, base_secs) = measure(&scenario, a.seconds / 2.0, a.steps, Config { with_obs: false, ..full });
+        let (plain_steps, _, _, plain_secs) = measure(&scenario, a.seconds / 2.0, a.steps, Config { abilities: false, ..full });
         let sps = steps as f64 / secs;
         let base = base_steps as f64 / base_secs;
+        let plain = plain_steps as f64 / plain_secs;
         rows.push(BenchRow {
             scenario: scenario.name.clone(),
             units: scenario.units.len(),
@@ -328,6 +349,8 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
             sim_only_steps_per_sec: base,
             ratio_to_sim_only: sps / base,
             ratio_to_goal: sps / GOAL_STEPS_PER_SEC,
+            no_abilities_steps_per_sec: plain,
+            ratio_to_no_abilities: sps / plain,
             game_loops_per_sec: loops as f64 / secs,
             bytes_per_env: alloc.map(|a| bytes_per_env(&scenario, a)),
         });
@@ -344,7 +367,18 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
         return Ok(());
     }
     let t = table(
-        &["scenario", "units", "steps/s", "sim-only steps/s", "ratio to sim-only", "ratio to 100k goal", "game loops/s", "bytes/env"],
+        &[
+            "scenario",
+            "units",
+            "steps/s",
+            "sim-only steps/s",
+            "ratio to sim-only",
+            "ratio to 100k goal",
+            "no-abilities steps/s",
+            "ratio to no abilities",
+            "game loops/s",
+            "bytes/env",
+        ],
         rows.iter().map(|r| {
             vec![
                 r.scenario.clone(),
@@ -353,6 +387,8 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
                 format!("{:.0}", r.sim_only_steps_per_sec),
                 format!("{:.2}", r.ratio_to_sim_only),
                 format!("{:.2}", r.ratio_to_goal),
+                format!("{:.0}", r.no_abilities_steps_per_sec),
+                format!("{:.2}", r.ratio_to_no_abilities),
                 format!("{:.0}", r.game_loops_per_sec),
                 r.bytes_per_env.map_or("-".to_owned(), |b| b.to_string()),
             ]
@@ -361,7 +397,7 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
     writeln!(out, "{t}")?;
     writeln!(
         out,
-        "one step = 8 game loops + every agent's observation and available actions + the state; single thread, random available actions"
+        "one step = 8 game loops + every agent's observation and available actions + the state; single thread, random available actions (with the ability slots; the no-abilities baseline has abilities off and SMAC's plain actions)"
     )?;
     Ok(())
 }

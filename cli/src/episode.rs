@@ -3,7 +3,7 @@
 use crate::info::team_of;
 use anyhow::{Context, Result, bail};
 use avacraft_engine::{
-    Controllers, Env, EnvConfig, Mode, OpponentKind, Outcome, RewardMode, Rules, Scenario, Team, loops_to_seconds, policy,
+    Ability, Controllers, Env, EnvConfig, Mode, OpponentKind, Outcome, RewardMode, Rules, Scenario, Team, loops_to_seconds, policy,
 };
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -40,6 +40,9 @@ pub struct EpisodeArgs {
     /// Turn off StarCraft II's random attack delay.
     #[arg(long)]
     pub no_jitter: bool,
+    /// Switch unit abilities off (SMAC's ability-less units).
+    #[arg(long)]
+    pub no_abilities: bool,
     /// Print team 1's text observation to stderr every N steps (0: never).
     #[arg(long, default_value_t = 0)]
     pub trace_every: u32,
@@ -65,6 +68,8 @@ pub struct EpisodeRecord {
     pub steps: u32,
     pub units_left: [usize; 2],
     pub refused_actions: [u32; 2],
+    /// Casts per ability, per team (team 1 first).
+    pub abilities: [std::collections::BTreeMap<Ability, u32>; 2],
     pub trajectory_hash: String,
 }
 
@@ -120,7 +125,12 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
     let pvp = p2.is_some();
     let mut controllers = Controllers::new(&scenario, p1, p2);
     let cfg = EnvConfig {
-        rules: Rules { full_vision: a.full_vision, cooldown_jitter: !a.no_jitter, auto_acquire: [!a.passive_agents, true] },
+        rules: Rules {
+            full_vision: a.full_vision,
+            cooldown_jitter: !a.no_jitter,
+            auto_acquire: [!a.passive_agents, true],
+            abilities: !a.no_abilities,
+        },
         reward: RewardMode::Sparse,
         opponent,
         ..EnvConfig::default()
@@ -177,6 +187,7 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
             steps: env.steps(),
             units_left: [w.alive(Team::One).count(), w.alive(Team::Two).count()],
             refused_actions: env.refused(),
+            abilities: Team::BOTH.map(|t| w.stats(t).abilities.clone()),
             trajectory_hash: format!("{:016x}", env.trajectory_hash()),
         });
         bar.inc(1);
@@ -216,6 +227,22 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
     }
     t.add_row(["game seconds".to_owned(), format!("{:.1}", summary.game_seconds.mean), format!("{:.1}", summary.game_seconds.std)]);
     writeln!(out, "{t}")?;
+    let mut casts: std::collections::BTreeMap<Ability, [u32; 2]> = Default::default();
+    for r in &records {
+        for (side, m) in r.abilities.iter().enumerate() {
+            for (a, n) in m {
+                casts.entry(*a).or_default()[side] += n;
+            }
+        }
+    }
+    if !casts.is_empty() {
+        let mut t = comfy_table::Table::new();
+        t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header(["ability", "team 1 casts", "team 2 casts"]);
+        for (a, [x, y]) in casts {
+            t.add_row([a.name().to_owned(), x.to_string(), y.to_string()]);
+        }
+        writeln!(out, "{t}")?;
+    }
     let _ = team_of;
     Ok(())
 }

@@ -19,6 +19,29 @@ pub fn arena_with(mode: &str, units: &[(&str, u8, f32, f32)], extra: &str) -> St
     s
 }
 
+/// Like [`arena_with`], each unit with extra inline fields (e.g. `energy = 200`).
+pub fn arena_units(mode: &str, units: &[(&str, u8, f32, f32, &str)], extra: &str) -> String {
+    let mut s = format!("name = \"test\"\nmode = \"{mode}\"\nmap_size = [32, 32]\n{extra}\nunits = [\n");
+    for (k, t, x, y, more) in units {
+        let more = if more.is_empty() { String::new() } else { format!(", {more}") };
+        let _ = writeln!(s, "  {{ type = \"{k}\", team = {t}, x = {x}, y = {y}{more} }},");
+    }
+    s.push_str("]\n[opponent]\nstart = { kind = \"none\" }\n");
+    s
+}
+
+/// One loop per step, full vision, no jitter, nobody acts unless ordered.
+pub fn exact_loop() -> EnvConfig {
+    one_loop(passive())
+}
+
+/// Runs `n` single-loop steps.
+pub fn run_loops(env: &mut Env, n: u32) {
+    for _ in 0..n {
+        env.step();
+    }
+}
+
 pub fn load(toml: &str) -> Arc<Scenario> {
     Arc::new(Scenario::from_toml("test.toml", toml).unwrap_or_else(|e| panic!("test scenario: {e}")))
 }
@@ -30,7 +53,10 @@ pub fn exact() -> EnvConfig {
 
 /// Full vision, no random delay, and nobody attacks unless ordered: for exact damage tests.
 pub fn passive() -> EnvConfig {
-    EnvConfig { rules: Rules { cooldown_jitter: false, full_vision: true, auto_acquire: [false, false] }, ..EnvConfig::default() }
+    EnvConfig {
+        rules: Rules { cooldown_jitter: false, full_vision: true, auto_acquire: [false, false], ..Rules::default() },
+        ..EnvConfig::default()
+    }
 }
 
 pub fn one_loop(mut cfg: EnvConfig) -> EnvConfig {

@@ -1,5 +1,7 @@
 //! The integration test binary: one binary, one module per area.
 
+mod abilities;
+mod ability_obs;
 mod actions;
 mod cli;
 mod combat;

@@ -17,7 +17,10 @@ fn units_carry_their_sides_colour_and_unseen_enemies_are_not_drawn() {
     let env = Env::new(Arc::clone(&s), passive(), 0);
     let mut fog_env = Env::new(
         s,
-        EnvConfig { rules: Rules { full_vision: false, cooldown_jitter: false, auto_acquire: [false; 2] }, ..EnvConfig::default() },
+        EnvConfig {
+            rules: Rules { full_vision: false, cooldown_jitter: false, auto_acquire: [false; 2], ..Rules::default() },
+            ..EnvConfig::default()
+        },
         0,
     );
     fog_env.step();
@@ -319,4 +322,38 @@ fn attack_lines_do_not_reveal_units_in_fog() {
             }
         }
     }
+}
+
+#[test]
+fn storms_and_force_fields_are_drawn_where_they_are() {
+    let units = [("HighTemplar", 1, 8.0, 16.0, "energy = 200"), ("Sentry", 1, 8.0, 12.0, ""), ("Zealot", 2, 28.0, 28.0, "")];
+    let toml = arena_units("pvp", &units, "upgrades = [{ team = 1, name = \"PsiStormTech\" }]");
+    let mut env = Env::new(load(&toml), exact_loop(), 1);
+    let cast = |ability, x, y| avacraft_engine::Command::Ability {
+        ability,
+        target: avacraft_engine::AbilityTarget::Point { to: Vec2::new(x, y) },
+    };
+    env.submit(
+        Team::One,
+        &[
+            avacraft_engine::Action::new(uid(0), cast(avacraft_engine::Ability::PsionicStorm, 14.0, 16.0)),
+            avacraft_engine::Action::new(uid(1), cast(avacraft_engine::Ability::ForceField, 14.0, 10.0)),
+        ],
+    );
+    let (w, h) = (320, 320);
+    let mut fb = FrameBuilder::new();
+    let before = CpuBackend::new().render(&fb.screen(env.world(), Team::One, w, h));
+    env.step();
+    let after = CpuBackend::new().render(&fb.screen(env.world(), Team::One, w, h));
+    let view = MapView::fit(env.world(), [0.0, 0.0, w as f32, h as f32]);
+    let px = |img: &RgbImage, p: Vec2| {
+        let [x, y] = view.px(p);
+        img.get_pixel(x as u32, y as u32).0
+    };
+    let (s0, s1) = (px(&before, Vec2::new(14.0, 16.0)), px(&after, Vec2::new(14.0, 16.0)));
+    assert!(s1[2] > s0[2] + 40 && s1[0] > s0[0] + 25, "storm tints purple: {s0:?} -> {s1:?}");
+    let (f0, f1) = (px(&before, Vec2::new(14.0, 10.0)), px(&after, Vec2::new(14.0, 10.0)));
+    assert!(f1[1] > f0[1] + 40 && f1[2] > f0[2] + 40, "force field tints light blue: {f0:?} -> {f1:?}");
+    let far = Vec2::new(20.0, 22.0);
+    assert_eq!(px(&before, far), px(&after, far), "nothing drawn elsewhere");
 }

@@ -46,7 +46,10 @@ fn enemies_beyond_sight_are_hidden_from_every_observation() {
 }
 
 fn passive_fog() -> EnvConfig {
-    EnvConfig { rules: Rules { cooldown_jitter: false, full_vision: false, auto_acquire: [false, false] }, ..EnvConfig::default() }
+    EnvConfig {
+        rules: Rules { cooldown_jitter: false, full_vision: false, auto_acquire: [false, false], ..Rules::default() },
+        ..EnvConfig::default()
+    }
 }
 
 #[test]

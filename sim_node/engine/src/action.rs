@@ -1,6 +1,7 @@
 //! The typed action interface shared by every agent kind, its validation, and the 10x10
 //! movement grid that screenshots label.
 
+use crate::ability::{Ability, AbilityTarget, PendingCast, Refusal};
 use crate::combat::weapon_for;
 use crate::geom::Vec2;
 use crate::ids::{Team, UnitId};
@@ -63,6 +64,11 @@ pub enum Command {
     AttackMoveTo {
         to: Vec2,
     },
+    /// Use an ability; it resolves at the start of the next game loop.
+    Ability {
+        ability: Ability,
+        target: AbilityTarget,
+    },
 }
 
 /// A command for one unit.
@@ -102,6 +108,8 @@ pub enum ActionError {
     OffMap { x: f32, y: f32 },
     #[error("unit {unit} cannot do that: {why}")]
     Unavailable { unit: UnitId, why: String },
+    #[error("unit {unit} cannot use {ability}: {refusal}")]
+    AbilityRefused { unit: UnitId, ability: Ability, refusal: Refusal },
 }
 
 /// Centre of grid cell (x, y) in map coordinates; (1, 1) is the top-left cell.
@@ -123,7 +131,13 @@ impl World {
     /// Checks an action for `team` and, if valid, gives the unit its new order.
     pub fn apply(&mut self, team: Team, a: &Action) -> Result<(), ActionError> {
         let order = self.validate(team, a)?;
+        if let Command::Ability { ability, target } = a.command {
+            self.pending_casts.push(PendingCast { team, unit: a.unit, ability, target });
+            return Ok(());
+        }
         if let Some(o) = order {
+            // A new order ends a channel (Steady Targeting, Graviton Beam).
+            self.cancel_channel(a.unit.index());
             self.set_order(a.unit, o);
         }
         Ok(())
@@ -142,6 +156,18 @@ impl World {
         }
         if !u.alive {
             return Err(ActionError::DeadUnit { unit });
+        }
+        if let Command::Ability { ability, target } = a.command {
+            return self.check_cast(team, u, ability, target).map(|_| None).map_err(|refusal| ActionError::AbilityRefused {
+                unit,
+                ability,
+                refusal,
+            });
+        }
+        if let Some((into, _)) = u.status.morph
+            && a.command != Command::Stop
+        {
+            return Err(ActionError::Unavailable { unit, why: format!("morphing into {}", into.display_name()) });
         }
         let playable = self.terrain.playable();
         let mobile = || {
@@ -212,6 +238,7 @@ impl World {
                 mobile()?;
                 Some(Order::AttackMove { to: reach(in_map(to)?)? })
             }
+            Command::Ability { .. } => None,
         })
     }
 }

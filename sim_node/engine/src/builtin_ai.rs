@@ -1,7 +1,7 @@
 //! Emulation of StarCraft II's built-in AI for the opponent side: the scenario's opening
 //! order (at its delay), then the engine's own acquisition and threat rules, healers
 //! autocasting, and one response a VeryHard AI always has: idle army units go after enemies
-//! the team has seen. No other micro.
+//! the team has seen, and the abilities a competent player uses (`policy::ability_actions`).
 
 use crate::geom::Vec2;
 use crate::ids::{Team, UnitId};
@@ -45,9 +45,14 @@ impl BuiltinAi {
 
     /// Called before every step: idle mobile units attack-move to the closest enemy the team
     /// sees (the AI answers contact with its whole army instead of waiting to be picked off).
-    pub(crate) fn before_step(&mut self, world: &mut World, units: &[UnitId], team: Team) {
+    pub(crate) fn before_step(&mut self, world: &mut World, scenario: &Scenario, units: &[UnitId], team: Team) {
         if self.start.is_some_and(|(_, delay)| world.tick() < delay) {
             return;
+        }
+        // Abilities as the AI uses them (stim, siege, storms, transfusions...).
+        let (casts, _) = crate::policy::ability_actions(&crate::policy::TeamView::new(world, scenario, team));
+        for a in &casts {
+            let _ = world.apply(team, a);
         }
         let seen: Vec<Vec2> = world.alive(team.other()).filter(|e| world.visible_to(team, e.id)).map(|e| e.pos).collect();
         if seen.is_empty() {

@@ -2,7 +2,8 @@
 //! units, then distance; keep a target while it stays valid and in range), simultaneous
 //! resolution of every attack made in a loop, and each splash shape.
 
-use crate::damage::{Dealt, apply_hits, hit_damage};
+use crate::ability::{GUARDIAN_REDUCTION, RANGED_MIN, SLOW_LOOPS};
+use crate::damage::{Dealt, hit_damage};
 use crate::geom::{Vec2, point_segment_dist};
 use crate::ids::UnitId;
 use crate::units::{Attrs, Splash, Weapon};
@@ -10,6 +11,8 @@ use crate::world::{Shot, Unit, World, sq};
 
 /// How far past its acquisition range a unit keeps chasing an auto-acquired target.
 pub(crate) const LEASH: f32 = 2.0;
+/// A Colossus lance hits units within this distance of its line (game data 5.0.13).
+const LANCE_WIDTH: f32 = 0.15;
 /// Loops between target re-evaluations while chasing a valid target.
 const RESCAN_EVERY: u32 = 4;
 
@@ -120,10 +123,12 @@ impl World {
     }
 
     /// Applies every attack made this loop, then splash, then deaths; Banelings killed this
-    /// way detonate in turn. [U] Killed Banelings explode as if they had attacked. A unit
-    /// that attacks with a suicide weapon is already marked dead by the caller.
+    /// way detonate in turn (they do in StarCraft II). A unit that attacks with a suicide
+    /// weapon is already marked dead by the caller. Also called with no hits to settle
+    /// deaths from spells.
     pub(crate) fn resolve_hits(&mut self, mut pending: Vec<PendingHit>) -> Vec<PendingHit> {
-        while !pending.is_empty() {
+        while !pending.is_empty() || self.deaths_pending {
+            self.deaths_pending = false;
             for h in pending.drain(..) {
                 self.apply_hit(&h);
             }
@@ -155,11 +160,12 @@ impl World {
         let mut primary_layer_flying = false;
         if let Some(t) = h.target {
             let tu = &mut self.units[t.index()];
-            primary_layer_flying = tu.spec().flying;
+            primary_layer_flying = tu.flying();
             if tu.alive && !w.suicide {
                 tu.last_attacker = Some(h.attacker);
-                let dealt = damage_unit(tu, w, 1.0, self.tick);
+                let dealt = self.weapon_damage(t.index(), w, 1.0, true);
                 self.stats[a_team.index()].damage_dealt += dealt.total();
+                self.on_hit(h.attacker, t.index());
             }
         }
         if matches!(w.splash, Splash::None) {
@@ -169,7 +175,7 @@ impl World {
         let mut victims: Vec<(usize, f32)> = Vec::new();
         self.grid.for_each_near(centre, 4.0, |j| {
             let v = &self.units[j];
-            if !v.alive || Some(v.id) == h.target || v.id == h.attacker || v.spec().flying != primary_layer_flying {
+            if !v.alive || Some(v.id) == h.target || v.id == h.attacker || v.flying() != primary_layer_flying {
                 return;
             }
             let r = v.radius;
@@ -187,7 +193,7 @@ impl World {
                         return;
                     }
                     let across = h.dir.perp() * half_length;
-                    if point_segment_dist(v.pos, h.impact - across, h.impact + across) <= r { fraction } else { 0.0 }
+                    if point_segment_dist(v.pos, h.impact - across, h.impact + across) <= r + LANCE_WIDTH { fraction } else { 0.0 }
                 }
                 Splash::Cone { length, half_angle, fraction } => {
                     if v.team == a_team {
@@ -204,11 +210,10 @@ impl World {
             }
         });
         for (j, frac) in victims {
-            let tick = self.tick;
             if self.units[j].team != a_team {
                 self.units[j].last_attacker = Some(h.attacker);
             }
-            let dealt = damage_unit(&mut self.units[j], w, frac, tick);
+            let dealt = self.weapon_damage(j, w, frac, false);
             let friendly = self.units[j].team == a_team;
             if !friendly {
                 self.stats[a_team.index()].damage_dealt += dealt.total();
@@ -221,11 +226,32 @@ impl World {
     }
 }
 
-fn damage_unit(t: &mut Unit, w: &Weapon, fraction: f32, tick: u32) -> Dealt {
-    let per_hit = hit_damage(w, t.spec().attrs) * fraction;
-    let armor = t.spec().armor;
-    t.last_damaged = tick;
-    apply_hits(per_hit, w.hits, armor, &mut t.shield, &mut t.hp)
+impl World {
+    /// A weapon's damage to unit `j`. Guardian Shield takes 2 off each ranged primary hit
+    /// (not melee, not splash).
+    fn weapon_damage(&mut self, j: usize, w: &Weapon, fraction: f32, primary: bool) -> Dealt {
+        let t = &self.units[j];
+        let mut per_hit = hit_damage(w, t.spec().attrs) * fraction;
+        if primary && t.status.guarded && w.range >= RANGED_MIN {
+            per_hit = (per_hit - GUARDIAN_REDUCTION).max(0.0);
+        }
+        let armor = t.spec().armor;
+        self.hurt(j, per_hit, w.hits, armor)
+    }
+
+    /// On-hit effects of the attacker's weapon: Concussive Shells.
+    fn on_hit(&mut self, attacker: UnitId, j: usize) {
+        let a = &self.units[attacker.index()];
+        if a.kind == crate::units::UnitKind::Marauder && self.has_upgrade(a.team, crate::scenario::Upgrade::ConcussiveShells) {
+            let tick = self.tick;
+            let t = &mut self.units[j];
+            let attrs = t.spec().attrs;
+            if !attrs.has(Attrs::MASSIVE) && !attrs.has(Attrs::STRUCTURE) {
+                t.status.slow_until = tick + SLOW_LOOPS;
+                t.status.hold(tick + SLOW_LOOPS);
+            }
+        }
+    }
 }
 
 pub(crate) fn in_heal_range(h: &Unit, t: &Unit, range: f32) -> bool {

@@ -13,6 +13,8 @@ pub fn hit_damage(w: &Weapon, attrs: Attrs) -> f32 {
 pub struct Dealt {
     pub shield: f32,
     pub hp: f32,
+    /// Taken by a Barrier.
+    pub absorbed: f32,
 }
 
 impl Dealt {
@@ -25,12 +27,29 @@ impl Dealt {
 /// shield and HP. Shields absorb first (shield armour 0); what passes them loses the hull
 /// armour; a hit entirely on the hull deals at least 0.5.
 pub fn apply_hits(per_hit: f32, hits: u8, armor: f32, shield: &mut f32, hp: &mut f32) -> Dealt {
+    apply_hits_absorbed(per_hit, hits, armor, None, shield, hp)
+}
+
+/// [`apply_hits`] with an absorbing layer in front of the shields (Immortal Barrier):
+/// whatever it absorbs never reaches shields or hull.
+pub fn apply_hits_absorbed(per_hit: f32, hits: u8, armor: f32, mut barrier: Option<&mut f32>, shield: &mut f32, hp: &mut f32) -> Dealt {
     let mut out = Dealt::default();
     for _ in 0..hits {
         if *hp <= 0.0 {
             break;
         }
         let mut dmg = per_hit;
+        if let Some(b) = barrier.as_deref_mut()
+            && *b > 0.0
+        {
+            let absorbed = b.min(dmg);
+            *b -= absorbed;
+            out.absorbed += absorbed;
+            dmg -= absorbed;
+            if dmg <= 0.0 {
+                continue;
+            }
+        }
         if *shield > 0.0 {
             let absorbed = shield.min(dmg);
             *shield -= absorbed;

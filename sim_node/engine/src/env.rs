@@ -35,6 +35,10 @@ pub struct EnvConfig {
     pub opponent: Option<OpponentKind>,
     /// Overrides the scenario's time limit (loops).
     pub time_limit_loops: Option<NonZeroU32>,
+    /// Appends the ability slots to SMAC's discrete actions (and their features to the
+    /// observations); off by default for drop-in SMAC compatibility.
+    #[serde(default)]
+    pub ability_actions: bool,
 }
 
 impl EnvConfig {
@@ -47,7 +51,14 @@ impl EnvConfig {
 
 impl Default for EnvConfig {
     fn default() -> Self {
-        Self { step_mul: DEFAULT_STEP_MUL, rules: Rules::default(), reward: RewardMode::Sparse, opponent: None, time_limit_loops: None }
+        Self {
+            step_mul: DEFAULT_STEP_MUL,
+            rules: Rules::default(),
+            reward: RewardMode::Sparse,
+            opponent: None,
+            time_limit_loops: None,
+            ability_actions: false,
+        }
     }
 }
 
@@ -126,6 +137,7 @@ impl std::fmt::Debug for Env {
 
 impl Env {
     pub fn new(scenario: Arc<Scenario>, cfg: EnvConfig, seed: u64) -> Env {
+        let abilities = cfg.ability_actions;
         let world = World::new(&scenario, cfg.rules, seed);
         let scenario_ref = Arc::clone(&scenario);
         let mut env = Env {
@@ -146,7 +158,7 @@ impl Env {
             dense: DenseTracker::default(),
             max_reward: [0.0, 0.0],
             trajectory: Fnv::default(),
-            layouts: [SmacLayout::new(&scenario_ref, Team::One), SmacLayout::new(&scenario_ref, Team::Two)],
+            layouts: Team::BOTH.map(|t| SmacLayout::with_abilities(&scenario_ref, t, abilities)),
         };
         env.reset(seed);
         env
@@ -303,7 +315,7 @@ impl Env {
             self.opponent = Some(p);
         }
         if let Some(ai) = self.builtin.as_mut() {
-            ai.before_step(&mut self.world, &self.agents[Team::Two.index()], Team::Two);
+            ai.before_step(&mut self.world, &self.scenario, &self.agents[Team::Two.index()], Team::Two);
         }
         let limit = self.time_limit_loops();
         for _ in 0..self.cfg.step_mul.get() {

@@ -65,6 +65,17 @@ impl World {
                 }
             }
             h.u32(u.target.map_or(0, |t| t.tag()));
+            let st = &u.status;
+            for v in [st.stim_until, st.slow_until, st.boost_until, st.lifted_until, st.cooldown_until, st.hot_until, st.storm_next] {
+                h.u32(v);
+            }
+            h.u32(st.cloaked as u32 | (st.channel.is_some() as u32) << 1 | st.morph.map_or(0, |(k, t)| (k as u32) << 24 ^ t) << 2);
+            h.f32(st.barrier_hp);
+        }
+        for e in &self.effects {
+            h.u32(e.kind as u32 | e.until << 4);
+            h.f32(e.pos.x);
+            h.f32(e.pos.y);
         }
         h.finish()
     }

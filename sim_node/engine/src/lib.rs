@@ -26,6 +26,7 @@
 //! # }
 //! ```
 
+mod ability;
 mod action;
 mod builtin_ai;
 mod combat;
@@ -47,13 +48,20 @@ mod time;
 mod units;
 mod world;
 
+pub use ability::{
+    Ability, AbilityInfo, AbilitySpec, AbilityTarget, AreaEffect, Channel, EffectKind, Refusal, SlotRule, Status, TargetKind, TargetRule,
+    UnknownAbility,
+};
 pub use action::{Action, ActionError, Command, Direction, GRID, MOVE_AMOUNT, grid_cell_center, grid_cell_of};
 pub use damage::{Dealt, apply_hits, hit_damage};
 pub use env::{Env, EnvConfig, Outcome, RewardMode, StepResult};
 pub use geom::Vec2;
 pub use hash::Fnv;
 pub use ids::{Team, Tick, UnitId};
-pub use obs::{EnvInfo, IndexError, N_ACTIONS_NO_ATTACK, OrderInfo, SHOOT_RANGE, SIGHT_RANGE, SmacLayout, UnitInfo, describe, unit_list};
+pub use obs::{AbilitySlots, slot_abilities};
+pub use obs::{
+    EnvInfo, IndexError, N_ACTIONS_NO_ATTACK, OrderInfo, SHOOT_RANGE, SIGHT_RANGE, SmacLayout, UnitInfo, ability_infos, describe, unit_list,
+};
 pub use policy::{Controllers, POLICIES, Policy, TeamView, UnknownPolicy};
 pub use scenario::{
     BUILTIN, Mode, OpponentKind, RawOpponent, RawScenario, RawStart, RawTerrain, RawUnit, RawUpgrade, Scenario, ScenarioError,

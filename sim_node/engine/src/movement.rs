@@ -97,6 +97,14 @@ impl World {
                         }
                     }
                 });
+                if me.body == Body::Ground {
+                    // Force fields are walls to ground units that are not massive.
+                    for f in self.force_fields() {
+                        if f.pos.dist(pos) <= f.radius + query {
+                            neighbours.push(Neighbour { pos: f.pos, vel: Vec2::ZERO, radius: f.radius, responsibility: 1.0 });
+                        }
+                    }
+                }
                 let agent = Agent { pos, vel: me.vel, radius, max_speed: speed };
                 let v = self.orca.solve(&agent, pref, TAU, &neighbours);
                 if v.len_sq() < 0.25 * pref.len_sq() && neighbours.len() <= 3 {

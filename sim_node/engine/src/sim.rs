@@ -65,6 +65,7 @@ impl World {
     /// Advances the world by one game loop.
     pub fn step_loop(&mut self) {
         self.shots.clear();
+        self.tick_abilities();
         let mut intents = std::mem::take(&mut self.scratch.intents);
         intents.clear();
         for u in self.units.iter_mut().filter(|u| u.alive) {
@@ -78,6 +79,7 @@ impl World {
         self.attack(&intents);
         self.move_units(&intents);
         self.separate();
+        self.enforce_force_fields();
         self.regen();
         self.scratch.intents = intents;
         self.tick += 1;
@@ -86,6 +88,10 @@ impl World {
 
     fn decide(&mut self, i: usize) -> Intent {
         let u = &self.units[i];
+        if u.status.busy(self.tick) {
+            // Morphing, lifted or channelling: nothing else this loop.
+            return Intent::default();
+        }
         if u.spec().heal.is_some() {
             return self.decide_healer(i);
         }
@@ -246,8 +252,9 @@ impl World {
             let w = &self.units[i].spec().weapons[wi];
             let jitter = if self.rules.cooldown_jitter { self.rng().random_range(-1.0f32..=2.0) } else { 0.0 };
             let tpos = self.units[t.index()].pos;
+            let tick = self.tick;
             let u = &mut self.units[i];
-            u.cooldown = w.cooldown + jitter + u.cooldown.clamp(-1.0, 0.0);
+            u.cooldown = w.cooldown / u.status.attack_rate(tick) + jitter + u.cooldown.clamp(-1.0, 0.0);
             u.activity = Activity::Attacking;
             let dir = (tpos - u.pos).normalized();
             let (id, team, pos) = (u.id, u.team, u.pos);
@@ -273,7 +280,10 @@ impl World {
             let h = &mut self.units[i];
             h.energy -= amount * heal.energy_per_hp;
             h.activity = Activity::Healing;
-            let team = h.team;
+            let (team, new_heal) = (h.team, !h.was_healing);
+            if new_heal {
+                self.count_ability(team, crate::ability::Ability::Heal);
+            }
             self.stats[team.index()].healing_done += amount;
             let hid = self.units[i].id;
             self.record_shot(hid, tid, tpos);

@@ -290,8 +290,11 @@ static SPECS: [UnitSpec; 28] = [
     armed(body(spec(K::Reaper, Te, 60.0, 0.0, 0.0, L.union(B)), 3.75, 9.0, 0.375), &[weapon(RG, 4.0, 2, 1.1, 5.0)], 18.0),
     armed(
         body(spec(K::Hellbat, Te, 135.0, 0.0, 0.0, L.union(B).union(M)), 2.25, 10.0, 0.625),
-        // [U] cone: the flame reaches 2 past the Hellbat's edge, about 45 degrees each side.
-        &[with_splash(weapon(RG, 18.0, 1, 2.0, 2.0), Splash::Cone { length: 2.7, half_angle: 0.75, fraction: 1.0 })],
+        // A 45-degree arc of radius 2 in front of the Hellbat (game data 5.0.13).
+        &[with_splash(
+            weapon(RG, 18.0, 1, 2.0, 2.0),
+            Splash::Cone { length: 2.0 + 0.625, half_angle: std::f32::consts::FRAC_PI_8, fraction: 1.0 },
+        )],
         32.0,
     ),
     armed(
@@ -324,7 +327,8 @@ static SPECS: [UnitSpec; 28] = [
         &[with_bonus(weapon(RX, 13.0, 1, 1.87, 6.0), &[(A, 5.0)])],
         35.0,
     ),
-    // [U] Sentry weapon is missing from the data file: 6 damage, 0.71 s (Faster), range 5.
+    // Sentry: 6 damage, 0.71 s (Faster), range 5 (game data 5.0.13; its +4 against shields
+    // is not modelled).
     energy(
         armed(body(spec(K::Sentry, Pr, 40.0, 40.0, 1.0, L.union(M).union(P)), 2.5, 10.0, 0.5), &[weapon(RX, 6.0, 1, 1.0, 5.0)], 16.0),
         200.0,
@@ -341,10 +345,10 @@ static SPECS: [UnitSpec; 28] = [
     ),
     armed(
         body(spec(K::Archon, Pr, 10.0, 350.0, 0.0, P.union(MS)), 2.8125, 9.0, 1.0),
-        // [U] splash radius 1 around the target.
+        // Splash 100% / 50% / 25% within 0.25 / 0.5 / 1.0 of the target (game data 5.0.13).
         &[with_splash(
             with_bonus(weapon(RX, 25.0, 1, 1.754, 3.0), &[(B, 10.0)]),
-            Splash::Radial { zones: &[(1.0, 1.0)], friendly_fire: false },
+            Splash::Radial { zones: &[(0.25, 1.0), (0.5, 0.5), (1.0, 0.25)], friendly_fire: false },
         )],
         28.0,
     ),
@@ -357,8 +361,8 @@ static SPECS: [UnitSpec; 28] = [
         cliff_walk: true,
         ..armed(
             body(spec(K::Colossus, Pr, 200.0, 150.0, 1.0, A.union(M).union(MS)), 2.25, 10.0, 1.0),
-            // [U] lance length: 1.4 each side of the impact point.
-            &[with_splash(with_bonus(weapon(RG, 10.0, 2, 1.5, 7.0), &[(L, 5.0)]), Splash::Line { half_length: 1.4, fraction: 1.0 })],
+            // Each lance sweeps a line 2.5 long across the target (game data 5.0.13).
+            &[with_splash(with_bonus(weapon(RG, 10.0, 2, 1.5, 7.0), &[(L, 5.0)]), Splash::Line { half_length: 1.25, fraction: 1.0 })],
             24.0,
         )
     },
@@ -372,7 +376,7 @@ static SPECS: [UnitSpec; 28] = [
         50.0,
     ),
     air(body(spec(K::WarpPrism, Pr, 80.0, 100.0, 0.0, A.union(M).union(P)), 2.953125, 10.0, 0.875)),
-    // [U] power field radius 3.75.
+    // Power field radius 3.75 (game data 5.0.13).
     UnitSpec { power_radius: 3.75, ..air(body(spec(K::WarpPrismPhasing, Pr, 80.0, 100.0, 0.0, A.union(M).union(P)), 0.0, 11.0, 0.875)) },
     UnitSpec {
         detector: true,
@@ -393,8 +397,12 @@ static SPECS: [UnitSpec; 28] = [
     ),
     armed(
         body(spec(K::Ultralisk, Zg, 500.0, 0.0, 2.0, A.union(B).union(MS)), 2.953125, 9.0, 0.875),
-        // [U] cleave: a third of the damage to enemies in a 2-deep arc in front.
-        &[with_splash(weapon(RG, 35.0, 1, 0.86, 1.0), Splash::Cone { length: 2.0, half_angle: 1.05, fraction: 0.33 })],
+        // Cleave: 33% to enemies within 2 in front (game data 5.0.13 lists a 45 and a 180
+        // degree arc; [U] how they combine: the 180-degree front arc is used).
+        &[with_splash(
+            weapon(RG, 35.0, 1, 0.86, 1.0),
+            Splash::Cone { length: 2.0 + 0.875, half_angle: std::f32::consts::FRAC_PI_2, fraction: 0.33 },
+        )],
         14.0,
     ),
     energy(

@@ -1,6 +1,7 @@
 //! The world state: units, terrain, the loop counter and the seeded RNG. `sim.rs` advances
 //! it one game loop at a time.
 
+use crate::ability::{AreaEffect, PendingCast, Status};
 use crate::geom::Vec2;
 use crate::ids::{Team, UnitId};
 use crate::orca::Orca;
@@ -110,6 +111,10 @@ pub struct Unit {
     /// Consecutive loops in which it wanted to move but hardly could (blocked).
     pub(crate) blocked_loops: u16,
     pub(crate) waypoint: Option<(Vec2, Vec2, u32)>,
+    /// Speed before buffs and debuffs (upgrades included).
+    pub(crate) base_speed: f32,
+    /// Buffs, modes, timers and cooldowns from abilities.
+    pub status: Status,
 }
 
 impl Unit {
@@ -156,11 +161,19 @@ pub struct Rules {
     /// Whether idle units of each team acquire targets on their own. SMAC's allied units
     /// are "passive" editor copies; StarCraft II units are not.
     pub auto_acquire: [bool; 2],
+    /// Unit abilities (casts, autocast Barrier, scripted ability use). Off gives SMAC's
+    /// ability-less units, and the baseline the benchmark compares against.
+    #[serde(default = "yes")]
+    pub abilities: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 impl Default for Rules {
     fn default() -> Self {
-        Self { full_vision: false, cooldown_jitter: true, auto_acquire: [true, true] }
+        Self { full_vision: false, cooldown_jitter: true, auto_acquire: [true, true], abilities: true }
     }
 }
 
@@ -171,6 +184,8 @@ pub struct TeamStats {
     pub healing_done: f32,
     pub kills: u32,
     pub attacks: u32,
+    /// Casts per ability (autocasts included: Barrier, and each new Medivac heal target).
+    pub abilities: std::collections::BTreeMap<crate::ability::Ability, u32>,
 }
 
 /// An attack or heal made in the last loop (drawn as lines by renderers, counted by stats).
@@ -213,6 +228,17 @@ pub struct World {
     pub(crate) stats: [TeamStats; 2],
     pub(crate) shots: Vec<Shot>,
     pub(crate) scratch: crate::sim::Scratch,
+    /// Area effects on the ground (storms, force fields, shields, charges).
+    pub(crate) effects: Vec<AreaEffect>,
+    /// Casts accepted since the last loop.
+    pub(crate) pending_casts: Vec<PendingCast>,
+    /// Whether some unit was marked as under a Guardian Shield (flags need clearing).
+    pub(crate) any_guarded: bool,
+    pub(crate) scratch_damage: Vec<(usize, f32, UnitId)>,
+    /// Some unit's HP reached zero outside an attack (spells): deaths need settling.
+    pub(crate) deaths_pending: bool,
+    /// Whether any unit may cloak (the detection check is skipped otherwise).
+    pub(crate) cloak_possible: bool,
 }
 
 impl World {
@@ -257,7 +283,7 @@ impl World {
                 max_hp,
                 shield: s.shield,
                 max_shield: s.shield,
-                energy: s.energy_start,
+                energy: su.energy,
                 cooldown: 0.0,
                 speed,
                 order: Order::Idle,
@@ -269,6 +295,8 @@ impl World {
                 last_attacker: None,
                 blocked_loops: 0,
                 waypoint: None,
+                base_speed: speed,
+                status: Status::default(),
             });
         }
         let n = units.len();
@@ -291,7 +319,8 @@ impl World {
                 };
                 [r(&|b| b != Body::Air && b != Body::Tall), r(&|b| b == Body::Massive || b == Body::Tall)]
             },
-            max_step: scenario.units.iter().map(|u| u.kind.spec().speed * 1.6).fold(0.0, f32::max),
+            // Metabolic Boost x1.6, Stimpack x1.5, Afterburners x1.7: no unit outruns this.
+            max_step: scenario.units.iter().map(|u| u.kind.spec().speed * 1.7).fold(0.0, f32::max),
             team_grid: [grid.clone(), grid.clone()],
             grid,
             paths: PathCache::default(),
@@ -299,6 +328,12 @@ impl World {
             stats: Default::default(),
             shots: Vec::new(),
             scratch: Default::default(),
+            effects: Vec::new(),
+            pending_casts: Vec::new(),
+            any_guarded: false,
+            scratch_damage: Vec::new(),
+            deaths_pending: false,
+            cloak_possible: scenario.units.iter().any(|u| matches!(u.kind, UnitKind::Ghost | UnitKind::Banshee)),
         };
         w.refresh();
         w
@@ -418,10 +453,29 @@ impl World {
             let ti = team.index();
             for i in 0..self.units.len() {
                 let t = &self.units[i];
-                let seen = t.alive && (t.team == team || self.rules.full_vision || self.sees(team, i));
+                let seen = t.alive
+                    && (t.team == team || ((self.rules.full_vision || self.sees(team, i)) && (!t.status.cloaked || self.detects(team, i))));
                 self.vis[ti][i] = seen;
             }
         }
+        if self.cloak_possible {
+            for i in 0..self.units.len() {
+                let enemy = self.units[i].team.other().index();
+                let detected = self.units[i].status.cloaked && self.vis[enemy][i];
+                self.units[i].status.detected = detected;
+            }
+        }
+    }
+
+    /// Whether `team` may target cloaked unit `target`: a powered detector of the team has it
+    /// in range, or an EMP revealed it.
+    fn detects(&self, team: Team, target: usize) -> bool {
+        let t = &self.units[target];
+        if self.tick < t.status.revealed_until {
+            return true;
+        }
+        let r = crate::ability::DETECTION_RADIUS + t.radius;
+        self.alive(team).any(|d| d.spec().detector && d.pos.dist_sq(t.pos) <= r * r && self.powered(d))
     }
 
     /// Whether any unit of `team` sees unit `target`, with StarCraft II's cliff rule: a

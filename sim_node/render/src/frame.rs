@@ -5,7 +5,7 @@
 use crate::font::text_width;
 use crate::scene::{Prim, Rgba, Scene};
 use crate::style::{self, Shape};
-use avacraft_engine::{GRID, Team, Unit, UnitId, Vec2, World, grid_cell_center, loops_to_seconds};
+use avacraft_engine::{EffectKind, GRID, Team, Unit, UnitId, Vec2, World, grid_cell_center, loops_to_seconds};
 use std::collections::BTreeSet;
 use std::sync::Arc;
 
@@ -127,6 +127,7 @@ impl FrameBuilder {
         let mut scene = Scene::new(width, height, style::BACKGROUND);
         let view = MapView::fit(world, [0.0, 0.0, width as f32, height as f32]);
         self.ground(world, team, &view, &mut scene);
+        effects(world, team, &view, &mut scene, 1.0);
         units(world, team, &view, &mut scene, 1.0, None);
         scene
     }
@@ -152,6 +153,7 @@ impl FrameBuilder {
         let (view, panel, label, legend_scale) = vlm_layout(world, width, height);
         self.ground(world, team, &view, &mut scene);
         grid(world, &view, &mut scene, label);
+        effects(world, team, &view, &mut scene, label as f32);
         shots(world, team, &view, &mut scene);
         units(world, team, &view, &mut scene, 1.0, Some((label.max(2) - 1).max(1)));
         for id in &opts.highlights {
@@ -318,6 +320,26 @@ fn grid(world: &World, view: &MapView, scene: &mut Scene, label: u32) {
         let (a, b) = ([c[0] - tw * 0.5, tl[1] - th - 4.0], [tl[0] - tw - 4.0, c[1] - th * 0.5]);
         scene.push(Prim::Text { pos: [a[0].round(), a[1].round()], scale: label, text: t.clone(), color: style::LABEL });
         scene.push(Prim::Text { pos: [b[0].round(), b[1].round()], scale: label, text: t, color: style::LABEL });
+    }
+}
+
+/// Area effects the team can see: storms, force fields, Guardian Shields, KD8 charges.
+fn effects(world: &World, team: Team, view: &MapView, scene: &mut Scene, line: f32) {
+    let tick = world.tick();
+    for e in world.area_effects().iter().filter(|e| e.active(tick)) {
+        if e.team != team && !world.team_sees_point(team, e.pos) {
+            continue;
+        }
+        let (c, r) = (view.px(e.pos), e.radius * view.scale());
+        match e.kind {
+            EffectKind::PsionicStorm => {
+                scene.push(Prim::Disc { c, r, color: style::STORM });
+                scene.push(Prim::Ring { c, r, width: 2.0 * line, color: style::STORM_EDGE });
+            }
+            EffectKind::ForceField => scene.push(Prim::Disc { c, r, color: style::FORCE_FIELD }),
+            EffectKind::GuardianShield => scene.push(Prim::Ring { c, r, width: 1.5 * line, color: style::GUARDIAN }),
+            EffectKind::Kd8Charge => scene.push(Prim::Ring { c, r, width: line, color: style::CHARGE }),
+        }
     }
 }
 

@@ -23,6 +23,11 @@ pub const HEAL_LINE: Rgba = Rgba([120, 255, 140, 200]);
 pub const SPLASH: Rgba = Rgba([255, 150, 40, 150]);
 pub const HIGHLIGHT: Rgba = Rgba::rgb(255, 230, 0);
 pub const AIR_OUTLINE: Rgba = Rgba::rgb(250, 250, 250);
+pub const STORM: Rgba = Rgba([170, 80, 255, 110]);
+pub const STORM_EDGE: Rgba = Rgba([210, 150, 255, 220]);
+pub const FORCE_FIELD: Rgba = Rgba([150, 230, 255, 150]);
+pub const GUARDIAN: Rgba = Rgba([120, 200, 255, 160]);
+pub const CHARGE: Rgba = Rgba([255, 150, 40, 220]);
 
 /// Terrain colour for a height in cliff levels: higher is lighter, ramps in between.
 pub fn terrain(height: Option<f32>) -> Rgba {

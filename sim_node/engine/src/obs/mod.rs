@@ -2,9 +2,11 @@
 //! natural-language battlefield description. All of them obey the team's fog of war.
 
 pub(crate) mod smac;
+mod smac_ext;
 mod text;
 mod units;
 
 pub use smac::{EnvInfo, IndexError, N_ACTIONS_NO_ATTACK, SHOOT_RANGE, SIGHT_RANGE, SmacLayout};
+pub use smac_ext::{AbilitySlots, slot_abilities};
 pub use text::describe;
-pub use units::{OrderInfo, UnitInfo, unit_list};
+pub use units::{OrderInfo, UnitInfo, ability_infos, unit_list};

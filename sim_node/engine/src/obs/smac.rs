@@ -4,6 +4,7 @@
 //! of SMAC's own sight rule; the state is SMAC's privileged global state for centralised
 //! training and does not.
 
+use super::smac_ext::AbilitySlots;
 use crate::action::{Action, ActionError, Command, Direction};
 use crate::env::Env;
 use crate::geom::Vec2;
@@ -48,13 +49,21 @@ pub struct SmacLayout {
     pub shield_enemy: usize,
     pub obs_size: usize,
     pub state_size: usize,
+    /// The opt-in ability extension (empty when off).
+    pub abilities: AbilitySlots,
     map_center: Vec2,
     playable_w: f32,
     playable_h: f32,
 }
 
 impl SmacLayout {
+    /// SMAC's layout, without the ability extension.
     pub fn new(scenario: &Scenario, team: Team) -> Self {
+        Self::with_abilities(scenario, team, false)
+    }
+
+    /// SMAC's layout, with the ability slots appended when `abilities` is on.
+    pub fn with_abilities(scenario: &Scenario, team: Team, abilities: bool) -> Self {
         let agents: Vec<UnitId> = scenario.agent_order(team);
         let enemies: Vec<UnitId> = scenario.team_units(team.other()).map(|(i, _)| UnitId::new(i as u16)).collect();
         let base = |t: Team| {
@@ -87,11 +96,13 @@ impl SmacLayout {
         // never need this: MMM has as many agents as enemies).
         let healer = scenario.team_units(team).any(|(_, u)| u.kind.spec().heal.is_some());
         let n_targets = if healer { n_enemies.max(n_agents) } else { n_enemies };
-        let n_actions = N_ACTIONS_NO_ATTACK + n_targets;
+        let slots = if abilities { AbilitySlots::new(scenario, &agents, n_enemies) } else { AbilitySlots::default() };
+        let ext_obs = if abilities { 1 + slots.slots } else { 0 };
+        let n_actions = N_ACTIONS_NO_ATTACK + n_targets + slots.n_actions();
         let fe = 4 + 1 + shield_enemy + tb;
         let fa = 4 + 1 + shield_ally + tb;
         let own_feats = 1 + shield_ally + tb;
-        let obs_size = MOVE_FEATS + n_enemies * fe + (n_agents - 1) * fa + own_feats;
+        let obs_size = MOVE_FEATS + n_enemies * fe + (n_agents - 1) * fa + own_feats + ext_obs;
         let state_size = n_agents * (4 + shield_ally + tb) + n_enemies * (3 + shield_enemy + tb) + n_agents * n_actions;
         let p = scenario.terrain.playable();
         Self {
@@ -107,6 +118,7 @@ impl SmacLayout {
             shield_enemy,
             obs_size,
             state_size,
+            abilities: slots,
             map_center: Vec2::new(scenario.terrain.width() as f32 / 2.0, scenario.terrain.height() as f32 / 2.0),
             playable_w: p.width(),
             playable_h: p.height(),
@@ -146,8 +158,12 @@ impl SmacLayout {
         for (k, d) in [Direction::Up, Direction::Down, Direction::Right, Direction::Left].into_iter().enumerate() {
             out[2 + k] = Self::can_move(world, id, d) as u8;
         }
-        for j in 0..self.n_actions - N_ACTIONS_NO_ATTACK {
-            out[N_ACTIONS_NO_ATTACK + j] = self.attack_slot(world, agent, u, j) as u8;
+        let busy = u.status.morph.is_some();
+        for j in 0..self.ability_base() - N_ACTIONS_NO_ATTACK {
+            out[N_ACTIONS_NO_ATTACK + j] = (!busy && self.attack_slot(world, agent, u, j)) as u8;
+        }
+        if self.abilities.slots > 0 {
+            self.ability_mask(world, agent, u, out);
         }
     }
 
@@ -160,7 +176,9 @@ impl SmacLayout {
             && world.visible_to(self.team, t)
             && u.pos.dist(tu.pos) <= SHOOT_RANGE
             && if u.spec().heal.is_some() {
-                t != u.id && tu.kind.base() != UnitKind::Medivac
+                // SMAC's rule (any ally but Medivacs), narrowed to what heal can target:
+                // biological units (the same on SMAC's own maps, whose allies are all biological).
+                t != u.id && tu.kind.base() != UnitKind::Medivac && tu.spec().attrs.has(crate::units::Attrs::BIOLOGICAL)
             } else {
                 crate::combat::weapon_for(u, tu).is_some()
             }
@@ -175,7 +193,8 @@ impl SmacLayout {
             0 => false,
             1 => true,
             2..=5 => Self::can_move(world, u.id, [Direction::Up, Direction::Down, Direction::Right, Direction::Left][idx - 2]),
-            i if i < self.n_actions => self.attack_slot(world, agent, u, i - N_ACTIONS_NO_ATTACK),
+            i if i < self.ability_base() => u.status.morph.is_none() && self.attack_slot(world, agent, u, i - N_ACTIONS_NO_ATTACK),
+            i if i < self.n_actions => self.ability_available(world, agent, u, i - self.ability_base()),
             _ => false,
         }
     }
@@ -245,6 +264,10 @@ impl SmacLayout {
             f[1] = u.shield / u.max_shield;
         }
         Self::one_hot(&self.ally_types, u.kind, &mut f[1 + self.shield_ally..]);
+        if self.abilities.slots > 0 {
+            let ext = self.obs_size - 1 - self.abilities.slots;
+            self.ability_obs(world, agent, u, &mut out[ext..]);
+        }
     }
 
     pub fn state(&self, world: &World, last_actions: &[Option<usize>], out: &mut [f32]) {
@@ -293,7 +316,8 @@ impl SmacLayout {
             3 => Command::MoveDir { dir: Direction::Down },
             4 => Command::MoveDir { dir: Direction::Right },
             5 => Command::MoveDir { dir: Direction::Left },
-            i if i < self.n_actions => Command::Attack { target: *self.targets(world, agent).get(i - N_ACTIONS_NO_ATTACK)? },
+            i if i < self.ability_base() => Command::Attack { target: *self.targets(world, agent).get(i - N_ACTIONS_NO_ATTACK)? },
+            i if i < self.n_actions => self.ability_command(world, agent, i - self.ability_base())?,
             _ => return None,
         })
     }
@@ -313,8 +337,9 @@ impl SmacLayout {
             Command::MoveDir { dir: Direction::Left } => 5,
             Command::Attack { target } => {
                 N_ACTIONS_NO_ATTACK
-                    + self.targets(world, agent).iter().take(self.n_actions - N_ACTIONS_NO_ATTACK).position(|t| t == target)?
+                    + self.targets(world, agent).iter().take(self.ability_base() - N_ACTIONS_NO_ATTACK).position(|t| t == target)?
             }
+            Command::Ability { ability, target } => self.ability_index(world, agent, *ability, target)?,
             _ => return None,
         })
     }

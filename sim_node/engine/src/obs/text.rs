@@ -34,6 +34,26 @@ fn line(u: &UnitInfo, names: &dyn Fn(u32) -> String) -> String {
         (OrderInfo::Idle, None) => "idle".to_owned(),
     };
     let _ = write!(s, ", {doing}");
+    if !u.buffs.is_empty() {
+        let _ = write!(s, "; status: {}", u.buffs.join(", ").replace('_', " "));
+    }
+    if !u.abilities.is_empty() {
+        let list: Vec<String> = u
+            .abilities
+            .iter()
+            .map(|a| {
+                let name = a.ability.name().replace('_', " ");
+                if a.available {
+                    if a.energy_cost > 0.0 { format!("{name} ready ({:.0} energy)", a.energy_cost) } else { format!("{name} ready") }
+                } else if a.cooldown_s > 0.0 {
+                    format!("{name} in {:.1} s", a.cooldown_s)
+                } else {
+                    format!("{name} unavailable ({})", a.why_not.as_deref().unwrap_or("?"))
+                }
+            })
+            .collect();
+        let _ = write!(s, "; abilities: {}", list.join(", "));
+    }
     let special: Vec<&str> = u
         .flags
         .iter()
@@ -88,5 +108,33 @@ pub fn describe(env: &Env, team: Team) -> String {
             let _ = writeln!(s, "{}", line(u, &names));
         }
     }
+    let effects: Vec<String> = w
+        .area_effects()
+        .iter()
+        .filter(|e| e.active(w.tick()) && (e.team == team || visible_effect(w, team, e)))
+        .map(|e| {
+            let (gx, gy) = crate::action::grid_cell_of(w.terrain().playable(), e.pos);
+            format!(
+                "- {} {} at grid ({gx}, {gy}), ({:.1}, {:.1}), radius {:.1}, {:.1} s left",
+                if e.team == team { "own" } else { "enemy" },
+                e.kind.name().replace('_', " "),
+                e.pos.x,
+                e.pos.y,
+                e.radius,
+                e.until.saturating_sub(w.tick()) as f32 / LOOPS_PER_SECOND
+            )
+        })
+        .collect();
+    if !effects.is_empty() {
+        let _ = writeln!(s, "Area effects:");
+        for e in effects {
+            let _ = writeln!(s, "{e}");
+        }
+    }
     s
+}
+
+/// Whether `team` sees an enemy area effect: some unit of the team sees its centre.
+pub(crate) fn visible_effect(w: &crate::world::World, team: Team, e: &crate::ability::AreaEffect) -> bool {
+    w.team_sees_point(team, e.pos)
 }

@@ -1,5 +1,6 @@
 //! The structured unit list (the paper's U_t): one record per unit a team knows of.
 
+use crate::ability::AbilityInfo;
 use crate::action::grid_cell_of;
 use crate::ids::Team;
 use crate::time::LOOPS_PER_SECOND;
@@ -44,6 +45,13 @@ pub struct UnitInfo {
     pub activity: Activity,
     pub target: Option<u32>,
     pub flags: Vec<&'static str>,
+    /// Active buffs and states: `stimmed`, `slowed`, `cloaked`, `guardian_shielded`,
+    /// `lifted`, `morphing`, ...
+    pub buffs: Vec<&'static str>,
+    /// The unit's abilities with cooldowns and availability (own units only: a player does
+    /// not see enemy cooldowns).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub abilities: Vec<AbilityInfo>,
 }
 
 impl UnitInfo {
@@ -103,8 +111,31 @@ impl UnitInfo {
             activity: u.activity,
             target: u.target.map(|t| t.tag()),
             flags,
+            buffs: u.status.names(w.tick()),
+            abilities: if u.team == team { ability_infos(w, u) } else { Vec::new() },
         }
     }
+}
+
+/// Every ability of a unit's current mode, with what stops it now.
+pub fn ability_infos(w: &World, u: &Unit) -> Vec<AbilityInfo> {
+    u.kind
+        .mode_abilities()
+        .map(|a| {
+            let s = a.spec();
+            let check = w.can_cast(u, a);
+            let ready = u.status.ready_at(a);
+            AbilityInfo {
+                ability: a,
+                target: s.target,
+                energy_cost: s.energy,
+                range: s.range,
+                cooldown_s: ready.saturating_sub(w.tick()) as f32 / LOOPS_PER_SECOND,
+                available: check.is_ok(),
+                why_not: check.err().map(|e| e.to_string()),
+            }
+        })
+        .collect()
 }
 
 fn attr_flag(a: &'static str) -> &'static str {

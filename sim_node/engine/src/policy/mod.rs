@@ -1,9 +1,11 @@
 //! Policies: anything that turns a team's view into actions. Scripted agents, the scripted
 //! opponent styles, and (later) VLM and MARL agents all implement [`Policy`].
 
+mod micro;
 mod scripted;
 mod view;
 
+pub use micro::ability_actions;
 pub use scripted::{AttackMove, Defensive, FocusFire, NoOp, RandomActions, Style};
 pub use view::TeamView;
 

@@ -1,7 +1,7 @@
 //! Scripted policies: agent baselines and the opponent styles. They see only a
 //! [`TeamView`] and act only through [`Action`]s, like any other agent.
 
-use super::{Policy, TeamView};
+use super::{Policy, TeamView, micro::ability_actions};
 use crate::action::{Action, Command};
 use crate::geom::Vec2;
 use crate::ids::{Team, UnitId};
@@ -41,10 +41,13 @@ impl Policy for AttackMove {
         let centre = centroid(view.own()).unwrap_or_default();
         let goal =
             view.enemies().min_by(|a, b| a.pos.dist_sq(centre).total_cmp(&b.pos.dist_sq(centre))).map_or(view.enemy_spawn(), |e| e.pos);
-        view.own()
-            .filter(|u| u.order == Order::Idle && u.target.is_none() && u.speed > 0.0)
-            .map(|u| Action::new(u.id, Command::AttackMoveTo { to: goal }))
-            .collect()
+        let (mut out, handled) = ability_actions(view);
+        out.extend(
+            view.own()
+                .filter(|u| !handled.contains(&u.id) && u.order == Order::Idle && u.target.is_none() && u.speed > 0.0)
+                .map(|u| Action::new(u.id, Command::AttackMoveTo { to: goal })),
+        );
+        out
     }
 }
 
@@ -173,8 +176,11 @@ impl Policy for FocusFire {
         let team_target = self.team_target(view);
         let spawn = view.enemy_spawn();
         let playable = view.terrain().playable();
-        let mut out = Vec::new();
+        let (mut out, handled) = ability_actions(view);
         for u in view.own() {
+            if handled.contains(&u.id) {
+                continue;
+            }
             if u.spec().heal.is_some() || u.spec().weapons.is_empty() {
                 // Healers autocast; keep them with the army.
                 if u.order == Order::Idle
@@ -249,8 +255,11 @@ impl Policy for Defensive {
     fn act(&mut self, view: &TeamView<'_>, _rng: &mut ChaCha8Rng) -> Vec<Action> {
         let enemy_centre = centroid(view.enemies());
         let playable = view.terrain().playable();
-        let mut out = Vec::new();
+        let (mut out, handled) = ability_actions(view);
         for u in view.own() {
+            if handled.contains(&u.id) {
+                continue;
+            }
             if u.speed <= 0.0 {
                 if u.order != Order::Hold {
                     out.push(Action::new(u.id, Command::Hold));

@@ -51,6 +51,9 @@ pub struct RawUnit {
     /// Radians, counter-clockwise from east.
     #[serde(default)]
     pub facing: f32,
+    /// Starting energy for casters (default: the unit type's, e.g. 50 for a High Templar).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub energy: Option<f32>,
 }
 
 #[derive(Debug, Clone, Default, Deserialize, Serialize)]

@@ -44,6 +44,10 @@ pub enum Upgrade {
     Blink,
     PsionicStorm,
     MetabolicBoost,
+    /// Ghost cloak.
+    PersonalCloaking,
+    /// Banshee cloak.
+    CloakingField,
 }
 
 impl FromStr for Upgrade {
@@ -56,8 +60,10 @@ impl FromStr for Upgrade {
             "Blink" | "BlinkTech" => Upgrade::Blink,
             "PsionicStorm" | "PsiStormTech" => Upgrade::PsionicStorm,
             "MetabolicBoost" | "zerglingmovementspeed" => Upgrade::MetabolicBoost,
+            "PersonalCloaking" => Upgrade::PersonalCloaking,
+            "CloakingField" | "BansheeCloak" => Upgrade::CloakingField,
             _ => {
-                return Err("unknown upgrade (known: Stimpack, CombatShield, ConcussiveShells, Blink, PsionicStorm, MetabolicBoost)".into());
+                return Err("unknown upgrade (known: Stimpack, CombatShield, ConcussiveShells, Blink, PsionicStorm, MetabolicBoost, PersonalCloaking, CloakingField)".into());
             }
         })
     }
@@ -119,6 +125,8 @@ pub struct ScenarioUnit {
     pub team: Team,
     pub pos: Vec2,
     pub facing: f32,
+    /// Energy at the start (the type's default unless the file sets it).
+    pub energy: f32,
 }
 
 /// A validated scenario.

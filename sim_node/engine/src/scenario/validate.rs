@@ -108,7 +108,14 @@ pub(super) fn validate(file: &str, raw: RawScenario) -> Result<Scenario, Scenari
         if !u.facing.is_finite() {
             return Err(cx.err(f("facing"), u.facing, "must be a finite angle in radians"));
         }
-        units.push(ScenarioUnit { kind, team, pos, facing: u.facing });
+        let emax = kind.spec().energy_max;
+        let energy = match u.energy {
+            None => kind.spec().energy_start,
+            Some(e) if emax > 0.0 && e.is_finite() && (0.0..=emax).contains(&e) => e,
+            Some(e) if emax == 0.0 => return Err(cx.err(f("energy"), e, format!("{kind} has no energy"))),
+            Some(e) => return Err(cx.err(f("energy"), e, format!("must be between 0 and {emax} for {kind}"))),
+        };
+        units.push(ScenarioUnit { kind, team, pos, facing: u.facing, energy });
     }
     for team in Team::BOTH {
         if !units.iter().any(|u| u.team == team) {
