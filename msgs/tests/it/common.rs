@@ -1,0 +1,207 @@
+//! proptest strategies for every message type, shared by the integration tests.
+//!
+//! Floats are kept finite: NaN != NaN would make equality-based round trips
+//! fail for reasons unrelated to encoding. `min_len` lets the struct-shape test
+//! ask for non-empty sequences so element types are visible.
+
+#![allow(dead_code)]
+
+use avacraft_msgs::{
+    AbilityState, ActionBatch, AreaEffect, EpisodeStatus, Header, Image, RoleAssignment, RoleGroup, StdString, TeamObservation, Time,
+    UnitAction, UnitObservation, UnitState,
+};
+use proptest::collection::vec;
+use proptest::prelude::*;
+
+pub fn float() -> impl Strategy<Value = f32> {
+    prop_oneof![Just(0.0f32), -1.0e6f32..1.0e6f32, Just(f32::MAX), Just(f32::MIN_POSITIVE)]
+}
+
+pub fn text() -> impl Strategy<Value = String> {
+    // Any Unicode except NUL, which a CDR string cannot carry.
+    "[^\u{0}]{0,12}"
+}
+
+pub fn time() -> impl Strategy<Value = Time> {
+    (any::<i32>(), 0u32..1_000_000_000).prop_map(|(sec, nanosec)| Time { sec, nanosec })
+}
+
+pub fn header() -> impl Strategy<Value = Header> {
+    (time(), text()).prop_map(|(stamp, frame_id)| Header { stamp, frame_id })
+}
+
+pub fn std_string() -> impl Strategy<Value = StdString> {
+    text().prop_map(|data| StdString { data })
+}
+
+pub fn image(min_len: usize) -> impl Strategy<Value = Image> {
+    (header(), any::<u32>(), any::<u32>(), text(), any::<u8>(), any::<u32>(), vec(any::<u8>(), min_len..64)).prop_map(
+        |(header, height, width, encoding, is_bigendian, step, data)| Image { header, height, width, encoding, is_bigendian, step, data },
+    )
+}
+
+pub fn unit_state(min_len: usize) -> impl Strategy<Value = UnitState> {
+    (
+        (any::<u32>(), text(), text(), any::<u8>(), float(), float(), float(), float()),
+        (float(), float(), float(), float(), float(), any::<u8>(), any::<u8>(), text()),
+        (any::<u32>(), vec(text(), min_len..3), vec(text(), min_len..3)),
+    )
+        .prop_map(
+            |(
+                (tag, name, unit_type, team, x, y, hp, max_hp),
+                (shield, max_shield, energy, max_energy, weapon_cooldown_s, grid_x, grid_y, order),
+                (target_tag, flags, buffs),
+            )| UnitState {
+                tag,
+                name,
+                unit_type,
+                team,
+                x,
+                y,
+                hp,
+                max_hp,
+                shield,
+                max_shield,
+                energy,
+                max_energy,
+                weapon_cooldown_s,
+                grid_x,
+                grid_y,
+                order,
+                target_tag,
+                flags,
+                buffs,
+            },
+        )
+}
+
+pub fn ability_state() -> impl Strategy<Value = AbilityState> {
+    (text(), any::<bool>(), float(), float(), text()).prop_map(|(ability, available, cooldown_s, energy_cost, target_kind)| AbilityState {
+        ability,
+        available,
+        cooldown_s,
+        energy_cost,
+        target_kind,
+    })
+}
+
+pub fn area_effect() -> impl Strategy<Value = AreaEffect> {
+    (text(), any::<u8>(), float(), float(), float(), float()).prop_map(|(kind, team, x, y, radius, remaining_s)| AreaEffect {
+        kind,
+        team,
+        x,
+        y,
+        radius,
+        remaining_s,
+    })
+}
+
+pub fn unit_observation(min_len: usize) -> impl Strategy<Value = UnitObservation> {
+    (
+        (header(), any::<u64>(), any::<u32>(), any::<u32>(), any::<u32>(), any::<bool>(), unit_state(min_len)),
+        (vec(unit_state(min_len), min_len..3), vec(unit_state(min_len), min_len..3), vec(ability_state(), min_len..3)),
+        (vec(area_effect(), min_len..3), vec(any::<u8>(), min_len..16), vec(float(), min_len..16), text()),
+    )
+        .prop_map(
+            |(
+                (header, episode, step, game_loop, unit_tag, alive, own),
+                (allies, enemies, abilities),
+                (effects, avail_actions, features, text),
+            )| UnitObservation {
+                header,
+                episode,
+                step,
+                game_loop,
+                unit_tag,
+                alive,
+                own,
+                allies,
+                enemies,
+                abilities,
+                effects,
+                avail_actions,
+                features,
+                text,
+            },
+        )
+}
+
+pub fn team_observation(min_len: usize) -> impl Strategy<Value = TeamObservation> {
+    (
+        header(),
+        any::<u64>(),
+        any::<u32>(),
+        any::<u32>(),
+        any::<u8>(),
+        vec(unit_state(min_len), min_len..3),
+        vec(area_effect(), min_len..3),
+        text(),
+    )
+        .prop_map(|(header, episode, step, game_loop, team, units, effects, text)| TeamObservation {
+            header,
+            episode,
+            step,
+            game_loop,
+            team,
+            units,
+            effects,
+            text,
+        })
+}
+
+pub fn unit_action() -> impl Strategy<Value = UnitAction> {
+    (any::<u32>(), any::<u8>(), any::<u32>(), float(), float(), any::<u8>(), any::<u8>(), any::<u8>(), text(), any::<u8>()).prop_map(
+        |(unit_tag, kind, target_tag, x, y, grid_x, grid_y, direction, ability, ability_target)| UnitAction {
+            unit_tag,
+            kind,
+            target_tag,
+            x,
+            y,
+            grid_x,
+            grid_y,
+            direction,
+            ability,
+            ability_target,
+        },
+    )
+}
+
+pub fn action_batch(min_len: usize) -> impl Strategy<Value = ActionBatch> {
+    (header(), any::<u64>(), any::<u32>(), text(), vec(unit_action(), min_len..4))
+        .prop_map(|(header, episode, step, agent_id, actions)| ActionBatch { header, episode, step, agent_id, actions })
+}
+
+pub fn episode_status() -> impl Strategy<Value = EpisodeStatus> {
+    (
+        (header(), any::<u64>(), any::<u64>(), text(), any::<u32>(), any::<u32>(), any::<u8>()),
+        ([float(), float()], any::<[u32; 2]>(), any::<[u32; 2]>(), any::<[u32; 2]>(), any::<u32>()),
+    )
+        .prop_map(
+            |(
+                (header, episode, seed, scenario, step, game_loop, result),
+                (reward, refused_actions, missing_actions, foreign_actions, malformed_messages),
+            )| EpisodeStatus {
+                header,
+                episode,
+                seed,
+                scenario,
+                step,
+                game_loop,
+                result,
+                reward,
+                refused_actions,
+                missing_actions,
+                foreign_actions,
+                malformed_messages,
+            },
+        )
+}
+
+pub fn role_group(min_len: usize) -> impl Strategy<Value = RoleGroup> {
+    (text(), text(), vec(any::<u32>(), min_len..8)).prop_map(|(role, agent_id, unit_tags)| RoleGroup { role, agent_id, unit_tags })
+}
+
+pub fn role_assignment(min_len: usize) -> impl Strategy<Value = RoleAssignment> {
+    (header(), any::<u64>(), any::<u32>(), vec(role_group(min_len), min_len..3))
+        .prop_map(|(header, episode, step, groups)| RoleAssignment { header, episode, step, groups })
+}

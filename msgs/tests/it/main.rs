@@ -1,0 +1,8 @@
+//! The integration test binary of avacraft-msgs: one module per area.
+
+mod cdr;
+mod common;
+mod hashes;
+mod parser;
+mod schema;
+mod struct_matches_msg;

@@ -1,0 +1,309 @@
+//! Each Rust struct must have the `.msg` fields, in order, with matching wire
+//! types: CDR carries no names, so a swapped or retyped field would silently
+//! corrupt every message. The Rust side is observed through serde itself
+//! (a recording `Serializer`), not through a hand-written list.
+
+use crate::common::*;
+use avacraft_msgs::{BaseType, Collection, EpisodeStatus, FieldType, PrimitiveType, Registry, RosMessage, UnitAction, embedded_registry};
+use proptest::prelude::*;
+use proptest::strategy::ValueTree;
+use proptest::test_runner::TestRunner;
+use serde::ser::{self, Serialize};
+
+#[derive(Debug, Clone, PartialEq)]
+enum Shape {
+    Bool,
+    I32,
+    U8,
+    U32,
+    U64,
+    F32,
+    Str,
+    Bytes,
+    Seq(Option<Box<Shape>>),
+    Tuple(Vec<Shape>),
+    Struct(&'static str, Vec<(&'static str, Shape)>),
+}
+
+#[derive(Debug)]
+struct Unsupported(String);
+impl std::fmt::Display for Unsupported {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+impl std::error::Error for Unsupported {}
+impl ser::Error for Unsupported {
+    fn custom<T: std::fmt::Display>(msg: T) -> Self {
+        Self(msg.to_string())
+    }
+}
+
+struct Recorder;
+struct Compound {
+    name: &'static str,
+    items: Vec<Shape>,
+    fields: Vec<(&'static str, Shape)>,
+}
+
+fn no<T>(what: &str) -> Result<T, Unsupported> {
+    Err(Unsupported(format!("{what} has no .msg equivalent")))
+}
+
+impl ser::Serializer for Recorder {
+    type Ok = Shape;
+    type Error = Unsupported;
+    type SerializeSeq = Compound;
+    type SerializeTuple = Compound;
+    type SerializeTupleStruct = ser::Impossible<Shape, Unsupported>;
+    type SerializeTupleVariant = ser::Impossible<Shape, Unsupported>;
+    type SerializeMap = ser::Impossible<Shape, Unsupported>;
+    type SerializeStruct = Compound;
+    type SerializeStructVariant = ser::Impossible<Shape, Unsupported>;
+
+    fn serialize_bool(self, _: bool) -> Result<Shape, Unsupported> {
+        Ok(Shape::Bool)
+    }
+    fn serialize_i8(self, _: i8) -> Result<Shape, Unsupported> {
+        no("i8")
+    }
+    fn serialize_i16(self, _: i16) -> Result<Shape, Unsupported> {
+        no("i16")
+    }
+    fn serialize_i32(self, _: i32) -> Result<Shape, Unsupported> {
+        Ok(Shape::I32)
+    }
+    fn serialize_i64(self, _: i64) -> Result<Shape, Unsupported> {
+        no("i64")
+    }
+    fn serialize_u8(self, _: u8) -> Result<Shape, Unsupported> {
+        Ok(Shape::U8)
+    }
+    fn serialize_u16(self, _: u16) -> Result<Shape, Unsupported> {
+        no("u16")
+    }
+    fn serialize_u32(self, _: u32) -> Result<Shape, Unsupported> {
+        Ok(Shape::U32)
+    }
+    fn serialize_u64(self, _: u64) -> Result<Shape, Unsupported> {
+        Ok(Shape::U64)
+    }
+    fn serialize_f32(self, _: f32) -> Result<Shape, Unsupported> {
+        Ok(Shape::F32)
+    }
+    fn serialize_f64(self, _: f64) -> Result<Shape, Unsupported> {
+        no("f64")
+    }
+    fn serialize_char(self, _: char) -> Result<Shape, Unsupported> {
+        no("char")
+    }
+    fn serialize_str(self, _: &str) -> Result<Shape, Unsupported> {
+        Ok(Shape::Str)
+    }
+    fn serialize_bytes(self, _: &[u8]) -> Result<Shape, Unsupported> {
+        Ok(Shape::Bytes)
+    }
+    fn serialize_none(self) -> Result<Shape, Unsupported> {
+        no("Option")
+    }
+    fn serialize_some<T: ?Sized + Serialize>(self, _: &T) -> Result<Shape, Unsupported> {
+        no("Option")
+    }
+    fn serialize_unit(self) -> Result<Shape, Unsupported> {
+        no("()")
+    }
+    fn serialize_unit_struct(self, _: &'static str) -> Result<Shape, Unsupported> {
+        no("unit struct")
+    }
+    fn serialize_unit_variant(self, _: &'static str, _: u32, _: &'static str) -> Result<Shape, Unsupported> {
+        no("enum")
+    }
+    fn serialize_newtype_struct<T: ?Sized + Serialize>(self, _: &'static str, _: &T) -> Result<Shape, Unsupported> {
+        no("newtype")
+    }
+    fn serialize_newtype_variant<T: ?Sized + Serialize>(
+        self,
+        _: &'static str,
+        _: u32,
+        _: &'static str,
+        _: &T,
+    ) -> Result<Shape, Unsupported> {
+        no("enum")
+    }
+    fn serialize_seq(self, _: Option<usize>) -> Result<Compound, Unsupported> {
+        Ok(Compound { name: "", items: Vec::new(), fields: Vec::new() })
+    }
+    fn serialize_tuple(self, _: usize) -> Result<Compound, Unsupported> {
+        Ok(Compound { name: "", items: Vec::new(), fields: Vec::new() })
+    }
+    fn serialize_tuple_struct(self, _: &'static str, _: usize) -> Result<Self::SerializeTupleStruct, Unsupported> {
+        no("tuple struct")
+    }
+    fn serialize_tuple_variant(
+        self,
+        _: &'static str,
+        _: u32,
+        _: &'static str,
+        _: usize,
+    ) -> Result<Self::SerializeTupleVariant, Unsupported> {
+        no("enum")
+    }
+    fn serialize_map(self, _: Option<usize>) -> Result<Self::SerializeMap, Unsupported> {
+        no("map")
+    }
+    fn serialize_struct(self, name: &'static str, _: usize) -> Result<Compound, Unsupported> {
+        Ok(Compound { name, items: Vec::new(), fields: Vec::new() })
+    }
+    fn serialize_struct_variant(
+        self,
+        _: &'static str,
+        _: u32,
+        _: &'static str,
+        _: usize,
+    ) -> Result<Self::SerializeStructVariant, Unsupported> {
+        no("enum")
+    }
+}
+
+impl ser::SerializeSeq for Compound {
+    type Ok = Shape;
+    type Error = Unsupported;
+    fn serialize_element<T: ?Sized + Serialize>(&mut self, value: &T) -> Result<(), Unsupported> {
+        self.items.push(value.serialize(Recorder)?);
+        Ok(())
+    }
+    fn end(self) -> Result<Shape, Unsupported> {
+        // All elements of a sequence must have one shape; report the first.
+        let first = self.items.first().cloned();
+        if self.items.iter().any(|s| Some(s) != first.as_ref()) {
+            return Err(Unsupported("heterogeneous sequence".into()));
+        }
+        Ok(Shape::Seq(first.map(Box::new)))
+    }
+}
+
+impl ser::SerializeTuple for Compound {
+    type Ok = Shape;
+    type Error = Unsupported;
+    fn serialize_element<T: ?Sized + Serialize>(&mut self, value: &T) -> Result<(), Unsupported> {
+        self.items.push(value.serialize(Recorder)?);
+        Ok(())
+    }
+    fn end(self) -> Result<Shape, Unsupported> {
+        Ok(Shape::Tuple(self.items))
+    }
+}
+
+impl ser::SerializeStruct for Compound {
+    type Ok = Shape;
+    type Error = Unsupported;
+    fn serialize_field<T: ?Sized + Serialize>(&mut self, key: &'static str, value: &T) -> Result<(), Unsupported> {
+        self.fields.push((key, value.serialize(Recorder)?));
+        Ok(())
+    }
+    fn end(self) -> Result<Shape, Unsupported> {
+        Ok(Shape::Struct(self.name, self.fields))
+    }
+}
+
+fn primitive_shape(p: PrimitiveType) -> Option<Shape> {
+    Some(match p {
+        PrimitiveType::Bool => Shape::Bool,
+        PrimitiveType::UInt8 | PrimitiveType::Byte | PrimitiveType::Char => Shape::U8,
+        PrimitiveType::Int32 => Shape::I32,
+        PrimitiveType::UInt32 => Shape::U32,
+        PrimitiveType::UInt64 => Shape::U64,
+        PrimitiveType::Float32 => Shape::F32,
+        _ => return None, // not used by any embedded type; extend when one is
+    })
+}
+
+/// Checks a recorded value against a `.msg` field type; `path` names the spot for failures.
+fn check_field(reg: &Registry, path: &str, shape: &Shape, ty: &FieldType) -> Result<(), String> {
+    let element = |shape: &Shape| check_field(reg, path, shape, &FieldType { base: ty.base.clone(), collection: Collection::Single });
+    match (ty.collection, shape) {
+        (Collection::Single, _) => match (&ty.base, shape) {
+            (BaseType::Primitive(p), s) if primitive_shape(*p).as_ref() == Some(s) => Ok(()),
+            (BaseType::String { bound: None }, Shape::Str) => Ok(()),
+            (BaseType::Nested(r), Shape::Struct(_, fields)) => check_struct(reg, &r.full_name(), fields),
+            _ => Err(format!("{path}: Rust {shape:?} does not match .msg {ty:?}")),
+        },
+        (Collection::UnboundedSequence, Shape::Bytes) if ty.base == BaseType::Primitive(PrimitiveType::UInt8) => Ok(()),
+        (Collection::UnboundedSequence, Shape::Seq(Some(e))) if ty.base != BaseType::Primitive(PrimitiveType::UInt8) => element(e),
+        (Collection::Array(n), Shape::Tuple(items)) if items.len() == n as usize => items.iter().try_for_each(element),
+        _ => Err(format!(
+            "{path}: Rust {shape:?} does not match .msg {ty:?} (uint8[] must use serde_bytes; sample sequences must be non-empty)"
+        )),
+    }
+}
+
+fn check_struct(reg: &Registry, type_name: &str, fields: &[(&'static str, Shape)]) -> Result<(), String> {
+    let spec = reg.get(type_name).ok_or_else(|| format!("{type_name} not registered"))?;
+    let rust: Vec<&str> = fields.iter().map(|(n, _)| *n).collect();
+    let msg: Vec<&str> = spec.fields.iter().map(|f| f.name.as_str()).collect();
+    if rust != msg {
+        return Err(format!("{type_name}: Rust fields {rust:?} != .msg fields {msg:?}"));
+    }
+    for ((name, shape), field) in fields.iter().zip(&spec.fields) {
+        check_field(reg, &format!("{type_name}.{name}"), shape, &field.ty)?;
+    }
+    Ok(())
+}
+
+fn check<T: RosMessage>(strategy: impl Strategy<Value = T>) {
+    let mut runner = TestRunner::deterministic();
+    for _ in 0..8 {
+        let value = strategy.new_tree(&mut runner).expect("strategy").current();
+        let shape = value.serialize(Recorder).expect("serde shape of a message");
+        let Shape::Struct(_, fields) = shape else { panic!("{} does not serialize as a struct", T::TYPE_NAME) };
+        if let Err(e) = check_struct(embedded_registry(), T::TYPE_NAME, &fields) {
+            panic!("{e}");
+        }
+    }
+}
+
+#[test]
+fn every_struct_matches_its_msg() {
+    check(time());
+    check(header());
+    check(std_string());
+    check(image(1));
+    check(unit_state(1));
+    check(ability_state());
+    check(area_effect());
+    check(unit_observation(1));
+    check(team_observation(1));
+    check(unit_action());
+    check(action_batch(1));
+    check(episode_status());
+    check(role_group(1));
+    check(role_assignment(1));
+}
+
+/// The checker itself must catch a swapped field, or the test above proves nothing.
+#[test]
+fn checker_detects_mismatches() {
+    let mut reg = Registry::new();
+    reg.add("p", "T", "uint32 a\nfloat32 b\nuint8[] c\n").expect("valid");
+    let good = vec![("a", Shape::U32), ("b", Shape::F32), ("c", Shape::Bytes)];
+    assert!(check_struct(&reg, "p/msg/T", &good).is_ok());
+    let swapped = vec![("b", Shape::F32), ("a", Shape::U32), ("c", Shape::Bytes)];
+    assert!(check_struct(&reg, "p/msg/T", &swapped).is_err());
+    let retyped = vec![("a", Shape::U32), ("b", Shape::U32), ("c", Shape::Bytes)];
+    assert!(check_struct(&reg, "p/msg/T", &retyped).is_err());
+    let slow_bytes = vec![("a", Shape::U32), ("b", Shape::F32), ("c", Shape::Seq(Some(Box::new(Shape::U8))))];
+    assert!(check_struct(&reg, "p/msg/T", &slow_bytes).is_err());
+}
+
+fn msg_constants<T: RosMessage>() -> Vec<(String, u8)> {
+    let spec = embedded_registry().get(T::TYPE_NAME).expect("embedded");
+    spec.constants.iter().map(|c| (c.name.clone(), c.value.parse::<u8>().expect("uint8 constant"))).collect()
+}
+
+#[test]
+fn rust_constants_match_msg_constants() {
+    let rust: Vec<(String, u8)> = UnitAction::CONSTANTS.iter().map(|(n, v)| ((*n).to_owned(), *v)).collect();
+    assert_eq!(rust, msg_constants::<UnitAction>());
+    let rust: Vec<(String, u8)> = EpisodeStatus::CONSTANTS.iter().map(|(n, v)| ((*n).to_owned(), *v)).collect();
+    assert_eq!(rust, msg_constants::<EpisodeStatus>());
+}
