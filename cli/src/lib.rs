@@ -2,8 +2,10 @@
 //! argument parsing and output of the binary.
 
 mod bench;
+mod deploy;
 mod episode;
 mod info;
+mod record;
 mod render;
 
 pub use bench::{BenchRow, RenderRow, ScalingRow};
@@ -33,6 +35,14 @@ enum Cmd {
     Bench(bench::BenchArgs),
     /// Play up to a game loop and save what a team sees (VLM screenshot, screen or minimap) as PNG.
     Render(render::RenderArgs),
+    /// Start every node of a launch file as its own process, on an embedded Zenoh router.
+    Launch(deploy::LaunchArgs),
+    /// Run the simulator node (publishes observations, takes actions) of a launch file.
+    SimNode(deploy::SimNodeArgs),
+    /// Run one agent node: a policy for one unit or a role group.
+    AgentNode(deploy::AgentNodeArgs),
+    /// Record every topic to MCAP (ros2 profile).
+    Record(record::RecordArgs),
 }
 
 /// Runs one command, writing its report to `out`. `alloc` is the process's counting
@@ -44,6 +54,10 @@ pub fn run(cli: Cli, out: &mut dyn Write, alloc: Option<&'static StatsAlloc<Syst
         Cmd::Episode(a) => episode::run(&a, out),
         Cmd::Bench(a) => bench::run(&a, out, alloc),
         Cmd::Render(a) => render::run(&a, out),
+        Cmd::Launch(a) => deploy::launch(&a, out),
+        Cmd::SimNode(a) => deploy::sim_node(&a, out),
+        Cmd::AgentNode(a) => deploy::agent_node(&a),
+        Cmd::Record(a) => deploy::record(&a),
     }
 }
 

@@ -442,16 +442,61 @@ fn every_refusal_reason_is_reported() {
     cast(&mut env, t1, 2, Ability::SiegeMode, AbilityTarget::None).expect("siege");
     env.step();
     assert_eq!(refusal(cast(&mut env, t1, 3, Ability::Cloak, AbilityTarget::None)), Refusal::AlreadyActive);
-    assert!(matches!(
-        refusal(cast(&mut env, t1, 2, Ability::Unsiege, AbilityTarget::None)),
-        Refusal::NotItsAbility { .. } | Refusal::Busy { .. }
-    ));
+    assert_eq!(refusal(cast(&mut env, t1, 2, Ability::Unsiege, AbilityTarget::None)), Refusal::NotItsAbility { kind: UnitKind::SiegeTank });
     assert!(matches!(refusal(cast(&mut env, t1, 3, Ability::Emp, at(f32::NAN, 1.0))), Refusal::InvalidTarget { .. }));
+    run_loops(&mut env, 65);
+    cast(&mut env, t1, 2, Ability::Unsiege, AbilityTarget::None).expect("unsiege");
+    env.step();
+    assert!(matches!(refusal(cast(&mut env, t1, 2, Ability::Unsiege, AbilityTarget::None)), Refusal::Busy { .. }), "morphing back");
     let refused = env.refused()[0];
-    assert_eq!(refused, 10, "every refusal is counted");
+    assert_eq!(refused, 11, "every refusal is counted");
     // Switched off, every cast is refused.
     let mut cfg = exact_loop();
     cfg.rules.abilities = false;
     let mut off = Env::new(load(&arena_units("pvp", &units, "")), cfg, 1);
     assert_eq!(refusal(cast(&mut off, t1, 2, Ability::SiegeMode, AbilityTarget::None)), Refusal::Disabled);
+}
+
+#[test]
+fn review_regressions_spell_deaths_channels_feedback_and_force_fields() {
+    // A Marine killed by a snipe does not fire in the loop it dies.
+    let mut env = env_of(&[("Ghost", 1, 10.0, 16.0, ""), ("Marine", 2, 14.0, 16.0, "")], "");
+    cast(&mut env, Team::One, 0, Ability::SteadyTargeting, on(uid(1))).expect("snipe");
+    run_loops(&mut env, 32);
+    order(&mut env, Team::Two, 1, Command::Attack { target: uid(0) }).expect("attack");
+    env.step();
+    assert!(!unit(&env, 1).alive);
+    assert_eq!(unit(&env, 0).hp, 100.0, "the dead Marine never shot");
+    // Feedback on a channelling Ghost: the refund is drained too.
+    let units = [("Ghost", 1, 10.0, 16.0, ""), ("Ultralisk", 2, 18.0, 16.0, ""), ("HighTemplar", 2, 12.0, 22.0, "")];
+    let mut env = env_of(&units, "");
+    cast(&mut env, Team::One, 0, Ability::SteadyTargeting, on(uid(1))).expect("snipe");
+    env.step();
+    cast(&mut env, Team::Two, 2, Ability::Feedback, on(uid(0))).expect("feedback");
+    env.step();
+    assert!(unit(&env, 0).energy < 0.1 && unit(&env, 0).status.channel.is_none(), "{}", unit(&env, 0).energy);
+    // Force fields do not push structures.
+    let mut env = env_of(&[("Sentry", 1, 8.0, 16.0, ""), ("PhotonCannon", 2, 15.0, 16.0, "")], "");
+    cast(&mut env, Team::One, 0, Ability::ForceField, at(15.0, 16.5)).expect("force field");
+    run_loops(&mut env, 3);
+    assert_eq!(unit(&env, 1).pos, Vec2::new(15.0, 16.0));
+}
+
+#[test]
+fn smac_agents_can_wait_out_a_channel() {
+    let s = load(&arena_units("pvp", &[("Ghost", 1, 10.0, 16.0, ""), ("Ultralisk", 2, 18.0, 16.0, "")], ""));
+    let mut env = Env::new(s, exact_loop(), 1);
+    cast(&mut env, Team::One, 0, Ability::SteadyTargeting, on(uid(1))).expect("snipe");
+    env.step();
+    let n = env.env_info(Team::One).n_actions;
+    let mut avail = vec![0u8; n];
+    env.avail_agent(Team::One, 0, &mut avail);
+    assert_eq!(avail[0], 1, "no-op available while channelling");
+    for _ in 0..40 {
+        env.submit_indices(Team::One, &[0]);
+        env.step();
+    }
+    assert!((unit(&env, 1).hp - 370.0).abs() < 0.5, "the snipe landed: {}", unit(&env, 1).hp);
+    env.avail_agent(Team::One, 0, &mut avail);
+    assert_eq!(avail[0], 0, "and not after");
 }

@@ -66,14 +66,36 @@ impl World {
             }
             h.u32(u.target.map_or(0, |t| t.tag()));
             let st = &u.status;
-            for v in [st.stim_until, st.slow_until, st.boost_until, st.lifted_until, st.cooldown_until, st.hot_until, st.storm_next] {
+            for v in [
+                st.stim_until,
+                st.slow_until,
+                st.boost_until,
+                st.guardian_until,
+                st.barrier_until,
+                st.lifted_until,
+                st.cooldown_until,
+                st.hot_until,
+                st.storm_next,
+                st.revealed_until,
+            ] {
                 h.u32(v);
             }
-            h.u32(st.cloaked as u32 | (st.channel.is_some() as u32) << 1 | st.morph.map_or(0, |(k, t)| (k as u32) << 24 ^ t) << 2);
+            h.u32(st.cloaked as u32 | st.morph.map_or(0, |(k, t)| (k as u32) << 24 ^ t) << 1);
+            match st.channel {
+                None => h.u32(0),
+                Some(crate::ability::Channel::Snipe { target, done }) => {
+                    h.u32(1 | target.tag() << 2);
+                    h.u32(done);
+                }
+                Some(crate::ability::Channel::Graviton { target }) => h.u32(2 | target.tag() << 2),
+            }
             h.f32(st.barrier_hp);
+            h.f32(st.hot_per_loop);
         }
         for e in &self.effects {
             h.u32(e.kind as u32 | e.until << 4);
+            h.u32(e.team.index() as u32 | e.owner.tag() << 1);
+            h.f32(e.radius);
             h.f32(e.pos.x);
             h.f32(e.pos.y);
         }

@@ -67,6 +67,9 @@ impl World {
             Ability::GuardianShield if st.guardian_up(tick) => Err(Refusal::AlreadyActive),
             Ability::Barrier if st.barrier_up(tick) => Err(Refusal::AlreadyActive),
             Ability::Afterburners if st.boosted(tick) => Err(Refusal::AlreadyActive),
+            Ability::AssaultMode if !self.terrain.walkable(u.pos) => {
+                Err(Refusal::InvalidTarget { why: "no ground to land on here".into() })
+            }
             _ => Ok(()),
         }
     }
@@ -97,13 +100,12 @@ impl World {
                 Ok(target)
             }
             (TargetKind::Unit | TargetKind::PointOrUnit, AbilityTarget::Unit { unit }) => {
-                let t = self.unit(unit).ok_or_else(|| invalid(format!("unit {unit} does not exist")))?;
-                if !t.alive {
-                    return Err(invalid(format!("unit {unit} is dead")));
-                }
-                if !self.visible_to(team, unit) {
-                    return Err(invalid(format!("unit {unit} is not visible")));
-                }
+                // Unknown, dead and unseen units get the same answer, so a refusal never
+                // tells whether a hidden enemy lives.
+                let t = self
+                    .unit(unit)
+                    .filter(|t| t.alive && self.visible_to(team, t.id))
+                    .ok_or_else(|| invalid(format!("unit {unit} is not visible")))?;
                 match spec.rule {
                     TargetRule::Enemy if t.team == team => return Err(invalid("needs an enemy unit")),
                     TargetRule::Ally if t.team != team || t.id == u.id => return Err(invalid("needs another friendly unit")),
@@ -121,6 +123,7 @@ impl World {
                     Ability::GravitonBeam if t.flying() || attrs.has(Attrs::MASSIVE) || attrs.has(Attrs::STRUCTURE) => {
                         Err(invalid("Graviton Beam lifts non-massive ground units only"))
                     }
+                    Ability::GravitonBeam if t.status.morph.is_some() => Err(invalid("the target is changing mode")),
                     Ability::Kd8Charge if t.flying() => Err(invalid("KD8 Charge hits ground units only")),
                     Ability::Transfusion | Ability::Heal if !bio => Err(invalid("needs a biological target")),
                     Ability::Transfusion | Ability::Heal if t.hp >= t.max_hp => Err(invalid("the target is at full health")),
@@ -261,6 +264,8 @@ impl World {
             }
             Ability::Feedback => {
                 if let Some(j) = target_unit {
+                    // An interrupted snipe's refund comes back first, so Feedback drains it too.
+                    self.cancel_channel(j);
                     let drained = std::mem::take(&mut self.units[j].energy);
                     self.spell_damage(j, drained * FEEDBACK_PER_ENERGY, id);
                 }

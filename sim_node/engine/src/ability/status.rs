@@ -134,7 +134,7 @@ impl Status {
     /// Names of the active states, for observations (`stimmed`, `cloaked`, ...).
     pub fn names(&self, tick: u32) -> Vec<&'static str> {
         let mut v = Vec::new();
-        let checks: [(bool, &'static str); 12] = [
+        let checks: [(bool, &'static str); 11] = [
             (self.stimmed(tick), "stimmed"),
             (self.slowed(tick), "slowed"),
             (self.boosted(tick), "afterburners"),
@@ -142,7 +142,6 @@ impl Status {
             (self.guarded, "guardian_shielded"),
             (self.barrier_up(tick), "barrier"),
             (self.cloaked, "cloaked"),
-            (self.cloaked && self.detected, "detected"),
             (self.lifted(tick), "lifted"),
             (tick < self.hot_until, "transfusing"),
             (self.morph.is_some(), "morphing"),

@@ -61,6 +61,10 @@ impl World {
         if !self.effects.is_empty() || self.any_guarded {
             self.tick_effects();
         }
+        // Units killed by spells are dead before anyone decides this loop.
+        if self.deaths_pending {
+            let _ = self.resolve_hits(Vec::new());
+        }
     }
 
     fn tick_channels(&mut self) {
@@ -226,7 +230,8 @@ impl World {
             near.sort_unstable();
             for &j in &near {
                 let u = &self.units[j];
-                if !u.alive || u.body == Body::Air || !e.touches(u.pos, u.radius) {
+                // Air units pass over; structures and immobile units are not pushed.
+                if !u.alive || u.body == Body::Air || u.base_speed <= 0.0 || !e.touches(u.pos, u.radius) {
                     continue;
                 }
                 if matches!(u.body, Body::Massive | Body::Tall) {

@@ -154,6 +154,9 @@ impl SmacLayout {
             out[0] = 1;
             return;
         };
+        // A channelling or morphing unit may also wait (any other order would cancel a
+        // channel): SMAC's no-op, otherwise only for dead agents.
+        out[0] = (u.status.channel.is_some() || u.status.morph.is_some()) as u8;
         out[1] = 1;
         for (k, d) in [Direction::Up, Direction::Down, Direction::Right, Direction::Left].into_iter().enumerate() {
             out[2 + k] = Self::can_move(world, id, d) as u8;
@@ -190,7 +193,7 @@ impl SmacLayout {
             return idx == 0;
         };
         match idx {
-            0 => false,
+            0 => u.status.channel.is_some() || u.status.morph.is_some(),
             1 => true,
             2..=5 => Self::can_move(world, u.id, [Direction::Up, Direction::Down, Direction::Right, Direction::Left][idx - 2]),
             i if i < self.ability_base() => u.status.morph.is_none() && self.attack_slot(world, agent, u, i - N_ACTIONS_NO_ATTACK),

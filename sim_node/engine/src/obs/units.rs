@@ -111,7 +111,15 @@ impl UnitInfo {
             activity: u.activity,
             target: u.target.map(|t| t.tag()),
             flags,
-            buffs: u.status.names(w.tick()),
+            buffs: {
+                let mut b = u.status.names(w.tick());
+                // An enemy that sees a cloaked unit has detected it; its owner is not told
+                // (that would reveal enemy detectors in the fog).
+                if u.team != team && u.status.cloaked {
+                    b.push("detected");
+                }
+                b
+            },
             abilities: if u.team == team { ability_infos(w, u) } else { Vec::new() },
         }
     }

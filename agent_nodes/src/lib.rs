@@ -1,0 +1,90 @@
+//! Agent nodes: a process hosting a policy for one unit or a role group. It subscribes only
+//! to its own units' observation topics and publishes its actions on its own topic, so the
+//! simulator knows who sent them. A restarted agent node rejoins at the next step: it keeps
+//! no state the simulator depends on.
+
+mod policy;
+
+pub use policy::{AttackMove, FocusFire, POLICIES, UnitPolicy, UnknownPolicy, by_name};
+
+use avacraft_msgs::{ActionBatch, UnitObservation};
+use avacraft_nodes::{AgentId, Node, NodeError, Qos, Shutdown, Topics, UnitTag};
+use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
+
+/// What one agent node controls.
+#[derive(Debug)]
+pub struct AgentConfig {
+    pub id: AgentId,
+    pub units: Vec<UnitTag>,
+}
+
+/// Counters of a run, for logs and tests.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct AgentStats {
+    pub batches: u64,
+    pub malformed: u64,
+}
+
+/// How long after the first observation of a step the node acts even if some of its units'
+/// observations are still missing.
+const GATHER: Duration = Duration::from_millis(200);
+
+/// Runs until `shutdown` (or `max_batches` batches, for tests and benchmarks).
+pub fn run(
+    node: &Node,
+    topics: &Topics,
+    cfg: &AgentConfig,
+    policy: &mut dyn UnitPolicy,
+    shutdown: &Shutdown,
+    max_batches: Option<u64>,
+) -> Result<AgentStats, NodeError> {
+    let reliable = Qos::Reliable { depth: 10 };
+    let subs = cfg
+        .units
+        .iter()
+        .map(|&u| node.subscriber::<UnitObservation>(topics.unit_obs(u).as_str(), reliable))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut out = node.publisher::<ActionBatch>(&topics.actions(&cfg.id), reliable)?;
+    let mut stats = AgentStats::default();
+    // Observations of the step being gathered, by unit; keyed by (episode, step).
+    let mut pending: BTreeMap<(u64, u32), (Instant, BTreeMap<u32, UnitObservation>)> = BTreeMap::new();
+    let mut last_done: Option<(u64, u32)> = None;
+    tracing::info!(agent = %cfg.id, units = cfg.units.len(), policy = policy.name(), "agent node up");
+    while !shutdown.requested() && max_batches.is_none_or(|m| stats.batches < m) {
+        let mut got = false;
+        for s in &subs {
+            while let Some(r) = s.try_recv()? {
+                got = true;
+                match r.msg {
+                    Ok(o) => {
+                        let key = (o.episode, o.step);
+                        if last_done.is_some_and(|d| key <= d) {
+                            continue;
+                        }
+                        pending.entry(key).or_insert_with(|| (Instant::now(), BTreeMap::new())).1.insert(o.unit_tag, o);
+                    }
+                    Err(e) => {
+                        stats.malformed += 1;
+                        tracing::warn!(agent = %cfg.id, error = %e, "malformed observation ignored");
+                    }
+                }
+            }
+        }
+        // Act on the newest complete step (or one gathered for long enough); older ones are stale.
+        let ready = pending.iter().rev().find(|(_, (t0, m))| m.len() == cfg.units.len() || t0.elapsed() >= GATHER).map(|(k, _)| *k);
+        if let Some(key) = ready {
+            let obs = pending.remove(&key).map(|(_, m)| m).unwrap_or_default();
+            pending.retain(|k, _| *k > key);
+            let obs: Vec<UnitObservation> = obs.into_values().collect();
+            let actions = policy.act(&obs);
+            let header = obs.first().map(|o| o.header.clone()).unwrap_or_default();
+            out.put(&ActionBatch { header, episode: key.0, step: key.1, agent_id: cfg.id.to_string(), actions })?;
+            stats.batches += 1;
+            last_done = Some(key);
+        } else if !got {
+            std::thread::sleep(Duration::from_micros(200));
+        }
+    }
+    Ok(stats)
+}

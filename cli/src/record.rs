@@ -1,0 +1,149 @@
+//! The recorder node: every topic under the namespace to MCAP with the ros2 profile
+//! (ros2msg schemas, cdr encoding, QoS metadata, zstd chunks, summary and statistics), so
+//! rosbag2's MCAP storage and Foxglove read it. Chunks are closed often, so a file whose
+//! writer was killed still yields every message written before.
+
+use anyhow::{Context, Result};
+use avacraft_msgs::{EMBEDDED_TYPES, embedded_registry};
+use avacraft_nodes::{Node, NodeArgs, Qos, Shutdown, now_ns};
+use clap::Args;
+use std::collections::BTreeMap;
+use std::io::BufWriter;
+use std::path::PathBuf;
+use std::time::Duration;
+use zenoh::Wait;
+
+#[derive(Args, Debug, Clone)]
+pub struct RecordArgs {
+    #[command(flatten)]
+    pub node: NodeArgs,
+    /// MCAP file to write.
+    #[arg(long, default_value = "session.mcap")]
+    pub out: PathBuf,
+    /// Stop after this many messages (0: until SIGINT/SIGTERM).
+    #[arg(long, default_value_t = 0)]
+    pub max_messages: u64,
+}
+
+/// What the recorder wrote.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RecordStats {
+    pub messages: u64,
+    pub channels: usize,
+    pub skipped: u64,
+}
+
+/// A message type the recorder knows: names, hash and MCAP schema.
+#[derive(Debug)]
+struct TypeInfo {
+    type_name: String,
+    dds: String,
+    hash: String,
+    schema: String,
+}
+
+fn known_types() -> Result<Vec<TypeInfo>> {
+    let reg = embedded_registry();
+    EMBEDDED_TYPES
+        .iter()
+        .map(|t| {
+            let type_name = format!("{}/msg/{}", t.package, t.name);
+            Ok(TypeInfo {
+                dds: format!("{}::msg::dds_::{}_", t.package, t.name),
+                hash: reg.type_hash(&type_name)?,
+                schema: reg.ros2msg_schema(&type_name)?,
+                type_name,
+            })
+        })
+        .collect()
+}
+
+/// The ROS topic and type of a data key `<domain>/<topic...>/<dds type>/<hash>`.
+fn split_key<'a>(types: &'a [TypeInfo], key: &str) -> Option<(String, &'a TypeInfo)> {
+    let parts: Vec<&str> = key.split('/').collect();
+    if parts.len() < 4 {
+        return None;
+    }
+    let (dds, hash) = (parts[parts.len() - 2], parts[parts.len() - 1]);
+    let ty = types.iter().find(|t| t.dds == dds && t.hash == hash)?;
+    Some((format!("/{}", parts[1..parts.len() - 2].join("/")), ty))
+}
+
+pub fn run(a: &RecordArgs, shutdown: &Shutdown) -> Result<RecordStats> {
+    let node = Node::open(&a.node, &a.node.namespace, "recorder").context("recorder: opening the Zenoh session")?;
+    let file = std::fs::File::create(&a.out).with_context(|| format!("recorder: creating {}", a.out.display()))?;
+    let opts = mcap::WriteOptions::new().profile("ros2").compression(Some(mcap::Compression::Zstd)).chunk_size(Some(64 * 1024));
+    let mut w = opts.create(BufWriter::new(file)).with_context(|| format!("recorder: starting {}", a.out.display()))?;
+    let pattern = format!("{}/{}/**", a.node.domain, a.node.namespace.trim_matches('/'));
+    let sub = node
+        .session()
+        .declare_subscriber(pattern.clone())
+        .with(zenoh::handlers::FifoChannel::new(16384))
+        .wait()
+        .map_err(|e| anyhow::anyhow!("recorder: subscribing to {pattern}: {e}"))?;
+    let types = known_types()?;
+    let mut channels: BTreeMap<String, u16> = BTreeMap::new();
+    let mut schemas: BTreeMap<String, u16> = BTreeMap::new();
+    let mut stats = RecordStats::default();
+    let mut seq = 0u32;
+    tracing::info!(out = %a.out.display(), %pattern, "recording");
+    while !shutdown.requested() && (a.max_messages == 0 || stats.messages < a.max_messages) {
+        let Ok(Some(sample)) = sub.recv_timeout(Duration::from_millis(100)) else { continue };
+        let key = sample.key_expr().as_str().to_owned();
+        let Some((topic, ty)) = split_key(&types, &key) else {
+            stats.skipped += 1;
+            continue;
+        };
+        let channel = match channels.get(&key) {
+            Some(&c) => c,
+            None => {
+                let schema = match schemas.get(&ty.type_name) {
+                    Some(&s) => s,
+                    None => {
+                        let s = w.add_schema(&ty.type_name, "ros2msg", ty.schema.as_bytes())?;
+                        schemas.insert(ty.type_name.clone(), s);
+                        s
+                    }
+                };
+                let qos = if topic.ends_with("screen") || topic.ends_with("minimap") || topic.ends_with("vlm") {
+                    Qos::BestEffort { depth: 1 }
+                } else {
+                    Qos::Reliable { depth: 10 }
+                };
+                let meta =
+                    BTreeMap::from([("offered_qos_profiles".to_owned(), qos.mcap_yaml()), ("topic_type_hash".to_owned(), ty.hash.clone())]);
+                let c = w.add_channel(schema, &topic, "cdr", &meta)?;
+                channels.insert(key.clone(), c);
+                c
+            }
+        };
+        let t = now_ns().max(0) as u64;
+        seq = seq.wrapping_add(1);
+        let payload = sample.payload().to_bytes();
+        w.write_to_known_channel(
+            &mcap::records::MessageHeader { channel_id: channel, sequence: seq, log_time: t, publish_time: t },
+            &payload,
+        )?;
+        stats.messages += 1;
+    }
+    stats.channels = channels.len();
+    w.finish().with_context(|| format!("recorder: finishing {}", a.out.display()))?;
+    tracing::info!(messages = stats.messages, channels = stats.channels, "recording closed");
+    Ok(stats)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn data_keys_split_into_topic_and_type() {
+        let types = known_types().expect("types");
+        let ty = types.iter().find(|t| t.type_name == "avacraft_msgs/msg/ActionBatch").expect("type");
+        let key = format!("0/avacraft/agents/a/actions/{}/{}", ty.dds, ty.hash);
+        let (topic, got) = split_key(&types, &key).expect("split");
+        assert_eq!(topic, "/avacraft/agents/a/actions");
+        assert_eq!(got.type_name, ty.type_name);
+        assert!(split_key(&types, "0/avacraft/x/unknown_::msg::dds_::X_/RIHS01_00").is_none());
+    }
+}

@@ -1,0 +1,4 @@
+//! Multi-process tests of the distributed deployment: real `avacraft` processes on a real
+//! Zenoh router (one per test, on a free port).
+
+mod deploy;

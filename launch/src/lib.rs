@@ -1,0 +1,277 @@
+//! Launch files (YAML): which scenario, clock, seeds and episodes, which agent nodes own
+//! which units with which policy, the recorder, and the Zenoh router. Parsed with unknown
+//! fields refused, then validated into a [`Plan`]; every error names the file, the field
+//! and the value.
+
+use avacraft_engine::{Env, EnvConfig, Mode, OpponentKind, Scenario, Team};
+use avacraft_nodes::{AgentId, UnitTag};
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Duration;
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawLaunch {
+    pub scenario: String,
+    #[serde(default = "lockstep")]
+    pub clock: String,
+    #[serde(default = "deadline")]
+    pub deadline_ms: u64,
+    #[serde(default = "one")]
+    pub episodes: u64,
+    #[serde(default = "one")]
+    pub seed: u64,
+    #[serde(default)]
+    pub opponent: Option<String>,
+    #[serde(default = "router")]
+    pub router: String,
+    #[serde(default)]
+    pub record: Option<PathBuf>,
+    pub agents: Vec<RawAgent>,
+}
+
+fn lockstep() -> String {
+    "lockstep".into()
+}
+fn deadline() -> u64 {
+    2000
+}
+fn one() -> u64 {
+    1
+}
+fn router() -> String {
+    "tcp/127.0.0.1:7447".into()
+}
+
+/// One agent entry: either `per_unit: true` with a `team` (one node per unit), or an `id`
+/// with the unit `units` it owns (a role group).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawAgent {
+    #[serde(default)]
+    pub id: Option<String>,
+    #[serde(default)]
+    pub per_unit: bool,
+    #[serde(default)]
+    pub team: Option<u8>,
+    #[serde(default)]
+    pub units: Vec<u32>,
+    pub policy: String,
+}
+
+/// The clock of the simulator node.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ClockMode {
+    Lockstep,
+    RealTime,
+}
+
+/// One agent node to start.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct AgentPlan {
+    pub id: AgentId,
+    pub units: Vec<UnitTag>,
+    pub policy: String,
+}
+
+/// A validated launch file.
+#[derive(Clone, Debug)]
+pub struct Plan {
+    pub file: String,
+    pub scenario_arg: String,
+    pub scenario: Arc<Scenario>,
+    pub clock: ClockMode,
+    pub deadline: Duration,
+    pub seeds: Vec<u64>,
+    pub opponent: Option<OpponentKind>,
+    pub router: String,
+    pub record: Option<PathBuf>,
+    pub agents: Vec<AgentPlan>,
+}
+
+impl Plan {
+    /// Unit tag to owning agent, for the simulator node.
+    pub fn owners(&self) -> BTreeMap<UnitTag, AgentId> {
+        self.agents.iter().flat_map(|a| a.units.iter().map(move |u| (*u, a.id.clone()))).collect()
+    }
+}
+
+/// Why a launch file was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LaunchError {
+    #[error("{file}: cannot read: {message}")]
+    Io { file: String, message: String },
+    #[error("{file}: {message}")]
+    Syntax { file: String, message: String },
+    #[error("{file}: field `{field}` = {value}: {reason}")]
+    Invalid { file: String, field: String, value: String, reason: String },
+}
+
+struct Cx<'a>(&'a str);
+
+impl Cx<'_> {
+    fn err(&self, field: impl Into<String>, value: impl std::fmt::Display, reason: impl Into<String>) -> LaunchError {
+        LaunchError::Invalid { file: self.0.to_owned(), field: field.into(), value: value.to_string(), reason: reason.into() }
+    }
+}
+
+/// Reads and validates a launch file.
+pub fn load(path: &Path) -> Result<Plan, LaunchError> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| LaunchError::Io { file: file.clone(), message: e.to_string() })?;
+    parse(&file, &text, path.parent())
+}
+
+/// Parses launch text; `base` resolves relative scenario paths.
+pub fn parse(file: &str, text: &str, base: Option<&Path>) -> Result<Plan, LaunchError> {
+    let raw: RawLaunch = serde_norway::from_str(text).map_err(|e| LaunchError::Syntax { file: file.to_owned(), message: e.to_string() })?;
+    validate(file, raw, base)
+}
+
+fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, LaunchError> {
+    let cx = Cx(file);
+    let scenario_arg = match base.map(|b| b.join(&raw.scenario)) {
+        Some(p) if p.exists() => p.display().to_string(),
+        _ => raw.scenario.clone(),
+    };
+    let scenario = Scenario::load(&scenario_arg).map_err(|e| cx.err("scenario", format!("{:?}", raw.scenario), e.to_string()))?;
+    let clock = match raw.clock.as_str() {
+        "lockstep" => ClockMode::Lockstep,
+        "realtime" => ClockMode::RealTime,
+        other => return Err(cx.err("clock", format!("{other:?}"), "must be `lockstep` or `realtime`")),
+    };
+    if !(1..=600_000).contains(&raw.deadline_ms) {
+        return Err(cx.err("deadline_ms", raw.deadline_ms, "must be 1 to 600000 milliseconds"));
+    }
+    if !(1..=1_000_000).contains(&raw.episodes) {
+        return Err(cx.err("episodes", raw.episodes, "must be 1 to 1000000"));
+    }
+    let opponent = match &raw.opponent {
+        None => None,
+        Some(o) if scenario.mode == Mode::Pvp => {
+            return Err(cx.err("opponent", format!("{o:?}"), "a PvP scenario has agent nodes on both teams"));
+        }
+        Some(o) => Some(o.parse::<OpponentKind>().map_err(|e| cx.err("opponent", format!("{o:?}"), e))?),
+    };
+    if !raw.router.starts_with("tcp/") {
+        return Err(cx.err("router", format!("{:?}", raw.router), "must be a Zenoh TCP endpoint such as tcp/127.0.0.1:7447"));
+    }
+    let scenario = Arc::new(scenario);
+    let env = Env::new(Arc::clone(&scenario), EnvConfig::default(), 0);
+    let agent_team = |t: Team| env.is_agent_team(t);
+    let mut agents = Vec::new();
+    let mut owner: BTreeMap<u32, String> = BTreeMap::new();
+    if raw.agents.is_empty() {
+        return Err(cx.err("agents", "[]", "at least one agent node is needed"));
+    }
+    for (i, a) in raw.agents.iter().enumerate() {
+        let f = |name: &str| format!("agents[{i}].{name}");
+        if !avacraft_agent_nodes::POLICIES.contains(&a.policy.as_str()) {
+            return Err(cx.err(
+                f("policy"),
+                format!("{:?}", a.policy),
+                format!("unknown (known: {})", avacraft_agent_nodes::POLICIES.join(", ")),
+            ));
+        }
+        let mut add = |id: String, tags: Vec<u32>, field: String| -> Result<(), LaunchError> {
+            let agent = AgentId::parse(&id).map_err(|e| cx.err(field.clone(), format!("{id:?}"), e.to_string()))?;
+            let mut units = Vec::new();
+            for t in tags {
+                let u = env.world().unit(avacraft_engine::UnitId::new(t.saturating_sub(1).min(u16::MAX as u32) as u16));
+                let Some(u) = u.filter(|_| t >= 1) else {
+                    return Err(cx.err(
+                        f("units"),
+                        t,
+                        format!("no unit has this tag ({} has tags 1 to {})", scenario.name, scenario.units.len()),
+                    ));
+                };
+                if !agent_team(u.team) {
+                    return Err(cx.err(f("units"), t, format!("{} belongs to {}, which the opponent policy drives", u.name(), u.team)));
+                }
+                if let Some(prev) = owner.insert(t, id.clone()) {
+                    return Err(cx.err(f("units"), t, format!("already owned by agent node `{prev}`")));
+                }
+                units.push(UnitTag::new(t).map_err(|e| cx.err(f("units"), t, e.to_string()))?);
+            }
+            if agents.iter().any(|x: &AgentPlan| x.id == agent) {
+                return Err(cx.err(field, format!("{id:?}"), "two agent nodes share this id"));
+            }
+            agents.push(AgentPlan { id: agent, units, policy: a.policy.clone() });
+            Ok(())
+        };
+        if a.per_unit {
+            if a.id.is_some() || !a.units.is_empty() {
+                return Err(cx.err(f("per_unit"), "true", "takes a `team`, not an `id` or `units`"));
+            }
+            let team = match a.team {
+                Some(1) => Team::One,
+                Some(2) => Team::Two,
+                other => return Err(cx.err(f("team"), format!("{other:?}"), "must be 1 or 2")),
+            };
+            for &id in env.agents(team) {
+                let tag = id.tag();
+                add(format!("unit_{tag}"), vec![tag], f("team"))?;
+            }
+        } else {
+            let Some(id) = a.id.clone() else { return Err(cx.err(f("id"), "none", "an agent node needs an `id` (or `per_unit: true`)")) };
+            if a.units.is_empty() {
+                return Err(cx.err(f("units"), "[]", "an agent node needs at least one unit"));
+            }
+            add(id, a.units.clone(), f("id"))?;
+        }
+    }
+    Ok(Plan {
+        file: file.to_owned(),
+        scenario_arg,
+        scenario,
+        clock,
+        deadline: Duration::from_millis(raw.deadline_ms),
+        seeds: (0..raw.episodes).map(|k| raw.seed + k).collect(),
+        opponent,
+        router: raw.router,
+        record: raw.record,
+        agents,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_good_file_becomes_a_plan() {
+        let p = parse("t.yaml", "scenario: 3m\nepisodes: 2\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n", None)
+            .expect("plan");
+        assert_eq!(p.agents.len(), 3);
+        assert_eq!(p.seeds, vec![1, 2]);
+        assert_eq!(p.owners().len(), 3);
+        assert_eq!(p.agents[0].id.as_str(), "unit_3".replace('3', &p.agents[0].units[0].get().to_string()));
+    }
+
+    #[test]
+    fn errors_name_file_field_and_value() {
+        let cases = [
+            ("scenario: nope\nagents: []\n", "scenario"),
+            ("scenario: 3m\nclock: fast\nagents:\n  - {per_unit: true, team: 1, policy: noop}\n", "clock"),
+            ("scenario: 3m\nagents:\n  - {id: a, units: [9], policy: noop}\n", "agents[0].units"),
+            ("scenario: 3m\nagents:\n  - {id: a, units: [1], policy: dance}\n", "agents[0].policy"),
+            ("scenario: 3m\nagents:\n  - {id: a, units: [1], policy: noop}\n  - {id: b, units: [1], policy: noop}\n", "agents[1].units"),
+            ("scenario: 3m\nagents:\n  - {id: A, units: [1], policy: noop}\n", "agents[0].id"),
+            ("scenario: 3m\ncolour: red\nagents: []\n", "colour"),
+            ("scenario: 3m\nagents:\n  - {per_unit: true, team: 2, policy: noop}\n", "agents[0].units"),
+        ];
+        for (text, field) in cases {
+            let e = parse("bad.yaml", text, None).expect_err(text).to_string();
+            assert!(e.starts_with("bad.yaml") && e.contains(field), "{text}: {e}");
+        }
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn arbitrary_text_never_panics(s in "\\PC{0,200}") {
+            let _ = parse("fuzz.yaml", &s, None);
+        }
+    }
+}

@@ -1,0 +1,15 @@
+//! The AVACraft node SDK. Every process of a deployment (simulator node, agent nodes,
+//! recorder) opens a [`Node`]: one Zenoh session that speaks rmw_zenoh's conventions (data
+//! keys with type name and hash, liveliness tokens, sample attachments), so ROS 2 Jazzy
+//! tools attached to the same router see, echo and record every topic. Topic names come
+//! only from [`Topics`].
+
+mod cli;
+mod node;
+pub mod ros;
+mod topics;
+
+pub use cli::{NodeArgs, SessionMode, Shutdown, init_logging};
+pub use node::{Node, NodeError, Publisher, Received, Subscriber, now_ns, zenoh_config};
+pub use ros::Qos;
+pub use topics::{AgentId, FrameKind, NameError, TeamNo, Topic, Topics, UnitTag};

@@ -1,0 +1,260 @@
+//! A node: one Zenoh session, its liveliness token, and typed publishers and subscribers
+//! that follow rmw_zenoh's conventions, so ROS 2 Jazzy tools see every topic.
+
+use crate::cli::NodeArgs;
+use crate::ros::{self, EntityKind, NodeIdentity, Qos};
+use crate::topics::Topic;
+use avacraft_msgs::{DecodeError, RosMessage, decode, encode};
+use std::marker::PhantomData;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::Duration;
+use zenoh::Wait;
+use zenoh::handlers::FifoChannelHandler;
+use zenoh::liveliness::LivelinessToken;
+use zenoh::qos::CongestionControl;
+use zenoh::sample::Sample;
+
+/// What can go wrong in the middleware layer.
+#[derive(Debug, thiserror::Error)]
+pub enum NodeError {
+    #[error("zenoh configuration `{key}` = {value}: {message}")]
+    Config { key: String, value: String, message: String },
+    #[error("cannot open the Zenoh session ({mode} mode, connect {connect:?}, listen {listen:?}): {message}")]
+    Open { mode: String, connect: Vec<String>, listen: Vec<String>, message: String },
+    #[error("cannot declare {what} on `{key}`: {message}")]
+    Declare { what: &'static str, key: String, message: String },
+    #[error("cannot publish on `{key}`: {message}")]
+    Put { key: String, message: String },
+    #[error("the subscription on `{key}` was closed")]
+    Closed { key: String },
+}
+
+fn cfg_err(key: &str, value: &str, e: impl std::fmt::Display) -> NodeError {
+    NodeError::Config { key: key.to_owned(), value: value.to_owned(), message: e.to_string() }
+}
+
+/// An open node.
+pub struct Node {
+    session: zenoh::Session,
+    id: NodeIdentity,
+    next_entity: AtomicU32,
+    _token: LivelinessToken,
+}
+
+impl std::fmt::Debug for Node {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Node").field("id", &self.id).finish()
+    }
+}
+
+/// Builds a Zenoh configuration from the common flags.
+pub fn zenoh_config(args: &NodeArgs) -> Result<zenoh::Config, NodeError> {
+    let mut c = zenoh::Config::default();
+    let mut set = |k: &str, v: String| c.insert_json5(k, &v).map_err(|e| cfg_err(k, &v, e));
+    set("mode", format!("\"{}\"", args.mode.name()))?;
+    let list = |v: &[String]| format!("[{}]", v.iter().map(|e| format!("\"{e}\"")).collect::<Vec<_>>().join(","));
+    if !args.connect.is_empty() {
+        set("connect/endpoints", list(&args.connect))?;
+    }
+    if !args.listen.is_empty() {
+        set("listen/endpoints", list(&args.listen))?;
+    }
+    // Discovery goes through the router by default (as rmw_zenoh does); multicast scouting
+    // is opt-in so tests and CI never reach other machines.
+    set("scouting/multicast/enabled", args.multicast.to_string())?;
+    Ok(c)
+}
+
+impl Node {
+    /// Opens a session and announces the node `name` under the ROS namespace `namespace`.
+    pub fn open(args: &NodeArgs, namespace: &str, name: &str) -> Result<Node, NodeError> {
+        let config = zenoh_config(args)?;
+        let session = zenoh::open(config).wait().map_err(|e| NodeError::Open {
+            mode: args.mode.name().to_owned(),
+            connect: args.connect.clone(),
+            listen: args.listen.clone(),
+            message: e.to_string(),
+        })?;
+        let id = NodeIdentity {
+            domain: args.domain,
+            zid: session.zid().to_string(),
+            node_id: 0,
+            namespace: namespace.to_owned(),
+            name: name.to_owned(),
+        };
+        let key = id.node_token();
+        let token = session.liveliness().declare_token(key.clone()).wait().map_err(|e| NodeError::Declare {
+            what: "a node liveliness token",
+            key,
+            message: e.to_string(),
+        })?;
+        Ok(Node { session, id, next_entity: AtomicU32::new(1), _token: token })
+    }
+
+    pub fn identity(&self) -> &NodeIdentity {
+        &self.id
+    }
+    pub fn session(&self) -> &zenoh::Session {
+        &self.session
+    }
+
+    fn token(&self, kind: EntityKind, topic: &Topic, dds: &str, hash: &str, qos: Qos) -> Result<(String, LivelinessToken), NodeError> {
+        let entity = self.next_entity.fetch_add(1, Ordering::Relaxed);
+        let key = self.id.endpoint_token(entity, kind, topic, dds, hash, qos);
+        let token = self.session.liveliness().declare_token(key.clone()).wait().map_err(|e| NodeError::Declare {
+            what: "an endpoint liveliness token",
+            key: key.clone(),
+            message: e.to_string(),
+        })?;
+        Ok((key, token))
+    }
+
+    /// Names of the ROS nodes alive on the network now (from their liveliness tokens).
+    pub fn alive_nodes(&self, timeout: Duration) -> Result<std::collections::BTreeSet<String>, NodeError> {
+        let key = format!("@ros2_lv/{}/**", self.id.domain);
+        let replies = self.session.liveliness().get(key.clone()).timeout(timeout).wait().map_err(|e| NodeError::Declare {
+            what: "a liveliness query",
+            key,
+            message: e.to_string(),
+        })?;
+        let mut names = std::collections::BTreeSet::new();
+        while let Ok(r) = replies.recv() {
+            if let Ok(s) = r.result() {
+                let parts: Vec<&str> = s.key_expr().as_str().split('/').collect();
+                // @ros2_lv/<domain>/<zid>/<node>/<entity>/NN/<enclave>/<ns>/<name>
+                if parts.get(5) == Some(&"NN")
+                    && let Some(name) = parts.get(8)
+                {
+                    names.insert((*name).to_owned());
+                }
+            }
+        }
+        Ok(names)
+    }
+
+    /// A publisher of `T` on `topic`.
+    pub fn publisher<T: RosMessage>(&self, topic: &Topic, qos: Qos) -> Result<Publisher<T>, NodeError> {
+        let (dds, hash) = (T::dds_type_name(), T::type_hash());
+        let key = ros::data_key(self.id.domain, topic, dds, hash);
+        let (token_key, token) = self.token(EntityKind::Publisher, topic, dds, hash, qos)?;
+        // rmw_zenoh maps RELIABLE to congestion control BLOCK and BEST_EFFORT to DROP (the
+        // transport itself is reliable TCP either way).
+        let cc = match qos {
+            Qos::Reliable { .. } => CongestionControl::Block,
+            Qos::BestEffort { .. } => CongestionControl::Drop,
+        };
+        let inner = self.session.declare_publisher(key.clone()).congestion_control(cc).wait().map_err(|e| NodeError::Declare {
+            what: "a publisher",
+            key: key.clone(),
+            message: e.to_string(),
+        })?;
+        Ok(Publisher { inner, key, seq: 0, gid: ros::gid(&token_key), _token: token, _t: PhantomData })
+    }
+
+    /// A subscription to `T` on `topic`; a `*` segment in `topic_pattern` matches any one
+    /// segment (e.g. every agent's actions).
+    pub fn subscriber<T: RosMessage>(&self, topic_pattern: &str, qos: Qos) -> Result<Subscriber<T>, NodeError> {
+        let (dds, hash) = (T::dds_type_name(), T::type_hash());
+        let key = format!("{}/{}/{dds}/{hash}", self.id.domain, topic_pattern.trim_matches('/'));
+        // A pattern is announced under its literal name, with '*' replaced so it stays a
+        // valid ROS name for the token.
+        let shown = Topic::parse(&topic_pattern.replace('*', "any")).unwrap_or_else(|_| Topic::parse("/avacraft").expect("valid"));
+        let (_, token) = self.token(EntityKind::Subscription, &shown, dds, hash, qos)?;
+        let inner = self
+            .session
+            .declare_subscriber(key.clone())
+            .with(zenoh::handlers::FifoChannel::new(4096))
+            .wait()
+            .map_err(|e| NodeError::Declare { what: "a subscriber", key: key.clone(), message: e.to_string() })?;
+        Ok(Subscriber { inner, key, _token: token, _t: PhantomData })
+    }
+}
+
+/// Publishes `T` with rmw_zenoh's attachment (sequence number, source time, GID).
+pub struct Publisher<T> {
+    inner: zenoh::pubsub::Publisher<'static>,
+    key: String,
+    seq: i64,
+    gid: [u8; 16],
+    _token: LivelinessToken,
+    _t: PhantomData<fn(T)>,
+}
+
+impl<T> std::fmt::Debug for Publisher<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Publisher").field("key", &self.key).field("seq", &self.seq).finish()
+    }
+}
+
+/// Nanoseconds since the Unix epoch: the source timestamp of the attachment (wall time is
+/// fine here; the simulation never reads it).
+pub fn now_ns() -> i64 {
+    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos() as i64)
+}
+
+impl<T: RosMessage> Publisher<T> {
+    pub fn put(&mut self, msg: &T) -> Result<(), NodeError> {
+        self.put_bytes(encode(msg))
+    }
+    /// Publishes already encoded bytes (the recorder and tests of malformed input use it).
+    pub fn put_bytes(&mut self, payload: Vec<u8>) -> Result<(), NodeError> {
+        self.seq += 1;
+        let att = ros::attachment(self.seq, now_ns(), &self.gid);
+        self.inner
+            .put(payload)
+            .attachment(att.to_vec())
+            .wait()
+            .map_err(|e| NodeError::Put { key: self.key.clone(), message: e.to_string() })
+    }
+    pub fn key(&self) -> &str {
+        &self.key
+    }
+}
+
+/// One received sample: its key, its raw payload, and the decoded message or why not.
+#[derive(Debug)]
+pub struct Received<T> {
+    pub key: String,
+    pub payload: Vec<u8>,
+    pub attachment: Option<ros::Attachment>,
+    pub msg: Result<T, DecodeError>,
+}
+
+/// A typed subscription.
+pub struct Subscriber<T> {
+    inner: zenoh::pubsub::Subscriber<FifoChannelHandler<Sample>>,
+    key: String,
+    _token: LivelinessToken,
+    _t: PhantomData<fn() -> T>,
+}
+
+impl<T> std::fmt::Debug for Subscriber<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Subscriber").field("key", &self.key).finish()
+    }
+}
+
+impl<T: RosMessage> Subscriber<T> {
+    fn convert(s: Sample) -> Received<T> {
+        let payload = s.payload().to_bytes().into_owned();
+        let attachment = s.attachment().and_then(|a| ros::parse_attachment(&a.to_bytes()));
+        Received { key: s.key_expr().as_str().to_owned(), msg: decode(&payload), payload, attachment }
+    }
+    /// Waits up to `timeout` for a sample; `Ok(None)` on timeout.
+    pub fn recv_timeout(&self, timeout: Duration) -> Result<Option<Received<T>>, NodeError> {
+        match self.inner.recv_timeout(timeout) {
+            Ok(s) => Ok(s.map(Self::convert)),
+            Err(_) => Err(NodeError::Closed { key: self.key.clone() }),
+        }
+    }
+    /// A sample if one is waiting.
+    pub fn try_recv(&self) -> Result<Option<Received<T>>, NodeError> {
+        match self.inner.try_recv() {
+            Ok(s) => Ok(s.map(Self::convert)),
+            Err(_) => Err(NodeError::Closed { key: self.key.clone() }),
+        }
+    }
+    pub fn key(&self) -> &str {
+        &self.key
+    }
+}

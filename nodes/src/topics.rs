@@ -1,0 +1,199 @@
+//! Every topic name in the deployment comes from here: a validated ROS 2 name type and one
+//! builder per topic, so no raw topic string exists anywhere else.
+
+use std::fmt;
+
+/// Why a name was refused.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum NameError {
+    #[error("topic `{0}`: must start with '/' and have segments of letters, digits and '_' that do not start with a digit")]
+    Topic(String),
+    #[error("agent id `{0}`: must be 1 to 64 lowercase letters, digits or '_', starting with a letter")]
+    Agent(String),
+    #[error("unit tag {0}: tags start at 1")]
+    Unit(u32),
+    #[error("team {0}: must be 1 or 2")]
+    Team(u8),
+}
+
+/// A fully qualified ROS 2 topic name (`/avacraft/unit_3/obs`).
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct Topic(String);
+
+impl Topic {
+    pub fn parse(name: &str) -> Result<Topic, NameError> {
+        let ok = name.starts_with('/')
+            && name.len() > 1
+            && name[1..].split('/').all(|seg| {
+                !seg.is_empty()
+                    && seg.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+                    && !seg.starts_with(|c: char| c.is_ascii_digit())
+            });
+        if ok { Ok(Topic(name.to_owned())) } else { Err(NameError::Topic(name.to_owned())) }
+    }
+    pub fn as_str(&self) -> &str {
+        &self.0
+    }
+}
+
+impl fmt::Display for Topic {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+/// An agent node's id, as launch files name it (`marine_1`, `ranged`).
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct AgentId(String);
+
+impl AgentId {
+    pub fn parse(s: &str) -> Result<AgentId, NameError> {
+        let ok = (1..=64).contains(&s.len())
+            && s.starts_with(|c: char| c.is_ascii_lowercase())
+            && s.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_');
+        if ok { Ok(AgentId(s.to_owned())) } else { Err(NameError::Agent(s.to_owned())) }
+    }
+    pub fn as_str(&self) -> &str {
+        &self.0
+    }
+}
+
+impl fmt::Display for AgentId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+/// A unit's tag on the wire (1-based, the engine's `UnitId::tag`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct UnitTag(u32);
+
+impl UnitTag {
+    pub fn new(tag: u32) -> Result<UnitTag, NameError> {
+        if tag >= 1 { Ok(UnitTag(tag)) } else { Err(NameError::Unit(tag)) }
+    }
+    pub fn get(self) -> u32 {
+        self.0
+    }
+}
+
+/// A team number on the wire (1 or 2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct TeamNo(u8);
+
+impl TeamNo {
+    pub fn new(n: u8) -> Result<TeamNo, NameError> {
+        if n == 1 || n == 2 { Ok(TeamNo(n)) } else { Err(NameError::Team(n)) }
+    }
+    pub fn get(self) -> u8 {
+        self.0
+    }
+}
+
+/// Image streams of a team.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FrameKind {
+    Screen,
+    Minimap,
+    Vlm,
+}
+
+impl FrameKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            FrameKind::Screen => "screen",
+            FrameKind::Minimap => "minimap",
+            FrameKind::Vlm => "vlm",
+        }
+    }
+}
+
+/// The deployment's topic names under one namespace (default `/avacraft`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Topics {
+    ns: String,
+}
+
+impl Default for Topics {
+    fn default() -> Self {
+        Self { ns: "/avacraft".to_owned() }
+    }
+}
+
+impl Topics {
+    /// Topics under `namespace` (a valid topic name itself, e.g. `/match_3`).
+    pub fn new(namespace: &str) -> Result<Topics, NameError> {
+        Topic::parse(namespace).map(|t| Topics { ns: t.0 })
+    }
+    pub fn namespace(&self) -> &str {
+        &self.ns
+    }
+    fn make(&self, rest: &str) -> Topic {
+        // The namespace and every segment built here are valid names by construction.
+        Topic(format!("{}/{rest}", self.ns))
+    }
+    /// One unit's observation (`UnitObservation`), for the agent node that owns it.
+    pub fn unit_obs(&self, unit: UnitTag) -> Topic {
+        self.make(&format!("unit_{}/obs", unit.0))
+    }
+    /// A team's whole view (`TeamObservation`): text and unit list.
+    pub fn team_obs(&self, team: TeamNo) -> Topic {
+        self.make(&format!("team_{}/obs", team.0))
+    }
+    /// A team's rendered frames (`sensor_msgs/Image`).
+    pub fn frames(&self, team: TeamNo, kind: FrameKind) -> Topic {
+        self.make(&format!("team_{}/{}", team.0, kind.name()))
+    }
+    /// Actions of one agent node (`ActionBatch`): the sender is the topic, so ownership can
+    /// be checked against the launch file.
+    pub fn actions(&self, agent: &AgentId) -> Topic {
+        self.make(&format!("agents/{}/actions", agent.0))
+    }
+    /// Episode status (`EpisodeStatus`).
+    pub fn status(&self) -> Topic {
+        self.make("status")
+    }
+    /// Role assignment (`RoleAssignment`).
+    pub fn roles(&self) -> Topic {
+        self.make("roles")
+    }
+    /// The agent id in an action topic's key, if it is one.
+    pub fn agent_of_key(&self, key: &str) -> Option<AgentId> {
+        let ns = self.ns.trim_start_matches('/');
+        let rest = key.split_once('/')?.1.strip_prefix(ns)?.strip_prefix("/agents/")?;
+        let (agent, tail) = rest.split_once('/')?;
+        tail.starts_with("actions/").then(|| AgentId::parse(agent).ok()).flatten()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_are_validated_and_built_in_one_place() {
+        assert!(Topic::parse("/avacraft/unit_3/obs").is_ok());
+        for bad in ["", "/", "avacraft", "/a//b", "/a/3b", "/a b", "/a/"] {
+            assert!(Topic::parse(bad).is_err(), "{bad:?}");
+        }
+        assert!(AgentId::parse("marine_1").is_ok());
+        for bad in ["", "Marine", "1m", "a-b", &"a".repeat(65)] {
+            assert!(AgentId::parse(bad).is_err(), "{bad:?}");
+        }
+        assert!(UnitTag::new(0).is_err() && TeamNo::new(3).is_err());
+        let t = Topics::default();
+        let u = UnitTag::new(3).expect("tag");
+        assert_eq!(t.unit_obs(u).as_str(), "/avacraft/unit_3/obs");
+        let a = AgentId::parse("marine_1").expect("id");
+        assert_eq!(t.actions(&a).as_str(), "/avacraft/agents/marine_1/actions");
+        assert_eq!(t.frames(TeamNo::new(2).expect("team"), FrameKind::Minimap).as_str(), "/avacraft/team_2/minimap");
+        let key = "0/avacraft/agents/marine_1/actions/avacraft_msgs::msg::dds_::ActionBatch_/RIHS01_00";
+        assert_eq!(t.agent_of_key(key), Some(a));
+        assert_eq!(t.agent_of_key("0/avacraft/status/x/y"), None);
+        assert!(Topics::new("/match_3").is_ok() && Topics::new("match").is_err());
+        // Every built topic passes the validator.
+        for topic in [t.status(), t.roles(), t.team_obs(TeamNo::new(1).expect("team"))] {
+            assert_eq!(Topic::parse(topic.as_str()).as_ref(), Ok(&topic));
+        }
+    }
+}

@@ -1,0 +1,309 @@
+//! The simulator node. It owns the one `Env` of a deployment, publishes each agent-team
+//! unit's observation, each team's view and the episode status every step, and takes
+//! actions from the agent nodes: a unit accepts actions only from the agent node that owns
+//! it, so decentralised execution is physical. Lockstep clock: a step advances when every
+//! live owned unit's action for it has arrived, or at the deadline (a missing action is a
+//! no-op, counted). Real-time clock: 22.4 game loops per wall second, actions applied as
+//! they arrive.
+
+mod convert;
+
+pub use convert::{BadAction, action_from_msg, header, unit_observation, unit_state};
+
+use avacraft_engine::{Env, EnvConfig, Outcome, Scenario, Team, UnitId};
+use avacraft_msgs::{ActionBatch, EpisodeStatus, TeamObservation};
+use avacraft_nodes::{AgentId, Node, NodeError, Qos, Shutdown, TeamNo, Topics, UnitTag};
+use std::collections::{BTreeMap, BTreeSet};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// How the simulation advances.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Clock {
+    /// A step waits for every owned live unit's action, up to `deadline`.
+    Lockstep { deadline: Duration },
+    /// 22.4 game loops per second of wall time; actions apply when they arrive.
+    RealTime,
+}
+
+/// Everything the simulator node needs (from a launch file or the command line).
+#[derive(Clone, Debug)]
+pub struct SimConfig {
+    pub scenario: Arc<Scenario>,
+    pub env: EnvConfig,
+    pub clock: Clock,
+    /// Seeds of the episodes, played back to back.
+    pub seeds: Vec<u64>,
+    /// Which agent node owns each unit (units of agent teams not listed stay idle).
+    pub owners: BTreeMap<UnitTag, AgentId>,
+    /// How long to wait at start for every agent node to appear.
+    pub startup_timeout: Duration,
+}
+
+/// One finished episode.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct EpisodeSummary {
+    pub episode: u64,
+    pub seed: u64,
+    pub result: Outcome,
+    pub steps: u32,
+    pub game_loops: u32,
+    pub trajectory_hash: String,
+    pub refused_actions: [u32; 2],
+    pub missing_actions: [u32; 2],
+    pub foreign_actions: [u32; 2],
+    pub malformed_messages: u32,
+}
+
+/// Why the node stopped early.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    #[error(transparent)]
+    Node(#[from] NodeError),
+    #[error("agent nodes {missing:?} did not appear within {seconds:.1} s")]
+    AgentsMissing { missing: Vec<String>, seconds: f64 },
+    #[error("stopped by a signal after {episodes} episodes")]
+    Interrupted { episodes: usize },
+}
+
+/// Counters of one episode (indexed by team).
+#[derive(Clone, Copy, Debug, Default)]
+struct Counts {
+    missing: [u32; 2],
+    foreign: [u32; 2],
+    refused_wire: [u32; 2],
+    malformed: u32,
+}
+
+fn result_code(o: Option<Outcome>) -> u8 {
+    match o {
+        None => EpisodeStatus::RUNNING,
+        Some(Outcome::Win) => EpisodeStatus::WIN,
+        Some(Outcome::Loss) => EpisodeStatus::LOSS,
+        Some(Outcome::Draw) => EpisodeStatus::DRAW,
+    }
+}
+
+/// Runs every episode of `cfg`; returns their summaries.
+pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -> Result<Vec<EpisodeSummary>, SimError> {
+    let mut env = Env::new(Arc::clone(&cfg.scenario), cfg.env.clone(), cfg.seeds.first().copied().unwrap_or(1));
+    let teams: Vec<Team> = Team::BOTH.into_iter().filter(|t| env.is_agent_team(*t)).collect();
+    let reliable = Qos::Reliable { depth: 10 };
+    let mut unit_pubs = BTreeMap::new();
+    for &team in &teams {
+        for &id in env.agents(team) {
+            let tag = UnitTag::new(id.tag()).map_err(|e| NodeError::Declare {
+                what: "a unit topic",
+                key: e.to_string(),
+                message: String::new(),
+            })?;
+            unit_pubs.insert(id, node.publisher(&topics.unit_obs(tag), reliable)?);
+        }
+    }
+    let mut team_pubs = BTreeMap::new();
+    for &team in &teams {
+        let no = TeamNo::new(team.player()).map_err(|e| NodeError::Declare {
+            what: "a team topic",
+            key: e.to_string(),
+            message: String::new(),
+        })?;
+        team_pubs.insert(team, node.publisher::<TeamObservation>(&topics.team_obs(no), reliable)?);
+    }
+    let mut status_pub = node.publisher::<EpisodeStatus>(&topics.status(), reliable)?;
+    let actions = node.subscriber::<ActionBatch>(&format!("{}/agents/*/actions", topics.namespace()), reliable)?;
+    wait_for_agents(node, cfg, shutdown)?;
+    let mut out = Vec::new();
+    for (episode, &seed) in cfg.seeds.iter().enumerate() {
+        if shutdown.requested() {
+            return Err(SimError::Interrupted { episodes: out.len() });
+        }
+        env.reset(seed);
+        let mut counts = Counts::default();
+        let episode = episode as u64;
+        tracing::info!(episode, seed, scenario = %cfg.scenario.name, "episode starts");
+        loop {
+            publish_step(&env, &teams, episode, &mut unit_pubs, &mut team_pubs)?;
+            status_pub.put(&status(&env, cfg, episode, seed, &counts))?;
+            collect_actions(&mut env, &teams, cfg, &actions, topics, episode, &mut counts, shutdown)?;
+            if shutdown.requested() {
+                return Err(SimError::Interrupted { episodes: out.len() });
+            }
+            if env.step().done {
+                break;
+            }
+        }
+        // Final observations (units see the end) and the final status.
+        publish_step(&env, &teams, episode, &mut unit_pubs, &mut team_pubs)?;
+        status_pub.put(&status(&env, cfg, episode, seed, &counts))?;
+        let refused = env.refused();
+        let s = EpisodeSummary {
+            episode,
+            seed,
+            result: env.outcome().unwrap_or(Outcome::Draw),
+            steps: env.steps(),
+            game_loops: env.world().tick(),
+            trajectory_hash: format!("{:016x}", env.trajectory_hash()),
+            refused_actions: [refused[0] + counts.refused_wire[0], refused[1] + counts.refused_wire[1]],
+            missing_actions: counts.missing,
+            foreign_actions: counts.foreign,
+            malformed_messages: counts.malformed,
+        };
+        tracing::info!(episode, result = ?s.result, steps = s.steps, missing = ?s.missing_actions, foreign = ?s.foreign_actions, malformed = s.malformed_messages, "episode ends");
+        out.push(s);
+    }
+    Ok(out)
+}
+
+fn status(env: &Env, cfg: &SimConfig, episode: u64, seed: u64, c: &Counts) -> EpisodeStatus {
+    let refused = env.refused();
+    let reward = env.outcome().map_or([0.0, 0.0], |o| [o.sparse_reward(), o.for_team(Team::Two).sparse_reward()]);
+    EpisodeStatus {
+        header: header(env.world(), "map"),
+        episode,
+        seed,
+        scenario: cfg.scenario.name.clone(),
+        step: env.steps(),
+        game_loop: env.world().tick(),
+        result: result_code(env.outcome()),
+        reward,
+        refused_actions: [refused[0] + c.refused_wire[0], refused[1] + c.refused_wire[1]],
+        missing_actions: c.missing,
+        foreign_actions: c.foreign,
+        malformed_messages: c.malformed,
+    }
+}
+
+fn publish_step(
+    env: &Env,
+    teams: &[Team],
+    episode: u64,
+    unit_pubs: &mut BTreeMap<UnitId, avacraft_nodes::Publisher<avacraft_msgs::UnitObservation>>,
+    team_pubs: &mut BTreeMap<Team, avacraft_nodes::Publisher<TeamObservation>>,
+) -> Result<(), NodeError> {
+    for &team in teams {
+        let text = convert::team_text(env, team);
+        let w = env.world();
+        if let Some(p) = team_pubs.get_mut(&team) {
+            let units = avacraft_engine::unit_list(w, team).iter().map(unit_state).collect();
+            let msg = TeamObservation {
+                header: header(w, "map"),
+                episode,
+                step: env.steps(),
+                game_loop: w.tick(),
+                team: team.player(),
+                units,
+                effects: convert::effects(w, team),
+                text: text.clone(),
+            };
+            p.put(&msg)?;
+        }
+        for (agent, id) in env.agents(team).iter().enumerate() {
+            if let Some(p) = unit_pubs.get_mut(id) {
+                p.put(&unit_observation(env, team, agent, episode, &text))?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Waits until every agent node of the launch has a liveliness token.
+fn wait_for_agents(node: &Node, cfg: &SimConfig, shutdown: &Shutdown) -> Result<(), SimError> {
+    let wanted: BTreeSet<String> = cfg.owners.values().map(|a| format!("agent_{a}")).collect();
+    if wanted.is_empty() {
+        return Ok(());
+    }
+    let start = Instant::now();
+    loop {
+        let seen = node.alive_nodes(Duration::from_millis(500))?;
+        let missing: Vec<String> = wanted.difference(&seen).cloned().collect();
+        if missing.is_empty() {
+            tracing::info!(agents = wanted.len(), "every agent node is up");
+            return Ok(());
+        }
+        if shutdown.requested() {
+            return Err(SimError::Interrupted { episodes: 0 });
+        }
+        if start.elapsed() > cfg.startup_timeout {
+            return Err(SimError::AgentsMissing { missing, seconds: start.elapsed().as_secs_f64() });
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// Gathers the actions of this step from the wire and submits them.
+#[allow(clippy::too_many_arguments)]
+fn collect_actions(
+    env: &mut Env,
+    teams: &[Team],
+    cfg: &SimConfig,
+    sub: &avacraft_nodes::Subscriber<ActionBatch>,
+    topics: &Topics,
+    episode: u64,
+    c: &mut Counts,
+    shutdown: &Shutdown,
+) -> Result<(), NodeError> {
+    let step = env.steps();
+    // Units whose action this step is still awaited: live units with an owner.
+    let mut waiting: BTreeSet<UnitId> = BTreeSet::new();
+    for &team in teams {
+        for u in env.world().alive(team) {
+            if UnitTag::new(u.id.tag()).is_ok_and(|t| cfg.owners.contains_key(&t)) {
+                waiting.insert(u.id);
+            }
+        }
+    }
+    let (deadline, realtime) = match cfg.clock {
+        Clock::Lockstep { deadline } => (Instant::now() + deadline, false),
+        Clock::RealTime => (Instant::now() + Duration::from_secs_f64(cfg.env.step_mul.get() as f64 / 22.4), true),
+    };
+    while (realtime || !waiting.is_empty()) && !shutdown.requested() {
+        let now = Instant::now();
+        if now >= deadline {
+            break;
+        }
+        let Some(r) = sub.recv_timeout((deadline - now).min(Duration::from_millis(50)))? else { continue };
+        let Some(agent) = topics.agent_of_key(&r.key) else {
+            c.malformed += 1;
+            continue;
+        };
+        let batch = match r.msg {
+            Ok(b) => b,
+            Err(e) => {
+                tracing::warn!(%agent, error = %e, "malformed action batch refused");
+                c.malformed += 1;
+                continue;
+            }
+        };
+        if batch.episode != episode || batch.step != step {
+            continue; // a late answer to an earlier step
+        }
+        for a in &batch.actions {
+            let owner = UnitTag::new(a.unit_tag).ok().and_then(|t| cfg.owners.get(&t));
+            let team_of = env.world().unit(UnitId::new(a.unit_tag.saturating_sub(1).min(u16::MAX as u32) as u16)).map(|u| u.team);
+            let ti = team_of.map_or(0, |t| t.index());
+            if owner != Some(&agent) {
+                tracing::warn!(%agent, unit = a.unit_tag, "action for a unit this agent node does not own refused");
+                c.foreign[ti] += 1;
+                continue;
+            }
+            match action_from_msg(env.world(), a) {
+                Ok(action) => {
+                    let team = team_of.unwrap_or(Team::One);
+                    if let Err(e) = env.submit(team, &[action]).remove(0) {
+                        tracing::debug!(%agent, error = %e, "action refused by the engine");
+                    }
+                    waiting.remove(&action.unit);
+                }
+                Err(e) => {
+                    tracing::warn!(%agent, error = %e, "bad action refused");
+                    c.refused_wire[ti] += 1;
+                }
+            }
+        }
+    }
+    for id in waiting {
+        let ti = env.world().unit(id).map_or(0, |u| u.team.index());
+        c.missing[ti] += 1;
+    }
+    Ok(())
+}
