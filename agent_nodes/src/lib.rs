@@ -83,7 +83,15 @@ pub fn run(
             stats.batches += 1;
             last_done = Some(key);
         } else if !got {
-            std::thread::sleep(Duration::from_micros(200));
+            // Block on the first unit's topic for a moment instead of sleeping: an agent
+            // node of one unit (the common case) then reacts as soon as its observation lands.
+            if let Some(first) = subs.first()
+                && let Some(r) = first.recv_timeout(Duration::from_millis(1))?
+                && let Ok(o) = r.msg
+                && last_done.is_none_or(|d| (o.episode, o.step) > d)
+            {
+                pending.entry((o.episode, o.step)).or_insert_with(|| (Instant::now(), BTreeMap::new())).1.insert(o.unit_tag, o);
+            }
         }
     }
     Ok(stats)

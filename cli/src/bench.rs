@@ -39,6 +39,11 @@ pub struct BenchArgs {
     /// milliseconds per 1920x1080 VLM screenshot) on each available back end.
     #[arg(long, conflicts_with = "steps")]
     render: bool,
+    /// Instead: measure the distributed deployment (lockstep steps/s with one agent process
+    /// per unit for 3m and pvz_ht, observation-to-action round trip, frame latency through
+    /// Zenoh, the cost of recording), each against its goal.
+    #[arg(long)]
+    deploy: bool,
 }
 
 /// One back end's rendering speed on one scenario.
@@ -328,6 +333,9 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
     }
     if a.render {
         return run_render(a, out);
+    }
+    if a.deploy {
+        return crate::bench_deploy::run(out);
     }
     let names = scenario_names(a);
     let mut rows = Vec::new();

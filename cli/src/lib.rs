@@ -2,11 +2,13 @@
 //! argument parsing and output of the binary.
 
 mod bench;
+mod bench_deploy;
 mod deploy;
 mod episode;
 mod info;
 mod record;
 mod render;
+mod replay;
 
 pub use bench::{BenchRow, RenderRow, ScalingRow};
 pub use episode::{EpisodeRecord, Report, Summary};
@@ -43,6 +45,9 @@ enum Cmd {
     AgentNode(deploy::AgentNodeArgs),
     /// Record every topic to MCAP (ros2 profile).
     Record(record::RecordArgs),
+    /// Re-simulate a recording's episodes from their seeds and applied actions and check
+    /// the trajectory matches.
+    Replay(replay::ReplayArgs),
 }
 
 /// Runs one command, writing its report to `out`. `alloc` is the process's counting
@@ -58,6 +63,7 @@ pub fn run(cli: Cli, out: &mut dyn Write, alloc: Option<&'static StatsAlloc<Syst
         Cmd::SimNode(a) => deploy::sim_node(&a, out),
         Cmd::AgentNode(a) => deploy::agent_node(&a),
         Cmd::Record(a) => deploy::record(&a),
+        Cmd::Replay(a) => replay::run(&a, out),
     }
 }
 

@@ -153,6 +153,11 @@ impl Topics {
     pub fn status(&self) -> Topic {
         self.make("status")
     }
+    /// The actions the simulator applied each step, in order (`ActionBatch`, agent `sim`):
+    /// with the seed in the status, enough to re-simulate a recorded episode exactly.
+    pub fn applied(&self) -> Topic {
+        self.make("applied")
+    }
     /// Role assignment (`RoleAssignment`).
     pub fn roles(&self) -> Topic {
         self.make("roles")

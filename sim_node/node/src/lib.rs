@@ -53,6 +53,20 @@ pub struct EpisodeSummary {
     pub missing_actions: [u32; 2],
     pub foreign_actions: [u32; 2],
     pub malformed_messages: u32,
+    /// Wall time of the episode.
+    pub wall_seconds: f64,
+    /// Observation-to-action round trip per step (publishing every observation until the
+    /// last owned unit's action arrived), 50th and 99th percentile, microseconds.
+    pub round_trip_us: [u64; 2],
+}
+
+fn percentiles(mut v: Vec<u64>) -> [u64; 2] {
+    if v.is_empty() {
+        return [0, 0];
+    }
+    v.sort_unstable();
+    let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+    [at(0.5), at(0.99)]
 }
 
 /// Why the node stopped early.
@@ -110,6 +124,7 @@ pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -
         team_pubs.insert(team, node.publisher::<TeamObservation>(&topics.team_obs(no), reliable)?);
     }
     let mut status_pub = node.publisher::<EpisodeStatus>(&topics.status(), reliable)?;
+    let mut applied_pub = node.publisher::<ActionBatch>(&topics.applied(), reliable)?;
     let actions = node.subscriber::<ActionBatch>(&format!("{}/agents/*/actions", topics.namespace()), reliable)?;
     wait_for_agents(node, cfg, shutdown)?;
     let mut out = Vec::new();
@@ -120,11 +135,22 @@ pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -
         env.reset(seed);
         let mut counts = Counts::default();
         let episode = episode as u64;
+        let started = Instant::now();
+        let mut trips = Vec::new();
         tracing::info!(episode, seed, scenario = %cfg.scenario.name, "episode starts");
         loop {
+            let t0 = Instant::now();
             publish_step(&env, &teams, episode, &mut unit_pubs, &mut team_pubs)?;
             status_pub.put(&status(&env, cfg, episode, seed, &counts))?;
-            collect_actions(&mut env, &teams, cfg, &actions, topics, episode, &mut counts, shutdown)?;
+            let applied = collect_actions(&mut env, &teams, cfg, &actions, topics, episode, &mut counts, shutdown)?;
+            trips.push(t0.elapsed().as_micros() as u64);
+            applied_pub.put(&ActionBatch {
+                header: header(env.world(), "map"),
+                episode,
+                step: env.steps(),
+                agent_id: "sim".into(),
+                actions: applied,
+            })?;
             if shutdown.requested() {
                 return Err(SimError::Interrupted { episodes: out.len() });
             }
@@ -147,6 +173,8 @@ pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -
             missing_actions: counts.missing,
             foreign_actions: counts.foreign,
             malformed_messages: counts.malformed,
+            wall_seconds: started.elapsed().as_secs_f64(),
+            round_trip_us: percentiles(trips),
         };
         tracing::info!(episode, result = ?s.result, steps = s.steps, missing = ?s.missing_actions, foreign = ?s.foreign_actions, malformed = s.malformed_messages, "episode ends");
         out.push(s);
@@ -230,7 +258,8 @@ fn wait_for_agents(node: &Node, cfg: &SimConfig, shutdown: &Shutdown) -> Result<
     }
 }
 
-/// Gathers the actions of this step from the wire and submits them.
+/// Gathers the actions of this step from the wire and submits them; returns the ones the
+/// engine accepted, in the order applied (published for replay).
 #[allow(clippy::too_many_arguments)]
 fn collect_actions(
     env: &mut Env,
@@ -241,8 +270,9 @@ fn collect_actions(
     episode: u64,
     c: &mut Counts,
     shutdown: &Shutdown,
-) -> Result<(), NodeError> {
+) -> Result<Vec<avacraft_msgs::UnitAction>, NodeError> {
     let step = env.steps();
+    let mut applied = Vec::new();
     // Units whose action this step is still awaited: live units with an owner.
     let mut waiting: BTreeSet<UnitId> = BTreeSet::new();
     for &team in teams {
@@ -289,8 +319,9 @@ fn collect_actions(
             match action_from_msg(env.world(), a) {
                 Ok(action) => {
                     let team = team_of.unwrap_or(Team::One);
-                    if let Err(e) = env.submit(team, &[action]).remove(0) {
-                        tracing::debug!(%agent, error = %e, "action refused by the engine");
+                    match env.submit(team, &[action]).remove(0) {
+                        Ok(()) => applied.push(a.clone()),
+                        Err(e) => tracing::debug!(%agent, error = %e, "action refused by the engine"),
                     }
                     waiting.remove(&action.unit);
                 }
@@ -305,5 +336,5 @@ fn collect_actions(
         let ti = env.world().unit(id).map_or(0, |u| u.team.index());
         c.missing[ti] += 1;
     }
-    Ok(())
+    Ok(applied)
 }
