@@ -65,6 +65,13 @@ fn sim_config(plan: &Plan, startup: Duration) -> SimConfig {
         seeds: plan.seeds.clone(),
         owners: plan.owners(),
         startup_timeout: startup,
+        frames: plan.frames.as_ref().map(|f| avacraft_sim_node::FrameSpec {
+            kinds: f.kinds.clone(),
+            screen: f.screen,
+            minimap: f.minimap,
+            vlm: f.vlm,
+            every: f.every,
+        }),
     }
 }
 

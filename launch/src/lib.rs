@@ -29,7 +29,38 @@ pub struct RawLaunch {
     pub router: String,
     #[serde(default)]
     pub record: Option<PathBuf>,
+    #[serde(default)]
+    pub frames: Option<RawFrames>,
     pub agents: Vec<RawAgent>,
+}
+
+/// Rendered frames the simulator publishes (`sensor_msgs/Image` per agent team).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawFrames {
+    /// Any of `screen`, `minimap`, `vlm`.
+    pub kinds: Vec<String>,
+    #[serde(default = "screen_size")]
+    pub screen: [u32; 2],
+    #[serde(default = "minimap_size")]
+    pub minimap: [u32; 2],
+    #[serde(default = "vlm_size")]
+    pub vlm: [u32; 2],
+    #[serde(default = "one32")]
+    pub every: u32,
+}
+
+fn screen_size() -> [u32; 2] {
+    [160, 120]
+}
+fn minimap_size() -> [u32; 2] {
+    [32, 32]
+}
+fn vlm_size() -> [u32; 2] {
+    [1920, 1080]
+}
+fn one32() -> u32 {
+    1
 }
 
 fn lockstep() -> String {
@@ -88,7 +119,18 @@ pub struct Plan {
     pub opponent: Option<OpponentKind>,
     pub router: String,
     pub record: Option<PathBuf>,
+    pub frames: Option<FramePlan>,
     pub agents: Vec<AgentPlan>,
+}
+
+/// Validated frame settings.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FramePlan {
+    pub kinds: Vec<avacraft_nodes::FrameKind>,
+    pub screen: (u32, u32),
+    pub minimap: (u32, u32),
+    pub vlm: (u32, u32),
+    pub every: u32,
 }
 
 impl Plan {
@@ -158,6 +200,30 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
     if !raw.router.starts_with("tcp/") {
         return Err(cx.err("router", format!("{:?}", raw.router), "must be a Zenoh TCP endpoint such as tcp/127.0.0.1:7447"));
     }
+    let frames = match &raw.frames {
+        None => None,
+        Some(f) => {
+            let mut kinds = Vec::new();
+            for (i, k) in f.kinds.iter().enumerate() {
+                kinds.push(match k.as_str() {
+                    "screen" => avacraft_nodes::FrameKind::Screen,
+                    "minimap" => avacraft_nodes::FrameKind::Minimap,
+                    "vlm" => avacraft_nodes::FrameKind::Vlm,
+                    other => return Err(cx.err(format!("frames.kinds[{i}]"), format!("{other:?}"), "must be screen, minimap or vlm")),
+                });
+            }
+            for (name, [w, h]) in [("screen", f.screen), ("minimap", f.minimap), ("vlm", f.vlm)] {
+                if !(1..=4096).contains(&w) || !(1..=4096).contains(&h) {
+                    return Err(cx.err(format!("frames.{name}"), format!("[{w}, {h}]"), "width and height must be 1 to 4096"));
+                }
+            }
+            if f.every == 0 {
+                return Err(cx.err("frames.every", 0, "must be at least 1"));
+            }
+            let p = |s: [u32; 2]| (s[0], s[1]);
+            Some(FramePlan { kinds, screen: p(f.screen), minimap: p(f.minimap), vlm: p(f.vlm), every: f.every })
+        }
+    };
     let scenario = Arc::new(scenario);
     let env = Env::new(Arc::clone(&scenario), EnvConfig::default(), 0);
     let agent_team = |t: Team| env.is_agent_team(t);
@@ -232,6 +298,7 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
         opponent,
         router: raw.router,
         record: raw.record,
+        frames,
         agents,
     })
 }

@@ -41,7 +41,7 @@ fn launch_3m_with_three_agent_processes_finishes_episodes_and_records_them() {
     let file = write_launch(
         "3m.yaml",
         &format!(
-            "scenario: 3m\nepisodes: 2\nseed: 5\nrouter: tcp/127.0.0.1:{port}\nrecord: {}\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n",
+            "scenario: 3m\nepisodes: 2\nseed: 5\nrouter: tcp/127.0.0.1:{port}\nrecord: {}\nframes:\n  kinds: [screen, minimap]\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n",
             mcap.display()
         ),
     );
@@ -60,7 +60,7 @@ fn launch_3m_with_three_agent_processes_finishes_episodes_and_records_them() {
     let bytes = std::fs::read(&mcap).expect("mcap written");
     let summary = mcap::Summary::read(&bytes).expect("summary").expect("summary present");
     let topics: Vec<&str> = summary.channels.values().map(|c| c.topic.as_str()).collect();
-    for t in ["/avacraft/unit_1/obs", "/avacraft/team_1/obs", "/avacraft/status", "/avacraft/agents/unit_1/actions"] {
+    for t in ["/avacraft/unit_1/obs", "/avacraft/team_1/obs", "/avacraft/status", "/avacraft/agents/unit_1/actions", "/avacraft/roles", "/avacraft/applied"] {
         assert!(topics.contains(&t), "{t} missing from {topics:?}");
     }
     for c in summary.channels.values() {
@@ -68,6 +68,17 @@ fn launch_3m_with_three_agent_processes_finishes_episodes_and_records_them() {
         assert_eq!((s.encoding.as_str(), c.message_encoding.as_str()), ("ros2msg", "cdr"));
         assert!(c.metadata.contains_key("offered_qos_profiles"));
     }
+    // Frames: sensor_msgs/Image, 160x120 rgb8 screens with pixels.
+    let screen = summary.channels.values().find(|c| c.topic == "/avacraft/team_1/screen").expect("screen topic recorded");
+    assert_eq!(screen.schema.as_ref().map(|s| s.name.as_str()), Some("sensor_msgs/msg/Image"));
+    let img = mcap::MessageStream::new(&bytes)
+        .expect("stream")
+        .filter_map(Result::ok)
+        .find(|m| m.channel.topic == "/avacraft/team_1/screen")
+        .map(|m| avacraft_msgs::decode::<avacraft_msgs::Image>(&m.data).expect("an Image"))
+        .expect("a screen frame");
+    assert_eq!((img.width, img.height, img.encoding.as_str(), img.data.len()), (160, 120, "rgb8", 160 * 120 * 3));
+    assert!(img.data.iter().any(|&b| b > 100), "not a blank frame");
     let stats = summary.stats.expect("statistics");
     assert!(stats.message_count > 100, "{}", stats.message_count);
     // Decoded by the ROS 2 MCAP reader of the mcap project (Python, installed by .ci/run).

@@ -12,7 +12,8 @@ pub use convert::{BadAction, action_from_msg, header, unit_observation, unit_sta
 
 use avacraft_engine::{Env, EnvConfig, Outcome, Scenario, Team, UnitId};
 use avacraft_msgs::{ActionBatch, EpisodeStatus, TeamObservation};
-use avacraft_nodes::{AgentId, Node, NodeError, Qos, Shutdown, TeamNo, Topics, UnitTag};
+use avacraft_nodes::{AgentId, FrameKind, Node, NodeError, Qos, Shutdown, TeamNo, Topics, UnitTag};
+use avacraft_render::{CpuBackend, FrameBuilder, VlmOptions};
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -38,6 +39,20 @@ pub struct SimConfig {
     pub owners: BTreeMap<UnitTag, AgentId>,
     /// How long to wait at start for every agent node to appear.
     pub startup_timeout: Duration,
+    /// Rendered frames to publish (`sensor_msgs/Image`), if any.
+    pub frames: Option<FrameSpec>,
+}
+
+/// Which frames the simulator renders and publishes per agent team.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FrameSpec {
+    pub kinds: Vec<FrameKind>,
+    /// Sizes (width, height) of the screen, minimap and VLM screenshot.
+    pub screen: (u32, u32),
+    pub minimap: (u32, u32),
+    pub vlm: (u32, u32),
+    /// Publish every this many steps.
+    pub every: u32,
 }
 
 /// One finished episode.
@@ -125,6 +140,8 @@ pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -
     }
     let mut status_pub = node.publisher::<EpisodeStatus>(&topics.status(), reliable)?;
     let mut applied_pub = node.publisher::<ActionBatch>(&topics.applied(), reliable)?;
+    let mut frames = Frames::new(node, topics, &teams, cfg.frames.clone())?;
+    let mut roles_pub = node.publisher::<avacraft_msgs::RoleAssignment>(&topics.roles(), reliable)?;
     let actions = node.subscriber::<ActionBatch>(&format!("{}/agents/*/actions", topics.namespace()), reliable)?;
     wait_for_agents(node, cfg, shutdown)?;
     let mut out = Vec::new();
@@ -138,9 +155,11 @@ pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -
         let started = Instant::now();
         let mut trips = Vec::new();
         tracing::info!(episode, seed, scenario = %cfg.scenario.name, "episode starts");
+        roles_pub.put(&roles(&env, cfg, episode))?;
         loop {
             let t0 = Instant::now();
             publish_step(&env, &teams, episode, &mut unit_pubs, &mut team_pubs)?;
+            frames.publish(&env)?;
             status_pub.put(&status(&env, cfg, episode, seed, &counts))?;
             let applied = collect_actions(&mut env, &teams, cfg, &actions, topics, episode, &mut counts, shutdown)?;
             trips.push(t0.elapsed().as_micros() as u64);
@@ -180,6 +199,23 @@ pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -
         out.push(s);
     }
     Ok(out)
+}
+
+/// Who owns which units this episode (the launch file's groups; each group is a role).
+fn roles(env: &Env, cfg: &SimConfig, episode: u64) -> avacraft_msgs::RoleAssignment {
+    let mut groups: BTreeMap<&AgentId, Vec<u32>> = BTreeMap::new();
+    for (tag, agent) in &cfg.owners {
+        groups.entry(agent).or_default().push(tag.get());
+    }
+    avacraft_msgs::RoleAssignment {
+        header: header(env.world(), "map"),
+        episode,
+        step: env.steps(),
+        groups: groups
+            .into_iter()
+            .map(|(a, units)| avacraft_msgs::RoleGroup { role: a.to_string(), agent_id: a.to_string(), unit_tags: units })
+            .collect(),
+    }
 }
 
 fn status(env: &Env, cfg: &SimConfig, episode: u64, seed: u64, c: &Counts) -> EpisodeStatus {
@@ -337,4 +373,57 @@ fn collect_actions(
         c.missing[ti] += 1;
     }
     Ok(applied)
+}
+
+/// Renders and publishes each agent team's frames (best effort: a late frame is worthless).
+struct Frames {
+    spec: Option<FrameSpec>,
+    pubs: Vec<(Team, FrameKind, avacraft_nodes::Publisher<avacraft_msgs::Image>)>,
+    builder: FrameBuilder,
+    cpu: CpuBackend,
+}
+
+impl Frames {
+    fn new(node: &Node, topics: &Topics, teams: &[Team], spec: Option<FrameSpec>) -> Result<Frames, NodeError> {
+        let mut pubs = Vec::new();
+        if let Some(s) = &spec {
+            for &team in teams {
+                let no = TeamNo::new(team.player()).map_err(|e| NodeError::Declare {
+                    what: "a frame topic",
+                    key: e.to_string(),
+                    message: String::new(),
+                })?;
+                for &k in &s.kinds {
+                    pubs.push((team, k, node.publisher(&topics.frames(no, k), Qos::BestEffort { depth: 1 })?));
+                }
+            }
+        }
+        Ok(Frames { spec, pubs, builder: FrameBuilder::new(), cpu: CpuBackend::new() })
+    }
+
+    fn publish(&mut self, env: &Env) -> Result<(), NodeError> {
+        let Some(spec) = &self.spec else { return Ok(()) };
+        if !env.steps().is_multiple_of(spec.every.max(1)) {
+            return Ok(());
+        }
+        let w = env.world();
+        for (team, kind, p) in &mut self.pubs {
+            let ((width, height), scene) = match kind {
+                FrameKind::Screen => (spec.screen, self.builder.screen(w, *team, spec.screen.0, spec.screen.1)),
+                FrameKind::Minimap => (spec.minimap, self.builder.minimap(w, *team, spec.minimap.0, spec.minimap.1)),
+                FrameKind::Vlm => (spec.vlm, self.builder.vlm(w, *team, spec.vlm.0, spec.vlm.1, &VlmOptions::default())),
+            };
+            let img = self.cpu.render(&scene);
+            p.put(&avacraft_msgs::Image {
+                header: header(w, kind.name()),
+                height,
+                width,
+                encoding: "rgb8".into(),
+                is_bigendian: 0,
+                step: width * 3,
+                data: img.into_raw(),
+            })?;
+        }
+        Ok(())
+    }
 }
