@@ -60,7 +60,14 @@ fn launch_3m_with_three_agent_processes_finishes_episodes_and_records_them() {
     let bytes = std::fs::read(&mcap).expect("mcap written");
     let summary = mcap::Summary::read(&bytes).expect("summary").expect("summary present");
     let topics: Vec<&str> = summary.channels.values().map(|c| c.topic.as_str()).collect();
-    for t in ["/avacraft/unit_1/obs", "/avacraft/team_1/obs", "/avacraft/status", "/avacraft/agents/unit_1/actions", "/avacraft/roles", "/avacraft/applied"] {
+    for t in [
+        "/avacraft/unit_1/obs",
+        "/avacraft/team_1/obs",
+        "/avacraft/status",
+        "/avacraft/agents/unit_1/actions",
+        "/avacraft/roles",
+        "/avacraft/applied",
+    ] {
         assert!(topics.contains(&t), "{t} missing from {topics:?}");
     }
     for c in summary.channels.values() {
@@ -318,4 +325,23 @@ fn the_recording_survives_a_killed_simulator() {
 fn nix_term(c: &Child) -> Result<(), String> {
     let pid = nix::unistd::Pid::from_raw(c.0.id() as i32);
     nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGTERM).map_err(|e| e.to_string())
+}
+
+#[test]
+fn the_real_time_clock_paces_22_4_loops_per_second() {
+    let port = free_port();
+    let file = write_launch(
+        "rt.yaml",
+        &format!(
+            "scenario: 3m\nclock: realtime\nepisodes: 1\nseed: 2\nrouter: tcp/127.0.0.1:{port}\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n"
+        ),
+    );
+    let v = launch_json(&file);
+    let e = &v[0];
+    let steps = e["steps"].as_f64().unwrap_or(0.0);
+    let wall = e["wall_seconds"].as_f64().unwrap_or(0.0);
+    assert!(steps > 5.0, "{e}");
+    // A step is 8 loops: the episode cannot take less wall time than its game time.
+    assert!(wall >= steps * 8.0 / 22.4 * 0.95, "{steps} steps in {wall} s is faster than real time");
+    assert!(["win", "loss", "draw"].contains(&e["result"].as_str().unwrap_or("")), "{e}");
 }
