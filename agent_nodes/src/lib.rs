@@ -58,7 +58,16 @@ pub fn run(
                 got = true;
                 match r.msg {
                     Ok(o) => {
+                        // Only the unit this topic is for (a spoofed sample cannot act for others).
+                        if !cfg.units.iter().any(|u| u.get() == o.unit_tag) || !r.key.contains(&format!("/unit_{}/obs/", o.unit_tag)) {
+                            stats.malformed += 1;
+                            continue;
+                        }
                         let key = (o.episode, o.step);
+                        // A restarted simulator counts episodes from 0 again.
+                        if last_done.is_some_and(|d| o.episode < d.0) {
+                            last_done = None;
+                        }
                         if last_done.is_some_and(|d| key <= d) {
                             continue;
                         }
@@ -87,10 +96,18 @@ pub fn run(
             // node of one unit (the common case) then reacts as soon as its observation lands.
             if let Some(first) = subs.first()
                 && let Some(r) = first.recv_timeout(Duration::from_millis(1))?
-                && let Ok(o) = r.msg
-                && last_done.is_none_or(|d| (o.episode, o.step) > d)
             {
-                pending.entry((o.episode, o.step)).or_insert_with(|| (Instant::now(), BTreeMap::new())).1.insert(o.unit_tag, o);
+                match r.msg {
+                    Ok(o) if o.unit_tag == cfg.units[0].get() => {
+                        if last_done.is_some_and(|d| o.episode < d.0) {
+                            last_done = None;
+                        }
+                        if last_done.is_none_or(|d| (o.episode, o.step) > d) {
+                            pending.entry((o.episode, o.step)).or_insert_with(|| (Instant::now(), BTreeMap::new())).1.insert(o.unit_tag, o);
+                        }
+                    }
+                    _ => stats.malformed += 1,
+                }
             }
         }
     }

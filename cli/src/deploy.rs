@@ -65,6 +65,7 @@ fn sim_config(plan: &Plan, startup: Duration) -> SimConfig {
         seeds: plan.seeds.clone(),
         owners: plan.owners(),
         startup_timeout: startup,
+        wait_for_recorder: plan.record.is_some(),
         frames: plan.frames.as_ref().map(|f| avacraft_sim_node::FrameSpec {
             kinds: f.kinds.clone(),
             screen: f.screen,
@@ -120,6 +121,18 @@ struct Proc {
     child: Child,
 }
 
+/// Every started node: whatever happens to the launcher (an error, a panic), they are
+/// stopped when this goes out of scope, last started first.
+struct Procs(Vec<Proc>);
+
+impl Drop for Procs {
+    fn drop(&mut self) {
+        for p in self.0.iter_mut().rev() {
+            stop(p, Duration::from_secs(5));
+        }
+    }
+}
+
 fn spawn(name: &str, args: &[String]) -> Result<Proc> {
     let exe = std::env::current_exe().context("launch: locating the avacraft executable")?;
     let mut child = Command::new(exe)
@@ -167,11 +180,11 @@ pub fn launch(a: &LaunchArgs, out: &mut dyn Write) -> Result<()> {
     let _router = Node::open(&router_args, &router_args.namespace, "launch")
         .with_context(|| format!("launch: hosting the router on {}", plan.router))?;
     let common = vec!["--connect".to_owned(), plan.router.clone()];
-    let mut procs = Vec::new();
+    let mut procs = Procs(Vec::new());
     if let Some(path) = &plan.record {
         let mut args = vec!["record".to_owned(), "--out".to_owned(), path.display().to_string()];
         args.extend(common.clone());
-        procs.push(spawn("record", &args)?);
+        procs.0.push(spawn("record", &args)?);
     }
     for ag in &plan.agents {
         let units: Vec<String> = ag.units.iter().map(|u| u.get().to_string()).collect();
@@ -185,27 +198,27 @@ pub fn launch(a: &LaunchArgs, out: &mut dyn Write) -> Result<()> {
             ag.policy.clone(),
         ];
         args.extend(common.clone());
-        procs.push(spawn(&format!("agent {}", ag.id), &args)?);
+        procs.0.push(spawn(&format!("agent {}", ag.id), &args)?);
     }
     let result = std::env::temp_dir().join(format!("avacraft-launch-{}.json", std::process::id()));
     let mut args =
         vec!["sim-node".to_owned(), "--launch".into(), a.file.display().to_string(), "--result-file".into(), result.display().to_string()];
     args.extend(common);
-    let mut sim = spawn("sim", &args)?;
+    let mut sim = Procs(vec![spawn("sim", &args)?]);
     let status = loop {
         if shutdown.requested() {
-            stop(&mut sim, Duration::from_secs(5));
+            drop(sim);
             break None;
         }
-        if let Some(s) = sim.child.try_wait()? {
+        if let Some(s) = sim.0[0].child.try_wait()? {
             break Some(s);
         }
         std::thread::sleep(Duration::from_millis(50));
     };
-    // Agents and recorder stop after the simulator: the recorder closes its file cleanly.
-    for p in procs.iter_mut().rev() {
-        stop(p, Duration::from_secs(5));
-    }
+    // Agents and recorder stop after the simulator; the recorder drains what is still on
+    // its way and closes its file cleanly.
+    std::thread::sleep(Duration::from_millis(300));
+    drop(procs);
     let Some(status) = status else { bail!("launch: interrupted") };
     if !status.success() {
         bail!("launch: the simulator node failed ({status}); see its log lines above");

@@ -4,7 +4,7 @@
 //! writer was killed still yields every message written before.
 
 use anyhow::{Context, Result};
-use avacraft_msgs::{EMBEDDED_TYPES, embedded_registry};
+use avacraft_msgs::{EMBEDDED_TYPES, RosMessage, embedded_registry};
 use avacraft_nodes::{Node, NodeArgs, Qos, Shutdown, now_ns};
 use clap::Args;
 use std::collections::BTreeMap;
@@ -24,6 +24,9 @@ pub struct RecordArgs {
     #[arg(long, default_value_t = 0)]
     pub max_messages: u64,
 }
+
+/// Channels the recorder opens at most (a hostile publisher cannot exhaust the file's ids).
+const MAX_CHANNELS: usize = 4096;
 
 /// What the recorder wrote.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -82,20 +85,43 @@ pub fn run(a: &RecordArgs, shutdown: &Shutdown) -> Result<RecordStats> {
         .wait()
         .map_err(|e| anyhow::anyhow!("recorder: subscribing to {pattern}: {e}"))?;
     let types = known_types()?;
+    // Announced after subscribing, so a simulator waiting for it misses nothing.
+    let status = avacraft_nodes::Topics::new(&a.node.namespace)?.status();
+    let _token =
+        node.announce_subscription(&status, "avacraft_msgs::msg::dds_::EpisodeStatus_", avacraft_msgs::EpisodeStatus::type_hash())?;
     let mut channels: BTreeMap<String, u16> = BTreeMap::new();
     let mut schemas: BTreeMap<String, u16> = BTreeMap::new();
     let mut stats = RecordStats::default();
     let mut seq = 0u32;
     tracing::info!(out = %a.out.display(), %pattern, "recording");
-    while !shutdown.requested() && (a.max_messages == 0 || stats.messages < a.max_messages) {
-        let Ok(Some(sample)) = sub.recv_timeout(Duration::from_millis(100)) else { continue };
+    // After a stop request, keep taking what is already on its way until 200 ms pass quietly.
+    let mut quiet_since: Option<std::time::Instant> = None;
+    while a.max_messages == 0 || stats.messages < a.max_messages {
+        if shutdown.requested() && quiet_since.is_none() {
+            quiet_since = Some(std::time::Instant::now());
+        }
+        if quiet_since.is_some_and(|t| t.elapsed() > Duration::from_millis(200)) {
+            break;
+        }
+        let sample = match sub.recv_timeout(Duration::from_millis(50)) {
+            Ok(Some(s)) => s,
+            Ok(None) => continue,
+            Err(_) => break,
+        };
+        if quiet_since.is_some() {
+            quiet_since = Some(std::time::Instant::now());
+        }
         let key = sample.key_expr().as_str().to_owned();
-        let Some((topic, ty)) = split_key(&types, &key) else {
+        let Some((topic, ty)) = split_key(&types, &key).filter(|(t, _)| avacraft_nodes::Topic::parse(t).is_ok()) else {
             stats.skipped += 1;
             continue;
         };
         let channel = match channels.get(&key) {
             Some(&c) => c,
+            None if channels.len() >= MAX_CHANNELS => {
+                stats.skipped += 1;
+                continue;
+            }
             None => {
                 let schema = match schemas.get(&ty.type_name) {
                     Some(&s) => s,
@@ -118,10 +144,15 @@ pub fn run(a: &RecordArgs, shutdown: &Shutdown) -> Result<RecordStats> {
             }
         };
         let t = now_ns().max(0) as u64;
+        // rosbag2's publish time is the sender's timestamp, from rmw_zenoh's attachment.
+        let sent = sample
+            .attachment()
+            .and_then(|b| avacraft_nodes::ros::parse_attachment(&b.to_bytes()))
+            .map_or(t, |att| att.source_ns.max(0) as u64);
         seq = seq.wrapping_add(1);
         let payload = sample.payload().to_bytes();
         w.write_to_known_channel(
-            &mcap::records::MessageHeader { channel_id: channel, sequence: seq, log_time: t, publish_time: t },
+            &mcap::records::MessageHeader { channel_id: channel, sequence: seq, log_time: t, publish_time: sent },
             &payload,
         )?;
         stats.messages += 1;

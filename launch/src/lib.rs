@@ -245,8 +245,9 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
             let agent = AgentId::parse(&id).map_err(|e| cx.err(field.clone(), format!("{id:?}"), e.to_string()))?;
             let mut units = Vec::new();
             for t in tags {
-                let u = env.world().unit(avacraft_engine::UnitId::new(t.saturating_sub(1).min(u16::MAX as u32) as u16));
-                let Some(u) = u.filter(|_| t >= 1) else {
+                let u =
+                    t.checked_sub(1).and_then(|i| u16::try_from(i).ok()).and_then(|i| env.world().unit(avacraft_engine::UnitId::new(i)));
+                let Some(u) = u else {
                     return Err(cx.err(
                         f("units"),
                         t,
@@ -287,6 +288,9 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
             }
             add(id, a.units.clone(), f("id"))?;
         }
+    }
+    if raw.seed.checked_add(raw.episodes).is_none() {
+        return Err(cx.err("seed", raw.seed, format!("seed + episodes ({}) overflows", raw.episodes)));
     }
     Ok(Plan {
         file: file.to_owned(),

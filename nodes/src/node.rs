@@ -109,7 +109,30 @@ impl Node {
         Ok((key, token))
     }
 
-    /// Names of the ROS nodes alive on the network now (from their liveliness tokens).
+    /// Every liveliness token of the domain alive now (nodes and endpoints).
+    pub fn alive_tokens(&self, timeout: Duration) -> Result<Vec<String>, NodeError> {
+        let key = format!("@ros2_lv/{}/**", self.id.domain);
+        let replies = self.session.liveliness().get(key.clone()).timeout(timeout).wait().map_err(|e| NodeError::Declare {
+            what: "a liveliness query",
+            key,
+            message: e.to_string(),
+        })?;
+        let mut out = Vec::new();
+        while let Ok(r) = replies.recv() {
+            if let Ok(s) = r.result() {
+                out.push(s.key_expr().as_str().to_owned());
+            }
+        }
+        Ok(out)
+    }
+
+    /// Announces a subscription made outside [`Node::subscriber`] (the recorder's raw one),
+    /// so others can wait for it.
+    pub fn announce_subscription(&self, topic: &Topic, dds: &str, hash: &str) -> Result<LivelinessToken, NodeError> {
+        self.token(EntityKind::Subscription, topic, dds, hash, Qos::Reliable { depth: 10 }).map(|(_, t)| t)
+    }
+
+    /// Names of the ROS nodes in this node's namespace alive now (from their tokens).
     pub fn alive_nodes(&self, timeout: Duration) -> Result<std::collections::BTreeSet<String>, NodeError> {
         let key = format!("@ros2_lv/{}/**", self.id.domain);
         let replies = self.session.liveliness().get(key.clone()).timeout(timeout).wait().map_err(|e| NodeError::Declare {
@@ -123,6 +146,7 @@ impl Node {
                 let parts: Vec<&str> = s.key_expr().as_str().split('/').collect();
                 // @ros2_lv/<domain>/<zid>/<node>/<entity>/NN/<enclave>/<ns>/<name>
                 if parts.get(5) == Some(&"NN")
+                    && parts.get(7) == Some(&ros::mangle(&self.id.namespace).as_str())
                     && let Some(name) = parts.get(8)
                 {
                     names.insert((*name).to_owned());

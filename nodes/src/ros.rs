@@ -8,7 +8,8 @@ use crate::topics::Topic;
 /// Reliability and depth of an endpoint, as rmw_zenoh encodes them in liveliness tokens.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Qos {
-    /// RELIABLE, KEEP_LAST `depth`, VOLATILE: observations, actions, status.
+    /// RELIABLE, KEEP_ALL, VOLATILE (congestion control BLOCK, as rmw_zenoh maps it):
+    /// observations, actions, status: nothing may be dropped. `depth` only sizes queues.
     Reliable { depth: u32 },
     /// BEST_EFFORT, KEEP_LAST `depth`, VOLATILE: image frames (a late frame is worthless).
     BestEffort { depth: u32 },
@@ -18,21 +19,22 @@ impl Qos {
     /// `rel:dur:hist,depth:dl_s,dl_ns:ls_s,ls_ns:liv,lease_s,lease_ns`, each field empty when
     /// it is rmw_zenoh's default (RELIABLE, VOLATILE, KEEP_LAST, depth 42, infinite, AUTOMATIC).
     pub fn token_text(self) -> String {
-        let (rel, depth) = match self {
-            Qos::Reliable { depth } => ("", depth),
-            Qos::BestEffort { depth } => ("2", depth),
-        };
-        let depth = if depth == 42 { String::new() } else { depth.to_string() };
-        format!("{rel}::,{depth}:,:,:,,")
+        match self {
+            Qos::Reliable { .. } => "::2,:,:,:,,".to_owned(),
+            Qos::BestEffort { depth } => {
+                let depth = if depth == 42 { String::new() } else { depth.to_string() };
+                format!("2::,{depth}:,:,:,,")
+            }
+        }
     }
     /// The YAML that MCAP's ros2 profile stores per channel (`offered_qos_profiles`).
     pub fn mcap_yaml(self) -> String {
-        let (rel, depth) = match self {
-            Qos::Reliable { depth } => (1, depth),
-            Qos::BestEffort { depth } => (2, depth),
+        let (rel, hist, depth) = match self {
+            Qos::Reliable { depth } => (1, 2, depth),
+            Qos::BestEffort { depth } => (2, 1, depth),
         };
         format!(
-            "- history: 1\n  depth: {depth}\n  reliability: {rel}\n  durability: 2\n  deadline:\n    sec: 2147483647\n    nsec: 4294967295\n  lifespan:\n    sec: 2147483647\n    nsec: 4294967295\n  liveliness: 1\n  liveliness_lease_duration:\n    sec: 2147483647\n    nsec: 4294967295\n  avoid_ros_namespace_conventions: false\n"
+            "- history: {hist}\n  depth: {depth}\n  reliability: {rel}\n  durability: 2\n  deadline:\n    sec: 2147483647\n    nsec: 4294967295\n  lifespan:\n    sec: 2147483647\n    nsec: 4294967295\n  liveliness: 1\n  liveliness_lease_duration:\n    sec: 2147483647\n    nsec: 4294967295\n  avoid_ros_namespace_conventions: false\n"
         )
     }
 }
@@ -141,9 +143,9 @@ mod tests {
             data_key(0, &t, "std_msgs::msg::dds_::String_", "RIHS01_df66"),
             "0/robot1/chatter/std_msgs::msg::dds_::String_/RIHS01_df66"
         );
-        assert_eq!(Qos::Reliable { depth: 10 }.token_text(), "::,10:,:,:,,");
+        assert_eq!(Qos::Reliable { depth: 10 }.token_text(), "::2,:,:,:,,", "RELIABLE, KEEP_ALL");
         assert_eq!(Qos::BestEffort { depth: 1 }.token_text(), "2::,1:,:,:,,");
-        assert_eq!(Qos::Reliable { depth: 42 }.token_text(), "::,:,:,:,,");
+        assert_eq!(Qos::BestEffort { depth: 42 }.token_text(), "2::,:,:,:,,", "the default depth is left out");
         let n = NodeIdentity { domain: 0, zid: "abc".into(), node_id: 0, namespace: String::new(), name: "talker".into() };
         assert_eq!(n.node_token(), "@ros2_lv/0/abc/0/0/NN/%/%/talker");
         let unit0 = Topic::parse("/unit0/screen").expect("topic");

@@ -124,7 +124,7 @@ impl Drop for Child {
 }
 
 fn start(args: &[&str]) -> Child {
-    Child(Command::new(exe()).args(args).stdout(Stdio::piped()).stderr(Stdio::null()).spawn().expect("spawn a node"))
+    Child(Command::new(exe()).args(args).stdout(Stdio::null()).stderr(Stdio::null()).spawn().expect("spawn a node"))
 }
 
 fn router(port: u16) -> zenoh::Session {
@@ -148,7 +148,7 @@ fn bad_input_is_counted_and_ros_conventions_hold_for_a_plain_zenoh_client() {
     let file = write_launch(
         "2m.yaml",
         &format!(
-            "scenario: 2m_vs_1z\nepisodes: 40\nseed: 3\ndeadline_ms: 300\nrouter: {endpoint}\nagents:\n  - per_unit: true\n    team: 1\n    policy: hold\n"
+            "scenario: 2m_vs_1z\nepisodes: 300\nseed: 3\ndeadline_ms: 300\nrouter: {endpoint}\nagents:\n  - per_unit: true\n    team: 1\n    policy: hold\n"
         ),
     );
     let samples = session.declare_subscriber("0/avacraft/**").with(zenoh::handlers::FifoChannel::new(100_000)).wait().expect("subscriber");
@@ -218,6 +218,8 @@ fn bad_input_is_counted_and_ros_conventions_hold_for_a_plain_zenoh_client() {
         while let Ok(Some(_)) = samples.try_recv() {}
         std::thread::sleep(Duration::from_millis(50));
     }
+    // Stop listening: an undrained subscriber would eventually hold up reliable publishers.
+    drop(samples);
     let mut sim = sim;
     let t2 = Instant::now();
     while sim.0.try_wait().ok().flatten().is_none() && t2.elapsed() < Duration::from_secs(120) {
@@ -226,7 +228,7 @@ fn bad_input_is_counted_and_ros_conventions_hold_for_a_plain_zenoh_client() {
     let text = std::fs::read_to_string(&result).expect("the sim node finished and wrote its results");
     let v: serde_json::Value = serde_json::from_str(&text).expect("json");
     let eps = v.as_array().expect("episodes");
-    assert_eq!(eps.len(), 40, "every episode finished despite the bad input");
+    assert_eq!(eps.len(), 300, "every episode finished despite the bad input");
     let total = |f: &dyn Fn(&serde_json::Value) -> u64| eps.iter().map(f).sum::<u64>();
     assert!(total(&|e| e["malformed_messages"].as_u64().unwrap_or(0)) > 0, "{v}");
     assert!(total(&|e| e["foreign_actions"][0].as_u64().unwrap_or(0)) > 0, "{v}");
@@ -263,7 +265,7 @@ fn a_killed_agent_gets_no_ops_and_a_restarted_one_rejoins() {
     let file = write_launch(
         "kill.yaml",
         &format!(
-            "scenario: 3m\nepisodes: 4\nseed: 1\ndeadline_ms: 150\nrouter: {endpoint}\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n"
+            "scenario: 3m\nepisodes: 4\nseed: 1\ndeadline_ms: 1000\nrouter: {endpoint}\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n"
         ),
     );
     let samples = session.declare_subscriber("0/avacraft/**").with(zenoh::handlers::FifoChannel::new(100_000)).wait().expect("subscriber");
@@ -280,6 +282,7 @@ fn a_killed_agent_gets_no_ops_and_a_restarted_one_rejoins() {
         &endpoint,
     ]);
     wait_for_obs(&samples);
+    drop(samples);
     let _ = a1.0.kill();
     let _ = a1.0.wait();
     std::thread::sleep(Duration::from_millis(1200));
@@ -310,8 +313,19 @@ fn the_recording_survives_a_killed_simulator() {
     let _agents: Vec<Child> =
         (1..=3).map(|u| start(&["agent-node", "--id", &format!("unit_{u}"), "--units", &u.to_string(), "--connect", &endpoint])).collect();
     let mut sim = start(&["sim-node", "--launch", file.to_str().expect("utf8"), "--connect", &endpoint]);
-    wait_for_obs(&samples);
-    std::thread::sleep(Duration::from_millis(500));
+    // Let the recorder see a good part of the run first (its subscription is up before
+    // step 0: the simulator waits for it... only under `launch`; here, count on the bus).
+    let t0 = Instant::now();
+    let mut statuses = 0;
+    while statuses < 60 && t0.elapsed() < Duration::from_secs(60) {
+        if let Ok(Some(s)) = samples.recv_timeout(Duration::from_millis(200))
+            && s.key_expr().as_str().starts_with("0/avacraft/status/")
+        {
+            statuses += 1;
+        }
+    }
+    assert!(statuses >= 60, "the simulator ran");
+    drop(samples);
     let _ = sim.0.kill();
     let _ = nix_term(&rec);
     assert!(wait_exit(&mut rec, 30), "the recorder stops on SIGTERM");

@@ -41,6 +41,8 @@ pub struct SimConfig {
     pub startup_timeout: Duration,
     /// Rendered frames to publish (`sensor_msgs/Image`), if any.
     pub frames: Option<FrameSpec>,
+    /// Wait at start for the recorder's subscription too (so the recording starts at step 0).
+    pub wait_for_recorder: bool,
 }
 
 /// Which frames the simulator renders and publishes per agent team.
@@ -89,7 +91,7 @@ fn percentiles(mut v: Vec<u64>) -> [u64; 2] {
 pub enum SimError {
     #[error(transparent)]
     Node(#[from] NodeError),
-    #[error("agent nodes {missing:?} did not appear within {seconds:.1} s")]
+    #[error("endpoints {missing:?} did not appear within {seconds:.1} s")]
     AgentsMissing { missing: Vec<String>, seconds: f64 },
     #[error("stopped by a signal after {episodes} episodes")]
     Interrupted { episodes: usize },
@@ -143,7 +145,7 @@ pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -
     let mut frames = Frames::new(node, topics, &teams, cfg.frames.clone())?;
     let mut roles_pub = node.publisher::<avacraft_msgs::RoleAssignment>(&topics.roles(), reliable)?;
     let actions = node.subscriber::<ActionBatch>(&format!("{}/agents/*/actions", topics.namespace()), reliable)?;
-    wait_for_agents(node, cfg, shutdown)?;
+    wait_for_agents(node, topics, cfg, shutdown)?;
     let mut out = Vec::new();
     for (episode, &seed) in cfg.seeds.iter().enumerate() {
         if shutdown.requested() {
@@ -161,7 +163,7 @@ pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -
             publish_step(&env, &teams, episode, &mut unit_pubs, &mut team_pubs)?;
             frames.publish(&env)?;
             status_pub.put(&status(&env, cfg, episode, seed, &counts))?;
-            let applied = collect_actions(&mut env, &teams, cfg, &actions, topics, episode, &mut counts, shutdown)?;
+            let applied = collect_actions(&mut env, &teams, cfg, &actions, topics, episode, &mut counts, shutdown, started)?;
             trips.push(t0.elapsed().as_micros() as u64);
             applied_pub.put(&ActionBatch {
                 header: header(env.world(), "map"),
@@ -270,18 +272,39 @@ fn publish_step(
     Ok(())
 }
 
-/// Waits until every agent node of the launch has a liveliness token.
-fn wait_for_agents(node: &Node, cfg: &SimConfig, shutdown: &Shutdown) -> Result<(), SimError> {
-    let wanted: BTreeSet<String> = cfg.owners.values().map(|a| format!("agent_{a}")).collect();
+/// Waits until every agent node has declared its observation subscriptions and its action
+/// publisher (and the recorder its subscription, when one is expected): a node's own token
+/// appears before its endpoints, so waiting for nodes alone could lose step 0.
+fn wait_for_agents(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -> Result<(), SimError> {
+    let ns = avacraft_nodes::ros::mangle(topics.namespace());
+    // (kind, node name, mangled topic or "" for any)
+    let mut wanted: BTreeSet<(&str, String, String)> = BTreeSet::new();
+    for (tag, agent) in &cfg.owners {
+        let name = format!("agent_{agent}");
+        wanted.insert(("MS", name.clone(), avacraft_nodes::ros::mangle(topics.unit_obs(*tag).as_str())));
+        wanted.insert(("MP", name, avacraft_nodes::ros::mangle(topics.actions(agent).as_str())));
+    }
+    if cfg.wait_for_recorder {
+        wanted.insert(("MS", "recorder".to_owned(), String::new()));
+    }
     if wanted.is_empty() {
         return Ok(());
     }
     let start = Instant::now();
     loop {
-        let seen = node.alive_nodes(Duration::from_millis(500))?;
-        let missing: Vec<String> = wanted.difference(&seen).cloned().collect();
+        let tokens = node.alive_tokens(Duration::from_millis(500))?;
+        let have = |(kind, name, topic): &(&str, String, String)| {
+            tokens.iter().any(|t| {
+                let p: Vec<&str> = t.split('/').collect();
+                p.get(5) == Some(kind)
+                    && p.get(7) == Some(&ns.as_str())
+                    && p.get(8) == Some(&name.as_str())
+                    && (topic.is_empty() || p.get(9) == Some(&topic.as_str()))
+            })
+        };
+        let missing: Vec<String> = wanted.iter().filter(|w| !have(w)).map(|(k, n, t)| format!("{n} {k} {t}")).collect();
         if missing.is_empty() {
-            tracing::info!(agents = wanted.len(), "every agent node is up");
+            tracing::info!(endpoints = wanted.len(), "every agent node is up");
             return Ok(());
         }
         if shutdown.requested() {
@@ -292,6 +315,12 @@ fn wait_for_agents(node: &Node, cfg: &SimConfig, shutdown: &Shutdown) -> Result<
         }
         std::thread::sleep(Duration::from_millis(100));
     }
+}
+
+/// The unit with wire tag `tag`, if it exists.
+fn unit_of(env: &Env, tag: u32) -> Option<&avacraft_engine::Unit> {
+    let i = u16::try_from(tag.checked_sub(1)?).ok()?;
+    env.world().unit(UnitId::new(i))
 }
 
 /// Gathers the actions of this step from the wire and submits them; returns the ones the
@@ -306,6 +335,7 @@ fn collect_actions(
     episode: u64,
     c: &mut Counts,
     shutdown: &Shutdown,
+    episode_start: Instant,
 ) -> Result<Vec<avacraft_msgs::UnitAction>, NodeError> {
     let step = env.steps();
     let mut applied = Vec::new();
@@ -320,7 +350,9 @@ fn collect_actions(
     }
     let (deadline, realtime) = match cfg.clock {
         Clock::Lockstep { deadline } => (Instant::now() + deadline, false),
-        Clock::RealTime => (Instant::now() + Duration::from_secs_f64(cfg.env.step_mul.get() as f64 / 22.4), true),
+        // An absolute schedule from the episode's start, so publishing and rendering do not
+        // make the clock drift.
+        Clock::RealTime => (episode_start + Duration::from_secs_f64((step + 1) as f64 * cfg.env.step_mul.get() as f64 / 22.4), true),
     };
     while (realtime || !waiting.is_empty()) && !shutdown.requested() {
         let now = Instant::now();
@@ -332,6 +364,9 @@ fn collect_actions(
             c.malformed += 1;
             continue;
         };
+        // The sender's team: the team of the units it owns (foreign actions count against it).
+        let sender_team = cfg.owners.iter().find(|(_, a)| **a == agent).and_then(|(t, _)| unit_of(env, t.get())).map(|u| u.team);
+        let si = sender_team.map_or(0, |t| t.index());
         let batch = match r.msg {
             Ok(b) => b,
             Err(e) => {
@@ -340,30 +375,30 @@ fn collect_actions(
                 continue;
             }
         };
-        if batch.episode != episode || batch.step != step {
-            continue; // a late answer to an earlier step
+        // Ownership first, whatever step the batch is for.
+        let (mine, foreign): (Vec<_>, Vec<_>) =
+            batch.actions.iter().partition(|a| UnitTag::new(a.unit_tag).ok().and_then(|t| cfg.owners.get(&t)) == Some(&agent));
+        if !foreign.is_empty() {
+            tracing::warn!(%agent, units = ?foreign.iter().map(|a| a.unit_tag).collect::<Vec<_>>(), "actions for units this agent node does not own refused");
+            c.foreign[si] += foreign.len() as u32;
         }
-        for a in &batch.actions {
-            let owner = UnitTag::new(a.unit_tag).ok().and_then(|t| cfg.owners.get(&t));
-            let team_of = env.world().unit(UnitId::new(a.unit_tag.saturating_sub(1).min(u16::MAX as u32) as u16)).map(|u| u.team);
-            let ti = team_of.map_or(0, |t| t.index());
-            if owner != Some(&agent) {
-                tracing::warn!(%agent, unit = a.unit_tag, "action for a unit this agent node does not own refused");
-                c.foreign[ti] += 1;
-                continue;
-            }
+        // In lockstep only this step's answer counts; in real time a late answer applies now.
+        let current = batch.episode == episode && (batch.step == step || (realtime && batch.step < step));
+        if !current {
+            continue;
+        }
+        for a in mine {
+            let Some(unit) = unit_of(env, a.unit_tag).map(|u| (u.id, u.team)) else { continue };
+            // The owner answered for this unit, even if the answer turns out unusable.
+            waiting.remove(&unit.0);
             match action_from_msg(env.world(), a) {
-                Ok(action) => {
-                    let team = team_of.unwrap_or(Team::One);
-                    match env.submit(team, &[action]).remove(0) {
-                        Ok(()) => applied.push(a.clone()),
-                        Err(e) => tracing::debug!(%agent, error = %e, "action refused by the engine"),
-                    }
-                    waiting.remove(&action.unit);
-                }
+                Ok(action) => match env.submit(unit.1, &[action]).remove(0) {
+                    Ok(()) => applied.push(a.clone()),
+                    Err(e) => tracing::debug!(%agent, error = %e, "action refused by the engine"),
+                },
                 Err(e) => {
                     tracing::warn!(%agent, error = %e, "bad action refused");
-                    c.refused_wire[ti] += 1;
+                    c.refused_wire[unit.1.index()] += 1;
                 }
             }
         }
