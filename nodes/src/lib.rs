@@ -2,9 +2,11 @@
 //! recorder) opens a [`Node`]: one Zenoh session that speaks rmw_zenoh's conventions (data
 //! keys with type name and hash, liveliness tokens, sample attachments), so ROS 2 Jazzy
 //! tools attached to the same router see, echo and record every topic. Topic names come
-//! only from [`Topics`].
+//! only from [`Topics`]. Image frames between local processes go zero-copy through
+//! iceoryx2 shared memory ([`frames`]).
 
 mod cli;
+pub mod frames;
 mod node;
 pub mod ros;
 mod topics;

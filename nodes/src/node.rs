@@ -172,7 +172,7 @@ impl Node {
             key: key.clone(),
             message: e.to_string(),
         })?;
-        Ok(Publisher { inner, key, seq: 0, gid: ros::gid(&token_key), _token: token, _t: PhantomData })
+        Ok(Publisher { inner, key, topic: topic.clone(), seq: 0, gid: ros::gid(&token_key), _token: token, _t: PhantomData })
     }
 
     /// A subscription to `T` on `topic`; a `*` segment in `topic_pattern` matches any one
@@ -198,6 +198,7 @@ impl Node {
 pub struct Publisher<T> {
     inner: zenoh::pubsub::Publisher<'static>,
     key: String,
+    topic: Topic,
     seq: i64,
     gid: [u8; 16],
     _token: LivelinessToken,
@@ -232,6 +233,10 @@ impl<T: RosMessage> Publisher<T> {
     }
     pub fn key(&self) -> &str {
         &self.key
+    }
+    /// The ROS topic this publisher serves.
+    pub fn topic(&self) -> &Topic {
+        &self.topic
     }
 }
 

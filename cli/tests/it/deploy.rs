@@ -45,9 +45,17 @@ fn launch_3m_with_three_agent_processes_finishes_episodes_and_records_them() {
             mcap.display()
         ),
     );
+    // A local reader of the zero-copy frame path (iceoryx2), next to the Zenoh topic.
+    let shm = std::thread::spawn(|| {
+        let mut s = avacraft_nodes::frames::FrameSubscriber::open("avacraft/team_1/screen", 8).expect("iceoryx2 subscriber");
+        s.recv_timeout(Duration::from_secs(60))
+            .expect("receive")
+            .map(|f| (f.header().width, f.header().height, f.pixels().iter().any(|&b| b > 100)))
+    });
     let v = launch_json(&file);
     let eps = v.as_array().expect("episodes");
     assert_eq!(eps.len(), 2);
+    assert_eq!(shm.join().expect("reader"), Some((160, 120, true)), "a screen frame through shared memory");
     for e in eps {
         assert!(["win", "loss", "draw"].contains(&e["result"].as_str().unwrap_or("")), "{e}");
         assert!(e["steps"].as_u64().unwrap_or(0) > 5, "{e}");

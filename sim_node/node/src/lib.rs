@@ -410,10 +410,20 @@ fn collect_actions(
     Ok(applied)
 }
 
+/// The iceoryx2 service of a frame topic: the ROS topic without its leading '/'.
+pub fn frame_service(topic: &avacraft_nodes::Topic) -> String {
+    topic.as_str().trim_start_matches('/').to_owned()
+}
+
 /// Renders and publishes each agent team's frames (best effort: a late frame is worthless).
 struct Frames {
     spec: Option<FrameSpec>,
     pubs: Vec<(Team, FrameKind, avacraft_nodes::Publisher<avacraft_msgs::Image>)>,
+    /// The same frames zero-copy through iceoryx2 for local readers, service
+    /// `<namespace>/team_<n>/<kind>` (without the leading '/'); `None` where shared memory
+    /// is unavailable (the Zenoh topic still carries them).
+    shm: Vec<Option<avacraft_nodes::frames::FramePublisher>>,
+    seq: u64,
     builder: FrameBuilder,
     cpu: CpuBackend,
 }
@@ -433,7 +443,25 @@ impl Frames {
                 }
             }
         }
-        Ok(Frames { spec, pubs, builder: FrameBuilder::new(), cpu: CpuBackend::new() })
+        let shm = match &spec {
+            Some(s) => pubs
+                .iter()
+                .map(|(_, k, p)| {
+                    let (w, h) = match k {
+                        FrameKind::Screen => s.screen,
+                        FrameKind::Minimap => s.minimap,
+                        FrameKind::Vlm => s.vlm,
+                    };
+                    let service = frame_service(p.topic());
+                    let max = avacraft_nodes::frames::FrameHeader::SIZE + (w * h * 3) as usize;
+                    avacraft_nodes::frames::FramePublisher::open(&service, max, 8)
+                        .map_err(|e| tracing::warn!(error = %e, "no shared-memory frames; Zenoh only"))
+                        .ok()
+                })
+                .collect(),
+            None => Vec::new(),
+        };
+        Ok(Frames { spec, pubs, shm, seq: 0, builder: FrameBuilder::new(), cpu: CpuBackend::new() })
     }
 
     fn publish(&mut self, env: &Env) -> Result<(), NodeError> {
@@ -442,13 +470,26 @@ impl Frames {
             return Ok(());
         }
         let w = env.world();
-        for (team, kind, p) in &mut self.pubs {
+        self.seq += 1;
+        for (i, (team, kind, p)) in self.pubs.iter_mut().enumerate() {
             let ((width, height), scene) = match kind {
                 FrameKind::Screen => (spec.screen, self.builder.screen(w, *team, spec.screen.0, spec.screen.1)),
                 FrameKind::Minimap => (spec.minimap, self.builder.minimap(w, *team, spec.minimap.0, spec.minimap.1)),
                 FrameKind::Vlm => (spec.vlm, self.builder.vlm(w, *team, spec.vlm.0, spec.vlm.1, &VlmOptions::default())),
             };
             let img = self.cpu.render(&scene);
+            if let Some(Some(shm)) = self.shm.get_mut(i) {
+                let h = avacraft_nodes::frames::FrameHeader::packed(
+                    self.seq,
+                    avacraft_nodes::now_ns(),
+                    width,
+                    height,
+                    avacraft_nodes::frames::Encoding::Rgb8,
+                );
+                if let Err(e) = shm.publish(h, img.as_raw()) {
+                    tracing::warn!(error = %e, "shared-memory frame dropped");
+                }
+            }
             p.put(&avacraft_msgs::Image {
                 header: header(w, kind.name()),
                 height,

@@ -1,0 +1,3 @@
+//! The node SDK's integration tests: one binary, one module per area.
+
+mod frames;
