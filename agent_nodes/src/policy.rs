@@ -56,8 +56,20 @@ fn stim(o: &UnitObservation) -> Option<UnitAction> {
     })
 }
 
+/// With no enemy in sight, an idle unit heads for the middle of the map (grid cell 5, 5),
+/// where two sides that cannot see each other meet; idle units engage on their own there.
+fn seek(o: &UnitObservation) -> UnitAction {
+    let centre = (5..=6).contains(&o.own.grid_x) && (5..=6).contains(&o.own.grid_y);
+    let mobile = !o.own.flags.iter().any(|f| f == "immobile");
+    if o.own.order == "idle" && !centre && mobile {
+        UnitAction { grid_x: 5, grid_y: 5, ..action(o.unit_tag, UnitAction::MOVE_GRID) }
+    } else {
+        action(o.unit_tag, UnitAction::NOOP)
+    }
+}
+
 /// Every unit attacks the visible enemy with the lowest HP + shields it can hit (ties: the
-/// lower tag); with none in sight it keeps its order (idle units still fight back).
+/// lower tag); with none in sight it heads for the middle of the map.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct FocusFire;
 
@@ -78,7 +90,8 @@ impl UnitPolicy for FocusFire {
                 .min_by(|a, b| (a.hp + a.shield).total_cmp(&(b.hp + b.shield)).then(a.tag.cmp(&b.tag)));
             out.push(match target {
                 Some(t) if o.own.target_tag != t.tag => UnitAction { target_tag: t.tag, ..action(o.unit_tag, UnitAction::ATTACK) },
-                _ => action(o.unit_tag, UnitAction::NOOP),
+                Some(_) => action(o.unit_tag, UnitAction::NOOP),
+                None => seek(o),
             });
         }
         out
@@ -100,7 +113,8 @@ impl UnitPolicy for AttackMove {
                 let near = o.enemies.iter().min_by(|a, b| dist(&o.own, a).total_cmp(&dist(&o.own, b)).then(a.tag.cmp(&b.tag)));
                 match near {
                     Some(e) if o.own.order == "idle" => UnitAction { x: e.x, y: e.y, ..action(o.unit_tag, UnitAction::ATTACK_MOVE_TO) },
-                    _ => action(o.unit_tag, UnitAction::NOOP),
+                    Some(_) => action(o.unit_tag, UnitAction::NOOP),
+                    None => seek(o),
                 }
             })
             .collect()

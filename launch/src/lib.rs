@@ -283,6 +283,9 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
             }
         } else {
             let Some(id) = a.id.clone() else { return Err(cx.err(f("id"), "none", "an agent node needs an `id` (or `per_unit: true`)")) };
+            if let Some(t) = a.team {
+                return Err(cx.err(f("team"), t, "a role group names its `units`; `team` goes with `per_unit: true`"));
+            }
             if a.units.is_empty() {
                 return Err(cx.err(f("units"), "[]", "an agent node needs at least one unit"));
             }
@@ -332,6 +335,7 @@ mod tests {
             ("scenario: 3m\nagents:\n  - {id: A, units: [1], policy: noop}\n", "agents[0].id"),
             ("scenario: 3m\ncolour: red\nagents: []\n", "colour"),
             ("scenario: 3m\nagents:\n  - {per_unit: true, team: 2, policy: noop}\n", "agents[0].units"),
+            ("scenario: 3m\nagents:\n  - {id: a, team: 1, units: [1], policy: noop}\n", "agents[0].team"),
         ];
         for (text, field) in cases {
             let e = parse("bad.yaml", text, None).expect_err(text).to_string();

@@ -367,3 +367,18 @@ fn the_real_time_clock_paces_22_4_loops_per_second() {
     assert!(wall >= steps * 8.0 / 22.4 * 0.95, "{steps} steps in {wall} s is faster than real time");
     assert!(["win", "loss", "draw"].contains(&e["result"].as_str().unwrap_or("")), "{e}");
 }
+
+#[test]
+fn pvp_launch_has_agent_nodes_on_both_teams() {
+    let port = free_port();
+    let file = write_launch(
+        "pvp.yaml",
+        &format!(
+            "scenario: MMM_vs_MMM\nepisodes: 1\nseed: 4\nrouter: tcp/127.0.0.1:{port}\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n  - id: red\n    units: [13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24]\n    policy: attack-move\n"
+        ),
+    );
+    let v = launch_json(&file);
+    let e = &v[0];
+    assert!(["win", "loss"].contains(&e["result"].as_str().unwrap_or("")), "the armies met and one won: {e}");
+    assert_eq!((e["missing_actions"][0].as_u64(), e["missing_actions"][1].as_u64()), (Some(0), Some(0)), "{e}");
+}
