@@ -134,26 +134,16 @@ impl Node {
 
     /// Names of the ROS nodes in this node's namespace alive now (from their tokens).
     pub fn alive_nodes(&self, timeout: Duration) -> Result<std::collections::BTreeSet<String>, NodeError> {
-        let key = format!("@ros2_lv/{}/**", self.id.domain);
-        let replies = self.session.liveliness().get(key.clone()).timeout(timeout).wait().map_err(|e| NodeError::Declare {
-            what: "a liveliness query",
-            key,
-            message: e.to_string(),
-        })?;
-        let mut names = std::collections::BTreeSet::new();
-        while let Ok(r) = replies.recv() {
-            if let Ok(s) = r.result() {
-                let parts: Vec<&str> = s.key_expr().as_str().split('/').collect();
+        let ns = ros::mangle(&self.id.namespace);
+        Ok(self
+            .alive_tokens(timeout)?
+            .iter()
+            .filter_map(|t| {
                 // @ros2_lv/<domain>/<zid>/<node>/<entity>/NN/<enclave>/<ns>/<name>
-                if parts.get(5) == Some(&"NN")
-                    && parts.get(7) == Some(&ros::mangle(&self.id.namespace).as_str())
-                    && let Some(name) = parts.get(8)
-                {
-                    names.insert((*name).to_owned());
-                }
-            }
-        }
-        Ok(names)
+                let parts: Vec<&str> = t.split('/').collect();
+                (parts.get(5) == Some(&"NN") && parts.get(7) == Some(&ns.as_str())).then(|| parts.get(8).map(|n| (*n).to_owned())).flatten()
+            })
+            .collect())
     }
 
     /// A publisher of `T` on `topic`.

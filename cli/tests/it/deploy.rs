@@ -135,6 +135,19 @@ fn start(args: &[&str]) -> Child {
     Child(Command::new(exe()).args(args).stdout(Stdio::null()).stderr(Stdio::null()).spawn().expect("spawn a node"))
 }
 
+type Bus = zenoh::pubsub::Subscriber<zenoh::handlers::FifoChannelHandler<zenoh::sample::Sample>>;
+
+/// A router on a free port hosted by the test, a subscription to everything under
+/// `/avacraft` on it, its endpoint, and a launch file for `body` (the router line added).
+fn deployment(name: &str, body: &str) -> (zenoh::Session, Bus, String, PathBuf) {
+    let port = free_port();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let session = router(port);
+    let bus = session.declare_subscriber("0/avacraft/**").with(zenoh::handlers::FifoChannel::new(100_000)).wait().expect("subscriber");
+    let file = write_launch(name, &format!("router: {endpoint}\n{body}"));
+    (session, bus, endpoint, file)
+}
+
 fn router(port: u16) -> zenoh::Session {
     let mut c = zenoh::Config::default();
     for (k, v) in [
@@ -149,17 +162,11 @@ fn router(port: u16) -> zenoh::Session {
 
 #[test]
 fn bad_input_is_counted_and_ros_conventions_hold_for_a_plain_zenoh_client() {
-    let port = free_port();
-    let endpoint = format!("tcp/127.0.0.1:{port}");
     // The test process is the router and the independent client.
-    let session = router(port);
-    let file = write_launch(
+    let (session, samples, endpoint, file) = deployment(
         "2m.yaml",
-        &format!(
-            "scenario: 2m_vs_1z\nepisodes: 300\nseed: 3\ndeadline_ms: 300\nrouter: {endpoint}\nagents:\n  - per_unit: true\n    team: 1\n    policy: hold\n"
-        ),
+        "scenario: 2m_vs_1z\nepisodes: 300\nseed: 3\ndeadline_ms: 300\nagents:\n  - per_unit: true\n    team: 1\n    policy: hold\n",
     );
-    let samples = session.declare_subscriber("0/avacraft/**").with(zenoh::handlers::FifoChannel::new(100_000)).wait().expect("subscriber");
     let _a1 = start(&["agent-node", "--id", "unit_1", "--units", "1", "--policy", "hold", "--connect", &endpoint]);
     let _a2 = start(&["agent-node", "--id", "unit_2", "--units", "2", "--policy", "hold", "--connect", &endpoint]);
     let result = tmp("2m.json");
@@ -242,7 +249,7 @@ fn bad_input_is_counted_and_ros_conventions_hold_for_a_plain_zenoh_client() {
     assert!(total(&|e| e["foreign_actions"][0].as_u64().unwrap_or(0)) > 0, "{v}");
 }
 
-fn wait_for_obs(samples: &zenoh::pubsub::Subscriber<zenoh::handlers::FifoChannelHandler<zenoh::sample::Sample>>) {
+fn wait_for_obs(samples: &Bus) {
     let t0 = Instant::now();
     while t0.elapsed() < Duration::from_secs(60) {
         if let Ok(Some(s)) = samples.recv_timeout(Duration::from_millis(200))
@@ -267,16 +274,10 @@ fn wait_exit(c: &mut Child, secs: u64) -> bool {
 
 #[test]
 fn a_killed_agent_gets_no_ops_and_a_restarted_one_rejoins() {
-    let port = free_port();
-    let endpoint = format!("tcp/127.0.0.1:{port}");
-    let session = router(port);
-    let file = write_launch(
+    let (_session, samples, endpoint, file) = deployment(
         "kill.yaml",
-        &format!(
-            "scenario: 3m\nepisodes: 4\nseed: 1\ndeadline_ms: 1000\nrouter: {endpoint}\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n"
-        ),
+        "scenario: 3m\nepisodes: 4\nseed: 1\ndeadline_ms: 1000\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n",
     );
-    let samples = session.declare_subscriber("0/avacraft/**").with(zenoh::handlers::FifoChannel::new(100_000)).wait().expect("subscriber");
     let agent = |id: &str, unit: &str| start(&["agent-node", "--id", id, "--units", unit, "--connect", &endpoint]);
     let (mut a1, _a2, _a3) = (agent("unit_1", "1"), agent("unit_2", "2"), agent("unit_3", "3"));
     let result = tmp("kill.json");
@@ -306,16 +307,10 @@ fn a_killed_agent_gets_no_ops_and_a_restarted_one_rejoins() {
 
 #[test]
 fn the_recording_survives_a_killed_simulator() {
-    let port = free_port();
-    let endpoint = format!("tcp/127.0.0.1:{port}");
-    let session = router(port);
-    let file = write_launch(
+    let (_session, samples, endpoint, file) = deployment(
         "crash.yaml",
-        &format!(
-            "scenario: 3m\nepisodes: 1000\nseed: 1\nrouter: {endpoint}\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n"
-        ),
+        "scenario: 3m\nepisodes: 1000\nseed: 1\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n",
     );
-    let samples = session.declare_subscriber("0/avacraft/**").with(zenoh::handlers::FifoChannel::new(100_000)).wait().expect("subscriber");
     let mcap = tmp("crash.mcap");
     let mut rec = start(&["record", "--out", mcap.to_str().expect("utf8"), "--connect", &endpoint]);
     let _agents: Vec<Child> =
