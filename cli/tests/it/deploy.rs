@@ -28,6 +28,12 @@ fn write_launch(name: &str, body: &str) -> PathBuf {
     p
 }
 
+/// Runs `avacraft launch --json` on `body` with its own router on a free port.
+fn launch_on_free_port(name: &str, body: &str) -> serde_json::Value {
+    let file = write_launch(name, &format!("router: tcp/127.0.0.1:{}\n{body}", free_port()));
+    launch_json(&file)
+}
+
 fn launch_json(file: &Path) -> serde_json::Value {
     let out = Command::new(exe()).args(["launch", "--json"]).arg(file).stderr(Stdio::inherit()).output().expect("run avacraft launch");
     assert!(out.status.success(), "launch failed: {}", String::from_utf8_lossy(&out.stdout));
@@ -346,14 +352,10 @@ fn nix_term(c: &Child) -> Result<(), String> {
 
 #[test]
 fn the_real_time_clock_paces_22_4_loops_per_second() {
-    let port = free_port();
-    let file = write_launch(
+    let v = launch_on_free_port(
         "rt.yaml",
-        &format!(
-            "scenario: 3m\nclock: realtime\nepisodes: 1\nseed: 2\nrouter: tcp/127.0.0.1:{port}\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n"
-        ),
+        "scenario: 3m\nclock: realtime\nepisodes: 1\nseed: 2\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n",
     );
-    let v = launch_json(&file);
     let e = &v[0];
     let steps = e["steps"].as_f64().unwrap_or(0.0);
     let wall = e["wall_seconds"].as_f64().unwrap_or(0.0);
@@ -365,14 +367,10 @@ fn the_real_time_clock_paces_22_4_loops_per_second() {
 
 #[test]
 fn pvp_launch_has_agent_nodes_on_both_teams() {
-    let port = free_port();
-    let file = write_launch(
+    let v = launch_on_free_port(
         "pvp.yaml",
-        &format!(
-            "scenario: MMM_vs_MMM\nepisodes: 1\nseed: 4\nrouter: tcp/127.0.0.1:{port}\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n  - id: red\n    units: [13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24]\n    policy: attack-move\n"
-        ),
+        "scenario: MMM_vs_MMM\nepisodes: 1\nseed: 4\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n  - id: red\n    units: [13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24]\n    policy: attack-move\n",
     );
-    let v = launch_json(&file);
     let e = &v[0];
     assert!(["win", "loss"].contains(&e["result"].as_str().unwrap_or("")), "the armies met and one won: {e}");
     assert_eq!((e["missing_actions"][0].as_u64(), e["missing_actions"][1].as_u64()), (Some(0), Some(0)), "{e}");
