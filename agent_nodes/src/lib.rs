@@ -8,7 +8,7 @@ mod policy;
 pub use policy::{AttackMove, FocusFire, POLICIES, UnitPolicy, UnknownPolicy, by_name};
 
 use avacraft_msgs::{ActionBatch, UnitObservation};
-use avacraft_nodes::{AgentId, Node, NodeError, Qos, Shutdown, Topics, UnitTag};
+use avacraft_nodes::{AgentId, Node, NodeError, Qos, Shutdown, TeamNo, Topics, UnitTag};
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
@@ -16,6 +16,8 @@ use std::time::{Duration, Instant};
 #[derive(Debug)]
 pub struct AgentConfig {
     pub id: AgentId,
+    /// The team of its units (their observation topics are under the team's prefix).
+    pub team: TeamNo,
     pub units: Vec<UnitTag>,
 }
 
@@ -43,7 +45,7 @@ pub fn run(
     let subs = cfg
         .units
         .iter()
-        .map(|&u| node.subscriber::<UnitObservation>(topics.unit_obs(u).as_str(), reliable))
+        .map(|&u| node.subscriber::<UnitObservation>(topics.unit_obs(cfg.team, u).as_str(), reliable))
         .collect::<Result<Vec<_>, _>>()?;
     let mut out = node.publisher::<ActionBatch>(&topics.actions(&cfg.id), reliable)?;
     let mut stats = AgentStats::default();

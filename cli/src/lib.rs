@@ -3,15 +3,19 @@
 
 mod bench;
 mod bench_deploy;
+mod bridge;
 mod deploy;
 mod episode;
 mod info;
+mod launch;
+mod probe;
 mod record;
 mod render;
 mod replay;
 
 pub use bench::{BenchRow, RenderRow, ScalingRow};
 pub use episode::{EpisodeRecord, Report, Summary};
+pub use probe::ProbeReport;
 
 use clap::{Parser, Subcommand};
 use stats_alloc::StatsAlloc;
@@ -38,11 +42,18 @@ enum Cmd {
     /// Play up to a game loop and save what a team sees (VLM screenshot, screen or minimap) as PNG.
     Render(render::RenderArgs),
     /// Start every node of a launch file as its own process, on an embedded Zenoh router.
-    Launch(deploy::LaunchArgs),
+    Launch(launch::LaunchArgs),
+    /// Make a secured launch file's certificates: an authority and one key pair per host.
+    Certs(launch::CertsArgs),
+    /// Join a deployment as this host and report which topics get through, and whether
+    /// marked action batches sent as an agent node arrive (an access-control check).
+    Probe(probe::ProbeArgs),
     /// Run the simulator node (publishes observations, takes actions) of a launch file.
     SimNode(deploy::SimNodeArgs),
     /// Run one agent node: a policy for one unit or a role group.
     AgentNode(deploy::AgentNodeArgs),
+    /// Republish the deployment's topics onto ROS 2 DDS and carry DDS agents' actions back.
+    Bridge(bridge::BridgeArgs),
     /// Record every topic to MCAP (ros2 profile).
     Record(record::RecordArgs),
     /// Re-simulate a recording's episodes from their seeds and applied actions and check
@@ -59,10 +70,13 @@ pub fn run(cli: Cli, out: &mut dyn Write, alloc: Option<&'static StatsAlloc<Syst
         Cmd::Episode(a) => episode::run(&a, out),
         Cmd::Bench(a) => bench::run(&a, out, alloc),
         Cmd::Render(a) => render::run(&a, out),
-        Cmd::Launch(a) => deploy::launch(&a, out),
+        Cmd::Launch(a) => launch::launch(&a, out),
+        Cmd::Certs(a) => launch::certs(&a, out),
+        Cmd::Probe(a) => probe::run(&a, out),
         Cmd::SimNode(a) => deploy::sim_node(&a, out),
         Cmd::AgentNode(a) => deploy::agent_node(&a),
         Cmd::Record(a) => deploy::record(&a),
+        Cmd::Bridge(a) => bridge::run(&a),
         Cmd::Replay(a) => replay::run(&a, out),
     }
 }

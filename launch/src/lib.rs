@@ -4,7 +4,11 @@
 //! and the value.
 
 use avacraft_engine::{Env, EnvConfig, Mode, OpponentKind, Scenario, Team};
-use avacraft_nodes::{AgentId, UnitTag};
+mod deploy;
+
+pub use deploy::{BridgePlan, BridgeTopic, CertError, RawBridge, RawSecurity, Security, access_control, write_certs};
+
+use avacraft_nodes::{AgentId, TeamNo, UnitTag};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -32,6 +36,14 @@ pub struct RawLaunch {
     #[serde(default)]
     pub frames: Option<RawFrames>,
     pub agents: Vec<RawAgent>,
+    /// Host names; the first runs the router, the simulator and the recorder. Default: one
+    /// host, `local`.
+    #[serde(default)]
+    pub hosts: Vec<String>,
+    #[serde(default)]
+    pub security: Option<RawSecurity>,
+    #[serde(default)]
+    pub bridge: Option<RawBridge>,
 }
 
 /// Rendered frames the simulator publishes (`sensor_msgs/Image` per agent team).
@@ -90,6 +102,9 @@ pub struct RawAgent {
     #[serde(default)]
     pub units: Vec<u32>,
     pub policy: String,
+    /// The host that runs it (default: the first). For `policy: dds`, the bridge's host.
+    #[serde(default)]
+    pub host: Option<String>,
 }
 
 /// The clock of the simulator node.
@@ -103,9 +118,21 @@ pub enum ClockMode {
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct AgentPlan {
     pub id: AgentId,
+    pub team: TeamNo,
     pub units: Vec<UnitTag>,
     pub policy: String,
+    pub host: String,
 }
+
+impl AgentPlan {
+    /// Driven over DDS through the bridge rather than by an agent node of ours.
+    pub fn is_dds(&self) -> bool {
+        self.policy == DDS_POLICY
+    }
+}
+
+/// The policy name of agents driven from DDS through the bridge.
+pub const DDS_POLICY: &str = "dds";
 
 /// A validated launch file.
 #[derive(Clone, Debug)]
@@ -121,6 +148,10 @@ pub struct Plan {
     pub record: Option<PathBuf>,
     pub frames: Option<FramePlan>,
     pub agents: Vec<AgentPlan>,
+    /// Never empty; the first runs the router, the simulator and the recorder.
+    pub hosts: Vec<String>,
+    pub security: Option<Security>,
+    pub bridge: Option<BridgePlan>,
 }
 
 /// Validated frame settings.
@@ -134,6 +165,11 @@ pub struct FramePlan {
 }
 
 impl Plan {
+    /// The host that runs the router, the simulator and the recorder.
+    pub fn server(&self) -> &str {
+        &self.hosts[0]
+    }
+
     /// Unit tag to owning agent, for the simulator node.
     pub fn owners(&self) -> BTreeMap<UnitTag, AgentId> {
         self.agents.iter().flat_map(|a| a.units.iter().map(move |u| (*u, a.id.clone()))).collect()
@@ -151,10 +187,10 @@ pub enum LaunchError {
     Invalid { file: String, field: String, value: String, reason: String },
 }
 
-struct Cx<'a>(&'a str);
+pub(crate) struct Cx<'a>(&'a str);
 
 impl Cx<'_> {
-    fn err(&self, field: impl Into<String>, value: impl std::fmt::Display, reason: impl Into<String>) -> LaunchError {
+    pub(crate) fn err(&self, field: impl Into<String>, value: impl std::fmt::Display, reason: impl Into<String>) -> LaunchError {
         LaunchError::Invalid { file: self.0.to_owned(), field: field.into(), value: value.to_string(), reason: reason.into() }
     }
 }
@@ -197,8 +233,38 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
         }
         Some(o) => Some(o.parse::<OpponentKind>().map_err(|e| cx.err("opponent", format!("{o:?}"), e))?),
     };
-    if !raw.router.starts_with("tcp/") {
-        return Err(cx.err("router", format!("{:?}", raw.router), "must be a Zenoh TCP endpoint such as tcp/127.0.0.1:7447"));
+    let hosts = if raw.hosts.is_empty() { vec!["local".to_owned()] } else { raw.hosts.clone() };
+    for (i, h) in hosts.iter().enumerate() {
+        if !deploy::valid_host(h) {
+            return Err(cx.err(
+                format!("hosts[{i}]"),
+                format!("{h:?}"),
+                "must be 1 to 32 lowercase letters, digits or '_', starting with a letter",
+            ));
+        }
+        if hosts[..i].contains(h) {
+            return Err(cx.err(format!("hosts[{i}]"), format!("{h:?}"), "named twice"));
+        }
+    }
+    let security = raw.security.as_ref().map(|s| deploy::security(s, base));
+    match (raw.router.split_once('/').map(|(p, _)| p), &security) {
+        (Some("tcp"), None) | (Some("tls"), Some(_)) => {}
+        (Some("tcp"), Some(_)) => {
+            return Err(cx.err("router", format!("{:?}", raw.router), "with `security:` the router must be a tls/ endpoint"));
+        }
+        (Some("tls"), None) => {
+            return Err(cx.err("router", format!("{:?}", raw.router), "a tls/ router needs a `security:` section with the certificates"));
+        }
+        _ => {
+            return Err(cx.err(
+                "router",
+                format!("{:?}", raw.router),
+                "must be a Zenoh endpoint such as tcp/127.0.0.1:7447 or tls/10.0.0.1:7447",
+            ));
+        }
+    }
+    if hosts.len() > 1 && security.is_none() {
+        return Err(cx.err("hosts", format!("{hosts:?}"), "a deployment across hosts needs `security:` (TLS and access control)"));
     }
     let frames = match &raw.frames {
         None => None,
@@ -234,16 +300,21 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
     }
     for (i, a) in raw.agents.iter().enumerate() {
         let f = |name: &str| format!("agents[{i}].{name}");
-        if !avacraft_agent_nodes::POLICIES.contains(&a.policy.as_str()) {
+        if !avacraft_agent_nodes::POLICIES.contains(&a.policy.as_str()) && a.policy != DDS_POLICY {
             return Err(cx.err(
                 f("policy"),
                 format!("{:?}", a.policy),
-                format!("unknown (known: {})", avacraft_agent_nodes::POLICIES.join(", ")),
+                format!("unknown (known: {}, {DDS_POLICY})", avacraft_agent_nodes::POLICIES.join(", ")),
             ));
+        }
+        let host = a.host.clone().unwrap_or_else(|| hosts[0].clone());
+        if !hosts.contains(&host) {
+            return Err(cx.err(f("host"), format!("{host:?}"), format!("not one of the hosts {hosts:?}")));
         }
         let mut add = |id: String, tags: Vec<u32>, field: String| -> Result<(), LaunchError> {
             let agent = AgentId::parse(&id).map_err(|e| cx.err(field.clone(), format!("{id:?}"), e.to_string()))?;
             let mut units = Vec::new();
+            let mut team: Option<Team> = None;
             for t in tags {
                 let u =
                     t.checked_sub(1).and_then(|i| u16::try_from(i).ok()).and_then(|i| env.world().unit(avacraft_engine::UnitId::new(i)));
@@ -257,6 +328,10 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
                 if !agent_team(u.team) {
                     return Err(cx.err(f("units"), t, format!("{} belongs to {}, which the opponent policy drives", u.name(), u.team)));
                 }
+                if team.is_some_and(|x| x != u.team) {
+                    return Err(cx.err(f("units"), t, format!("{} belongs to {}; one agent node plays for one team", u.name(), u.team)));
+                }
+                team = Some(u.team);
                 if let Some(prev) = owner.insert(t, id.clone()) {
                     return Err(cx.err(f("units"), t, format!("already owned by agent node `{prev}`")));
                 }
@@ -265,7 +340,10 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
             if agents.iter().any(|x: &AgentPlan| x.id == agent) {
                 return Err(cx.err(field, format!("{id:?}"), "two agent nodes share this id"));
             }
-            agents.push(AgentPlan { id: agent, units, policy: a.policy.clone() });
+            let team = team
+                .and_then(|t| TeamNo::new(t.player()).ok())
+                .ok_or_else(|| cx.err(f("units"), "[]", "an agent node needs at least one unit"))?;
+            agents.push(AgentPlan { id: agent, team, units, policy: a.policy.clone(), host: host.clone() });
             Ok(())
         };
         if a.per_unit {
@@ -292,6 +370,29 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
             add(id, a.units.clone(), f("id"))?;
         }
     }
+    let dds_agents: Vec<AgentId> = agents.iter().filter(|a| a.is_dds()).map(|a| a.id.clone()).collect();
+    let bridge = match &raw.bridge {
+        None => {
+            if let Some(a) = agents.iter().position(|a| a.is_dds()) {
+                return Err(cx.err(format!("agents[{a}].policy"), DDS_POLICY, "agents driven from DDS need a `bridge:` section"));
+            }
+            None
+        }
+        Some(b) => {
+            let mut teams: Vec<TeamNo> = agents.iter().map(|a| a.team).collect();
+            teams.sort();
+            teams.dedup();
+            let plan = deploy::bridge_plan(&cx, b, &hosts, &teams, dds_agents)?;
+            if let Some(a) = agents.iter().find(|a| a.is_dds() && a.host != plan.host) {
+                return Err(cx.err(
+                    "bridge.host",
+                    format!("{:?}", plan.host),
+                    format!("agent `{}` (policy dds) is on host `{}`; DDS agents live on the bridge's host", a.id, a.host),
+                ));
+            }
+            Some(plan)
+        }
+    };
     if raw.seed.checked_add(raw.episodes).is_none() {
         return Err(cx.err("seed", raw.seed, format!("seed + episodes ({}) overflows", raw.episodes)));
     }
@@ -307,6 +408,9 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
         record: raw.record,
         frames,
         agents,
+        hosts,
+        security,
+        bridge,
     })
 }
 

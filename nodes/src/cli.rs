@@ -2,6 +2,7 @@
 //! SIGINT / SIGTERM.
 
 use clap::{Args, ValueEnum};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -36,6 +37,10 @@ pub struct NodeArgs {
     /// router rmw_zenoh expects, tcp/127.0.0.1:7447.
     #[arg(long = "connect", default_values_t = ["tcp/127.0.0.1:7447".to_owned()])]
     pub connect: Vec<String>,
+    /// How long to keep trying to reach the `--connect` endpoints, milliseconds (0: one
+    /// attempt; -1: forever). Hosts that may start before the router set it.
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    pub connect_timeout_ms: i64,
     /// Endpoints to listen on (repeatable), e.g. tcp/0.0.0.0:7447.
     #[arg(long = "listen")]
     pub listen: Vec<String>,
@@ -48,6 +53,34 @@ pub struct NodeArgs {
     /// ROS namespace of every topic.
     #[arg(long, default_value = "/avacraft")]
     pub namespace: String,
+    /// Mutual TLS for `tls/` endpoints: the PEM certificate of the deployment's authority
+    /// (as made by `avacraft certs`). Needs --tls-cert and --tls-key.
+    #[arg(long, requires_all = ["tls_cert", "tls_key"])]
+    pub tls_ca: Option<PathBuf>,
+    /// This host's certificate (PEM); its common name is the host's name in access control.
+    #[arg(long, requires = "tls_ca")]
+    pub tls_cert: Option<PathBuf>,
+    /// This host's private key (PEM).
+    #[arg(long, requires = "tls_ca")]
+    pub tls_key: Option<PathBuf>,
+    /// Zenoh access control (the `access_control` JSON5 object) for a router; set by
+    /// `avacraft launch` from the launch file, not a flag.
+    #[arg(skip)]
+    pub access_control: Option<String>,
+}
+
+impl NodeArgs {
+    /// The flags that hand this node's TLS identity to a child process.
+    pub fn tls_flags(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        for (flag, v) in [("--tls-ca", &self.tls_ca), ("--tls-cert", &self.tls_cert), ("--tls-key", &self.tls_key)] {
+            if let Some(p) = v {
+                out.push(flag.to_owned());
+                out.push(p.display().to_string());
+            }
+        }
+        out
+    }
 }
 
 impl Default for NodeArgs {
@@ -55,10 +88,15 @@ impl Default for NodeArgs {
         Self {
             mode: SessionMode::Peer,
             connect: vec!["tcp/127.0.0.1:7447".to_owned()],
+            connect_timeout_ms: 0,
             listen: Vec::new(),
             domain: 0,
             multicast: false,
             namespace: "/avacraft".to_owned(),
+            tls_ca: None,
+            tls_cert: None,
+            tls_key: None,
+            access_control: None,
         }
     }
 }

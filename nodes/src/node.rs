@@ -56,12 +56,38 @@ pub fn zenoh_config(args: &NodeArgs) -> Result<zenoh::Config, NodeError> {
     if !args.connect.is_empty() {
         set("connect/endpoints", list(&args.connect))?;
     }
+    if args.connect_timeout_ms != 0 {
+        if args.connect_timeout_ms < -1 {
+            return Err(cfg_err("--connect-timeout-ms", &args.connect_timeout_ms.to_string(), "must be -1, 0 or a positive number"));
+        }
+        set("connect/timeout_ms", args.connect_timeout_ms.to_string())?;
+    }
     if !args.listen.is_empty() {
         set("listen/endpoints", list(&args.listen))?;
     }
     // Discovery goes through the router by default (as rmw_zenoh does); multicast scouting
     // is opt-in so tests and CI never reach other machines.
     set("scouting/multicast/enabled", args.multicast.to_string())?;
+    if let (Some(ca), Some(cert), Some(key)) = (&args.tls_ca, &args.tls_cert, &args.tls_key) {
+        for (what, p) in [("--tls-ca", ca), ("--tls-cert", cert), ("--tls-key", key)] {
+            if !p.is_file() {
+                return Err(cfg_err(what, &p.display().to_string(), "no such file"));
+            }
+        }
+        let s = |p: &std::path::Path| serde_json::Value::String(p.display().to_string()).to_string();
+        set("transport/link/tls/root_ca_certificate", s(ca))?;
+        // The same identity for both directions: a router proves itself to connecting hosts,
+        // and every host proves itself to the router (mutual TLS), whose access control
+        // then knows it by its certificate's common name.
+        set("transport/link/tls/listen_certificate", s(cert))?;
+        set("transport/link/tls/listen_private_key", s(key))?;
+        set("transport/link/tls/connect_certificate", s(cert))?;
+        set("transport/link/tls/connect_private_key", s(key))?;
+        set("transport/link/tls/enable_mtls", "true".into())?;
+    }
+    if let Some(acl) = &args.access_control {
+        set("access_control", acl.clone())?;
+    }
     Ok(c)
 }
 

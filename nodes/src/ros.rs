@@ -49,6 +49,16 @@ pub fn data_key(domain: u32, topic: &Topic, dds_type: &str, type_hash: &str) -> 
     format!("{domain}/{}/{dds_type}/{type_hash}", topic.as_str().trim_matches('/'))
 }
 
+/// Every data key of a topic, whatever its type (a key expression for access control).
+pub fn key_space(domain: u32, topic: &Topic) -> String {
+    format!("{domain}/{}/**", topic.as_str().trim_matches('/'))
+}
+
+/// Every liveliness token of a domain (the ROS graph).
+pub fn liveliness_space(domain: u32) -> String {
+    format!("@ros2_lv/{domain}/**")
+}
+
 /// Who a liveliness token describes.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct NodeIdentity {

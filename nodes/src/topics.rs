@@ -132,9 +132,14 @@ impl Topics {
         // The namespace and every segment built here are valid names by construction.
         Topic(format!("{}/{rest}", self.ns))
     }
-    /// One unit's observation (`UnitObservation`), for the agent node that owns it.
-    pub fn unit_obs(&self, unit: UnitTag) -> Topic {
-        self.make(&format!("unit_{}/obs", unit.0))
+    /// One unit's observation (`UnitObservation`), for the agent node that owns it. Under
+    /// its team's prefix, so access control can grant a team exactly its own observations.
+    pub fn unit_obs(&self, team: TeamNo, unit: UnitTag) -> Topic {
+        self.make(&format!("team_{}/unit_{}/obs", team.0, unit.0))
+    }
+    /// Everything published for one team (its units' and team observations, its frames).
+    pub fn team_prefix(&self, team: TeamNo) -> Topic {
+        self.make(&format!("team_{}", team.0))
     }
     /// A team's whole view (`TeamObservation`): text and unit list.
     pub fn team_obs(&self, team: TeamNo) -> Topic {
@@ -148,6 +153,10 @@ impl Topics {
     /// be checked against the launch file.
     pub fn actions(&self, agent: &AgentId) -> Topic {
         self.make(&format!("agents/{}/actions", agent.0))
+    }
+    /// Every agent node's action topic (a pattern: `*` is one segment).
+    pub fn any_actions(&self) -> String {
+        format!("{}/agents/*/actions", self.ns)
     }
     /// Episode status (`EpisodeStatus`).
     pub fn status(&self) -> Topic {
@@ -188,7 +197,9 @@ mod tests {
         assert!(UnitTag::new(0).is_err() && TeamNo::new(3).is_err());
         let t = Topics::default();
         let u = UnitTag::new(3).expect("tag");
-        assert_eq!(t.unit_obs(u).as_str(), "/avacraft/unit_3/obs");
+        let one = TeamNo::new(1).expect("team");
+        assert_eq!(t.unit_obs(one, u).as_str(), "/avacraft/team_1/unit_3/obs");
+        assert!(t.unit_obs(one, u).as_str().starts_with(&format!("{}/", t.team_prefix(one))));
         let a = AgentId::parse("marine_1").expect("id");
         assert_eq!(t.actions(&a).as_str(), "/avacraft/agents/marine_1/actions");
         assert_eq!(t.frames(TeamNo::new(2).expect("team"), FrameKind::Minimap).as_str(), "/avacraft/team_2/minimap");

@@ -2,31 +2,12 @@
 //! bad input, rmw_zenoh keys, liveliness tokens and attachments seen by a plain Zenoh
 //! client, and the MCAP recording read back by an independent ROS 2 MCAP reader.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 use zenoh::Wait;
 
-fn exe() -> &'static str {
-    env!("CARGO_BIN_EXE_avacraft")
-}
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).map(|a| a.port()).expect("a free port")
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("avacraft-it-{}", std::process::id()));
-    std::fs::create_dir_all(&d).expect("temp dir");
-    d.join(name)
-}
-
-fn write_launch(name: &str, body: &str) -> PathBuf {
-    let p = tmp(name);
-    std::fs::File::create(&p).and_then(|mut f| f.write_all(body.as_bytes())).expect("launch file");
-    p
-}
+use crate::common::{Child, exe, free_port, tmp, write_launch};
 
 /// Runs `avacraft launch --json` on `body` with its own router on a free port.
 fn launch_on_free_port(name: &str, body: &str) -> serde_json::Value {
@@ -75,7 +56,7 @@ fn launch_3m_with_three_agent_processes_finishes_episodes_and_records_them() {
     let summary = mcap::Summary::read(&bytes).expect("summary").expect("summary present");
     let topics: Vec<&str> = summary.channels.values().map(|c| c.topic.as_str()).collect();
     for t in [
-        "/avacraft/unit_1/obs",
+        "/avacraft/team_1/unit_1/obs",
         "/avacraft/team_1/obs",
         "/avacraft/status",
         "/avacraft/agents/unit_1/actions",
@@ -125,16 +106,6 @@ fn launch_3m_with_three_agent_processes_finishes_episodes_and_records_them() {
     // A replay against a different seed's world must not match.
     let other = Command::new(exe()).arg("replay").arg(&mcap).args(["--scenario", "3m", "--opponent", "focus"]).output().expect("replay");
     assert!(!other.status.success(), "a different opponent cannot reproduce the recording");
-}
-
-/// A node process of the deployment, killed when dropped.
-struct Child(std::process::Child);
-
-impl Drop for Child {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
 }
 
 fn start(args: &[&str]) -> Child {
@@ -191,14 +162,14 @@ fn bad_input_is_counted_and_ros_conventions_hold_for_a_plain_zenoh_client() {
     let mut first_obs = None;
     while first_obs.is_none() && t0.elapsed() < Duration::from_secs(60) {
         if let Ok(Some(s)) = samples.recv_timeout(Duration::from_millis(200))
-            && s.key_expr().as_str().starts_with("0/avacraft/unit_1/obs/")
+            && s.key_expr().as_str().starts_with("0/avacraft/team_1/unit_1/obs/")
         {
             first_obs = Some(s);
         }
     }
     let s = first_obs.expect("an observation within 60 s");
     let key = s.key_expr().as_str().to_owned();
-    assert!(key.starts_with("0/avacraft/unit_1/obs/avacraft_msgs::msg::dds_::UnitObservation_/RIHS01_"), "{key}");
+    assert!(key.starts_with("0/avacraft/team_1/unit_1/obs/avacraft_msgs::msg::dds_::UnitObservation_/RIHS01_"), "{key}");
     assert_eq!(key.rsplit('/').next().map(str::len), Some(7 + 64));
     let att = s.attachment().expect("every sample has the attachment").to_bytes();
     assert_eq!((att.len(), att[16]), (33, 0x10));
@@ -214,9 +185,11 @@ fn bad_input_is_counted_and_ros_conventions_hold_for_a_plain_zenoh_client() {
         assert!(tokens.iter().any(|t| t.contains("/NN/%/") && t.ends_with(node)), "node {node} not in {tokens:#?}");
     }
     assert!(
-        tokens.iter().any(|t| t.contains("/MP/%/%avacraft/sim/%avacraft%unit_1%obs/avacraft_msgs::msg::dds_::UnitObservation_/RIHS01_"))
+        tokens
+            .iter()
+            .any(|t| t.contains("/MP/%/%avacraft/sim/%avacraft%team_1%unit_1%obs/avacraft_msgs::msg::dds_::UnitObservation_/RIHS01_"))
     );
-    assert!(tokens.iter().any(|t| t.contains("/MS/%/%avacraft/agent_unit_1/%avacraft%unit_1%obs/")));
+    assert!(tokens.iter().any(|t| t.contains("/MS/%/%avacraft/agent_unit_1/%avacraft%team_1%unit_1%obs/")));
     let hash = <avacraft_msgs::ActionBatch as avacraft_msgs::RosMessage>::type_hash();
     let dds = "avacraft_msgs::msg::dds_::ActionBatch_";
     let attach = avacraft_nodes::ros::attachment(1, 0, &[0; 16]).to_vec();
@@ -259,7 +232,7 @@ fn wait_for_obs(samples: &Bus) {
     let t0 = Instant::now();
     while t0.elapsed() < Duration::from_secs(60) {
         if let Ok(Some(s)) = samples.recv_timeout(Duration::from_millis(200))
-            && s.key_expr().as_str().starts_with("0/avacraft/unit_")
+            && s.key_expr().as_str().starts_with("0/avacraft/team_1/unit_")
         {
             return;
         }

@@ -43,6 +43,9 @@ pub struct SimConfig {
     pub frames: Option<FrameSpec>,
     /// Wait at start for the recorder's subscription too (so the recording starts at step 0).
     pub wait_for_recorder: bool,
+    /// Agents driven from DDS: the bridge node publishes their actions (it announces each
+    /// once the DDS agent is there), and subscribes to the observations for them.
+    pub dds_agents: BTreeSet<AgentId>,
 }
 
 /// Which frames the simulator renders and publishes per agent team.
@@ -128,7 +131,12 @@ pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -
                 key: e.to_string(),
                 message: String::new(),
             })?;
-            unit_pubs.insert(id, node.publisher(&topics.unit_obs(tag), reliable)?);
+            let no = TeamNo::new(team.player()).map_err(|e| NodeError::Declare {
+                what: "a unit topic",
+                key: e.to_string(),
+                message: String::new(),
+            })?;
+            unit_pubs.insert(id, node.publisher(&topics.unit_obs(no, tag), reliable)?);
         }
     }
     let mut team_pubs = BTreeMap::new();
@@ -144,7 +152,7 @@ pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -
     let mut applied_pub = node.publisher::<ActionBatch>(&topics.applied(), reliable)?;
     let mut frames = Frames::new(node, topics, &teams, cfg.frames.clone())?;
     let mut roles_pub = node.publisher::<avacraft_msgs::RoleAssignment>(&topics.roles(), reliable)?;
-    let actions = node.subscriber::<ActionBatch>(&format!("{}/agents/*/actions", topics.namespace()), reliable)?;
+    let actions = node.subscriber::<ActionBatch>(&topics.any_actions(), reliable)?;
     wait_for_agents(node, topics, cfg, shutdown)?;
     let mut out = Vec::new();
     for (episode, &seed) in cfg.seeds.iter().enumerate() {
@@ -279,9 +287,15 @@ fn wait_for_agents(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shu
     let ns = avacraft_nodes::ros::mangle(topics.namespace());
     // (kind, node name, mangled topic or "" for any)
     let mut wanted: BTreeSet<(&str, String, String)> = BTreeSet::new();
+    let env = Env::new(Arc::clone(&cfg.scenario), cfg.env.clone(), 0);
     for (tag, agent) in &cfg.owners {
+        if cfg.dds_agents.contains(agent) {
+            wanted.insert(("MP", "bridge".to_owned(), avacraft_nodes::ros::mangle(topics.actions(agent).as_str())));
+            continue;
+        }
         let name = format!("agent_{agent}");
-        wanted.insert(("MS", name.clone(), avacraft_nodes::ros::mangle(topics.unit_obs(*tag).as_str())));
+        let Some(team) = unit_of(&env, tag.get()).and_then(|u| TeamNo::new(u.team.player()).ok()) else { continue };
+        wanted.insert(("MS", name.clone(), avacraft_nodes::ros::mangle(topics.unit_obs(team, *tag).as_str())));
         wanted.insert(("MP", name, avacraft_nodes::ros::mangle(topics.actions(agent).as_str())));
     }
     if cfg.wait_for_recorder {

@@ -1,0 +1,324 @@
+//! The multi-host part of a launch file: which host runs what, the deployment's TLS
+//! identities, the Zenoh access control that follows from who owns which units, and the
+//! DDS bridge.
+//!
+//! One file describes the whole deployment and every host runs `avacraft launch <file>
+//! --host <name>`. The first host runs the router, the simulator and the recorder. The
+//! router admits only hosts holding a certificate of the deployment's authority (mutual
+//! TLS), and its access control knows each host by its certificate's common name: a host
+//! may publish only on the action topics of the agent nodes it runs and receive only the
+//! topics of the teams those nodes play for. A host named nowhere has no rule, and the
+//! default is deny.
+
+use crate::{LaunchError, Plan};
+use avacraft_nodes::{AgentId, TeamNo, Topics};
+use serde::Deserialize;
+use serde_json::json;
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+/// `security:` in a launch file.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawSecurity {
+    /// Directory (relative to the launch file) with `ca.pem` and `<host>.pem` / `<host>.key`,
+    /// as `avacraft certs` writes them.
+    pub certs: PathBuf,
+}
+
+/// `bridge:` in a launch file.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawBridge {
+    /// The host that runs it (default: the first).
+    #[serde(default)]
+    pub host: Option<String>,
+    /// DDS domain id on the ROS 2 side.
+    #[serde(default)]
+    pub dds_domain: u16,
+    /// Which topics go to DDS: any of `status`, `team_obs`, `unit_obs`, `frames`, `roles`.
+    #[serde(default = "bridge_topics")]
+    pub topics: Vec<String>,
+    /// Teams whose topics it carries (default: every agent team).
+    #[serde(default)]
+    pub teams: Vec<u8>,
+    /// Frames are scaled to this size (width, height) before they go to DDS: RustDDS is slow
+    /// for samples over 64 KB, and a 160x120 RGB frame is 57,600 bytes.
+    #[serde(default = "bridge_frame_size")]
+    pub frame_size: [u32; 2],
+    /// Only every this many frames goes to DDS.
+    #[serde(default = "one")]
+    pub frame_every: u32,
+    /// Local addresses DDS may use (default: every interface), e.g. `[127.0.0.1]` to keep
+    /// DDS traffic on this machine.
+    #[serde(default)]
+    pub dds_networks: Vec<String>,
+}
+
+fn bridge_topics() -> Vec<String> {
+    ["status", "team_obs", "unit_obs", "frames"].map(String::from).to_vec()
+}
+fn bridge_frame_size() -> [u32; 2] {
+    [160, 120]
+}
+fn one() -> u32 {
+    1
+}
+
+/// The deployment's certificates.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Security {
+    pub certs: PathBuf,
+}
+
+impl Security {
+    pub fn ca(&self) -> PathBuf {
+        self.certs.join("ca.pem")
+    }
+    pub fn cert(&self, host: &str) -> PathBuf {
+        self.certs.join(format!("{host}.pem"))
+    }
+    pub fn key(&self, host: &str) -> PathBuf {
+        self.certs.join(format!("{host}.key"))
+    }
+}
+
+/// What the bridge republishes onto DDS.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum BridgeTopic {
+    Status,
+    TeamObs,
+    UnitObs,
+    Frames,
+    Roles,
+}
+
+/// A validated `bridge:` section.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BridgePlan {
+    pub host: String,
+    pub dds_domain: u16,
+    pub topics: BTreeSet<BridgeTopic>,
+    pub teams: Vec<TeamNo>,
+    pub frame_size: (u32, u32),
+    pub frame_every: u32,
+    pub dds_networks: Vec<std::net::IpAddr>,
+    /// Agents whose actions come from DDS (`policy: dds`); only their action topics are
+    /// carried back, so a DDS participant cannot speak for a Zenoh agent node.
+    pub dds_agents: Vec<AgentId>,
+}
+
+/// A host or bridge name: lowercase letters, digits and '_' (it is a certificate's common
+/// name and a file name).
+pub(crate) fn valid_host(name: &str) -> bool {
+    (1..=32).contains(&name.len())
+        && name.starts_with(|c: char| c.is_ascii_lowercase())
+        && name.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
+}
+
+pub(crate) fn bridge_plan(
+    cx: &crate::Cx<'_>,
+    raw: &RawBridge,
+    hosts: &[String],
+    agent_teams: &[TeamNo],
+    dds_agents: Vec<AgentId>,
+) -> Result<BridgePlan, LaunchError> {
+    let host = raw.host.clone().unwrap_or_else(|| hosts[0].clone());
+    if !hosts.contains(&host) {
+        return Err(cx.err("bridge.host", format!("{host:?}"), format!("not one of the hosts {hosts:?}")));
+    }
+    let mut topics = BTreeSet::new();
+    for (i, t) in raw.topics.iter().enumerate() {
+        topics.insert(match t.as_str() {
+            "status" => BridgeTopic::Status,
+            "team_obs" => BridgeTopic::TeamObs,
+            "unit_obs" => BridgeTopic::UnitObs,
+            "frames" => BridgeTopic::Frames,
+            "roles" => BridgeTopic::Roles,
+            other => {
+                return Err(cx.err(
+                    format!("bridge.topics[{i}]"),
+                    format!("{other:?}"),
+                    "must be status, team_obs, unit_obs, frames or roles",
+                ));
+            }
+        });
+    }
+    let mut teams = Vec::new();
+    for (i, &t) in raw.teams.iter().enumerate() {
+        let no = TeamNo::new(t).map_err(|e| cx.err(format!("bridge.teams[{i}]"), t, e.to_string()))?;
+        if !agent_teams.contains(&no) {
+            return Err(cx.err(format!("bridge.teams[{i}]"), t, "no agent node plays for this team"));
+        }
+        teams.push(no);
+    }
+    if teams.is_empty() {
+        teams = agent_teams.to_vec();
+    }
+    let [w, h] = raw.frame_size;
+    if !(1..=4096).contains(&w) || !(1..=4096).contains(&h) {
+        return Err(cx.err("bridge.frame_size", format!("[{w}, {h}]"), "width and height must be 1 to 4096"));
+    }
+    if raw.frame_every == 0 {
+        return Err(cx.err("bridge.frame_every", 0, "must be at least 1"));
+    }
+    if raw.dds_domain > 232 {
+        return Err(cx.err("bridge.dds_domain", raw.dds_domain, "DDS domain ids are 0 to 232"));
+    }
+    let mut dds_networks = Vec::new();
+    for (i, n) in raw.dds_networks.iter().enumerate() {
+        dds_networks
+            .push(n.parse().map_err(|e| cx.err(format!("bridge.dds_networks[{i}]"), format!("{n:?}"), format!("not an IP address: {e}")))?);
+    }
+    Ok(BridgePlan {
+        host,
+        dds_domain: raw.dds_domain,
+        topics,
+        teams,
+        frame_size: (w, h),
+        frame_every: raw.frame_every,
+        dds_networks,
+        dds_agents,
+    })
+}
+
+/// Why certificates could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum CertError {
+    #[error("the launch file has no `security:` section, so there is nothing to make certificates for")]
+    NoSecurity,
+    #[error("making the certificate of `{host}`: {message}")]
+    Make { host: String, message: String },
+    #[error("writing {path}: {message}")]
+    Write { path: String, message: String },
+}
+
+/// The host part of a `tls/<host>:<port>` endpoint.
+fn endpoint_host(endpoint: &str) -> Option<&str> {
+    let rest = endpoint.split_once('/')?.1;
+    let (host, _port) = rest.rsplit_once(':')?;
+    Some(host.trim_start_matches('[').trim_end_matches(']'))
+}
+
+/// Writes a fresh authority and one key pair per host into the plan's certificate
+/// directory; returns the files written. The first host's certificate also names the
+/// router's address, which connecting hosts check.
+pub fn write_certs(plan: &Plan) -> Result<Vec<PathBuf>, CertError> {
+    use rcgen::{BasicConstraints, CertificateParams, DnType, ExtendedKeyUsagePurpose, IsCa, Issuer, KeyPair, KeyUsagePurpose, SanType};
+    let Some(sec) = &plan.security else { return Err(CertError::NoSecurity) };
+    fn make(host: &str) -> impl Fn(rcgen::Error) -> CertError + '_ {
+        move |e| CertError::Make { host: host.to_owned(), message: e.to_string() }
+    }
+    let ca_key = KeyPair::generate().map_err(make("ca"))?;
+    let mut ca = CertificateParams::new(Vec::<String>::new()).map_err(make("ca"))?;
+    ca.distinguished_name.push(DnType::CommonName, format!("avacraft deployment authority ({})", plan.scenario.name));
+    ca.is_ca = IsCa::Ca(BasicConstraints::Unconstrained);
+    ca.key_usages = vec![KeyUsagePurpose::KeyCertSign, KeyUsagePurpose::CrlSign, KeyUsagePurpose::DigitalSignature];
+    let ca_cert = ca.self_signed(&ca_key).map_err(make("ca"))?;
+    let issuer = Issuer::new(ca, ca_key);
+    std::fs::create_dir_all(&sec.certs).map_err(|e| CertError::Write { path: sec.certs.display().to_string(), message: e.to_string() })?;
+    let mut files = Vec::new();
+    let mut write = |path: PathBuf, text: String| -> Result<(), CertError> {
+        std::fs::write(&path, text).map_err(|e| CertError::Write { path: path.display().to_string(), message: e.to_string() })?;
+        files.push(path);
+        Ok(())
+    };
+    write(sec.ca(), ca_cert.pem())?;
+    for (i, host) in plan.hosts.iter().enumerate() {
+        let key = KeyPair::generate().map_err(make(host))?;
+        let mut names = vec![host.clone()];
+        if i == 0 {
+            names.push("localhost".to_owned());
+        }
+        let mut p = CertificateParams::new(names).map_err(make(host))?;
+        if i == 0 {
+            p.subject_alt_names.push(SanType::IpAddress(std::net::Ipv4Addr::LOCALHOST.into()));
+            if let Some(addr) = endpoint_host(&plan.router) {
+                match addr.parse::<std::net::IpAddr>() {
+                    Ok(ip) => p.subject_alt_names.push(SanType::IpAddress(ip)),
+                    Err(_) => p.subject_alt_names.push(SanType::DnsName(addr.try_into().map_err(make(host))?)),
+                }
+            }
+        }
+        p.distinguished_name.push(DnType::CommonName, host.as_str());
+        p.extended_key_usages = vec![ExtendedKeyUsagePurpose::ServerAuth, ExtendedKeyUsagePurpose::ClientAuth];
+        p.key_usages = vec![KeyUsagePurpose::DigitalSignature, KeyUsagePurpose::KeyEncipherment];
+        let cert = p.signed_by(&key, &issuer).map_err(make(host))?;
+        write(sec.cert(host), cert.pem())?;
+        write(sec.key(host), key.serialize_pem())?;
+    }
+    Ok(files)
+}
+
+/// Every message kind a rule can name.
+const ALL_MESSAGES: [&str; 9] = [
+    "put",
+    "delete",
+    "declare_subscriber",
+    "query",
+    "reply",
+    "declare_queryable",
+    "liveliness_token",
+    "liveliness_query",
+    "declare_liveliness_subscriber",
+];
+
+/// The router's `access_control` object (JSON, which JSON5 reads): the first host may do
+/// anything; every other host may publish on its own agent nodes' action topics, subscribe
+/// to its teams' topics and the episode status, and take part in the ROS graph (liveliness).
+pub fn access_control(plan: &Plan, topics: &Topics, domain: u32) -> serde_json::Value {
+    let key = |t: &avacraft_nodes::Topic| avacraft_nodes::ros::key_space(domain, t);
+    let graph = avacraft_nodes::ros::liveliness_space(domain);
+    // `**` does not match chunks that start with '@' (the liveliness space): name it too.
+    let mut rules = vec![json!({
+        "id": "server_all", "messages": ALL_MESSAGES, "flows": ["ingress", "egress"], "permission": "allow", "key_exprs": ["**", graph],
+    })];
+    let mut subjects = vec![json!({ "id": "host_server", "cert_common_names": [plan.hosts[0]] })];
+    let mut policies = vec![json!({ "rules": ["server_all"], "subjects": ["host_server"] })];
+    for host in plan.hosts.iter().skip(1) {
+        let agents: Vec<_> = plan.agents.iter().filter(|a| &a.host == host).collect();
+        let bridged = plan.bridge.as_ref().filter(|b| &b.host == host);
+        let mut teams: BTreeSet<TeamNo> = agents.iter().map(|a| a.team).collect();
+        teams.extend(bridged.iter().flat_map(|b| b.teams.iter().copied()));
+        let sends: Vec<String> = agents.iter().map(|a| key(&topics.actions(&a.id))).collect();
+        let mut reads: Vec<String> = teams.iter().map(|t| key(&topics.team_prefix(*t))).collect();
+        reads.push(key(&topics.status()));
+        if bridged.is_some_and(|b| b.topics.contains(&BridgeTopic::Roles)) {
+            reads.push(key(&topics.roles()));
+        }
+        let mut names = Vec::new();
+        let mut rule = |id: String, messages: &[&str], flows: &[&str], keys: &[String]| {
+            if !keys.is_empty() {
+                rules.push(json!({ "id": id, "messages": messages, "flows": flows, "permission": "allow", "key_exprs": keys }));
+                names.push(id);
+            }
+        };
+        rule(format!("{host}_send"), &["put"], &["ingress"], &sends);
+        // A publisher sends only where it knows of a subscriber: the host must learn of the
+        // simulator's subscription to every agent's actions (its existence, nothing more).
+        if !sends.is_empty() {
+            let any = format!("{domain}/{}/**", topics.any_actions().trim_matches('/'));
+            rule(format!("{host}_matching"), &["declare_subscriber"], &["egress"], &[any]);
+        }
+        rule(format!("{host}_subscribe"), &["declare_subscriber"], &["ingress"], &reads);
+        rule(format!("{host}_receive"), &["put"], &["egress"], &reads);
+        rule(
+            format!("{host}_graph"),
+            &["liveliness_token", "liveliness_query", "declare_liveliness_subscriber", "reply"],
+            &["ingress", "egress"],
+            std::slice::from_ref(&graph),
+        );
+        subjects.push(json!({ "id": format!("host_{host}"), "cert_common_names": [host] }));
+        policies.push(json!({ "rules": names, "subjects": [format!("host_{host}")] }));
+    }
+    json!({ "enabled": true, "default_permission": "deny", "rules": rules, "subjects": subjects, "policies": policies })
+}
+
+/// The certificate directory, relative to the launch file.
+pub(crate) fn security(raw: &RawSecurity, base: Option<&Path>) -> Security {
+    let certs = match base {
+        Some(b) if raw.certs.is_relative() => b.join(&raw.certs),
+        _ => raw.certs.clone(),
+    };
+    Security { certs }
+}
