@@ -95,10 +95,12 @@ fn type_name<T: RosMessage>() -> MessageTypeName {
     MessageTypeName::new(T::PACKAGE, T::NAME)
 }
 
+/// Reliable and KEEP_ALL, as the Zenoh side's reliable topics: a burst of observations
+/// waits for slow readers instead of overwriting what they have not acknowledged.
 fn reliable() -> QosProfile {
     QosProfile::publisher_default()
-        .reliability_reliable(ros2_client::qos::WhenFull::Wait(Duration::from_millis(100)))
-        .history(ros2_client::qos::History::KeepLast { depth: 10 })
+        .reliability_reliable(ros2_client::qos::WhenFull::Wait(Duration::from_millis(500)))
+        .history(ros2_client::qos::History::KeepLast { depth: 1000 })
 }
 
 fn best_effort() -> QosProfile {

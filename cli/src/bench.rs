@@ -44,6 +44,10 @@ pub struct BenchArgs {
     /// Zenoh, the cost of recording), each against its goal.
     #[arg(long)]
     deploy: bool,
+    /// Instead: measure the ROS 2 DDS bridge (latency and throughput of a unit observation
+    /// and a 160x120 frame onto DDS, against the direct Zenoh path in the same run).
+    #[arg(long, conflicts_with = "deploy")]
+    bridge: bool,
 }
 
 /// One back end's rendering speed on one scenario.
@@ -333,6 +337,9 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
     }
     if a.render {
         return run_render(a, out);
+    }
+    if a.bridge {
+        return crate::bench_bridge::run(out);
     }
     if a.deploy {
         return crate::bench_deploy::run(out);

@@ -2,6 +2,7 @@
 //! argument parsing and output of the binary.
 
 mod bench;
+mod bench_bridge;
 mod bench_deploy;
 mod bridge;
 mod deploy;

@@ -101,11 +101,11 @@ impl Default for NodeArgs {
     }
 }
 
-/// Logs to stderr, filtered by `RUST_LOG` (default `info`, Zenoh's own at `warn`). Safe to call
-/// more than once.
+/// Logs to stderr, filtered by `RUST_LOG` (default `info`, Zenoh's own at `warn`, RustDDS's
+/// off: the bridge reports DDS failures itself). Safe to call more than once.
 pub fn init_logging() {
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn,zenoh_transport=warn,zenoh_link_tcp=warn"));
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn,zenoh_transport=warn,zenoh_link_tcp=warn,rustdds=off"));
     use std::io::IsTerminal;
     let ansi = std::io::stderr().is_terminal();
     let _ = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).with_ansi(ansi).with_target(false).try_init();

@@ -1,7 +1,7 @@
 //! Helpers shared by the process tests.
 
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 pub fn exe() -> &'static str {
     env!("CARGO_BIN_EXE_avacraft")
@@ -21,6 +21,18 @@ pub fn write_launch(name: &str, body: &str) -> PathBuf {
     let p = tmp(name);
     std::fs::File::create(&p).and_then(|mut f| f.write_all(body.as_bytes())).expect("launch file");
     p
+}
+
+/// Runs `avacraft launch --json` on a launch file; its episode summaries.
+pub fn launch_json(file: &Path) -> serde_json::Value {
+    let out = std::process::Command::new(exe())
+        .args(["launch", "--json"])
+        .arg(file)
+        .stderr(std::process::Stdio::inherit())
+        .output()
+        .expect("run avacraft launch");
+    assert!(out.status.success(), "launch failed: {}", String::from_utf8_lossy(&out.stdout));
+    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}: {}", String::from_utf8_lossy(&out.stdout)))
 }
 
 /// A node process of the deployment, killed when dropped.

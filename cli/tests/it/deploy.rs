@@ -2,23 +2,17 @@
 //! bad input, rmw_zenoh keys, liveliness tokens and attachments seen by a plain Zenoh
 //! client, and the MCAP recording read back by an independent ROS 2 MCAP reader.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 use zenoh::Wait;
 
-use crate::common::{Child, exe, free_port, tmp, write_launch};
+use crate::common::{Child, exe, free_port, launch_json, tmp, write_launch};
 
 /// Runs `avacraft launch --json` on `body` with its own router on a free port.
 fn launch_on_free_port(name: &str, body: &str) -> serde_json::Value {
     let file = write_launch(name, &format!("router: tcp/127.0.0.1:{}\n{body}", free_port()));
     launch_json(&file)
-}
-
-fn launch_json(file: &Path) -> serde_json::Value {
-    let out = Command::new(exe()).args(["launch", "--json"]).arg(file).stderr(Stdio::inherit()).output().expect("run avacraft launch");
-    assert!(out.status.success(), "launch failed: {}", String::from_utf8_lossy(&out.stdout));
-    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}: {}", String::from_utf8_lossy(&out.stdout)))
 }
 
 #[test]

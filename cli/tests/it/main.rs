@@ -1,6 +1,7 @@
 //! Multi-process tests of the distributed deployment: real `avacraft` processes on a real
 //! Zenoh router (one per test, on a free port).
 
+mod bridge;
 mod common;
 mod deploy;
 mod hosts;
