@@ -454,3 +454,103 @@ mod tests {
         }
     }
 }
+
+#[cfg(test)]
+mod deploy_tests {
+    use super::*;
+
+    fn pvp(extra: &str) -> String {
+        format!(
+            "scenario: MMM_vs_MMM\nrouter: tls/10.0.0.1:7447\nsecurity: {{certs: certs}}\nhosts: [server, blue, red]\nagents:\n  - {{id: blue_a, units: [1, 2], policy: hold, host: blue}}\n  - {{id: red_a, units: [13], policy: hold, host: red}}\n{extra}"
+        )
+    }
+
+    #[test]
+    fn the_shipped_launch_files_validate() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mut n = 0;
+        for entry in std::fs::read_dir(dir).expect("launch dir") {
+            let p = entry.expect("entry").path();
+            if p.extension().is_some_and(|e| e == "yaml") {
+                load(&p).unwrap_or_else(|e| panic!("{e}"));
+                n += 1;
+            }
+        }
+        assert!(n >= 5, "{n} launch files");
+    }
+
+    #[test]
+    fn hosts_security_and_bridge_are_validated_with_file_field_and_value() {
+        let ok = parse("p.yaml", &pvp(""), None).expect("plan");
+        assert_eq!((ok.server(), ok.agents[0].host.as_str(), ok.agents[1].team.get()), ("server", "blue", 2));
+        let cases = [
+            (pvp("").replace("tls/", "tcp/"), "router"),
+            (pvp("").replace("security: {certs: certs}\n", ""), "router"),
+            (pvp("").replace("hosts: [server, blue, red]", "hosts: [server, Blue]"), "hosts[1]"),
+            (pvp("").replace("hosts: [server, blue, red]", "hosts: [server, blue, blue]"), "hosts[2]"),
+            (pvp("").replace("host: red", "host: green"), "agents[1].host"),
+            (pvp("").replace("units: [1, 2]", "units: [1, 13]"), "agents[0].units"),
+            (pvp("bridge: {topics: [everything]}\n"), "bridge.topics[0]"),
+            (pvp("bridge: {host: nowhere}\n"), "bridge.host"),
+            (pvp("bridge: {frame_size: [0, 10]}\n"), "bridge.frame_size"),
+            (pvp("bridge: {dds_networks: [localhost]}\n"), "bridge.dds_networks[0]"),
+            (pvp("bridge: {dds_domain: 300}\n"), "bridge.dds_domain"),
+            (pvp("").replace("policy: hold, host: blue", "policy: dds, host: blue"), "agents[0].policy"),
+            (pvp("bridge: {host: server}\n").replace("policy: hold, host: blue", "policy: dds, host: blue"), "bridge.host"),
+            ("scenario: 3m\nhosts: [a, b]\nagents:\n  - {id: x, units: [1], policy: hold}\n".to_owned(), "hosts"),
+        ];
+        for (text, field) in cases {
+            let e = parse("bad.yaml", &text, None).expect_err(&text).to_string();
+            assert!(e.starts_with("bad.yaml: field `") && e.contains(&format!("`{field}`")), "{field}: {e}");
+        }
+    }
+
+    fn rule<'a>(acl: &'a serde_json::Value, id: &str) -> &'a serde_json::Value {
+        acl["rules"].as_array().and_then(|r| r.iter().find(|r| r["id"] == id)).unwrap_or_else(|| panic!("no rule {id}: {acl}"))
+    }
+
+    #[test]
+    fn access_control_gives_each_host_its_own_actions_and_its_teams_topics() {
+        let plan = parse("p.yaml", &pvp("bridge: {host: red, topics: [status, team_obs, roles], teams: [2]}\n"), None).expect("plan");
+        let acl = access_control(&plan, &avacraft_nodes::Topics::default(), 0);
+        assert_eq!(acl["default_permission"], "deny");
+        assert_eq!(rule(&acl, "server_all")["key_exprs"], serde_json::json!(["**", "@ros2_lv/0/**"]));
+        assert_eq!(rule(&acl, "blue_send")["key_exprs"], serde_json::json!(["0/avacraft/agents/blue_a/actions/**"]));
+        assert_eq!(rule(&acl, "blue_receive")["key_exprs"], serde_json::json!(["0/avacraft/team_1/**", "0/avacraft/status/**"]));
+        assert_eq!(rule(&acl, "blue_receive")["flows"], serde_json::json!(["egress"]));
+        // The bridge on red carries roles too, and only team 2.
+        assert_eq!(
+            rule(&acl, "red_receive")["key_exprs"],
+            serde_json::json!(["0/avacraft/team_2/**", "0/avacraft/status/**", "0/avacraft/roles/**"])
+        );
+        let subjects = acl["subjects"].as_array().expect("subjects");
+        assert_eq!(
+            subjects.iter().map(|s| s["cert_common_names"][0].as_str().unwrap_or("")).collect::<Vec<_>>(),
+            ["server", "blue", "red"]
+        );
+        // No rule of a team host names another team's prefix.
+        let blue_rules: Vec<_> =
+            acl["rules"].as_array().expect("rules").iter().filter(|r| r["id"].as_str().is_some_and(|i| i.starts_with("blue"))).collect();
+        assert!(blue_rules.iter().all(|r| !r.to_string().contains("team_2")), "{blue_rules:?}");
+        // And it is a configuration Zenoh accepts.
+        let mut c = zenoh::Config::default();
+        c.insert_json5("access_control", &acl.to_string()).expect("zenoh accepts the access control");
+    }
+
+    #[test]
+    fn certificates_name_each_host_and_the_router_address() {
+        let dir = std::env::temp_dir().join(format!("avacraft-certs-{}", std::process::id()));
+        let plan = parse("p.yaml", &pvp("").replace("certs: certs", &format!("certs: {}", dir.display())), None).expect("plan");
+        let files = write_certs(&plan).expect("certs");
+        assert_eq!(files.len(), 1 + 2 * 3);
+        let sec = plan.security.as_ref().expect("security");
+        for h in ["server", "blue", "red"] {
+            let pem = std::fs::read_to_string(sec.cert(h)).expect("cert");
+            assert!(pem.starts_with("-----BEGIN CERTIFICATE-----"));
+            assert!(std::fs::read_to_string(sec.key(h)).expect("key").contains("PRIVATE KEY"));
+        }
+        let without = parse("p.yaml", "scenario: 3m\nagents:\n  - {id: x, units: [1], policy: hold}\n", None).expect("plan");
+        assert!(matches!(write_certs(&without), Err(CertError::NoSecurity)));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
