@@ -40,8 +40,8 @@ pub struct BridgeConfig {
     pub frame_size: (u32, u32),
     /// ... and only one in this many.
     pub frame_every: u32,
-    /// Agents whose actions come from DDS.
-    pub dds_agents: Vec<AgentId>,
+    /// Agents whose actions come from DDS, with their team.
+    pub dds_agents: Vec<(AgentId, TeamNo)>,
     /// Before announcing the DDS agents' action topics on Zenoh (which lets a lockstep
     /// simulator start), wait up to this long for a DDS writer on each and a DDS reader on
     /// every bridged observation topic of its team.
@@ -74,6 +74,8 @@ pub struct BridgeStats {
     pub actions_to_zenoh: u64,
     /// Zenoh samples that did not decode (not forwarded).
     pub malformed: u64,
+    /// Samples DDS refused to take (its queue stayed full): lost, and counted here.
+    pub dds_refused: u64,
 }
 
 #[derive(Debug, Default)]
@@ -82,6 +84,7 @@ struct Counters {
     thinned: AtomicU64,
     actions: AtomicU64,
     malformed: AtomicU64,
+    refused: AtomicU64,
 }
 
 /// The ROS name of a topic for ros2-client: namespace and base name.
@@ -95,8 +98,9 @@ fn type_name<T: RosMessage>() -> MessageTypeName {
     MessageTypeName::new(T::PACKAGE, T::NAME)
 }
 
-/// Reliable and KEEP_ALL, as the Zenoh side's reliable topics: a burst of observations
-/// waits for slow readers instead of overwriting what they have not acknowledged.
+/// Reliable with a deep history (1,000 samples): a burst of observations waits up to
+/// 500 ms for slow readers before a publish fails (and is counted). RustDDS's KEEP_ALL lost
+/// more under bursts in `bench --bridge`.
 fn reliable() -> QosProfile {
     QosProfile::publisher_default()
         .reliability_reliable(ros2_client::qos::WhenFull::Wait(Duration::from_millis(500)))
@@ -180,7 +184,10 @@ where
                 let Some(msg) = map(msg) else { continue };
                 match publisher.publish(msg) {
                     Ok(()) => *counters.to_dds.lock().unwrap_or_else(|e| e.into_inner()).entry(name.clone()).or_default() += 1,
-                    Err(e) => tracing::warn!(topic = %name, error = ?e, "DDS publish failed"),
+                    Err(e) => {
+                        counters.refused.fetch_add(1, Ordering::Relaxed);
+                        tracing::warn!(topic = %name, error = ?e, "DDS publish failed");
+                    }
                 }
             }
         })
@@ -194,6 +201,7 @@ pub fn run(node: &Node, topics: &Topics, cfg: &BridgeConfig, shutdown: &Shutdown
     let reliable_z = Qos::Reliable { depth: 10 };
     let mut threads = Vec::new();
     // Readers the DDS agents of a team must have before the bridge announces them.
+    let dds_teams: Vec<TeamNo> = cfg.dds_agents.iter().map(|(_, t)| *t).collect();
     let mut needed_readers: BTreeMap<TeamNo, Vec<Topic>> = BTreeMap::new();
     if cfg.status {
         threads.push(forward::<EpisodeStatus, _>(node, &mut dds, &topics.status(), reliable_z, &counters, shutdown, Some)?);
@@ -204,7 +212,9 @@ pub fn run(node: &Node, topics: &Topics, cfg: &BridgeConfig, shutdown: &Shutdown
     for &team in &cfg.team_obs {
         let t = topics.team_obs(team);
         threads.push(forward::<TeamObservation, _>(node, &mut dds, &t, reliable_z, &counters, shutdown, Some)?);
-        needed_readers.entry(team).or_default().push(t);
+        if dds_teams.contains(&team) {
+            needed_readers.entry(team).or_default().push(t);
+        }
     }
     for &(team, unit) in &cfg.unit_obs {
         let t = topics.unit_obs(team, unit);
@@ -234,7 +244,7 @@ pub fn run(node: &Node, topics: &Topics, cfg: &BridgeConfig, shutdown: &Shutdown
     }
     // DDS → Zenoh: the DDS agents' actions.
     let mut subs = Vec::new();
-    for agent in &cfg.dds_agents {
+    for (agent, _) in &cfg.dds_agents {
         let topic = topics.actions(agent);
         subs.push((agent.clone(), topic.clone(), dds.subscription::<ActionBatch>(&topic, reliable())?));
     }
@@ -276,14 +286,21 @@ pub fn run(node: &Node, topics: &Topics, cfg: &BridgeConfig, shutdown: &Shutdown
         );
     }
     tracing::info!(threads = threads.len(), dds_domain = cfg.dds_domain, "bridge up");
+    let mut panicked = 0;
     for t in threads {
-        let _ = t.join();
+        if t.join().is_err() {
+            panicked += 1;
+        }
+    }
+    if panicked > 0 {
+        return Err(BridgeError::Dds { what: format!("{panicked} bridge threads"), message: "panicked".into() });
     }
     Ok(BridgeStats {
         to_dds: counters.to_dds.lock().unwrap_or_else(|e| e.into_inner()).clone(),
         frames_thinned: counters.thinned.load(Ordering::Relaxed),
         actions_to_zenoh: counters.actions.load(Ordering::Relaxed),
         malformed: counters.malformed.load(Ordering::Relaxed),
+        dds_refused: counters.refused.load(Ordering::Relaxed),
     })
 }
 

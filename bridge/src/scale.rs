@@ -4,11 +4,12 @@
 
 use avacraft_msgs::Image;
 
-/// `img` scaled to `(width, height)` if it is an `rgb8` frame of another size; anything
-/// else unchanged.
+/// `img` scaled to `(width, height)` if it is an `rgb8` frame of another size (rows `step`
+/// bytes apart); anything else, or a frame whose sizes do not add up, unchanged.
 pub fn scale_rgb8(img: Image, (width, height): (u32, u32)) -> Image {
-    let (w, h) = (img.width as usize, img.height as usize);
-    if img.encoding != "rgb8" || (img.width, img.height) == (width, height) || w == 0 || h == 0 || img.data.len() < w * h * 3 {
+    let (w, h, stride) = (img.width as usize, img.height as usize, img.step as usize);
+    let fits = w.checked_mul(3).is_some_and(|row| row <= stride) && stride.checked_mul(h).is_some_and(|n| n <= img.data.len());
+    if img.encoding != "rgb8" || (img.width, img.height) == (width, height) || w == 0 || h == 0 || !fits {
         return img;
     }
     let (ow, oh) = (width as usize, height as usize);
@@ -19,7 +20,7 @@ pub fn scale_rgb8(img: Image, (width, height): (u32, u32)) -> Image {
             let (x0, x1) = (ox * w / ow, ((ox + 1) * w).div_ceil(ow).max(ox * w / ow + 1));
             let mut sum = [0u32; 3];
             for y in y0..y1.min(h) {
-                let row = &img.data[(y * w + x0) * 3..(y * w + x1.min(w)) * 3];
+                let row = &img.data[y * stride + x0 * 3..y * stride + x1.min(w) * 3];
                 for px in row.chunks_exact(3) {
                     for c in 0..3 {
                         sum[c] += px[c] as u32;
@@ -55,6 +56,17 @@ mod tests {
         let out = scale_rgb8(img(4, 2, |x, _| if x % 2 == 0 { [0, 100, 200] } else { [100, 200, 0] }), (2, 1));
         assert_eq!((out.width, out.height, out.step, out.data.len()), (2, 1, 6, 6));
         assert_eq!(out.data, vec![50, 150, 100, 50, 150, 100]);
+    }
+
+    #[test]
+    fn padded_rows_are_read_by_step_and_bad_sizes_pass_unchanged() {
+        let mut a = img(2, 2, |_, _| [10, 20, 30]);
+        // Two bytes of padding per row, set to 255: they must not leak into the mean.
+        a.data = [[10, 20, 30, 10, 20, 30, 255, 255], [10, 20, 30, 10, 20, 30, 255, 255]].concat();
+        a.step = 8;
+        assert_eq!(scale_rgb8(a, (1, 1)).data, vec![10, 20, 30]);
+        let huge = Image { width: u32::MAX, height: u32::MAX, step: 3, ..img(1, 1, |_, _| [1, 2, 3]) };
+        assert_eq!(scale_rgb8(huge.clone(), (1, 1)), huge);
     }
 
     #[test]

@@ -239,7 +239,7 @@ pub fn run(out: &mut dyn Write) -> Result<()> {
         ..Image::default()
     };
     let mut frame_pub = node.publisher::<Image>(&frame_topic, Qos::BestEffort { depth: 1 })?;
-    let frame_direct = viewer.subscriber::<Image>(frame_topic.as_str(), Qos::BestEffort { depth: 1 })?;
+    let frame_direct = viewer.subscriber::<Image>(frame_topic.as_str(), Qos::BestEffort { depth: 1000 })?;
     let frame_dds = dds.subscription::<Image>(&frame_topic, false)?;
 
     // Each payload as fast as the publisher can, then paced: what arrives, and how fast.

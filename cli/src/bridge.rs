@@ -40,7 +40,7 @@ pub fn run(a: &BridgeArgs) -> Result<()> {
         roles: has(BridgeTopic::Roles),
         frame_size: b.frame_size,
         frame_every: b.frame_every,
-        dds_agents: b.dds_agents.clone(),
+        dds_agents: plan.agents.iter().filter(|a| a.is_dds()).map(|a| (a.id.clone(), a.team)).collect(),
         wait_for_dds: Duration::from_secs_f64(a.dds_timeout),
         ..BridgeConfig::default()
     };
@@ -62,6 +62,6 @@ pub fn run(a: &BridgeArgs) -> Result<()> {
     let topics = Topics::new(&a.node.namespace)?;
     let node = Node::open(&a.node, &a.node.namespace, "bridge").context("bridge: opening the Zenoh session")?;
     let stats = avacraft_bridge::run(&node, &topics, &cfg, &shutdown)?;
-    tracing::info!(to_dds = ?stats.to_dds, thinned = stats.frames_thinned, actions = stats.actions_to_zenoh, malformed = stats.malformed, "bridge stops");
+    tracing::info!(to_dds = ?stats.to_dds, thinned = stats.frames_thinned, actions = stats.actions_to_zenoh, malformed = stats.malformed, refused_by_dds = stats.dds_refused, "bridge stops");
     Ok(())
 }

@@ -247,6 +247,8 @@ fn remote_host(
     let n = spawn_host_nodes(a, plan, host, common, &mut procs)?;
     let start = Instant::now();
     let mut seen = false;
+    // Gone means absent from three queries in a row: one late reply must not stop a team.
+    let mut misses = 0;
     loop {
         if shutdown.requested() {
             bail!("launch --host {host}: interrupted");
@@ -256,7 +258,8 @@ fn remote_host(
             tracing::info!(host, "the simulator is up");
         }
         seen |= sim_up;
-        if seen && !sim_up {
+        misses = if sim_up { 0 } else { misses + 1 };
+        if seen && misses >= 3 {
             break;
         }
         if !seen && start.elapsed().as_secs_f64() > a.startup_timeout {

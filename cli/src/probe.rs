@@ -27,7 +27,10 @@ pub struct ProbeArgs {
     /// The sender id written into those batches (so a listener can tell probes apart).
     #[arg(long, default_value = "probe")]
     pub mark: String,
-    /// How long to listen and send, seconds.
+    /// Stop early once the simulator, having been seen, is gone (needs the ROS graph).
+    #[arg(long)]
+    pub until_sim_exits: bool,
+    /// How long to listen and send at most, seconds.
     #[arg(long, default_value_t = 3.0)]
     pub seconds: f64,
 }
@@ -40,6 +43,8 @@ pub struct ProbeReport {
     /// Action batches received per sender id (with `--watch actions`).
     pub action_senders: BTreeMap<String, u64>,
     pub sent: u64,
+    /// ROS node names seen in the graph (with `--until-sim-exits`).
+    pub nodes_seen: std::collections::BTreeSet<String>,
 }
 
 pub fn run(a: &ProbeArgs, out: &mut dyn Write) -> Result<()> {
@@ -66,12 +71,18 @@ pub fn run(a: &ProbeArgs, out: &mut dyn Write) -> Result<()> {
         keys.push((item.clone(), key));
     }
     let target = a.send_as.as_deref().map(AgentId::parse).transpose()?;
-    let node = Node::open(&a.node, &a.node.namespace, "probe").context("probe: opening the Zenoh session")?;
+    // Named after its mark, so a listener can tell which probe's node it sees.
+    let name = format!(
+        "probe_{}",
+        AgentId::parse(&a.mark).map_err(|_| anyhow::anyhow!("--mark {}: must be like an agent id (lowercase, digits, '_')", a.mark))?
+    );
+    let node = Node::open(&a.node, &a.node.namespace, &name).context("probe: opening the Zenoh session")?;
     let subs = keys
         .iter()
         .map(|(item, key)| {
             node.session()
                 .declare_subscriber(key.clone())
+                .with(zenoh::handlers::FifoChannel::new(100_000))
                 .wait()
                 .map(|s| (item.clone(), s))
                 .map_err(|e| anyhow::anyhow!("probe: subscribing to {key}: {e}"))
@@ -87,7 +98,19 @@ pub fn run(a: &ProbeArgs, out: &mut dyn Write) -> Result<()> {
     }
     let start = Instant::now();
     let mut next_send = start;
+    let (mut sim_seen, mut misses, mut next_look) = (false, 0, start);
     while start.elapsed().as_secs_f64() < a.seconds {
+        if a.until_sim_exits && Instant::now() >= next_look {
+            let nodes = node.alive_nodes(Duration::from_millis(300))?;
+            let up = nodes.contains("sim");
+            report.nodes_seen.extend(nodes);
+            sim_seen |= up;
+            misses = if up { 0 } else { misses + 1 };
+            if sim_seen && misses >= 3 {
+                break;
+            }
+            next_look = Instant::now() + Duration::from_millis(300);
+        }
         if let Some(p) = &mut publisher
             && Instant::now() >= next_send
         {

@@ -49,10 +49,11 @@ pub struct RawBridge {
     /// Only every this many frames goes to DDS.
     #[serde(default = "one")]
     pub frame_every: u32,
-    /// Local addresses DDS may use (default: every interface), e.g. `[127.0.0.1]` to keep
-    /// DDS traffic on this machine.
+    /// Local addresses DDS may use. Default `[127.0.0.1]`: DDS has no access control here, so
+    /// the bridged topics stay on this machine unless addresses are listed (`[]`: every
+    /// interface).
     #[serde(default)]
-    pub dds_networks: Vec<String>,
+    pub dds_networks: Option<Vec<String>>,
 }
 
 fn bridge_topics() -> Vec<String> {
@@ -120,13 +121,21 @@ pub(crate) fn bridge_plan(
     cx: &crate::Cx<'_>,
     raw: &RawBridge,
     hosts: &[String],
-    agent_teams: &[TeamNo],
-    dds_agents: Vec<AgentId>,
+    agents: &[crate::AgentPlan],
 ) -> Result<BridgePlan, LaunchError> {
     let host = raw.host.clone().unwrap_or_else(|| hosts[0].clone());
     if !hosts.contains(&host) {
         return Err(cx.err("bridge.host", format!("{host:?}"), format!("not one of the hosts {hosts:?}")));
     }
+    let teams_of = |f: &dyn Fn(&crate::AgentPlan) -> bool| -> Vec<TeamNo> {
+        let set: BTreeSet<TeamNo> = agents.iter().filter(|a| f(a)).map(|a| a.team).collect();
+        set.into_iter().collect()
+    };
+    let agent_teams = teams_of(&|_| true);
+    // On a team's host the bridge carries no more than that host may read.
+    let on_server = host == hosts[0];
+    let allowed = if on_server { agent_teams.clone() } else { teams_of(&|a| a.host == host) };
+    let dds_agents: Vec<AgentId> = agents.iter().filter(|a| a.is_dds()).map(|a| a.id.clone()).collect();
     let mut topics = BTreeSet::new();
     for (i, t) in raw.topics.iter().enumerate() {
         topics.insert(match t.as_str() {
@@ -146,14 +155,48 @@ pub(crate) fn bridge_plan(
     }
     let mut teams = Vec::new();
     for (i, &t) in raw.teams.iter().enumerate() {
-        let no = TeamNo::new(t).map_err(|e| cx.err(format!("bridge.teams[{i}]"), t, e.to_string()))?;
+        let field = format!("bridge.teams[{i}]");
+        let no = TeamNo::new(t).map_err(|e| cx.err(field.clone(), t, e.to_string()))?;
         if !agent_teams.contains(&no) {
-            return Err(cx.err(format!("bridge.teams[{i}]"), t, "no agent node plays for this team"));
+            return Err(cx.err(field, t, "no agent node plays for this team"));
+        }
+        if !allowed.contains(&no) {
+            return Err(cx.err(field, t, format!("the bridge runs on `{host}`, which runs no agent node of this team")));
+        }
+        if teams.contains(&no) {
+            return Err(cx.err(field, t, "named twice"));
         }
         teams.push(no);
     }
     if teams.is_empty() {
-        teams = agent_teams.to_vec();
+        teams = allowed.clone();
+    }
+    if teams.is_empty() {
+        return Err(cx.err("bridge.host", format!("{host:?}"), "runs no agent node, so there is no team the bridge may carry"));
+    }
+    if !on_server && agent_teams.len() > 1 && topics.contains(&BridgeTopic::Roles) {
+        return Err(cx.err("bridge.topics", "roles", format!("the roles name both teams' agents; `{host}` may see only its own team")));
+    }
+    // DDS has no access control here: a DDS agent sees everything the bridge carries.
+    let dds_teams = teams_of(&|a| a.is_dds());
+    if !dds_teams.is_empty() && teams.len() > 1 {
+        return Err(cx.err(
+            "bridge.teams",
+            format!("{:?}", teams.iter().map(|t| t.get()).collect::<Vec<_>>()),
+            "with agents on DDS, the bridge may carry one team only (DDS agents would read the other team's observations)",
+        ));
+    }
+    for t in &dds_teams {
+        if !teams.contains(t) {
+            return Err(cx.err(
+                "bridge.teams",
+                format!("{:?}", teams.iter().map(|t| t.get()).collect::<Vec<_>>()),
+                format!("team {} has agents on DDS but is not bridged", t.get()),
+            ));
+        }
+    }
+    if !dds_teams.is_empty() && !topics.contains(&BridgeTopic::TeamObs) && !topics.contains(&BridgeTopic::UnitObs) {
+        return Err(cx.err("bridge.topics", format!("{:?}", raw.topics), "agents on DDS need team_obs or unit_obs"));
     }
     let [w, h] = raw.frame_size;
     if !(1..=4096).contains(&w) || !(1..=4096).contains(&h) {
@@ -166,7 +209,8 @@ pub(crate) fn bridge_plan(
         return Err(cx.err("bridge.dds_domain", raw.dds_domain, "DDS domain ids are 0 to 232"));
     }
     let mut dds_networks = Vec::new();
-    for (i, n) in raw.dds_networks.iter().enumerate() {
+    let nets = raw.dds_networks.clone().unwrap_or_else(|| vec!["127.0.0.1".to_owned()]);
+    for (i, n) in nets.iter().enumerate() {
         dds_networks
             .push(n.parse().map_err(|e| cx.err(format!("bridge.dds_networks[{i}]"), format!("{n:?}"), format!("not an IP address: {e}")))?);
     }
@@ -216,10 +260,22 @@ pub fn write_certs(plan: &Plan) -> Result<Vec<PathBuf>, CertError> {
     ca.key_usages = vec![KeyUsagePurpose::KeyCertSign, KeyUsagePurpose::CrlSign, KeyUsagePurpose::DigitalSignature];
     let ca_cert = ca.self_signed(&ca_key).map_err(make("ca"))?;
     let issuer = Issuer::new(ca, ca_key);
-    std::fs::create_dir_all(&sec.certs).map_err(|e| CertError::Write { path: sec.certs.display().to_string(), message: e.to_string() })?;
+    {
+        use std::os::unix::fs::DirBuilderExt;
+        std::fs::DirBuilder::new()
+            .recursive(true)
+            .mode(0o700)
+            .create(&sec.certs)
+            .map_err(|e| CertError::Write { path: sec.certs.display().to_string(), message: e.to_string() })?;
+    }
     let mut files = Vec::new();
+    // Owner-only files: the directory holds private keys.
     let mut write = |path: PathBuf, text: String| -> Result<(), CertError> {
-        std::fs::write(&path, text).map_err(|e| CertError::Write { path: path.display().to_string(), message: e.to_string() })?;
+        use std::io::Write;
+        use std::os::unix::fs::OpenOptionsExt;
+        let err = |e: std::io::Error| CertError::Write { path: path.display().to_string(), message: e.to_string() };
+        let mut f = std::fs::OpenOptions::new().write(true).create(true).truncate(true).mode(0o600).open(&path).map_err(err)?;
+        f.write_all(text.as_bytes()).map_err(err)?;
         files.push(path);
         Ok(())
     };
@@ -269,12 +325,15 @@ const ALL_MESSAGES: [&str; 9] = [
 pub fn access_control(plan: &Plan, topics: &Topics, domain: u32) -> serde_json::Value {
     let key = |t: &avacraft_nodes::Topic| avacraft_nodes::ros::key_space(domain, t);
     let graph = avacraft_nodes::ros::liveliness_space(domain);
+    let ns = topics.namespace();
     // `**` does not match chunks that start with '@' (the liveliness space): name it too.
+    // Ids carry the host names (unique by validation), so no two can clash.
+    let first = &plan.hosts[0];
     let mut rules = vec![json!({
-        "id": "server_all", "messages": ALL_MESSAGES, "flows": ["ingress", "egress"], "permission": "allow", "key_exprs": ["**", graph],
+        "id": format!("{first}_all"), "messages": ALL_MESSAGES, "flows": ["ingress", "egress"], "permission": "allow", "key_exprs": ["**", graph],
     })];
-    let mut subjects = vec![json!({ "id": "host_server", "cert_common_names": [plan.hosts[0]] })];
-    let mut policies = vec![json!({ "rules": ["server_all"], "subjects": ["host_server"] })];
+    let mut subjects = vec![json!({ "id": format!("host_{first}"), "cert_common_names": [first] })];
+    let mut policies = vec![json!({ "rules": [format!("{first}_all")], "subjects": [format!("host_{first}")] })];
     for host in plan.hosts.iter().skip(1) {
         let agents: Vec<_> = plan.agents.iter().filter(|a| &a.host == host).collect();
         let bridged = plan.bridge.as_ref().filter(|b| &b.host == host);
@@ -302,12 +361,21 @@ pub fn access_control(plan: &Plan, topics: &Topics, domain: u32) -> serde_json::
         }
         rule(format!("{host}_subscribe"), &["declare_subscriber"], &["ingress"], &reads);
         rule(format!("{host}_receive"), &["put"], &["egress"], &reads);
-        rule(
-            format!("{host}_graph"),
-            &["liveliness_token", "liveliness_query", "declare_liveliness_subscriber", "reply"],
-            &["ingress", "egress"],
-            std::slice::from_ref(&graph),
-        );
+        // The ROS graph: a host announces only its own nodes (so it cannot forge another's
+        // agent or the simulator), may ask, and learns only whether the simulator is up.
+        let mut own: Vec<String> = Vec::new();
+        let mut names_on_host: Vec<String> = agents.iter().map(|a| format!("agent_{}", a.id)).collect();
+        names_on_host.push(format!("launch_{host}"));
+        if bridged.is_some() {
+            names_on_host.push("bridge".into());
+        }
+        for n in &names_on_host {
+            own.extend(avacraft_nodes::ros::node_token_space(domain, ns, n));
+        }
+        rule(format!("{host}_announce"), &["liveliness_token"], &["ingress"], &own);
+        rule(format!("{host}_ask"), &["liveliness_query"], &["ingress"], std::slice::from_ref(&graph));
+        let [sim, _] = avacraft_nodes::ros::node_token_space(domain, ns, "sim");
+        rule(format!("{host}_sim_up"), &["liveliness_token"], &["egress"], &[sim]);
         subjects.push(json!({ "id": format!("host_{host}"), "cert_common_names": [host] }));
         policies.push(json!({ "rules": names, "subjects": [format!("host_{host}")] }));
     }

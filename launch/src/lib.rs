@@ -247,6 +247,9 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
         }
     }
     let security = raw.security.as_ref().map(|s| deploy::security(s, base));
+    if hosts.len() > 1 && security.is_none() {
+        return Err(cx.err("hosts", format!("{hosts:?}"), "a deployment across hosts needs `security:` (TLS and access control)"));
+    }
     match (raw.router.split_once('/').map(|(p, _)| p), &security) {
         (Some("tcp"), None) | (Some("tls"), Some(_)) => {}
         (Some("tcp"), Some(_)) => {
@@ -263,8 +266,24 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
             ));
         }
     }
-    if hosts.len() > 1 && security.is_none() {
-        return Err(cx.err("hosts", format!("{hosts:?}"), "a deployment across hosts needs `security:` (TLS and access control)"));
+    let (addr, port) = raw
+        .router
+        .split_once('/')
+        .and_then(|(_, rest)| rest.rsplit_once(':'))
+        .map(|(a, p)| (a.trim_start_matches('[').trim_end_matches(']'), p.split('#').next().unwrap_or(p)))
+        .unwrap_or(("", ""));
+    if addr.is_empty() || port.parse::<u16>().is_err() {
+        return Err(cx.err("router", format!("{:?}", raw.router), "must be <protocol>/<address>:<port>"));
+    }
+    if hosts.len() > 1 {
+        let ip = addr.parse::<std::net::IpAddr>().ok();
+        if addr == "localhost" || ip.is_some_and(|ip| ip.is_loopback() || ip.is_unspecified()) {
+            return Err(cx.err(
+                "router",
+                format!("{:?}", raw.router),
+                "other hosts connect here: it must be the first host's address on their network",
+            ));
+        }
     }
     let frames = match &raw.frames {
         None => None,
@@ -370,7 +389,6 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
             add(id, a.units.clone(), f("id"))?;
         }
     }
-    let dds_agents: Vec<AgentId> = agents.iter().filter(|a| a.is_dds()).map(|a| a.id.clone()).collect();
     let bridge = match &raw.bridge {
         None => {
             if let Some(a) = agents.iter().position(|a| a.is_dds()) {
@@ -379,10 +397,7 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
             None
         }
         Some(b) => {
-            let mut teams: Vec<TeamNo> = agents.iter().map(|a| a.team).collect();
-            teams.sort();
-            teams.dedup();
-            let plan = deploy::bridge_plan(&cx, b, &hosts, &teams, dds_agents)?;
+            let plan = deploy::bridge_plan(&cx, b, &hosts, &agents)?;
             if let Some(a) = agents.iter().find(|a| a.is_dds() && a.host != plan.host) {
                 return Err(cx.err(
                     "bridge.host",
@@ -485,7 +500,7 @@ mod deploy_tests {
         assert_eq!((ok.server(), ok.agents[0].host.as_str(), ok.agents[1].team.get()), ("server", "blue", 2));
         let cases = [
             (pvp("").replace("tls/", "tcp/"), "router"),
-            (pvp("").replace("security: {certs: certs}\n", ""), "router"),
+            (pvp("").replace("security: {certs: certs}\n", ""), "hosts"),
             (pvp("").replace("hosts: [server, blue, red]", "hosts: [server, Blue]"), "hosts[1]"),
             (pvp("").replace("hosts: [server, blue, red]", "hosts: [server, blue, blue]"), "hosts[2]"),
             (pvp("").replace("host: red", "host: green"), "agents[1].host"),
@@ -496,8 +511,19 @@ mod deploy_tests {
             (pvp("bridge: {dds_networks: [localhost]}\n"), "bridge.dds_networks[0]"),
             (pvp("bridge: {dds_domain: 300}\n"), "bridge.dds_domain"),
             (pvp("").replace("policy: hold, host: blue", "policy: dds, host: blue"), "agents[0].policy"),
-            (pvp("bridge: {host: server}\n").replace("policy: hold, host: blue", "policy: dds, host: blue"), "bridge.host"),
+            (pvp("bridge: {host: server, teams: [1]}\n").replace("policy: hold, host: blue", "policy: dds, host: blue"), "bridge.host"),
             ("scenario: 3m\nhosts: [a, b]\nagents:\n  - {id: x, units: [1], policy: hold}\n".to_owned(), "hosts"),
+            (pvp("").replace("tls/10.0.0.1:7447", "tls/127.0.0.1:7447"), "router"),
+            (pvp("").replace("tls/10.0.0.1:7447", "tls/0.0.0.0:7447"), "router"),
+            (pvp("").replace("tls/10.0.0.1:7447", "tls/10.0.0.1"), "router"),
+            // A bridge on blue may carry only blue's team, once, and not both teams' roles.
+            (pvp("bridge: {host: blue, teams: [2]}\n"), "bridge.teams[0]"),
+            (pvp("bridge: {teams: [1, 1]}\n"), "bridge.teams[1]"),
+            (pvp("bridge: {host: red, topics: [roles]}\n"), "bridge.topics"),
+            // DDS agents: one team per bridge, bridged, with observations.
+            (pvp("bridge: {}\n").replace("policy: hold, host: blue", "policy: dds"), "bridge.teams"),
+            (pvp("bridge: {teams: [2]}\n").replace("policy: hold, host: blue", "policy: dds"), "bridge.teams"),
+            (pvp("bridge: {teams: [1], topics: [status]}\n").replace("policy: hold, host: blue", "policy: dds"), "bridge.topics"),
         ];
         for (text, field) in cases {
             let e = parse("bad.yaml", &text, None).expect_err(&text).to_string();
@@ -511,18 +537,37 @@ mod deploy_tests {
 
     #[test]
     fn access_control_gives_each_host_its_own_actions_and_its_teams_topics() {
-        let plan = parse("p.yaml", &pvp("bridge: {host: red, topics: [status, team_obs, roles], teams: [2]}\n"), None).expect("plan");
+        let plan = parse("p.yaml", &pvp("bridge: {host: red, topics: [status, team_obs]}\n"), None).expect("plan");
+        assert_eq!(
+            plan.bridge.as_ref().map(|b| b.teams.clone()),
+            Some(vec![TeamNo::new(2).expect("team")]),
+            "a team host's bridge defaults to its team"
+        );
+        assert_eq!(
+            plan.bridge.as_ref().map(|b| b.dds_networks.clone()),
+            Some(vec!["127.0.0.1".parse().expect("ip")]),
+            "DDS stays on the machine by default"
+        );
         let acl = access_control(&plan, &avacraft_nodes::Topics::default(), 0);
         assert_eq!(acl["default_permission"], "deny");
         assert_eq!(rule(&acl, "server_all")["key_exprs"], serde_json::json!(["**", "@ros2_lv/0/**"]));
         assert_eq!(rule(&acl, "blue_send")["key_exprs"], serde_json::json!(["0/avacraft/agents/blue_a/actions/**"]));
         assert_eq!(rule(&acl, "blue_receive")["key_exprs"], serde_json::json!(["0/avacraft/team_1/**", "0/avacraft/status/**"]));
         assert_eq!(rule(&acl, "blue_receive")["flows"], serde_json::json!(["egress"]));
-        // The bridge on red carries roles too, and only team 2.
+        // The bridge on red carries only team 2.
+        assert_eq!(rule(&acl, "red_receive")["key_exprs"], serde_json::json!(["0/avacraft/team_2/**", "0/avacraft/status/**"]));
+        // The graph: blue announces only its own nodes and learns only of the simulator.
         assert_eq!(
-            rule(&acl, "red_receive")["key_exprs"],
-            serde_json::json!(["0/avacraft/team_2/**", "0/avacraft/status/**", "0/avacraft/roles/**"])
+            rule(&acl, "blue_announce")["key_exprs"],
+            serde_json::json!([
+                "@ros2_lv/0/*/*/*/*/*/%avacraft/agent_blue_a",
+                "@ros2_lv/0/*/*/*/*/*/%avacraft/agent_blue_a/**",
+                "@ros2_lv/0/*/*/*/*/*/%avacraft/launch_blue",
+                "@ros2_lv/0/*/*/*/*/*/%avacraft/launch_blue/**"
+            ])
         );
+        assert_eq!(rule(&acl, "blue_sim_up")["key_exprs"], serde_json::json!(["@ros2_lv/0/*/*/*/*/*/%avacraft/sim"]));
+        assert!(rule(&acl, "red_announce").to_string().contains("%avacraft/bridge"));
         let subjects = acl["subjects"].as_array().expect("subjects");
         assert_eq!(
             subjects.iter().map(|s| s["cert_common_names"][0].as_str().unwrap_or("")).collect::<Vec<_>>(),

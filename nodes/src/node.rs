@@ -200,12 +200,22 @@ impl Node {
         // valid ROS name for the token.
         let shown = Topic::parse(&topic_pattern.replace('*', "any")).unwrap_or_else(|_| Topic::parse("/avacraft").expect("valid"));
         let (_, token) = self.token(EntityKind::Subscription, &shown, dds, hash, qos)?;
-        let inner = self
-            .session
-            .declare_subscriber(key.clone())
-            .with(zenoh::handlers::FifoChannel::new(4096))
-            .wait()
-            .map_err(|e| NodeError::Declare { what: "a subscriber", key: key.clone(), message: e.to_string() })?;
+        let err = |e: zenoh::Error| NodeError::Declare { what: "a subscriber", key: key.clone(), message: e.to_string() };
+        // Reliable: a deep queue that holds the sender back when full. Best effort (frames):
+        // a ring of `depth` that drops the oldest, so a slow reader never queues stale frames
+        // or pushes back on the router.
+        let inner = match qos {
+            Qos::Reliable { .. } => {
+                Inner::Fifo(self.session.declare_subscriber(key.clone()).with(zenoh::handlers::FifoChannel::new(4096)).wait().map_err(err)?)
+            }
+            Qos::BestEffort { depth } => Inner::Ring(
+                self.session
+                    .declare_subscriber(key.clone())
+                    .with(zenoh::handlers::RingChannel::new(depth.max(1) as usize))
+                    .wait()
+                    .map_err(err)?,
+            ),
+        };
         Ok(Subscriber { inner, key, _token: token, _t: PhantomData })
     }
 }
@@ -265,9 +275,29 @@ pub struct Received<T> {
     pub msg: Result<T, DecodeError>,
 }
 
+enum Inner {
+    Fifo(zenoh::pubsub::Subscriber<FifoChannelHandler<Sample>>),
+    Ring(zenoh::pubsub::Subscriber<zenoh::handlers::RingChannelHandler<Sample>>),
+}
+
+impl Inner {
+    fn recv_timeout(&self, timeout: Duration) -> zenoh::Result<Option<Sample>> {
+        match self {
+            Inner::Fifo(s) => s.recv_timeout(timeout),
+            Inner::Ring(s) => s.recv_timeout(timeout),
+        }
+    }
+    fn try_recv(&self) -> zenoh::Result<Option<Sample>> {
+        match self {
+            Inner::Fifo(s) => s.try_recv(),
+            Inner::Ring(s) => s.try_recv(),
+        }
+    }
+}
+
 /// A typed subscription.
 pub struct Subscriber<T> {
-    inner: zenoh::pubsub::Subscriber<FifoChannelHandler<Sample>>,
+    inner: Inner,
     key: String,
     _token: LivelinessToken,
     _t: PhantomData<fn() -> T>,

@@ -59,6 +59,12 @@ pub fn liveliness_space(domain: u32) -> String {
     format!("@ros2_lv/{domain}/**")
 }
 
+/// The liveliness tokens of one node: its node token and its endpoints' tokens.
+pub fn node_token_space(domain: u32, namespace: &str, name: &str) -> [String; 2] {
+    let node = format!("@ros2_lv/{domain}/*/*/*/*/*/{}/{name}", mangle(namespace));
+    [node.clone(), format!("{node}/**")]
+}
+
 /// Who a liveliness token describes.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct NodeIdentity {

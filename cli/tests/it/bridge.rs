@@ -2,7 +2,7 @@
 //! Cyclone DDS (installed by `.ci/run`), which knows the messages only from the `.msg`
 //! files, receives the bridged topics and plays 3m through the bridge.
 
-use crate::common::{free_port, launch_json, tmp, write_launch};
+use crate::common::{Child, free_port, launch_json, tmp, write_launch};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -27,15 +27,21 @@ fn an_agent_on_cyclone_dds_plays_through_the_bridge() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace");
     let script = root.join("cli/tests/it/dds_agent.py");
     let msgs = root.join("msgs/msg");
-    let agent = Command::new("python3")
-        .arg(&script)
-        .arg(&msgs)
-        .args(["dds_agent", "1,2,3", &domain.to_string(), "2", "120"])
-        .env("CYCLONEDDS_URI", format!("file://{}", xml.display()))
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("python3");
+    let agent_out = tmp("dds_agent.out");
+    let agent_err = tmp("dds_agent.err");
+    let file_of = |p: &std::path::Path| Stdio::from(std::fs::File::create(p).expect("output file"));
+    // Killed when dropped, should the launch below fail.
+    let mut agent = Child(
+        Command::new("python3")
+            .arg(&script)
+            .arg(&msgs)
+            .args(["dds_agent", "1,2,3", &domain.to_string(), "2", "120"])
+            .env("CYCLONEDDS_URI", format!("file://{}", xml.display()))
+            .stdout(file_of(&agent_out))
+            .stderr(file_of(&agent_err))
+            .spawn()
+            .expect("python3"),
+    );
     let file = write_launch(
         "bridge.yaml",
         &format!(
@@ -45,14 +51,13 @@ fn an_agent_on_cyclone_dds_plays_through_the_bridge() {
     );
     let eps = launch_json(&file);
     let t0 = Instant::now();
-    let mut agent = agent;
-    while agent.try_wait().ok().flatten().is_none() && t0.elapsed() < Duration::from_secs(30) {
+    while agent.0.try_wait().ok().flatten().is_none() && t0.elapsed() < Duration::from_secs(30) {
         std::thread::sleep(Duration::from_millis(100));
     }
-    let _ = agent.kill();
-    let out = agent.wait_with_output().expect("agent output");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    let r: serde_json::Value = serde_json::from_slice(&out.stdout)
+    drop(agent);
+    let stderr = std::fs::read_to_string(&agent_err).unwrap_or_default();
+    let stdout = std::fs::read_to_string(&agent_out).unwrap_or_default();
+    let r: serde_json::Value = serde_json::from_str(&stdout)
         .unwrap_or_else(|e| panic!("the Cyclone DDS agent (is the cyclonedds package installed?): {e}: {stderr}"));
     // The simulator got the DDS agent's actions: in lockstep a missing answer is counted.
     let eps = eps.as_array().expect("episodes");

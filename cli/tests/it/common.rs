@@ -52,6 +52,8 @@ pub struct Net {
     hub: String,
     hosts: Vec<(String, String)>,
     subnet: String,
+    /// Host ends of the veth pairs, removed from this namespace if still here.
+    veths: Vec<String>,
 }
 
 fn ip(args: &[&str]) {
@@ -67,7 +69,8 @@ impl Net {
         let prefix = format!("a{}{tag}", pid % 100_000);
         let subnet = format!("10.{}.{}", 100 + pid % 100, (pid / 100) % 250);
         let hub = format!("{prefix}hub");
-        let mut net = Net { hub: hub.clone(), hosts: Vec::new(), subnet };
+        // Built first, so whatever was made is removed if a step below fails.
+        let mut net = Net { hub: hub.clone(), hosts: Vec::new(), subnet, veths: Vec::new() };
         ip(&["netns", "add", &hub]);
         ip(&["-n", &hub, "link", "add", "br0", "type", "bridge"]);
         ip(&["-n", &hub, "link", "set", "br0", "up"]);
@@ -77,6 +80,7 @@ impl Net {
             net.hosts.push(((*name).to_owned(), ns.clone()));
             let (a, b) = (format!("{prefix}h{i}"), format!("{prefix}b{i}"));
             ip(&["link", "add", &a, "type", "veth", "peer", "name", &b]);
+            net.veths.push(a.clone());
             ip(&["link", "set", &a, "netns", &ns]);
             ip(&["link", "set", &b, "netns", &hub]);
             ip(&["-n", &hub, "link", "set", &b, "master", "br0"]);
@@ -123,5 +127,8 @@ impl Drop for Net {
             let _ = std::process::Command::new("ip").args(["netns", "del", ns]).output();
         }
         let _ = std::process::Command::new("ip").args(["netns", "del", &self.hub]).output();
+        for v in &self.veths {
+            let _ = std::process::Command::new("ip").args(["link", "del", v]).output();
+        }
     }
 }

@@ -5,7 +5,7 @@
 
 use crate::common::{Net, exe, tmp};
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 const PORT: u16 = 7447;
@@ -36,23 +36,49 @@ fn certs(file: &Path) {
     assert!(out.status.success(), "certs: {}", String::from_utf8_lossy(&out.stderr));
 }
 
-/// Waits for a process, killing it after `limit`.
-fn finish(mut c: std::process::Child, limit: Duration) -> Output {
-    let t0 = Instant::now();
-    while t0.elapsed() < limit {
-        if let Ok(Some(_)) = c.try_wait() {
-            return c.wait_with_output().expect("output");
-        }
-        std::thread::sleep(Duration::from_millis(100));
-    }
-    let _ = c.kill();
-    let out = c.wait_with_output().expect("output");
-    panic!("still running after {limit:?}; stderr: {}", String::from_utf8_lossy(&out.stderr));
+/// A process whose output goes to files (a full pipe cannot block it), killed if the test
+/// ends before it does.
+struct Spawned {
+    child: std::process::Child,
+    out: std::path::PathBuf,
+    err: std::path::PathBuf,
 }
 
-fn report(name: &str, out: &Output) -> avacraft_cli::ProbeReport {
-    assert!(out.status.success(), "probe {name} failed: {}", String::from_utf8_lossy(&out.stderr));
-    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("probe {name}: {e}: {}", String::from_utf8_lossy(&out.stdout)))
+impl Drop for Spawned {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn spawn(mut c: Command, name: &str) -> Spawned {
+    let (out, err) = (tmp(&format!("{name}.out")), tmp(&format!("{name}.err")));
+    let file = |p: &Path| Stdio::from(std::fs::File::create(p).expect("output file"));
+    let child = c.stdout(file(&out)).stderr(file(&err)).spawn().expect("spawn");
+    Spawned { child, out, err }
+}
+
+/// Waits for a process (killing it after `limit`); its exit status, stdout and stderr.
+fn finish(mut s: Spawned, limit: Duration) -> (std::process::ExitStatus, String, String) {
+    let t0 = Instant::now();
+    let status = loop {
+        if let Ok(Some(st)) = s.child.try_wait() {
+            break st;
+        }
+        if t0.elapsed() > limit {
+            let _ = s.child.kill();
+            panic!("still running after {limit:?}; stderr: {}", std::fs::read_to_string(&s.err).unwrap_or_default());
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    let read = |p: &Path| std::fs::read_to_string(p).unwrap_or_default();
+    (status, read(&s.out), read(&s.err))
+}
+
+fn report(name: &str, s: Spawned) -> avacraft_cli::ProbeReport {
+    let (status, out, err) = finish(s, Duration::from_secs(90));
+    assert!(status.success(), "probe {name} failed: {err}");
+    serde_json::from_str(&out).unwrap_or_else(|e| panic!("probe {name}: {e}: {out}"))
 }
 
 #[test]
@@ -78,55 +104,72 @@ fn a_secured_pvp_deployment_across_hosts_keeps_each_team_and_intruders_out() {
     write(&file, &format!("{}{agents}", head("server, blue, red", "certs")));
     let (good, bad) = (dir.join("certs"), dir.join("foreign"));
 
-    let piped = |mut c: Command| c.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("spawn");
     let mut server = net.on("server", exe());
     server.args(["launch", "--json", "--startup-timeout", "60"]).arg(&file);
-    let server = piped(server);
+    let server = spawn(server, "server");
     net.wait_listening("server", PORT, Duration::from_secs(30));
 
-    let probe = |host: &str, id: Vec<String>, extra: &[&str]| {
+    let probe = |name: &str, host: &str, id: Vec<String>, extra: &[&str]| {
         let mut c = net.on(host, exe());
         c.arg("probe").args(id).args(extra);
-        piped(c)
+        spawn(c, name)
     };
-    let secs = ["--seconds", "12"];
-    let monitor = probe("server", identity(&router, &good, "server"), &[&["--watch", "actions", "--watch", "team:2"][..], &secs].concat());
+    // Hosts that may see the simulator's node probe until it is gone; the intruder, which
+    // sees nothing, for a fixed time that covers the match.
+    let secs = ["--seconds", "90", "--until-sim-exits"];
+    let monitor = probe(
+        "monitor",
+        "server",
+        identity(&router, &good, "server"),
+        &[&["--watch", "actions", "--watch", "team:2", "--mark", "monitor"][..], &secs].concat(),
+    );
     let blue_eye = probe(
+        "blue_eye",
         "blue",
         identity(&router, &good, "blue"),
-        &[&["--watch", "team:1", "--watch", "team:2", "--watch", "status"][..], &secs].concat(),
+        &[&["--watch", "team:1", "--watch", "team:2", "--watch", "status", "--mark", "blue_eye"][..], &secs].concat(),
     );
     // Red speaking for a blue agent node, and listening to blue.
     let red_as_blue = probe(
+        "red_as_blue",
         "red",
         identity(&router, &good, "red"),
         &[&["--send-as", "blue_a", "--mark", "red_as_blue", "--watch", "team:1"][..], &secs].concat(),
     );
     // Control: red on its own action topic gets through (so the monitor would see a leak).
-    let red_own = probe("red", identity(&router, &good, "red"), &[&["--send-as", "red_all", "--mark", "red_own"][..], &secs].concat());
+    let red_own =
+        probe("red_own", "red", identity(&router, &good, "red"), &[&["--send-as", "red_all", "--mark", "red_own"][..], &secs].concat());
     let mallory = probe(
         "mallory",
+        "mallory",
         identity(&router, &good, "mallory"),
-        &[&["--send-as", "blue_a", "--mark", "mallory", "--watch", "team:1", "--watch", "status"][..], &secs].concat(),
+        &["--send-as", "blue_a", "--mark", "mallory", "--watch", "team:1", "--watch", "status", "--seconds", "15"],
     );
-    let mallory_foreign = probe("mallory", identity(&router, &bad, "mallory"), &["--seconds", "1"]);
+    // Another authority's certificate and key, with this deployment's authority to check
+    // the router by: the router refuses the client. Then entirely the other authority's.
+    let mut forged = identity(&router, &bad, "mallory");
+    forged[5] = good.join("ca.pem").display().to_string();
+    let mallory_forged = probe("mallory_forged", "mallory", forged, &["--seconds", "1"]);
+    let mallory_foreign = probe("mallory_foreign", "mallory", identity(&router, &bad, "mallory"), &["--seconds", "1"]);
+    // No TLS at all (the router listens only for TLS).
     let plain = format!("tcp/{}:{PORT}", net.addr("server"));
-    let mallory_plain = probe("mallory", vec!["--mode".into(), "client".into(), "--connect".into(), plain], &["--seconds", "1"]);
+    let mallory_plain =
+        probe("mallory_plain", "mallory", vec!["--mode".into(), "client".into(), "--connect".into(), plain], &["--seconds", "1"]);
     std::thread::sleep(Duration::from_secs(2));
 
     let mut blue = net.on("blue", exe());
     blue.args(["launch", "--host", "blue"]).arg(&file);
-    let blue = piped(blue);
+    let blue = spawn(blue, "blue");
     let mut red = net.on("red", exe());
     red.args(["launch", "--host", "red"]).arg(&file);
-    let red = piped(red);
+    let red = spawn(red, "red");
 
     // The deployment works across hosts: both teams play every episode and their actions
     // arrive (an agent node acts on what it has after 200 ms, so a loaded machine may miss
     // a unit's step now and then; blocked actions would miss every unit every step).
-    let out = finish(server, Duration::from_secs(120));
-    assert!(out.status.success(), "server: {}", String::from_utf8_lossy(&out.stderr));
-    let eps: serde_json::Value = serde_json::from_slice(&out.stdout).expect("summaries");
+    let (status, out, err) = finish(server, Duration::from_secs(120));
+    assert!(status.success(), "server: {err}");
+    let eps: serde_json::Value = serde_json::from_str(&out).expect("summaries");
     let eps = eps.as_array().expect("episodes");
     assert_eq!(eps.len(), 2);
     for e in eps {
@@ -139,16 +182,16 @@ fn a_secured_pvp_deployment_across_hosts_keeps_each_team_and_intruders_out() {
         assert_eq!(e["malformed_messages"], 0, "{e}");
     }
     for (name, c) in [("blue", blue), ("red", red)] {
-        let out = finish(c, Duration::from_secs(30));
-        assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
-        assert!(String::from_utf8_lossy(&out.stdout).contains("until the simulator"), "{name}");
+        let (status, out, err) = finish(c, Duration::from_secs(30));
+        assert!(status.success(), "{name}: {err}");
+        assert!(out.contains("until the simulator"), "{name}: {out}");
     }
 
-    let monitor = report("monitor", &finish(monitor, Duration::from_secs(60)));
-    let blue_eye = report("blue", &finish(blue_eye, Duration::from_secs(60)));
-    let red_as_blue = report("red_as_blue", &finish(red_as_blue, Duration::from_secs(60)));
-    let red_own = report("red_own", &finish(red_own, Duration::from_secs(60)));
-    let mallory = report("mallory", &finish(mallory, Duration::from_secs(60)));
+    let monitor = report("monitor", monitor);
+    let blue_eye = report("blue_eye", blue_eye);
+    let red_as_blue = report("red_as_blue", red_as_blue);
+    let red_own = report("red_own", red_own);
+    let mallory = report("mallory", mallory);
     // A team reads its own observations and the status, never the other team's.
     assert!(blue_eye.received["team:1"] > 50 && blue_eye.received["status"] > 10, "{blue_eye:?}");
     assert_eq!(blue_eye.received["team:2"], 0, "blue read red's observations: {blue_eye:?}");
@@ -163,11 +206,19 @@ fn a_secured_pvp_deployment_across_hosts_keeps_each_team_and_intruders_out() {
     for sender in ["red_as_blue", "mallory"] {
         assert_eq!(monitor.action_senders.get(sender), None, "{sender} got through: {monitor:?}");
     }
+    // The ROS graph: the server sees every node of the deployment, and no probe of another
+    // host (a host announces only its own nodes); a team host learns only of the simulator.
+    for n in ["sim", "agent_blue_a", "agent_blue_b", "agent_red_all", "launch_blue", "launch_red"] {
+        assert!(monitor.nodes_seen.contains(n), "{n} not in the server's graph: {monitor:?}");
+    }
+    assert!(!monitor.nodes_seen.iter().any(|n| n.starts_with("probe_") && n != "probe_monitor"), "{monitor:?}");
+    assert_eq!(blue_eye.nodes_seen.iter().map(String::as_str).collect::<Vec<_>>(), ["probe_blue_eye", "sim"], "{blue_eye:?}");
     // A host with the right authority but not in the deployment: nothing in.
     assert!(mallory.received.values().all(|&n| n == 0), "{mallory:?}");
     // Another authority's certificate, or no TLS at all: no session.
-    for (name, c) in [("foreign", mallory_foreign), ("plain", mallory_plain)] {
-        let out = finish(c, Duration::from_secs(60));
-        assert!(!out.status.success(), "{name}: an intruder opened a session: {}", String::from_utf8_lossy(&out.stdout));
+    for (name, c) in [("forged", mallory_forged), ("foreign", mallory_foreign), ("plain", mallory_plain)] {
+        let (status, out, err) = finish(c, Duration::from_secs(60));
+        assert!(!status.success(), "{name}: an intruder opened a session: {out}");
+        assert!(err.contains("cannot open the Zenoh session"), "{name}: {err}");
     }
 }
