@@ -11,7 +11,7 @@
 //! default is deny.
 
 use crate::{LaunchError, Plan};
-use avacraft_nodes::{AgentId, TeamNo, Topics};
+use avacraft_nodes::{TeamNo, Topics};
 use serde::Deserialize;
 use serde_json::json;
 use std::collections::BTreeSet;
@@ -104,9 +104,6 @@ pub struct BridgePlan {
     pub frame_size: (u32, u32),
     pub frame_every: u32,
     pub dds_networks: Vec<std::net::IpAddr>,
-    /// Agents whose actions come from DDS (`policy: dds`); only their action topics are
-    /// carried back, so a DDS participant cannot speak for a Zenoh agent node.
-    pub dds_agents: Vec<AgentId>,
 }
 
 /// A host or bridge name: lowercase letters, digits and '_' (it is a certificate's common
@@ -135,7 +132,6 @@ pub(crate) fn bridge_plan(
     // On a team's host the bridge carries no more than that host may read.
     let on_server = host == hosts[0];
     let allowed = if on_server { agent_teams.clone() } else { teams_of(&|a| a.host == host) };
-    let dds_agents: Vec<AgentId> = agents.iter().filter(|a| a.is_dds()).map(|a| a.id.clone()).collect();
     let mut topics = BTreeSet::new();
     for (i, t) in raw.topics.iter().enumerate() {
         topics.insert(match t.as_str() {
@@ -214,16 +210,7 @@ pub(crate) fn bridge_plan(
         dds_networks
             .push(n.parse().map_err(|e| cx.err(format!("bridge.dds_networks[{i}]"), format!("{n:?}"), format!("not an IP address: {e}")))?);
     }
-    Ok(BridgePlan {
-        host,
-        dds_domain: raw.dds_domain,
-        topics,
-        teams,
-        frame_size: (w, h),
-        frame_every: raw.frame_every,
-        dds_networks,
-        dds_agents,
-    })
+    Ok(BridgePlan { host, dds_domain: raw.dds_domain, topics, teams, frame_size: (w, h), frame_every: raw.frame_every, dds_networks })
 }
 
 /// Why certificates could not be made.
