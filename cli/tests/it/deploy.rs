@@ -2,7 +2,7 @@
 //! bad input, rmw_zenoh keys, liveliness tokens and attachments seen by a plain Zenoh
 //! client, and the MCAP recording read back by an independent ROS 2 MCAP reader.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 use zenoh::Wait;
@@ -106,6 +106,11 @@ fn start(args: &[&str]) -> Child {
     Child(Command::new(exe()).args(args).stdout(Stdio::null()).stderr(Stdio::null()).spawn().expect("spawn a node"))
 }
 
+/// The simulator node of `file`, writing its summaries to `result`.
+fn start_sim(file: &Path, result: &Path, endpoint: &str) -> Child {
+    start(&["sim-node", "--launch", file.to_str().expect("utf8"), "--result-file", result.to_str().expect("utf8"), "--connect", endpoint])
+}
+
 type Bus = zenoh::pubsub::Subscriber<zenoh::handlers::FifoChannelHandler<zenoh::sample::Sample>>;
 
 /// A router on a free port hosted by the test, a subscription to everything under
@@ -141,15 +146,7 @@ fn bad_input_is_counted_and_ros_conventions_hold_for_a_plain_zenoh_client() {
     let _a1 = start(&["agent-node", "--id", "unit_1", "--units", "1", "--policy", "hold", "--connect", &endpoint]);
     let _a2 = start(&["agent-node", "--id", "unit_2", "--units", "2", "--policy", "hold", "--connect", &endpoint]);
     let result = tmp("2m.json");
-    let sim = start(&[
-        "sim-node",
-        "--launch",
-        file.to_str().expect("utf8"),
-        "--result-file",
-        result.to_str().expect("utf8"),
-        "--connect",
-        &endpoint,
-    ]);
+    let sim = start_sim(&file, &result, &endpoint);
     // Wait for the first observation, then inject: garbage on an agent's action topic and an
     // action for unit 1 from a node that does not own it.
     let t0 = Instant::now();
@@ -254,15 +251,7 @@ fn a_killed_agent_gets_no_ops_and_a_restarted_one_rejoins() {
     let agent = |id: &str, unit: &str| start(&["agent-node", "--id", id, "--units", unit, "--connect", &endpoint]);
     let (mut a1, _a2, _a3) = (agent("unit_1", "1"), agent("unit_2", "2"), agent("unit_3", "3"));
     let result = tmp("kill.json");
-    let mut sim = start(&[
-        "sim-node",
-        "--launch",
-        file.to_str().expect("utf8"),
-        "--result-file",
-        result.to_str().expect("utf8"),
-        "--connect",
-        &endpoint,
-    ]);
+    let mut sim = start_sim(&file, &result, &endpoint);
     wait_for_obs(&samples);
     drop(samples);
     let _ = a1.0.kill();
