@@ -1,7 +1,8 @@
 //! Helpers shared by the process tests.
 
-use std::io::Write;
+use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
 
 pub fn exe() -> &'static str {
     env!("CARGO_BIN_EXE_avacraft")
@@ -25,12 +26,7 @@ pub fn write_launch(name: &str, body: &str) -> PathBuf {
 
 /// Runs `avacraft launch --json` on a launch file; its episode summaries.
 pub fn launch_json(file: &Path) -> serde_json::Value {
-    let out = std::process::Command::new(exe())
-        .args(["launch", "--json"])
-        .arg(file)
-        .stderr(std::process::Stdio::inherit())
-        .output()
-        .expect("run avacraft launch");
+    let out = Command::new(exe()).args(["launch", "--json"]).arg(file).stderr(Stdio::inherit()).output().expect("run avacraft launch");
     assert!(out.status.success(), "launch failed: {}", String::from_utf8_lossy(&out.stdout));
     serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}: {}", String::from_utf8_lossy(&out.stdout)))
 }
@@ -45,66 +41,114 @@ impl Drop for Child {
     }
 }
 
-/// Separate hosts on this machine: one network namespace per host, each joined to a
-/// bridge (in a hub namespace of its own) by a veth pair, on a /24 of its own. Removed
-/// when dropped. Needs root (CAP_NET_ADMIN) and iproute2, which `.ci/run` installs.
+/// Separate hosts on this machine, made without privileges: a process of util-linux's
+/// `unshare` holds a user namespace of its own (in which this user is root) and, in it, a
+/// network namespace with a bridge (the lab); every host is a network namespace inside the
+/// lab, held by a process of its own and joined to the bridge by a veth pair, on one /24.
+/// Nothing is named in `/var/run/netns` and nothing changes in the machine's own network,
+/// so an ordinary user and root run it alike, and it all goes when the holders exit: when
+/// dropped, or when the test process dies (a holder ends when its standard input closes).
+/// Needs util-linux's `unshare` and `nsenter`, iproute2's `ip` and `ss`, and a kernel that
+/// lets this user make user namespaces with network capabilities; `new` fails saying so
+/// otherwise.
 pub struct Net {
-    hub: String,
-    hosts: Vec<(String, String)>,
-    subnet: String,
-    /// Host ends of the veth pairs, removed from this namespace if still here.
-    veths: Vec<String>,
+    /// Dropped before the lab (fields drop in order).
+    hosts: Vec<(String, Holder)>,
+    lab: Holder,
 }
 
-fn ip(args: &[&str]) {
-    let out = std::process::Command::new("ip").args(args).output().expect("run `ip` (iproute2)");
-    assert!(out.status.success(), "ip {}: {}", args.join(" "), String::from_utf8_lossy(&out.stderr));
+/// A process that keeps namespaces alive: `sh` that says `ready` once inside them, then
+/// `cat` reading its standard input until this end of the pipe closes. Killed when dropped.
+struct Holder(Child);
+
+impl Holder {
+    fn start(mut c: Command, what: &str) -> Holder {
+        c.args(["sh", "-c", "echo ready; exec cat >/dev/null"]).stdin(Stdio::piped()).stdout(Stdio::piped()).stderr(Stdio::piped());
+        let mut child =
+            c.spawn().unwrap_or_else(|e| panic!("cannot start {what} ({c:?}): {e}; util-linux's unshare and nsenter are needed"));
+        let mut line = String::new();
+        if let Some(out) = child.stdout.take() {
+            let _ = BufReader::new(out).read_line(&mut line);
+        }
+        if line.trim() != "ready" {
+            let mut err = String::new();
+            let _ = child.stderr.take().map(|mut e| e.read_to_string(&mut err));
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("cannot make {what} ({c:?}): {}{USERNS}", err.trim());
+        }
+        Holder(Child(child))
+    }
+
+    fn pid(&self) -> u32 {
+        self.0.0.id()
+    }
+
+    /// A command that runs `program` in this holder's user and network namespaces (as root
+    /// there, which is this user outside).
+    fn run(&self, program: &str) -> Command {
+        let mut c = Command::new("nsenter");
+        c.args(["--preserve-credentials", "--user", "--net", "--target", &self.pid().to_string(), program]);
+        c
+    }
+
+    fn ip(&self, args: &[&str]) {
+        let out = self.run("ip").args(args).output().expect("run `ip` (iproute2) through nsenter (util-linux)");
+        assert!(out.status.success(), "ip {}: {}{USERNS}", args.join(" "), String::from_utf8_lossy(&out.stderr).trim());
+    }
 }
+
+/// Why making the test network may fail.
+const USERNS: &str = "\nThe multi-host tests make their hosts as network namespaces inside an unprivileged user \
+namespace (`unshare --user --map-root-user --net`). The kernel must allow that for this user: \
+sysctl user.max_user_namespaces > 0, kernel.unprivileged_userns_clone = 1 where it exists (Debian's \
+kernels), kernel.apparmor_restrict_unprivileged_userns = 0 where it exists (Ubuntu 23.10 and newer), \
+and no container seccomp profile refusing unshare(CLONE_NEWUSER).";
 
 impl Net {
-    /// Hosts `names` get addresses .1, .2, ... in order.
-    pub fn new(tag: &str, names: &[&str]) -> Net {
-        let pid = std::process::id();
-        // Interface names are at most 15 bytes: keep the prefix short and unique per run.
-        let prefix = format!("a{}{tag}", pid % 100_000);
-        let subnet = format!("10.{}.{}", 100 + pid % 100, (pid / 100) % 250);
-        let hub = format!("{prefix}hub");
-        // Built first, so whatever was made is removed if a step below fails.
-        let mut net = Net { hub: hub.clone(), hosts: Vec::new(), subnet, veths: Vec::new() };
-        ip(&["netns", "add", &hub]);
-        ip(&["-n", &hub, "link", "add", "br0", "type", "bridge"]);
-        ip(&["-n", &hub, "link", "set", "br0", "up"]);
+    /// Hosts `names` get addresses 10.0.0.1, 10.0.0.2, ... in order.
+    pub fn new(names: &[&str]) -> Net {
+        let mut lab = Command::new("unshare");
+        lab.args(["--user", "--map-root-user", "--net"]);
+        let lab = Holder::start(lab, "a user and network namespace for the test's hosts");
+        lab.ip(&["link", "add", "br0", "type", "bridge"]);
+        lab.ip(&["link", "set", "br0", "up"]);
+        // Built as it goes, so whatever was made is removed if a step below fails.
+        let mut net = Net { hosts: Vec::new(), lab };
         for (i, name) in names.iter().enumerate() {
-            let ns = format!("{prefix}{name}");
-            ip(&["netns", "add", &ns]);
-            net.hosts.push(((*name).to_owned(), ns.clone()));
-            let (a, b) = (format!("{prefix}h{i}"), format!("{prefix}b{i}"));
-            ip(&["link", "add", &a, "type", "veth", "peer", "name", &b]);
-            net.veths.push(a.clone());
-            ip(&["link", "set", &a, "netns", &ns]);
-            ip(&["link", "set", &b, "netns", &hub]);
-            ip(&["-n", &hub, "link", "set", &b, "master", "br0"]);
-            ip(&["-n", &hub, "link", "set", &b, "up"]);
-            let addr = format!("{}/24", net.addr(name));
-            ip(&["-n", &ns, "addr", "add", &addr, "dev", &a]);
-            ip(&["-n", &ns, "link", "set", &a, "up"]);
-            ip(&["-n", &ns, "link", "set", "lo", "up"]);
+            let mut host = net.lab.run("unshare");
+            host.arg("--net");
+            let host = Holder::start(host, &format!("a network namespace for host {name}"));
+            let (eth, port) = (format!("eth{i}"), format!("port{i}"));
+            net.lab.ip(&["link", "add", &eth, "type", "veth", "peer", "name", &port]);
+            net.lab.ip(&["link", "set", &eth, "netns", &host.pid().to_string()]);
+            net.lab.ip(&["link", "set", &port, "master", "br0"]);
+            net.lab.ip(&["link", "set", &port, "up"]);
+            host.ip(&["addr", "add", &format!("{}/24", net.addr_of(i)), "dev", &eth]);
+            host.ip(&["link", "set", &eth, "up"]);
+            host.ip(&["link", "set", "lo", "up"]);
+            net.hosts.push(((*name).to_owned(), host));
         }
         net
     }
 
-    /// The address of host `name`.
-    pub fn addr(&self, name: &str) -> String {
-        let i = self.hosts.iter().position(|(n, _)| n == name).unwrap_or(self.hosts.len());
-        format!("{}.{}", self.subnet, i + 1)
+    fn addr_of(&self, i: usize) -> String {
+        format!("10.0.0.{}", i + 1)
     }
 
-    /// A command that runs `program` on host `name`.
-    pub fn on(&self, name: &str, program: &str) -> std::process::Command {
-        let ns = &self.hosts.iter().find(|(n, _)| n == name).unwrap_or_else(|| panic!("no host {name}")).1;
-        let mut c = std::process::Command::new("ip");
-        c.args(["netns", "exec", ns, program]);
-        c
+    fn host(&self, name: &str) -> (usize, &Holder) {
+        self.hosts.iter().enumerate().find(|(_, (n, _))| n == name).map(|(i, (_, h))| (i, h)).unwrap_or_else(|| panic!("no host {name}"))
+    }
+
+    /// The address of host `name`.
+    pub fn addr(&self, name: &str) -> String {
+        self.addr_of(self.host(name).0)
+    }
+
+    /// A command that runs `program` on host `name`. `nsenter` execs `program`, so the
+    /// command's process is the program's (killing it kills the program).
+    pub fn on(&self, name: &str, program: &str) -> Command {
+        self.host(name).1.run(program)
     }
 
     /// Waits until something listens on TCP `port` on host `name`.
@@ -118,17 +162,5 @@ impl Net {
             std::thread::sleep(std::time::Duration::from_millis(100));
         }
         panic!("nothing listens on {name}:{port} after {timeout:?}");
-    }
-}
-
-impl Drop for Net {
-    fn drop(&mut self) {
-        for (_, ns) in &self.hosts {
-            let _ = std::process::Command::new("ip").args(["netns", "del", ns]).output();
-        }
-        let _ = std::process::Command::new("ip").args(["netns", "del", &self.hub]).output();
-        for v in &self.veths {
-            let _ = std::process::Command::new("ip").args(["link", "del", v]).output();
-        }
     }
 }

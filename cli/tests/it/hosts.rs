@@ -1,5 +1,6 @@
 //! A secured deployment across hosts, for real: network namespaces joined by veth pairs
-//! stand in for machines. The server hosts the TLS router with access control and the
+//! stand in for machines (made in a user namespace of the test's own, so no root is needed:
+//! see `common::Net`). The server hosts the TLS router with access control and the
 //! simulator; each PvP team's agent nodes run on a host of their own; an intruder host
 //! tries to listen and to speak for a team.
 
@@ -83,7 +84,7 @@ fn report(name: &str, s: Spawned) -> avacraft_cli::ProbeReport {
 
 #[test]
 fn a_secured_pvp_deployment_across_hosts_keeps_each_team_and_intruders_out() {
-    let net = Net::new("s", &["server", "blue", "red", "mallory"]);
+    let net = Net::new(&["server", "blue", "red", "mallory"]);
     let dir = tmp("hosts");
     std::fs::create_dir_all(&dir).expect("dir");
     let router = format!("tls/{}:{PORT}", net.addr("server"));

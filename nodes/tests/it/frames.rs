@@ -2,11 +2,12 @@
 
 use std::error::Error;
 use std::io::{BufRead, BufReader, Write};
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::sync::mpsc;
 use std::thread;
 use std::time::Duration;
 
+use crate::common::{child_arg, child_process};
 use avacraft_nodes::frames::{Encoding, FrameError, FrameHeader, FramePublisher, FrameSubscriber, MalformedFrame};
 
 type TestResult = Result<(), Box<dyn Error + Send + Sync>>;
@@ -201,14 +202,10 @@ fn malformed_sample_is_a_typed_error() -> TestResult {
 
 const CHILD_FRAMES: u64 = 50;
 
-/// Runs only inside the child process started by `cross_process_50_frames`.
-#[test]
-fn child_publisher() -> TestResult {
-    if std::env::var("IPC_CHILD").as_deref() != Ok("1") {
-        return Ok(());
-    }
-    let service = std::env::var("IPC_SERVICE")?;
-    let mut publisher = FramePublisher::open(&service, FrameHeader::SIZE + 160 * 120 * 3, 4)?;
+/// The child of `cross_process_50_frames`: publishes the frames one by one, each after the
+/// parent has acknowledged the one before.
+fn publish_for_parent(service: &str) -> TestResult {
+    let mut publisher = FramePublisher::open(service, FrameHeader::SIZE + 160 * 120 * 3, 4)?;
     let mut acks = BufReader::new(std::io::stdin());
     for seq in 0..CHILD_FRAMES {
         let header = FrameHeader::packed(seq, seq as i64 * 1_000_000, 160, 120, Encoding::Rgb8);
@@ -224,18 +221,12 @@ fn child_publisher() -> TestResult {
 
 #[test]
 fn cross_process_50_frames() -> TestResult {
-    if std::env::var_os("IPC_CHILD").is_some() {
-        return Ok(());
+    if let Some(service) = child_arg() {
+        return publish_for_parent(&service);
     }
     let service = service_name("cross_process");
     let mut sub = FrameSubscriber::open(&service, 4)?;
-    let mut child = Command::new(std::env::current_exe()?)
-        .args(["--exact", "frames::child_publisher", "--nocapture", "--test-threads=1"])
-        .env("IPC_CHILD", "1")
-        .env("IPC_SERVICE", &service)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::null())
-        .spawn()?;
+    let mut child = child_process("frames::cross_process_50_frames", &service)?.stdin(Stdio::piped()).stdout(Stdio::null()).spawn()?;
     let mut ack = child.stdin.take().ok_or("no child stdin")?;
     let mut result: TestResult = Ok(());
     for seq in 0..CHILD_FRAMES {
@@ -256,15 +247,10 @@ fn cross_process_50_frames() -> TestResult {
     Ok(())
 }
 
-/// Runs only inside the child process started by `stale_resources_of_killed_process_are_removed`:
-/// opens a publisher and blocks until it is killed.
-#[test]
-fn child_crash_victim() -> TestResult {
-    if std::env::var("IPC_CHILD").as_deref() != Ok("crash") {
-        return Ok(());
-    }
-    let service = std::env::var("IPC_SERVICE")?;
-    let _publisher = FramePublisher::open(&service, 1024, 4)?;
+/// The child of `stale_resources_of_killed_process_are_removed`: opens a publisher, says
+/// so, and blocks until it is killed.
+fn be_killed_holding_a_publisher(service: &str) -> TestResult {
+    let _publisher = FramePublisher::open(service, 1024, 4)?;
     println!("IPC_CHILD_READY");
     std::io::stdout().flush()?;
     let mut line = String::new();
@@ -286,14 +272,11 @@ fn dead_nodes() -> usize {
 
 #[test]
 fn stale_resources_of_killed_process_are_removed() -> TestResult {
-    if std::env::var_os("IPC_CHILD").is_some() {
-        return Ok(());
+    if let Some(service) = child_arg() {
+        return be_killed_holding_a_publisher(&service);
     }
     let service = service_name("crash");
-    let mut child = Command::new(std::env::current_exe()?)
-        .args(["--exact", "frames::child_crash_victim", "--nocapture", "--test-threads=1"])
-        .env("IPC_CHILD", "crash")
-        .env("IPC_SERVICE", &service)
+    let mut child = child_process("frames::stale_resources_of_killed_process_are_removed", &service)?
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .spawn()?;
