@@ -24,8 +24,17 @@
 //!
 //! The ports use `ipc_threadsafe` services, so [`FramePublisher`], [`FrameSubscriber`] and
 //! [`Frame`] are `Send` and can be moved to worker threads.
+//!
+//! Every user has an iceoryx2 instance of its own: its folder is `/tmp/iceoryx2-<uid>/` (mode
+//! 0700, see [`iceoryx2_folder`]) and its shared-memory objects are named `iox2_<uid>_*`, a
+//! function of the user alone, so all of a user's processes meet there whatever their
+//! environment. (iceoryx2's default, `/tmp/iceoryx2/`, belongs to the first user who made it,
+//! mode 0750, and refuses every other user.)
 
 use core::fmt;
+use std::os::unix::fs::{DirBuilderExt, MetadataExt, PermissionsExt};
+use std::path::{Path as StdPath, PathBuf};
+use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 use iceoryx2::node::NodeView;
@@ -248,13 +257,31 @@ pub enum FrameError {
         #[source]
         source: iceoryx2::service::service_name::ServiceNameError,
     },
+    /// This user's iceoryx2 folder (see [`iceoryx2_folder`]) cannot be used.
+    #[error("frame service \"{service}\": cannot use the iceoryx2 folder {}: {reason}", folder.display())]
+    Folder {
+        /// Service name.
+        service: String,
+        /// The folder.
+        folder: PathBuf,
+        /// Why, and what to do about it.
+        reason: String,
+    },
     /// Creating an iceoryx2 node, service or port failed.
-    #[error("frame service \"{service}\": cannot {what}: {source}")]
+    #[error(
+        "frame service \"{service}\": cannot {what} (iceoryx2 folder {}{}): {source}",
+        folder.display(),
+        diagnosis.as_deref().map(|d| format!("; {d}")).unwrap_or_default()
+    )]
     Setup {
         /// Service name.
         service: String,
         /// The step that failed, e.g. "open publish-subscribe service".
         what: &'static str,
+        /// This user's iceoryx2 folder.
+        folder: PathBuf,
+        /// What is wrong with the folder, if anything is found.
+        diagnosis: Option<String>,
         /// iceoryx2 reason.
         #[source]
         source: Box<dyn std::error::Error + Send + Sync>,
@@ -306,18 +333,144 @@ pub enum FrameError {
 }
 
 fn setup_err<E: std::error::Error + Send + Sync + 'static>(service: &str, what: &'static str) -> impl FnOnce(E) -> FrameError {
-    move |e| FrameError::Setup { service: service.to_owned(), what, source: Box::new(e) }
+    move |e| {
+        let folder = user_instance().map(|u| u.folder.clone()).unwrap_or_default();
+        let diagnosis = diagnose(&folder);
+        FrameError::Setup { service: service.to_owned(), what, folder, diagnosis, source: Box::new(e) }
+    }
 }
 
 fn transport_err<E: std::error::Error + Send + Sync + 'static>(service: &str, what: &'static str) -> impl FnOnce(E) -> FrameError {
     move |e| FrameError::Transport { service: service.to_owned(), what, source: Box::new(e) }
 }
 
+/// This user's iceoryx2 instance: its folder and its configuration.
+struct UserInstance {
+    uid: u32,
+    folder: PathBuf,
+    config: Config,
+}
+
+/// This user's iceoryx2 instance, worked out once per process.
+fn user_instance() -> Result<&'static UserInstance, String> {
+    static INSTANCE: OnceLock<Result<UserInstance, String>> = OnceLock::new();
+    INSTANCE
+        .get_or_init(|| {
+            let uid = effective_uid()?;
+            let folder = PathBuf::from(format!("/tmp/iceoryx2-{uid}"));
+            let mut config = Config::default();
+            let root = Path::new(format!("{}/", folder.display()).as_bytes()).map_err(|e| format!("not an iceoryx2 path: {e}"))?;
+            config.global.set_root_path(&root);
+            config.global.prefix =
+                FileName::new(format!("iox2_{uid}_").as_bytes()).map_err(|e| format!("not an iceoryx2 file name: {e}"))?;
+            Ok(UserInstance { uid, folder, config })
+        })
+        .as_ref()
+        .map_err(Clone::clone)
+}
+
+/// The effective user id of this process: the user the iceoryx2 files are made for.
+fn effective_uid() -> Result<u32, String> {
+    // Linux: the second field of `Uid:` in /proc/self/status.
+    if let Ok(status) = std::fs::read_to_string("/proc/self/status")
+        && let Some(uid) = status.lines().find_map(|l| l.strip_prefix("Uid:")).and_then(|v| v.split_whitespace().nth(1)?.parse().ok())
+    {
+        return Ok(uid);
+    }
+    // Elsewhere: the owner of a file this process makes.
+    let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_nanos()).unwrap_or_default();
+    let probe = std::env::temp_dir().join(format!(".avacraft-uid-{}-{nanos}", std::process::id()));
+    let made = std::fs::File::create(&probe).and_then(|_| std::fs::metadata(&probe));
+    let _ = std::fs::remove_file(&probe);
+    made.map(|m| m.uid())
+        .map_err(|e| format!("cannot tell which user this process runs as: no /proc/self/status, and {}: {e}", probe.display()))
+}
+
+/// The folder where this user's iceoryx2 instance keeps its files: `/tmp/iceoryx2-<uid>`, a
+/// function of the user alone, so the publishers and subscribers of one user meet there.
+pub fn iceoryx2_folder() -> Option<PathBuf> {
+    user_instance().ok().map(|u| u.folder.clone())
+}
+
+/// This user's iceoryx2 configuration (folder and shared-memory prefix), with the folder made
+/// and checked: for iceoryx2 nodes made outside this module that must meet its services
+/// (`NodeBuilder::new().config(frames::iceoryx2_config()?)`).
+pub fn iceoryx2_config() -> Result<&'static Config, FrameError> {
+    prepare("*")
+}
+
+/// Makes this user's iceoryx2 folder (mode 0700) unless it is there, and checks that it is a
+/// folder of this user's; returns the instance's configuration.
+fn prepare(service: &str) -> Result<&'static Config, FrameError> {
+    let instance = user_instance().map_err(|reason| FrameError::Folder {
+        service: service.to_owned(),
+        folder: PathBuf::from("/tmp/iceoryx2-<uid>"),
+        reason,
+    })?;
+    let folder = &instance.folder;
+    let refuse = |reason: String| FrameError::Folder { service: service.to_owned(), folder: folder.clone(), reason };
+    match std::fs::DirBuilder::new().mode(0o700).create(folder) {
+        Ok(()) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+        Err(e) => return Err(refuse(format!("cannot make it: {e}"))),
+    }
+    let meta = std::fs::symlink_metadata(folder).map_err(|e| refuse(format!("cannot read it: {e}")))?;
+    if meta.file_type().is_symlink() || !meta.is_dir() {
+        return Err(refuse("it is not a folder (a symbolic link or a file): remove it".to_owned()));
+    }
+    if meta.uid() != instance.uid {
+        return Err(refuse(format!(
+            "it belongs to uid {}, not to this user (uid {}): whoever made it can read this user's frames; remove it (as its owner or root)",
+            meta.uid(),
+            instance.uid
+        )));
+    }
+    if meta.permissions().mode() & 0o077 != 0 {
+        std::fs::set_permissions(folder, std::fs::Permissions::from_mode(0o700))
+            .map_err(|e| refuse(format!("cannot make it private (chmod 700): {e}")))?;
+    }
+    Ok(&instance.config)
+}
+
+/// What is wrong with an iceoryx2 folder or its `nodes` and `services` folders, if anything
+/// that would make iceoryx2 fail is found.
+fn diagnose(folder: &StdPath) -> Option<String> {
+    let uid = user_instance().ok()?.uid;
+    for dir in [folder.to_path_buf(), folder.join("nodes"), folder.join("services")] {
+        let meta = match std::fs::symlink_metadata(&dir) {
+            Ok(m) => m,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+            Err(e) => return Some(format!("{} cannot be read: {e}", dir.display())),
+        };
+        if !meta.is_dir() {
+            return Some(format!("{} is not a folder", dir.display()));
+        }
+        if meta.uid() != uid {
+            return Some(format!("{} belongs to uid {}, not to this user (uid {uid})", dir.display(), meta.uid()));
+        }
+        if meta.permissions().mode() & 0o700 != 0o700 {
+            return Some(format!("{} has mode {:o}: its owner cannot use it", dir.display(), meta.permissions().mode() & 0o7777));
+        }
+    }
+    None
+}
+
 /// Removes the resources of nodes whose processes died without cleaning up (best effort).
 /// Returns the number of dead nodes that were cleaned.
 pub fn cleanup_stale_resources() -> usize {
+    let config = match prepare("(stale-resource cleanup)") {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("avacraft frames: {e}");
+            return 0;
+        }
+    };
+    cleanup_in(config)
+}
+
+fn cleanup_in(config: &Config) -> usize {
     let mut cleaned = 0;
-    let listed = Node::<Ipc>::list(Config::global_config(), |state| {
+    let listed = Node::<Ipc>::list(config, |state| {
         if let NodeState::Dead(view) = state {
             let id = *view.id();
             match view.try_remove_stale_resources() {
@@ -334,8 +487,9 @@ pub fn cleanup_stale_resources() -> usize {
 }
 
 fn open_node(service: &str, role: &str) -> Result<Node<Ipc>, FrameError> {
-    cleanup_stale_resources();
-    let mut builder = NodeBuilder::new().signal_handling_mode(SignalHandlingMode::Disabled);
+    let config = prepare(service)?;
+    cleanup_in(config);
+    let mut builder = NodeBuilder::new().config(config).signal_handling_mode(SignalHandlingMode::Disabled);
     // A node name is informational only; skip it if the service name makes it invalid.
     if let Ok(name) = NodeName::new(&format!("avacraft-frames-{role}")) {
         builder = builder.name(&name);

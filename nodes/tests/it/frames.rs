@@ -105,6 +105,24 @@ fn recv_returns_newest_frame_and_drops_older_ones() -> TestResult {
 }
 
 #[test]
+fn each_user_has_a_private_iceoryx2_folder() -> TestResult {
+    use std::os::unix::fs::{MetadataExt, PermissionsExt};
+    let _sub = FrameSubscriber::open(&service_name("folder"), 4)?;
+    let folder = avacraft_nodes::frames::iceoryx2_folder().ok_or("no iceoryx2 folder")?;
+    let meta = std::fs::symlink_metadata(&folder)?;
+    // The owner of a file this process makes is this user.
+    let probe = folder.join(format!("probe-{}", std::process::id()));
+    std::fs::write(&probe, b"")?;
+    let uid = std::fs::metadata(&probe)?.uid();
+    std::fs::remove_file(&probe)?;
+    assert_eq!(folder, std::path::PathBuf::from(format!("/tmp/iceoryx2-{uid}")));
+    assert!(meta.is_dir() && meta.uid() == uid, "{} is not this user's folder", folder.display());
+    assert_eq!(meta.permissions().mode() & 0o777, 0o700, "{} is not private", folder.display());
+    assert!(folder.join("nodes").is_dir(), "iceoryx2 keeps its nodes elsewhere than {}", folder.display());
+    Ok(())
+}
+
+#[test]
 fn recv_times_out_without_publisher() -> TestResult {
     let mut sub = FrameSubscriber::open(&service_name("timeout"), 4)?;
     let start = std::time::Instant::now();
@@ -187,7 +205,7 @@ fn malformed_sample_is_a_typed_error() -> TestResult {
     let service = service_name("garbage");
     let mut sub = FrameSubscriber::open(&service, 4)?;
     // a foreign publisher on the same service sending a 10-byte sample
-    let node = NodeBuilder::new().create::<ipc_threadsafe::Service>()?;
+    let node = NodeBuilder::new().config(avacraft_nodes::frames::iceoryx2_config()?).create::<ipc_threadsafe::Service>()?;
     let pubsub = node.service_builder(&ServiceName::new(&service)?).publish_subscribe::<[u8]>().open()?;
     let raw = pubsub.publisher_builder().initial_max_slice_len(64).create()?;
     raw.loan_slice_uninit(10)?.write_from_fn(|i| i as u8).send()?;
@@ -258,16 +276,17 @@ fn be_killed_holding_a_publisher(service: &str) -> TestResult {
     Ok(())
 }
 
-fn dead_nodes() -> usize {
+fn dead_nodes() -> Result<usize, Box<dyn Error + Send + Sync>> {
     use iceoryx2::prelude::*;
     let mut dead = 0;
-    let _ = Node::<ipc_threadsafe::Service>::list(Config::global_config(), |state| {
+    Node::<ipc_threadsafe::Service>::list(avacraft_nodes::frames::iceoryx2_config()?, |state| {
         if matches!(state, NodeState::Dead(_)) {
             dead += 1;
         }
         CallbackProgression::Continue
-    });
-    dead
+    })
+    .map_err(|e| format!("cannot list iceoryx2 nodes: {e:?}"))?;
+    Ok(dead)
 }
 
 #[test]
@@ -285,11 +304,11 @@ fn stale_resources_of_killed_process_are_removed() -> TestResult {
     child.kill()?; // SIGKILL: no destructors run in the child
     child.wait()?;
     assert!(ready, "child never opened its publisher");
-    let dead_before = dead_nodes();
+    let dead_before = dead_nodes()?;
     let cleaned = avacraft_nodes::frames::cleanup_stale_resources();
     // other tests of this process may create nodes concurrently, which also cleans dead nodes,
     // so assert on the final state rather than on who cleaned
-    assert_eq!(dead_nodes(), 0, "dead nodes left (before: {dead_before}, cleaned here: {cleaned})");
+    assert_eq!(dead_nodes()?, 0, "dead nodes left (before: {dead_before}, cleaned here: {cleaned})");
     eprintln!("stale cleanup: {dead_before} dead node(s) found, {cleaned} removed by cleanup_stale_resources");
     // the service is usable again by new participants
     let mut sub = FrameSubscriber::open(&service, 4)?;
