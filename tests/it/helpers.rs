@@ -35,7 +35,9 @@ pub fn exact_loop() -> EnvConfig {
     one_loop(passive())
 }
 
-/// Runs `n` single-loop steps.
+/// Runs `n` steps. Stepping a finished episode does nothing: in an arena where a side has no
+/// unit that can deal damage (a lone Medivac or Warp Prism), the episode ends after the first
+/// loop and every unit freezes with its last order and velocity.
 pub fn run_loops(env: &mut Env, n: u32) {
     for _ in 0..n {
         env.step();

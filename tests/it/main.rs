@@ -13,6 +13,7 @@ mod properties;
 mod render;
 mod scenarios;
 mod smac;
+mod speed;
 mod splash;
 mod targeting;
 mod vision;
