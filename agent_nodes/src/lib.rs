@@ -1,15 +1,16 @@
-//! Agent nodes: a process hosting a policy for one unit or a role group. It subscribes only
-//! to its own units' observation topics and publishes its actions on its own topic, so the
-//! simulator knows who sent them. A restarted agent node rejoins at the next step: it keeps
-//! no state the simulator depends on.
+//! Agent nodes: a process hosting one [`Agent`] for one unit or a role group. It subscribes
+//! only to its own units' observation topics and publishes its actions on its own topic, so
+//! the simulator knows who sent them. Observations become the engine's [`AgentObs`] through
+//! the lossless wire conversion and are folded into the [`GroupObs`] the agent acts on: the
+//! same values an in-process run of the same grouping hands it, so it plays the same game.
+//! A restarted agent node rejoins at the next step: it keeps no state the simulator needs.
 
-mod policy;
-
-pub use policy::{AttackMove, FocusFire, POLICIES, UnitPolicy, UnknownPolicy, by_name};
-
+use avacraft_engine::agent::{Agent, AgentCtx, AgentObs, GroupObs, agent_seed, complete};
+use avacraft_engine::{Scenario, Team};
 use avacraft_msgs::{ActionBatch, UnitObservation};
-use avacraft_nodes::{AgentId, Node, NodeError, Qos, Shutdown, TeamNo, Topics, UnitTag};
+use avacraft_nodes::{AgentId, Node, NodeError, Qos, Shutdown, TeamNo, TopicKind, Topics, UnitTag, wire};
 use std::collections::BTreeMap;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// What one agent node controls.
@@ -19,25 +20,31 @@ pub struct AgentConfig {
     /// The team of its units (their observation topics are under the team's prefix).
     pub team: TeamNo,
     pub units: Vec<UnitTag>,
+    /// The scenario being played (a player knows the map).
+    pub scenario: Arc<Scenario>,
 }
 
 /// Counters of a run, for logs and tests.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct AgentStats {
     pub batches: u64,
+    /// Samples refused: undecodable, on the wrong topic, or with fields that name nothing.
     pub malformed: u64,
 }
 
 /// How long after the first observation of a step the node acts even if some of its units'
-/// observations are still missing.
-const GATHER: Duration = Duration::from_millis(200);
+/// observations are still missing (a lost sample must not stall the node for good).
+const GATHER: Duration = Duration::from_millis(500);
+
+/// Observations gathered for one step, by unit tag.
+type Pending = BTreeMap<(u64, u32), (Instant, BTreeMap<u32, AgentObs>)>;
 
 /// Runs until `shutdown` (or `max_batches` batches, for tests and benchmarks).
 pub fn run(
     node: &Node,
     topics: &Topics,
     cfg: &AgentConfig,
-    policy: &mut dyn UnitPolicy,
+    agent: &mut dyn Agent,
     shutdown: &Shutdown,
     max_batches: Option<u64>,
 ) -> Result<AgentStats, NodeError> {
@@ -45,51 +52,42 @@ pub fn run(
     let subs = cfg
         .units
         .iter()
-        .map(|&u| node.subscriber::<UnitObservation>(topics.unit_obs(cfg.team, u).as_str(), reliable))
+        .map(|&u| node.subscriber::<UnitObservation>(&topics.unit_obs(cfg.team, u), reliable))
         .collect::<Result<Vec<_>, _>>()?;
     let mut out = node.publisher::<ActionBatch>(&topics.actions(&cfg.id), reliable)?;
+    let team = if cfg.team.get() == 2 { Team::Two } else { Team::One };
+    let order: Vec<u32> = cfg.scenario.agent_order(team).iter().map(|id| id.tag()).collect();
+    let tags: Vec<u32> = cfg.units.iter().map(|u| u.get()).collect();
     let mut stats = AgentStats::default();
-    // Observations of the step being gathered, by unit; keyed by (episode, step).
-    let mut pending: BTreeMap<(u64, u32), (Instant, BTreeMap<u32, UnitObservation>)> = BTreeMap::new();
+    let mut pending: Pending = BTreeMap::new();
     let mut last_done: Option<(u64, u32)> = None;
-    tracing::info!(agent = %cfg.id, units = cfg.units.len(), policy = policy.name(), "agent node up");
+    // The episode (number, seed) the agent was last reset for.
+    let mut episode: Option<(u64, u64)> = None;
+    tracing::info!(agent = %cfg.id, units = cfg.units.len(), policy = agent.name(), "agent node up");
     while !shutdown.requested() && max_batches.is_none_or(|m| stats.batches < m) {
         let mut got = false;
         for s in &subs {
             while let Some(r) = s.try_recv()? {
                 got = true;
-                match r.msg {
-                    Ok(o) => {
-                        // Only the unit this topic is for (a spoofed sample cannot act for others).
-                        if !cfg.units.iter().any(|u| u.get() == o.unit_tag) || !r.key.contains(&format!("/unit_{}/obs/", o.unit_tag)) {
-                            stats.malformed += 1;
-                            continue;
-                        }
-                        let key = (o.episode, o.step);
-                        // A restarted simulator counts episodes from 0 again.
-                        if last_done.is_some_and(|d| o.episode < d.0) {
-                            last_done = None;
-                        }
-                        if last_done.is_some_and(|d| key <= d) {
-                            continue;
-                        }
-                        pending.entry(key).or_insert_with(|| (Instant::now(), BTreeMap::new())).1.insert(o.unit_tag, o);
-                    }
-                    Err(e) => {
-                        stats.malformed += 1;
-                        tracing::warn!(agent = %cfg.id, error = %e, "malformed observation ignored");
-                    }
-                }
+                accept(cfg, topics, r, &mut pending, &mut last_done, &mut stats);
             }
         }
         // Act on the newest complete step (or one gathered for long enough); older ones are stale.
         let ready = pending.iter().rev().find(|(_, (t0, m))| m.len() == cfg.units.len() || t0.elapsed() >= GATHER).map(|(k, _)| *k);
         if let Some(key) = ready {
-            let obs = pending.remove(&key).map(|(_, m)| m).unwrap_or_default();
+            let obs: Vec<AgentObs> = pending.remove(&key).map(|(_, m)| m.into_values().collect()).unwrap_or_default();
             pending.retain(|k, _| *k > key);
-            let obs: Vec<UnitObservation> = obs.into_values().collect();
-            let actions = policy.act(&obs);
-            let header = obs.first().map(|o| o.header.clone()).unwrap_or_default();
+            let Some(first) = obs.first() else { continue };
+            if episode != Some((first.episode, first.seed)) {
+                let units = tags.clone();
+                let seed = agent_seed(first.seed, team, units[0]);
+                agent.reset(&AgentCtx { scenario: Arc::clone(&cfg.scenario), team, units, seed });
+                episode = Some((first.episode, first.seed));
+            }
+            let header = avacraft_msgs::Header::default();
+            let index = |tag: u32| order.iter().position(|&t| t == tag).unwrap_or(0);
+            let actions = GroupObs::fold(&obs, index).map(|g| complete(agent.act(&g), &g)).unwrap_or_default();
+            let actions = actions.iter().map(wire::unit_action).collect();
             out.put(&ActionBatch { header, episode: key.0, step: key.1, agent_id: cfg.id.to_string(), actions })?;
             stats.batches += 1;
             last_done = Some(key);
@@ -99,19 +97,51 @@ pub fn run(
             if let Some(first) = subs.first()
                 && let Some(r) = first.recv_timeout(Duration::from_millis(1))?
             {
-                match r.msg {
-                    Ok(o) if o.unit_tag == cfg.units[0].get() => {
-                        if last_done.is_some_and(|d| o.episode < d.0) {
-                            last_done = None;
-                        }
-                        if last_done.is_none_or(|d| (o.episode, o.step) > d) {
-                            pending.entry((o.episode, o.step)).or_insert_with(|| (Instant::now(), BTreeMap::new())).1.insert(o.unit_tag, o);
-                        }
-                    }
-                    _ => stats.malformed += 1,
-                }
+                accept(cfg, topics, r, &mut pending, &mut last_done, &mut stats);
             }
         }
     }
     Ok(stats)
+}
+
+/// Files one received observation under its step, or counts it as malformed.
+fn accept(
+    cfg: &AgentConfig,
+    topics: &Topics,
+    r: avacraft_nodes::Received<UnitObservation>,
+    pending: &mut Pending,
+    last_done: &mut Option<(u64, u32)>,
+    stats: &mut AgentStats,
+) {
+    let o = match r.msg {
+        Ok(o) => o,
+        Err(e) => {
+            stats.malformed += 1;
+            tracing::warn!(agent = %cfg.id, error = %e, "malformed observation ignored");
+            return;
+        }
+    };
+    // Only the unit this topic is for (a spoofed sample cannot act for others).
+    let on_its_topic = matches!(topics.classify(&r.topic), Some(TopicKind::UnitObs(t, u)) if t == cfg.team && u.get() == o.unit_tag);
+    if !cfg.units.iter().any(|u| u.get() == o.unit_tag) || !on_its_topic {
+        stats.malformed += 1;
+        return;
+    }
+    let obs = match wire::agent_obs(&o, cfg.team.get()) {
+        Ok(obs) => obs,
+        Err(e) => {
+            stats.malformed += 1;
+            tracing::warn!(agent = %cfg.id, error = %e, "observation refused");
+            return;
+        }
+    };
+    let key = (o.episode, o.step);
+    // A restarted simulator counts episodes from 0 again.
+    if last_done.is_some_and(|d| o.episode < d.0) {
+        *last_done = None;
+    }
+    if last_done.is_some_and(|d| key <= d) {
+        return;
+    }
+    pending.entry(key).or_insert_with(|| (Instant::now(), BTreeMap::new())).1.insert(o.unit_tag, obs);
 }

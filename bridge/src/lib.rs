@@ -89,8 +89,7 @@ struct Counters {
 
 /// The ROS name of a topic for ros2-client: namespace and base name.
 fn ros_name(topic: &Topic) -> Result<Name, BridgeError> {
-    let (ns, base) = topic.as_str().rsplit_once('/').unwrap_or(("", topic.as_str()));
-    let ns = if ns.is_empty() { "/" } else { ns };
+    let (ns, base) = topic.namespace_and_base();
     Name::new(ns, base).map_err(|e| dds_err(format!("topic name {topic}"), format!("{e:?}")))
 }
 
@@ -117,14 +116,14 @@ struct Dds {
 }
 
 impl Dds {
-    fn open(cfg: &BridgeConfig) -> Result<Dds, BridgeError> {
+    fn open(cfg: &BridgeConfig, topics: &Topics) -> Result<Dds, BridgeError> {
         let mut b = ros2_client::dds::rustdds::DomainParticipantBuilder::new(cfg.dds_domain);
         if !cfg.dds_networks.is_empty() {
             b = b.with_only_networks(cfg.dds_networks.iter().copied());
         }
         let dp = b.build().map_err(|e| dds_err("creating the domain participant", e))?;
         let ctx = Context::from_domain_participant(dp).map_err(|e| dds_err("creating the ROS 2 context", e))?;
-        let name = NodeName::new("/avacraft", "bridge").map_err(|e| dds_err("node name", format!("{e:?}")))?;
+        let name = NodeName::new(topics.namespace(), "bridge").map_err(|e| dds_err("node name", format!("{e:?}")))?;
         let mut node = ctx.new_node(name, NodeOptions::new().enable_rosout(false)).map_err(|e| dds_err("creating the ROS 2 node", e))?;
         let spinner = node.spinner().map_err(|e| dds_err("starting the ROS 2 spinner", e))?;
         std::thread::Builder::new()
@@ -163,7 +162,7 @@ where
     T: RosMessage + Send + std::fmt::Debug,
     F: FnMut(T) -> Option<T> + Send + 'static,
 {
-    let sub = node.subscriber::<T>(topic.as_str(), qos)?;
+    let sub = node.subscriber::<T>(topic, qos)?;
     let dds_qos = if matches!(qos, Qos::BestEffort { .. }) { best_effort() } else { reliable() };
     let publisher = dds.publisher::<T>(topic, dds_qos)?;
     let (counters, shutdown, name) = (Arc::clone(counters), shutdown.clone(), topic.to_string());
@@ -196,7 +195,7 @@ where
 
 /// Runs until `shutdown`; returns what crossed.
 pub fn run(node: &Node, topics: &Topics, cfg: &BridgeConfig, shutdown: &Shutdown) -> Result<BridgeStats, BridgeError> {
-    let mut dds = Dds::open(cfg)?;
+    let mut dds = Dds::open(cfg, topics)?;
     let counters = Arc::new(Counters::default());
     let reliable_z = Qos::Reliable { depth: 10 };
     let mut threads = Vec::new();

@@ -191,13 +191,13 @@ fn measure<T: Stamped>(
 pub fn run(out: &mut dyn Write) -> Result<()> {
     let port = std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?.port();
     let endpoint = format!("tcp/127.0.0.1:{port}");
+    let topics = Topics::default();
     let _router = Node::open(
         &NodeArgs { mode: SessionMode::Router, connect: vec![], listen: vec![endpoint.clone()], ..NodeArgs::default() },
-        "/avacraft",
+        topics.namespace(),
         "router",
     )?;
     let args = NodeArgs { mode: SessionMode::Client, connect: vec![endpoint], ..NodeArgs::default() };
-    let topics = Topics::default();
     let (team, unit) = (TeamNo::new(1)?, UnitTag::new(1)?);
     let domain = 100 + (std::process::id() % 100) as u16;
     let cfg = BridgeConfig {
@@ -210,23 +210,23 @@ pub fn run(out: &mut dyn Write) -> Result<()> {
         ..BridgeConfig::default()
     };
     let shutdown = Shutdown::default();
-    let bridge_node = Arc::new(Node::open(&args, "/avacraft", "bridge")?);
+    let bridge_node = Arc::new(Node::open(&args, topics.namespace(), "bridge")?);
     let bridge = {
         let (node, topics, shutdown) = (Arc::clone(&bridge_node), topics.clone(), shutdown.clone());
         std::thread::spawn(move || avacraft_bridge::run(&node, &topics, &cfg, &shutdown))
     };
-    let node = Node::open(&args, "/avacraft", "bench")?;
-    let viewer = Node::open(&args, "/avacraft", "viewer")?;
+    let node = Node::open(&args, topics.namespace(), "bench")?;
+    let viewer = Node::open(&args, topics.namespace(), "viewer")?;
     let mut dds = DdsReader::open(domain)?;
 
     // A real 3m unit observation, as the simulator publishes it.
     let scenario = Arc::new(avacraft_engine::Scenario::load("3m").context("bench: 3m")?);
     let env = avacraft_engine::Env::new(scenario, avacraft_engine::EnvConfig::default(), 1);
-    let obs = avacraft_sim_node::unit_observation(&env, avacraft_engine::Team::One, 0, 0, "bench");
+    let obs = avacraft_nodes::wire::unit_observation(&env.agent_obs(avacraft_engine::Team::One, 0, 0), Header::default());
     let obs_bytes = avacraft_msgs::encode(&obs).len();
     let obs_topic = topics.unit_obs(team, unit);
     let mut obs_pub = node.publisher::<UnitObservation>(&obs_topic, Qos::Reliable { depth: 10 })?;
-    let obs_direct = viewer.subscriber::<UnitObservation>(obs_topic.as_str(), Qos::Reliable { depth: 10 })?;
+    let obs_direct = viewer.subscriber::<UnitObservation>(&obs_topic, Qos::Reliable { depth: 10 })?;
     let obs_dds = dds.subscription::<UnitObservation>(&obs_topic, true)?;
 
     let frame_topic = topics.frames(team, FrameKind::Screen);
@@ -239,7 +239,7 @@ pub fn run(out: &mut dyn Write) -> Result<()> {
         ..Image::default()
     };
     let mut frame_pub = node.publisher::<Image>(&frame_topic, Qos::BestEffort { depth: 1 })?;
-    let frame_direct = viewer.subscriber::<Image>(frame_topic.as_str(), Qos::BestEffort { depth: 1000 })?;
+    let frame_direct = viewer.subscriber::<Image>(&frame_topic, Qos::BestEffort { depth: 1000 })?;
     let frame_dds = dds.subscription::<Image>(&frame_topic, false)?;
 
     // Each payload as fast as the publisher can, then paced: what arrives, and how fast.

@@ -52,7 +52,7 @@ fn frame_latency(w: u32, h: u32, n: usize) -> Result<[u64; 2]> {
     let args = NodeArgs { connect: vec![endpoint], ..NodeArgs::default() };
     let (a, b) = (Node::open(&args, "/bench", "camera")?, Node::open(&args, "/bench", "viewer")?);
     let topic = Topic::parse("/bench/frames")?;
-    let sub = b.subscriber::<Image>(topic.as_str(), Qos::Reliable { depth: 10 })?;
+    let sub = b.subscriber::<Image>(&topic, Qos::Reliable { depth: 10 })?;
     let mut p = a.publisher::<Image>(&topic, Qos::Reliable { depth: 10 })?;
     std::thread::sleep(Duration::from_millis(500));
     let img = Image {
@@ -87,7 +87,8 @@ fn frame_latency(w: u32, h: u32, n: usize) -> Result<[u64; 2]> {
 /// The same through iceoryx2 shared memory, publisher and subscriber in two threads.
 fn frame_latency_shm(w: u32, h: u32, n: usize) -> Result<[u64; 2]> {
     use avacraft_nodes::frames::{Encoding, FrameHeader, FramePublisher, FrameSubscriber};
-    let service = format!("avacraft/bench_{}/frames_{w}x{h}", std::process::id());
+    let topics = avacraft_nodes::Topics::new(&format!("/bench_{}_{w}x{h}", std::process::id()))?;
+    let service = topics.frame_service(avacraft_nodes::TeamNo::new(1)?, avacraft_nodes::FrameKind::Screen);
     let bytes = (w * h * 3) as usize;
     let mut p = FramePublisher::open(&service, FrameHeader::SIZE + bytes, 2)?;
     let mut s = FrameSubscriber::open(&service, 2)?;

@@ -10,6 +10,7 @@ use avacraft_sim_node::{Clock, SimConfig};
 use clap::Args;
 use std::io::Write;
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::Duration;
 
 #[derive(Args, Debug, Clone)]
@@ -40,9 +41,12 @@ pub struct AgentNodeArgs {
     /// The team of its units (1 or 2).
     #[arg(long, default_value_t = 1)]
     pub team: u8,
-    /// Policy: focus-fire, attack-move, hold or noop.
+    /// The agent's policy (`avacraft episode --help` lists them).
     #[arg(long, default_value = "focus-fire")]
     pub policy: String,
+    /// The scenario being played: a built-in name or a scenario file.
+    #[arg(long)]
+    pub scenario: String,
 }
 
 pub(crate) fn sim_config(plan: &Plan, startup: Duration) -> SimConfig {
@@ -60,6 +64,7 @@ pub(crate) fn sim_config(plan: &Plan, startup: Duration) -> SimConfig {
         startup_timeout: startup,
         wait_for_recorder: plan.record.is_some(),
         dds_agents: plan.agents.iter().filter(|a| a.is_dds()).map(|a| a.id.clone()).collect(),
+        launch_file: plan.file.clone(),
         frames: plan.frames.as_ref().map(|f| avacraft_sim_node::FrameSpec {
             kinds: f.kinds.clone(),
             screen: f.screen,
@@ -93,11 +98,13 @@ pub fn agent_node(a: &AgentNodeArgs) -> Result<()> {
     let shutdown = Shutdown::install();
     let id = AgentId::parse(&a.id)?;
     let units = a.units.iter().map(|&u| UnitTag::new(u)).collect::<Result<Vec<_>, _>>()?;
-    let mut policy = avacraft_agent_nodes::by_name(&a.policy)?;
+    let mut agent = avacraft_engine::agent::by_name(&a.policy)?;
+    let scenario =
+        Arc::new(avacraft_engine::Scenario::load(&a.scenario).with_context(|| format!("agent-node: --scenario {}", a.scenario))?);
     let topics = Topics::new(&a.node.namespace)?;
     let node = Node::open(&a.node, &a.node.namespace, &format!("agent_{id}")).context("agent-node: opening the Zenoh session")?;
-    let cfg = avacraft_agent_nodes::AgentConfig { id, team: avacraft_nodes::TeamNo::new(a.team)?, units };
-    let stats = avacraft_agent_nodes::run(&node, &topics, &cfg, policy.as_mut(), &shutdown, None)?;
+    let cfg = avacraft_agent_nodes::AgentConfig { id, team: avacraft_nodes::TeamNo::new(a.team)?, units, scenario };
+    let stats = avacraft_agent_nodes::run(&node, &topics, &cfg, agent.as_mut(), &shutdown, None)?;
     tracing::info!(batches = stats.batches, malformed = stats.malformed, "agent node stops");
     Ok(())
 }

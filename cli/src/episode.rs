@@ -3,7 +3,7 @@
 use crate::info::team_of;
 use anyhow::{Context, Result, bail};
 use avacraft_engine::{
-    Ability, Controllers, Env, EnvConfig, Mode, OpponentKind, Outcome, RewardMode, Rules, Scenario, Team, loops_to_seconds, policy,
+    Ability, Controllers, Env, EnvConfig, Mode, OpponentKind, Outcome, RewardMode, Rules, Scenario, Team, loops_to_seconds,
 };
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -17,7 +17,7 @@ pub struct EpisodeArgs {
     /// Built-in scenario name or path to a scenario file.
     #[arg(long)]
     pub scenario: String,
-    /// Policy for team 1 (focus-fire, kite, attack-move, builtin, aggressive, defensive, focus, random, noop).
+    /// Policy for team 1 (focus-fire, kite, attack-move, builtin, aggressive, defensive, focus, random, hold, noop).
     #[arg(long, default_value = "kite")]
     pub agent: String,
     /// Policy for team 2 in PvP scenarios (default: the same as --agent).
@@ -119,11 +119,10 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
     if scenario.mode == Mode::Pvp && opponent.is_some() {
         bail!("--opponent applies to PvE scenarios; {} is PvP: pick team 2's policy with --agent2", scenario.name);
     }
-    let p1 = policy::by_name(&a.agent).context("--agent")?;
+    avacraft_engine::agent_by_name(&a.agent).context("--agent")?;
     let agent2 = a.agent2.clone().unwrap_or_else(|| a.agent.clone());
-    let p2 = if scenario.mode == Mode::Pvp { Some(policy::by_name(&agent2).context("--agent2")?) } else { None };
-    let pvp = p2.is_some();
-    let mut controllers = Controllers::new(&scenario, p1, p2);
+    let pvp = scenario.mode == Mode::Pvp;
+    let mut controllers = Controllers::named(&scenario, &a.agent, pvp.then_some(agent2.as_str())).context("--agent2")?;
     let cfg = EnvConfig {
         rules: Rules {
             full_vision: a.full_vision,
@@ -157,7 +156,7 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
     for k in 0..a.episodes as u64 {
         let seed = a.seed.wrapping_add(k);
         env.reset(seed);
-        controllers.reset(&scenario, seed);
+        controllers.reset(&env);
         while !env.done() {
             if k == 0
                 && let Some((writer, frames, cpu, w, h)) = video.as_mut()

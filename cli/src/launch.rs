@@ -143,6 +143,8 @@ fn spawn_host_nodes(a: &LaunchArgs, plan: &Plan, host: &str, common: &[String], 
             units.join(","),
             "--policy".into(),
             ag.policy.clone(),
+            "--scenario".into(),
+            plan.scenario_arg.clone(),
         ];
         args.extend(common.iter().cloned());
         procs.0.push(spawn(&format!("agent {}", ag.id), &args)?);
@@ -289,6 +291,7 @@ fn report(plan: &Plan, summaries: &[EpisodeSummary], out: &mut dyn Write) -> Res
         "foreign",
         "refused",
         "malformed",
+        "trajectory hash",
     ]);
     for s in summaries {
         t.add_row([
@@ -300,6 +303,7 @@ fn report(plan: &Plan, summaries: &[EpisodeSummary], out: &mut dyn Write) -> Res
             format!("{:?}", s.foreign_actions),
             format!("{:?}", s.refused_actions),
             s.malformed_messages.to_string(),
+            s.trajectory_hash.clone(),
         ]);
     }
     writeln!(out, "{t}")?;

@@ -17,6 +17,9 @@ mod replay;
 pub use bench::{BenchRow, RenderRow, ScalingRow};
 pub use episode::{EpisodeRecord, Report, Summary};
 pub use probe::ProbeReport;
+pub use replay::{
+    FrameSink, Mismatch, RecordedEpisode, Recording, ReplayError, ReplayResult, read_recording, replay_episode, replay_recording,
+};
 
 use clap::{Parser, Subcommand};
 use stats_alloc::StatsAlloc;

@@ -64,7 +64,7 @@ pub fn run(a: &ProbeArgs, out: &mut dyn Write) -> Result<()> {
             }
             None if item == "status" => avacraft_nodes::ros::key_space(d, &topics.status()),
             None if item == "actions" => {
-                format!("{d}/{}/{}/{}", topics.any_actions().trim_matches('/'), ActionBatch::dds_type_name(), ActionBatch::type_hash())
+                avacraft_nodes::ros::pattern_key(d, &topics.any_actions(), ActionBatch::dds_type_name(), ActionBatch::type_hash())
             }
             _ => bail!("--watch {item}: must be team:<n>, status or actions"),
         };

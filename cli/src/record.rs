@@ -1,11 +1,13 @@
 //! The recorder node: every topic under the namespace to MCAP with the ros2 profile
 //! (ros2msg schemas, cdr encoding, QoS metadata, zstd chunks, summary and statistics), so
 //! rosbag2's MCAP storage and Foxglove read it. Chunks are closed often, so a file whose
-//! writer was killed still yields every message written before.
+//! writer was killed still yields every message written before. The simulator's session
+//! description (`<namespace>/session`: scenario text, configuration, seeds) is one of those
+//! topics, so a recording replays with nothing else.
 
 use anyhow::{Context, Result};
 use avacraft_msgs::{EMBEDDED_TYPES, RosMessage, embedded_registry};
-use avacraft_nodes::{Node, NodeArgs, Qos, Shutdown, now_ns};
+use avacraft_nodes::{Node, NodeArgs, Qos, Shutdown, Topic, TopicKind, Topics, now_ns};
 use clap::Args;
 use std::collections::BTreeMap;
 use std::io::BufWriter;
@@ -61,15 +63,12 @@ fn known_types() -> Result<Vec<TypeInfo>> {
         .collect()
 }
 
-/// The ROS topic and type of a data key `<domain>/<topic...>/<dds type>/<hash>`.
-fn split_key<'a>(types: &'a [TypeInfo], key: &str) -> Option<(String, &'a TypeInfo)> {
-    let parts: Vec<&str> = key.split('/').collect();
-    if parts.len() < 4 {
-        return None;
-    }
-    let (dds, hash) = (parts[parts.len() - 2], parts[parts.len() - 1]);
-    let ty = types.iter().find(|t| t.dds == dds && t.hash == hash)?;
-    Some((format!("/{}", parts[1..parts.len() - 2].join("/")), ty))
+/// The ROS topic and type of a data key `<domain>/<topic...>/<dds type>/<hash>`; `None` for
+/// keys of unknown types or invalid topic names.
+fn split_key<'a>(types: &'a [TypeInfo], key: &str) -> Option<(Topic, &'a TypeInfo)> {
+    let k = avacraft_nodes::ros::parse_data_key(key)?;
+    let ty = types.iter().find(|t| t.dds == k.dds_type && t.hash == k.type_hash)?;
+    Some((k.topic, ty))
 }
 
 pub fn run(a: &RecordArgs, shutdown: &Shutdown) -> Result<RecordStats> {
@@ -86,7 +85,8 @@ pub fn run(a: &RecordArgs, shutdown: &Shutdown) -> Result<RecordStats> {
         .map_err(|e| anyhow::anyhow!("recorder: subscribing to {pattern}: {e}"))?;
     let types = known_types()?;
     // Announced after subscribing, so a simulator waiting for it misses nothing.
-    let status = avacraft_nodes::Topics::new(&a.node.namespace)?.status();
+    let topics = Topics::new(&a.node.namespace)?;
+    let status = topics.status();
     let _token =
         node.announce_subscription(&status, "avacraft_msgs::msg::dds_::EpisodeStatus_", avacraft_msgs::EpisodeStatus::type_hash())?;
     let mut channels: BTreeMap<String, u16> = BTreeMap::new();
@@ -112,7 +112,7 @@ pub fn run(a: &RecordArgs, shutdown: &Shutdown) -> Result<RecordStats> {
             quiet_since = Some(std::time::Instant::now());
         }
         let key = sample.key_expr().as_str().to_owned();
-        let Some((topic, ty)) = split_key(&types, &key).filter(|(t, _)| avacraft_nodes::Topic::parse(t).is_ok()) else {
+        let Some((topic, ty)) = split_key(&types, &key) else {
             stats.skipped += 1;
             continue;
         };
@@ -131,14 +131,14 @@ pub fn run(a: &RecordArgs, shutdown: &Shutdown) -> Result<RecordStats> {
                         s
                     }
                 };
-                let qos = if topic.ends_with("screen") || topic.ends_with("minimap") || topic.ends_with("vlm") {
-                    Qos::BestEffort { depth: 1 }
-                } else {
-                    Qos::Reliable { depth: 10 }
+                // As the simulator offers them: frames best effort, everything else reliable.
+                let qos = match topics.classify(&topic) {
+                    Some(TopicKind::Frames(..)) => Qos::BestEffort { depth: 1 },
+                    _ => Qos::Reliable { depth: 10 },
                 };
                 let meta =
                     BTreeMap::from([("offered_qos_profiles".to_owned(), qos.mcap_yaml()), ("topic_type_hash".to_owned(), ty.hash.clone())]);
-                let c = w.add_channel(schema, &topic, "cdr", &meta)?;
+                let c = w.add_channel(schema, topic.as_str(), "cdr", &meta)?;
                 channels.insert(key.clone(), c);
                 c
             }
@@ -173,7 +173,7 @@ mod tests {
         let ty = types.iter().find(|t| t.type_name == "avacraft_msgs/msg/ActionBatch").expect("type");
         let key = format!("0/avacraft/agents/a/actions/{}/{}", ty.dds, ty.hash);
         let (topic, got) = split_key(&types, &key).expect("split");
-        assert_eq!(topic, "/avacraft/agents/a/actions");
+        assert_eq!(topic.as_str(), "/avacraft/agents/a/actions");
         assert_eq!(got.type_name, ty.type_name);
         assert!(split_key(&types, "0/avacraft/x/unknown_::msg::dds_::X_/RIHS01_00").is_none());
     }

@@ -2,7 +2,7 @@
 
 use crate::info::team_of;
 use anyhow::{Context, Result, bail};
-use avacraft_engine::{Controllers, Env, EnvConfig, Mode, OpponentKind, Scenario, UnitId, policy};
+use avacraft_engine::{Controllers, Env, EnvConfig, Mode, OpponentKind, Scenario, UnitId};
 use avacraft_render::{CpuBackend, FrameBuilder, VlmOptions};
 use clap::{Args, ValueEnum};
 use std::io::Write;
@@ -85,11 +85,10 @@ pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
     let mut cfg = EnvConfig { opponent, step_mul: NonZeroU32::MIN, ..EnvConfig::default() };
     cfg.rules.full_vision = a.full_vision;
     let mut env = Env::new(Arc::clone(&scenario), cfg, a.seed);
-    let p1 = policy::by_name(&a.agent).context("--agent")?;
-    let p2 =
-        if scenario.mode == Mode::Pvp { Some(policy::by_name(a.agent2.as_deref().unwrap_or(&a.agent)).context("--agent2")?) } else { None };
-    let mut controllers = Controllers::new(&scenario, p1, p2);
-    controllers.reset(&scenario, a.seed);
+    avacraft_engine::agent_by_name(&a.agent).context("--agent")?;
+    let second = (scenario.mode == Mode::Pvp).then(|| a.agent2.as_deref().unwrap_or(&a.agent));
+    let mut controllers = Controllers::named(&scenario, &a.agent, second).context("--agent2")?;
+    controllers.reset(&env);
     // The env steps one loop at a time so any loop can be shown; policies act every 8.
     while env.world().tick() < a.at_loop && !env.done() {
         if env.world().tick().is_multiple_of(8) {

@@ -1,11 +1,15 @@
-//! `avacraft replay session.mcap`: re-simulates every recorded episode from its seed and the
-//! actions the simulator applied, and checks the trajectory against the recording step by
-//! step (every unit's position, HP and shields as the team saw them). Optionally renders
-//! the re-simulated episode to a GIF.
+//! `avacraft replay session.mcap`: re-simulates every recorded episode from what the
+//! recording itself holds (the session description with the scenario's text and the
+//! environment configuration, each episode's seed, the actions the simulator applied) and
+//! compares the full-state hash the simulator published at every step with the
+//! re-simulated one, naming the first step where they differ. No flag is needed; `--video`
+//! renders the first episode.
 
-use anyhow::{Context, Result, bail};
-use avacraft_engine::{Env, EnvConfig, OpponentKind, Scenario, Team, unit_list};
-use avacraft_msgs::{ActionBatch, EpisodeStatus, RosMessage, TeamObservation, decode};
+use anyhow::{Result, bail};
+use avacraft_engine::{Env, Outcome, Scenario, Team};
+use avacraft_msgs::{ActionBatch, DecodeError, EpisodeStatus, RosMessage, SessionInfo, decode};
+use avacraft_nodes::{Topic, TopicKind, Topics};
+use avacraft_sim_node::SessionError;
 use clap::Args;
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -14,28 +18,93 @@ use std::sync::Arc;
 
 #[derive(Args, Debug, Clone)]
 pub struct ReplayArgs {
-    /// The recording.
+    /// The recording (MCAP, as `avacraft record` or `launch` writes it).
     pub file: PathBuf,
-    /// Scenario file or name, when the recorded name is not a built-in scenario.
-    #[arg(long)]
-    pub scenario: Option<String>,
-    /// The PvE opponent the launch file set, if it set one.
-    #[arg(long)]
-    pub opponent: Option<OpponentKind>,
     /// Render the first replayed episode (team 1's annotated view) to this GIF.
     #[arg(long)]
     pub video: Option<PathBuf>,
 }
 
-/// What was recorded of one episode.
-#[derive(Debug, Default)]
-struct Recorded {
-    seed: Option<u64>,
-    scenario: String,
-    applied: BTreeMap<u32, ActionBatch>,
-    /// Team 1's view at the start of each step.
-    views: BTreeMap<u32, TeamObservation>,
-    last: Option<EpisodeStatus>,
+/// Why a recording cannot be replayed at all.
+#[derive(Debug, thiserror::Error)]
+pub enum ReplayError {
+    #[error("not an MCAP file")]
+    NotMcap(#[source] mcap::McapError),
+    #[error(
+        "no session description (topic `<namespace>/session`, type {}): the recording was made before recordings carried the scenario text, the environment configuration and per-step state hashes; record it again with this version",
+        SessionInfo::TYPE_NAME
+    )]
+    NoSession,
+    #[error(
+        "topic {topic}: {type_name} recorded as {found}, this build reads {expected}: the recording was made by another version of avacraft"
+    )]
+    TypeMismatch { topic: String, type_name: &'static str, found: String, expected: &'static str },
+    #[error("a {type_name} message on {topic} does not decode")]
+    Decode {
+        topic: String,
+        type_name: &'static str,
+        #[source]
+        source: DecodeError,
+    },
+    #[error("no episode status (topic `<namespace>/status`): nothing to replay")]
+    NoEpisodes,
+    #[error("topics of two namespaces ({0} and {1}): a recording holds one deployment")]
+    Namespaces(String, String),
+    #[error("episode {episode}: step {step} is recorded twice, differently: a recording holds one session")]
+    Duplicate { episode: u64, step: u32 },
+    #[error("episode {episode}: no session description was recorded before it")]
+    NoSessionFor { episode: u64 },
+    #[error("episode {episode}: the recorded session is unusable")]
+    Session {
+        episode: u64,
+        #[source]
+        source: Box<SessionError>,
+    },
+}
+
+/// One recorded episode: the session it ran in, its seed, and per step what the simulator
+/// published (status, with the full-state hash) and applied.
+#[derive(Debug, Clone)]
+pub struct RecordedEpisode {
+    pub session: SessionInfo,
+    pub seed: u64,
+    pub statuses: BTreeMap<u32, EpisodeStatus>,
+    pub applied: BTreeMap<u32, ActionBatch>,
+}
+
+/// What a recording holds for replay.
+#[derive(Debug, Clone, Default)]
+pub struct Recording {
+    pub episodes: BTreeMap<u64, RecordedEpisode>,
+    /// Why reading stopped before the end of the file (cut short or damaged), if it did.
+    pub truncated: Option<String>,
+}
+
+/// How a replayed episode differs from its recording.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Mismatch {
+    /// The first step whose state (before that step's actions) differs from the recorded one.
+    State { step: u32, game_loop: u32, expected: u64, got: u64 },
+    /// The recording lacks the actions applied at this step, so the replay cannot go on.
+    MissingActions { step: u32 },
+    /// A recorded applied action is not one the engine can take.
+    BadAction { step: u32, why: String },
+    /// Every recorded state matched but the episode ends differently.
+    End { expected: String, got: String },
+}
+
+impl std::fmt::Display for Mismatch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Mismatch::State { step, game_loop, expected, got } => {
+                write!(f, "diverges at step {step} (game loop {game_loop}): recorded state hash {expected:016x}, re-simulated {got:016x}")
+            }
+            Mismatch::MissingActions { step } => write!(f, "the recording has no applied actions for step {step}"),
+            Mismatch::BadAction { step, why } => write!(f, "step {step}: a recorded applied action is unusable: {why}"),
+            Mismatch::End { expected, got } => write!(f, "the recording ends with {expected}, the re-simulation with {got}"),
+        }
+    }
 }
 
 /// One episode's verdict.
@@ -43,141 +112,288 @@ struct Recorded {
 pub struct ReplayResult {
     pub episode: u64,
     pub seed: u64,
+    pub scenario: String,
+    /// Steps re-simulated.
     pub steps: u32,
-    pub compared_views: usize,
+    /// Recorded states compared with the re-simulation.
+    pub compared_steps: usize,
+    /// Whether the recording holds the episode's end.
+    pub complete: bool,
+    pub trajectory_hash: u64,
     /// The first difference, or `None` when the trajectory matches.
-    pub mismatch: Option<String>,
+    pub mismatch: Option<Mismatch>,
 }
 
-fn read(file: &PathBuf) -> Result<BTreeMap<u64, Recorded>> {
-    let bytes = std::fs::read(file).with_context(|| format!("replay: reading {}", file.display()))?;
-    let mut eps: BTreeMap<u64, Recorded> = BTreeMap::new();
-    for m in mcap::MessageStream::new(&bytes).with_context(|| format!("replay: {} is not an MCAP file", file.display()))? {
-        let m = m.with_context(|| format!("replay: {}", file.display()))?;
-        let ty = m.channel.schema.as_ref().map(|s| s.name.as_str()).unwrap_or_default();
-        let topic = m.channel.topic.as_str();
-        if ty == EpisodeStatus::TYPE_NAME && topic.ends_with("/status") {
-            let s: EpisodeStatus = decode(&m.data).with_context(|| format!("replay: a status message on {topic}"))?;
-            let e = eps.entry(s.episode).or_default();
-            e.seed = Some(s.seed);
-            e.scenario = s.scenario.clone();
-            e.last = Some(s);
-        } else if ty == ActionBatch::TYPE_NAME && topic.ends_with("/applied") {
-            let b: ActionBatch = decode(&m.data).with_context(|| format!("replay: an applied batch on {topic}"))?;
-            eps.entry(b.episode).or_default().applied.insert(b.step, b);
-        } else if ty == TeamObservation::TYPE_NAME && topic.ends_with("/team_1/obs") {
-            let o: TeamObservation = decode(&m.data).with_context(|| format!("replay: a team view on {topic}"))?;
-            eps.entry(o.episode).or_default().views.entry(o.step).or_insert(o);
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    Session,
+    Status,
+    Applied,
+}
+
+/// Which of the replay's topics a channel is (by its name, parsed in `avacraft_nodes`, and
+/// its type), with its namespace; `Ok(None)` for the other channels. A channel of the right
+/// topic whose type is not this build's is an error (decoding it would misread it).
+fn classify(ch: &mcap::Channel<'_>) -> Result<Option<(Kind, String)>, ReplayError> {
+    let Ok(topic) = Topic::parse(&ch.topic) else { return Ok(None) };
+    let (ns, _) = topic.namespace_and_base();
+    let Ok(topics) = Topics::new(ns) else { return Ok(None) };
+    let (kind, type_name, hash, schema) = match topics.classify(&topic) {
+        Some(TopicKind::Session) => (Kind::Session, SessionInfo::TYPE_NAME, SessionInfo::type_hash(), SessionInfo::schema()),
+        Some(TopicKind::Status) => (Kind::Status, EpisodeStatus::TYPE_NAME, EpisodeStatus::type_hash(), EpisodeStatus::schema()),
+        Some(TopicKind::Applied) => (Kind::Applied, ActionBatch::TYPE_NAME, ActionBatch::type_hash(), ActionBatch::schema()),
+        _ => return Ok(None),
+    };
+    let recorded = ch.schema.as_ref();
+    // rosbag2 and our recorder store the type hash; without one, the schema text decides.
+    let found = match (ch.metadata.get("topic_type_hash"), recorded) {
+        (Some(h), _) if h == hash => None,
+        (Some(h), s) => Some(format!("{} with type hash {h}", s.map_or("no schema", |s| s.name.as_str()))),
+        (None, Some(s)) if s.name == type_name && s.data.as_ref() == schema.as_bytes() => None,
+        (None, s) => Some(format!("{} with another definition", s.map_or("no schema", |s| s.name.as_str()))),
+    };
+    match found {
+        None => Ok(Some((kind, ns.to_owned()))),
+        Some(found) => Err(ReplayError::TypeMismatch { topic: ch.topic.clone(), type_name, found, expected: hash }),
+    }
+}
+
+fn decoded<T: RosMessage>(m: &mcap::Message<'_>) -> Result<T, ReplayError> {
+    decode(&m.data).map_err(|source| ReplayError::Decode { topic: m.channel.topic.clone(), type_name: T::TYPE_NAME, source })
+}
+
+/// Reads what a replay needs from an MCAP recording's bytes.
+pub fn read_recording(bytes: &[u8]) -> Result<Recording, ReplayError> {
+    let stream = mcap::MessageStream::new(bytes).map_err(ReplayError::NotMcap)?;
+    let mut channels: BTreeMap<u16, Option<Kind>> = BTreeMap::new();
+    let mut wrong_type = None;
+    let mut namespace: Option<String> = None;
+    let mut sessions: BTreeMap<u64, SessionInfo> = BTreeMap::new();
+    let mut statuses: BTreeMap<u64, BTreeMap<u32, EpisodeStatus>> = BTreeMap::new();
+    let mut applied: BTreeMap<u64, BTreeMap<u32, ActionBatch>> = BTreeMap::new();
+    let (mut read, mut truncated) = (0u64, None);
+    for m in stream {
+        let m = match m {
+            Ok(m) => m,
+            // Nothing readable at all (the magic is checked on the first read).
+            Err(e) if read == 0 => return Err(ReplayError::NotMcap(e)),
+            Err(e) => {
+                // The chunks before the damage are intact: replay what they hold.
+                truncated = Some(format!("unreadable after {read} messages: {e}"));
+                break;
+            }
+        };
+        read += 1;
+        let kind = match channels.get(&m.channel.id) {
+            Some(k) => *k,
+            None => {
+                let k = match classify(&m.channel) {
+                    Ok(Some((k, ns))) => {
+                        match &namespace {
+                            Some(n) if *n != ns => return Err(ReplayError::Namespaces(n.clone(), ns)),
+                            _ => namespace = Some(ns),
+                        }
+                        Some(k)
+                    }
+                    Ok(None) => None,
+                    Err(e) => {
+                        wrong_type.get_or_insert(e);
+                        None
+                    }
+                };
+                channels.insert(m.channel.id, k);
+                k
+            }
+        };
+        match kind {
+            Some(Kind::Session) => {
+                let s: SessionInfo = decoded(&m)?;
+                sessions.insert(s.episode, s);
+            }
+            Some(Kind::Status) => {
+                let s: EpisodeStatus = decoded(&m)?;
+                let (episode, step) = (s.episode, s.step);
+                match statuses.entry(episode).or_default().entry(step) {
+                    std::collections::btree_map::Entry::Vacant(v) => {
+                        v.insert(s);
+                    }
+                    std::collections::btree_map::Entry::Occupied(o) if *o.get() != s => {
+                        return Err(ReplayError::Duplicate { episode, step });
+                    }
+                    std::collections::btree_map::Entry::Occupied(_) => {}
+                }
+            }
+            Some(Kind::Applied) => {
+                let b: ActionBatch = decoded(&m)?;
+                applied.entry(b.episode).or_default().insert(b.step, b);
+            }
+            None => {}
         }
     }
-    Ok(eps)
+    // A recording from before sessions were recorded also has statuses of another type:
+    // name the missing session first, it is what such a file lacks.
+    if sessions.is_empty() {
+        return Err(ReplayError::NoSession);
+    }
+    if let Some(e) = wrong_type {
+        return Err(e);
+    }
+    if statuses.is_empty() {
+        return Err(ReplayError::NoEpisodes);
+    }
+    let mut episodes = BTreeMap::new();
+    for (episode, st) in statuses {
+        let session = sessions.range(..=episode).next_back().map(|(_, s)| s.clone()).ok_or(ReplayError::NoSessionFor { episode })?;
+        let seed = st.values().next().map_or(0, |s| s.seed);
+        let applied = applied.remove(&episode).unwrap_or_default();
+        episodes.insert(episode, RecordedEpisode { session, seed, statuses: st, applied });
+    }
+    Ok(Recording { episodes, truncated })
 }
 
-/// Differences between a recorded view and the re-simulated world.
-fn compare(env: &Env, view: &TeamObservation) -> Option<String> {
-    let now = unit_list(env.world(), Team::One);
-    if now.len() != view.units.len() {
-        return Some(format!("step {}: {} units recorded, {} re-simulated", view.step, view.units.len(), now.len()));
+fn result_code(o: Option<Outcome>) -> u8 {
+    match o {
+        None => EpisodeStatus::RUNNING,
+        Some(Outcome::Win) => EpisodeStatus::WIN,
+        Some(Outcome::Loss) => EpisodeStatus::LOSS,
+        Some(Outcome::Draw) => EpisodeStatus::DRAW,
     }
-    for (a, b) in now.iter().zip(&view.units) {
-        let same = a.tag == b.tag
-            && a.x.to_bits() == b.x.to_bits()
-            && a.y.to_bits() == b.y.to_bits()
-            && a.hp.to_bits() == b.hp.to_bits()
-            && a.shield.to_bits() == b.shield.to_bits();
-        if !same {
-            return Some(format!(
-                "step {}: unit {} recorded at ({}, {}) HP {} shields {}, re-simulated {} at ({}, {}) HP {} shields {}",
-                view.step, b.tag, b.x, b.y, b.hp, b.shield, a.tag, a.x, a.y, a.hp, a.shield
-            ));
+}
+
+/// Called with the environment after every re-simulated step of the first episode.
+pub type FrameSink<'a> = dyn FnMut(&Env) -> Result<()> + 'a;
+
+/// Re-simulates one recorded episode and compares it with the recording, step by step.
+pub fn replay_episode(episode: u64, rec: &RecordedEpisode, mut frames: Option<&mut FrameSink<'_>>) -> Result<ReplayResult> {
+    let session_err = |source| ReplayError::Session { episode, source: Box::new(source) };
+    let scenario = Arc::new(avacraft_sim_node::scenario(&rec.session).map_err(session_err)?);
+    let cfg = avacraft_sim_node::env_config(&rec.session).map_err(session_err)?;
+    replay_in(Env::new(Arc::clone(&scenario), cfg, rec.seed), episode, &scenario, rec, &mut frames)
+}
+
+fn replay_in(
+    mut env: Env,
+    episode: u64,
+    scenario: &Scenario,
+    rec: &RecordedEpisode,
+    frames: &mut Option<&mut FrameSink<'_>>,
+) -> Result<ReplayResult> {
+    let last = rec.statuses.last_key_value().map(|(_, s)| s.clone());
+    let last_step = last.as_ref().map_or(0, |s| s.step);
+    let (mut compared, mut mismatch) = (0, None);
+    'steps: loop {
+        let step = env.steps();
+        if let Some(st) = rec.statuses.get(&step) {
+            compared += 1;
+            let got = env.state_hash();
+            if got != st.state_hash {
+                mismatch = Some(Mismatch::State { step, game_loop: st.game_loop, expected: st.state_hash, got });
+                break;
+            }
+        }
+        if env.done() || step >= last_step {
+            break;
+        }
+        let Some(batch) = rec.applied.get(&step) else {
+            mismatch = Some(Mismatch::MissingActions { step });
+            break;
+        };
+        for act in &batch.actions {
+            let action = match avacraft_sim_node::action_from_msg(env.world(), act) {
+                Ok(a) => a,
+                Err(e) => {
+                    mismatch = Some(Mismatch::BadAction { step, why: e.to_string() });
+                    break 'steps;
+                }
+            };
+            let team = env.world().unit(action.unit).map_or(Team::One, |u| u.team);
+            // The simulator applied it; should the engine refuse it here, the states part
+            // and the next comparison says where.
+            let _ = env.submit(team, &[action]);
+        }
+        env.step();
+        if let Some(sink) = frames.as_mut() {
+            sink(&env)?;
         }
     }
-    None
+    let complete = last.as_ref().is_some_and(|s| s.result != EpisodeStatus::RUNNING);
+    if mismatch.is_none()
+        && let Some(end) = last.as_ref().filter(|_| complete)
+    {
+        let got = (env.steps(), result_code(env.outcome()), env.trajectory_hash());
+        if (end.step, end.result, end.trajectory_hash) != got {
+            let show = |(s, r, h): (u32, u8, u64)| format!("step {s}, result {r}, trajectory {h:016x}");
+            mismatch = Some(Mismatch::End { expected: show((end.step, end.result, end.trajectory_hash)), got: show(got) });
+        }
+    }
+    Ok(ReplayResult {
+        episode,
+        seed: rec.seed,
+        scenario: scenario.name.clone(),
+        steps: env.steps(),
+        compared_steps: compared,
+        complete,
+        trajectory_hash: env.trajectory_hash(),
+        mismatch,
+    })
 }
 
-/// Re-simulates every episode of a recording.
-pub fn replay(a: &ReplayArgs) -> Result<Vec<ReplayResult>> {
-    let eps = read(&a.file)?;
-    if eps.is_empty() {
-        bail!("replay: {} holds no episode (no /status messages)", a.file.display());
-    }
+/// Re-simulates every episode of a recording; `frames` sees the first one.
+pub fn replay_recording(rec: &Recording, mut frames: Option<&mut FrameSink<'_>>) -> Result<Vec<ReplayResult>> {
     let mut out = Vec::new();
+    for (&episode, ep) in &rec.episodes {
+        let sink = if out.is_empty() { frames.as_deref_mut() } else { None };
+        out.push(replay_episode(episode, ep, sink)?);
+    }
+    Ok(out)
+}
+
+pub fn run(a: &ReplayArgs, out: &mut dyn Write) -> Result<()> {
+    use anyhow::Context;
+    let file = a.file.display();
+    let bytes = std::fs::read(&a.file).with_context(|| format!("replay: reading {file}"))?;
+    let rec = read_recording(&bytes).with_context(|| format!("replay: {file}"))?;
+    if let Some(why) = &rec.truncated {
+        writeln!(out, "warning: {file} is cut short ({why}); replaying what it holds")?;
+    }
     let mut video = match &a.video {
         Some(p) => {
             Some((avacraft_render::VideoWriter::create(p, 100)?, avacraft_render::FrameBuilder::new(), avacraft_render::CpuBackend::new()))
         }
         None => None,
     };
-    for (&episode, rec) in &eps {
-        let Some(seed) = rec.seed else { continue };
-        let name = a.scenario.clone().unwrap_or_else(|| rec.scenario.clone());
-        let scenario = Arc::new(Scenario::load(&name).with_context(|| format!("replay: episode {episode}'s scenario"))?);
-        let cfg = EnvConfig { opponent: a.opponent, ..EnvConfig::default() };
-        let mut env = Env::new(scenario, cfg, seed);
-        let mut mismatch = None;
-        let mut compared = 0;
-        loop {
-            let step = env.steps();
-            if let Some(view) = rec.views.get(&step) {
-                compared += 1;
-                if let Some(d) = compare(&env, view) {
-                    mismatch = Some(d);
-                    break;
-                }
-            }
-            if env.done() {
-                break;
-            }
-            if let Some(batch) = rec.applied.get(&step) {
-                for act in &batch.actions {
-                    let action =
-                        avacraft_sim_node::action_from_msg(env.world(), act).map_err(|e| anyhow::anyhow!("replay: step {step}: {e}"))?;
-                    let team = env.world().unit(action.unit).map_or(Team::One, |u| u.team);
-                    let _ = env.submit(team, &[action]);
-                }
-            } else if rec.last.as_ref().is_some_and(|s| step < s.step) {
-                mismatch = Some(format!("step {step}: the recording has no applied actions for it"));
-                break;
-            }
-            env.step();
-            if let Some((w, fb, cpu)) = video.as_mut().filter(|_| out.is_empty()) {
-                w.push(&cpu.render(&fb.vlm(env.world(), Team::One, 640, 480, &avacraft_render::VlmOptions::default())))?;
-            }
+    let mut sink = |env: &Env| -> Result<()> {
+        if let Some((w, fb, cpu)) = video.as_mut() {
+            w.push(&cpu.render(&fb.vlm(env.world(), Team::One, 640, 480, &avacraft_render::VlmOptions::default())))?;
         }
-        if mismatch.is_none()
-            && let Some(s) = &rec.last
-            && (s.step != env.steps() || s.game_loop != env.world().tick())
-        {
-            mismatch = Some(format!(
-                "the recording ends at step {} loop {}, the re-simulation at step {} loop {}",
-                s.step,
-                s.game_loop,
-                env.steps(),
-                env.world().tick()
-            ));
-        }
-        out.push(ReplayResult { episode, seed, steps: env.steps(), compared_views: compared, mismatch });
-    }
+        Ok(())
+    };
+    let results = replay_recording(&rec, Some(&mut sink)).with_context(|| format!("replay: {file}"))?;
     if let Some((w, ..)) = video {
         w.finish()?;
     }
-    Ok(out)
-}
-
-pub fn run(a: &ReplayArgs, out: &mut dyn Write) -> Result<()> {
-    let results = replay(a)?;
     let mut bad = 0;
     for r in &results {
-        match &r.mismatch {
-            None => writeln!(out, "episode {} (seed {}): {} steps, {} recorded views match", r.episode, r.seed, r.steps, r.compared_views)?,
-            Some(d) => {
+        let head = format!("episode {} (seed {}, {})", r.episode, r.seed, r.scenario);
+        match (&r.mismatch, r.complete) {
+            (None, true) => writeln!(
+                out,
+                "{head}: {} steps, every recorded state matches ({} compared), trajectory {:016x}",
+                r.steps, r.compared_steps, r.trajectory_hash
+            )?,
+            (None, false) => writeln!(
+                out,
+                "{head}: the recording ends at step {} before the episode does; the {} recorded states match",
+                r.steps, r.compared_steps
+            )?,
+            (Some(m), _) => {
                 bad += 1;
-                writeln!(out, "episode {} (seed {}): MISMATCH: {d}", r.episode, r.seed)?;
+                writeln!(out, "{head}: MISMATCH: {m}")?;
             }
         }
     }
     if bad > 0 {
-        bail!("replay: {bad} of {} episodes do not match the recording", results.len());
+        bail!("replay: {bad} of {} episodes do not match {file}", results.len());
     }
     Ok(())
 }

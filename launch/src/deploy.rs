@@ -343,7 +343,7 @@ pub fn access_control(plan: &Plan, topics: &Topics, domain: u32) -> serde_json::
         // A publisher sends only where it knows of a subscriber: the host must learn of the
         // simulator's subscription to every agent's actions (its existence, nothing more).
         if !sends.is_empty() {
-            let any = format!("{domain}/{}/**", topics.any_actions().trim_matches('/'));
+            let any = avacraft_nodes::ros::pattern_space(domain, &topics.any_actions());
             rule(format!("{host}_matching"), &["declare_subscriber"], &["egress"], &[any]);
         }
         rule(format!("{host}_subscribe"), &["declare_subscriber"], &["ingress"], &reads);

@@ -319,12 +319,10 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
     }
     for (i, a) in raw.agents.iter().enumerate() {
         let f = |name: &str| format!("agents[{i}].{name}");
-        if !avacraft_agent_nodes::POLICIES.contains(&a.policy.as_str()) && a.policy != DDS_POLICY {
-            return Err(cx.err(
-                f("policy"),
-                format!("{:?}", a.policy),
-                format!("unknown (known: {}, {DDS_POLICY})", avacraft_agent_nodes::POLICIES.join(", ")),
-            ));
+        // Agent nodes run the engine's agents (the same ones `episode` runs in-process).
+        let known: Vec<&str> = avacraft_engine::agent::AGENTS.iter().map(|(n, _)| *n).collect();
+        if !known.contains(&a.policy.as_str()) && a.policy != DDS_POLICY {
+            return Err(cx.err(f("policy"), format!("{:?}", a.policy), format!("unknown (known: {}, {DDS_POLICY})", known.join(", "))));
         }
         let host = a.host.clone().unwrap_or_else(|| hosts[0].clone());
         if !hosts.contains(&host) {

@@ -20,8 +20,8 @@ pub use parser::{
 };
 pub use registry::{Registry, RegistryError};
 pub use types::{
-    AbilityState, ActionBatch, AreaEffect, EpisodeStatus, Header, Image, RoleAssignment, RoleGroup, StdString, TeamObservation, Time,
-    UnitAction, UnitObservation, UnitState,
+    AbilityState, ActionBatch, AreaEffect, EpisodeStatus, Header, Image, RoleAssignment, RoleGroup, SessionInfo, StdString,
+    TeamObservation, Time, UnitAction, UnitObservation, UnitState,
 };
 
 /// `builtin_interfaces` types, under their ROS names.

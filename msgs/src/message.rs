@@ -113,4 +113,5 @@ ros_messages! {
     EpisodeStatus => "avacraft_msgs", "EpisodeStatus", "../msg/EpisodeStatus.msg";
     RoleGroup => "avacraft_msgs", "RoleGroup", "../msg/RoleGroup.msg";
     RoleAssignment => "avacraft_msgs", "RoleAssignment", "../msg/RoleAssignment.msg";
+    SessionInfo => "avacraft_msgs", "SessionInfo", "../msg/SessionInfo.msg";
 }

@@ -38,13 +38,15 @@ pub struct Image {
     pub data: Vec<u8>,
 }
 
-/// `avacraft_msgs/msg/UnitState`.
+/// `avacraft_msgs/msg/UnitState`. The `TYPE_*`, `FLAG_*` and `BUFF_*` values are the
+/// engine's (the conversion in `avacraft-nodes` checks them against the `.msg`).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct UnitState {
     pub tag: u32,
     pub name: String,
-    pub unit_type: String,
+    pub unit_type: u8,
     pub team: u8,
+    pub own: bool,
     pub x: f32,
     pub y: f32,
     pub hp: f32,
@@ -56,27 +58,77 @@ pub struct UnitState {
     pub weapon_cooldown_s: f32,
     pub grid_x: u8,
     pub grid_y: u8,
-    pub order: String,
+    pub order: u8,
+    pub order_x: f32,
+    pub order_y: f32,
+    pub order_target: u32,
+    pub activity: u8,
     /// 0 = none.
     pub target_tag: u32,
-    pub flags: Vec<String>,
-    pub buffs: Vec<String>,
+    pub flags: u32,
+    pub buffs: u32,
 }
 
-/// `avacraft_msgs/msg/AbilityState`.
+impl UnitState {
+    pub const ORDER_IDLE: u8 = 0;
+    pub const ORDER_HOLD: u8 = 1;
+    pub const ORDER_MOVE: u8 = 2;
+    pub const ORDER_ATTACK_MOVE: u8 = 3;
+    pub const ORDER_ATTACK: u8 = 4;
+    pub const ACTIVITY_IDLE: u8 = 0;
+    pub const ACTIVITY_MOVING: u8 = 1;
+    pub const ACTIVITY_ATTACKING: u8 = 2;
+    pub const ACTIVITY_HEALING: u8 = 3;
+    pub const ACTIVITY_DEAD: u8 = 4;
+
+    /// The `ORDER_*` and `ACTIVITY_*` constants, for checking against the `.msg`.
+    pub const CONSTANTS: &'static [(&'static str, u8)] = &[
+        ("ORDER_IDLE", Self::ORDER_IDLE),
+        ("ORDER_HOLD", Self::ORDER_HOLD),
+        ("ORDER_MOVE", Self::ORDER_MOVE),
+        ("ORDER_ATTACK_MOVE", Self::ORDER_ATTACK_MOVE),
+        ("ORDER_ATTACK", Self::ORDER_ATTACK),
+        ("ACTIVITY_IDLE", Self::ACTIVITY_IDLE),
+        ("ACTIVITY_MOVING", Self::ACTIVITY_MOVING),
+        ("ACTIVITY_ATTACKING", Self::ACTIVITY_ATTACKING),
+        ("ACTIVITY_HEALING", Self::ACTIVITY_HEALING),
+        ("ACTIVITY_DEAD", Self::ACTIVITY_DEAD),
+    ];
+}
+
+/// `avacraft_msgs/msg/AbilityState`. `ABILITY_*` and `UNAVAILABLE_*` values are the engine's.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct AbilityState {
-    pub ability: String,
+    pub ability: u8,
     pub available: bool,
+    pub unavailable: u8,
     pub cooldown_s: f32,
     pub energy_cost: f32,
-    pub target_kind: String,
+    pub range: f32,
+    pub target_kind: u8,
 }
 
-/// `avacraft_msgs/msg/AreaEffect`.
+impl AbilityState {
+    pub const TARGET_NONE: u8 = 0;
+    pub const TARGET_POINT: u8 = 1;
+    pub const TARGET_UNIT: u8 = 2;
+    pub const TARGET_POINT_OR_UNIT: u8 = 3;
+    pub const UNAVAILABLE_NONE: u8 = 0;
+
+    /// The `TARGET_*` constants and `UNAVAILABLE_NONE`, for checking against the `.msg`.
+    pub const CONSTANTS: &'static [(&'static str, u8)] = &[
+        ("TARGET_NONE", Self::TARGET_NONE),
+        ("TARGET_POINT", Self::TARGET_POINT),
+        ("TARGET_UNIT", Self::TARGET_UNIT),
+        ("TARGET_POINT_OR_UNIT", Self::TARGET_POINT_OR_UNIT),
+        ("UNAVAILABLE_NONE", Self::UNAVAILABLE_NONE),
+    ];
+}
+
+/// `avacraft_msgs/msg/AreaEffect`. `KIND_*` values are the engine's.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct AreaEffect {
-    pub kind: String,
+    pub kind: u8,
     pub team: u8,
     pub x: f32,
     pub y: f32,
@@ -89,6 +141,7 @@ pub struct AreaEffect {
 pub struct UnitObservation {
     pub header: Header,
     pub episode: u64,
+    pub seed: u64,
     pub step: u32,
     pub game_loop: u32,
     pub unit_tag: u32,
@@ -128,7 +181,8 @@ pub struct UnitAction {
     pub grid_x: u8,
     pub grid_y: u8,
     pub direction: u8,
-    pub ability: String,
+    /// `AbilityState`'s `ABILITY_*`.
+    pub ability: u8,
     pub ability_target: u8,
 }
 
@@ -197,6 +251,10 @@ pub struct EpisodeStatus {
     pub missing_actions: [u32; 2],
     pub foreign_actions: [u32; 2],
     pub malformed_messages: u32,
+    /// The simulator's full-state hash at this step, before its actions.
+    pub state_hash: u64,
+    /// The seed and every state so far, chained (the episode's trajectory hash at its end).
+    pub trajectory_hash: u64,
 }
 
 /// Constants of `EpisodeStatus.msg`, mirrored here (a test checks they agree).
@@ -214,9 +272,26 @@ impl EpisodeStatus {
 /// `avacraft_msgs/msg/RoleGroup`.
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct RoleGroup {
-    pub role: String,
+    pub role: u8,
     pub agent_id: String,
     pub unit_tags: Vec<u32>,
+}
+
+impl RoleGroup {
+    pub const ROLE_NONE: u8 = 0;
+    pub const ROLE_ATTACKER: u8 = 1;
+    pub const ROLE_DEFENDER: u8 = 2;
+    pub const ROLE_SCOUT: u8 = 3;
+    pub const ROLE_SUPPORT: u8 = 4;
+
+    /// Name/value pairs of all constants, for checking against the `.msg`.
+    pub const CONSTANTS: &'static [(&'static str, u8)] = &[
+        ("ROLE_NONE", Self::ROLE_NONE),
+        ("ROLE_ATTACKER", Self::ROLE_ATTACKER),
+        ("ROLE_DEFENDER", Self::ROLE_DEFENDER),
+        ("ROLE_SCOUT", Self::ROLE_SCOUT),
+        ("ROLE_SUPPORT", Self::ROLE_SUPPORT),
+    ];
 }
 
 /// `avacraft_msgs/msg/RoleAssignment`.
@@ -226,4 +301,54 @@ pub struct RoleAssignment {
     pub episode: u64,
     pub step: u32,
     pub groups: Vec<RoleGroup>,
+}
+
+/// `avacraft_msgs/msg/SessionInfo`: what a replay needs besides seeds and applied actions.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SessionInfo {
+    pub header: Header,
+    pub scenario_name: String,
+    pub scenario_toml: String,
+    pub step_mul: u32,
+    pub reward: u8,
+    pub opponent: u8,
+    pub time_limit_loops: u32,
+    pub ability_actions: bool,
+    pub full_vision: bool,
+    pub cooldown_jitter: bool,
+    pub auto_acquire: [bool; 2],
+    pub abilities: bool,
+    pub clock: u8,
+    pub deadline_ms: u32,
+    pub launch_file: String,
+    pub episode: u64,
+    pub seeds: Vec<u64>,
+}
+
+/// Constants of `SessionInfo.msg`, mirrored here (a test checks they agree).
+impl SessionInfo {
+    pub const REWARD_SPARSE: u8 = 0;
+    pub const REWARD_DENSE: u8 = 1;
+    pub const OPPONENT_SCENARIO: u8 = 0;
+    pub const OPPONENT_BUILTIN: u8 = 1;
+    pub const OPPONENT_AGGRESSIVE: u8 = 2;
+    pub const OPPONENT_DEFENSIVE: u8 = 3;
+    pub const OPPONENT_FOCUS: u8 = 4;
+    pub const OPPONENT_RANDOM: u8 = 5;
+    pub const CLOCK_LOCKSTEP: u8 = 0;
+    pub const CLOCK_REALTIME: u8 = 1;
+
+    /// Name/value pairs of all constants, for checking against the `.msg`.
+    pub const CONSTANTS: &'static [(&'static str, u8)] = &[
+        ("REWARD_SPARSE", Self::REWARD_SPARSE),
+        ("REWARD_DENSE", Self::REWARD_DENSE),
+        ("OPPONENT_SCENARIO", Self::OPPONENT_SCENARIO),
+        ("OPPONENT_BUILTIN", Self::OPPONENT_BUILTIN),
+        ("OPPONENT_AGGRESSIVE", Self::OPPONENT_AGGRESSIVE),
+        ("OPPONENT_DEFENSIVE", Self::OPPONENT_DEFENSIVE),
+        ("OPPONENT_FOCUS", Self::OPPONENT_FOCUS),
+        ("OPPONENT_RANDOM", Self::OPPONENT_RANDOM),
+        ("CLOCK_LOCKSTEP", Self::CLOCK_LOCKSTEP),
+        ("CLOCK_REALTIME", Self::CLOCK_REALTIME),
+    ];
 }

@@ -10,8 +10,9 @@ pub mod frames;
 mod node;
 pub mod ros;
 mod topics;
+pub mod wire;
 
 pub use cli::{NodeArgs, SessionMode, Shutdown, init_logging};
 pub use node::{Node, NodeError, Publisher, Received, Subscriber, now_ns, zenoh_config};
 pub use ros::Qos;
-pub use topics::{AgentId, FrameKind, NameError, TeamNo, Topic, Topics, UnitTag};
+pub use topics::{AgentId, FrameKind, NameError, TeamNo, Topic, TopicKind, TopicPattern, Topics, UnitTag};

@@ -3,7 +3,7 @@
 
 use crate::cli::NodeArgs;
 use crate::ros::{self, EntityKind, NodeIdentity, Qos};
-use crate::topics::Topic;
+use crate::topics::{Topic, TopicPattern};
 use avacraft_msgs::{DecodeError, RosMessage, decode, encode};
 use std::marker::PhantomData;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -164,11 +164,9 @@ impl Node {
         Ok(self
             .alive_tokens(timeout)?
             .iter()
-            .filter_map(|t| {
-                // @ros2_lv/<domain>/<zid>/<node>/<entity>/NN/<enclave>/<ns>/<name>
-                let parts: Vec<&str> = t.split('/').collect();
-                (parts.get(5) == Some(&"NN") && parts.get(7) == Some(&ns.as_str())).then(|| parts.get(8).map(|n| (*n).to_owned())).flatten()
-            })
+            .filter_map(|t| ros::parse_token(t))
+            .filter(|t| t.kind == ros::TokenKind::Node && t.namespace == ns)
+            .map(|t| t.node)
             .collect())
     }
 
@@ -191,15 +189,14 @@ impl Node {
         Ok(Publisher { inner, key, topic: topic.clone(), seq: 0, gid: ros::gid(&token_key), _token: token, _t: PhantomData })
     }
 
-    /// A subscription to `T` on `topic`; a `*` segment in `topic_pattern` matches any one
-    /// segment (e.g. every agent's actions).
-    pub fn subscriber<T: RosMessage>(&self, topic_pattern: &str, qos: Qos) -> Result<Subscriber<T>, NodeError> {
+    /// A subscription to `T` on a topic or a pattern of topics (every agent's actions);
+    /// each sample says which topic it came on.
+    pub fn subscriber<T: RosMessage>(&self, topic: impl Into<TopicPattern>, qos: Qos) -> Result<Subscriber<T>, NodeError> {
+        let topic = topic.into();
         let (dds, hash) = (T::dds_type_name(), T::type_hash());
-        let key = format!("{}/{}/{dds}/{hash}", self.id.domain, topic_pattern.trim_matches('/'));
-        // A pattern is announced under its literal name, with '*' replaced so it stays a
-        // valid ROS name for the token.
-        let shown = Topic::parse(&topic_pattern.replace('*', "any")).unwrap_or_else(|_| Topic::parse("/avacraft").expect("valid"));
-        let (_, token) = self.token(EntityKind::Subscription, &shown, dds, hash, qos)?;
+        let key = ros::pattern_key(self.id.domain, &topic, dds, hash);
+        // A pattern is announced under its name with '*' shown as `any`, a valid ROS name.
+        let (_, token) = self.token(EntityKind::Subscription, &topic.shown(), dds, hash, qos)?;
         let err = |e: zenoh::Error| NodeError::Declare { what: "a subscriber", key: key.clone(), message: e.to_string() };
         // Reliable: a deep queue that holds the sender back when full. Best effort (frames):
         // a ring of `depth` that drops the oldest, so a slow reader never queues stale frames
@@ -216,7 +213,7 @@ impl Node {
                     .map_err(err)?,
             ),
         };
-        Ok(Subscriber { inner, key, _token: token, _t: PhantomData })
+        Ok(Subscriber { inner, key, foreign_keys: std::sync::atomic::AtomicU64::new(0), _token: token, _t: PhantomData })
     }
 }
 
@@ -266,10 +263,10 @@ impl<T: RosMessage> Publisher<T> {
     }
 }
 
-/// One received sample: its key, its raw payload, and the decoded message or why not.
+/// One received sample: its topic, its raw payload, and the decoded message or why not.
 #[derive(Debug)]
 pub struct Received<T> {
-    pub key: String,
+    pub topic: Topic,
     pub payload: Vec<u8>,
     pub attachment: Option<ros::Attachment>,
     pub msg: Result<T, DecodeError>,
@@ -299,6 +296,9 @@ impl Inner {
 pub struct Subscriber<T> {
     inner: Inner,
     key: String,
+    /// Samples whose key was not a valid data key (a segment a pattern matched that is not a
+    /// ROS name): dropped, never handed out.
+    foreign_keys: std::sync::atomic::AtomicU64,
     _token: LivelinessToken,
     _t: PhantomData<fn() -> T>,
 }
@@ -310,24 +310,48 @@ impl<T> std::fmt::Debug for Subscriber<T> {
 }
 
 impl<T: RosMessage> Subscriber<T> {
-    fn convert(s: Sample) -> Received<T> {
+    fn convert(&self, s: Sample) -> Option<Received<T>> {
+        let Some(key) = ros::parse_data_key(s.key_expr().as_str()) else {
+            self.foreign_keys.fetch_add(1, Ordering::Relaxed);
+            return None;
+        };
         let payload = s.payload().to_bytes().into_owned();
         let attachment = s.attachment().and_then(|a| ros::parse_attachment(&a.to_bytes()));
-        Received { key: s.key_expr().as_str().to_owned(), msg: decode(&payload), payload, attachment }
+        Some(Received { topic: key.topic, msg: decode(&payload), payload, attachment })
     }
     /// Waits up to `timeout` for a sample; `Ok(None)` on timeout.
     pub fn recv_timeout(&self, timeout: Duration) -> Result<Option<Received<T>>, NodeError> {
-        match self.inner.recv_timeout(timeout) {
-            Ok(s) => Ok(s.map(Self::convert)),
-            Err(_) => Err(NodeError::Closed { key: self.key.clone() }),
+        let end = std::time::Instant::now() + timeout;
+        loop {
+            let left = end.saturating_duration_since(std::time::Instant::now());
+            match self.inner.recv_timeout(left) {
+                Ok(Some(s)) => match self.convert(s) {
+                    Some(r) => return Ok(Some(r)),
+                    None if left.is_zero() => return Ok(None),
+                    None => continue,
+                },
+                Ok(None) => return Ok(None),
+                Err(_) => return Err(NodeError::Closed { key: self.key.clone() }),
+            }
         }
     }
     /// A sample if one is waiting.
     pub fn try_recv(&self) -> Result<Option<Received<T>>, NodeError> {
-        match self.inner.try_recv() {
-            Ok(s) => Ok(s.map(Self::convert)),
-            Err(_) => Err(NodeError::Closed { key: self.key.clone() }),
+        loop {
+            match self.inner.try_recv() {
+                Ok(Some(s)) => {
+                    if let Some(r) = self.convert(s) {
+                        return Ok(Some(r));
+                    }
+                }
+                Ok(None) => return Ok(None),
+                Err(_) => return Err(NodeError::Closed { key: self.key.clone() }),
+            }
         }
+    }
+    /// Samples dropped because their key was not a data key of this deployment.
+    pub fn foreign_keys(&self) -> u64 {
+        self.foreign_keys.load(Ordering::Relaxed)
     }
     pub fn key(&self) -> &str {
         &self.key

@@ -3,7 +3,7 @@
 //! type name and REP-2016 hash, liveliness tokens for nodes and endpoints, and the 33-byte
 //! attachment every sample must carry (subscribers drop samples without it).
 
-use crate::topics::Topic;
+use crate::topics::{Topic, TopicPattern};
 
 /// Reliability and depth of an endpoint, as rmw_zenoh encodes them in liveliness tokens.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -47,6 +47,16 @@ pub fn mangle(name: &str) -> String {
 /// The data key of a topic: `<domain>/<topic>/<dds type>/<type hash>`.
 pub fn data_key(domain: u32, topic: &Topic, dds_type: &str, type_hash: &str) -> String {
     format!("{domain}/{}/{dds_type}/{type_hash}", topic.as_str().trim_matches('/'))
+}
+
+/// Every key under a pattern of topics (any type), as [`key_space`] for one topic.
+pub fn pattern_space(domain: u32, topics: &TopicPattern) -> String {
+    format!("{domain}/{}/**", topics.as_str().trim_matches('/'))
+}
+
+/// [`data_key`] for a pattern of topics (`*` segments match any one segment).
+pub fn pattern_key(domain: u32, topics: &TopicPattern, dds_type: &str, type_hash: &str) -> String {
+    format!("{domain}/{}/{dds_type}/{type_hash}", topics.as_str().trim_matches('/'))
 }
 
 /// Every data key of a topic, whatever its type (a key expression for access control).
@@ -109,6 +119,68 @@ impl NodeIdentity {
     }
 }
 
+/// A data key taken apart: `<domain>/<topic>/<dds type>/<type hash>`.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct DataKey {
+    pub domain: u32,
+    pub topic: Topic,
+    pub dds_type: String,
+    pub type_hash: String,
+}
+
+/// The inverse of [`data_key`]; `None` for a key that is not one (a foreign publisher's).
+pub fn parse_data_key(key: &str) -> Option<DataKey> {
+    let (domain, rest) = key.split_once('/')?;
+    let (rest, type_hash) = rest.rsplit_once('/')?;
+    let (topic, dds_type) = rest.rsplit_once('/')?;
+    Some(DataKey {
+        domain: domain.parse().ok()?,
+        topic: Topic::parse(&format!("/{topic}")).ok()?,
+        dds_type: dds_type.to_owned(),
+        type_hash: type_hash.to_owned(),
+    })
+}
+
+/// What a liveliness token announces.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum TokenKind {
+    Node,
+    Publisher,
+    Subscription,
+}
+
+/// A liveliness token taken apart:
+/// `@ros2_lv/<domain>/<zid>/<node>/<entity>/<NN|MP|MS>/<enclave>/<ns>/<name>[/<topic>/<type>/<hash>/<qos>]`
+/// (names mangled, `%` for '/').
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Token {
+    pub kind: TokenKind,
+    /// The node's namespace, mangled as in the token (`%avacraft`).
+    pub namespace: String,
+    pub node: String,
+    /// The endpoint's topic, for publishers and subscriptions.
+    pub topic: Option<Topic>,
+}
+
+/// The inverse of [`NodeIdentity::node_token`] and [`NodeIdentity::endpoint_token`].
+pub fn parse_token(key: &str) -> Option<Token> {
+    let p: Vec<&str> = key.split('/').collect();
+    if p.first() != Some(&"@ros2_lv") {
+        return None;
+    }
+    let kind = match *p.get(5)? {
+        "NN" => TokenKind::Node,
+        "MP" => TokenKind::Publisher,
+        "MS" => TokenKind::Subscription,
+        _ => return None,
+    };
+    let topic = match kind {
+        TokenKind::Node => None,
+        _ => Some(Topic::parse(&p.get(9)?.replace('%', "/")).ok()?),
+    };
+    Some(Token { kind, namespace: (*p.get(7)?).to_owned(), node: (*p.get(8)?).to_owned(), topic })
+}
+
 /// An entity's GID: XXH3-128 of its liveliness key, low 64 bits then high 64 bits, little endian.
 pub fn gid(liveliness_key: &str) -> [u8; 16] {
     let h = xxhash_rust::xxh3::xxh3_128(liveliness_key.as_bytes());
@@ -151,6 +223,27 @@ pub fn parse_attachment(bytes: &[u8]) -> Option<Attachment> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn keys_and_tokens_parse_back() {
+        let t = Topic::parse("/avacraft/team_1/unit_3/obs").expect("topic");
+        let key = data_key(7, &t, "avacraft_msgs::msg::dds_::UnitObservation_", "RIHS01_ab");
+        let k = parse_data_key(&key).expect("parses");
+        assert_eq!(
+            (k.domain, &k.topic, k.dds_type.as_str(), k.type_hash.as_str()),
+            (7, &t, "avacraft_msgs::msg::dds_::UnitObservation_", "RIHS01_ab")
+        );
+        for bad in ["", "0", "x/a/T/H", "0/T/H", "0/a b/T/H"] {
+            assert_eq!(parse_data_key(bad), None, "{bad:?}");
+        }
+        let n = NodeIdentity { domain: 0, zid: "abc".into(), node_id: 1, namespace: "/avacraft".into(), name: "sim".into() };
+        let node = parse_token(&n.node_token()).expect("node token");
+        assert_eq!((node.kind, node.namespace.as_str(), node.node.as_str(), node.topic), (TokenKind::Node, "%avacraft", "sim", None));
+        let sub = parse_token(&n.endpoint_token(4, EntityKind::Subscription, &t, "T", "H", Qos::Reliable { depth: 10 })).expect("endpoint");
+        assert_eq!((sub.kind, sub.topic.as_ref()), (TokenKind::Subscription, Some(&t)));
+        assert_eq!(parse_token("@ros2_lv/0/abc/1/1/XX/%/%/n"), None);
+        assert_eq!(parse_token("0/avacraft/status"), None);
+    }
 
     #[test]
     fn keys_tokens_and_qos_follow_rmw_zenoh() {

@@ -34,6 +34,14 @@ impl Topic {
     pub fn as_str(&self) -> &str {
         &self.0
     }
+    /// The ROS namespace and base name (`/avacraft/team_1`, `obs`), as DDS APIs take them.
+    pub fn namespace_and_base(&self) -> (&str, &str) {
+        match self.0.rsplit_once('/') {
+            Some(("", base)) => ("/", base),
+            Some((ns, base)) => (ns, base),
+            None => ("/", &self.0),
+        }
+    }
 }
 
 impl fmt::Display for Topic {
@@ -99,6 +107,7 @@ pub enum FrameKind {
 }
 
 impl FrameKind {
+    pub const ALL: [FrameKind; 3] = [FrameKind::Screen, FrameKind::Minimap, FrameKind::Vlm];
     pub fn name(self) -> &'static str {
         match self {
             FrameKind::Screen => "screen",
@@ -155,8 +164,8 @@ impl Topics {
         self.make(&format!("agents/{}/actions", agent.0))
     }
     /// Every agent node's action topic (a pattern: `*` is one segment).
-    pub fn any_actions(&self) -> String {
-        format!("{}/agents/*/actions", self.ns)
+    pub fn any_actions(&self) -> TopicPattern {
+        TopicPattern(format!("{}/agents/*/actions", self.ns))
     }
     /// Episode status (`EpisodeStatus`).
     pub fn status(&self) -> Topic {
@@ -171,12 +180,76 @@ impl Topics {
     pub fn roles(&self) -> Topic {
         self.make("roles")
     }
-    /// The agent id in an action topic's key, if it is one.
-    pub fn agent_of_key(&self, key: &str) -> Option<AgentId> {
-        let ns = self.ns.trim_start_matches('/');
-        let rest = key.split_once('/')?.1.strip_prefix(ns)?.strip_prefix("/agents/")?;
-        let (agent, tail) = rest.split_once('/')?;
-        tail.starts_with("actions/").then(|| AgentId::parse(agent).ok()).flatten()
+    /// What the session runs (`SessionInfo`: scenario text, environment configuration,
+    /// seeds), published at start and at each episode's start, so recordings replay alone.
+    pub fn session(&self) -> Topic {
+        self.make("session")
+    }
+    /// The iceoryx2 service a frame topic's images also go through (same path, no leading
+    /// '/': iceoryx2 names are not ROS names).
+    pub fn frame_service(&self, team: TeamNo, kind: FrameKind) -> String {
+        self.frames(team, kind).as_str().trim_start_matches('/').to_owned()
+    }
+    /// What a topic under this namespace is, or `None` for a topic that is not one of the
+    /// deployment's (another namespace, a misspelt name). The inverse of the builders above.
+    pub fn classify(&self, topic: &Topic) -> Option<TopicKind> {
+        let rest = topic.as_str().strip_prefix(&self.ns)?.strip_prefix('/')?;
+        let segs: Vec<&str> = rest.split('/').collect();
+        let team = |s: &str| s.strip_prefix("team_").and_then(|n| n.parse::<u8>().ok()).and_then(|n| TeamNo::new(n).ok());
+        Some(match segs.as_slice() {
+            ["status"] => TopicKind::Status,
+            ["applied"] => TopicKind::Applied,
+            ["roles"] => TopicKind::Roles,
+            ["session"] => TopicKind::Session,
+            ["agents", agent, "actions"] => TopicKind::Actions(AgentId::parse(agent).ok()?),
+            [t, "obs"] => TopicKind::TeamObs(team(t)?),
+            [t, u, "obs"] => {
+                let unit = u.strip_prefix("unit_").and_then(|n| n.parse::<u32>().ok()).and_then(|n| UnitTag::new(n).ok())?;
+                TopicKind::UnitObs(team(t)?, unit)
+            }
+            [t, f] => TopicKind::Frames(team(t)?, FrameKind::ALL.into_iter().find(|k| k.name() == *f)?),
+            _ => return None,
+        })
+    }
+}
+
+/// A topic of the deployment, parsed ([`Topics::classify`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum TopicKind {
+    UnitObs(TeamNo, UnitTag),
+    TeamObs(TeamNo),
+    Frames(TeamNo, FrameKind),
+    Actions(AgentId),
+    Status,
+    Applied,
+    Roles,
+    Session,
+}
+
+/// A subscription pattern: a topic name in which a `*` segment stands for any one segment.
+/// Only [`Topics`] makes them, so every pattern matches topics the builders make.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct TopicPattern(String);
+
+impl TopicPattern {
+    pub fn as_str(&self) -> &str {
+        &self.0
+    }
+    /// The pattern as a valid ROS name (each `*` shown as `any`), for liveliness tokens.
+    pub fn shown(&self) -> Topic {
+        Topic(self.0.replace('*', "any"))
+    }
+}
+
+impl From<&Topic> for TopicPattern {
+    fn from(t: &Topic) -> Self {
+        TopicPattern(t.0.clone())
+    }
+}
+
+impl fmt::Display for TopicPattern {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
     }
 }
 
@@ -203,13 +276,42 @@ mod tests {
         let a = AgentId::parse("marine_1").expect("id");
         assert_eq!(t.actions(&a).as_str(), "/avacraft/agents/marine_1/actions");
         assert_eq!(t.frames(TeamNo::new(2).expect("team"), FrameKind::Minimap).as_str(), "/avacraft/team_2/minimap");
-        let key = "0/avacraft/agents/marine_1/actions/avacraft_msgs::msg::dds_::ActionBatch_/RIHS01_00";
-        assert_eq!(t.agent_of_key(key), Some(a));
-        assert_eq!(t.agent_of_key("0/avacraft/status/x/y"), None);
+        assert_eq!(t.classify(&t.actions(&a)), Some(TopicKind::Actions(a.clone())));
+        assert_eq!(t.any_actions().as_str(), "/avacraft/agents/*/actions");
         assert!(Topics::new("/match_3").is_ok() && Topics::new("match").is_err());
         // Every built topic passes the validator.
         for topic in [t.status(), t.roles(), t.team_obs(TeamNo::new(1).expect("team"))] {
             assert_eq!(Topic::parse(topic.as_str()).as_ref(), Ok(&topic));
         }
+    }
+
+    #[test]
+    fn every_built_topic_classifies_back_and_others_do_not() {
+        let t = Topics::new("/match_3").expect("ns");
+        let (one, two) = (TeamNo::new(1).expect("team"), TeamNo::new(2).expect("team"));
+        let u = UnitTag::new(12).expect("tag");
+        let a = AgentId::parse("ranged").expect("id");
+        let mut built = vec![
+            (t.unit_obs(two, u), TopicKind::UnitObs(two, u)),
+            (t.team_obs(one), TopicKind::TeamObs(one)),
+            (t.actions(&a), TopicKind::Actions(a.clone())),
+            (t.status(), TopicKind::Status),
+            (t.applied(), TopicKind::Applied),
+            (t.roles(), TopicKind::Roles),
+            (t.session(), TopicKind::Session),
+        ];
+        built.extend(FrameKind::ALL.map(|k| (t.frames(one, k), TopicKind::Frames(one, k))));
+        for (topic, kind) in built {
+            assert_eq!(t.classify(&topic), Some(kind), "{topic}");
+            assert_eq!(Topics::default().classify(&topic), None, "{topic} is not under /avacraft");
+        }
+        for bad in
+            ["/match_3/team_3/obs", "/match_3/team_1/unit_0/obs", "/match_3/team_1/depth", "/match_3/agents/a/orders", "/match_3x/status"]
+        {
+            assert_eq!(t.classify(&Topic::parse(bad).expect("valid name")), None, "{bad}");
+        }
+        assert_eq!(t.frame_service(one, FrameKind::Screen), "match_3/team_1/screen");
+        assert_eq!(t.team_obs(one).namespace_and_base(), ("/match_3/team_1", "obs"));
+        assert_eq!(Topic::parse("/status").expect("valid").namespace_and_base(), ("/", "status"));
     }
 }

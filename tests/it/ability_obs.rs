@@ -21,7 +21,7 @@ fn observations_show_abilities_buffs_and_area_effects() {
     assert!(!storm_info.available && storm_info.cooldown_s > 1.3, "{storm_info:?}");
     assert!(ht.abilities.iter().any(|a| a.ability == Ability::Feedback));
     let marine = list.iter().find(|u| u.tag == uid(1).tag()).expect("marine");
-    assert!(marine.buffs.contains(&"stimmed"));
+    assert!(marine.buffs.contains(avacraft_engine::Buffs::STIMMED));
     let enemy = list.iter().find(|u| !u.own).expect("zealot");
     assert!(enemy.abilities.is_empty(), "enemy cooldowns are not shown");
     let text = describe(&env, Team::One);

@@ -1,21 +1,18 @@
 //! Same seed and actions, same trajectory, to the bit; record-then-replay equality.
 
 use crate::helpers::*;
-use avacraft_engine::{Action, Env, EnvConfig, Team, builtin, policy};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
+use avacraft_engine::agent::{AgentTeam, Grouping, factory};
+use avacraft_engine::{Action, Env, EnvConfig, Team, builtin};
 use std::sync::Arc;
 
 fn hashes(name: &str, seed: u64, policy_name: &str) -> Vec<u64> {
     let s = Arc::new(builtin(name).expect("scenario"));
     let mut env = Env::new(Arc::clone(&s), EnvConfig::default(), seed);
-    let mut p = policy::by_name(policy_name).expect("policy");
-    p.reset(&s, Team::One);
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut p = AgentTeam::new(Team::One, Grouping::Team, factory(policy_name).expect("policy"));
+    p.reset(&env);
     let mut out = Vec::new();
     while !env.done() {
-        let a = p.act(&env.view(Team::One), &mut rng);
-        env.submit(Team::One, &a);
+        p.step(&mut env, 0);
         env.step();
         out.push(env.world().state_hash());
     }
@@ -43,12 +40,11 @@ fn record_then_replay_reproduces_every_step() {
     let s = Arc::new(builtin("8m3mr1mv1st_vs_5s2c").expect("scenario"));
     let cfg = EnvConfig { opponent: Some(avacraft_engine::OpponentKind::Random), ..EnvConfig::default() };
     let mut env = Env::new(Arc::clone(&s), cfg.clone(), 99);
-    let mut p = policy::by_name("kite").expect("policy");
-    p.reset(&s, Team::One);
-    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let mut p = AgentTeam::new(Team::One, Grouping::Team, factory("kite").expect("policy"));
+    p.reset(&env);
     let mut log: Vec<(Vec<Action>, u64)> = Vec::new();
     while !env.done() {
-        let a = p.act(&env.view(Team::One), &mut rng);
+        let a = p.act(&env, 0);
         env.submit(Team::One, &a);
         env.step();
         log.push((a, env.world().state_hash()));

@@ -1,6 +1,6 @@
 //! Shared helpers: small hand-made scenarios and episode drivers.
 
-use avacraft_engine::{Controllers, Env, EnvConfig, Rules, Scenario, UnitId, policy};
+use avacraft_engine::{Controllers, Env, EnvConfig, Rules, Scenario, UnitId};
 use std::fmt::Write;
 use std::sync::Arc;
 
@@ -73,8 +73,8 @@ pub fn uid(i: u16) -> UnitId {
 /// Runs an episode with named policies for the agent teams; returns the env at its end.
 pub fn play(scenario: &Arc<Scenario>, cfg: EnvConfig, seed: u64, p1: &str, p2: &str) -> Env {
     let mut env = Env::new(Arc::clone(scenario), cfg, seed);
-    let mut c = Controllers::new(scenario, policy::by_name(p1).expect("policy"), Some(policy::by_name(p2).expect("policy")));
-    c.reset(scenario, seed);
+    let mut c = Controllers::named(scenario, p1, Some(p2)).expect("policy");
+    c.reset(&env);
     while !env.done() {
         c.act(&mut env);
         env.step();

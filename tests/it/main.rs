@@ -3,10 +3,13 @@
 mod abilities;
 mod ability_obs;
 mod actions;
+mod agents;
 mod cli;
 mod combat;
 mod determinism;
+mod golden;
 mod helpers;
+mod learn;
 mod movement;
 mod observations;
 mod properties;

@@ -1,6 +1,6 @@
 //! The structured unit list and the text description.
 
-use avacraft_engine::{Env, EnvConfig, Team, builtin, describe, unit_list};
+use avacraft_engine::{Env, EnvConfig, GroupObs, Team, builtin, describe, unit_list};
 use std::sync::Arc;
 
 #[test]
@@ -41,6 +41,6 @@ fn text_names_units_numbers_and_objective() {
     assert!(t.contains("Marine_1 (tag 1, Marine): HP"), "{t}");
     assert!(t.contains("at grid ("), "{t}");
     assert!(t.contains("of 300 s"), "{t}");
-    let seen = env.view(Team::One).enemies().count();
+    let seen = GroupObs::team(&env, Team::One, 0, false).enemies().count();
     assert_eq!(t.matches("tag 4").count() + t.matches("tag 5").count() + t.matches("tag 6").count() > 0, seen > 0, "{t}");
 }

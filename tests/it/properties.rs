@@ -2,10 +2,8 @@
 //! scenario simulates without panics or non-finite state.
 
 use crate::helpers::*;
-use avacraft_engine::{Env, EnvConfig, Scenario, Team, UnitKind, policy};
+use avacraft_engine::{Controllers, Env, EnvConfig, Scenario, UnitKind};
 use proptest::prelude::*;
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 
 proptest! {
     #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
@@ -36,15 +34,11 @@ proptest! {
         list.push(("Marine", 2, 30.0, 30.0));
         let s = load(&arena("pvp", &list));
         let mut env = Env::new(s.clone(), EnvConfig::default(), seed);
-        let mut a = policy::by_name("random").expect("policy");
-        let mut b = policy::by_name("focus").expect("policy");
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut c = Controllers::named(&s, "random", Some("focus")).expect("policy");
+        c.reset(&env);
         for _ in 0..60 {
             if env.done() { break; }
-            let x = a.act(&env.view(Team::One), &mut rng);
-            env.submit(Team::One, &x);
-            let y = b.act(&env.view(Team::Two), &mut rng);
-            env.submit(Team::Two, &y);
+            c.act(&mut env);
             env.step();
         }
         for u in env.world().units() {

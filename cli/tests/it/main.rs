@@ -5,3 +5,4 @@ mod bridge;
 mod common;
 mod deploy;
 mod hosts;
+mod replay;

@@ -2,8 +2,8 @@
 
 use crate::common::*;
 use avacraft_msgs::{
-    AbilityState, ActionBatch, AreaEffect, DecodeError, EpisodeStatus, Header, Image, RoleAssignment, RoleGroup, RosMessage, StdString,
-    TeamObservation, Time, UnitAction, UnitObservation, UnitState, decode, encode,
+    AbilityState, ActionBatch, AreaEffect, DecodeError, EpisodeStatus, Header, Image, RoleAssignment, RoleGroup, RosMessage, SessionInfo,
+    StdString, TeamObservation, Time, UnitAction, UnitObservation, UnitState, decode, encode,
 };
 use proptest::prelude::*;
 
@@ -61,7 +61,7 @@ fn errors_name_the_problem() {
     assert!(matches!(decode::<Time>(&[0, 1, 0, 0, 1, 0, 0, 0, 2]), Err(DecodeError::Truncated)));
     assert!(matches!(decode::<StdString>(&[0, 1, 0, 0, 2, 0, 0, 0, 0xff, 0]), Err(DecodeError::InvalidUtf8(_))));
     let mut bad_bool = encode(&AbilityState::default());
-    bad_bool[4 + 5] = 2; // after the empty `ability` string (4-byte length + NUL)
+    bad_bool[4 + 1] = 2; // after the `ability` byte
     assert!(matches!(decode::<AbilityState>(&bad_bool), Err(DecodeError::InvalidBool(2))));
     let e = decode::<Time>(&[0, 1]).expect_err("too short");
     assert!(e.to_string().contains("2 bytes"), "{e}");
@@ -71,7 +71,7 @@ fn errors_name_the_problem() {
 #[test]
 fn huge_length_prefixes_fail_without_allocating() {
     let mut payload = encode(&RoleGroup::default());
-    // Layout: header, role (4+1), pad 3, agent_id (4+1), pad 3, unit_tags count.
+    // Layout: header, role (1), pad 3, agent_id (4+1), pad 3, unit_tags count.
     payload.truncate(payload.len() - 4);
     payload.extend(u32::MAX.to_le_bytes());
     assert!(matches!(decode::<RoleGroup>(&payload), Err(DecodeError::Truncated)));
@@ -124,6 +124,8 @@ proptest! {
     fn role_group_round_trips(v in role_group(0)) { round_trip(&v)?; }
     #[test]
     fn role_assignment_round_trips(v in role_assignment(0)) { round_trip(&v)?; }
+    #[test]
+    fn session_info_round_trips(v in session_info(0)) { round_trip(&v)?; }
 
     /// Any bytes, with or without a valid header, give a value or an error, never a panic.
     #[test]
@@ -136,6 +138,7 @@ proptest! {
         let _ = decode::<ActionBatch>(&bytes);
         let _ = decode::<EpisodeStatus>(&bytes);
         let _ = decode::<RoleAssignment>(&bytes);
+        let _ = decode::<SessionInfo>(&bytes);
         let _ = decode::<Image>(&bytes);
         let _ = decode::<AreaEffect>(&bytes);
         let _ = decode::<UnitState>(&bytes);

@@ -7,8 +7,8 @@
 #![allow(dead_code)]
 
 use avacraft_msgs::{
-    AbilityState, ActionBatch, AreaEffect, EpisodeStatus, Header, Image, RoleAssignment, RoleGroup, StdString, TeamObservation, Time,
-    UnitAction, UnitObservation, UnitState,
+    AbilityState, ActionBatch, AreaEffect, EpisodeStatus, Header, Image, RoleAssignment, RoleGroup, SessionInfo, StdString,
+    TeamObservation, Time, UnitAction, UnitObservation, UnitState,
 };
 use proptest::collection::vec;
 use proptest::prelude::*;
@@ -40,22 +40,23 @@ pub fn image(min_len: usize) -> impl Strategy<Value = Image> {
     )
 }
 
-pub fn unit_state(min_len: usize) -> impl Strategy<Value = UnitState> {
+pub fn unit_state(_min_len: usize) -> impl Strategy<Value = UnitState> {
     (
-        (any::<u32>(), text(), text(), any::<u8>(), float(), float(), float(), float()),
-        (float(), float(), float(), float(), float(), any::<u8>(), any::<u8>(), text()),
-        (any::<u32>(), vec(text(), min_len..3), vec(text(), min_len..3)),
+        (any::<u32>(), text(), any::<u8>(), any::<u8>(), any::<bool>(), float(), float(), float(), float()),
+        (float(), float(), float(), float(), float(), any::<u8>(), any::<u8>(), any::<u8>()),
+        (float(), float(), any::<u32>(), any::<u8>(), any::<u32>(), any::<u32>(), any::<u32>()),
     )
         .prop_map(
             |(
-                (tag, name, unit_type, team, x, y, hp, max_hp),
+                (tag, name, unit_type, team, own, x, y, hp, max_hp),
                 (shield, max_shield, energy, max_energy, weapon_cooldown_s, grid_x, grid_y, order),
-                (target_tag, flags, buffs),
+                (order_x, order_y, order_target, activity, target_tag, flags, buffs),
             )| UnitState {
                 tag,
                 name,
                 unit_type,
                 team,
+                own,
                 x,
                 y,
                 hp,
@@ -68,6 +69,10 @@ pub fn unit_state(min_len: usize) -> impl Strategy<Value = UnitState> {
                 grid_x,
                 grid_y,
                 order,
+                order_x,
+                order_y,
+                order_target,
+                activity,
                 target_tag,
                 flags,
                 buffs,
@@ -76,17 +81,21 @@ pub fn unit_state(min_len: usize) -> impl Strategy<Value = UnitState> {
 }
 
 pub fn ability_state() -> impl Strategy<Value = AbilityState> {
-    (text(), any::<bool>(), float(), float(), text()).prop_map(|(ability, available, cooldown_s, energy_cost, target_kind)| AbilityState {
-        ability,
-        available,
-        cooldown_s,
-        energy_cost,
-        target_kind,
-    })
+    (any::<u8>(), any::<bool>(), any::<u8>(), float(), float(), float(), any::<u8>()).prop_map(
+        |(ability, available, unavailable, cooldown_s, energy_cost, range, target_kind)| AbilityState {
+            ability,
+            available,
+            unavailable,
+            cooldown_s,
+            energy_cost,
+            range,
+            target_kind,
+        },
+    )
 }
 
 pub fn area_effect() -> impl Strategy<Value = AreaEffect> {
-    (text(), any::<u8>(), float(), float(), float(), float()).prop_map(|(kind, team, x, y, radius, remaining_s)| AreaEffect {
+    (any::<u8>(), any::<u8>(), float(), float(), float(), float()).prop_map(|(kind, team, x, y, radius, remaining_s)| AreaEffect {
         kind,
         team,
         x,
@@ -98,18 +107,19 @@ pub fn area_effect() -> impl Strategy<Value = AreaEffect> {
 
 pub fn unit_observation(min_len: usize) -> impl Strategy<Value = UnitObservation> {
     (
-        (header(), any::<u64>(), any::<u32>(), any::<u32>(), any::<u32>(), any::<bool>(), unit_state(min_len)),
+        (header(), any::<u64>(), any::<u64>(), any::<u32>(), any::<u32>(), any::<u32>(), any::<bool>(), unit_state(min_len)),
         (vec(unit_state(min_len), min_len..3), vec(unit_state(min_len), min_len..3), vec(ability_state(), min_len..3)),
         (vec(area_effect(), min_len..3), vec(any::<u8>(), min_len..16), vec(float(), min_len..16), text()),
     )
         .prop_map(
             |(
-                (header, episode, step, game_loop, unit_tag, alive, own),
+                (header, episode, seed, step, game_loop, unit_tag, alive, own),
                 (allies, enemies, abilities),
                 (effects, avail_actions, features, text),
             )| UnitObservation {
                 header,
                 episode,
+                seed,
                 step,
                 game_loop,
                 unit_tag,
@@ -150,7 +160,7 @@ pub fn team_observation(min_len: usize) -> impl Strategy<Value = TeamObservation
 }
 
 pub fn unit_action() -> impl Strategy<Value = UnitAction> {
-    (any::<u32>(), any::<u8>(), any::<u32>(), float(), float(), any::<u8>(), any::<u8>(), any::<u8>(), text(), any::<u8>()).prop_map(
+    (any::<u32>(), any::<u8>(), any::<u32>(), float(), float(), any::<u8>(), any::<u8>(), any::<u8>(), any::<u8>(), any::<u8>()).prop_map(
         |(unit_tag, kind, target_tag, x, y, grid_x, grid_y, direction, ability, ability_target)| UnitAction {
             unit_tag,
             kind,
@@ -174,12 +184,12 @@ pub fn action_batch(min_len: usize) -> impl Strategy<Value = ActionBatch> {
 pub fn episode_status() -> impl Strategy<Value = EpisodeStatus> {
     (
         (header(), any::<u64>(), any::<u64>(), text(), any::<u32>(), any::<u32>(), any::<u8>()),
-        ([float(), float()], any::<[u32; 2]>(), any::<[u32; 2]>(), any::<[u32; 2]>(), any::<u32>()),
+        ([float(), float()], any::<[u32; 2]>(), any::<[u32; 2]>(), any::<[u32; 2]>(), any::<u32>(), any::<u64>(), any::<u64>()),
     )
         .prop_map(
             |(
                 (header, episode, seed, scenario, step, game_loop, result),
-                (reward, refused_actions, missing_actions, foreign_actions, malformed_messages),
+                (reward, refused_actions, missing_actions, foreign_actions, malformed_messages, state_hash, trajectory_hash),
             )| EpisodeStatus {
                 header,
                 episode,
@@ -193,12 +203,47 @@ pub fn episode_status() -> impl Strategy<Value = EpisodeStatus> {
                 missing_actions,
                 foreign_actions,
                 malformed_messages,
+                state_hash,
+                trajectory_hash,
+            },
+        )
+}
+
+pub fn session_info(min_len: usize) -> impl Strategy<Value = SessionInfo> {
+    (
+        (header(), text(), text(), any::<u32>(), any::<u8>(), any::<u8>(), any::<u32>(), any::<bool>()),
+        (any::<bool>(), any::<bool>(), any::<[bool; 2]>(), any::<bool>(), any::<u8>(), any::<u32>(), text(), any::<u64>()),
+        vec(any::<u64>(), min_len..5),
+    )
+        .prop_map(
+            |(
+                (header, scenario_name, scenario_toml, step_mul, reward, opponent, time_limit_loops, ability_actions),
+                (full_vision, cooldown_jitter, auto_acquire, abilities, clock, deadline_ms, launch_file, episode),
+                seeds,
+            )| SessionInfo {
+                header,
+                scenario_name,
+                scenario_toml,
+                step_mul,
+                reward,
+                opponent,
+                time_limit_loops,
+                ability_actions,
+                full_vision,
+                cooldown_jitter,
+                auto_acquire,
+                abilities,
+                clock,
+                deadline_ms,
+                launch_file,
+                episode,
+                seeds,
             },
         )
 }
 
 pub fn role_group(min_len: usize) -> impl Strategy<Value = RoleGroup> {
-    (text(), text(), vec(any::<u32>(), min_len..8)).prop_map(|(role, agent_id, unit_tags)| RoleGroup { role, agent_id, unit_tags })
+    (any::<u8>(), text(), vec(any::<u32>(), min_len..8)).prop_map(|(role, agent_id, unit_tags)| RoleGroup { role, agent_id, unit_tags })
 }
 
 pub fn role_assignment(min_len: usize) -> impl Strategy<Value = RoleAssignment> {

@@ -1,8 +1,8 @@
 //! REP-2016 hashes against values published by ROS itself, and the derived names.
 
 use avacraft_msgs::{
-    AbilityState, ActionBatch, AreaEffect, EpisodeStatus, Header, Image, Registry, RoleAssignment, RoleGroup, RosMessage, StdString,
-    TeamObservation, Time, UnitAction, UnitObservation, UnitState, embedded_registry,
+    AbilityState, ActionBatch, AreaEffect, EpisodeStatus, Header, Image, Registry, RoleAssignment, RoleGroup, RosMessage, SessionInfo,
+    StdString, TeamObservation, Time, UnitAction, UnitObservation, UnitState, embedded_registry,
 };
 
 /// From the rmw_zenoh design doc (`0/chatter/std_msgs::msg::dds_::String_/RIHS01_df66...`).
@@ -118,6 +118,7 @@ fn every_type_has_consistent_names_and_distinct_hashes() {
     check_names::<EpisodeStatus>("avacraft_msgs", "EpisodeStatus");
     check_names::<RoleGroup>("avacraft_msgs", "RoleGroup");
     check_names::<RoleAssignment>("avacraft_msgs", "RoleAssignment");
+    check_names::<SessionInfo>("avacraft_msgs", "SessionInfo");
     check_names::<Image>("sensor_msgs", "Image");
     let mut hashes: Vec<String> = avacraft_msgs::EMBEDDED_TYPES
         .iter()

@@ -4,7 +4,10 @@
 //! (a recording `Serializer`), not through a hand-written list.
 
 use crate::common::*;
-use avacraft_msgs::{BaseType, Collection, EpisodeStatus, FieldType, PrimitiveType, Registry, RosMessage, UnitAction, embedded_registry};
+use avacraft_msgs::{
+    AbilityState, BaseType, Collection, EpisodeStatus, FieldType, PrimitiveType, Registry, RoleGroup, RosMessage, SessionInfo, UnitAction,
+    UnitState, embedded_registry,
+};
 use proptest::prelude::*;
 use proptest::strategy::ValueTree;
 use proptest::test_runner::TestRunner;
@@ -278,6 +281,7 @@ fn every_struct_matches_its_msg() {
     check(episode_status());
     check(role_group(1));
     check(role_assignment(1));
+    check(session_info(1));
 }
 
 /// The checker itself must catch a swapped field, or the test above proves nothing.
@@ -295,15 +299,40 @@ fn checker_detects_mismatches() {
     assert!(check_struct(&reg, "p/msg/T", &slow_bytes).is_err());
 }
 
-fn msg_constants<T: RosMessage>() -> Vec<(String, u8)> {
+/// The `.msg` constants whose names are in `rust` (a message may define more, e.g. the
+/// engine's unit types, checked where the engine is known).
+fn msg_constants<T: RosMessage>(rust: &[(&str, u8)]) -> Vec<(String, u8)> {
     let spec = embedded_registry().get(T::TYPE_NAME).expect("embedded");
-    spec.constants.iter().map(|c| (c.name.clone(), c.value.parse::<u8>().expect("uint8 constant"))).collect()
+    spec.constants
+        .iter()
+        .filter(|c| rust.iter().any(|(n, _)| *n == c.name))
+        .map(|c| (c.name.clone(), c.value.parse::<u8>().expect("uint8 constant")))
+        .collect()
+}
+
+fn check_constants<T: RosMessage>(rust: &[(&str, u8)]) {
+    let r: Vec<(String, u8)> = rust.iter().map(|(n, v)| ((*n).to_owned(), *v)).collect();
+    assert_eq!(r, msg_constants::<T>(rust), "{}", T::TYPE_NAME);
 }
 
 #[test]
 fn rust_constants_match_msg_constants() {
-    let rust: Vec<(String, u8)> = UnitAction::CONSTANTS.iter().map(|(n, v)| ((*n).to_owned(), *v)).collect();
-    assert_eq!(rust, msg_constants::<UnitAction>());
-    let rust: Vec<(String, u8)> = EpisodeStatus::CONSTANTS.iter().map(|(n, v)| ((*n).to_owned(), *v)).collect();
-    assert_eq!(rust, msg_constants::<EpisodeStatus>());
+    check_constants::<UnitAction>(UnitAction::CONSTANTS);
+    check_constants::<EpisodeStatus>(EpisodeStatus::CONSTANTS);
+    check_constants::<UnitState>(UnitState::CONSTANTS);
+    check_constants::<AbilityState>(AbilityState::CONSTANTS);
+    check_constants::<RoleGroup>(RoleGroup::CONSTANTS);
+    // Every constant of the messages whose constants are all mirrored here.
+    for (spec, n) in [(UnitAction::TYPE_NAME, UnitAction::CONSTANTS.len()), (RoleGroup::TYPE_NAME, RoleGroup::CONSTANTS.len())] {
+        assert_eq!(embedded_registry().get(spec).expect("embedded").constants.len(), n, "{spec}");
+    }
+}
+
+/// Every constant of `SessionInfo.msg`, in order, mirrored in Rust.
+#[test]
+fn session_info_constants_match_msg() {
+    let spec = embedded_registry().get(SessionInfo::TYPE_NAME).expect("embedded");
+    let msg: Vec<(String, u8)> = spec.constants.iter().map(|c| (c.name.clone(), c.value.parse::<u8>().expect("uint8 constant"))).collect();
+    let rust: Vec<(String, u8)> = SessionInfo::CONSTANTS.iter().map(|(n, v)| ((*n).to_owned(), *v)).collect();
+    assert_eq!(rust, msg);
 }

@@ -1,7 +1,8 @@
 //! Emulation of StarCraft II's built-in AI for the opponent side: the scenario's opening
 //! order (at its delay), then the engine's own acquisition and threat rules, healers
 //! autocasting, and one response a VeryHard AI always has: idle army units go after enemies
-//! the team has seen, and the abilities a competent player uses (`policy::ability_actions`).
+//! the team has seen, and the abilities a competent player uses (the scripted agents' ability
+//! use, on the team's observation: see `Env::step`).
 
 use crate::geom::Vec2;
 use crate::ids::{Team, UnitId};
@@ -16,6 +17,20 @@ pub(crate) struct BuiltinAi {
 }
 
 impl BuiltinAi {
+    /// Its state for [`crate::Env::state_hash`]: the opening and whether it was issued.
+    pub(crate) fn hash(&self, h: &mut crate::hash::Fnv) {
+        let BuiltinAi { start, issued } = self;
+        match start {
+            None => h.u32(0),
+            Some((to, delay)) => {
+                h.u32(1);
+                h.vec2(*to);
+                h.u32(*delay);
+            }
+        }
+        h.u32(*issued as u32);
+    }
+
     /// Draws the opening (the random point of `attack_move_random`) from the world's RNG.
     pub(crate) fn new(scenario: &Scenario, world: &mut World) -> Self {
         let start = match scenario.start {
@@ -43,16 +58,17 @@ impl BuiltinAi {
         self.issued = true;
     }
 
-    /// Called before every step: idle mobile units attack-move to the closest enemy the team
-    /// sees (the AI answers contact with its whole army instead of waiting to be picked off).
-    pub(crate) fn before_step(&mut self, world: &mut World, scenario: &Scenario, units: &[UnitId], team: Team) {
-        if self.start.is_some_and(|(_, delay)| world.tick() < delay) {
+    /// Whether the opening's delay is over: the AI answers nothing before.
+    pub(crate) fn started(&self, tick: u32) -> bool {
+        self.start.is_none_or(|(_, delay)| tick >= delay)
+    }
+
+    /// Called before every step, after the AI's casts: idle mobile units attack-move to the
+    /// closest enemy the team sees (the AI answers contact with its whole army instead of
+    /// waiting to be picked off).
+    pub(crate) fn before_step(&mut self, world: &mut World, units: &[UnitId], team: Team) {
+        if !self.started(world.tick()) {
             return;
-        }
-        // Abilities as the AI uses them (stim, siege, storms, transfusions...).
-        let (casts, _) = crate::policy::ability_actions(&crate::policy::TeamView::new(world, scenario, team));
-        for a in &casts {
-            let _ = world.apply(team, a);
         }
         let seen: Vec<Vec2> = world.alive(team.other()).filter(|e| world.visible_to(team, e.id)).map(|e| e.pos).collect();
         if seen.is_empty() {

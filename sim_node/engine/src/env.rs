@@ -2,11 +2,11 @@
 //! of the episode. The same `Env` serves MARL training loops, the CLI and the nodes.
 
 use crate::action::{Action, ActionError};
+use crate::agent::{self, Agent, AgentCtx, GroupObs, agent_seed};
 use crate::builtin_ai::BuiltinAi;
 use crate::hash::Fnv;
 use crate::ids::{Team, UnitId};
 use crate::obs::SmacLayout;
-use crate::policy::{self, Policy, TeamView};
 use crate::scenario::{Mode, OpponentKind, Scenario};
 use crate::time::DEFAULT_STEP_MUL;
 use crate::world::{Rules, World};
@@ -94,7 +94,12 @@ impl Outcome {
 pub struct StepResult {
     /// Reward per team (index by [`Team::index`]).
     pub reward: [f32; 2],
+    /// `terminated || truncated`.
     pub done: bool,
+    /// The episode ended in the game: a side can no longer fight (a mutual wipe included).
+    pub terminated: bool,
+    /// The episode hit its time limit with both sides still able to fight (a draw).
+    pub truncated: bool,
     pub outcome: Option<Outcome>,
 }
 
@@ -111,7 +116,7 @@ pub struct Env {
     world: World,
     seed: u64,
     agents: [Vec<UnitId>; 2],
-    opponent: Option<Box<dyn Policy>>,
+    opponent: Option<Box<dyn Agent>>,
     opponent_kind: Option<OpponentKind>,
     policy_rng: ChaCha8Rng,
     builtin: Option<BuiltinAi>,
@@ -198,8 +203,11 @@ impl Env {
             }
             self.opponent_kind = Some(kind);
             if kind != OpponentKind::Builtin {
-                let mut p = policy::opponent(kind);
-                p.reset(&self.scenario, Team::Two);
+                let mut p = agent::opponent(kind);
+                // One agent for the whole team, seeded as an agent team of it would be.
+                let units: Vec<u32> = self.agents[Team::Two.index()].iter().map(|id| id.tag()).collect();
+                let seed = agent_seed(seed, Team::Two, units.first().copied().unwrap_or(0));
+                p.reset(&AgentCtx { scenario: Arc::clone(&self.scenario), team: Team::Two, units, seed });
                 self.opponent = Some(p);
             }
         }
@@ -239,6 +247,11 @@ impl Env {
     pub fn done(&self) -> bool {
         self.outcome.is_some()
     }
+    /// Whether the episode ended at its time limit rather than in the game (SMAC's
+    /// `episode_limit`: a learner bootstraps there instead of treating it as terminal).
+    pub fn truncated(&self) -> bool {
+        self.outcome.is_some() && self.terminal().is_none()
+    }
     pub fn steps(&self) -> u32 {
         self.steps
     }
@@ -249,9 +262,67 @@ impl Env {
     pub fn refused(&self) -> [u32; 2] {
         self.refused
     }
-    /// Running hash of the trajectory: every step's full state, chained.
+    /// Running hash of the trajectory: the seed, then every step's [`Env::state_hash`], chained.
     pub fn trajectory_hash(&self) -> u64 {
         self.trajectory.finish()
+    }
+
+    /// Hash of the full state of the episode: the world's ([`World::state_hash`]) plus what
+    /// the environment keeps between steps (the policies' RNG, the opponent, the built-in
+    /// AI's opening, the step, the outcome, last actions, dense-reward bookkeeping) and the
+    /// configuration. Equal hashes at a step mean equal futures under equal actions.
+    pub fn state_hash(&self) -> u64 {
+        let Env {
+            scenario: _,
+            cfg,
+            world,
+            seed,
+            opponent: _,
+            opponent_kind,
+            policy_rng,
+            builtin,
+            outcome,
+            steps,
+            // Refused actions change nothing, and a replay re-applies only accepted ones.
+            refused: _,
+            last_actions,
+            pending_actions,
+            dense,
+            // Fixed by the scenario (as are the agents' order, the opponent policy's setup
+            // and the SMAC layouts); the trajectory is what this hash feeds.
+            agents: _,
+            max_reward: _,
+            layouts: _,
+            trajectory: _,
+        } = self;
+        let mut h = Fnv::default();
+        h.u64(world.state_hash());
+        h.u64(*seed);
+        // The rules are hashed with the world, which holds a copy.
+        let EnvConfig { step_mul, rules: _, reward, opponent, time_limit_loops, ability_actions } = cfg;
+        h.u32(step_mul.get());
+        h.u32(*reward as u32 | (*ability_actions as u32) << 4);
+        h.u32(opponent.map_or(0, |o| o as u32 + 1));
+        h.u32(time_limit_loops.map_or(0, NonZeroU32::get));
+        h.u32(opponent_kind.map_or(0, |o| o as u32 + 1));
+        h.rng(policy_rng);
+        match builtin {
+            None => h.u32(0),
+            Some(ai) => {
+                h.u32(1);
+                ai.hash(&mut h);
+            }
+        }
+        h.u32(outcome.map_or(0, |o| o as u32 + 1));
+        h.u32(*steps);
+        for a in last_actions.iter().chain(pending_actions.iter()) {
+            h.u32(a.len() as u32);
+            a.iter().for_each(|x| h.u64(x.map_or(u64::MAX, |i| i as u64)));
+        }
+        h.u32(dense.prev.len() as u32);
+        dense.prev.iter().for_each(|&v| h.f32(v));
+        h.bools(dense.dead.iter().copied());
+        h.finish()
     }
     pub(crate) fn layouts(&self) -> &[SmacLayout; 2] {
         &self.layouts
@@ -267,11 +338,6 @@ impl Env {
             *slot = idx;
         }
     }
-    /// A fog-of-war-respecting view of the battle for `team`.
-    pub fn view(&self, team: Team) -> TeamView<'_> {
-        TeamView::new(&self.world, &self.scenario, team)
-    }
-
     /// Gives orders to `team`'s units. Each action is checked on its own; a refused one is
     /// counted and leaves that unit's order unchanged.
     pub fn submit(&mut self, team: Team, actions: &[Action]) -> Vec<Result<(), ActionError>> {
@@ -301,21 +367,26 @@ impl Env {
     /// finished episode does nothing and returns its outcome again.
     pub fn step(&mut self) -> StepResult {
         if let Some(o) = self.outcome {
-            return StepResult { reward: [0.0, 0.0], done: true, outcome: Some(o) };
+            let truncated = self.truncated();
+            return StepResult { reward: [0.0, 0.0], done: true, terminated: !truncated, truncated, outcome: Some(o) };
         }
+        // The opponent sees what team 2's units observe, as any agent does.
+        let mut actions = Vec::new();
         if let Some(mut p) = self.opponent.take() {
-            let mut rng = std::mem::replace(&mut self.policy_rng, ChaCha8Rng::seed_from_u64(0));
-            let actions = p.act(&self.view(Team::Two), &mut rng);
-            self.policy_rng = rng;
-            for a in &actions {
-                // A scripted opponent's invalid action is its own bug, not the agent's: it
-                // is dropped without counting against anyone.
-                let _ = self.world.apply(Team::Two, a);
-            }
+            actions = p.act(&GroupObs::team(self, Team::Two, 0, false));
             self.opponent = Some(p);
         }
+        if self.builtin.as_ref().is_some_and(|ai| ai.started(self.world.tick())) && self.builtin_may_cast() {
+            // The built-in AI's abilities, as the scripted agents use them.
+            actions = agent::micro::ability_actions(&GroupObs::team(self, Team::Two, 0, false), &self.scenario.terrain).0;
+        }
+        for a in &actions {
+            // A scripted opponent's invalid action is its own bug, not the agent's: it is
+            // dropped without counting against anyone.
+            let _ = self.world.apply(Team::Two, a);
+        }
         if let Some(ai) = self.builtin.as_mut() {
-            ai.before_step(&mut self.world, &self.scenario, &self.agents[Team::Two.index()], Team::Two);
+            ai.before_step(&mut self.world, &self.agents[Team::Two.index()], Team::Two);
         }
         let limit = self.time_limit_loops();
         for _ in 0..self.cfg.step_mul.get() {
@@ -335,12 +406,21 @@ impl Env {
         self.steps += 1;
         let outcome = self.terminal().or_else(|| (self.world.tick() >= limit).then_some(Outcome::Draw));
         self.outcome = outcome;
-        self.trajectory.u64(self.world.state_hash());
+        self.trajectory.u64(self.state_hash());
         let reward = match self.cfg.reward {
             RewardMode::Sparse => outcome.map_or([0.0, 0.0], |o| [o.sparse_reward(), o.for_team(Team::Two).sparse_reward()]),
             RewardMode::Dense => self.dense_reward(outcome),
         };
-        StepResult { reward, done: outcome.is_some(), outcome }
+        let truncated = self.truncated();
+        StepResult { reward, done: outcome.is_some(), terminated: outcome.is_some() && !truncated, truncated, outcome }
+    }
+
+    /// Whether some unit of the built-in AI could cast now. Its ability use never acts
+    /// otherwise, so the team's observation is built only when this holds: most steps of
+    /// most scenarios, where no unit has a castable ability, stay as cheap as without it.
+    fn builtin_may_cast(&self) -> bool {
+        let w = &self.world;
+        w.rules().abilities && w.alive(Team::Two).any(|u| u.kind.mode_abilities().any(|a| w.can_cast(u, a).is_ok()))
     }
 
     /// Submits team 1's actions and steps: the single-team convenience for PvE loops.

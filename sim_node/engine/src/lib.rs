@@ -28,6 +28,7 @@
 
 mod ability;
 mod action;
+pub mod agent;
 mod builtin_ai;
 mod combat;
 mod damage;
@@ -35,22 +36,23 @@ mod env;
 mod geom;
 mod hash;
 mod ids;
+mod learn;
 mod movement;
 mod obs;
 mod orca;
 mod pathing;
-pub mod policy;
 mod scenario;
 mod sim;
 mod spatial;
 mod terrain;
 mod time;
 mod units;
+mod vec_env;
 mod world;
 
 pub use ability::{
-    Ability, AbilityInfo, AbilitySpec, AbilityTarget, AreaEffect, Channel, EffectKind, Refusal, SlotRule, Status, TargetKind, TargetRule,
-    UnknownAbility,
+    Ability, AbilityInfo, AbilitySpec, AbilityTarget, AreaEffect, Channel, EffectKind, Refusal, RefusalCode, SlotRule, Status, TargetKind,
+    TargetRule, UnknownAbility,
 };
 pub use action::{Action, ActionError, Command, Direction, GRID, MOVE_AMOUNT, grid_cell_center, grid_cell_of};
 pub use damage::{Dealt, apply_hits, hit_damage};
@@ -58,11 +60,13 @@ pub use env::{Env, EnvConfig, Outcome, RewardMode, StepResult};
 pub use geom::Vec2;
 pub use hash::Fnv;
 pub use ids::{Team, Tick, UnitId};
+pub use learn::{LearnError, StepInfo};
 pub use obs::{AbilitySlots, slot_abilities};
 pub use obs::{
-    EnvInfo, IndexError, N_ACTIONS_NO_ATTACK, OrderInfo, SHOOT_RANGE, SIGHT_RANGE, SmacLayout, UnitInfo, ability_infos, describe, unit_list,
+    Buffs, EnvInfo, IndexError, N_ACTIONS_NO_ATTACK, OrderInfo, SHOOT_RANGE, SIGHT_RANGE, SmacLayout, UnitFlags, UnitInfo, UnknownBits,
+    ability_infos, describe, unit_list,
 };
-pub use policy::{Controllers, POLICIES, Policy, TeamView, UnknownPolicy};
+pub use agent::{AGENTS as POLICIES, Agent, AgentCtx, Controllers, GroupObs, UnknownAgent as UnknownPolicy, by_name as agent_by_name};
 pub use scenario::{
     BUILTIN, Mode, OpponentKind, RawOpponent, RawScenario, RawStart, RawTerrain, RawUnit, RawUpgrade, Scenario, ScenarioError,
     ScenarioUnit, StartOrder, Upgrade, builtin, builtin_names,
@@ -71,4 +75,5 @@ pub use sim::{ENERGY_REGEN, SHIELD_REGEN, SHIELD_REGEN_DELAY, ZERG_REGEN};
 pub use terrain::{MAX_STEP, Rect, Terrain};
 pub use time::{DEFAULT_STEP_MUL, DEFAULT_TIME_LIMIT_S, LOOPS_PER_NORMAL_SECOND, LOOPS_PER_SECOND, loops_to_seconds, seconds_to_loops};
 pub use units::{Attrs, Heal, Race, Reach, Splash, UnitKind, UnitSpec, UnknownUnitKind, Weapon};
+pub use vec_env::{VecBuffers, VecEnv, VecEnvError};
 pub use world::{Activity, Body, Order, Rules, Shot, TeamStats, Unit, World};

@@ -209,7 +209,7 @@ pub struct World {
     /// Ground height under each unit, refreshed every loop.
     pub(crate) heights: Vec<f32>,
     /// The longest sight range of any unit type in the scenario.
-    max_sight: f32,
+    pub(crate) max_sight: f32,
     /// Units that may overlap another (moved, or pushed last pass); see `separate`.
     pub(crate) dirty: Vec<bool>,
     pub(crate) dirty_next: Vec<bool>,

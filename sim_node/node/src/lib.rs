@@ -7,12 +7,14 @@
 //! they arrive.
 
 mod convert;
+mod session;
 
-pub use convert::{BadAction, action_from_msg, header, unit_observation, unit_state};
+pub use convert::{BadAction, action_from_msg, header, unit_state};
+pub use session::{SessionError, env_config, scenario, session_info};
 
 use avacraft_engine::{Env, EnvConfig, Outcome, Scenario, Team, UnitId};
 use avacraft_msgs::{ActionBatch, EpisodeStatus, TeamObservation};
-use avacraft_nodes::{AgentId, FrameKind, Node, NodeError, Qos, Shutdown, TeamNo, Topics, UnitTag};
+use avacraft_nodes::{AgentId, FrameKind, Node, NodeError, Qos, Shutdown, TeamNo, TopicKind, Topics, UnitTag};
 use avacraft_render::{CpuBackend, FrameBuilder, VlmOptions};
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
@@ -46,6 +48,8 @@ pub struct SimConfig {
     /// Agents driven from DDS: the bridge node publishes their actions (it announces each
     /// once the DDS agent is there), and subscribes to the observations for them.
     pub dds_agents: BTreeSet<AgentId>,
+    /// The launch file it came from (carried in the session description, for people).
+    pub launch_file: String,
 }
 
 /// Which frames the simulator renders and publishes per agent team.
@@ -149,10 +153,14 @@ pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -
         team_pubs.insert(team, node.publisher::<TeamObservation>(&topics.team_obs(no), reliable)?);
     }
     let mut status_pub = node.publisher::<EpisodeStatus>(&topics.status(), reliable)?;
+    // What a recording needs to replay alone; sent now for whoever listens already, and at
+    // every episode's start for a recorder that joins later.
+    let mut session_pub = node.publisher::<avacraft_msgs::SessionInfo>(&topics.session(), reliable)?;
+    session_pub.put(&session_info(cfg, 0, header(env.world(), "map")))?;
     let mut applied_pub = node.publisher::<ActionBatch>(&topics.applied(), reliable)?;
     let mut frames = Frames::new(node, topics, &teams, cfg.frames.clone())?;
     let mut roles_pub = node.publisher::<avacraft_msgs::RoleAssignment>(&topics.roles(), reliable)?;
-    let actions = node.subscriber::<ActionBatch>(&topics.any_actions(), reliable)?;
+    let actions = node.subscriber::<ActionBatch>(topics.any_actions(), reliable)?;
     wait_for_agents(node, topics, cfg, shutdown)?;
     let mut out = Vec::new();
     for (episode, &seed) in cfg.seeds.iter().enumerate() {
@@ -165,6 +173,7 @@ pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -
         let started = Instant::now();
         let mut trips = Vec::new();
         tracing::info!(episode, seed, scenario = %cfg.scenario.name, "episode starts");
+        session_pub.put(&session_info(cfg, episode, header(env.world(), "map")))?;
         roles_pub.put(&roles(&env, cfg, episode))?;
         loop {
             let t0 = Instant::now();
@@ -223,7 +232,11 @@ fn roles(env: &Env, cfg: &SimConfig, episode: u64) -> avacraft_msgs::RoleAssignm
         step: env.steps(),
         groups: groups
             .into_iter()
-            .map(|(a, units)| avacraft_msgs::RoleGroup { role: a.to_string(), agent_id: a.to_string(), unit_tags: units })
+            .map(|(a, units)| avacraft_msgs::RoleGroup {
+                role: avacraft_msgs::RoleGroup::ROLE_NONE,
+                agent_id: a.to_string(),
+                unit_tags: units,
+            })
             .collect(),
     }
 }
@@ -244,6 +257,8 @@ fn status(env: &Env, cfg: &SimConfig, episode: u64, seed: u64, c: &Counts) -> Ep
         missing_actions: c.missing,
         foreign_actions: c.foreign,
         malformed_messages: c.malformed,
+        state_hash: env.state_hash(),
+        trajectory_hash: env.trajectory_hash(),
     }
 }
 
@@ -255,7 +270,9 @@ fn publish_step(
     team_pubs: &mut BTreeMap<Team, avacraft_nodes::Publisher<TeamObservation>>,
 ) -> Result<(), NodeError> {
     for &team in teams {
-        let text = convert::team_text(env, team);
+        // The units' observations are the engine's own (what in-process agents get), so a
+        // deployed policy sees exactly what it would see in-process.
+        let obs = env.agent_observations(team, episode);
         let w = env.world();
         if let Some(p) = team_pubs.get_mut(&team) {
             let units = avacraft_engine::unit_list(w, team).iter().map(unit_state).collect();
@@ -266,14 +283,14 @@ fn publish_step(
                 game_loop: w.tick(),
                 team: team.player(),
                 units,
-                effects: convert::effects(w, team),
-                text: text.clone(),
+                effects: avacraft_engine::agent::effects(env, team).iter().map(avacraft_nodes::wire::area_effect).collect(),
+                text: obs.first().map(|o| o.text.to_string()).unwrap_or_else(|| avacraft_engine::describe(env, team)),
             };
             p.put(&msg)?;
         }
-        for (agent, id) in env.agents(team).iter().enumerate() {
-            if let Some(p) = unit_pubs.get_mut(id) {
-                p.put(&unit_observation(env, team, agent, episode, &text))?;
+        for o in &obs {
+            if let Some(p) = UnitTag::new(o.unit).ok().and_then(|_| unit_pubs.get_mut(&UnitId::new((o.unit - 1) as u16))) {
+                p.put(&avacraft_nodes::wire::unit_observation(o, header(w, "map")))?;
             }
         }
     }
@@ -284,39 +301,35 @@ fn publish_step(
 /// publisher (and the recorder its subscription, when one is expected): a node's own token
 /// appears before its endpoints, so waiting for nodes alone could lose step 0.
 fn wait_for_agents(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -> Result<(), SimError> {
+    use avacraft_nodes::ros::{TokenKind, parse_token};
     let ns = avacraft_nodes::ros::mangle(topics.namespace());
-    // (kind, node name, mangled topic or "" for any)
-    let mut wanted: BTreeSet<(&str, String, String)> = BTreeSet::new();
+    // (kind, node name, topic or none for any)
+    let mut wanted: BTreeSet<(TokenKind, String, Option<avacraft_nodes::Topic>)> = BTreeSet::new();
     let env = Env::new(Arc::clone(&cfg.scenario), cfg.env.clone(), 0);
     for (tag, agent) in &cfg.owners {
         if cfg.dds_agents.contains(agent) {
-            wanted.insert(("MP", "bridge".to_owned(), avacraft_nodes::ros::mangle(topics.actions(agent).as_str())));
+            wanted.insert((TokenKind::Publisher, "bridge".to_owned(), Some(topics.actions(agent))));
             continue;
         }
         let name = format!("agent_{agent}");
         let Some(team) = unit_of(&env, tag.get()).and_then(|u| TeamNo::new(u.team.player()).ok()) else { continue };
-        wanted.insert(("MS", name.clone(), avacraft_nodes::ros::mangle(topics.unit_obs(team, *tag).as_str())));
-        wanted.insert(("MP", name, avacraft_nodes::ros::mangle(topics.actions(agent).as_str())));
+        wanted.insert((TokenKind::Subscription, name.clone(), Some(topics.unit_obs(team, *tag))));
+        wanted.insert((TokenKind::Publisher, name, Some(topics.actions(agent))));
     }
     if cfg.wait_for_recorder {
-        wanted.insert(("MS", "recorder".to_owned(), String::new()));
+        wanted.insert((TokenKind::Subscription, "recorder".to_owned(), None));
     }
     if wanted.is_empty() {
         return Ok(());
     }
     let start = Instant::now();
     loop {
-        let tokens = node.alive_tokens(Duration::from_millis(500))?;
-        let have = |(kind, name, topic): &(&str, String, String)| {
-            tokens.iter().any(|t| {
-                let p: Vec<&str> = t.split('/').collect();
-                p.get(5) == Some(kind)
-                    && p.get(7) == Some(&ns.as_str())
-                    && p.get(8) == Some(&name.as_str())
-                    && (topic.is_empty() || p.get(9) == Some(&topic.as_str()))
-            })
+        let tokens: Vec<_> = node.alive_tokens(Duration::from_millis(500))?.iter().filter_map(|t| parse_token(t)).collect();
+        let have = |(kind, name, topic): &(TokenKind, String, Option<avacraft_nodes::Topic>)| {
+            tokens.iter().any(|t| t.kind == *kind && t.namespace == ns && t.node == *name && (topic.is_none() || t.topic == *topic))
         };
-        let missing: Vec<String> = wanted.iter().filter(|w| !have(w)).map(|(k, n, t)| format!("{n} {k} {t}")).collect();
+        let missing: Vec<String> =
+            wanted.iter().filter(|w| !have(w)).map(|(k, n, t)| format!("{n} {k:?} {}", t.as_ref().map_or("*", |t| t.as_str()))).collect();
         if missing.is_empty() {
             tracing::info!(endpoints = wanted.len(), "every agent node is up");
             return Ok(());
@@ -374,7 +387,7 @@ fn collect_actions(
             break;
         }
         let Some(r) = sub.recv_timeout((deadline - now).min(Duration::from_millis(50)))? else { continue };
-        let Some(agent) = topics.agent_of_key(&r.key) else {
+        let Some(TopicKind::Actions(agent)) = topics.classify(&r.topic) else {
             c.malformed += 1;
             continue;
         };
@@ -424,11 +437,6 @@ fn collect_actions(
     Ok(applied)
 }
 
-/// The iceoryx2 service of a frame topic: the ROS topic without its leading '/'.
-pub fn frame_service(topic: &avacraft_nodes::Topic) -> String {
-    topic.as_str().trim_start_matches('/').to_owned()
-}
-
 /// Renders and publishes each agent team's frames (best effort: a late frame is worthless).
 struct Frames {
     spec: Option<FrameSpec>,
@@ -460,13 +468,13 @@ impl Frames {
         let shm = match &spec {
             Some(s) => pubs
                 .iter()
-                .map(|(_, k, p)| {
+                .map(|(team, k, _)| {
                     let (w, h) = match k {
                         FrameKind::Screen => s.screen,
                         FrameKind::Minimap => s.minimap,
                         FrameKind::Vlm => s.vlm,
                     };
-                    let service = frame_service(p.topic());
+                    let service = TeamNo::new(team.player()).map(|no| topics.frame_service(no, *k)).ok()?;
                     let max = avacraft_nodes::frames::FrameHeader::SIZE + (w * h * 3) as usize;
                     avacraft_nodes::frames::FramePublisher::open(&service, max, 8)
                         .map_err(|e| tracing::warn!(error = %e, "no shared-memory frames; Zenoh only"))

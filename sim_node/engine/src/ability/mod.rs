@@ -411,6 +411,78 @@ pub enum Refusal {
     NotActive,
 }
 
+/// What kind of [`Refusal`] stops a cast, without its numbers: what observations carry (the
+/// numbers that matter, energy and cooldown, are fields of their own there).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RefusalCode {
+    Disabled,
+    NotItsAbility,
+    NeedsUpgrade,
+    NotEnoughEnergy,
+    OnCooldown,
+    NotEnoughLife,
+    WrongTargetKind,
+    OutOfRange,
+    InvalidTarget,
+    Busy,
+    AlreadyActive,
+    NotActive,
+}
+
+impl RefusalCode {
+    pub const ALL: [RefusalCode; 12] = [
+        RefusalCode::Disabled,
+        RefusalCode::NotItsAbility,
+        RefusalCode::NeedsUpgrade,
+        RefusalCode::NotEnoughEnergy,
+        RefusalCode::OnCooldown,
+        RefusalCode::NotEnoughLife,
+        RefusalCode::WrongTargetKind,
+        RefusalCode::OutOfRange,
+        RefusalCode::InvalidTarget,
+        RefusalCode::Busy,
+        RefusalCode::AlreadyActive,
+        RefusalCode::NotActive,
+    ];
+    /// In a sentence's words (`on cooldown`).
+    pub fn text(self) -> &'static str {
+        match self {
+            RefusalCode::Disabled => "abilities disabled",
+            RefusalCode::NotItsAbility => "not its ability",
+            RefusalCode::NeedsUpgrade => "needs upgrade",
+            RefusalCode::NotEnoughEnergy => "not enough energy",
+            RefusalCode::OnCooldown => "on cooldown",
+            RefusalCode::NotEnoughLife => "not enough life",
+            RefusalCode::WrongTargetKind => "wrong target kind",
+            RefusalCode::OutOfRange => "out of range",
+            RefusalCode::InvalidTarget => "invalid target",
+            RefusalCode::Busy => "busy",
+            RefusalCode::AlreadyActive => "already active",
+            RefusalCode::NotActive => "not active",
+        }
+    }
+}
+
+impl Refusal {
+    pub fn code(&self) -> RefusalCode {
+        match self {
+            Refusal::Disabled => RefusalCode::Disabled,
+            Refusal::NotItsAbility { .. } => RefusalCode::NotItsAbility,
+            Refusal::NeedsUpgrade { .. } => RefusalCode::NeedsUpgrade,
+            Refusal::NotEnoughEnergy { .. } => RefusalCode::NotEnoughEnergy,
+            Refusal::OnCooldown { .. } => RefusalCode::OnCooldown,
+            Refusal::NotEnoughLife { .. } => RefusalCode::NotEnoughLife,
+            Refusal::WrongTargetKind { .. } => RefusalCode::WrongTargetKind,
+            Refusal::OutOfRange { .. } => RefusalCode::OutOfRange,
+            Refusal::InvalidTarget { .. } => RefusalCode::InvalidTarget,
+            Refusal::Busy { .. } => RefusalCode::Busy,
+            Refusal::AlreadyActive => RefusalCode::AlreadyActive,
+            Refusal::NotActive => RefusalCode::NotActive,
+        }
+    }
+}
+
 /// An ability with its readiness for one unit, for observations.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct AbilityInfo {
@@ -424,7 +496,7 @@ pub struct AbilityInfo {
     pub available: bool,
     /// Why not, when not available.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub why_not: Option<String>,
+    pub why_not: Option<RefusalCode>,
 }
 
 #[cfg(test)]

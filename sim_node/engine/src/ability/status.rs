@@ -5,6 +5,7 @@
 use super::{Ability, SLOW_FACTOR, STIM_FACTOR};
 use crate::geom::Vec2;
 use crate::ids::{Team, UnitId};
+use crate::obs::Buffs;
 use crate::units::UnitKind;
 use serde::Serialize;
 
@@ -131,24 +132,28 @@ impl Status {
         v
     }
 
-    /// Names of the active states, for observations (`stimmed`, `cloaked`, ...).
-    pub fn names(&self, tick: u32) -> Vec<&'static str> {
-        let mut v = Vec::new();
-        let checks: [(bool, &'static str); 11] = [
-            (self.stimmed(tick), "stimmed"),
-            (self.slowed(tick), "slowed"),
-            (self.boosted(tick), "afterburners"),
-            (self.guardian_up(tick), "guardian_shield"),
-            (self.guarded, "guardian_shielded"),
-            (self.barrier_up(tick), "barrier"),
-            (self.cloaked, "cloaked"),
-            (self.lifted(tick), "lifted"),
-            (tick < self.hot_until, "transfusing"),
-            (self.morph.is_some(), "morphing"),
-            (self.channel.is_some(), "channelling"),
+    /// The active states, for observations (stimmed, cloaked, ...).
+    pub fn buffs(&self, tick: u32) -> Buffs {
+        let checks = [
+            (self.stimmed(tick), Buffs::STIMMED),
+            (self.slowed(tick), Buffs::SLOWED),
+            (self.boosted(tick), Buffs::AFTERBURNERS),
+            (self.guardian_up(tick), Buffs::GUARDIAN_SHIELD),
+            (self.guarded, Buffs::GUARDIAN_SHIELDED),
+            (self.barrier_up(tick), Buffs::BARRIER),
+            (self.cloaked, Buffs::CLOAKED),
+            (self.lifted(tick), Buffs::LIFTED),
+            (tick < self.hot_until, Buffs::TRANSFUSING),
+            (self.morph.is_some(), Buffs::MORPHING),
+            (self.channel.is_some(), Buffs::CHANNELLING),
         ];
-        v.extend(checks.into_iter().filter(|c| c.0).map(|c| c.1));
-        v
+        let mut b = Buffs::empty();
+        for (on, f) in checks {
+            if on {
+                b.insert(f);
+            }
+        }
+        b
     }
 }
 
@@ -165,6 +170,7 @@ pub enum EffectKind {
 }
 
 impl EffectKind {
+    pub const ALL: [EffectKind; 4] = [EffectKind::PsionicStorm, EffectKind::ForceField, EffectKind::GuardianShield, EffectKind::Kd8Charge];
     pub fn name(self) -> &'static str {
         match self {
             EffectKind::PsionicStorm => "psionic_storm",

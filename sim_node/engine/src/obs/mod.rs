@@ -1,11 +1,13 @@
 //! Observations built from the world: SMAC features, the structured unit list and the
 //! natural-language battlefield description. All of them obey the team's fog of war.
 
+mod flags;
 pub(crate) mod smac;
 mod smac_ext;
 mod text;
 mod units;
 
+pub use flags::{Buffs, UnitFlags, UnknownBits};
 pub use smac::{EnvInfo, IndexError, N_ACTIONS_NO_ATTACK, SHOOT_RANGE, SIGHT_RANGE, SmacLayout};
 pub use smac_ext::{AbilitySlots, slot_abilities};
 pub use text::describe;

@@ -6,11 +6,12 @@
 
 use super::smac_ext::AbilitySlots;
 use crate::action::{Action, ActionError, Command, Direction};
+use crate::agent::GroupObs;
 use crate::env::Env;
 use crate::geom::Vec2;
 use crate::ids::{Team, UnitId};
-use crate::policy::TeamView;
 use crate::scenario::Scenario;
+use crate::terrain::Rect;
 use crate::units::{Race, UnitKind};
 use crate::world::{Unit, World};
 use serde::Serialize;
@@ -54,6 +55,7 @@ pub struct SmacLayout {
     map_center: Vec2,
     playable_w: f32,
     playable_h: f32,
+    playable: Rect,
 }
 
 impl SmacLayout {
@@ -122,6 +124,7 @@ impl SmacLayout {
             map_center: Vec2::new(scenario.terrain.width() as f32 / 2.0, scenario.terrain.height() as f32 / 2.0),
             playable_w: p.width(),
             playable_h: p.height(),
+            playable: p,
         }
     }
 
@@ -200,10 +203,6 @@ impl SmacLayout {
             i if i < self.n_actions => self.ability_available(world, agent, u, i - self.ability_base()),
             _ => false,
         }
-    }
-
-    pub(crate) fn avail_actions_view(&self, view: &TeamView<'_>, agent: usize, out: &mut [u8]) {
-        self.avail_actions(view.world(), agent, out)
     }
 
     pub fn obs(&self, world: &World, agent: usize, out: &mut [f32]) {
@@ -325,8 +324,32 @@ impl SmacLayout {
         })
     }
 
-    pub(crate) fn action_from_index(&self, view: &TeamView<'_>, agent: usize, idx: usize) -> Option<Action> {
-        Some(Action::new(self.agents[agent], self.command_for(view.world(), agent, idx)?))
+    /// [`SmacLayout::command_for`] from observation data alone (`g` holds `agent`'s unit):
+    /// what an agent outside the engine can compute. `None` for an index out of range, or
+    /// one naming a position the group does not see (an area spell at an unseen enemy).
+    pub fn command_for_obs(&self, g: &GroupObs, agent: usize, idx: usize) -> Option<Command> {
+        let me = g.unit(self.agents.get(agent)?.tag());
+        Some(match idx {
+            0 => Command::NoOp,
+            1 => Command::Stop,
+            2 => Command::MoveDir { dir: Direction::Up },
+            3 => Command::MoveDir { dir: Direction::Down },
+            4 => Command::MoveDir { dir: Direction::Right },
+            5 => Command::MoveDir { dir: Direction::Left },
+            i if i < self.ability_base() => {
+                // A healer's attack slots name its allies (as in `targets`).
+                let healer = me.is_some_and(|u| u.flags.contains(super::UnitFlags::HEALER));
+                let targets = if healer { &self.agents } else { &self.enemies };
+                Command::Attack { target: *targets.get(i - N_ACTIONS_NO_ATTACK)? }
+            }
+            i if i < self.n_actions => self.ability_command_obs(g, me?, agent, i - self.ability_base())?,
+            _ => return None,
+        })
+    }
+
+    /// The playable area of the scenario's map.
+    pub(crate) fn playable(&self) -> Rect {
+        self.playable
     }
 
     /// SMAC index of a typed command, where SMAC has one.

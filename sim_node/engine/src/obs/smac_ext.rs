@@ -6,10 +6,12 @@
 //! order), or direction `j` (up, down, right, left, as SMAC's moves). Observations gain the
 //! agent's energy fraction and one "some target available" flag per slot.
 
+use super::UnitInfo;
 use super::smac::SmacLayout;
 use crate::ability::{Ability, AbilityTarget, SlotRule};
 use crate::action::Command;
 use crate::action::Direction;
+use crate::agent::{GroupObs, view};
 use crate::geom::Vec2;
 use crate::scenario::Scenario;
 use crate::units::UnitKind;
@@ -68,6 +70,27 @@ impl SmacLayout {
                 let d = DIRS.get(j)?.vector();
                 let reach = ability.spec().range + u.radius - 0.01;
                 AbilityTarget::Point { to: world.terrain().playable().clamp(u.pos + d * reach, u.radius) }
+            }
+        };
+        Some(Command::Ability { ability, target })
+    }
+
+    /// [`SmacLayout::ability_command`] from observation data: `me` is the agent's unit.
+    pub(crate) fn ability_command_obs(&self, g: &GroupObs, me: &UnitInfo, agent: usize, off: usize) -> Option<Command> {
+        let w = self.abilities.width;
+        let (k, j) = (off / w.max(1), off % w.max(1));
+        let ability = *self.abilities.per_agent.get(agent)?.get(k)?;
+        let target = match ability.spec().slot {
+            SlotRule::NoTarget if j == 0 => AbilityTarget::None,
+            SlotRule::NoTarget => return None,
+            SlotRule::EnemyUnit => AbilityTarget::Unit { unit: *self.enemies.get(j)? },
+            SlotRule::EnemyPoint => AbilityTarget::Point { to: view::pos(g.unit(self.enemies.get(j)?.tag())?) },
+            SlotRule::AllyUnit => AbilityTarget::Unit { unit: *self.agents.get(j)? },
+            SlotRule::Direction => {
+                let d = DIRS.get(j)?.vector();
+                let r = view::radius(me);
+                let reach = ability.spec().range + r - 0.01;
+                AbilityTarget::Point { to: self.playable().clamp(view::pos(me) + d * reach, r) }
             }
         };
         Some(Command::Ability { ability, target })

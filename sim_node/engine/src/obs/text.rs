@@ -1,6 +1,7 @@
 //! The natural-language battlefield description (the paper's T_t): what a player would read
 //! off the screen, with the exact numbers a screenshot leaves unclear.
 
+use super::flags::UnitFlags;
 use super::units::{OrderInfo, UnitInfo, unit_list};
 use crate::env::Env;
 use crate::ids::Team;
@@ -17,13 +18,13 @@ fn line(u: &UnitInfo, names: &dyn Fn(u32) -> String) -> String {
     }
     if u.weapon_cooldown_s > 0.0 {
         let _ = write!(s, ", weapon ready in {:.1} s", u.weapon_cooldown_s);
-    } else if !u.flags.contains(&"healer") && u.kind.can_fight() {
+    } else if !u.flags.contains(UnitFlags::HEALER) && u.kind.can_fight() {
         s.push_str(", weapon ready");
     }
     let _ = write!(s, ", at grid ({}, {})", u.grid[0], u.grid[1]);
     let doing = match (&u.order, u.target) {
-        (OrderInfo::Attack { target }, _) if u.flags.contains(&"healer") => format!("healing {}", names(*target)),
-        (_, Some(t)) if u.flags.contains(&"healer") => format!("healing {}", names(t)),
+        (OrderInfo::Attack { target }, _) if u.flags.contains(UnitFlags::HEALER) => format!("healing {}", names(*target)),
+        (_, Some(t)) if u.flags.contains(UnitFlags::HEALER) => format!("healing {}", names(t)),
         (OrderInfo::Attack { target }, _) => format!("attacking {}", names(*target)),
         (OrderInfo::Move { x, y }, _) => format!("moving to ({x:.1}, {y:.1})"),
         (OrderInfo::AttackMove { x, y }, Some(t)) => format!("attack-moving to ({x:.1}, {y:.1}), engaging {}", names(t)),
@@ -35,7 +36,7 @@ fn line(u: &UnitInfo, names: &dyn Fn(u32) -> String) -> String {
     };
     let _ = write!(s, ", {doing}");
     if !u.buffs.is_empty() {
-        let _ = write!(s, "; status: {}", u.buffs.join(", ").replace('_', " "));
+        let _ = write!(s, "; status: {}", u.buffs.names().collect::<Vec<_>>().join(", ").replace('_', " "));
     }
     if !u.abilities.is_empty() {
         let list: Vec<String> = u
@@ -48,18 +49,15 @@ fn line(u: &UnitInfo, names: &dyn Fn(u32) -> String) -> String {
                 } else if a.cooldown_s > 0.0 {
                     format!("{name} in {:.1} s", a.cooldown_s)
                 } else {
-                    format!("{name} unavailable ({})", a.why_not.as_deref().unwrap_or("?"))
+                    format!("{name} unavailable ({})", a.why_not.map_or("?", |c| c.text()))
                 }
             })
             .collect();
         let _ = write!(s, "; abilities: {}", list.join(", "));
     }
-    let special: Vec<&str> = u
-        .flags
-        .iter()
-        .copied()
-        .filter(|f| matches!(*f, "flying" | "sieged" | "phasing" | "immobile" | "cliff_walker" | "detector"))
-        .collect();
+    const SHOWN: [UnitFlags; 6] =
+        [UnitFlags::FLYING, UnitFlags::SIEGED, UnitFlags::PHASING, UnitFlags::IMMOBILE, UnitFlags::CLIFF_WALKER, UnitFlags::DETECTOR];
+    let special: Vec<&str> = UnitFlags::NAMES.iter().filter(|(f, _)| SHOWN.contains(f) && u.flags.contains(*f)).map(|(_, n)| *n).collect();
     if !special.is_empty() {
         let _ = write!(s, " [{}]", special.join(", "));
     }

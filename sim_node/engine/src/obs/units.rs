@@ -1,5 +1,6 @@
 //! The structured unit list (the paper's U_t): one record per unit a team knows of.
 
+use super::flags::{Buffs, UnitFlags};
 use crate::ability::AbilityInfo;
 use crate::action::grid_cell_of;
 use crate::ids::Team;
@@ -39,15 +40,18 @@ pub struct UnitInfo {
     pub max_shield: f32,
     pub energy: f32,
     pub max_energy: f32,
+    /// Current top speed in game units per game second ("Faster"): stim, slows, Afterburners
+    /// and upgrades included; 0 while immobile, morphing, lifted or channelling.
+    pub speed: f32,
     /// Seconds of game time until the weapon is ready (0 when ready).
     pub weapon_cooldown_s: f32,
     pub order: OrderInfo,
     pub activity: Activity,
     pub target: Option<u32>,
-    pub flags: Vec<&'static str>,
-    /// Active buffs and states: `stimmed`, `slowed`, `cloaked`, `guardian_shielded`,
-    /// `lifted`, `morphing`, ...
-    pub buffs: Vec<&'static str>,
+    pub flags: UnitFlags,
+    /// Active buffs and states: stimmed, slowed, cloaked, guardian-shielded, lifted,
+    /// morphing, ...
+    pub buffs: Buffs,
     /// The unit's abilities with cooldowns and availability (own units only: a player does
     /// not see enemy cooldowns).
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -57,33 +61,30 @@ pub struct UnitInfo {
 impl UnitInfo {
     pub fn from_unit(w: &World, team: Team, u: &Unit) -> Self {
         let s = u.spec();
-        let mut flags = Vec::new();
-        if s.flying {
-            flags.push("flying");
+        let checks = [
+            (s.flying, UnitFlags::FLYING),
+            (s.attrs.has(Attrs::STRUCTURE), UnitFlags::STRUCTURE),
+            (s.detector, UnitFlags::DETECTOR),
+            (s.heal.is_some(), UnitFlags::HEALER),
+            (s.cliff_walk, UnitFlags::CLIFF_WALKER),
+            (u.kind == UnitKind::SiegeTankSieged, UnitFlags::SIEGED),
+            (u.kind == UnitKind::WarpPrismPhasing, UnitFlags::PHASING),
+            (u.kind == UnitKind::VikingAssault, UnitFlags::ASSAULT_MODE),
+            (u.kind == UnitKind::VikingFighter, UnitFlags::FIGHTER_MODE),
+            (u.speed <= 0.0, UnitFlags::IMMOBILE),
+            (s.attrs.has(Attrs::LIGHT), UnitFlags::LIGHT),
+            (s.attrs.has(Attrs::ARMORED), UnitFlags::ARMORED),
+            (s.attrs.has(Attrs::BIOLOGICAL), UnitFlags::BIOLOGICAL),
+            (s.attrs.has(Attrs::MECHANICAL), UnitFlags::MECHANICAL),
+            (s.attrs.has(Attrs::PSIONIC), UnitFlags::PSIONIC),
+            (s.attrs.has(Attrs::MASSIVE), UnitFlags::MASSIVE),
+        ];
+        let mut flags = UnitFlags::empty();
+        for (on, f) in checks {
+            if on {
+                flags.insert(f);
+            }
         }
-        if s.attrs.has(Attrs::STRUCTURE) {
-            flags.push("structure");
-        }
-        if s.detector {
-            flags.push("detector");
-        }
-        if s.heal.is_some() {
-            flags.push("healer");
-        }
-        if s.cliff_walk {
-            flags.push("cliff_walker");
-        }
-        match u.kind {
-            UnitKind::SiegeTankSieged => flags.push("sieged"),
-            UnitKind::WarpPrismPhasing => flags.push("phasing"),
-            UnitKind::VikingAssault => flags.push("assault_mode"),
-            UnitKind::VikingFighter => flags.push("fighter_mode"),
-            _ => {}
-        }
-        if u.speed <= 0.0 {
-            flags.push("immobile");
-        }
-        flags.extend(s.attrs.names().map(attr_flag));
         let (gx, gy) = grid_cell_of(w.terrain().playable(), u.pos);
         UnitInfo {
             tag: u.id.tag(),
@@ -100,6 +101,7 @@ impl UnitInfo {
             max_shield: u.max_shield,
             energy: u.energy,
             max_energy: s.energy_max,
+            speed: u.speed * LOOPS_PER_SECOND,
             weapon_cooldown_s: u.cooldown.max(0.0) / LOOPS_PER_SECOND,
             order: match u.order {
                 Order::Idle => OrderInfo::Idle,
@@ -112,11 +114,11 @@ impl UnitInfo {
             target: u.target.map(|t| t.tag()),
             flags,
             buffs: {
-                let mut b = u.status.names(w.tick());
+                let mut b = u.status.buffs(w.tick());
                 // An enemy that sees a cloaked unit has detected it; its owner is not told
                 // (that would reveal enemy detectors in the fog).
                 if u.team != team && u.status.cloaked {
-                    b.push("detected");
+                    b.insert(Buffs::DETECTED);
                 }
                 b
             },
@@ -140,22 +142,10 @@ pub fn ability_infos(w: &World, u: &Unit) -> Vec<AbilityInfo> {
                 range: s.range,
                 cooldown_s: ready.saturating_sub(w.tick()) as f32 / LOOPS_PER_SECOND,
                 available: check.is_ok(),
-                why_not: check.err().map(|e| e.to_string()),
+                why_not: check.err().map(|e| e.code()),
             }
         })
         .collect()
-}
-
-fn attr_flag(a: &'static str) -> &'static str {
-    match a {
-        "Light" => "light",
-        "Armored" => "armored",
-        "Biological" => "biological",
-        "Mechanical" => "mechanical",
-        "Psionic" => "psionic",
-        "Massive" => "massive",
-        _ => "structure_attr",
-    }
 }
 
 /// Every living unit `team` knows of: its own, then the enemies it sees, each by tag order.

@@ -143,6 +143,9 @@ pub struct Scenario {
     pub opponent: OpponentKind,
     pub start: StartOrder,
     pub time_limit_loops: u32,
+    /// The TOML text it was parsed from, verbatim: a recording carries it, so a replay needs
+    /// neither the file nor the same built-in scenarios.
+    pub text: Arc<str>,
 }
 
 impl Scenario {
@@ -179,7 +182,7 @@ impl Scenario {
     pub fn from_toml(file: &str, text: &str) -> Result<Scenario, ScenarioError> {
         let raw: RawScenario = toml::from_str(text)
             .map_err(|e| ScenarioError::Syntax { file: file.to_owned(), message: e.to_string().trim_end().to_owned() })?;
-        validate::validate(file, raw)
+        validate::validate(file, raw, text)
     }
 
     /// Loads a scenario file, or a built-in scenario by name when no such file exists.

@@ -24,7 +24,7 @@ impl Ctx<'_> {
     }
 }
 
-pub(super) fn validate(file: &str, raw: RawScenario) -> Result<Scenario, ScenarioError> {
+pub(super) fn validate(file: &str, raw: RawScenario, text: &str) -> Result<Scenario, ScenarioError> {
     let cx = Ctx { file };
     if raw.name.is_empty() || !raw.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
         return Err(cx.err("name", format!("{:?}", raw.name), "must be non-empty ASCII letters, digits, '_' or '-'"));
@@ -150,6 +150,7 @@ pub(super) fn validate(file: &str, raw: RawScenario) -> Result<Scenario, Scenari
         opponent,
         start,
         time_limit_loops,
+        text: Arc::from(text),
     })
 }
 

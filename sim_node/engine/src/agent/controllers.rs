@@ -1,0 +1,67 @@
+//! The agents driving an environment's agent teams (team 1; team 2 too in PvP) as one
+//! value, so every tool (episodes, rendering, tests) plays episodes the same way.
+
+use super::scripted::factory;
+use super::{AgentTeam, Grouping, UnknownAgent};
+use crate::env::Env;
+use crate::ids::Team;
+use crate::scenario::{Mode, Scenario};
+
+pub struct Controllers {
+    teams: Vec<AgentTeam>,
+    /// Episodes started so far, less one (the episode number the agents are told).
+    episode: Option<u64>,
+}
+
+impl std::fmt::Debug for Controllers {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_list().entries(self.teams.iter().map(|t| (t.team(), t.name()))).finish()
+    }
+}
+
+impl Controllers {
+    /// The given agent teams; one for team 2 is dropped in PvE, where the opponent plays it.
+    pub fn new(scenario: &Scenario, teams: Vec<AgentTeam>) -> Self {
+        let teams = teams.into_iter().filter(|t| t.team() == Team::One || scenario.mode == Mode::Pvp).collect();
+        Self { teams, episode: None }
+    }
+
+    /// Scripted policies by name, one agent per team: `second` drives team 2 in PvP
+    /// scenarios and is ignored in PvE.
+    pub fn named(scenario: &Scenario, first: &str, second: Option<&str>) -> Result<Self, UnknownAgent> {
+        Self::grouped(scenario, first, second, Grouping::Team)
+    }
+
+    /// Like [`Controllers::named`], every team split among agents by `grouping`.
+    pub fn grouped(scenario: &Scenario, first: &str, second: Option<&str>, grouping: Grouping) -> Result<Self, UnknownAgent> {
+        let mut teams = vec![AgentTeam::new(Team::One, grouping.clone(), factory(first)?)];
+        if let Some(second) = second {
+            teams.push(AgentTeam::new(Team::Two, grouping, factory(second)?));
+        }
+        Ok(Self::new(scenario, teams))
+    }
+
+    /// Starts an episode (call it after [`Env::reset`]): fresh agents, seeded from the
+    /// environment's seed.
+    pub fn reset(&mut self, env: &Env) {
+        self.episode = Some(self.episode.map_or(0, |e| e + 1));
+        for t in &mut self.teams {
+            t.reset(env);
+        }
+    }
+
+    /// Every team's agents act on this step's observations, then all their actions are
+    /// submitted: no side sees the other's orders of the same step.
+    pub fn act(&mut self, env: &mut Env) {
+        let episode = self.episode.unwrap_or(0);
+        let actions: Vec<_> = self.teams.iter_mut().map(|t| (t.team(), t.act(env, episode))).collect();
+        for (team, a) in actions {
+            env.submit(team, &a);
+        }
+    }
+
+    /// Names of the policies, team 1 first.
+    pub fn names(&self) -> Vec<String> {
+        self.teams.iter().map(AgentTeam::name).collect()
+    }
+}

@@ -1,0 +1,66 @@
+//! The agent contract: every agent kind (scripted, MARL, VLM, remote) implements [`Agent`]
+//! over the observations a deployment carries, so one policy runs in-process, from Python and
+//! as an agent node with the same results. An agent controls a group of units (one unit, a
+//! role group, or a whole team) and sees what its units' observations say, nothing more.
+
+mod controllers;
+pub(crate) mod micro;
+mod obs;
+mod runner;
+mod scripted;
+pub mod view;
+
+pub use controllers::Controllers;
+pub use obs::{AgentObs, Controlled, EffectInfo, GroupObs, effects};
+pub use runner::{AgentTeam, Grouping};
+pub(crate) use scripted::opponent;
+pub use scripted::{AGENTS, AttackMove, Defensive, FocusFire, Hold, NoOp, RandomActions, UnknownAgent, by_name, factory};
+
+use crate::action::Action;
+use crate::ids::Team;
+use crate::scenario::Scenario;
+use std::sync::Arc;
+
+/// What an agent knows when an episode starts: the map (a player knows it), its side, the
+/// units it controls, and a seed for its own random choices.
+#[derive(Clone, Debug)]
+pub struct AgentCtx {
+    pub scenario: Arc<Scenario>,
+    pub team: Team,
+    /// Tags of the units it controls.
+    pub units: Vec<u32>,
+    pub seed: u64,
+}
+
+pub trait Agent: Send {
+    fn name(&self) -> &str;
+    /// Called at the start of every episode.
+    fn reset(&mut self, ctx: &AgentCtx);
+    /// Actions for the group's units this step; units without one keep their orders.
+    fn act(&mut self, obs: &GroupObs) -> Vec<Action>;
+}
+
+/// What a group sends for a step: its policy's actions for the units it controls (others
+/// dropped), then a no-op for each of its living units the policy left alone. A deployed
+/// node must answer for every unit it owns (the simulator waits for each), and an in-process
+/// run submits the same, so both leave the same last actions in the state.
+pub fn complete(actions: Vec<Action>, g: &GroupObs) -> Vec<Action> {
+    let mut out: Vec<Action> = actions.into_iter().filter(|a| g.controlled.iter().any(|c| c.unit == a.unit.tag())).collect();
+    for c in g.controlled.iter().filter(|c| c.alive) {
+        if !out.iter().any(|a| a.unit.tag() == c.unit) {
+            out.push(Action::new(crate::ids::UnitId::new((c.unit - 1) as u16), crate::action::Command::NoOp));
+        }
+    }
+    out
+}
+
+/// The seed of one agent's random choices in an episode: a function of the episode's seed,
+/// the side and the group's first unit only, so an agent node and an in-process run of the
+/// same grouping draw the same numbers.
+pub fn agent_seed(episode_seed: u64, team: Team, first_unit: u32) -> u64 {
+    // SplitMix64 over the three, so nearby seeds give unrelated streams.
+    let mut z = episode_seed ^ ((team.player() as u64) << 56) ^ ((first_unit as u64) << 24) ^ 0x9e37_79b9_7f4a_7c15;
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}

@@ -1,0 +1,240 @@
+//! What an agent is given: one unit's observation ([`AgentObs`], what the deployment's
+//! `UnitObservation` message carries, field for field) and the fold of a group's unit
+//! observations ([`GroupObs`]) that policies act on. In-process runs build the same values
+//! the simulator node publishes, so a policy cannot tell where it runs.
+
+use crate::ability::EffectKind;
+use crate::env::Env;
+use crate::ids::Team;
+use crate::obs::{UnitInfo, describe, unit_list};
+use crate::time::LOOPS_PER_SECOND;
+use serde::Serialize;
+use std::sync::Arc;
+
+/// A lasting area effect a team knows of (its own, and others' where it sees the spot).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct EffectInfo {
+    pub kind: EffectKind,
+    /// The caster's team, 1 or 2.
+    pub team: u8,
+    pub x: f32,
+    pub y: f32,
+    pub radius: f32,
+    pub remaining_s: f32,
+}
+
+/// One unit's observation at one step.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct AgentObs {
+    pub episode: u64,
+    /// The episode's seed, from which agents seed their own random choices.
+    pub seed: u64,
+    pub step: u32,
+    pub game_loop: u32,
+    /// The observed unit's tag (1-based).
+    pub unit: u32,
+    /// Its team, 1 or 2.
+    pub team: u8,
+    pub alive: bool,
+    /// The unit itself with its abilities (`None` once dead).
+    pub own: Option<UnitInfo>,
+    /// The other living units of its team (without their abilities).
+    pub allies: Vec<UnitInfo>,
+    /// Enemy units its team sees.
+    pub enemies: Vec<UnitInfo>,
+    pub effects: Vec<EffectInfo>,
+    /// SMAC's mask, one byte per action index (1: available).
+    pub avail_actions: Vec<u8>,
+    /// SMAC's feature vector.
+    pub features: Vec<f32>,
+    /// The team's text description (shared by its units).
+    pub text: Arc<str>,
+}
+
+/// Area effects `team` knows of now.
+pub fn effects(env: &Env, team: Team) -> Vec<EffectInfo> {
+    let w = env.world();
+    let tick = w.tick();
+    w.area_effects()
+        .iter()
+        .filter(|e| e.active(tick) && (e.team == team || w.team_sees_point(team, e.pos)))
+        .map(|e| EffectInfo {
+            kind: e.kind,
+            team: e.team.player(),
+            x: e.pos.x,
+            y: e.pos.y,
+            radius: e.radius,
+            remaining_s: e.until.saturating_sub(tick) as f32 / LOOPS_PER_SECOND,
+        })
+        .collect()
+}
+
+impl GroupObs {
+    /// The whole of `team` as one group, straight from the world: what folding every agent's
+    /// [`AgentObs`] gives, without building them (the engine's opponents act on this).
+    /// `smac` fills the controlled units' masks and features.
+    pub fn team(env: &Env, team: Team, episode: u64, smac: bool) -> GroupObs {
+        let l = env.smac_layout(team);
+        let units = unit_list(env.world(), team);
+        let controlled = env
+            .agents(team)
+            .iter()
+            .enumerate()
+            .map(|(agent, id)| {
+                let (mut avail_actions, mut features) = (Vec::new(), Vec::new());
+                if smac {
+                    avail_actions = vec![0u8; l.n_actions];
+                    env.avail_agent(team, agent, &mut avail_actions);
+                    features = vec![0f32; l.obs_size];
+                    env.obs_agent(team, agent, &mut features);
+                }
+                Controlled { unit: id.tag(), alive: units.iter().any(|u| u.tag == id.tag()), agent, avail_actions, features }
+            })
+            .collect();
+        GroupObs {
+            episode,
+            step: env.steps(),
+            game_loop: env.world().tick(),
+            team,
+            units,
+            effects: effects(env, team),
+            controlled,
+            text: if smac { describe(env, team).into() } else { Arc::from("") },
+        }
+    }
+}
+
+impl Env {
+    /// Every agent's observation of `team` this step, in agent order (the text is built once).
+    pub fn agent_observations(&self, team: Team, episode: u64) -> Vec<AgentObs> {
+        let text: Arc<str> = describe(self, team).into();
+        let list = unit_list(self.world(), team);
+        let fx = effects(self, team);
+        (0..self.agents(team).len()).map(|agent| self.agent_obs_with(team, agent, episode, &list, &fx, &text)).collect()
+    }
+
+    /// One agent's observation (see [`Env::agent_observations`] for all of a team's).
+    pub fn agent_obs(&self, team: Team, agent: usize, episode: u64) -> AgentObs {
+        let text: Arc<str> = describe(self, team).into();
+        self.agent_obs_with(team, agent, episode, &unit_list(self.world(), team), &effects(self, team), &text)
+    }
+
+    fn agent_obs_with(&self, team: Team, agent: usize, episode: u64, list: &[UnitInfo], fx: &[EffectInfo], text: &Arc<str>) -> AgentObs {
+        let tag = self.agents(team).get(agent).map_or(0, |id| id.tag());
+        let l = self.smac_layout(team);
+        let mut avail_actions = vec![0u8; l.n_actions];
+        self.avail_agent(team, agent, &mut avail_actions);
+        let mut features = vec![0f32; l.obs_size];
+        self.obs_agent(team, agent, &mut features);
+        let own = list.iter().find(|u| u.tag == tag).cloned();
+        let strip = |u: &UnitInfo| UnitInfo { abilities: Vec::new(), ..u.clone() };
+        AgentObs {
+            episode,
+            seed: self.seed(),
+            step: self.steps(),
+            game_loop: self.world().tick(),
+            unit: tag,
+            team: team.player(),
+            alive: own.is_some(),
+            own,
+            allies: list.iter().filter(|u| u.own && u.tag != tag).map(strip).collect(),
+            enemies: list.iter().filter(|u| !u.own).cloned().collect(),
+            effects: fx.to_vec(),
+            avail_actions,
+            features,
+            text: Arc::clone(text),
+        }
+    }
+}
+
+/// What a group of units (one agent node's) knows at one step: the fold of its units'
+/// observations. Every unit of a team sees the same battlefield, so the fold is its team's
+/// view, with abilities for the units the group controls.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GroupObs {
+    pub episode: u64,
+    pub step: u32,
+    pub game_loop: u32,
+    pub team: Team,
+    /// Own units first, then seen enemies, each in tag order.
+    pub units: Vec<UnitInfo>,
+    pub effects: Vec<EffectInfo>,
+    /// The group's units, dead ones included (their masks allow only the no-op).
+    pub controlled: Vec<Controlled>,
+    pub text: Arc<str>,
+}
+
+/// What only a unit's own observation holds: its SMAC mask and features.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Controlled {
+    pub unit: u32,
+    pub alive: bool,
+    /// Index of the unit among its team's SMAC agents.
+    pub agent: usize,
+    pub avail_actions: Vec<u8>,
+    pub features: Vec<f32>,
+}
+
+impl GroupObs {
+    /// Folds the observations of one group's units at one step (all the same step, same team).
+    /// `None` when given none.
+    pub fn fold(obs: &[AgentObs], agent_index: impl Fn(u32) -> usize) -> Option<GroupObs> {
+        let first = obs.first()?;
+        let team = if first.team == 2 { Team::Two } else { Team::One };
+        let mut units: Vec<UnitInfo> = Vec::new();
+        // Own units: the controlled ones carry their abilities; allies come without.
+        for o in obs {
+            units.extend(o.own.iter().cloned());
+        }
+        for o in obs {
+            for a in &o.allies {
+                if !units.iter().any(|u| u.tag == a.tag) {
+                    units.push(a.clone());
+                }
+            }
+        }
+        units.sort_by_key(|u| u.tag);
+        let mut enemies = first.enemies.clone();
+        enemies.sort_by_key(|u| u.tag);
+        units.extend(enemies);
+        Some(GroupObs {
+            episode: first.episode,
+            step: first.step,
+            game_loop: first.game_loop,
+            team,
+            units,
+            effects: first.effects.clone(),
+            controlled: obs
+                .iter()
+                .map(|o| Controlled {
+                    unit: o.unit,
+                    alive: o.alive,
+                    agent: agent_index(o.unit),
+                    avail_actions: o.avail_actions.clone(),
+                    features: o.features.clone(),
+                })
+                .collect(),
+            text: Arc::clone(&first.text),
+        })
+    }
+
+    /// The team's living units.
+    pub fn own(&self) -> impl Iterator<Item = &UnitInfo> {
+        self.units.iter().filter(|u| u.own)
+    }
+    /// Enemy units the team sees.
+    pub fn enemies(&self) -> impl Iterator<Item = &UnitInfo> {
+        self.units.iter().filter(|u| !u.own)
+    }
+    /// The living units this group controls (with their abilities).
+    pub fn mine(&self) -> impl Iterator<Item = &UnitInfo> {
+        self.units.iter().filter(|u| u.own && self.controlled.iter().any(|c| c.unit == u.tag))
+    }
+    /// A unit the team knows of, by tag.
+    pub fn unit(&self, tag: u32) -> Option<&UnitInfo> {
+        self.units.iter().find(|u| u.tag == tag)
+    }
+    pub fn tick(&self) -> u32 {
+        self.game_loop
+    }
+}

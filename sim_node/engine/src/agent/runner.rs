@@ -1,0 +1,100 @@
+//! Agents driving a team in-process, grouped exactly as a deployment's agent nodes are, so
+//! an in-process run and a lockstep deployment of the same grouping play the same game.
+
+use super::{Agent, AgentCtx, GroupObs, agent_seed};
+use crate::action::Action;
+use crate::env::Env;
+use crate::ids::Team;
+
+/// How a team's units are split among agents.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Grouping {
+    /// One agent for the whole team.
+    Team,
+    /// One agent per unit (a launch file's `per_unit: true`).
+    PerUnit,
+    /// One agent per listed group of unit tags (a launch file's role groups); units in no
+    /// group get no agent.
+    Groups(Vec<Vec<u32>>),
+}
+
+/// A team's agents: one per group, each made by the same factory.
+pub struct AgentTeam {
+    team: Team,
+    grouping: Grouping,
+    make: Box<dyn Fn() -> Box<dyn Agent> + Send>,
+    groups: Vec<(Vec<u32>, Box<dyn Agent>)>,
+}
+
+impl std::fmt::Debug for AgentTeam {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("AgentTeam").field("team", &self.team).field("grouping", &self.grouping).field("groups", &self.groups.len()).finish()
+    }
+}
+
+impl AgentTeam {
+    pub fn new(team: Team, grouping: Grouping, make: impl Fn() -> Box<dyn Agent> + Send + 'static) -> Self {
+        Self { team, grouping, make: Box::new(make), groups: Vec::new() }
+    }
+    pub fn team(&self) -> Team {
+        self.team
+    }
+    /// The name of the policy (from a fresh instance when no episode has started).
+    pub fn name(&self) -> String {
+        self.groups.first().map_or_else(|| (self.make)().name().to_owned(), |(_, a)| a.name().to_owned())
+    }
+
+    /// Starts an episode: one fresh agent per group, each seeded by [`agent_seed`].
+    pub fn reset(&mut self, env: &Env) {
+        let tags: Vec<u32> = env.agents(self.team).iter().map(|id| id.tag()).collect();
+        let groups: Vec<Vec<u32>> = match &self.grouping {
+            Grouping::Team => vec![tags],
+            Grouping::PerUnit => tags.iter().map(|&t| vec![t]).collect(),
+            Grouping::Groups(g) => g.iter().map(|g| g.iter().copied().filter(|t| tags.contains(t)).collect()).collect(),
+        };
+        self.groups = groups
+            .into_iter()
+            .filter(|g: &Vec<u32>| !g.is_empty())
+            .map(|units| {
+                let mut agent = (self.make)();
+                let ctx = AgentCtx {
+                    scenario: std::sync::Arc::clone(env.scenario()),
+                    team: self.team,
+                    seed: agent_seed(env.seed(), self.team, units[0]),
+                    units: units.clone(),
+                };
+                agent.reset(&ctx);
+                (units, agent)
+            })
+            .collect();
+    }
+
+    /// Every group's actions for this step, from its units' observations.
+    pub fn act(&mut self, env: &Env, episode: u64) -> Vec<Action> {
+        let order: Vec<u32> = env.agents(self.team).iter().map(|id| id.tag()).collect();
+        let index = |tag: u32| order.iter().position(|&t| t == tag).unwrap_or(0);
+        let mut out = Vec::new();
+        if let [(_, agent)] = self.groups.as_mut_slice()
+            && self.grouping == Grouping::Team
+        {
+            // The whole team: the fold of every unit's observation, built directly.
+            let g = GroupObs::team(env, self.team, episode, true);
+            out.extend(super::complete(agent.act(&g), &g));
+            return out;
+        }
+        let all = env.agent_observations(self.team, episode);
+        for (units, agent) in &mut self.groups {
+            let mine: Vec<_> = all.iter().filter(|o| units.contains(&o.unit)).cloned().collect();
+            if let Some(g) = GroupObs::fold(&mine, index) {
+                out.extend(super::complete(agent.act(&g), &g));
+            }
+        }
+        out
+    }
+
+    /// Acts and submits the actions to the environment.
+    pub fn step(&mut self, env: &mut Env, episode: u64) {
+        let actions = self.act(env, episode);
+        env.submit(self.team, &actions);
+    }
+}

@@ -1,0 +1,195 @@
+//! Many environments stepped together across threads, for learners' throughput. Results land
+//! in contiguous arrays (environment-major), finished episodes restart on their own, and
+//! the outcome depends on the seed list only, never on the number of threads: each
+//! environment is stepped by exactly one thread and draws from its own seeded streams.
+
+use crate::env::{Env, EnvConfig};
+use crate::ids::Team;
+use crate::learn::{LearnError, StepInfo};
+use crate::scenario::Scenario;
+use rayon::prelude::*;
+use std::sync::Arc;
+
+/// Why a vector environment refused a call.
+#[derive(Debug, thiserror::Error)]
+pub enum VecEnvError {
+    #[error("a vector environment needs at least one seed")]
+    NoSeeds,
+    #[error("{threads} threads: must be at least 1")]
+    Threads { threads: usize },
+    #[error("cannot start the thread pool: {0}")]
+    Pool(#[from] rayon::ThreadPoolBuildError),
+    #[error("{given} actions given: {envs} environments x {agents} agents = {needed} needed")]
+    Count { given: usize, envs: usize, agents: usize, needed: usize },
+    #[error("environment {env}: {source}")]
+    Action {
+        env: usize,
+        #[source]
+        source: LearnError,
+    },
+}
+
+/// The arrays a step fills (`E` environments, `A` agents of team 1).
+#[derive(Clone, Debug, Default)]
+pub struct VecBuffers {
+    /// `E x A x obs_shape`: after an automatic reset, the new episode's first observation.
+    pub obs: Vec<f32>,
+    /// `E x state_shape`.
+    pub state: Vec<f32>,
+    /// `E x A x n_actions`.
+    pub avail: Vec<u8>,
+    /// `E`: team 1's reward of the step.
+    pub reward: Vec<f32>,
+    /// `E`: the step ended its episode in the game.
+    pub terminated: Vec<bool>,
+    /// `E`: the step ended its episode at the time limit.
+    pub truncated: Vec<bool>,
+    /// `E`: SMAC's info of the step (of the episode that just ended, where one did).
+    pub info: Vec<StepInfo>,
+    /// `E`: the seed of the episode each environment is now in.
+    pub seed: Vec<u64>,
+}
+
+pub struct VecEnv {
+    envs: Vec<Env>,
+    /// Episodes started per environment; environment `i`'s episode `k` uses seed
+    /// `seeds[i] + k * E`, so distinct base seeds give distinct episodes.
+    started: Vec<u64>,
+    seeds: Vec<u64>,
+    pool: rayon::ThreadPool,
+    pub buffers: VecBuffers,
+    n_agents: usize,
+    obs_size: usize,
+    state_size: usize,
+    n_actions: usize,
+}
+
+impl std::fmt::Debug for VecEnv {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("VecEnv").field("envs", &self.envs.len()).field("threads", &self.pool.current_num_threads()).finish()
+    }
+}
+
+impl VecEnv {
+    /// One environment per seed, stepped on `threads` threads (all cores: `num_cpus`).
+    pub fn new(scenario: Arc<Scenario>, cfg: EnvConfig, seeds: &[u64], threads: usize) -> Result<VecEnv, VecEnvError> {
+        if seeds.is_empty() {
+            return Err(VecEnvError::NoSeeds);
+        }
+        if threads == 0 {
+            return Err(VecEnvError::Threads { threads });
+        }
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
+        let envs: Vec<Env> = seeds.iter().map(|&s| Env::new(Arc::clone(&scenario), cfg.clone(), s)).collect();
+        let l = envs[0].smac_layout(Team::One);
+        let (n_agents, obs_size, state_size, n_actions) = (l.n_agents, l.obs_size, l.state_size, l.n_actions);
+        let e = envs.len();
+        let buffers = VecBuffers {
+            obs: vec![0.0; e * n_agents * obs_size],
+            state: vec![0.0; e * state_size],
+            avail: vec![0; e * n_agents * n_actions],
+            reward: vec![0.0; e],
+            terminated: vec![false; e],
+            truncated: vec![false; e],
+            info: vec![StepInfo::default(); e],
+            seed: seeds.to_vec(),
+        };
+        let mut v = VecEnv { envs, started: vec![1; e], seeds: seeds.to_vec(), pool, buffers, n_agents, obs_size, state_size, n_actions };
+        v.fill_all();
+        Ok(v)
+    }
+
+    pub fn len(&self) -> usize {
+        self.envs.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.envs.is_empty()
+    }
+    pub fn threads(&self) -> usize {
+        self.pool.current_num_threads()
+    }
+    /// (agents, obs_shape, state_shape, n_actions) of team 1.
+    pub fn shape(&self) -> (usize, usize, usize, usize) {
+        (self.n_agents, self.obs_size, self.state_size, self.n_actions)
+    }
+    pub fn envs(&self) -> &[Env] {
+        &self.envs
+    }
+
+    /// Restarts every environment from its base seed (episode counts start again).
+    pub fn reset(&mut self) {
+        let seeds = self.seeds.clone();
+        for (env, &s) in self.envs.iter_mut().zip(&seeds) {
+            env.reset(s);
+        }
+        self.started.iter_mut().for_each(|k| *k = 1);
+        self.buffers.seed.clone_from(&seeds);
+        self.fill_all();
+    }
+
+    /// Writes every environment's observation, state and mask into the buffers.
+    fn fill_all(&mut self) {
+        let (oa, sa, aa) = (self.n_agents * self.obs_size, self.state_size, self.n_agents * self.n_actions);
+        let b = &mut self.buffers;
+        for (i, env) in self.envs.iter().enumerate() {
+            fill(env, &mut b.obs[i * oa..(i + 1) * oa], &mut b.state[i * sa..(i + 1) * sa], &mut b.avail[i * aa..(i + 1) * aa]);
+        }
+    }
+
+    /// One step of every environment with `actions` (`E x A` SMAC indices, environment-major).
+    /// All actions are checked before any environment steps.
+    pub fn step(&mut self, actions: &[i64]) -> Result<(), VecEnvError> {
+        let (e, a) = (self.envs.len(), self.n_agents);
+        if actions.len() != e * a {
+            return Err(VecEnvError::Count { given: actions.len(), envs: e, agents: a, needed: e * a });
+        }
+        let a = a.max(1);
+        for (i, (env, acts)) in self.envs.iter().zip(actions.chunks(a)).enumerate() {
+            env.check_indices(Team::One, acts).map_err(|source| VecEnvError::Action { env: i, source })?;
+        }
+        let (oa, sa, aa) = ((self.n_agents * self.obs_size).max(1), self.state_size.max(1), (self.n_agents * self.n_actions).max(1));
+        let b = &mut self.buffers;
+        let stride = e as u64;
+        let seeds = &self.seeds;
+        let envs = &mut self.envs;
+        let started = &mut self.started;
+        self.pool.install(|| {
+            envs.par_iter_mut()
+                .zip(started.par_iter_mut())
+                .zip(actions.par_chunks(a))
+                .zip(b.obs.par_chunks_mut(oa))
+                .zip(b.state.par_chunks_mut(sa))
+                .zip(b.avail.par_chunks_mut(aa))
+                .zip(b.reward.par_iter_mut())
+                .zip(b.terminated.par_iter_mut())
+                .zip(b.truncated.par_iter_mut())
+                .zip(b.info.par_iter_mut())
+                .zip(b.seed.par_iter_mut())
+                .enumerate()
+                .for_each(|(i, ((((((((((env, k), acts), obs), state), avail), reward), term), trunc), info), seed))| {
+                    let idx: Vec<usize> = acts.iter().map(|&x| x as usize).collect();
+                    env.submit_indices(Team::One, &idx);
+                    let r = env.step();
+                    *reward = r.reward[0];
+                    *term = r.terminated;
+                    *trunc = r.truncated;
+                    *info = env.info(Team::One);
+                    if r.done {
+                        let s = seeds[i].wrapping_add(*k * stride);
+                        *k += 1;
+                        env.reset(s);
+                        *seed = s;
+                    }
+                    fill(env, obs, state, avail);
+                });
+        });
+        Ok(())
+    }
+}
+
+fn fill(env: &Env, obs: &mut [f32], state: &mut [f32], avail: &mut [u8]) {
+    // Sizes come from the environment's own layout, so these cannot fail.
+    let _ = env.obs_all(Team::One, obs);
+    let _ = env.state_into(Team::One, state);
+    let _ = env.avail_all(Team::One, avail);
+}

@@ -1,0 +1,160 @@
+//! Golden trajectories: a few whole episodes (scenario, seed, policies) played in-process,
+//! their result, length and trajectory hash (the seed and the full state after every step,
+//! chained) compared with the values pinned in `tests/golden/trajectories.toml`. Any change
+//! to what the simulator does, however small, changes a hash, so behaviour changes across
+//! commits are seen and made on purpose.
+//!
+//! After an intended change, re-bless (rewrite the file) and commit it with the change:
+//!
+//! ```sh
+//! AVACRAFT_BLESS=1 cargo test -p avacraft-tests --test it golden::
+//! ```
+
+use avacraft_engine::{Controllers, Env, EnvConfig, Mode, OpponentKind, Outcome, builtin};
+use std::fmt::Write;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// One pinned episode: team 1's policy (team 2's too in PvP) and the PvE opponent.
+struct Case {
+    scenario: &'static str,
+    seed: u64,
+    policy: &'static str,
+    opponent: Option<OpponentKind>,
+}
+
+const CASES: &[Case] = &[
+    Case { scenario: "3m", seed: 1, policy: "focus-fire", opponent: Some(OpponentKind::Builtin) },
+    Case { scenario: "2s3z", seed: 7, policy: "kite", opponent: None },
+    Case { scenario: "MMM_vs_MMM", seed: 3, policy: "focus-fire", opponent: None },
+    // Abilities: storms, feedback and the opponent's casts.
+    Case { scenario: "pvz_ht", seed: 2, policy: "focus-fire", opponent: None },
+    // A Medivac (air movement, heal autocast) and sieging tanks.
+    Case { scenario: "8m1mv_vs_2st", seed: 5, policy: "focus-fire", opponent: None },
+];
+
+/// What an episode came to.
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct Pinned {
+    result: String,
+    steps: u32,
+    game_loops: u32,
+    trajectory_hash: String,
+}
+
+impl Case {
+    fn key(&self) -> String {
+        let opp = self.opponent.map_or("default", |o| o.name());
+        format!("{} seed {} {} vs {opp}", self.scenario, self.seed, self.policy)
+    }
+
+    fn play(&self) -> Pinned {
+        let s = Arc::new(builtin(self.scenario).expect("built-in scenario"));
+        let second = (s.mode == Mode::Pvp).then_some(self.policy);
+        let mut controllers = Controllers::named(&s, self.policy, second).expect("policy");
+        let mut env = Env::new(Arc::clone(&s), EnvConfig { opponent: self.opponent, ..EnvConfig::default() }, self.seed);
+        controllers.reset(&env);
+        while !env.done() {
+            controllers.act(&mut env);
+            env.step();
+        }
+        let result = match env.outcome() {
+            Some(Outcome::Win) => "win",
+            Some(Outcome::Loss) => "loss",
+            Some(Outcome::Draw) | None => "draw",
+        };
+        Pinned {
+            result: result.into(),
+            steps: env.steps(),
+            game_loops: env.world().tick(),
+            trajectory_hash: format!("{:016x}", env.trajectory_hash()),
+        }
+    }
+}
+
+fn file() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("golden").join("trajectories.toml")
+}
+
+/// The pinned values by case key; a missing or malformed file reads as nothing pinned.
+fn read_pinned(text: &str) -> Vec<(String, Pinned)> {
+    let Ok(table) = text.parse::<toml::Table>() else { return Vec::new() };
+    let Some(eps) = table.get("episode").and_then(|v| v.as_array()) else { return Vec::new() };
+    eps.iter()
+        .filter_map(|e| {
+            let s = |k: &str| e.get(k).and_then(|v| v.as_str()).map(str::to_owned);
+            let n = |k: &str| e.get(k).and_then(|v| v.as_integer()).and_then(|v| u32::try_from(v).ok());
+            Some((
+                s("case")?,
+                Pinned { result: s("result")?, steps: n("steps")?, game_loops: n("game_loops")?, trajectory_hash: s("trajectory_hash")? },
+            ))
+        })
+        .collect()
+}
+
+fn render(played: &[(String, Pinned)]) -> String {
+    let mut out = String::from(
+        "# Golden trajectories, checked by tests/it/golden.rs: whole episodes played in-process\n\
+         # and what they came to. The trajectory hash chains the seed and the simulator's full\n\
+         # state after every step. After an intended change of behaviour, re-bless with\n\
+         #   AVACRAFT_BLESS=1 cargo test -p avacraft-tests --test it golden::\n\
+         # and commit this file with the change.\n",
+    );
+    for (key, p) in played {
+        let _ = write!(
+            out,
+            "\n[[episode]]\ncase = \"{key}\"\nresult = \"{}\"\nsteps = {}\ngame_loops = {}\ntrajectory_hash = \"{}\"\n",
+            p.result, p.steps, p.game_loops, p.trajectory_hash
+        );
+    }
+    out
+}
+
+/// Each played case that differs from its pinned values (or is not pinned), old and new.
+fn differences(played: &[(String, Pinned)], pinned: &[(String, Pinned)]) -> Vec<String> {
+    let mut diffs = Vec::new();
+    for (key, now) in played {
+        match pinned.iter().find(|(k, _)| k == key) {
+            Some((_, old)) if old == now => {}
+            Some((_, old)) => diffs.push(format!("{key}:\n    pinned {old:?}\n    now    {now:?}")),
+            None => diffs.push(format!("{key}: not pinned; now {now:?}")),
+        }
+    }
+    diffs
+}
+
+#[test]
+fn trajectories_match_the_pinned_hashes() {
+    let played: Vec<(String, Pinned)> = CASES.iter().map(|c| (c.key(), c.play())).collect();
+    // Deterministic in-process: a second run of the first case must agree with the first.
+    assert_eq!(CASES[0].play(), played[0].1, "the same episode played twice differs");
+    if std::env::var_os("AVACRAFT_BLESS").is_some() {
+        std::fs::write(file(), render(&played)).expect("write the golden file");
+        return;
+    }
+    let text = std::fs::read_to_string(file()).unwrap_or_default();
+    let diffs = differences(&played, &read_pinned(&text));
+    assert!(
+        diffs.is_empty(),
+        "{} of {} golden trajectories changed ({}):\n  {}\nIf the change is intended, re-bless: AVACRAFT_BLESS=1 cargo test -p avacraft-tests --test it golden::",
+        diffs.len(),
+        played.len(),
+        file().display(),
+        diffs.join("\n  ")
+    );
+}
+
+/// The check above must fail on a changed hash and show both, or it proves nothing.
+#[test]
+fn a_changed_hash_is_reported_with_old_and_new() {
+    let p = Pinned { result: "win".into(), steps: 3, game_loops: 24, trajectory_hash: "00000000000000aa".into() };
+    let key = "x seed 1 p vs default".to_owned();
+    let pinned = read_pinned(&render(&[(key.clone(), p.clone())]));
+    assert_eq!(pinned, vec![(key.clone(), p.clone())], "the file format round-trips");
+    assert!(differences(&[(key.clone(), p.clone())], &pinned).is_empty());
+    let changed = Pinned { trajectory_hash: "00000000000000ab".into(), ..p };
+    let d = differences(&[(key.clone(), changed)], &pinned);
+    assert_eq!(d.len(), 1);
+    assert!(d[0].contains("00000000000000aa") && d[0].contains("00000000000000ab"), "{}", d[0]);
+    assert!(differences(&[("other".into(), pinned[0].1.clone())], &pinned)[0].contains("not pinned"));
+}

@@ -1,0 +1,157 @@
+//! The learning API: batched accessors, terminated versus truncated, SMAC's info, checked
+//! indices, and the vector environment's independence from its thread count.
+
+use avacraft_engine::{Env, EnvConfig, LearnError, Team, VecEnv, VecEnvError, builtin};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::num::NonZeroU32;
+use std::sync::Arc;
+
+fn env(name: &str, cfg: EnvConfig, seed: u64) -> Env {
+    Env::new(Arc::new(builtin(name).expect("scenario")), cfg, seed)
+}
+
+/// A uniformly random available action per agent, from flat masks.
+fn random_actions(avail: &[u8], n_actions: usize, rng: &mut ChaCha8Rng) -> Vec<i64> {
+    avail
+        .chunks(n_actions)
+        .map(|m| {
+            let ok: Vec<usize> = m.iter().enumerate().filter(|(_, a)| **a == 1).map(|(i, _)| i).collect();
+            ok[rng.random_range(0..ok.len())] as i64
+        })
+        .collect()
+}
+
+#[test]
+fn batched_accessors_match_the_per_agent_ones() {
+    let e = env("2s3z", EnvConfig::default(), 3);
+    let i = e.env_info(Team::One);
+    let mut all = vec![0.0; i.n_agents * i.obs_shape];
+    e.obs_all(Team::One, &mut all).expect("sizes");
+    let mut one = vec![0.0; i.obs_shape];
+    for agent in 0..i.n_agents {
+        e.obs_agent(Team::One, agent, &mut one);
+        assert_eq!(&all[agent * i.obs_shape..(agent + 1) * i.obs_shape], &one[..]);
+    }
+    let mut masks = vec![0u8; i.n_agents * i.n_actions];
+    e.avail_all(Team::One, &mut masks).expect("sizes");
+    assert!(masks.chunks(i.n_actions).all(|m| m[0] == 0 && m[1] == 1), "alive units: no-op unavailable, stop available");
+    let mut short = vec![0.0; 3];
+    assert_eq!(e.obs_all(Team::One, &mut short), Err(LearnError::Buffer { name: "obs", len: 3, needed: i.n_agents * i.obs_shape }));
+}
+
+#[test]
+fn a_time_out_is_truncated_and_a_wipe_is_terminated() {
+    let short = EnvConfig { time_limit_loops: NonZeroU32::new(16), ..EnvConfig::default() };
+    let mut e = env("3m", short, 1);
+    let stop = vec![1i64; 3];
+    let first = e.step_indices(&stop, None).expect("valid");
+    assert!(!first.done && !first.terminated && !first.truncated);
+    let last = e.step_indices(&stop, None).expect("valid");
+    assert!(last.done && last.truncated && !last.terminated, "{last:?}");
+    let info = e.info(Team::One);
+    assert!(info.episode_limit && !info.battle_won, "{info:?}");
+
+    // Attack-moving Marines against the built-in AI end the episode in the game.
+    let mut e = env("3m", EnvConfig::default(), 2);
+    let mut rng = ChaCha8Rng::seed_from_u64(0);
+    let n = e.env_info(Team::One).n_actions;
+    let mut masks = vec![0u8; 3 * n];
+    let r = loop {
+        e.avail_all(Team::One, &mut masks).expect("sizes");
+        let r = e.step_indices(&random_actions(&masks, n, &mut rng), None).expect("valid");
+        if r.done {
+            break r;
+        }
+    };
+    let info = e.info(Team::One);
+    assert_eq!(r.terminated, !r.truncated);
+    if r.terminated {
+        assert!(info.dead_allies == 3 || info.dead_enemies == 3, "{info:?}");
+        assert_eq!(info.battle_won, info.dead_enemies == 3 && info.dead_allies < 3, "{info:?}");
+    }
+}
+
+#[test]
+fn bad_indices_name_the_agent_and_apply_nothing() {
+    let mut e = env("3m", EnvConfig::default(), 1);
+    let before = e.state_hash();
+    assert_eq!(e.step_indices(&[1, 1], None).err(), Some(LearnError::Count { given: 2, agents: 3 }));
+    assert_eq!(e.step_indices(&[1, 99, 1], None).err(), Some(LearnError::OutOfRange { agent: 1, index: 99, n_actions: 9 }));
+    assert_eq!(e.step_indices(&[1, 1, -1], None).err(), Some(LearnError::OutOfRange { agent: 2, index: -1, n_actions: 9 }));
+    match e.step_indices(&[0, 1, 1], None) {
+        Err(LearnError::Unavailable { agent: 0, index: 0, available }) => assert!(available.contains(&1) && !available.contains(&0)),
+        other => panic!("expected unavailable, got {other:?}"),
+    }
+    assert_eq!(e.state_hash(), before, "nothing was applied");
+    assert_eq!(e.steps(), 0);
+}
+
+/// Plays `steps` steps of a vector environment with actions drawn from its masks.
+fn play(threads: usize, steps: usize) -> (Vec<u64>, Vec<(usize, u64)>) {
+    let seeds: Vec<u64> = (10..18).collect();
+    let mut v = VecEnv::new(Arc::new(builtin("3m").expect("scenario")), EnvConfig::default(), &seeds, threads).expect("vec env");
+    let (_, _, _, n_actions) = v.shape();
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let mut digest = Vec::new();
+    let mut episodes_seen = Vec::new();
+    for _ in 0..steps {
+        let actions = random_actions(&v.buffers.avail, n_actions, &mut rng);
+        v.step(&actions).expect("valid actions");
+        let b = &v.buffers;
+        let mut h = avacraft_engine::Fnv::default();
+        b.obs.iter().for_each(|x| h.f32(*x));
+        b.state.iter().for_each(|x| h.f32(*x));
+        b.reward.iter().for_each(|x| h.f32(*x));
+        h.bytes(&b.avail);
+        b.terminated.iter().chain(&b.truncated).for_each(|x| h.u32(*x as u32));
+        digest.push(h.finish());
+        for (i, done) in b.terminated.iter().zip(&b.truncated).map(|(t, u)| t | u).enumerate() {
+            if done {
+                episodes_seen.push((i, b.seed[i]));
+            }
+        }
+    }
+    (digest, episodes_seen)
+}
+
+#[test]
+fn vector_env_results_do_not_depend_on_threads_and_episodes_restart() {
+    let (one, restarts) = play(1, 150);
+    let (two, restarts2) = play(2, 150);
+    assert_eq!(one, two, "same seeds, same actions: same arrays whatever the thread count");
+    assert_eq!(restarts, restarts2);
+    assert!(!restarts.is_empty(), "some episodes ended and restarted within 150 steps");
+    // Environment i's episode k uses seeds[i] + k * 8.
+    assert!(restarts.iter().all(|&(i, s)| s >= 18 && (s - 10 - i as u64).is_multiple_of(8)), "{restarts:?}");
+}
+
+#[test]
+fn vector_env_matches_a_single_env_and_refuses_bad_actions() {
+    let seeds = [5u64, 6];
+    let mut v = VecEnv::new(Arc::new(builtin("2s3z").expect("scenario")), EnvConfig::default(), &seeds, 2).expect("vec env");
+    let mut solo = env("2s3z", EnvConfig::default(), 5);
+    let (agents, obs, _, n_actions) = v.shape();
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    for _ in 0..40 {
+        let actions = random_actions(&v.buffers.avail, n_actions, &mut rng);
+        v.step(&actions).expect("valid");
+        let r = solo.step_indices(&actions[..agents], None).expect("valid");
+        if r.done {
+            break;
+        }
+        let mut o = vec![0.0; agents * obs];
+        solo.obs_all(Team::One, &mut o).expect("sizes");
+        assert_eq!(&v.buffers.obs[..agents * obs], &o[..]);
+        assert_eq!(v.envs()[0].trajectory_hash(), solo.trajectory_hash());
+    }
+    let before: Vec<u64> = v.envs().iter().map(|e| e.state_hash()).collect();
+    assert!(matches!(v.step(&[1]), Err(VecEnvError::Count { given: 1, needed, .. }) if needed == 2 * agents));
+    let mut bad = random_actions(&v.buffers.avail, n_actions, &mut rng);
+    bad[agents] = 999;
+    match v.step(&bad) {
+        Err(VecEnvError::Action { env: 1, source: LearnError::OutOfRange { agent: 0, index: 999, .. } }) => {}
+        other => panic!("expected environment 1 agent 0 refused, got {other:?}"),
+    }
+    assert_eq!(v.envs().iter().map(|e| e.state_hash()).collect::<Vec<_>>(), before, "nothing applied");
+}
