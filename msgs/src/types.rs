@@ -55,6 +55,7 @@ pub struct UnitState {
     pub max_shield: f32,
     pub energy: f32,
     pub max_energy: f32,
+    pub speed: f32,
     pub weapon_cooldown_s: f32,
     pub grid_x: u8,
     pub grid_y: u8,

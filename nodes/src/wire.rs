@@ -95,6 +95,7 @@ pub fn unit_state(u: &UnitInfo) -> UnitState {
         max_shield: u.max_shield,
         energy: u.energy,
         max_energy: u.max_energy,
+        speed: u.speed,
         weapon_cooldown_s: u.weapon_cooldown_s,
         grid_x: u.grid[0],
         grid_y: u.grid[1],
@@ -126,13 +127,7 @@ pub fn unit_info(s: &UnitState, abilities: &[AbilityState]) -> Result<UnitInfo, 
         max_shield: s.max_shield,
         energy: s.energy,
         max_energy: s.max_energy,
-        // Stopgap until UnitState carries the engine's `speed`: the type's base speed (no
-        // stim, slow or upgrade), 0 when the flags say it cannot move.
-        speed: if UnitFlags::from_bits(s.flags).is_ok_and(|f| f.contains(UnitFlags::IMMOBILE)) {
-            0.0
-        } else {
-            unit_type_from(s.unit_type)?.spec().speed * avacraft_engine::LOOPS_PER_SECOND
-        },
+        speed: s.speed,
         weapon_cooldown_s: s.weapon_cooldown_s,
         order: order_from(s)?,
         activity: from_code(&ACTIVITIES, s.activity.saturating_add(1), "UnitState", "activity")?,

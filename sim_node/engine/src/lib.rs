@@ -55,6 +55,7 @@ pub use ability::{
     TargetRule, UnknownAbility,
 };
 pub use action::{Action, ActionError, Command, Direction, GRID, MOVE_AMOUNT, grid_cell_center, grid_cell_of};
+pub use agent::{AGENTS as POLICIES, Agent, AgentCtx, Controllers, GroupObs, UnknownAgent as UnknownPolicy, by_name as agent_by_name};
 pub use damage::{Dealt, apply_hits, hit_damage};
 pub use env::{Env, EnvConfig, Outcome, RewardMode, StepResult};
 pub use geom::Vec2;
@@ -66,7 +67,6 @@ pub use obs::{
     Buffs, EnvInfo, IndexError, N_ACTIONS_NO_ATTACK, OrderInfo, SHOOT_RANGE, SIGHT_RANGE, SmacLayout, UnitFlags, UnitInfo, UnknownBits,
     ability_infos, describe, unit_list,
 };
-pub use agent::{AGENTS as POLICIES, Agent, AgentCtx, Controllers, GroupObs, UnknownAgent as UnknownPolicy, by_name as agent_by_name};
 pub use scenario::{
     BUILTIN, Mode, OpponentKind, RawOpponent, RawScenario, RawStart, RawTerrain, RawUnit, RawUpgrade, Scenario, ScenarioError,
     ScenarioUnit, StartOrder, Upgrade, builtin, builtin_names,
