@@ -52,8 +52,8 @@ pub enum ReplayError {
     Namespaces(String, String),
     #[error("episode {episode}: step {step} is recorded twice, differently: a recording holds one session")]
     Duplicate { episode: u64, step: u32 },
-    #[error("episode {episode}: no session description was recorded before it")]
-    NoSessionFor { episode: u64 },
+    #[error("no episode was recorded from its first step (a recorder that joined late): {0}")]
+    NoWholeEpisode(String),
     #[error("episode {episode}: the recorded session is unusable")]
     Session {
         episode: u64,
@@ -78,6 +78,8 @@ pub struct Recording {
     pub episodes: BTreeMap<u64, RecordedEpisode>,
     /// Why reading stopped before the end of the file (cut short or damaged), if it did.
     pub truncated: Option<String>,
+    /// Episodes that cannot be replayed, and why (recorded from a later step only).
+    pub skipped: Vec<(u64, String)>,
 }
 
 /// How a replayed episode differs from its recording.
@@ -241,14 +243,27 @@ pub fn read_recording(bytes: &[u8]) -> Result<Recording, ReplayError> {
     if statuses.is_empty() {
         return Err(ReplayError::NoEpisodes);
     }
-    let mut episodes = BTreeMap::new();
+    let (mut episodes, mut skipped) = (BTreeMap::new(), Vec::new());
     for (episode, st) in statuses {
-        let session = sessions.range(..=episode).next_back().map(|(_, s)| s.clone()).ok_or(ReplayError::NoSessionFor { episode })?;
+        // A recorder that joined during an episode has neither its start nor, maybe, the
+        // session announced at that start: the episode is skipped, the later ones replay.
+        let first = st.keys().next().copied().unwrap_or(0);
+        let session = sessions.range(..=episode).next_back().map(|(_, s)| s.clone());
+        let (0, Some(session)) = (first, session) else {
+            let why =
+                if first > 0 { format!("the recording starts at its step {first}") } else { "no session description before it".into() };
+            skipped.push((episode, why));
+            continue;
+        };
         let seed = st.values().next().map_or(0, |s| s.seed);
         let applied = applied.remove(&episode).unwrap_or_default();
         episodes.insert(episode, RecordedEpisode { session, seed, statuses: st, applied });
     }
-    Ok(Recording { episodes, truncated })
+    if episodes.is_empty() {
+        let all: Vec<String> = skipped.iter().map(|(e, why)| format!("episode {e}: {why}")).collect();
+        return Err(ReplayError::NoWholeEpisode(all.join("; ")));
+    }
+    Ok(Recording { episodes, truncated, skipped })
 }
 
 fn result_code(o: Option<Outcome>) -> u8 {
@@ -355,6 +370,9 @@ pub fn run(a: &ReplayArgs, out: &mut dyn Write) -> Result<()> {
     let rec = read_recording(&bytes).with_context(|| format!("replay: {file}"))?;
     if let Some(why) = &rec.truncated {
         writeln!(out, "warning: {file} is cut short ({why}); replaying what it holds")?;
+    }
+    for (episode, why) in &rec.skipped {
+        writeln!(out, "episode {episode}: skipped, not replayable: {why}")?;
     }
     let mut video = match &a.video {
         Some(p) => {

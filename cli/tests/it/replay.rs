@@ -119,6 +119,21 @@ pub fn check_recording(mcap: &Path) {
     let (ok, text) = replay_cli(&copy, &[]);
     assert!(!ok && text.contains("no session description") && text.contains("avacraft_msgs/msg/SessionInfo"), "{text}");
 
+    // A recorder that joined during episode 0: that episode is skipped, episode 1 replays.
+    let late = rewrite(&bytes, |ty, data| match ty {
+        t if t == EpisodeStatus::TYPE_NAME => decode::<EpisodeStatus>(data).is_ok_and(|s| s.episode > 0 || s.step >= 3),
+        t if t == ActionBatch::TYPE_NAME => decode::<ActionBatch>(data).is_ok_and(|b| b.episode > 0 || b.step >= 3),
+        t if t == SessionInfo::TYPE_NAME => decode::<SessionInfo>(data).is_ok_and(|s| s.episode > 0),
+        _ => true,
+    });
+    let rec = read_recording(&late).expect("readable");
+    assert_eq!(rec.skipped, vec![(0, "the recording starts at its step 3".to_owned())]);
+    assert_eq!(mismatches(&late), vec![None]);
+    let copy = tmp("late.mcap");
+    std::fs::write(&copy, &late).expect("write");
+    let (ok, text) = replay_cli(&copy, &[]);
+    assert!(ok && text.contains("episode 0: skipped") && text.contains("every recorded state matches"), "{text}");
+
     // Cut short: what is left replays, with a warning; no episode is called a mismatch.
     let copy = tmp("cut.mcap");
     std::fs::write(&copy, &bytes[..bytes.len() * 2 / 3]).expect("write");
