@@ -6,7 +6,7 @@
 //! renders the first episode.
 
 use anyhow::{Result, bail};
-use avacraft_engine::{Env, Outcome, Scenario, Team};
+use avacraft_engine::{Env, Scenario, Team};
 use avacraft_msgs::{ActionBatch, DecodeError, EpisodeStatus, RosMessage, SessionInfo, decode};
 use avacraft_nodes::{Topic, TopicKind, Topics};
 use avacraft_sim_node::SessionError;
@@ -266,14 +266,7 @@ pub fn read_recording(bytes: &[u8]) -> Result<Recording, ReplayError> {
     Ok(Recording { episodes, truncated, skipped })
 }
 
-fn result_code(o: Option<Outcome>) -> u8 {
-    match o {
-        None => EpisodeStatus::RUNNING,
-        Some(Outcome::Win) => EpisodeStatus::WIN,
-        Some(Outcome::Loss) => EpisodeStatus::LOSS,
-        Some(Outcome::Draw) => EpisodeStatus::DRAW,
-    }
-}
+use avacraft_sim_node::result_code;
 
 /// Called with the environment after every re-simulated step of the first episode.
 pub type FrameSink<'a> = dyn FnMut(&Env) -> Result<()> + 'a;

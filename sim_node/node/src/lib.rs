@@ -113,7 +113,8 @@ struct Counts {
     malformed: u32,
 }
 
-fn result_code(o: Option<Outcome>) -> u8 {
+/// An outcome as `EpisodeStatus` carries it (`RUNNING` while there is none).
+pub fn result_code(o: Option<Outcome>) -> u8 {
     match o {
         None => EpisodeStatus::RUNNING,
         Some(Outcome::Win) => EpisodeStatus::WIN,

@@ -312,12 +312,7 @@ impl SmacLayout {
     /// The typed action for SMAC index `idx` of `agent`; `None` for an index out of range.
     pub fn command_for(&self, world: &World, agent: usize, idx: usize) -> Option<Command> {
         Some(match idx {
-            0 => Command::NoOp,
-            1 => Command::Stop,
-            2 => Command::MoveDir { dir: Direction::Up },
-            3 => Command::MoveDir { dir: Direction::Down },
-            4 => Command::MoveDir { dir: Direction::Right },
-            5 => Command::MoveDir { dir: Direction::Left },
+            i if i < N_ACTIONS_NO_ATTACK => fixed_command(i),
             i if i < self.ability_base() => Command::Attack { target: *self.targets(world, agent).get(i - N_ACTIONS_NO_ATTACK)? },
             i if i < self.n_actions => self.ability_command(world, agent, i - self.ability_base())?,
             _ => return None,
@@ -330,12 +325,7 @@ impl SmacLayout {
     pub fn command_for_obs(&self, g: &GroupObs, agent: usize, idx: usize) -> Option<Command> {
         let me = g.unit(self.agents.get(agent)?.tag());
         Some(match idx {
-            0 => Command::NoOp,
-            1 => Command::Stop,
-            2 => Command::MoveDir { dir: Direction::Up },
-            3 => Command::MoveDir { dir: Direction::Down },
-            4 => Command::MoveDir { dir: Direction::Right },
-            5 => Command::MoveDir { dir: Direction::Left },
+            i if i < N_ACTIONS_NO_ATTACK => fixed_command(i),
             i if i < self.ability_base() => {
                 // A healer's attack slots name its allies (as in `targets`).
                 let healer = me.is_some_and(|u| u.flags.contains(super::UnitFlags::HEALER));
@@ -456,5 +446,17 @@ impl Env {
             }
         }
         out
+    }
+}
+
+/// SMAC's first six actions, the same for every unit: no-op, stop, move north, south, east, west.
+fn fixed_command(i: usize) -> Command {
+    match i {
+        0 => Command::NoOp,
+        1 => Command::Stop,
+        2 => Command::MoveDir { dir: Direction::Up },
+        3 => Command::MoveDir { dir: Direction::Down },
+        4 => Command::MoveDir { dir: Direction::Right },
+        _ => Command::MoveDir { dir: Direction::Left },
     }
 }
