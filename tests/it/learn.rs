@@ -155,3 +155,47 @@ fn vector_env_matches_a_single_env_and_refuses_bad_actions() {
     }
     assert_eq!(v.envs().iter().map(|e| e.state_hash()).collect::<Vec<_>>(), before, "nothing applied");
 }
+
+/// Plays `e` to the end with random available actions drawn from `rng`; returns the
+/// trajectory hash and the rewards of every step.
+fn play_out(e: &mut Env, rng: &mut ChaCha8Rng) -> (u64, Vec<f32>) {
+    let n = e.env_info(Team::One).n_actions;
+    let mut masks = vec![0u8; e.agents(Team::One).len() * n];
+    let mut rewards = Vec::new();
+    while !e.done() {
+        e.avail_all(Team::One, &mut masks).expect("sizes");
+        let r = e.step_indices(&random_actions(&masks, n, rng), None).expect("valid");
+        rewards.push(r.reward[0]);
+    }
+    (e.trajectory_hash(), rewards)
+}
+
+#[test]
+fn a_snapshot_goes_on_exactly_as_the_original() {
+    use avacraft_engine::OpponentKind;
+    // Every opponent kind: the scripted ones keep memory (focus targets, seeded draws) that
+    // the snapshot must carry; the built-in AI keeps its opening.
+    for opponent in [OpponentKind::Builtin, OpponentKind::Aggressive, OpponentKind::Defensive, OpponentKind::Focus] {
+        for name in ["3m", "2s3z"] {
+            let cfg = EnvConfig { opponent: Some(opponent), reward: avacraft_engine::RewardMode::Dense, ..EnvConfig::default() };
+            let mut e = env(name, cfg, 11);
+            let mut rng = ChaCha8Rng::seed_from_u64(5);
+            let n = e.env_info(Team::One).n_actions;
+            let mut masks = vec![0u8; e.agents(Team::One).len() * n];
+            for _ in 0..12 {
+                e.avail_all(Team::One, &mut masks).expect("sizes");
+                e.step_indices(&random_actions(&masks, n, &mut rng), None).expect("valid");
+            }
+            let snap = e.snapshot();
+            assert_eq!(snap.state_hash(), e.state_hash(), "{name} vs {opponent:?}: a snapshot is the same state");
+            let (hash, rewards) = play_out(&mut e, &mut rng.clone());
+            // Diverge the snapshot's copy, then restore and replay the same draws.
+            let mut fork = snap.snapshot();
+            play_out(&mut fork, &mut ChaCha8Rng::seed_from_u64(99));
+            fork.restore(&snap);
+            let (again, rewards_again) = play_out(&mut fork, &mut rng.clone());
+            assert_eq!((hash, &rewards), (again, &rewards_again), "{name} vs {opponent:?}: the restored fork replays identically");
+            assert!(snap.steps() == 12 && !snap.done(), "playing the original and the fork left the snapshot alone");
+        }
+    }
+}

@@ -2,7 +2,7 @@
 //! of the episode. The same `Env` serves MARL training loops, the CLI and the nodes.
 
 use crate::action::{Action, ActionError};
-use crate::agent::{self, Agent, AgentCtx, GroupObs, agent_seed};
+use crate::agent::{self, AgentCtx, GroupObs, agent_seed};
 use crate::builtin_ai::BuiltinAi;
 use crate::hash::Fnv;
 use crate::ids::{Team, UnitId};
@@ -116,7 +116,7 @@ pub struct Env {
     world: World,
     seed: u64,
     agents: [Vec<UnitId>; 2],
-    opponent: Option<Box<dyn Agent>>,
+    opponent: Option<Box<dyn agent::ForkAgent>>,
     opponent_kind: Option<OpponentKind>,
     policy_rng: ChaCha8Rng,
     builtin: Option<BuiltinAi>,
@@ -137,6 +137,48 @@ pub struct Env {
 impl std::fmt::Debug for Env {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Env").field("scenario", &self.scenario.name).field("seed", &self.seed).field("tick", &self.world.tick()).finish()
+    }
+}
+
+/// A snapshot: an independent copy of the episode at this step (world, RNG positions, the
+/// opponent's memory, reward bookkeeping, trajectory hash), for look-ahead and for forking
+/// evaluations. The copy and the original, given the same actions, go on identically; the
+/// scenario is shared, being immutable.
+impl Clone for Env {
+    fn clone(&self) -> Self {
+        Env {
+            scenario: Arc::clone(&self.scenario),
+            cfg: self.cfg.clone(),
+            world: self.world.clone(),
+            seed: self.seed,
+            agents: self.agents.clone(),
+            opponent: self.opponent.as_ref().map(|o| o.fork()),
+            opponent_kind: self.opponent_kind,
+            policy_rng: self.policy_rng.clone(),
+            builtin: self.builtin.clone(),
+            outcome: self.outcome,
+            steps: self.steps,
+            refused: self.refused,
+            last_actions: self.last_actions.clone(),
+            pending_actions: self.pending_actions.clone(),
+            dense: self.dense.clone(),
+            max_reward: self.max_reward,
+            trajectory: self.trajectory,
+            layouts: self.layouts.clone(),
+        }
+    }
+}
+
+impl Env {
+    /// A copy to explore from; `restore` goes back to it. Same as `clone`, named for readers
+    /// of look-ahead code.
+    pub fn snapshot(&self) -> Env {
+        self.clone()
+    }
+    /// Puts this environment back to `snap`'s state (a snapshot of an environment of the same
+    /// scenario, or of any other: the snapshot carries everything).
+    pub fn restore(&mut self, snap: &Env) {
+        *self = snap.clone();
     }
 }
 

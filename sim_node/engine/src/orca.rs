@@ -35,7 +35,7 @@ pub struct Agent {
 }
 
 /// Reusable buffers so the hot loop does not allocate.
-#[derive(Debug, Default)]
+#[derive(Clone, Debug, Default)]
 pub struct Orca {
     lines: Vec<Line>,
     proj: Vec<Line>,

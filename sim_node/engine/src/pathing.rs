@@ -17,7 +17,7 @@ pub struct FlowField {
     dist: Vec<f32>,
 }
 
-#[derive(Debug, Default)]
+#[derive(Clone, Debug, Default)]
 pub struct PathCache {
     fields: BTreeMap<(u32, bool), Arc<FlowField>>,
     order: VecDeque<(u32, bool)>,

@@ -53,7 +53,7 @@ impl Snap {
     }
 }
 
-#[derive(Debug, Default)]
+#[derive(Clone, Debug, Default)]
 pub(crate) struct Scratch {
     pub intents: Vec<Intent>,
     pub neighbours: Vec<Neighbour>,

@@ -197,7 +197,7 @@ pub struct Shot {
 }
 
 /// The simulated world.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct World {
     pub(crate) terrain: Arc<Terrain>,
     pub(crate) units: Vec<Unit>,

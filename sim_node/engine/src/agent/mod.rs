@@ -40,6 +40,19 @@ pub trait Agent: Send {
     fn act(&mut self, obs: &GroupObs) -> Vec<Action>;
 }
 
+/// An agent whose whole state can be copied mid-episode: what an environment needs of its
+/// built-in opponent to fork (look-ahead search, evaluations branching from one state). Every
+/// `Clone` agent is one.
+pub trait ForkAgent: Agent {
+    fn fork(&self) -> Box<dyn ForkAgent>;
+}
+
+impl<T: Agent + Clone + 'static> ForkAgent for T {
+    fn fork(&self) -> Box<dyn ForkAgent> {
+        Box::new(self.clone())
+    }
+}
+
 /// What a group sends for a step: its policy's actions for the units it controls (others
 /// dropped), then a no-op for each of its living units the policy left alone. A deployed
 /// node must answer for every unit it owns (the simulator waits for each), and an in-process

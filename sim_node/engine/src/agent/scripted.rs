@@ -59,7 +59,7 @@ pub fn factory(name: &str) -> Result<fn() -> Box<dyn Agent>, UnknownAgent> {
 }
 
 /// The scripted opponent for a style (not `builtin`, which is the engine's own AI).
-pub(crate) fn opponent(kind: OpponentKind) -> Box<dyn Agent> {
+pub(crate) fn opponent(kind: OpponentKind) -> Box<dyn super::ForkAgent> {
     match kind {
         OpponentKind::Aggressive => Box::new(FocusFire::aggressive()),
         OpponentKind::Defensive => Box::new(Defensive::default()),
