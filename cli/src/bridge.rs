@@ -2,7 +2,7 @@
 
 use anyhow::{Context, Result, bail};
 use avacraft_bridge::BridgeConfig;
-use avacraft_engine::{Env, EnvConfig, Team};
+use avacraft_engine::{Env, EnvConfig};
 use avacraft_launch::BridgeTopic;
 use avacraft_nodes::{Node, NodeArgs, Shutdown, TeamNo, Topics, UnitTag};
 use clap::Args;
@@ -31,7 +31,7 @@ pub fn run(a: &BridgeArgs) -> Result<()> {
         bail!("--dds-timeout {}: must be a positive number of seconds", a.dds_timeout);
     }
     let env = Env::new(Arc::clone(&plan.scenario), EnvConfig::default(), 0);
-    let team_of = |t: TeamNo| if t.get() == 1 { Team::One } else { Team::Two };
+    let team_of = |t: TeamNo| t.team();
     let has = |t: BridgeTopic| b.topics.contains(&t);
     let mut cfg = BridgeConfig {
         dds_domain: b.dds_domain,

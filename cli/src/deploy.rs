@@ -3,7 +3,6 @@
 
 use crate::record::{self, RecordArgs};
 use anyhow::{Context, Result, bail};
-use avacraft_engine::{EnvConfig, Rules};
 use avacraft_launch::{ClockMode, Plan};
 use avacraft_nodes::{AgentId, Node, NodeArgs, Shutdown, Topics, UnitTag};
 use avacraft_sim_node::{Clock, SimConfig};
@@ -50,11 +49,9 @@ pub struct AgentNodeArgs {
 }
 
 pub(crate) fn sim_config(plan: &Plan, startup: Duration) -> SimConfig {
-    let mut env = EnvConfig { rules: Rules::default(), ..EnvConfig::default() };
-    env.opponent = plan.opponent;
     SimConfig {
         scenario: plan.scenario.clone(),
-        env,
+        env: plan.env_config(),
         clock: match plan.clock {
             ClockMode::Lockstep => Clock::Lockstep { deadline: plan.deadline },
             ClockMode::RealTime => Clock::RealTime,

@@ -15,8 +15,13 @@ use std::sync::Arc;
 #[derive(Args, Debug)]
 pub struct EpisodeArgs {
     /// Built-in scenario name or path to a scenario file.
-    #[arg(long)]
-    pub scenario: String,
+    #[arg(long, required_unless_present = "launch")]
+    pub scenario: Option<String>,
+    /// Play a launch file's games in-process: its scenario, seeds, opponent and agent nodes
+    /// (each node's units, policy and seed), exactly as `avacraft launch` deploys them, so
+    /// the trajectory hashes can be compared with the deployment's.
+    #[arg(long, conflicts_with_all = ["scenario", "agent", "agent2", "opponent", "episodes", "seed", "full_vision", "passive_agents", "no_jitter", "no_abilities"])]
+    pub launch: Option<std::path::PathBuf>,
     /// Policy for team 1 (focus-fire, kite, attack-move, builtin, aggressive, defensive, focus, random, hold, noop).
     #[arg(long, default_value = "kite")]
     pub agent: String,
@@ -110,11 +115,37 @@ fn rate(xs: impl Iterator<Item = f64>) -> Rate {
     Rate { mean, std: var.sqrt() }
 }
 
-pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
+/// What is played: the scenario, the environment, who plays, and the seeds.
+struct Setup {
+    scenario: Arc<Scenario>,
+    cfg: EnvConfig,
+    controllers: Controllers,
+    seeds: Vec<u64>,
+    agent: String,
+    agent2: Option<String>,
+    opponent: Option<OpponentKind>,
+}
+
+fn setup(a: &EpisodeArgs) -> Result<Setup> {
+    if let Some(path) = &a.launch {
+        let plan = avacraft_launch::load(path)?;
+        let controllers = plan.controllers()?;
+        let names = controllers.names();
+        return Ok(Setup {
+            cfg: plan.env_config(),
+            scenario: Arc::clone(&plan.scenario),
+            seeds: plan.seeds.clone(),
+            agent: format!("{} ({} agent nodes)", names.first().cloned().unwrap_or_default(), names.len()),
+            agent2: None,
+            opponent: plan.opponent,
+            controllers,
+        });
+    }
     if a.episodes == 0 {
         bail!("--episodes must be at least 1");
     }
-    let scenario = Arc::new(Scenario::load(&a.scenario)?);
+    let Some(name) = &a.scenario else { bail!("--scenario or --launch is needed") };
+    let scenario = Arc::new(Scenario::load(name)?);
     let opponent = a.opponent.as_deref().map(str::parse::<OpponentKind>).transpose().map_err(anyhow::Error::msg).context("--opponent")?;
     if scenario.mode == Mode::Pvp && opponent.is_some() {
         bail!("--opponent applies to PvE scenarios; {} is PvP: pick team 2's policy with --agent2", scenario.name);
@@ -122,7 +153,7 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
     avacraft_engine::agent_by_name(&a.agent).context("--agent")?;
     let agent2 = a.agent2.clone().unwrap_or_else(|| a.agent.clone());
     let pvp = scenario.mode == Mode::Pvp;
-    let mut controllers = Controllers::named(&scenario, &a.agent, pvp.then_some(agent2.as_str())).context("--agent2")?;
+    let controllers = Controllers::named(&scenario, &a.agent, pvp.then_some(agent2.as_str())).context("--agent2")?;
     let cfg = EnvConfig {
         rules: Rules {
             full_vision: a.full_vision,
@@ -134,10 +165,16 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
         opponent,
         ..EnvConfig::default()
     };
-    let bar = if a.json || !std::io::stderr().is_terminal() { ProgressBar::hidden() } else { ProgressBar::new(a.episodes as u64) };
+    let seeds = (0..a.episodes as u64).map(|k| a.seed.wrapping_add(k)).collect();
+    Ok(Setup { scenario, cfg, controllers, seeds, agent: a.agent.clone(), agent2: pvp.then_some(agent2), opponent })
+}
+
+pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
+    let Setup { scenario, cfg, mut controllers, seeds, agent, agent2, opponent } = setup(a)?;
+    let bar = if a.json || !std::io::stderr().is_terminal() { ProgressBar::hidden() } else { ProgressBar::new(seeds.len() as u64) };
     bar.set_style(ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} episodes ({eta})")?.progress_chars("=> "));
     bar.set_message(scenario.name.clone());
-    let mut env = Env::new(Arc::clone(&scenario), cfg, a.seed);
+    let mut env = Env::new(Arc::clone(&scenario), cfg, seeds[0]);
     let mut records = Vec::new();
     let mut video = match &a.video {
         Some(path) => {
@@ -153,8 +190,7 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
         }
         None => None,
     };
-    for k in 0..a.episodes as u64 {
-        let seed = a.seed.wrapping_add(k);
+    for (k, &seed) in seeds.iter().enumerate() {
         env.reset(seed);
         controllers.reset(&env);
         while !env.done() {
@@ -200,8 +236,8 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
     let summary = Summary {
         scenario: scenario.name.clone(),
         mode: scenario.mode.to_string(),
-        agent: a.agent.clone(),
-        agent2: pvp.then(|| agent2.clone()),
+        agent,
+        agent2,
         opponent: (scenario.mode == Mode::Pve).then(|| opponent.unwrap_or(scenario.opponent).to_string()),
         episodes: records.len(),
         win: rate(records.iter().map(is(Outcome::Win))),
@@ -218,7 +254,7 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
         (None, Some(b)) => format!("{} (team 1) vs {} (team 2)", summary.agent, b),
         _ => summary.agent.clone(),
     };
-    writeln!(out, "{} ({}), {}: {} episodes from seed {}", summary.scenario, summary.mode, who, summary.episodes, a.seed)?;
+    writeln!(out, "{} ({}), {}: {} episodes from seed {}", summary.scenario, summary.mode, who, summary.episodes, seeds[0])?;
     let mut t = comfy_table::Table::new();
     t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header(["", "mean", "std"]);
     for (name, r) in [("win rate", &summary.win), ("draw rate", &summary.draw), ("loss rate", &summary.loss)] {

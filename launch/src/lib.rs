@@ -2,8 +2,10 @@
 //! which units with which policy, the recorder, and the Zenoh router. Parsed with unknown
 //! fields refused, then validated into a [`Plan`]; every error names the file, the field
 //! and the value.
+#![forbid(unsafe_code)]
 
-use avacraft_engine::{Env, EnvConfig, Mode, OpponentKind, Scenario, Team};
+use avacraft_engine::agent::{AgentTeam, Grouping, factory};
+use avacraft_engine::{Controllers, Env, EnvConfig, Mode, OpponentKind, Scenario, Team};
 mod deploy;
 
 pub use deploy::{BridgePlan, BridgeTopic, CertError, RawBridge, RawSecurity, Security, access_control, write_certs};
@@ -165,6 +167,34 @@ pub struct FramePlan {
 }
 
 impl Plan {
+    /// The environment the simulator node runs: the engine's default rules and the plan's
+    /// opponent. In-process runs of the plan use the same, so their games are the deployment's.
+    pub fn env_config(&self) -> EnvConfig {
+        EnvConfig { opponent: self.opponent, ..EnvConfig::default() }
+    }
+
+    /// The plan's agent nodes as in-process agents: one agent per node, owning the node's
+    /// units, with the node's policy and seed (see [`avacraft_engine::agent::agent_seed`]),
+    /// so `episode --launch` plays the games the lockstep deployment plays. Agents driven from
+    /// DDS have no in-process counterpart.
+    pub fn controllers(&self) -> Result<Controllers, LaunchError> {
+        let mut teams = Vec::new();
+        for (i, a) in self.agents.iter().enumerate() {
+            let err = |reason: String| LaunchError::Invalid {
+                file: self.file.clone(),
+                field: format!("agents[{i}].policy"),
+                value: format!("{:?}", a.policy),
+                reason,
+            };
+            if a.is_dds() {
+                return Err(err("driven from outside over DDS: it cannot run in-process".to_owned()));
+            }
+            let make = factory(&a.policy).map_err(|e| err(e.to_string()))?;
+            teams.push(AgentTeam::new(a.team.team(), Grouping::Groups(vec![a.units.iter().map(|u| u.get()).collect()]), make));
+        }
+        Ok(Controllers::new(&self.scenario, teams))
+    }
+
     /// The host that runs the router, the simulator and the recorder.
     pub fn server(&self) -> &str {
         &self.hosts[0]

@@ -96,6 +96,10 @@ impl TeamNo {
     pub fn get(self) -> u8 {
         self.0
     }
+    /// The engine's side of this number.
+    pub fn team(self) -> avacraft_engine::Team {
+        if self.0 == 1 { avacraft_engine::Team::One } else { avacraft_engine::Team::Two }
+    }
 }
 
 /// Image streams of a team.

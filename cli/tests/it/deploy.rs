@@ -328,3 +328,48 @@ fn pvp_launch_has_agent_nodes_on_both_teams() {
     assert!(["win", "loss"].contains(&e["result"].as_str().unwrap_or("")), "the armies met and one won: {e}");
     assert_eq!((e["missing_actions"][0].as_u64(), e["missing_actions"][1].as_u64()), (Some(0), Some(0)), "{e}");
 }
+
+/// `avacraft episode --launch FILE --json`: the launch file's games played in-process.
+fn in_process(file: &Path) -> serde_json::Value {
+    let out = Command::new(exe())
+        .args(["episode", "--json", "--launch"])
+        .arg(file)
+        .stderr(Stdio::inherit())
+        .output()
+        .expect("run avacraft episode");
+    assert!(out.status.success(), "episode --launch failed: {}", String::from_utf8_lossy(&out.stdout));
+    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}: {}", String::from_utf8_lossy(&out.stdout)))
+}
+
+/// The deployment (one process per unit, or per role group, in lockstep) and the same plan
+/// in-process play the same games: equal trajectory hashes, episode by episode.
+#[test]
+fn deployed_and_in_process_runs_of_a_plan_have_equal_trajectory_hashes() {
+    let roles =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../launch/8m3mr1mv1st_roles.yaml")).expect("roles launch file");
+    for (name, body) in [
+        (
+            "per_unit.yaml",
+            "scenario: 3m\nepisodes: 3\nseed: 1\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n".to_owned(),
+        ),
+        ("roles.yaml", roles.lines().filter(|l| !l.starts_with("router:")).collect::<Vec<_>>().join("\n")),
+    ] {
+        let file = write_launch(name, &format!("router: tcp/127.0.0.1:{}\n{body}\n", free_port()));
+        let deployed = launch_json(&file);
+        let local = in_process(&file);
+        let deployed: Vec<(u64, String, String)> = deployed
+            .as_array()
+            .expect("episodes")
+            .iter()
+            .map(|e| (e["seed"].as_u64().unwrap_or(0), e["result"].to_string(), e["trajectory_hash"].to_string()))
+            .collect();
+        let local: Vec<(u64, String, String)> = local["episodes"]
+            .as_array()
+            .expect("episodes")
+            .iter()
+            .map(|e| (e["seed"].as_u64().unwrap_or(0), e["result"].to_string(), e["trajectory_hash"].to_string()))
+            .collect();
+        assert!(!deployed.is_empty());
+        assert_eq!(deployed, local, "{name}: deployed vs in-process (seed, result, trajectory hash)");
+    }
+}
