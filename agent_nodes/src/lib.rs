@@ -4,6 +4,7 @@
 //! the lossless wire conversion and are folded into the [`GroupObs`] the agent acts on: the
 //! same values an in-process run of the same grouping hands it, so it plays the same game.
 //! A restarted agent node rejoins at the next step: it keeps no state the simulator needs.
+#![forbid(unsafe_code)]
 
 use avacraft_engine::agent::{Agent, AgentCtx, AgentObs, GroupObs, agent_seed, complete};
 use avacraft_engine::{Scenario, Team};

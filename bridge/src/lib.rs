@@ -8,6 +8,7 @@
 //! Each Zenoh topic has a thread that decodes and republishes with ros2-client (RustDDS).
 //! Frames are scaled down and thinned first: RustDDS fragments samples over 64 KB and
 //! slows down sharply with them.
+#![forbid(unsafe_code)]
 
 mod scale;
 

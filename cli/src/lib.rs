@@ -1,5 +1,6 @@
 //! The `avacraft` command line as a library, so tests drive it in-process with the exact
 //! argument parsing and output of the binary.
+#![forbid(unsafe_code)]
 
 mod bench;
 mod bench_bridge;

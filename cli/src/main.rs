@@ -1,4 +1,5 @@
 //! `avacraft`: list scenarios, inspect their SMAC layout, run episodes, benchmark the engine.
+#![forbid(unsafe_code)]
 
 use avacraft_cli::{Cli, run};
 use clap::Parser;

@@ -5,6 +5,7 @@
 //! REP-2016 type hash (rmw_zenoh key expressions), the DDS type name, and the
 //! MCAP `ros2msg` schema. [`encode`] / [`decode`] are the only way payloads are
 //! produced and read, so every transport agrees on the bytes.
+#![forbid(unsafe_code)]
 
 mod cdr;
 mod message;

@@ -4,6 +4,7 @@
 //! tools attached to the same router see, echo and record every topic. Topic names come
 //! only from [`Topics`]. Image frames between local processes go zero-copy through
 //! iceoryx2 shared memory ([`frames`]).
+#![forbid(unsafe_code)]
 
 mod cli;
 pub mod frames;

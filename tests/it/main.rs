@@ -1,4 +1,5 @@
 //! The integration test binary: one binary, one module per area.
+#![forbid(unsafe_code)]
 
 mod abilities;
 mod ability_obs;

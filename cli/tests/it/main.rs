@@ -1,5 +1,6 @@
 //! Multi-process tests of the distributed deployment: real `avacraft` processes on a real
 //! Zenoh router (one per test, on a free port).
+#![forbid(unsafe_code)]
 
 mod bridge;
 mod common;

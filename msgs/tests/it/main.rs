@@ -1,4 +1,5 @@
 //! The integration test binary of avacraft-msgs: one module per area.
+#![forbid(unsafe_code)]
 
 mod cdr;
 mod common;

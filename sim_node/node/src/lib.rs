@@ -5,6 +5,7 @@
 //! live owned unit's action for it has arrived, or at the deadline (a missing action is a
 //! no-op, counted). Real-time clock: 22.4 game loops per wall second, actions applied as
 //! they arrive.
+#![forbid(unsafe_code)]
 
 mod convert;
 mod session;

@@ -1,9 +1,24 @@
 //! One interface over the back ends, and the choice between them.
 
 use crate::cpu::CpuBackend;
-use crate::gpu::{GpuError, WgpuBackend};
+#[cfg(feature = "gpu")]
+use crate::gpu::WgpuBackend;
 use crate::scene::Scene;
 use image::RgbImage;
+
+/// Why a GPU frame could not be drawn. Defined here rather than with the wgpu back end so the
+/// [`Backend`] trait keeps one signature with or without the `gpu` feature.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error("no GPU adapter (on Debian, `apt-get install mesa-vulkan-drivers` gives a CPU one): {0}")]
+    NoAdapter(String),
+    #[error("the GPU device could not be created: {0}")]
+    Device(String),
+    #[error("reading the frame back failed: {0}")]
+    Readback(String),
+    #[error("a {w}x{h} frame is outside what this device can render (1..={max} per side, {bytes} bytes to read back at most)")]
+    Size { w: u32, h: u32, max: u32, bytes: u64 },
+}
 
 /// Something that draws a [`Scene`].
 pub trait Backend: std::fmt::Debug {
@@ -21,6 +36,7 @@ impl Backend for CpuBackend {
     }
 }
 
+#[cfg(feature = "gpu")]
 impl Backend for WgpuBackend {
     fn name(&self) -> String {
         format!("wgpu: {}", self.adapter())
@@ -46,11 +62,17 @@ impl BackendChoice {
     pub fn open(self) -> Result<Box<dyn Backend + Send>, GpuError> {
         Ok(match self {
             BackendChoice::Cpu => Box::new(CpuBackend::new()),
+            #[cfg(feature = "gpu")]
             BackendChoice::Wgpu => Box::new(WgpuBackend::new()?),
+            #[cfg(feature = "gpu")]
             BackendChoice::Auto => match WgpuBackend::new() {
                 Ok(g) => Box::new(g),
                 Err(_) => Box::new(CpuBackend::new()),
             },
+            #[cfg(not(feature = "gpu"))]
+            BackendChoice::Wgpu => return Err(GpuError::NoAdapter("avacraft-render was built without its `gpu` feature".to_owned())),
+            #[cfg(not(feature = "gpu"))]
+            BackendChoice::Auto => Box::new(CpuBackend::new()),
         })
     }
 }

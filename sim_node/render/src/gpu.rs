@@ -3,6 +3,7 @@
 //! CPU Vulkan device. Circles are exact (a signed-distance test per pixel centre), so both
 //! back ends cover the same pixels; blending may differ by one level of rounding.
 
+use crate::backend::GpuError;
 use crate::scene::{Prim, Rgba, Scene};
 use image::RgbImage;
 
@@ -39,18 +40,6 @@ struct VsOut {
 
 /// 2 position + 4 colour + 4 circle floats.
 const FLOATS_PER_VERTEX: usize = 10;
-
-#[derive(Debug, thiserror::Error)]
-pub enum GpuError {
-    #[error("no GPU adapter (on Debian, `apt-get install mesa-vulkan-drivers` gives a CPU one): {0}")]
-    NoAdapter(String),
-    #[error("the GPU device could not be created: {0}")]
-    Device(String),
-    #[error("reading the frame back failed: {0}")]
-    Readback(String),
-    #[error("a {w}x{h} frame is outside what this device can render (1..={max} per side, {bytes} bytes to read back at most)")]
-    Size { w: u32, h: u32, max: u32, bytes: u64 },
-}
 
 /// Draws scenes with wgpu.
 pub struct WgpuBackend {

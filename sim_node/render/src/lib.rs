@@ -4,21 +4,26 @@
 //! Frames are built as a back-end-independent display list ([`Scene`]) and drawn by a back
 //! end: [`CpuBackend`] runs everywhere, [`WgpuBackend`] wherever wgpu finds an adapter
 //! (Mesa's lavapipe gives one on machines without a GPU).
+#![forbid(unsafe_code)]
 
 mod backend;
 mod cpu;
 mod font;
 mod frame;
+// wgpu is heavy to compile; the `gpu` feature (on by default) brings it in, and builds
+// that only need CPU frames (the Python extension) leave it out.
+#[cfg(feature = "gpu")]
 mod gpu;
 mod modes;
 mod scene;
 mod style;
 mod video;
 
-pub use backend::{Backend, BackendChoice};
+pub use backend::{Backend, BackendChoice, GpuError};
 pub use cpu::CpuBackend;
 pub use frame::{FrameBuilder, MapView, VlmOptions, vlm_layout};
-pub use gpu::{GpuError, WgpuBackend};
+#[cfg(feature = "gpu")]
+pub use gpu::WgpuBackend;
 pub use modes::{ObsMode, Observation, Observer, RenderConfig};
 pub use scene::{Prim, Rgba, Scene};
 pub use style::{ENEMY, OWN};

@@ -1,0 +1,41 @@
+"""AVACraft: a StarCraft II micro-combat benchmark for multi-agent RL and VLM agents, with its
+own deterministic simulator (no game binary).
+
+- `StarCraft2Env`: SMAC's interface, for PyMARL/EPyMARL code unchanged.
+- `parallel_env`: a PettingZoo `ParallelEnv` in the features, rgb, hybrid or vlm mode
+  (needs `pettingzoo` and `gymnasium`: the `pettingzoo` extra).
+- `VecEnv`: many environments on a thread pool, numpy arrays out.
+- `AvacraftError`: bad input (a `ValueError`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ._avacraft import AvacraftError, Env, Snapshot, __version__, scenario_info, scenario_names
+from .smac import StarCraft2Env
+from .types import Action, Command, UnitInfo
+from .vector import VecEnv
+
+__all__ = [
+    "Action",
+    "AvacraftError",
+    "Command",
+    "Env",
+    "Snapshot",
+    "StarCraft2Env",
+    "UnitInfo",
+    "VecEnv",
+    "__version__",
+    "parallel_env",
+    "scenario_info",
+    "scenario_names",
+]
+
+
+def parallel_env(scenario: str = "3m", obs_mode: str = "features", opponent: Any = None, seed: Any = None, **kwargs: Any) -> Any:
+    """A PettingZoo `ParallelEnv` (`avacraft.pettingzoo_env.AvacraftParallelEnv`); imported on
+    first use so `import avacraft` needs neither pettingzoo nor gymnasium."""
+    from .pettingzoo_env import parallel_env as make
+
+    return make(scenario, obs_mode, opponent, seed, **kwargs)

@@ -1,0 +1,117 @@
+"""Type stubs of the compiled module `avacraft._avacraft` (Rust, pyo3)."""
+
+from os import PathLike
+from typing import Any, Optional, Sequence, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+class AvacraftError(ValueError):
+    """Bad input to an AVACraft environment: an unknown scenario or option, an action that
+    cannot be taken (naming the agent and its available actions), an array of the wrong shape."""
+
+_Indices = Union[Sequence[int], npt.NDArray[np.integer[Any]]]
+
+def scenario_names() -> list[str]: ...
+def scenario_info(scenario: str) -> dict[str, Any]:
+    """{"name", "mode": "pve" | "pvp", "units": (team 1, team 2), "time_limit_loops"}."""
+
+def rust_loop_steps_per_s(scenario: str, steps: int, seed: int = 0) -> float:
+    """Steps/s of a Rust loop doing obs + state + masks + random available actions + step."""
+
+class Snapshot:
+    """A saved episode state (`Env.snapshot()`)."""
+
+    @property
+    def steps(self) -> int: ...
+    @property
+    def state_hash(self) -> int: ...
+
+class Env:
+    """The engine's environment. Teams are 1 and 2; team 2 is played by agents in PvP only.
+    Unit tags are 1-based."""
+
+    def __init__(
+        self,
+        scenario: str,
+        seed: int = 0,
+        step_mul: int = 8,
+        reward: str = "dense",
+        opponent: Optional[str] = None,
+        full_vision: bool = False,
+        passive_allies: bool = True,
+        cooldown_jitter: bool = True,
+        abilities: bool = True,
+        ability_actions: bool = False,
+        time_limit_loops: Optional[int] = None,
+    ) -> None: ...
+    def reset(self, seed: int) -> None: ...
+    @property
+    def scenario(self) -> str: ...
+    @property
+    def pvp(self) -> bool: ...
+    @property
+    def seed(self) -> int: ...
+    @property
+    def steps(self) -> int: ...
+    @property
+    def done(self) -> bool: ...
+    @property
+    def trajectory_hash(self) -> int: ...
+    @property
+    def opponent(self) -> Optional[str]: ...
+    def env_info(self, team: int = 1) -> dict[str, int]: ...
+    def agent_tags(self, team: int = 1) -> list[int]: ...
+    def alive(self, team: int = 1) -> list[bool]: ...
+    def obs(self, team: int = 1) -> npt.NDArray[np.float32]:
+        """n_agents x obs_shape."""
+    def obs_agent(self, agent: int, team: int = 1) -> npt.NDArray[np.float32]: ...
+    def state(self, team: int = 1) -> npt.NDArray[np.float32]: ...
+    def avail(self, team: int = 1) -> npt.NDArray[np.uint8]:
+        """n_agents x n_actions, 1 = available."""
+    def avail_agent(self, agent: int, team: int = 1) -> npt.NDArray[np.uint8]: ...
+    def step(self, actions: _Indices, actions2: Optional[_Indices] = None) -> tuple[float, float, bool, bool, Optional[str]]:
+        """(reward team 1, reward team 2, terminated, truncated, outcome "win"/"loss"/"draw" or None)."""
+    def submit_typed(self, actions_json: str, team: int = 1) -> list[Optional[str]]:
+        """JSON list of `avacraft.Action` dicts; returns per action None or why the game refused it."""
+    def advance(self) -> tuple[float, float, bool, bool, Optional[str]]: ...
+    def info(self, team: int = 1) -> dict[str, Any]:
+        """battle_won, dead_allies, dead_enemies, episode_limit."""
+    def screen(self, width: int = 160, height: int = 120, team: int = 1) -> npt.NDArray[np.uint8]:
+        """height x width x 3."""
+    def minimap(self, width: int = 32, height: int = 32, team: int = 1) -> npt.NDArray[np.uint8]: ...
+    def screenshot(self, width: int = 1920, height: int = 1080, team: int = 1, highlights: Sequence[int] = ...) -> npt.NDArray[np.uint8]: ...
+    def text(self, team: int = 1) -> str: ...
+    def units(self, team: int = 1) -> list[dict[str, Any]]:
+        """The unit list: `avacraft.UnitInfo` dicts."""
+    def record(self, size: Optional[tuple[int, int]]) -> None: ...
+    def save_video(self, path: Union[str, PathLike[str]], delay_ms: int = 100) -> int: ...
+    def snapshot(self) -> Snapshot: ...
+    def restore(self, snap: Snapshot) -> None: ...
+
+class VecEnv:
+    def __init__(
+        self,
+        scenario: str,
+        seeds: Sequence[int],
+        threads: Optional[int] = None,
+        step_mul: int = 8,
+        reward: str = "dense",
+        opponent: Optional[str] = None,
+        full_vision: bool = False,
+        passive_allies: bool = True,
+        cooldown_jitter: bool = True,
+        abilities: bool = True,
+        ability_actions: bool = False,
+        time_limit_loops: Optional[int] = None,
+    ) -> None: ...
+    @property
+    def num_envs(self) -> int: ...
+    @property
+    def threads(self) -> int: ...
+    def env_info(self) -> dict[str, int]: ...
+    def reset(self) -> None: ...
+    def step(self, actions: _Indices) -> None: ...
+    def buffers(self) -> dict[str, npt.NDArray[Any]]: ...

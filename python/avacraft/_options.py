@@ -1,0 +1,63 @@
+"""Checking SMAC's and AVACraft's options: a value the engine does not implement raises a
+ValueError naming the option, the value and what is supported, so no option is ever ignored
+silently (a PyMARL config asking for something else fails loudly instead of training on a
+different problem)."""
+
+from __future__ import annotations
+
+from typing import Any, Iterable
+
+from ._avacraft import AvacraftError
+
+OPPONENTS = ("builtin", "aggressive", "defensive", "focus", "random")
+
+
+def unsupported(option: str, value: Any, supported: str) -> AvacraftError:
+    return AvacraftError(f"{option}={value!r} is not supported: {supported}")
+
+
+def require(option: str, value: Any, allowed: Iterable[Any], why: str) -> None:
+    """`value` must equal one of `allowed` (compared with ==; ints and floats alike)."""
+    allowed = list(allowed)
+    for a in allowed:
+        if type(a) is bool or type(value) is bool:
+            if type(a) is type(value) and a == value:
+                return
+        elif a == value:
+            return
+    shown = ", ".join(repr(a) for a in allowed)
+    raise unsupported(option, value, f"{why} (supported: {shown})")
+
+
+def positive_int(option: str, value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise unsupported(option, value, "a positive integer is needed")
+    return value
+
+
+def positive_number(option: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+        raise unsupported(option, value, "a positive number is needed")
+    return float(value)
+
+
+def boolean(option: str, value: Any) -> bool:
+    if not isinstance(value, bool):
+        raise unsupported(option, value, "True or False")
+    return value
+
+
+def opponent(value: Any) -> str | None:
+    if value is None:
+        return None
+    if value not in OPPONENTS:
+        raise unsupported("opponent", value, "one of " + ", ".join(OPPONENTS) + " (or None: the scenario's default)")
+    return value
+
+
+def seed(option: str, value: Any) -> int | None:
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < 2**64:
+        raise unsupported(option, value, "an integer in 0..2**64 or None")
+    return value
