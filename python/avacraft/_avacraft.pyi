@@ -74,6 +74,8 @@ class Env:
     def avail_agent(self, agent: int, team: int = 1) -> npt.NDArray[np.uint8]: ...
     def step(self, actions: _Indices, actions2: Optional[_Indices] = None) -> tuple[float, float, bool, bool, Optional[str]]:
         """(reward team 1, reward team 2, terminated, truncated, outcome "win"/"loss"/"draw" or None)."""
+    def step_smac(self, actions: _Indices) -> tuple[float, bool, bool, dict[str, Any]]:
+        """PvE team 1: (reward, terminated, truncated, {battle_won, dead_allies, dead_enemies})."""
     def submit_typed(self, actions_json: str, team: int = 1) -> list[Optional[str]]:
         """JSON list of `avacraft.Action` dicts; returns per action None or why the game refused it."""
     def advance(self) -> tuple[float, float, bool, bool, Optional[str]]: ...

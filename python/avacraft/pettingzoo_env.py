@@ -15,7 +15,6 @@ teams play, as `team1_agent_<i>` and `team2_agent_<i>`. Dead agents leave `agent
 
 from __future__ import annotations
 
-import functools
 import random
 from typing import Any, Optional
 
@@ -144,11 +143,11 @@ class AvacraftParallelEnv(ParallelEnv):
         text = spaces.Text(max_length=1 << 20, min_length=0, charset=frozenset(chr(c) for c in range(32, 127)) | {"\n", "\u00b7"})
         return spaces.Dict({"observation": image(self.vlm_size), "text": text, "units": UnitListSpace(), "action_mask": mask})
 
-    @functools.lru_cache(maxsize=None)
+    # The same space object on every call (PettingZoo's API test checks it): built once in
+    # __init__, so action-space seeding sticks.
     def observation_space(self, agent: str) -> spaces.Dict:
         return self._spaces[agent][0]
 
-    @functools.lru_cache(maxsize=None)
     def action_space(self, agent: str) -> spaces.Discrete:
         return self._spaces[agent][1]
 

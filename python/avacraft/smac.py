@@ -27,6 +27,13 @@ log = logging.getLogger("avacraft")
 REPLAY_SIZE = (480, 300)
 
 
+def _json_scalar(x: Any) -> Any:
+    """numpy scalars in typed actions (tags taken from arrays) as plain numbers."""
+    if isinstance(x, np.generic):
+        return x.item()
+    raise TypeError(f"{type(x).__name__} is not a number, string, list or dict")
+
+
 class StarCraft2Env:
     """SMAC's multi-agent environment on an AVACraft scenario.
 
@@ -175,12 +182,10 @@ class StarCraft2Env:
         returns SMAC's `(reward, terminated, info)`. Raises `AvacraftError` naming the agent
         and its available actions for an index out of range or unavailable, and for a wrong
         number of actions; nothing is applied then."""
-        return self._finish_step(self._step_indices(actions), actions)
-
-    def _step_indices(self, actions: Any) -> tuple:
         if type(actions) is not list and not isinstance(actions, np.ndarray):
             actions = np.asarray(actions)
-        return self._env.step(actions)
+        r, terminated, truncated, info = self._env.step_smac(actions)
+        return self._account(r, terminated, truncated, info, actions)
 
     def get_vlm_obs(self, size: tuple[int, int] = (1920, 1080)) -> dict[str, Any]:
         """What a VLM agent sees: `{"image": HxWx3 uint8 screenshot, "text": str, "units": [dict]}`
@@ -192,17 +197,17 @@ class StarCraft2Env:
         `[{"unit": 1, "command": {"kind": "attack", "target": 4}}]`; units not named keep
         their orders. A malformed action raises `AvacraftError` naming the action and field;
         actions the game refuses are listed in `info["refused"]` as `{index: reason}`."""
-        refused = self._env.submit_typed(json.dumps(actions))
-        out = self._finish_step(self._env.advance(), actions)
+        refused = self._env.submit_typed(json.dumps(actions, default=_json_scalar))
+        r, _, terminated, truncated, _ = self._env.advance()
+        info = self._env.info(1)
+        del info["episode_limit"]
+        out = self._account(r, terminated, truncated, info, actions)
         out[2]["refused"] = {i: why for i, why in enumerate(refused) if why is not None}
         return out
 
-    def _finish_step(self, result: tuple, actions: Any) -> tuple[float, bool, dict[str, Any]]:
-        r, _, terminated, truncated, _ = result
+    def _account(self, r: float, terminated: bool, truncated: bool, info: dict[str, Any], actions: Any) -> tuple[float, bool, dict[str, Any]]:
         self._episode_steps += 1
         self._total_steps += 1
-        info = self._env.info(1)
-        limit = info.pop("episode_limit")
         if terminated or truncated:
             self.battles_game += 1
             if info["battle_won"]:
@@ -210,12 +215,12 @@ class StarCraft2Env:
             if truncated:
                 self.timeouts += 1
                 if self.continuing_episode:
-                    info["episode_limit"] = limit
+                    info["episode_limit"] = True
         if not self.reward_sparse and self._rate != 20.0:
             r = r * self._rate / 20.0
         if self.debug:
             log.debug("step %d: actions %s reward %.4f info %s", self._episode_steps, actions, r, info)
-        return float(r), bool(terminated or truncated), info
+        return r, terminated or truncated, info
 
     # -- observations ---------------------------------------------------------------------
 

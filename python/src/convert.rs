@@ -1,6 +1,7 @@
 //! Python values in and numpy arrays out, with errors that name what was wrong.
 
-use numpy::{PyArray1, PyArrayDescrMethods, PyArrayMethods, PyUntypedArray, PyUntypedArrayMethods};
+use numpy::ndarray::{Array2, Array3};
+use numpy::{PyArray1, PyArray2, PyArray3, PyArrayDescrMethods, PyArrayMethods, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
@@ -8,6 +9,13 @@ use pyo3::prelude::*;
 /// `shape` (`[n]` for one environment, `[envs, agents]` for a vector environment).
 pub fn indices(obj: &Bound<'_, PyAny>, what: &str, shape: &[usize]) -> PyResult<Vec<i64>> {
     let needed: usize = shape.iter().product();
+    // The fast path: a flat int64 array, read in place (no Python calls).
+    if let Ok(arr) = obj.cast::<PyArray1<i64>>()
+        && shape.len() == 1
+        && let Ok(v) = arr.to_vec()
+    {
+        return Ok(v);
+    }
     if let Ok(arr) = obj.cast::<PyUntypedArray>() {
         let kind = arr.dtype().kind();
         if kind != b'i' && kind != b'u' {
@@ -55,12 +63,15 @@ fn type_name(obj: &Bound<'_, PyAny>) -> String {
 /// An RGB image as an `H x W x 3` uint8 array.
 pub fn image<'py>(py: Python<'py>, img: avacraft_render::RgbImage) -> PyResult<Bound<'py, PyAny>> {
     let (w, h) = (img.width() as usize, img.height() as usize);
-    Ok(PyArray1::from_vec(py, img.into_raw()).reshape([h, w, 3])?.into_any())
+    let a = Array3::from_shape_vec((h, w, 3), img.into_raw()).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    Ok(PyArray3::from_owned_array(py, a).into_any())
 }
 
 /// A flat vector as a `rows x cols` array.
 pub fn matrix<'py, T: numpy::Element>(py: Python<'py>, v: Vec<T>, rows: usize, cols: usize) -> PyResult<Bound<'py, PyAny>> {
-    Ok(PyArray1::from_vec(py, v).reshape([rows, cols])?.into_any())
+    // Built as an ndarray and handed over: no reshape call back into Python.
+    let a = Array2::from_shape_vec((rows, cols), v).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    Ok(PyArray2::from_owned_array(py, a).into_any())
 }
 
 /// A value serialised to JSON and parsed by Python's `json` into dicts and lists: the

@@ -331,6 +331,27 @@ impl PyEnv {
         s.result(py, r)
     }
 
+    /// SMAC's step for team 1 of a PvE scenario in one call: (reward, terminated, truncated,
+    /// info with battle_won, dead_allies, dead_enemies). The facade's hot path.
+    fn step_smac<'py>(&mut self, py: Python<'py>, actions: &Bound<'py, PyAny>) -> PyResult<(f32, bool, bool, Bound<'py, PyDict>)> {
+        let s = self.inner();
+        if s.env.done() {
+            return Err(crate::AvacraftError::new_err("the episode is over: call reset() first"));
+        }
+        if s.env.scenario().mode == Mode::Pvp {
+            return Err(PyValueError::new_err(format!("{} is PvP: use step(actions, actions2)", s.env.scenario().name)));
+        }
+        let a1 = indices(actions, "actions", &[s.env.smac_layout(Team::One).n_agents])?;
+        let r = s.env.step_indices(&a1, None).map_err(Error::from)?;
+        s.after_step();
+        let i = s.env.info(Team::One);
+        let d = PyDict::new(py);
+        d.set_item("battle_won", i.battle_won)?;
+        d.set_item("dead_allies", i.dead_allies)?;
+        d.set_item("dead_enemies", i.dead_enemies)?;
+        Ok((r.reward[0], r.terminated, r.truncated, d))
+    }
+
     /// Gives typed actions to a team's units (see `avacraft.Action` in the stubs) without
     /// stepping. A malformed action raises (nothing applied); an action the game refuses
     /// (a dead target, a unit that cannot move) is reported per action, as the engine does,

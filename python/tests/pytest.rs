@@ -34,10 +34,9 @@ fn pytest_suite() {
     let root = crate_dir.parent().unwrap().to_owned();
     let py = python();
 
-    let missing = Command::new(&py)
-        .args(["-c", "import numpy, pettingzoo, gymnasium, pytest"])
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run {py} ({e}): the Python tests need Python 3 with numpy, pettingzoo, gymnasium and pytest: {PIP}"));
+    let missing = Command::new(&py).args(["-c", "import numpy, pettingzoo, gymnasium, pytest"]).output().unwrap_or_else(|e| {
+        panic!("cannot run {py} ({e}): the Python tests need Python 3 with numpy, pettingzoo, gymnasium and pytest: {PIP}")
+    });
     assert!(
         missing.status.success(),
         "the Python tests need numpy, pettingzoo, gymnasium and pytest: {PIP}\n{}",
@@ -82,7 +81,7 @@ fn pytest_suite() {
         .arg(crate_dir.join("tests"))
         .args(["-q", "--rootdir"])
         .arg(&crate_dir)
-        .args([ "-p", "no:cacheprovider", "-W", "error::pytest.PytestUnraisableExceptionWarning"])
+        .args(["-p", "no:cacheprovider", "-W", "error::pytest.PytestUnraisableExceptionWarning"])
         .output()
         .unwrap();
     let _ = std::fs::remove_dir_all(&stage);
