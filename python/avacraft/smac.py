@@ -226,11 +226,10 @@ class StarCraft2Env:
 
     def get_obs(self) -> list[np.ndarray]:
         """Every agent's observation (float32 vectors of `get_obs_size()`)."""
-        obs = self._env.obs(1)
         if self.obs_timestep_number:
             t = np.full((self.n_agents, 1), self._episode_steps / self.episode_limit, dtype=np.float32)
-            obs = np.concatenate([obs, t], axis=1)
-        return list(obs)
+            return list(np.concatenate([self._env.obs(1), t], axis=1))
+        return self._env.obs_list(1)
 
     def get_obs_agent(self, agent_id: int) -> np.ndarray:
         obs = self._env.obs_agent(agent_id)

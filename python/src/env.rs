@@ -247,6 +247,22 @@ impl PyEnv {
         matrix(py, v, l.n_agents, l.obs_size)
     }
 
+    /// Every agent's observation as a list of `obs_shape` float32 arrays (SMAC's `get_obs()`
+    /// type, built here: cheaper than splitting a matrix in Python).
+    #[pyo3(signature = (team=1))]
+    fn obs_list<'py>(&mut self, py: Python<'py>, team: u8) -> PyResult<Vec<Bound<'py, PyArray1<f32>>>> {
+        let s = self.inner();
+        let t = self::team(team)?;
+        let l = s.env.smac_layout(t);
+        let mut out = Vec::with_capacity(l.n_agents);
+        for a in 0..l.n_agents {
+            let mut v = vec![0.0f32; l.obs_size];
+            s.env.obs_agent(t, a, &mut v);
+            out.push(PyArray1::from_vec(py, v));
+        }
+        Ok(out)
+    }
+
     /// One agent's observation: `obs_shape` float32.
     #[pyo3(signature = (agent, team=1))]
     fn obs_agent<'py>(&mut self, py: Python<'py>, agent: i64, team: u8) -> PyResult<Bound<'py, PyArray1<f32>>> {
