@@ -17,6 +17,10 @@ use std::time::Instant;
 /// The goal for 2s3z on one core.
 const GOAL_STEPS_PER_SEC: f64 = 100_000.0;
 
+impl BenchArgs {
+    const DEFAULT_SCENARIOS: [&str; 5] = ["3m", "2s3z", "2c_vs_64zg", "8m3mr1mv1st_mirror", "pvz_ht"];
+}
+
 #[derive(Args, Debug)]
 pub struct BenchArgs {
     /// Scenario names or files; `all` for every built-in scenario.
@@ -48,6 +52,14 @@ pub struct BenchArgs {
     /// and a 160x120 frame onto DDS, against the direct Zenoh path in the same run).
     #[arg(long, conflicts_with = "deploy")]
     bridge: bool,
+    /// Instead: a vector environment of `--envs` episodes on all cores against one
+    /// environment on one core (default scenarios: 3m and 2s3z), and the per-core rate
+    /// against 150,000 steps/s.
+    #[arg(long, conflicts_with_all = ["deploy", "bridge", "render", "scaling", "steps"])]
+    vec: bool,
+    /// Environments of the vector benchmark.
+    #[arg(long, default_value_t = 64, requires = "vec")]
+    envs: usize,
 }
 
 /// One back end's rendering speed on one scenario.
@@ -343,6 +355,14 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
     }
     if a.deploy {
         return crate::bench_deploy::run(out);
+    }
+    if a.vec {
+        if a.envs == 0 {
+            anyhow::bail!("--envs must be at least 1");
+        }
+        let explicit = a.scenario != BenchArgs::DEFAULT_SCENARIOS;
+        let names = if explicit { scenario_names(a) } else { vec!["3m".to_owned(), "2s3z".to_owned()] };
+        return crate::bench_vec::run(&names, a.envs, a.seconds, a.json, out);
     }
     let names = scenario_names(a);
     let mut rows = Vec::new();

@@ -5,6 +5,7 @@
 mod bench;
 mod bench_bridge;
 mod bench_deploy;
+mod bench_vec;
 mod bridge;
 mod deploy;
 mod episode;

@@ -81,3 +81,16 @@ fn bench_reports_steps_per_second() {
     assert!(v.get("bytes_per_env").is_some());
     assert!(v["ratio_to_sim_only"].as_f64().is_some());
 }
+
+#[test]
+fn vector_bench_reports_its_ratio_to_one_env() {
+    let out = run(&["bench", "--vec", "--envs", "4", "--scenario", "3m", "--seconds", "0.05", "--json"]).expect("runs");
+    let v: serde_json::Value = serde_json::from_str(&out).expect("json");
+    let r = &v[0];
+    assert_eq!((r["scenario"].as_str(), r["envs"].as_u64()), (Some("3m"), Some(4)), "{v}");
+    let (single, many, ratio) = (r["single_steps_per_sec"].as_f64(), r["vec_steps_per_sec"].as_f64(), r["ratio"].as_f64());
+    let (Some(single), Some(many), Some(ratio)) = (single, many, ratio) else { panic!("rates missing: {v}") };
+    assert!(single > 0.0 && many > 0.0 && (ratio - many / single).abs() < 1e-9, "{v}");
+    let err = run(&["bench", "--vec", "--envs", "0"]).expect_err("no environments");
+    assert!(err.contains("--envs"), "{err}");
+}

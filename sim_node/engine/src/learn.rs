@@ -36,6 +36,25 @@ fn check(name: &'static str, len: usize, needed: usize) -> Result<(), LearnError
     if len == needed { Ok(()) } else { Err(LearnError::Buffer { name, len, needed }) }
 }
 
+/// Checks one SMAC index per agent against flat masks (`n_agents * n_actions`): the masks a
+/// learner was handed, so a vector environment checks without recomputing them.
+pub(crate) fn check_against_masks(indices: &[i64], masks: &[u8], n_agents: usize, n_actions: usize) -> Result<(), LearnError> {
+    if indices.len() != n_agents {
+        return Err(LearnError::Count { given: indices.len(), agents: n_agents });
+    }
+    for (agent, &index) in indices.iter().enumerate() {
+        let Some(i) = usize::try_from(index).ok().filter(|&i| i < n_actions) else {
+            return Err(LearnError::OutOfRange { agent, index, n_actions });
+        };
+        let mask = &masks[agent * n_actions..(agent + 1) * n_actions];
+        if mask[i] == 0 {
+            let available = mask.iter().enumerate().filter(|(_, m)| **m == 1).map(|(k, _)| k).collect();
+            return Err(LearnError::Unavailable { agent, index: i, available });
+        }
+    }
+    Ok(())
+}
+
 impl Env {
     /// SMAC's info for `team` now.
     pub fn info(&self, team: Team) -> StepInfo {
@@ -80,23 +99,10 @@ impl Env {
     /// Checks one SMAC index per agent of `team` against the masks, applying nothing.
     pub fn check_indices(&self, team: Team, indices: &[i64]) -> Result<(), LearnError> {
         let l = self.smac_layout(team);
-        if indices.len() != l.n_agents {
-            return Err(LearnError::Count { given: indices.len(), agents: l.n_agents });
-        }
-        let mut mask = vec![0u8; l.n_actions];
-        for (agent, &index) in indices.iter().enumerate() {
-            let Some(i) = usize::try_from(index).ok().filter(|&i| i < l.n_actions) else {
-                return Err(LearnError::OutOfRange { agent, index, n_actions: l.n_actions });
-            };
-            self.avail_agent(team, agent, &mut mask);
-            if mask[i] == 0 {
-                let available = mask.iter().enumerate().filter(|(_, m)| **m == 1).map(|(k, _)| k).collect();
-                return Err(LearnError::Unavailable { agent, index: i, available });
-            }
-        }
-        Ok(())
+        let mut masks = vec![0u8; l.n_agents * l.n_actions];
+        self.avail_all(team, &mut masks)?;
+        check_against_masks(indices, &masks, l.n_agents, l.n_actions)
     }
-
     /// SMAC's `step(actions)` for team 1 (team 2 too in PvP with `team2`): every index is
     /// checked first, so a bad one leaves the episode untouched.
     pub fn step_indices(&mut self, team1: &[i64], team2: Option<&[i64]>) -> Result<StepResult, LearnError> {

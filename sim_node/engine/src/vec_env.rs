@@ -5,7 +5,7 @@
 
 use crate::env::{Env, EnvConfig};
 use crate::ids::Team;
-use crate::learn::{LearnError, StepInfo};
+use crate::learn::{LearnError, StepInfo, check_against_masks};
 use crate::scenario::Scenario;
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -144,46 +144,90 @@ impl VecEnv {
             return Err(VecEnvError::Count { given: actions.len(), envs: e, agents: a, needed: e * a });
         }
         let a = a.max(1);
-        for (i, (env, acts)) in self.envs.iter().zip(actions.chunks(a)).enumerate() {
-            env.check_indices(Team::One, acts).map_err(|source| VecEnvError::Action { env: i, source })?;
+        // Against the masks the caller was handed (the buffers hold each environment's
+        // current ones), not recomputed: this loop is the serial part of a step.
+        let aa = self.n_agents * self.n_actions;
+        for (i, acts) in actions.chunks(a).enumerate() {
+            let masks = &self.buffers.avail[i * aa..(i + 1) * aa];
+            check_against_masks(acts, masks, self.n_agents, self.n_actions).map_err(|source| VecEnvError::Action { env: i, source })?;
         }
         let (oa, sa, aa) = ((self.n_agents * self.obs_size).max(1), self.state_size.max(1), (self.n_agents * self.n_actions).max(1));
         let b = &mut self.buffers;
         let stride = e as u64;
         let seeds = &self.seeds;
-        let envs = &mut self.envs;
-        let started = &mut self.started;
-        self.pool.install(|| {
-            envs.par_iter_mut()
-                .zip(started.par_iter_mut())
-                .zip(actions.par_chunks(a))
-                .zip(b.obs.par_chunks_mut(oa))
-                .zip(b.state.par_chunks_mut(sa))
-                .zip(b.avail.par_chunks_mut(aa))
-                .zip(b.reward.par_iter_mut())
-                .zip(b.terminated.par_iter_mut())
-                .zip(b.truncated.par_iter_mut())
-                .zip(b.info.par_iter_mut())
-                .zip(b.seed.par_iter_mut())
-                .enumerate()
-                .for_each(|(i, ((((((((((env, k), acts), obs), state), avail), reward), term), trunc), info), seed))| {
-                    let idx: Vec<usize> = acts.iter().map(|&x| x as usize).collect();
-                    env.submit_indices(Team::One, &idx);
-                    let r = env.step();
-                    *reward = r.reward[0];
-                    *term = r.terminated;
-                    *trunc = r.truncated;
-                    *info = env.info(Team::One);
-                    if r.done {
-                        let s = seeds[i].wrapping_add(*k * stride);
-                        *k += 1;
-                        env.reset(s);
-                        *seed = s;
-                    }
-                    fill(env, obs, state, avail);
-                });
-        });
+        // One lane per environment: its own slices of every buffer, so lanes step on any
+        // thread without sharing anything.
+        let lanes: Vec<Lane<'_>> = self
+            .envs
+            .iter_mut()
+            .zip(self.started.iter_mut())
+            .zip(actions.chunks(a))
+            .zip(b.obs.chunks_mut(oa))
+            .zip(b.state.chunks_mut(sa))
+            .zip(b.avail.chunks_mut(aa))
+            .zip(b.reward.iter_mut())
+            .zip(b.terminated.iter_mut())
+            .zip(b.truncated.iter_mut())
+            .zip(b.info.iter_mut())
+            .zip(b.seed.iter_mut())
+            .enumerate()
+            .map(|(i, ((((((((((env, started), acts), obs), state), avail), reward), terminated), truncated), info), seed))| Lane {
+                base_seed: seeds[i],
+                env,
+                started,
+                acts,
+                obs,
+                state,
+                avail,
+                reward,
+                terminated,
+                truncated,
+                info,
+                seed,
+            })
+            .collect();
+        if self.pool.current_num_threads() == 1 {
+            // Handing work to a pool thread and waiting costs more than a small step.
+            lanes.into_iter().for_each(|l| l.step(stride));
+        } else {
+            self.pool.install(|| lanes.into_par_iter().for_each(|l| l.step(stride)));
+        }
         Ok(())
+    }
+}
+
+/// One environment of a vector step and its share of the buffers.
+struct Lane<'a> {
+    base_seed: u64,
+    env: &'a mut Env,
+    started: &'a mut u64,
+    acts: &'a [i64],
+    obs: &'a mut [f32],
+    state: &'a mut [f32],
+    avail: &'a mut [u8],
+    reward: &'a mut f32,
+    terminated: &'a mut bool,
+    truncated: &'a mut bool,
+    info: &'a mut StepInfo,
+    seed: &'a mut u64,
+}
+
+impl Lane<'_> {
+    fn step(self, stride: u64) {
+        let idx: Vec<usize> = self.acts.iter().map(|&x| x as usize).collect();
+        self.env.submit_indices(Team::One, &idx);
+        let r = self.env.step();
+        *self.reward = r.reward[0];
+        *self.terminated = r.terminated;
+        *self.truncated = r.truncated;
+        *self.info = self.env.info(Team::One);
+        if r.done {
+            let s = self.base_seed.wrapping_add(*self.started * stride);
+            *self.started += 1;
+            self.env.reset(s);
+            *self.seed = s;
+        }
+        fill(self.env, self.obs, self.state, self.avail);
     }
 }
 
