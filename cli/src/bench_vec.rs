@@ -29,6 +29,11 @@ pub struct VecRow {
     pub vec_steps_per_sec: f64,
     /// vec / single (goal: at least 1.8 on 2 cores).
     pub ratio: f64,
+    /// All `envs` on one thread: what the threads add, apart from the cost of keeping many
+    /// environments in the caches.
+    pub vec_one_thread_steps_per_sec: f64,
+    /// vec / vec on one thread.
+    pub thread_scaling: f64,
     /// The vector environment's rate per thread.
     pub per_core_steps_per_sec: f64,
     /// The engine's rate on one core (the single environment's) / 150,000.
@@ -67,6 +72,7 @@ pub fn run(names: &[String], envs: usize, seconds: f64, json: bool, out: &mut dy
         let scenario = Arc::new(Scenario::load(name)?);
         let single = rate(&scenario, 1, 1, seconds)?;
         let many = rate(&scenario, envs, threads, seconds)?;
+        let many_one = rate(&scenario, envs, 1, seconds)?;
         rows.push(VecRow {
             scenario: scenario.name.clone(),
             envs,
@@ -74,6 +80,8 @@ pub fn run(names: &[String], envs: usize, seconds: f64, json: bool, out: &mut dy
             single_steps_per_sec: single,
             vec_steps_per_sec: many,
             ratio: many / single,
+            vec_one_thread_steps_per_sec: many_one,
+            thread_scaling: many / many_one,
             per_core_steps_per_sec: many / threads as f64,
             ratio_to_per_core_goal: single / GOAL_PER_CORE,
         });
@@ -91,6 +99,8 @@ pub fn run(names: &[String], envs: usize, seconds: f64, json: bool, out: &mut dy
         "vector: steps/s",
         "vector per thread",
         format!("vector / 1 env (goal {GOAL_RATIO})").as_str(),
+        "vector on 1 thread",
+        "thread scaling",
     ]);
     for r in &rows {
         t.add_row([
@@ -101,6 +111,8 @@ pub fn run(names: &[String], envs: usize, seconds: f64, json: bool, out: &mut dy
             format!("{:.0}", r.vec_steps_per_sec),
             format!("{:.0}", r.per_core_steps_per_sec),
             format!("{:.2}", r.ratio),
+            format!("{:.0}", r.vec_one_thread_steps_per_sec),
+            format!("{:.2}", r.thread_scaling),
         ]);
     }
     writeln!(out, "{t}")?;

@@ -7,8 +7,9 @@ use crate::env::{Env, EnvConfig};
 use crate::ids::Team;
 use crate::learn::{LearnError, StepInfo, check_against_masks};
 use crate::scenario::Scenario;
-use rayon::prelude::*;
 use std::sync::Arc;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Why a vector environment refused a call.
 #[derive(Debug, thiserror::Error)]
@@ -56,7 +57,9 @@ pub struct VecEnv {
     /// `seeds[i] + k * E`, so distinct base seeds give distinct episodes.
     started: Vec<u64>,
     seeds: Vec<u64>,
-    pool: rayon::ThreadPool,
+    /// Helpers of the calling thread (`threads - 1` of them), which steps lanes too.
+    pool: Option<rayon::ThreadPool>,
+    threads: usize,
     pub buffers: VecBuffers,
     n_agents: usize,
     obs_size: usize,
@@ -66,7 +69,7 @@ pub struct VecEnv {
 
 impl std::fmt::Debug for VecEnv {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("VecEnv").field("envs", &self.envs.len()).field("threads", &self.pool.current_num_threads()).finish()
+        f.debug_struct("VecEnv").field("envs", &self.envs.len()).field("threads", &self.threads).finish()
     }
 }
 
@@ -79,7 +82,7 @@ impl VecEnv {
         if threads == 0 {
             return Err(VecEnvError::Threads { threads });
         }
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
+        let pool = if threads > 1 { Some(rayon::ThreadPoolBuilder::new().num_threads(threads - 1).build()?) } else { None };
         let envs: Vec<Env> = seeds.iter().map(|&s| Env::new(Arc::clone(&scenario), cfg.clone(), s)).collect();
         let l = envs[0].smac_layout(Team::One);
         let (n_agents, obs_size, state_size, n_actions) = (l.n_agents, l.obs_size, l.state_size, l.n_actions);
@@ -94,7 +97,8 @@ impl VecEnv {
             info: vec![StepInfo::default(); e],
             seed: seeds.to_vec(),
         };
-        let mut v = VecEnv { envs, started: vec![1; e], seeds: seeds.to_vec(), pool, buffers, n_agents, obs_size, state_size, n_actions };
+        let mut v =
+            VecEnv { envs, started: vec![1; e], seeds: seeds.to_vec(), pool, threads, buffers, n_agents, obs_size, state_size, n_actions };
         v.fill_all();
         Ok(v)
     }
@@ -106,7 +110,7 @@ impl VecEnv {
         self.envs.is_empty()
     }
     pub fn threads(&self) -> usize {
-        self.pool.current_num_threads()
+        self.threads
     }
     /// (agents, obs_shape, state_shape, n_actions) of team 1.
     pub fn shape(&self) -> (usize, usize, usize, usize) {
@@ -186,11 +190,30 @@ impl VecEnv {
                 seed,
             })
             .collect();
-        if self.pool.current_num_threads() == 1 {
-            // Handing work to a pool thread and waiting costs more than a small step.
-            lanes.into_iter().for_each(|l| l.step(stride));
-        } else {
-            self.pool.install(|| lanes.into_par_iter().for_each(|l| l.step(stride)));
+        match &self.pool {
+            None => lanes.into_iter().for_each(|l| l.step(stride)),
+            Some(pool) => {
+                // A shared queue of lanes that the calling thread and the helpers drain
+                // together: the caller works instead of waiting, and a lane whose episode
+                // resets (dearer than a step) does not hold the others up.
+                let queue: Vec<Mutex<Option<Lane<'_>>>> = lanes.into_iter().map(|l| Mutex::new(Some(l))).collect();
+                let next = AtomicUsize::new(0);
+                let drain = || {
+                    while let Some(slot) = queue.get(next.fetch_add(1, Ordering::Relaxed)) {
+                        // Each slot is taken once; a poisoned lock means a lane panicked,
+                        // which the scope re-raises.
+                        if let Some(lane) = slot.lock().ok().and_then(|mut l| l.take()) {
+                            lane.step(stride);
+                        }
+                    }
+                };
+                pool.in_place_scope(|s| {
+                    for _ in 0..pool.current_num_threads() {
+                        s.spawn(|_| drain());
+                    }
+                    drain();
+                });
+            }
         }
         Ok(())
     }
