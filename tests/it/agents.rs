@@ -44,7 +44,7 @@ fn team_observation_is_the_fold_of_its_units_observations() {
         while !env.done() {
             if env.steps().is_multiple_of(2) {
                 for team in Team::BOTH {
-                    let direct = GroupObs::team(&env, team, 7, true);
+                    let direct = GroupObs::team(&env, team, 7, avacraft_engine::Reads::ALL);
                     let folded = GroupObs::fold(&env.agent_observations(team, 7), index_of(&env, team)).expect("a team has agents");
                     assert_eq!(direct, folded, "{name} step {} {team:?}", env.steps());
                     abilities |= direct.units.iter().any(|u| u.abilities.iter().any(|a| a.available));

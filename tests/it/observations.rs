@@ -41,6 +41,6 @@ fn text_names_units_numbers_and_objective() {
     assert!(t.contains("Marine_1 (tag 1, Marine): HP"), "{t}");
     assert!(t.contains("at grid ("), "{t}");
     assert!(t.contains("of 300 s"), "{t}");
-    let seen = GroupObs::team(&env, Team::One, 0, false).enemies().count();
+    let seen = GroupObs::team(&env, Team::One, 0, avacraft_engine::Reads::UNITS).enemies().count();
     assert_eq!(t.matches("tag 4").count() + t.matches("tag 5").count() + t.matches("tag 6").count() > 0, seen > 0, "{t}");
 }

@@ -36,7 +36,7 @@ fn enemies_beyond_sight_are_hidden_from_every_observation() {
         assert_eq!(unit_list(w, Team::One).len(), if seen { 2 } else { 1 });
         let text = avacraft_engine::describe(&env, Team::One);
         assert_eq!(text.contains("Zergling_1"), seen, "{text}");
-        assert_eq!(GroupObs::team(&env, Team::One, 0, false).enemies().count(), seen as usize);
+        assert_eq!(GroupObs::team(&env, Team::One, 0, avacraft_engine::Reads::UNITS).enemies().count(), seen as usize);
         let mut obs = vec![0f32; env.smac_layout(Team::One).obs_size];
         env.obs_agent(Team::One, 0, &mut obs);
         // Enemy block starts after the 4 move features; its 'distance' slot is non-zero when seen.

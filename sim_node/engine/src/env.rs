@@ -415,12 +415,12 @@ impl Env {
         // The opponent sees what team 2's units observe, as any agent does.
         let mut actions = Vec::new();
         if let Some(mut p) = self.opponent.take() {
-            actions = p.act(&GroupObs::team(self, Team::Two, 0, false));
+            actions = p.act(&GroupObs::team(self, Team::Two, 0, p.reads()));
             self.opponent = Some(p);
         }
         if self.builtin.as_ref().is_some_and(|ai| ai.started(self.world.tick())) && self.builtin_may_cast() {
             // The built-in AI's abilities, as the scripted agents use them.
-            actions = agent::micro::ability_actions(&GroupObs::team(self, Team::Two, 0, false), &self.scenario.terrain).0;
+            actions = agent::micro::ability_actions(&GroupObs::team(self, Team::Two, 0, agent::Reads::UNITS), &self.scenario.terrain).0;
         }
         for a in &actions {
             // A scripted opponent's invalid action is its own bug, not the agent's: it is

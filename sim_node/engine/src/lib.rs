@@ -57,7 +57,7 @@ pub use ability::{
 };
 pub use action::{Action, ActionError, Command, Direction, GRID, MOVE_AMOUNT, grid_cell_center, grid_cell_of};
 pub use agent::{
-    AGENTS as POLICIES, Agent, AgentCtx, Controllers, ForkAgent, GroupObs, UnknownAgent as UnknownPolicy, by_name as agent_by_name,
+    AGENTS as POLICIES, Agent, AgentCtx, Controllers, ForkAgent, GroupObs, Reads, UnknownAgent as UnknownPolicy, by_name as agent_by_name,
 };
 pub use damage::{Dealt, apply_hits, hit_damage};
 pub use env::{Env, EnvConfig, Outcome, RewardMode, StepResult};

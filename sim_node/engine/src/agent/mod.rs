@@ -38,6 +38,27 @@ pub trait Agent: Send {
     fn reset(&mut self, ctx: &AgentCtx);
     /// Actions for the group's units this step; units without one keep their orders.
     fn act(&mut self, obs: &GroupObs) -> Vec<Action>;
+    /// What the agent reads of its observation besides the units and effects. In-process
+    /// runs build only that; a deployment's messages carry everything whatever it says.
+    fn reads(&self) -> Reads {
+        Reads::ALL
+    }
+}
+
+/// Parts of an observation an agent may not need: SMAC's features and masks, and the text.
+/// They cost more to build than the rest (the text most), and scripted agents read neither.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Reads {
+    /// The controlled units' SMAC masks and features.
+    pub smac: bool,
+    /// The team's text description.
+    pub text: bool,
+}
+
+impl Reads {
+    pub const ALL: Reads = Reads { smac: true, text: true };
+    /// The units and effects only.
+    pub const UNITS: Reads = Reads { smac: false, text: false };
 }
 
 /// An agent whose whole state can be copied mid-episode: what an environment needs of its

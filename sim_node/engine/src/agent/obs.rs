@@ -3,6 +3,7 @@
 //! observations ([`GroupObs`]) that policies act on. In-process runs build the same values
 //! the simulator node publishes, so a policy cannot tell where it runs.
 
+use super::Reads;
 use crate::ability::EffectKind;
 use crate::env::Env;
 use crate::ids::Team;
@@ -72,8 +73,8 @@ pub fn effects(env: &Env, team: Team) -> Vec<EffectInfo> {
 impl GroupObs {
     /// The whole of `team` as one group, straight from the world: what folding every agent's
     /// [`AgentObs`] gives, without building them (the engine's opponents act on this).
-    /// `smac` fills the controlled units' masks and features.
-    pub fn team(env: &Env, team: Team, episode: u64, smac: bool) -> GroupObs {
+    /// `reads` says whether to fill the controlled units' masks and features, and the text.
+    pub fn team(env: &Env, team: Team, episode: u64, reads: Reads) -> GroupObs {
         let l = env.smac_layout(team);
         let units = unit_list(env.world(), team);
         let controlled = env
@@ -82,7 +83,7 @@ impl GroupObs {
             .enumerate()
             .map(|(agent, id)| {
                 let (mut avail_actions, mut features) = (Vec::new(), Vec::new());
-                if smac {
+                if reads.smac {
                     avail_actions = vec![0u8; l.n_actions];
                     env.avail_agent(team, agent, &mut avail_actions);
                     features = vec![0f32; l.obs_size];
@@ -99,7 +100,7 @@ impl GroupObs {
             units,
             effects: effects(env, team),
             controlled,
-            text: if smac { describe(env, team).into() } else { Arc::from("") },
+            text: if reads.text { describe(env, team).into() } else { Arc::from("") },
         }
     }
 }
@@ -110,22 +111,47 @@ impl Env {
         let text: Arc<str> = describe(self, team).into();
         let list = unit_list(self.world(), team);
         let fx = effects(self, team);
-        (0..self.agents(team).len()).map(|agent| self.agent_obs_with(team, agent, episode, &list, &fx, &text)).collect()
+        (0..self.agents(team).len()).map(|agent| self.agent_obs_with(team, agent, episode, &list, &fx, &text, true)).collect()
+    }
+
+    /// The observations of the agents of `team` whose units are in `units`, in agent order,
+    /// built with only what `reads` asks for (empty masks, features or text otherwise).
+    pub fn agent_observations_of(&self, team: Team, episode: u64, units: &[u32], reads: Reads) -> Vec<AgentObs> {
+        let text: Arc<str> = if reads.text { describe(self, team).into() } else { Arc::from("") };
+        let list = unit_list(self.world(), team);
+        let fx = effects(self, team);
+        (0..self.agents(team).len())
+            .filter(|&agent| units.contains(&self.agents(team)[agent].tag()))
+            .map(|agent| self.agent_obs_with(team, agent, episode, &list, &fx, &text, reads.smac))
+            .collect()
     }
 
     /// One agent's observation (see [`Env::agent_observations`] for all of a team's).
     pub fn agent_obs(&self, team: Team, agent: usize, episode: u64) -> AgentObs {
         let text: Arc<str> = describe(self, team).into();
-        self.agent_obs_with(team, agent, episode, &unit_list(self.world(), team), &effects(self, team), &text)
+        self.agent_obs_with(team, agent, episode, &unit_list(self.world(), team), &effects(self, team), &text, true)
     }
 
-    fn agent_obs_with(&self, team: Team, agent: usize, episode: u64, list: &[UnitInfo], fx: &[EffectInfo], text: &Arc<str>) -> AgentObs {
+    #[allow(clippy::too_many_arguments)]
+    fn agent_obs_with(
+        &self,
+        team: Team,
+        agent: usize,
+        episode: u64,
+        list: &[UnitInfo],
+        fx: &[EffectInfo],
+        text: &Arc<str>,
+        smac: bool,
+    ) -> AgentObs {
         let tag = self.agents(team).get(agent).map_or(0, |id| id.tag());
         let l = self.smac_layout(team);
-        let mut avail_actions = vec![0u8; l.n_actions];
-        self.avail_agent(team, agent, &mut avail_actions);
-        let mut features = vec![0f32; l.obs_size];
-        self.obs_agent(team, agent, &mut features);
+        let (mut avail_actions, mut features) = (Vec::new(), Vec::new());
+        if smac {
+            avail_actions = vec![0u8; l.n_actions];
+            self.avail_agent(team, agent, &mut avail_actions);
+            features = vec![0f32; l.obs_size];
+            self.obs_agent(team, agent, &mut features);
+        }
         let own = list.iter().find(|u| u.tag == tag).cloned();
         let strip = |u: &UnitInfo| UnitInfo { abilities: Vec::new(), ..u.clone() };
         AgentObs {

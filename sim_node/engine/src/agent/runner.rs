@@ -78,13 +78,12 @@ impl AgentTeam {
             && self.grouping == Grouping::Team
         {
             // The whole team: the fold of every unit's observation, built directly.
-            let g = GroupObs::team(env, self.team, episode, true);
+            let g = GroupObs::team(env, self.team, episode, agent.reads());
             out.extend(super::complete(agent.act(&g), &g));
             return out;
         }
-        let all = env.agent_observations(self.team, episode);
         for (units, agent) in &mut self.groups {
-            let mine: Vec<_> = all.iter().filter(|o| units.contains(&o.unit)).cloned().collect();
+            let mine = env.agent_observations_of(self.team, episode, units, agent.reads());
             if let Some(g) = GroupObs::fold(&mine, index) {
                 out.extend(super::complete(agent.act(&g), &g));
             }

@@ -92,6 +92,9 @@ pub struct AttackMove {
 }
 
 impl Agent for AttackMove {
+    fn reads(&self) -> super::Reads {
+        super::Reads::UNITS
+    }
     fn name(&self) -> &str {
         "attack-move"
     }
@@ -117,6 +120,9 @@ impl Agent for AttackMove {
 pub struct NoOp;
 
 impl Agent for NoOp {
+    fn reads(&self) -> super::Reads {
+        super::Reads::UNITS
+    }
     fn name(&self) -> &str {
         "noop"
     }
@@ -132,6 +138,9 @@ impl Agent for NoOp {
 pub struct Hold;
 
 impl Agent for Hold {
+    fn reads(&self) -> super::Reads {
+        super::Reads::UNITS
+    }
     fn name(&self) -> &str {
         "hold"
     }
@@ -157,6 +166,9 @@ impl Default for RandomActions {
 }
 
 impl Agent for RandomActions {
+    fn reads(&self) -> super::Reads {
+        super::Reads { smac: true, text: false }
+    }
     fn name(&self) -> &str {
         "random"
     }
@@ -268,6 +280,9 @@ impl FocusFire {
 }
 
 impl Agent for FocusFire {
+    fn reads(&self) -> super::Reads {
+        super::Reads::UNITS
+    }
     fn name(&self) -> &str {
         self.name
     }
@@ -351,6 +366,9 @@ impl Defensive {
 }
 
 impl Agent for Defensive {
+    fn reads(&self) -> super::Reads {
+        super::Reads::UNITS
+    }
     fn name(&self) -> &str {
         "defensive"
     }
