@@ -22,7 +22,8 @@ pub struct EpisodeArgs {
     /// the trajectory hashes can be compared with the deployment's.
     #[arg(long, conflicts_with_all = ["scenario", "agent", "agent2", "opponent", "episodes", "seed", "full_vision", "passive_agents", "no_jitter", "no_abilities"])]
     pub launch: Option<std::path::PathBuf>,
-    /// Policy for team 1 (focus-fire, kite, attack-move, builtin, aggressive, defensive, focus, random, hold, noop).
+    /// Policy for team 1 (focus-fire, kite, attack-move, builtin, aggressive, defensive, focus, random, hold, noop,
+    /// or marl:DIR for a policy trained by `avacraft train`).
     #[arg(long, default_value = "kite")]
     pub agent: String,
     /// Policy for team 2 in PvP scenarios (default: the same as --agent).
@@ -150,10 +151,15 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
     if scenario.mode == Mode::Pvp && opponent.is_some() {
         bail!("--opponent applies to PvE scenarios; {} is PvP: pick team 2's policy with --agent2", scenario.name);
     }
-    avacraft_engine::agent_by_name(&a.agent).context("--agent")?;
     let agent2 = a.agent2.clone().unwrap_or_else(|| a.agent.clone());
     let pvp = scenario.mode == Mode::Pvp;
-    let controllers = Controllers::named(&scenario, &a.agent, pvp.then_some(agent2.as_str())).context("--agent2")?;
+    let controllers = match a.agent.strip_prefix("marl:") {
+        Some(dir) => crate::train::marl_controllers(&scenario, std::path::Path::new(dir), pvp)?,
+        None => {
+            avacraft_engine::agent_by_name(&a.agent).context("--agent")?;
+            Controllers::named(&scenario, &a.agent, pvp.then_some(agent2.as_str())).context("--agent2")?
+        }
+    };
     let cfg = EnvConfig {
         rules: Rules {
             full_vision: a.full_vision,

@@ -15,6 +15,7 @@ mod probe;
 mod record;
 mod render;
 mod replay;
+mod train;
 
 pub use bench::{BenchRow, RenderRow, ScalingRow};
 pub use episode::{EpisodeRecord, Report, Summary};
@@ -65,6 +66,8 @@ enum Cmd {
     /// Re-simulate a recording's episodes from their seeds and applied actions and check
     /// the trajectory matches.
     Replay(replay::ReplayArgs),
+    /// Train a MARL baseline (IQL, VDN, QMIX) and save a checkpoint for `--agent marl:DIR`.
+    Train(train::TrainArgs),
 }
 
 /// Runs one command, writing its report to `out`. `alloc` is the process's counting
@@ -84,6 +87,7 @@ pub fn run(cli: Cli, out: &mut dyn Write, alloc: Option<&'static StatsAlloc<Syst
         Cmd::Record(a) => deploy::record(&a),
         Cmd::Bridge(a) => bridge::run(&a),
         Cmd::Replay(a) => replay::run(&a, out),
+        Cmd::Train(a) => train::run(&a, out),
     }
 }
 

@@ -1,0 +1,113 @@
+//! `train`: a MARL baseline (IQL, VDN, QMIX) on a scenario in features mode, with a progress
+//! bar, a CSV log, greedy test episodes and checkpoints in `--out` (see `avacraft-marl`).
+
+use anyhow::{Context, Result, bail};
+use avacraft_engine::Scenario;
+use avacraft_marl::{ALGOS, Config, RunOptions};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::{IsTerminal, Write};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+#[derive(Args, Debug)]
+pub struct TrainArgs {
+    /// Algorithm: iql, vdn or qmix (PyMARL's defaults, from marl/configs/ALGO.toml).
+    #[arg(long, default_value = "qmix")]
+    pub algo: String,
+    /// Built-in scenario name or path to a scenario file.
+    #[arg(long)]
+    pub scenario: String,
+    /// Observation mode (only `features`, SMAC's feature vectors, so far).
+    #[arg(long, default_value = "features")]
+    pub obs: String,
+    /// Environment steps to train for (the config's t_max).
+    #[arg(long)]
+    pub steps: Option<u64>,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Environments stepped in parallel (the config's envs).
+    #[arg(long)]
+    pub envs: Option<usize>,
+    /// Threads stepping environments (default: all cores; results do not depend on it).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// A config file to start from instead of the algorithm's built-in one.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Override a config key, e.g. --set lr=0.001 (repeatable; values in TOML syntax).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Directory for log.csv and the checkpoint (agent.safetensors, mixer.safetensors,
+    /// config.json), which `avacraft episode --agent marl:DIR` plays.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
+    if a.obs != "features" {
+        bail!("--obs {}: only `features` is implemented so far", a.obs);
+    }
+    let mut overrides = a.set.clone();
+    if let Some(s) = a.steps {
+        overrides.push(format!("t_max={s}"));
+    }
+    if let Some(e) = a.envs {
+        overrides.push(format!("envs={e}"));
+    }
+    let cfg = match &a.config {
+        Some(path) => {
+            let text = std::fs::read_to_string(path).with_context(|| format!("--config {}", path.display()))?;
+            Config::from_toml(&text, &overrides).with_context(|| format!("--config {}", path.display()))?
+        }
+        None => Config::for_algo(&a.algo, &overrides).with_context(|| format!("--algo {} (known: {})", a.algo, ALGOS.join(", ")))?,
+    };
+    let scenario = Arc::new(Scenario::load(&a.scenario)?);
+    let threads = a.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from));
+    let opts = RunOptions { scenario: Arc::clone(&scenario), seed: a.seed, threads, out: Some(a.out.clone()) };
+    let bar = if std::io::stderr().is_terminal() { ProgressBar::new(cfg.t_max) } else { ProgressBar::hidden() };
+    bar.set_style(ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} steps, {per_sec} ({eta})")?.progress_chars("=> "));
+    let name = format!("{} on {}", cfg.algo, scenario.name);
+    bar.set_message(name.clone());
+    let started = std::time::Instant::now();
+    let (_, summary) = avacraft_marl::train(&cfg, &opts, &mut |p| {
+        bar.set_position(p.t_env);
+        let test = p.last_test.map_or_else(|| "-".to_owned(), |t| format!("{:.0}%", 100.0 * t.win_rate));
+        bar.set_message(format!("{name}: test win {test}, eps {:.2}, loss {:.3}", p.epsilon, p.loss));
+    })?;
+    bar.finish_and_clear();
+    let secs = started.elapsed().as_secs_f64();
+    writeln!(
+        out,
+        "{name}: {} steps, {} episodes, {} updates in {secs:.0} s ({:.0} steps/s)",
+        summary.t_env,
+        summary.episodes,
+        summary.updates,
+        summary.t_env as f64 / secs.max(1e-9)
+    )?;
+    for t in &summary.tests {
+        writeln!(
+            out,
+            "  step {:>9}: greedy win rate {:5.1}% over {} episodes, return {:.2}",
+            t.t_env,
+            100.0 * t.win_rate,
+            t.episodes,
+            t.mean_return
+        )?;
+    }
+    writeln!(out, "log and checkpoint in {}", a.out.display())?;
+    Ok(())
+}
+
+/// Team 1 driven by the trained policy in `dir` (`--agent marl:DIR`), one agent for the
+/// whole team acting for each unit on its own observation.
+pub fn marl_controllers(scenario: &Arc<Scenario>, dir: &std::path::Path, pvp: bool) -> Result<avacraft_engine::Controllers> {
+    use avacraft_engine::Team;
+    use avacraft_engine::agent::{AgentTeam, Grouping};
+    if pvp {
+        bail!("--agent marl:{}: trained policies play PvE scenarios for now; {} is PvP", dir.display(), scenario.name);
+    }
+    let agent = avacraft_marl::MarlAgent::load(dir).with_context(|| format!("--agent marl:{}", dir.display()))?;
+    agent.policy().check_scenario(scenario, Team::One).with_context(|| format!("--agent marl:{}", dir.display()))?;
+    Ok(avacraft_engine::Controllers::new(scenario, vec![AgentTeam::new(Team::One, Grouping::Team, move || Box::new(agent.clone()))]))
+}

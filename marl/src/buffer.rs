@@ -1,0 +1,204 @@
+//! PyMARL's episode replay buffer: whole episodes kept (the GRU needs the sequence), the
+//! oldest dropped past `buffer_size`, batches of episodes padded to the longest one with a
+//! `filled` mask. Inputs are built here once per batch (observation, agent id one-hot, last
+//! action one-hot), shared by the online and target networks.
+
+use crate::Error;
+use candle_core::{Device, Tensor};
+use rand::seq::index::sample;
+use rand_chacha::ChaCha8Rng;
+
+/// Sizes of one team: agents, observation, state and action counts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Shape {
+    pub n_agents: usize,
+    pub obs: usize,
+    pub state: usize,
+    pub n_actions: usize,
+}
+
+impl Shape {
+    /// The agent network's input width.
+    pub fn input(&self, agent_id: bool, last_action: bool) -> usize {
+        self.obs + if agent_id { self.n_agents } else { 0 } + if last_action { self.n_actions } else { 0 }
+    }
+}
+
+/// One finished episode of `len` steps; observations, states and masks have `len + 1` rows
+/// (the last one after the final step, a placeholder: see [`Episode::close`]).
+#[derive(Clone, Debug, Default)]
+pub struct Episode {
+    pub len: usize,
+    pub obs: Vec<f32>,
+    pub state: Vec<f32>,
+    pub avail: Vec<u8>,
+    pub actions: Vec<u32>,
+    pub reward: Vec<f32>,
+    pub terminated: Vec<f32>,
+}
+
+impl Episode {
+    /// Records the step's observation, state, masks and chosen actions.
+    pub fn push_step(&mut self, obs: &[f32], state: &[f32], avail: &[u8], actions: &[u32]) {
+        self.obs.extend_from_slice(obs);
+        self.state.extend_from_slice(state);
+        self.avail.extend_from_slice(avail);
+        self.actions.extend_from_slice(actions);
+        self.len += 1;
+    }
+    /// Records the step's outcome.
+    pub fn push_outcome(&mut self, reward: f32, terminated: bool) {
+        self.reward.push(reward);
+        self.terminated.push(if terminated { 1.0 } else { 0.0 });
+    }
+    /// Adds the row after the last step. The vector environment resets on its own, so the
+    /// final observation is gone: the last step is treated as terminal (no bootstrap) also on
+    /// a time-out, and the row is zeros with only the no-op available.
+    pub fn close(&mut self, shape: &Shape) {
+        self.obs.extend(std::iter::repeat_n(0.0, shape.n_agents * shape.obs));
+        self.state.extend(std::iter::repeat_n(0.0, shape.state));
+        for _ in 0..shape.n_agents {
+            self.avail.push(1);
+            self.avail.extend(std::iter::repeat_n(0, shape.n_actions.saturating_sub(1)));
+        }
+        if let Some(t) = self.terminated.last_mut() {
+            *t = 1.0;
+        }
+    }
+}
+
+/// A ring of finished episodes.
+#[derive(Debug)]
+pub struct ReplayBuffer {
+    episodes: Vec<Episode>,
+    capacity: usize,
+    next: usize,
+}
+
+impl ReplayBuffer {
+    pub fn new(capacity: usize) -> ReplayBuffer {
+        ReplayBuffer { episodes: Vec::new(), capacity: capacity.max(1), next: 0 }
+    }
+    pub fn len(&self) -> usize {
+        self.episodes.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.episodes.is_empty()
+    }
+    pub fn insert(&mut self, ep: Episode) {
+        if self.episodes.len() < self.capacity {
+            self.episodes.push(ep);
+        } else {
+            self.episodes[self.next] = ep;
+        }
+        self.next = (self.next + 1) % self.capacity;
+    }
+    /// `n` distinct episodes drawn uniformly (fewer if the buffer holds fewer).
+    pub fn sample(&self, n: usize, rng: &mut ChaCha8Rng) -> Vec<&Episode> {
+        let n = n.min(self.episodes.len());
+        sample(rng, self.episodes.len(), n).into_iter().map(|i| &self.episodes[i]).collect()
+    }
+}
+
+/// A training batch of `B` episodes padded to `T` steps (time-major tensors).
+#[derive(Debug)]
+pub struct Batch {
+    pub b: usize,
+    pub t: usize,
+    /// `(T+1, B*A, input)`.
+    pub inputs: Tensor,
+    /// `(T+1, B*A, n_actions)`, 1.0 where available.
+    pub avail: Tensor,
+    /// `(T, B*A, 1)` chosen action indices.
+    pub actions: Tensor,
+    /// `(T+1, B, state)`.
+    pub state: Tensor,
+    /// `(T, B, 1)`.
+    pub reward: Tensor,
+    pub terminated: Tensor,
+    /// `(T, B, 1)`: 1.0 on real steps, 0.0 on padding.
+    pub filled: Tensor,
+}
+
+impl Batch {
+    /// Pads and stacks `episodes` into tensors.
+    pub fn new(episodes: &[&Episode], shape: &Shape, agent_id: bool, last_action: bool) -> Result<Batch, Error> {
+        let b = episodes.len();
+        let t = episodes.iter().map(|e| e.len).max().unwrap_or(0);
+        let (a, o, s, na) = (shape.n_agents, shape.obs, shape.state, shape.n_actions);
+        let width = shape.input(agent_id, last_action);
+        let mut inputs = vec![0f32; (t + 1) * b * a * width];
+        let mut avail = vec![0f32; (t + 1) * b * a * na];
+        let mut actions = vec![0u32; t * b * a];
+        let mut state = vec![0f32; (t + 1) * b * s];
+        let (mut reward, mut terminated, mut filled) = (vec![0f32; t * b], vec![0f32; t * b], vec![0f32; t * b]);
+        for (bi, ep) in episodes.iter().enumerate() {
+            for ti in 0..=t {
+                let real = ti <= ep.len;
+                for ag in 0..a {
+                    let row = (ti * b + bi) * a + ag;
+                    let inp = &mut inputs[row * width..(row + 1) * width];
+                    let av = &mut avail[row * na..(row + 1) * na];
+                    if real {
+                        inp[..o].copy_from_slice(&ep.obs[(ti * a + ag) * o..(ti * a + ag + 1) * o]);
+                        for (d, &m) in av.iter_mut().zip(&ep.avail[(ti * a + ag) * na..(ti * a + ag + 1) * na]) {
+                            *d = f32::from(m);
+                        }
+                    } else {
+                        av[0] = 1.0;
+                    }
+                    let mut off = o;
+                    if agent_id {
+                        inp[off + ag] = 1.0;
+                        off += a;
+                    }
+                    if last_action && ti > 0 && ti - 1 < ep.len {
+                        inp[off + ep.actions[(ti - 1) * a + ag] as usize] = 1.0;
+                    }
+                    if ti < t && ti < ep.len {
+                        actions[row] = ep.actions[ti * a + ag];
+                    }
+                }
+                if real {
+                    state[(ti * b + bi) * s..(ti * b + bi + 1) * s].copy_from_slice(&ep.state[ti * s..(ti + 1) * s]);
+                }
+                if ti < ep.len {
+                    reward[ti * b + bi] = ep.reward[ti];
+                    terminated[ti * b + bi] = ep.terminated[ti];
+                    filled[ti * b + bi] = 1.0;
+                }
+            }
+        }
+        let dev = Device::Cpu;
+        Ok(Batch {
+            b,
+            t,
+            inputs: Tensor::from_vec(inputs, (t + 1, b * a, width), &dev)?,
+            avail: Tensor::from_vec(avail, (t + 1, b * a, na), &dev)?,
+            actions: Tensor::from_vec(actions, (t, b * a, 1), &dev)?,
+            state: Tensor::from_vec(state, (t + 1, b, s), &dev)?,
+            reward: Tensor::from_vec(reward, (t, b, 1), &dev)?,
+            terminated: Tensor::from_vec(terminated, (t, b, 1), &dev)?,
+            filled: Tensor::from_vec(filled, (t, b, 1), &dev)?,
+        })
+    }
+}
+
+/// The agent network's input rows for acting: `(rows, input)` from each row's observation,
+/// its agent index and last action (`None`: none yet).
+pub fn act_inputs(obs: &[f32], agents: &[usize], last: &[Option<u32>], shape: &Shape, agent_id: bool, last_action: bool) -> Vec<f32> {
+    let width = shape.input(agent_id, last_action);
+    let mut out = vec![0f32; agents.len() * width];
+    for (r, row) in out.chunks_exact_mut(width.max(1)).enumerate() {
+        row[..shape.obs].copy_from_slice(&obs[r * shape.obs..(r + 1) * shape.obs]);
+        let mut off = shape.obs;
+        if agent_id {
+            row[off + agents[r]] = 1.0;
+            off += shape.n_agents;
+        }
+        if last_action && let Some(a) = last[r] {
+            row[off + a as usize] = 1.0;
+        }
+    }
+    out
+}

@@ -1,0 +1,184 @@
+//! One config per algorithm (`configs/{iql,vdn,qmix}.toml`, PyMARL's defaults), built into
+//! the crate so `train --algo qmix` needs no file, with `key=value` overrides checked against
+//! the keys the file has: a typo names the key instead of being silently ignored.
+
+use crate::Error;
+use avacraft_engine::{EnvConfig, RewardMode, Rules};
+use serde::{Deserialize, Serialize};
+
+/// The algorithms with a built-in config.
+pub const ALGOS: &[&str] = &["iql", "vdn", "qmix"];
+
+const IQL: &str = include_str!("../configs/iql.toml");
+const VDN: &str = include_str!("../configs/vdn.toml");
+const QMIX: &str = include_str!("../configs/qmix.toml");
+
+/// How the agents' Q-values combine into the team's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MixerKind {
+    /// Independent learners: each agent's own TD error on the team reward (IQL).
+    None,
+    /// The sum of the agents' Q-values (VDN).
+    Vdn,
+    /// A monotonic mixing network whose weights a hypernetwork makes from the state (QMIX).
+    Qmix,
+}
+
+/// Every setting of a run (see the TOML files for what each means).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    pub algo: String,
+    pub mixer: MixerKind,
+    pub gamma: f64,
+    pub lr: f64,
+    pub optim_alpha: f64,
+    pub optim_eps: f64,
+    pub grad_norm_clip: f64,
+    pub batch_size: usize,
+    pub buffer_size: usize,
+    pub target_update_interval: u64,
+    pub double_q: bool,
+    pub epsilon_start: f64,
+    pub epsilon_finish: f64,
+    pub epsilon_anneal_time: u64,
+    pub rnn_hidden_dim: usize,
+    pub obs_agent_id: bool,
+    pub obs_last_action: bool,
+    pub mixing_embed_dim: usize,
+    pub hypernet_layers: usize,
+    pub hypernet_embed: usize,
+    pub t_max: u64,
+    pub envs: usize,
+    pub episodes_per_update: u64,
+    pub test_interval: u64,
+    pub test_nepisode: usize,
+    pub reward: RewardMode,
+    pub passive_agents: bool,
+}
+
+/// The built-in config text of `algo`.
+pub fn default_text(algo: &str) -> Result<&'static str, Error> {
+    match algo {
+        "iql" => Ok(IQL),
+        "vdn" => Ok(VDN),
+        "qmix" => Ok(QMIX),
+        other => Err(Error::UnknownAlgo { algo: other.to_owned(), known: ALGOS.join(", ") }),
+    }
+}
+
+impl Config {
+    /// The built-in config of `algo` with `overrides` (`key=value`, the value in TOML syntax;
+    /// a bare word is taken as a string) applied in order.
+    pub fn for_algo(algo: &str, overrides: &[String]) -> Result<Config, Error> {
+        Self::from_toml(default_text(algo)?, overrides)
+    }
+
+    /// A config from TOML text with overrides, every key checked.
+    pub fn from_toml(text: &str, overrides: &[String]) -> Result<Config, Error> {
+        let mut table: toml::Table =
+            toml::from_str(text).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
+        for o in overrides {
+            let Some((key, value)) = o.split_once('=') else {
+                return Err(Error::Override { text: o.clone(), message: "expected key=value".into() });
+            };
+            let key = key.trim();
+            let Some(old) = table.get(key) else {
+                let known: Vec<&str> = table.keys().map(String::as_str).collect();
+                return Err(Error::UnknownKey { key: key.to_owned(), known: known.join(", ") });
+            };
+            let new = parse_value(value.trim(), old).map_err(|message| Error::Override { text: o.clone(), message })?;
+            table.insert(key.to_owned(), new);
+        }
+        let cfg: Config =
+            table.try_into().map_err(|e: toml::de::Error| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    fn validate(&self) -> Result<(), Error> {
+        let bad = |key: &str, why: &str| Err(Error::BadValue { key: key.to_owned(), message: why.to_owned() });
+        if !(0.0..=1.0).contains(&self.gamma) {
+            return bad("gamma", "must lie in [0, 1]");
+        }
+        if self.lr.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+            return bad("lr", "must be positive");
+        }
+        if self.batch_size == 0 || self.buffer_size < self.batch_size {
+            return bad("buffer_size", "needs at least batch_size (>= 1) episodes");
+        }
+        if self.envs == 0 {
+            return bad("envs", "must be at least 1");
+        }
+        if self.episodes_per_update == 0 {
+            return bad("episodes_per_update", "must be at least 1");
+        }
+        if self.rnn_hidden_dim == 0 || self.mixing_embed_dim == 0 || self.hypernet_embed == 0 {
+            return bad("rnn_hidden_dim", "network widths must be at least 1");
+        }
+        if !(1..=2).contains(&self.hypernet_layers) {
+            return bad("hypernet_layers", "must be 1 or 2");
+        }
+        if self.target_update_interval == 0 {
+            return bad("target_update_interval", "must be at least 1");
+        }
+        Ok(())
+    }
+
+    /// Epsilon after `t_env` environment steps (linear, then flat).
+    pub fn epsilon(&self, t_env: u64) -> f64 {
+        let frac = if self.epsilon_anneal_time == 0 { 1.0 } else { (t_env as f64 / self.epsilon_anneal_time as f64).min(1.0) };
+        self.epsilon_start + (self.epsilon_finish - self.epsilon_start) * frac
+    }
+
+    /// The engine settings the runs use.
+    pub fn env_config(&self) -> EnvConfig {
+        let base = if self.passive_agents { EnvConfig::smac() } else { EnvConfig { rules: Rules::default(), ..EnvConfig::default() } };
+        EnvConfig { reward: self.reward, ..base }
+    }
+}
+
+/// A TOML value of the same type as `old`; integers widen to floats, bare words are strings.
+fn parse_value(text: &str, old: &toml::Value) -> Result<toml::Value, String> {
+    let parsed = toml::from_str::<toml::Table>(&format!("v = {text}")).ok().and_then(|mut t| t.remove("v"));
+    let v = match (parsed, old) {
+        (Some(toml::Value::Integer(i)), toml::Value::Float(_)) => toml::Value::Float(i as f64),
+        (Some(v), _) => v,
+        (None, toml::Value::String(_)) => toml::Value::String(text.to_owned()),
+        (None, _) => return Err(format!("`{text}` is not a TOML value (expected a {})", old.type_str())),
+    };
+    if std::mem::discriminant(&v) != std::mem::discriminant(old) {
+        return Err(format!("expected a {}, got a {}", old.type_str(), v.type_str()));
+    }
+    Ok(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_load_and_overrides_apply() -> Result<(), Error> {
+        for a in ALGOS {
+            let c = Config::for_algo(a, &[])?;
+            assert_eq!(&c.algo, a);
+        }
+        let c = Config::for_algo("qmix", &["lr=0.001".into(), "envs=2".into(), "mixer=vdn".into(), "gamma=1".into()])?;
+        assert_eq!((c.lr, c.envs, c.mixer, c.gamma), (0.001, 2, MixerKind::Vdn, 1.0));
+        Ok(())
+    }
+
+    #[test]
+    fn bad_keys_and_values_are_named() {
+        let e = Config::for_algo("qmix", &["learning_rate=1".into()]).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("learning_rate"), "{e}");
+        let e = Config::for_algo("qmix", &["envs=many".into()]).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("envs=many") && e.contains("integer"), "{e}");
+        let e = Config::for_algo("qmix", &["mixer=sum".into()]).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("sum"), "{e}");
+        let e = Config::for_algo("qmix", &["gamma=2.0".into()]).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("gamma"), "{e}");
+        assert!(Config::for_algo("coma", &[]).is_err());
+    }
+}

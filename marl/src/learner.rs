@@ -1,0 +1,179 @@
+//! PyMARL's `QLearner` for IQL, VDN and QMIX: the agent network unrolled over a batch of
+//! episodes, chosen-action Q-values mixed (or not), double-Q targets from the target
+//! networks, masked squared TD error, RMSprop with global-norm clipping, and target copies
+//! every `target_update_interval` episodes.
+
+use crate::buffer::{Batch, Shape};
+use crate::nets::{AgentNet, Mixer, Params, QmixMixer};
+use crate::optim::RmsProp;
+use crate::{Config, Error, MixerKind};
+use candle_core::{D, Tensor};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// Masked-out Q-values (PyMARL's -9999999): finite, so padded rows stay finite too.
+const MASKED: f64 = -1e7;
+
+/// An agent network and, for VDN and QMIX, a mixer, with their parameters.
+#[derive(Debug)]
+pub struct Nets {
+    pub agent: AgentNet,
+    pub agent_params: Params,
+    pub mixer: Option<Mixer>,
+    pub mixer_params: Params,
+}
+
+impl Nets {
+    /// Fresh networks for `cfg` and `shape`, every weight drawn from `seed`.
+    pub fn new(cfg: &Config, shape: &Shape, seed: u64) -> Result<Nets, Error> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut agent_params = Params::default();
+        let input = shape.input(cfg.obs_agent_id, cfg.obs_last_action);
+        let agent = AgentNet::new(&mut agent_params, input, cfg.rnn_hidden_dim, shape.n_actions, &mut rng)?;
+        let mut mixer_params = Params::default();
+        let mixer = match cfg.mixer {
+            MixerKind::None => None,
+            MixerKind::Vdn => Some(Mixer::Vdn),
+            MixerKind::Qmix => Some(Mixer::Qmix(QmixMixer::new(&mut mixer_params, shape.n_agents, shape.state, cfg, &mut rng)?)),
+        };
+        Ok(Nets { agent, agent_params, mixer, mixer_params })
+    }
+
+    fn copy_from(&self, other: &Nets) -> Result<(), Error> {
+        self.agent_params.copy_from(&other.agent_params)?;
+        self.mixer_params.copy_from(&other.mixer_params)
+    }
+
+    /// Q-values `(T+1, B*A, n_actions)` of the agent network unrolled over a batch.
+    pub fn unroll(&self, batch: &Batch) -> Result<Tensor, Error> {
+        let rows = batch.inputs.dim(1)?;
+        let mut h = self.agent.zero_hidden(rows)?;
+        let mut qs = Vec::with_capacity(batch.t + 1);
+        for ti in 0..=batch.t {
+            let (q, h2) = self.agent.step(&batch.inputs.get(ti)?, &h)?;
+            qs.push(q);
+            h = h2;
+        }
+        Ok(Tensor::stack(&qs, 0)?)
+    }
+}
+
+/// Statistics of one update.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct UpdateStats {
+    pub loss: f64,
+    pub grad_norm: f64,
+    pub td_abs: f64,
+    pub q_taken: f64,
+}
+
+#[derive(Debug)]
+pub struct Learner {
+    pub cfg: Config,
+    pub shape: Shape,
+    pub nets: Nets,
+    target: Nets,
+    opt: RmsProp,
+    last_target_update: u64,
+    pub updates: u64,
+}
+
+impl Learner {
+    pub fn new(cfg: &Config, shape: Shape, seed: u64) -> Result<Learner, Error> {
+        let nets = Nets::new(cfg, &shape, seed)?;
+        let target = Nets::new(cfg, &shape, seed)?;
+        target.copy_from(&nets)?;
+        let vars = nets.agent_params.vars().chain(nets.mixer_params.vars()).cloned().collect();
+        let opt = RmsProp::new(vars, cfg.lr, cfg.optim_alpha, cfg.optim_eps, cfg.grad_norm_clip)?;
+        Ok(Learner { cfg: cfg.clone(), shape, nets, target, opt, last_target_update: 0, updates: 0 })
+    }
+
+    /// The TD loss of a batch under the current networks (and its parts).
+    pub fn loss(&self, batch: &Batch) -> Result<(Tensor, Tensor, Tensor), Error> {
+        let (t, b, a) = (batch.t, batch.b, self.shape.n_agents);
+        let q = self.nets.unroll(batch)?;
+        let chosen = q.narrow(0, 0, t)?.gather(&batch.actions, D::Minus1)?.reshape((t * b, a))?;
+        let target_q = self.target.unroll(batch)?.narrow(0, 1, t)?.detach();
+        let avail_next = batch.avail.narrow(0, 1, t)?;
+        let masked = |x: &Tensor| -> Result<Tensor, Error> {
+            let fill = Tensor::full(MASKED as f32, x.dims(), x.device())?;
+            Ok(avail_next.gt(0.0)?.where_cond(x, &fill)?)
+        };
+        let target_max = if self.cfg.double_q {
+            let best = masked(&q.narrow(0, 1, t)?.detach())?.argmax_keepdim(D::Minus1)?;
+            target_q.gather(&best, D::Minus1)?
+        } else {
+            masked(&target_q)?.max_keepdim(D::Minus1)?
+        }
+        .reshape((t * b, a))?;
+        let reward = batch.reward.reshape((t * b, 1))?;
+        let not_done = (1.0 - batch.terminated.reshape((t * b, 1))?)?;
+        let filled = batch.filled.reshape((t * b, 1))?;
+        let (chosen_tot, target_tot) = match (&self.nets.mixer, &self.target.mixer) {
+            (Some(m), Some(tm)) => {
+                let s = batch.state.dim(2)?;
+                let st = batch.state.narrow(0, 0, t)?.reshape((t * b, s))?;
+                let st1 = batch.state.narrow(0, 1, t)?.reshape((t * b, s))?;
+                (m.forward(&chosen, &st)?, tm.forward(&target_max, &st1)?.detach())
+            }
+            _ => (chosen.clone(), target_max),
+        };
+        let targets = reward.broadcast_add(&(not_done.broadcast_mul(&target_tot)? * self.cfg.gamma)?)?.detach();
+        let mask = filled.broadcast_as(chosen_tot.shape())?.contiguous()?;
+        let td = ((chosen_tot - targets)? * &mask)?;
+        let loss = (td.sqr()?.sum_all()? / mask.sum_all()?.to_scalar::<f32>()?.max(1.0) as f64)?;
+        Ok((loss, td, chosen))
+    }
+
+    /// One gradient step on `batch`; `episodes` (finished so far) decides the target copies.
+    pub fn train(&mut self, batch: &Batch, episodes: u64) -> Result<UpdateStats, Error> {
+        let (loss, td, chosen) = self.loss(batch)?;
+        let loss_v = f64::from(loss.to_scalar::<f32>()?);
+        if !loss_v.is_finite() || loss_v > 1e8 {
+            return Err(Error::Diverged { update: self.updates, loss: loss_v });
+        }
+        let grad_norm = self.opt.backward_step(&loss)?;
+        self.updates += 1;
+        if episodes.saturating_sub(self.last_target_update) >= self.cfg.target_update_interval {
+            self.update_targets()?;
+            self.last_target_update = episodes;
+        }
+        let n = batch.filled.sum_all()?.to_scalar::<f32>()?.max(1.0) as f64;
+        let td_abs = f64::from(td.abs()?.sum_all()?.to_scalar::<f32>()?) / n;
+        let q_taken = f64::from((chosen.broadcast_mul(&batch.filled.reshape(((), 1))?)?).sum_all()?.to_scalar::<f32>()?)
+            / (n * self.shape.n_agents as f64);
+        Ok(UpdateStats { loss: loss_v, grad_norm, td_abs, q_taken })
+    }
+
+    /// Copies the networks into the targets.
+    pub fn update_targets(&mut self) -> Result<(), Error> {
+        self.target.copy_from(&self.nets)
+    }
+}
+
+/// Epsilon-greedy over the available actions of each row of `q` (`rows x n_actions`): with
+/// probability `epsilon` a uniformly random available action, else the best available one
+/// (the first on ties). An unavailable action is never chosen; a row with no available
+/// action gets 0 (SMAC's no-op).
+pub fn select_actions(q: &[f32], avail: &[u8], n_actions: usize, epsilon: f64, rng: &mut ChaCha8Rng) -> Vec<u32> {
+    q.chunks_exact(n_actions.max(1))
+        .zip(avail.chunks_exact(n_actions.max(1)))
+        .map(|(qr, ar)| {
+            let n_avail = ar.iter().filter(|&&m| m != 0).count();
+            if n_avail == 0 {
+                return 0;
+            }
+            if epsilon > 0.0 && rng.random::<f64>() < epsilon {
+                let k = rng.random_range(0..n_avail);
+                return ar.iter().enumerate().filter(|(_, m)| **m != 0).nth(k).map_or(0, |(i, _)| i as u32);
+            }
+            let mut best: Option<(usize, f32)> = None;
+            for (i, (&v, &m)) in qr.iter().zip(ar).enumerate() {
+                if m != 0 && best.is_none_or(|(_, bv)| v > bv) {
+                    best = Some((i, v));
+                }
+            }
+            best.map_or(0, |(i, _)| i as u32)
+        })
+        .collect()
+}

@@ -1,0 +1,70 @@
+//! MARL baselines on the engine's vector environment: IQL, VDN and QMIX with PyMARL's
+//! conventions (one GRU agent network shared by all agents, agent id and last action in its
+//! input, action masking, an episode replay buffer, target networks, epsilon-greedy,
+//! RMSprop with global-norm gradient clipping), and trained policies as engine [`Agent`]s.
+//!
+//! Tensors and automatic differentiation come from candle (CPU), because:
+//! - its tensors are stepped one timestep at a time, so the GRU agent carries its hidden
+//!   state across environment steps while acting and unrolls over stored episodes while
+//!   learning, as PyMARL's RNN agents do;
+//! - it reads and writes safetensors itself (the checkpoints);
+//! - it builds offline here without libtorch (tch needs a multi-GB libtorch);
+//! - burn's gradient clipping is per tensor, not PyMARL's global norm, and it needs a newer
+//!   rustc. candle has neither RMSprop nor clipping, so [`optim`] adds both (a few lines over
+//!   its gradient store).
+//!
+//! The weights are initialised from a seeded ChaCha stream and every random choice (actions,
+//! replay samples) draws from seeded streams, so a run is a function of its config and seed.
+//!
+//! [`Agent`]: avacraft_engine::Agent
+
+#![forbid(unsafe_code)]
+
+pub mod buffer;
+pub mod config;
+pub mod learner;
+pub mod nets;
+pub mod optim;
+pub mod policy;
+pub mod train;
+
+pub use buffer::{Batch, Episode, ReplayBuffer, Shape};
+pub use config::{ALGOS, Config, MixerKind};
+pub use learner::{Learner, Nets, UpdateStats, select_actions};
+pub use policy::{MarlAgent, Policy};
+pub use train::{Progress, RunOptions, Summary, TestResult, train};
+
+/// What can go wrong configuring, training, saving or loading.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    #[error("unknown algorithm `{algo}` (known: {known})")]
+    UnknownAlgo { algo: String, known: String },
+    #[error("unknown config key `{key}` (known: {known})")]
+    UnknownKey { key: String, known: String },
+    #[error("override `{text}`: {message}")]
+    Override { text: String, message: String },
+    #[error("{what}: {message}")]
+    ConfigParse { what: String, message: String },
+    #[error("config `{key}`: {message}")]
+    BadValue { key: String, message: String },
+    #[error("tensor operation failed: {0}")]
+    Tensor(#[from] candle_core::Error),
+    #[error("environment: {0}")]
+    Env(#[from] avacraft_engine::VecEnvError),
+    #[error("{path}: {source}")]
+    Io {
+        path: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path}: {source}")]
+    Json {
+        path: std::path::PathBuf,
+        #[source]
+        source: serde_json::Error,
+    },
+    #[error("checkpoint: {message}")]
+    Checkpoint { message: String },
+    #[error("training diverged at update {update}: loss {loss}")]
+    Diverged { update: u64, loss: f64 },
+}

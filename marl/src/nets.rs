@@ -1,0 +1,212 @@
+//! The networks: PyMARL's RNN agent (fc -> GRU cell -> fc, one network shared by all agents)
+//! and the mixers (VDN's sum, QMIX's monotonic hypernetwork mixer). Parameters live in a
+//! [`Params`] list kept in creation order, initialised from a seeded ChaCha stream as
+//! PyTorch does (uniform in +-1/sqrt(fan_in)), so a seed fixes every weight: candle's own
+//! initialisers draw from an unseeded thread RNG on the CPU, and its `VarMap` is a `HashMap`.
+
+use crate::Error;
+use candle_core::{D, DType, Device, Tensor, Var};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+use std::collections::HashMap;
+
+/// Named trainable variables in creation order.
+#[derive(Debug, Default)]
+pub struct Params {
+    vars: Vec<(String, Var)>,
+}
+
+impl Params {
+    /// A new variable of `shape`, uniform in `+-1/sqrt(fan_in)`.
+    fn uniform(&mut self, name: String, shape: &[usize], fan_in: usize, rng: &mut ChaCha8Rng) -> Result<Tensor, Error> {
+        let bound = 1.0 / (fan_in.max(1) as f32).sqrt();
+        let n: usize = shape.iter().product();
+        let data: Vec<f32> = (0..n).map(|_| rng.random_range(-bound..=bound)).collect();
+        let var = Var::from_vec(data, shape, &Device::Cpu)?;
+        let t = var.as_tensor().clone();
+        self.vars.push((name, var));
+        Ok(t)
+    }
+
+    pub fn vars(&self) -> impl Iterator<Item = &Var> {
+        self.vars.iter().map(|(_, v)| v)
+    }
+
+    /// Copies `other`'s values (a network of the same shape) into these variables.
+    pub fn copy_from(&self, other: &Params) -> Result<(), Error> {
+        for ((n, v), (m, w)) in self.vars.iter().zip(&other.vars) {
+            if n != m {
+                return Err(Error::Checkpoint { message: format!("parameter `{n}` copied from `{m}`") });
+            }
+            v.set(&w.as_tensor().detach().copy()?)?;
+        }
+        Ok(())
+    }
+
+    /// The values by name (what a safetensors file holds).
+    pub fn to_map(&self) -> HashMap<String, Tensor> {
+        self.vars.iter().map(|(n, v)| (n.clone(), v.as_tensor().detach())).collect()
+    }
+
+    /// Sets every variable from `map`, which must hold each name with the same shape.
+    pub fn load_map(&self, map: &HashMap<String, Tensor>, what: &str) -> Result<(), Error> {
+        for (n, v) in &self.vars {
+            let Some(t) = map.get(n) else {
+                return Err(Error::Checkpoint { message: format!("{what}: no tensor `{n}`") });
+            };
+            if t.dims() != v.dims() {
+                return Err(Error::Checkpoint {
+                    message: format!("{what}: `{n}` has shape {:?}, the network needs {:?}", t.dims(), v.dims()),
+                });
+            }
+            v.set(&t.to_dtype(DType::F32)?)?;
+        }
+        Ok(())
+    }
+}
+
+/// `y = x W^T + b`.
+#[derive(Debug, Clone)]
+pub struct Linear {
+    w: Tensor,
+    b: Tensor,
+}
+
+impl Linear {
+    fn new(p: &mut Params, name: &str, inp: usize, out: usize, rng: &mut ChaCha8Rng) -> Result<Linear, Error> {
+        Ok(Linear {
+            w: p.uniform(format!("{name}.weight"), &[out, inp], inp, rng)?,
+            b: p.uniform(format!("{name}.bias"), &[out], inp, rng)?,
+        })
+    }
+    fn forward(&self, x: &Tensor) -> Result<Tensor, Error> {
+        Ok(x.matmul(&self.w.t()?)?.broadcast_add(&self.b)?)
+    }
+}
+
+/// PyMARL's `RNNAgent`: `fc1 -> ReLU -> GRUCell -> fc2`, one step at a time so the hidden
+/// state can be carried across environment steps while acting.
+#[derive(Debug, Clone)]
+pub struct AgentNet {
+    fc1: Linear,
+    w_ih: Tensor,
+    w_hh: Tensor,
+    b_ih: Tensor,
+    b_hh: Tensor,
+    fc2: Linear,
+    pub hidden: usize,
+}
+
+impl AgentNet {
+    pub fn new(p: &mut Params, input: usize, hidden: usize, n_actions: usize, rng: &mut ChaCha8Rng) -> Result<AgentNet, Error> {
+        let fc1 = Linear::new(p, "fc1", input, hidden, rng)?;
+        let w_ih = p.uniform("rnn.weight_ih".into(), &[3 * hidden, hidden], hidden, rng)?;
+        let w_hh = p.uniform("rnn.weight_hh".into(), &[3 * hidden, hidden], hidden, rng)?;
+        let b_ih = p.uniform("rnn.bias_ih".into(), &[3 * hidden], hidden, rng)?;
+        let b_hh = p.uniform("rnn.bias_hh".into(), &[3 * hidden], hidden, rng)?;
+        let fc2 = Linear::new(p, "fc2", hidden, n_actions, rng)?;
+        Ok(AgentNet { fc1, w_ih, w_hh, b_ih, b_hh, fc2, hidden })
+    }
+
+    /// One step for `N` rows: inputs `(N, input)`, hidden `(N, hidden)` -> Q `(N, n_actions)`
+    /// and the next hidden state (PyTorch's `GRUCell` equations).
+    pub fn step(&self, x: &Tensor, h: &Tensor) -> Result<(Tensor, Tensor), Error> {
+        let x = self.fc1.forward(x)?.relu()?;
+        let gi = x.matmul(&self.w_ih.t()?)?.broadcast_add(&self.b_ih)?;
+        let gh = h.matmul(&self.w_hh.t()?)?.broadcast_add(&self.b_hh)?;
+        let k = self.hidden;
+        let r = candle_nn::ops::sigmoid(&(gi.narrow(1, 0, k)? + gh.narrow(1, 0, k)?)?)?;
+        let z = candle_nn::ops::sigmoid(&(gi.narrow(1, k, k)? + gh.narrow(1, k, k)?)?)?;
+        let n = (gi.narrow(1, 2 * k, k)? + (r * gh.narrow(1, 2 * k, k)?)?)?.tanh()?;
+        // h' = (1 - z) * n + z * h = n + z * (h - n)
+        let h2 = (&n + (z * (h - &n)?)?)?;
+        let q = self.fc2.forward(&h2)?;
+        Ok((q, h2))
+    }
+
+    /// A zero hidden state for `n` rows.
+    pub fn zero_hidden(&self, n: usize) -> Result<Tensor, Error> {
+        Ok(Tensor::zeros((n, self.hidden), DType::F32, &Device::Cpu)?)
+    }
+}
+
+/// A small feed-forward network of a hypernetwork: one layer, or two with a ReLU between.
+#[derive(Debug, Clone)]
+enum Hyper {
+    One(Linear),
+    Two(Linear, Linear),
+}
+
+impl Hyper {
+    fn new(p: &mut Params, name: &str, layers: usize, inp: usize, hidden: usize, out: usize, rng: &mut ChaCha8Rng) -> Result<Hyper, Error> {
+        Ok(if layers == 1 {
+            Hyper::One(Linear::new(p, &format!("{name}.0"), inp, out, rng)?)
+        } else {
+            Hyper::Two(Linear::new(p, &format!("{name}.0"), inp, hidden, rng)?, Linear::new(p, &format!("{name}.2"), hidden, out, rng)?)
+        })
+    }
+    fn forward(&self, x: &Tensor) -> Result<Tensor, Error> {
+        match self {
+            Hyper::One(l) => l.forward(x),
+            Hyper::Two(a, b) => b.forward(&a.forward(x)?.relu()?),
+        }
+    }
+}
+
+/// QMIX's mixer: `Q_tot = elu(q . |W1(s)| + b1(s)) . |Wf(s)| + V(s)`. The absolute values
+/// keep every mixing weight non-negative, so `Q_tot` is monotonic in each agent's Q and the
+/// agents' greedy actions are the team's.
+#[derive(Debug, Clone)]
+pub struct QmixMixer {
+    w1: Hyper,
+    wf: Hyper,
+    b1: Linear,
+    v0: Linear,
+    v1: Linear,
+    n_agents: usize,
+    embed: usize,
+}
+
+impl QmixMixer {
+    pub fn new(p: &mut Params, n_agents: usize, state: usize, cfg: &crate::Config, rng: &mut ChaCha8Rng) -> Result<QmixMixer, Error> {
+        let (e, l, h) = (cfg.mixing_embed_dim, cfg.hypernet_layers, cfg.hypernet_embed);
+        Ok(QmixMixer {
+            w1: Hyper::new(p, "hyper_w_1", l, state, h, e * n_agents, rng)?,
+            wf: Hyper::new(p, "hyper_w_final", l, state, h, e, rng)?,
+            b1: Linear::new(p, "hyper_b_1", state, e, rng)?,
+            v0: Linear::new(p, "V.0", state, e, rng)?,
+            v1: Linear::new(p, "V.2", e, 1, rng)?,
+            n_agents,
+            embed: e,
+        })
+    }
+
+    /// Agents' Q `(N, A)` and states `(N, S)` -> `Q_tot` `(N, 1)`.
+    pub fn forward(&self, qs: &Tensor, states: &Tensor) -> Result<Tensor, Error> {
+        let n = qs.dim(0)?;
+        let (a, e) = (self.n_agents, self.embed);
+        let w1 = self.w1.forward(states)?.abs()?.reshape((n, a, e))?;
+        let b1 = self.b1.forward(states)?.reshape((n, 1, e))?;
+        let hidden = (qs.reshape((n, 1, a))?.matmul(&w1)? + b1)?.elu(1.0)?;
+        let wf = self.wf.forward(states)?.abs()?.reshape((n, e, 1))?;
+        let v = self.v1.forward(&self.v0.forward(states)?.relu()?)?.reshape((n, 1, 1))?;
+        Ok((hidden.matmul(&wf)? + v)?.reshape((n, 1))?)
+    }
+}
+
+/// The value mixer of a learner.
+#[derive(Debug, Clone)]
+pub enum Mixer {
+    Vdn,
+    Qmix(QmixMixer),
+}
+
+impl Mixer {
+    /// `(N, A)` agents' Q and `(N, S)` states -> `(N, 1)`.
+    pub fn forward(&self, qs: &Tensor, states: &Tensor) -> Result<Tensor, Error> {
+        match self {
+            Mixer::Vdn => Ok(qs.sum_keepdim(D::Minus1)?),
+            Mixer::Qmix(m) => m.forward(qs, states),
+        }
+    }
+}

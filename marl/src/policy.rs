@@ -1,0 +1,179 @@
+//! Checkpoints and trained policies as engine agents. A checkpoint directory holds
+//! `agent.safetensors` (the shared agent network), `mixer.safetensors` (VDN has no weights,
+//! so only QMIX writes one) and `config.json` (the run's config, the team's sizes and the
+//! scenario). [`MarlAgent`] acts greedily with the agent network on each controlled unit's
+//! SMAC features and mask, carrying each unit's GRU state and last action across steps, as
+//! in training: decentralised execution, the mixer is not needed.
+
+use crate::buffer::{Shape, act_inputs};
+use crate::learner::{Nets, select_actions};
+use crate::{Config, Error};
+use avacraft_engine::agent::view::id_of;
+use avacraft_engine::{Action, Agent, AgentCtx, GroupObs, Reads, Scenario, SmacLayout, Team};
+use candle_core::{Device, Tensor};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+use std::sync::Arc;
+
+const FORMAT: u32 = 1;
+
+#[derive(Serialize, Deserialize)]
+struct Meta {
+    format: u32,
+    scenario: String,
+    shape: Shape,
+    config: Config,
+}
+
+/// Writes a checkpoint of `nets` into `dir` (created if needed).
+pub fn save(dir: &Path, nets: &Nets, cfg: &Config, shape: &Shape, scenario: &str) -> Result<(), Error> {
+    std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
+    candle_core::safetensors::save(&nets.agent_params.to_map(), dir.join("agent.safetensors"))?;
+    let mixer = nets.mixer_params.to_map();
+    if !mixer.is_empty() {
+        candle_core::safetensors::save(&mixer, dir.join("mixer.safetensors"))?;
+    }
+    let meta = Meta { format: FORMAT, scenario: scenario.to_owned(), shape: *shape, config: cfg.clone() };
+    let path = dir.join("config.json");
+    let text = serde_json::to_string_pretty(&meta).map_err(|source| Error::Json { path: path.clone(), source })?;
+    std::fs::write(&path, text).map_err(|source| Error::Io { path, source })
+}
+
+/// A trained policy loaded from a checkpoint directory.
+#[derive(Debug)]
+pub struct Policy {
+    pub cfg: Config,
+    pub shape: Shape,
+    /// The scenario it was trained on.
+    pub scenario: String,
+    pub nets: Nets,
+}
+
+impl Policy {
+    pub fn load(dir: &Path) -> Result<Policy, Error> {
+        let path = dir.join("config.json");
+        let text = std::fs::read_to_string(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
+        let meta: Meta = serde_json::from_str(&text).map_err(|source| Error::Json { path: path.clone(), source })?;
+        if meta.format != FORMAT {
+            return Err(Error::Checkpoint { message: format!("{}: format {} (this build reads {FORMAT})", path.display(), meta.format) });
+        }
+        let nets = Nets::new(&meta.config, &meta.shape, 0)?;
+        let load = |name: &str| -> Result<_, Error> {
+            let p = dir.join(name);
+            if !p.is_file() {
+                return Err(Error::Checkpoint { message: format!("{} is missing", p.display()) });
+            }
+            Ok(candle_core::safetensors::load(&p, &Device::Cpu)?)
+        };
+        nets.agent_params.load_map(&load("agent.safetensors")?, "agent.safetensors")?;
+        if nets.mixer_params.vars().next().is_some() {
+            nets.mixer_params.load_map(&load("mixer.safetensors")?, "mixer.safetensors")?;
+        }
+        Ok(Policy { cfg: meta.config, shape: meta.shape, scenario: meta.scenario, nets })
+    }
+
+    /// Checks that `team`'s agents in `scenario` have the sizes the network was trained on.
+    pub fn check_scenario(&self, scenario: &Scenario, team: Team) -> Result<(), Error> {
+        let l = SmacLayout::new(scenario, team);
+        let got = (l.n_agents, l.obs_size, l.n_actions);
+        let want = (self.shape.n_agents, self.shape.obs, self.shape.n_actions);
+        if got != want {
+            return Err(Error::Checkpoint {
+                message: format!("trained on {} with (agents, obs, actions) = {want:?}; {} gives {got:?}", self.scenario, scenario.name),
+            });
+        }
+        Ok(())
+    }
+
+    /// Q-values `(rows x n_actions)` and next hidden states for rows of features.
+    pub fn q_values(
+        &self,
+        features: &[f32],
+        agents: &[usize],
+        last: &[Option<u32>],
+        hidden: &[f32],
+    ) -> Result<(Vec<f32>, Vec<f32>), Error> {
+        let (id, la) = (self.cfg.obs_agent_id, self.cfg.obs_last_action);
+        let rows = agents.len();
+        let x = Tensor::from_vec(act_inputs(features, agents, last, &self.shape, id, la), (rows, self.shape.input(id, la)), &Device::Cpu)?;
+        let h = Tensor::from_vec(hidden.to_vec(), (rows, self.nets.agent.hidden), &Device::Cpu)?;
+        let (q, h2) = self.nets.agent.step(&x, &h)?;
+        Ok((q.detach().flatten_all()?.to_vec1()?, h2.detach().flatten_all()?.to_vec1()?))
+    }
+}
+
+/// A trained policy acting greedily for the units of its group.
+#[derive(Debug, Clone)]
+pub struct MarlAgent {
+    policy: Arc<Policy>,
+    name: String,
+    /// Per SMAC agent index: GRU state and last action.
+    hidden: Vec<Vec<f32>>,
+    last: Vec<Option<u32>>,
+    layout: Option<SmacLayout>,
+    fits: bool,
+}
+
+impl MarlAgent {
+    pub fn new(policy: Arc<Policy>, name: impl Into<String>) -> MarlAgent {
+        MarlAgent { policy, name: name.into(), hidden: Vec::new(), last: Vec::new(), layout: None, fits: false }
+    }
+    /// Loads the checkpoint in `dir`; the agent is named `marl:DIR`.
+    pub fn load(dir: &Path) -> Result<MarlAgent, Error> {
+        Ok(MarlAgent::new(Arc::new(Policy::load(dir)?), format!("marl:{}", dir.display())))
+    }
+    pub fn policy(&self) -> &Arc<Policy> {
+        &self.policy
+    }
+}
+
+impl Agent for MarlAgent {
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn reads(&self) -> Reads {
+        Reads { smac: true, text: false }
+    }
+    fn reset(&mut self, ctx: &AgentCtx) {
+        let n = self.policy.shape.n_agents;
+        self.hidden = vec![vec![0.0; self.policy.nets.agent.hidden]; n];
+        self.last = vec![None; n];
+        // A network of other sizes would read other features: it then gives no orders.
+        self.fits = self.policy.check_scenario(&ctx.scenario, ctx.team).is_ok();
+        self.layout = Some(SmacLayout::new(&ctx.scenario, ctx.team));
+    }
+    fn act(&mut self, g: &GroupObs) -> Vec<Action> {
+        let (Some(layout), true) = (&self.layout, self.fits) else { return Vec::new() };
+        let sh = self.policy.shape;
+        let rows: Vec<_> = g
+            .controlled
+            .iter()
+            .filter(|c| c.agent < sh.n_agents && c.features.len() == sh.obs && c.avail_actions.len() == sh.n_actions)
+            .collect();
+        if rows.is_empty() {
+            return Vec::new();
+        }
+        let agents: Vec<usize> = rows.iter().map(|c| c.agent).collect();
+        let features: Vec<f32> = rows.iter().flat_map(|c| c.features.iter().copied()).collect();
+        let avail: Vec<u8> = rows.iter().flat_map(|c| c.avail_actions.iter().copied()).collect();
+        let last: Vec<Option<u32>> = agents.iter().map(|&a| self.last[a]).collect();
+        let hidden: Vec<f32> = agents.iter().flat_map(|&a| self.hidden[a].iter().copied()).collect();
+        let Ok((q, h2)) = self.policy.q_values(&features, &agents, &last, &hidden) else { return Vec::new() };
+        // Greedy: epsilon 0 never draws.
+        let acts = select_actions(&q, &avail, sh.n_actions, 0.0, &mut ChaCha8Rng::seed_from_u64(0));
+        let width = self.policy.nets.agent.hidden;
+        let mut out = Vec::new();
+        for (k, (c, &a)) in rows.iter().zip(&acts).enumerate() {
+            self.hidden[c.agent].copy_from_slice(&h2[k * width..(k + 1) * width]);
+            self.last[c.agent] = Some(a);
+            if c.alive
+                && let Some(command) = layout.command_for_obs(g, c.agent, a as usize)
+            {
+                out.push(Action::new(id_of(c.unit), command));
+            }
+        }
+        out
+    }
+}

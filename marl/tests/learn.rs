@@ -1,0 +1,207 @@
+//! The learners on small hand-made data, the checkpoint format, action masking, and a short
+//! end-to-end run on 3m.
+
+use avacraft_engine::agent::{AgentTeam, Grouping};
+use avacraft_engine::{Controllers, Env, Scenario, Team};
+use avacraft_marl::{Batch, Config, Episode, Learner, MarlAgent, Nets, Policy, RunOptions, Shape, select_actions, train};
+use candle_core::{Device, Tensor};
+use proptest::prelude::*;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::sync::Arc;
+
+type R = Result<(), Box<dyn std::error::Error>>;
+
+fn cfg(algo: &str, extra: &[&str]) -> Result<Config, avacraft_marl::Error> {
+    let mut o: Vec<String> = vec!["target_update_interval=1000000".into()];
+    o.extend(extra.iter().map(|s| s.to_string()));
+    Config::for_algo(algo, &o)
+}
+
+/// Random episodes of random lengths over `shape` (every action available).
+fn random_episodes(shape: &Shape, n: usize, rng: &mut ChaCha8Rng) -> Vec<Episode> {
+    (0..n)
+        .map(|_| {
+            let mut ep = Episode::default();
+            let len = rng.random_range(1..6);
+            for t in 0..len {
+                let obs: Vec<f32> = (0..shape.n_agents * shape.obs).map(|_| rng.random_range(-1.0..1.0)).collect();
+                let state: Vec<f32> = (0..shape.state).map(|_| rng.random_range(-1.0..1.0)).collect();
+                let avail = vec![1u8; shape.n_agents * shape.n_actions];
+                let acts: Vec<u32> = (0..shape.n_agents).map(|_| rng.random_range(0..shape.n_actions as u32)).collect();
+                ep.push_step(&obs, &state, &avail, &acts);
+                ep.push_outcome(rng.random_range(0.0..2.0), t + 1 == len);
+            }
+            ep.close(shape);
+            ep
+        })
+        .collect()
+}
+
+const SMALL: Shape = Shape { n_agents: 3, obs: 6, state: 7, n_actions: 4 };
+
+#[test]
+fn an_update_on_a_fixed_batch_lowers_the_loss() -> R {
+    for algo in ["iql", "vdn", "qmix"] {
+        let c = cfg(algo, &[])?;
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let eps = random_episodes(&SMALL, 8, &mut rng);
+        let refs: Vec<&Episode> = eps.iter().collect();
+        let batch = Batch::new(&refs, &SMALL, true, true)?;
+        let mut l = Learner::new(&c, SMALL, 1)?;
+        let before = l.loss(&batch)?.0.to_scalar::<f32>()?;
+        for _ in 0..20 {
+            l.train(&batch, 0)?;
+        }
+        let after = l.loss(&batch)?.0.to_scalar::<f32>()?;
+        assert!(after < before, "{algo}: loss {before} -> {after}");
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    /// Raising any one agent's Q never lowers QMIX's Q_tot, whatever the weights and state.
+    #[test]
+    fn qmix_mixer_is_monotonic(seed in 0u64..1000, qs in prop::collection::vec(-5.0f32..5.0, 3),
+                               state in prop::collection::vec(-3.0f32..3.0, 7), agent in 0usize..3, delta in 0.0f32..4.0) {
+        let c = cfg("qmix", &[]).map_err(|e| TestCaseError::fail(e.to_string()))?;
+        let nets = Nets::new(&c, &SMALL, seed).map_err(|e| TestCaseError::fail(e.to_string()))?;
+        let mixer = nets.mixer.as_ref().ok_or_else(|| TestCaseError::fail("no mixer"))?;
+        let mut raised = qs.clone();
+        raised[agent] += delta;
+        let run = |q: Vec<f32>| -> Result<f32, Box<dyn std::error::Error>> {
+            let q = Tensor::from_vec(q, (1, 3), &Device::Cpu)?;
+            let s = Tensor::from_vec(state.clone(), (1, 7), &Device::Cpu)?;
+            Ok(mixer.forward(&q, &s)?.flatten_all()?.to_vec1::<f32>()?[0])
+        };
+        let (lo, hi) = (run(qs).map_err(|e| TestCaseError::fail(e.to_string()))?, run(raised).map_err(|e| TestCaseError::fail(e.to_string()))?);
+        prop_assert!(hi >= lo - 1e-5, "Q_tot {lo} -> {hi} raising agent {agent} by {delta}");
+    }
+
+    /// Epsilon-greedy picks only available actions, at any epsilon.
+    #[test]
+    fn unavailable_actions_are_never_chosen(seed in 0u64..10_000, eps in 0.0f64..=1.0,
+                                            rows in prop::collection::vec((prop::collection::vec(-10.0f32..10.0, 6), prop::collection::vec(0u8..2, 6)), 1..12)) {
+        let mut q = Vec::new();
+        let mut avail = Vec::new();
+        for (qr, mut ar) in rows {
+            if ar.iter().all(|&m| m == 0) { ar[5] = 1; }
+            q.extend(qr);
+            avail.extend(ar);
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        for _ in 0..5 {
+            for (r, a) in select_actions(&q, &avail, 6, eps, &mut rng).into_iter().enumerate() {
+                prop_assert_eq!(avail[r * 6 + a as usize], 1);
+            }
+        }
+    }
+}
+
+#[test]
+fn a_saved_checkpoint_loads_with_identical_q_values() -> R {
+    let dir = std::env::temp_dir().join(format!("avacraft-marl-ckpt-{}", std::process::id()));
+    for algo in ["vdn", "qmix"] {
+        let c = cfg(algo, &[])?;
+        let mut l = Learner::new(&c, SMALL, 9)?;
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        let eps = random_episodes(&SMALL, 4, &mut rng);
+        let refs: Vec<&Episode> = eps.iter().collect();
+        let batch = Batch::new(&refs, &SMALL, true, true)?;
+        l.train(&batch, 0)?;
+        avacraft_marl::policy::save(&dir, &l.nets, &c, &SMALL, "small")?;
+        let p = Policy::load(&dir)?;
+        assert_eq!(p.cfg, c);
+        let q1: Vec<f32> = l.nets.unroll(&batch)?.flatten_all()?.to_vec1()?;
+        let q2: Vec<f32> = p.nets.unroll(&batch)?.flatten_all()?.to_vec1()?;
+        assert_eq!(q1, q2, "{algo}");
+        if let (Some(m1), Some(m2)) = (&l.nets.mixer, &p.nets.mixer) {
+            let q = Tensor::from_vec(vec![0.5f32, -1.0, 2.0], (1, 3), &Device::Cpu)?;
+            let s = Tensor::from_vec((0..7).map(|i| i as f32 * 0.1).collect::<Vec<f32>>(), (1, 7), &Device::Cpu)?;
+            assert_eq!(m1.forward(&q, &s)?.to_vec2::<f32>()?, m2.forward(&q, &s)?.to_vec2::<f32>()?);
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
+
+#[test]
+fn a_bad_checkpoint_is_a_clear_error() {
+    let e = Policy::load(std::path::Path::new("/nonexistent/ckpt")).err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(e.contains("config.json"), "{e}");
+}
+
+/// A one-step cooperative matrix game for two agents with three actions: the team is paid
+/// `PAYOFF[a1][a2]`. Data from uniformly random play; the greedy joint action must be the
+/// optimum (2, 2).
+#[test]
+fn vdn_and_qmix_learn_the_joint_optimum_of_a_matrix_game() -> R {
+    const PAYOFF: [[f32; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 8.0]];
+    let shape = Shape { n_agents: 2, obs: 1, state: 1, n_actions: 3 };
+    for algo in ["vdn", "qmix"] {
+        let c = cfg(algo, &["lr=0.005", "batch_size=64"])?;
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let eps: Vec<Episode> = (0..256)
+            .map(|_| {
+                let mut ep = Episode::default();
+                let (a1, a2) = (rng.random_range(0..3u32), rng.random_range(0..3u32));
+                ep.push_step(&[1.0, 1.0], &[1.0], &[1; 6], &[a1, a2]);
+                ep.push_outcome(PAYOFF[a1 as usize][a2 as usize], true);
+                ep.close(&shape);
+                ep
+            })
+            .collect();
+        let mut l = Learner::new(&c, shape, 2)?;
+        for k in 0..300 {
+            let refs: Vec<&Episode> = eps.iter().skip((k * 64) % 192).take(64).collect();
+            l.train(&Batch::new(&refs, &shape, true, true)?, 0)?;
+        }
+        let probe = Batch::new(&[&eps[0]], &shape, true, true)?;
+        let q = l.nets.unroll(&probe)?.get(0)?.to_vec2::<f32>()?;
+        let avail = vec![1u8; 6];
+        let greedy = select_actions(&q.concat(), &avail, 3, 0.0, &mut rng);
+        assert_eq!(greedy, vec![2, 2], "{algo}: Q = {q:?}");
+    }
+    Ok(())
+}
+
+#[test]
+fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
+    let dir = std::env::temp_dir().join(format!("avacraft-marl-e2e-{}", std::process::id()));
+    let c = Config::for_algo(
+        "qmix",
+        &["t_max=400", "envs=4", "batch_size=4", "test_interval=200", "test_nepisode=4", "epsilon_anneal_time=300"].map(String::from),
+    )?;
+    let scenario = Arc::new(Scenario::load("3m")?);
+    let opts = RunOptions { scenario: Arc::clone(&scenario), seed: 5, threads: 2, out: Some(dir.clone()) };
+    let mut calls = 0;
+    let (learner, summary) = train(&c, &opts, &mut |_| calls += 1)?;
+    assert!(summary.t_env >= 400 && summary.updates > 0 && summary.tests.len() >= 2, "{summary:?}");
+    assert!(summary.last_loss.is_finite());
+    assert_eq!(calls, 100);
+    let log = std::fs::read_to_string(dir.join("log.csv"))?;
+    assert_eq!(log.lines().count(), 1 + summary.tests.len(), "{log}");
+    // The same seed gives the same run.
+    let (_, again) = train(&c, &RunOptions { out: None, ..opts.clone() }, &mut |_| {})?;
+    assert_eq!((again.episodes, again.updates, again.last_loss), (summary.episodes, summary.updates, summary.last_loss));
+    assert_eq!(again.tests, summary.tests);
+    // The checkpoint plays in-process as an engine agent.
+    let agent = MarlAgent::load(&dir)?;
+    assert_eq!(agent.policy().shape, learner.shape);
+    let policy = Arc::clone(agent.policy());
+    let mut controllers = Controllers::new(
+        &scenario,
+        vec![AgentTeam::new(Team::One, Grouping::Team, move || Box::new(MarlAgent::new(Arc::clone(&policy), "marl")))],
+    );
+    let mut env = Env::new(Arc::clone(&scenario), c.env_config(), 1);
+    controllers.reset(&env);
+    while !env.done() {
+        controllers.act(&mut env);
+        env.step();
+    }
+    assert_eq!(env.refused()[0], 0, "the policy's orders were all valid");
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
