@@ -44,17 +44,19 @@ impl Nets {
         self.mixer_params.copy_from(&other.mixer_params)
     }
 
-    /// Q-values `(T+1, B*A, n_actions)` of the agent network unrolled over a batch.
+    /// Q-values `(T+1, B*A, n_actions)` of the agent network unrolled over a batch: the
+    /// input layers and the output layer run on all steps at once, only the GRU step by step.
     pub fn unroll(&self, batch: &Batch) -> Result<Tensor, Error> {
-        let rows = batch.inputs.dim(1)?;
+        let (t1, rows, width) = batch.inputs.dims3()?;
+        let gi = self.agent.project(&batch.inputs.reshape((t1 * rows, width))?)?.reshape((t1, rows, ()))?;
         let mut h = self.agent.zero_hidden(rows)?;
-        let mut qs = Vec::with_capacity(batch.t + 1);
-        for ti in 0..=batch.t {
-            let (q, h2) = self.agent.step(&batch.inputs.get(ti)?, &h)?;
-            qs.push(q);
-            h = h2;
+        let mut hs = Vec::with_capacity(t1);
+        for ti in 0..t1 {
+            h = self.agent.recur(&gi.get(ti)?, &h)?;
+            hs.push(h.clone());
         }
-        Ok(Tensor::stack(&qs, 0)?)
+        let hs = Tensor::stack(&hs, 0)?.reshape((t1 * rows, self.agent.hidden))?;
+        Ok(self.agent.head(&hs)?.reshape((t1, rows, ()))?)
     }
 }
 

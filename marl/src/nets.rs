@@ -111,17 +111,31 @@ impl AgentNet {
     /// One step for `N` rows: inputs `(N, input)`, hidden `(N, hidden)` -> Q `(N, n_actions)`
     /// and the next hidden state (PyTorch's `GRUCell` equations).
     pub fn step(&self, x: &Tensor, h: &Tensor) -> Result<(Tensor, Tensor), Error> {
+        let h2 = self.recur(&self.project(x)?, h)?;
+        Ok((self.fc2.forward(&h2)?, h2))
+    }
+
+    /// The part of a step that does not depend on the hidden state, `(N, input)` ->
+    /// `(N, 3 * hidden)`: done for a whole batch of episodes in one product when learning.
+    pub fn project(&self, x: &Tensor) -> Result<Tensor, Error> {
         let x = self.fc1.forward(x)?.relu()?;
-        let gi = x.matmul(&self.w_ih.t()?)?.broadcast_add(&self.b_ih)?;
+        Ok(x.matmul(&self.w_ih.t()?)?.broadcast_add(&self.b_ih)?)
+    }
+
+    /// The GRU cell on projected inputs `gi` `(N, 3 * hidden)`.
+    pub fn recur(&self, gi: &Tensor, h: &Tensor) -> Result<Tensor, Error> {
         let gh = h.matmul(&self.w_hh.t()?)?.broadcast_add(&self.b_hh)?;
         let k = self.hidden;
-        let r = candle_nn::ops::sigmoid(&(gi.narrow(1, 0, k)? + gh.narrow(1, 0, k)?)?)?;
-        let z = candle_nn::ops::sigmoid(&(gi.narrow(1, k, k)? + gh.narrow(1, k, k)?)?)?;
+        let rz = candle_nn::ops::sigmoid(&(gi.narrow(1, 0, 2 * k)? + gh.narrow(1, 0, 2 * k)?)?)?;
+        let (r, z) = (rz.narrow(1, 0, k)?, rz.narrow(1, k, k)?);
         let n = (gi.narrow(1, 2 * k, k)? + (r * gh.narrow(1, 2 * k, k)?)?)?.tanh()?;
         // h' = (1 - z) * n + z * h = n + z * (h - n)
-        let h2 = (&n + (z * (h - &n)?)?)?;
-        let q = self.fc2.forward(&h2)?;
-        Ok((q, h2))
+        Ok((&n + (z * (h - &n)?)?)?)
+    }
+
+    /// Q-values of hidden states, `(N, hidden)` -> `(N, n_actions)`.
+    pub fn head(&self, h: &Tensor) -> Result<Tensor, Error> {
+        self.fc2.forward(h)
     }
 
     /// A zero hidden state for `n` rows.

@@ -195,13 +195,20 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
         &scenario,
         vec![AgentTeam::new(Team::One, Grouping::Team, move || Box::new(MarlAgent::new(Arc::clone(&policy), "marl")))],
     );
-    let mut env = Env::new(Arc::clone(&scenario), c.env_config(), 1);
-    controllers.reset(&env);
-    while !env.done() {
-        controllers.act(&mut env);
-        env.step();
+    // ... and plays each episode exactly as the trainer's greedy test episodes do.
+    for seed in 1..=3 {
+        let r = train::test(&learner.nets, &c, &scenario, &[seed], 1)?;
+        let mut env = Env::new(Arc::clone(&scenario), c.env_config(), seed);
+        controllers.reset(&env);
+        let mut ret = 0.0;
+        while !env.done() {
+            controllers.act(&mut env);
+            ret += env.step().reward[0];
+        }
+        assert_eq!(env.refused()[0], 0, "the policy's orders were all valid");
+        assert!((f64::from(ret) - r.mean_return).abs() < 1e-4, "seed {seed}: agent {ret}, trainer {}", r.mean_return);
+        assert_eq!(env.outcome() == Some(avacraft_engine::Outcome::Win), r.win_rate == 1.0);
     }
-    assert_eq!(env.refused()[0], 0, "the policy's orders were all valid");
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }
