@@ -3,7 +3,7 @@
 
 use anyhow::{Context, Result, bail};
 use avacraft_engine::Scenario;
-use avacraft_marl::{ALGOS, Config, RunOptions};
+use avacraft_marl::{Config, RunOptions};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::{IsTerminal, Write};
@@ -60,7 +60,7 @@ pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
             let text = std::fs::read_to_string(path).with_context(|| format!("--config {}", path.display()))?;
             Config::from_toml(&text, &overrides).with_context(|| format!("--config {}", path.display()))?
         }
-        None => Config::for_algo(&a.algo, &overrides).with_context(|| format!("--algo {} (known: {})", a.algo, ALGOS.join(", ")))?,
+        None => Config::for_algo(&a.algo, &overrides)?,
     };
     let scenario = Arc::new(Scenario::load(&a.scenario)?);
     let threads = a.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from));

@@ -47,17 +47,17 @@ pub enum Error {
     ConfigParse { what: String, message: String },
     #[error("config `{key}`: {message}")]
     BadValue { key: String, message: String },
-    #[error("tensor operation failed: {0}")]
+    #[error("tensor operation failed")]
     Tensor(#[from] candle_core::Error),
-    #[error("environment: {0}")]
+    #[error("environment")]
     Env(#[from] avacraft_engine::VecEnvError),
-    #[error("{path}: {source}")]
+    #[error("{}", path.display())]
     Io {
         path: std::path::PathBuf,
         #[source]
         source: std::io::Error,
     },
-    #[error("{path}: {source}")]
+    #[error("{}", path.display())]
     Json {
         path: std::path::PathBuf,
         #[source]
