@@ -56,6 +56,9 @@ pub struct Config {
     pub test_nepisode: usize,
     pub reward: RewardMode,
     pub passive_agents: bool,
+    /// Steps before a time-out; 0: the scenario's time limit.
+    #[serde(default)]
+    pub episode_limit: u32,
 }
 
 /// The built-in config text of `algo`.
@@ -135,7 +138,8 @@ impl Config {
     /// The engine settings the runs use.
     pub fn env_config(&self) -> EnvConfig {
         let base = if self.passive_agents { EnvConfig::smac() } else { EnvConfig { rules: Rules::default(), ..EnvConfig::default() } };
-        EnvConfig { reward: self.reward, ..base }
+        let time_limit_loops = std::num::NonZeroU32::new(self.episode_limit.saturating_mul(base.step_mul.get()));
+        EnvConfig { reward: self.reward, time_limit_loops, ..base }
     }
 }
 
@@ -166,6 +170,9 @@ mod tests {
         }
         let c = Config::for_algo("qmix", &["lr=0.001".into(), "envs=2".into(), "mixer=vdn".into(), "gamma=1".into()])?;
         assert_eq!((c.lr, c.envs, c.mixer, c.gamma), (0.001, 2, MixerKind::Vdn, 1.0));
+        assert_eq!(c.env_config().time_limit_loops, None);
+        let c = Config::for_algo("qmix", &["episode_limit=60".into()])?;
+        assert_eq!(c.env_config().time_limit_loops.map(|l| l.get()), Some(60 * c.env_config().step_mul.get()));
         Ok(())
     }
 
