@@ -2,7 +2,8 @@
 //! parallel, restarting on their own), one batched forward pass of the agent network for
 //! all environments and agents per step, finished episodes into the replay buffer, one
 //! update per `episodes_per_update` finished episodes, greedy test episodes every
-//! `test_interval` steps, a CSV log and checkpoints in the output directory.
+//! `test_interval` steps, a CSV log and checkpoints in the output directory (the latest, and in `best/` the one
+//! with the highest greedy win rate so far).
 //!
 //! Everything that decides the run draws from streams seeded by the run's seed (the vector
 //! environment's results depend on its seeds only, not on its threads); the clock is read
@@ -251,6 +252,10 @@ pub fn train(cfg: &Config, opts: &RunOptions, on_progress: &mut dyn FnMut(&Progr
             (wins_since, eps_since) = (0, 0);
             if let Some(dir) = &opts.out {
                 policy::save(dir, &learner.nets, cfg, &shape, &opts.scenario.name)?;
+                // Greedy win rates swing while epsilon is high: keep the best one's weights too.
+                if tests.iter().all(|t| t.win_rate <= r.win_rate) {
+                    policy::save(&dir.join("best"), &learner.nets, cfg, &shape, &opts.scenario.name)?;
+                }
             }
         }
         on_progress(&Progress {

@@ -188,6 +188,7 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
     assert_eq!((again.episodes, again.updates, again.last_loss), (summary.episodes, summary.updates, summary.last_loss));
     assert_eq!(again.tests, summary.tests);
     // The checkpoint plays in-process as an engine agent.
+    assert!(Policy::load(&dir.join("best")).is_ok());
     let agent = MarlAgent::load(&dir)?;
     assert_eq!(agent.policy().shape, learner.shape);
     let policy = Arc::clone(agent.policy());
