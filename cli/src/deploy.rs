@@ -3,7 +3,7 @@
 
 use crate::record::{self, RecordArgs};
 use anyhow::{Context, Result, bail};
-use avacraft_launch::{ClockMode, Plan};
+use avacraft_launch::{ClockMode, Plan, PolicySpec};
 use avacraft_nodes::{AgentId, Node, NodeArgs, Shutdown, Topics, UnitTag};
 use avacraft_sim_node::{Clock, SimConfig};
 use clap::Args;
@@ -40,7 +40,9 @@ pub struct AgentNodeArgs {
     /// The team of its units (1 or 2).
     #[arg(long, default_value_t = 1)]
     pub team: u8,
-    /// The agent's policy (`avacraft episode --help` lists them).
+    /// The agent's policy: a scripted agent (`avacraft episode --help` lists them) or
+    /// marl:DIR, a checkpoint of `avacraft train` (DIR relative to the working directory),
+    /// whose network acts for each unit on the unit's own observation.
     #[arg(long, default_value = "focus-fire")]
     pub policy: String,
     /// The scenario being played: a built-in name or a scenario file.
@@ -95,12 +97,15 @@ pub fn agent_node(a: &AgentNodeArgs) -> Result<()> {
     let shutdown = Shutdown::install();
     let id = AgentId::parse(&a.id)?;
     let units = a.units.iter().map(|&u| UnitTag::new(u)).collect::<Result<Vec<_>, _>>()?;
-    let mut agent = avacraft_engine::agent::by_name(&a.policy)?;
     let scenario =
         Arc::new(avacraft_engine::Scenario::load(&a.scenario).with_context(|| format!("agent-node: --scenario {}", a.scenario))?);
+    let team = avacraft_nodes::TeamNo::new(a.team)?;
+    let policy = PolicySpec::parse(&a.policy, None).with_context(|| format!("agent-node: --policy {}", a.policy))?;
+    policy.check(&scenario, team.team()).with_context(|| format!("agent-node: --policy {}", a.policy))?;
+    let mut agent = policy.agent().with_context(|| format!("agent-node: --policy {}", a.policy))?;
     let topics = Topics::new(&a.node.namespace)?;
     let node = Node::open(&a.node, &a.node.namespace, &format!("agent_{id}")).context("agent-node: opening the Zenoh session")?;
-    let cfg = avacraft_agent_nodes::AgentConfig { id, team: avacraft_nodes::TeamNo::new(a.team)?, units, scenario };
+    let cfg = avacraft_agent_nodes::AgentConfig { id, team, units, scenario };
     let stats = avacraft_agent_nodes::run(&node, &topics, &cfg, agent.as_mut(), &shutdown, None)?;
     tracing::info!(batches = stats.batches, malformed = stats.malformed, "agent node stops");
     Ok(())

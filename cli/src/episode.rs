@@ -1,10 +1,12 @@
-//! `episode`: run episodes in-process with scripted policies and summarise the results.
+//! `episode`: run episodes in-process with scripted or trained policies and summarise the results.
 
 use crate::info::team_of;
 use anyhow::{Context, Result, bail};
+use avacraft_engine::agent::{AgentTeam, Grouping};
 use avacraft_engine::{
     Ability, Controllers, Env, EnvConfig, Mode, OpponentKind, Outcome, RewardMode, Rules, Scenario, Team, loops_to_seconds,
 };
+use avacraft_launch::PolicySpec;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
@@ -18,15 +20,17 @@ pub struct EpisodeArgs {
     #[arg(long, required_unless_present = "launch")]
     pub scenario: Option<String>,
     /// Play a launch file's games in-process: its scenario, seeds, opponent and agent nodes
-    /// (each node's units, policy and seed), exactly as `avacraft launch` deploys them, so
-    /// the trajectory hashes can be compared with the deployment's.
+    /// (each node's units, policy and seed; `policy: marl:DIR` loads the checkpoint once and
+    /// runs one network per node), exactly as `avacraft launch` deploys them, so the
+    /// trajectory hashes can be compared with the deployment's.
     #[arg(long, conflicts_with_all = ["scenario", "agent", "agent2", "opponent", "episodes", "seed", "full_vision", "passive_agents", "no_jitter", "no_abilities"])]
     pub launch: Option<std::path::PathBuf>,
-    /// Policy for team 1 (focus-fire, kite, attack-move, builtin, aggressive, defensive, focus, random, hold, noop,
-    /// or marl:DIR for a policy trained by `avacraft train`).
+    /// Policy for team 1: focus-fire, kite, attack-move, builtin, aggressive, defensive, focus, random, hold, noop,
+    /// or marl:DIR, a checkpoint written by `avacraft train --out DIR` (refused if trained on another
+    /// scenario or team size).
     #[arg(long, default_value = "kite")]
     pub agent: String,
-    /// Policy for team 2 in PvP scenarios (default: the same as --agent).
+    /// Policy for team 2 in PvP scenarios, as --agent (default: the same as --agent).
     #[arg(long)]
     pub agent2: Option<String>,
     /// Opponent in PvE: builtin, aggressive, defensive, focus or random (default: the scenario's).
@@ -153,13 +157,12 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
     }
     let agent2 = a.agent2.clone().unwrap_or_else(|| a.agent.clone());
     let pvp = scenario.mode == Mode::Pvp;
-    let controllers = match a.agent.strip_prefix("marl:") {
-        Some(dir) => crate::train::marl_controllers(&scenario, std::path::Path::new(dir), pvp)?,
-        None => {
-            avacraft_engine::agent_by_name(&a.agent).context("--agent")?;
-            Controllers::named(&scenario, &a.agent, pvp.then_some(agent2.as_str())).context("--agent2")?
-        }
-    };
+    // One agent per team, each acting for its units on their own observations.
+    let mut teams = vec![team_agent(&scenario, Team::One, &a.agent, "--agent")?];
+    if pvp {
+        teams.push(team_agent(&scenario, Team::Two, &agent2, if a.agent2.is_some() { "--agent2" } else { "--agent (for team 2)" })?);
+    }
+    let controllers = Controllers::new(&scenario, teams);
     let cfg = EnvConfig {
         rules: Rules {
             full_vision: a.full_vision,
@@ -173,6 +176,14 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
     };
     let seeds = (0..a.episodes as u64).map(|k| a.seed.wrapping_add(k)).collect();
     Ok(Setup { scenario, cfg, controllers, seeds, agent: a.agent.clone(), agent2: pvp.then_some(agent2), opponent })
+}
+
+/// `team` played by one agent of the policy `name` (a scripted agent or `marl:DIR`), checked
+/// against the scenario.
+fn team_agent(scenario: &Scenario, team: Team, name: &str, flag: &str) -> Result<AgentTeam> {
+    let spec = PolicySpec::parse(name, None).with_context(|| format!("{flag} {name}"))?;
+    spec.check(scenario, team).with_context(|| format!("{flag} {name}"))?;
+    Ok(AgentTeam::new(team, Grouping::Team, spec.factory().with_context(|| format!("{flag} {name}"))?))
 }
 
 pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {

@@ -16,7 +16,12 @@ use std::time::{Duration, Instant};
 
 #[derive(Args, Debug, Clone)]
 pub struct LaunchArgs {
-    /// The launch file (YAML), e.g. launch/3m.yaml.
+    /// The launch file (YAML), e.g. launch/3m.yaml. An agent entry's `policy` is a scripted
+    /// agent (`avacraft episode --help` lists them), `dds`, or `marl:DIR`: a checkpoint of
+    /// `avacraft train`, DIR relative to the launch file's directory or absolute; each of its
+    /// agent nodes loads it and acts for its own units on their own observations
+    /// (launch/3m_marl.yaml). A checkpoint missing, unreadable or trained for another
+    /// scenario or team size is refused before anything starts.
     pub file: PathBuf,
     /// Print the episode summaries as JSON instead of a table.
     #[arg(long)]
@@ -142,7 +147,8 @@ fn spawn_host_nodes(a: &LaunchArgs, plan: &Plan, host: &str, common: &[String], 
             "--units".into(),
             units.join(","),
             "--policy".into(),
-            ag.policy.clone(),
+            // A checkpoint by its absolute path: the node finds it from any directory.
+            ag.policy.to_string(),
             "--scenario".into(),
             plan.scenario_arg.clone(),
         ];

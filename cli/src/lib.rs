@@ -42,13 +42,15 @@ enum Cmd {
     Scenarios(info::ScenariosArgs),
     /// Print SMAC's get_env_info() for a scenario.
     EnvInfo(info::EnvInfoArgs),
-    /// Run episodes in-process and report win/draw/loss rates.
+    /// Run episodes in-process (scripted agents or a trained policy, `--agent marl:DIR`) and
+    /// report win/draw/loss rates.
     Episode(episode::EpisodeArgs),
     /// Measure environment steps per second and memory per environment.
     Bench(bench::BenchArgs),
     /// Play up to a game loop and save what a team sees (VLM screenshot, screen or minimap) as PNG.
     Render(render::RenderArgs),
-    /// Start every node of a launch file as its own process, on an embedded Zenoh router.
+    /// Start every node of a launch file as its own process, on an embedded Zenoh router
+    /// (agent policies: scripted agents, `marl:DIR` checkpoints, or `dds`).
     Launch(launch::LaunchArgs),
     /// Make a secured launch file's certificates: an authority and one key pair per host.
     Certs(launch::CertsArgs),
@@ -66,7 +68,8 @@ enum Cmd {
     /// Re-simulate a recording's episodes from their seeds and applied actions and check
     /// the trajectory matches.
     Replay(replay::ReplayArgs),
-    /// Train a MARL baseline (IQL, VDN, QMIX) and save a checkpoint for `--agent marl:DIR`.
+    /// Train a MARL baseline (IQL, VDN, QMIX) and save a checkpoint for `--agent marl:DIR`
+    /// and launch files' `policy: marl:DIR`.
     Train(train::TrainArgs),
 }
 

@@ -98,16 +98,3 @@ pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     writeln!(out, "log and checkpoint in {}", a.out.display())?;
     Ok(())
 }
-
-/// Team 1 driven by the trained policy in `dir` (`--agent marl:DIR`), one agent for the
-/// whole team acting for each unit on its own observation.
-pub fn marl_controllers(scenario: &Arc<Scenario>, dir: &std::path::Path, pvp: bool) -> Result<avacraft_engine::Controllers> {
-    use avacraft_engine::Team;
-    use avacraft_engine::agent::{AgentTeam, Grouping};
-    if pvp {
-        bail!("--agent marl:{}: trained policies play PvE scenarios for now; {} is PvP", dir.display(), scenario.name);
-    }
-    let agent = avacraft_marl::MarlAgent::load(dir).with_context(|| format!("--agent marl:{}", dir.display()))?;
-    agent.policy().check_scenario(scenario, Team::One).with_context(|| format!("--agent marl:{}", dir.display()))?;
-    Ok(avacraft_engine::Controllers::new(scenario, vec![AgentTeam::new(Team::One, Grouping::Team, move || Box::new(agent.clone()))]))
-}

@@ -4,11 +4,13 @@
 //! and the value.
 #![forbid(unsafe_code)]
 
-use avacraft_engine::agent::{AgentTeam, Grouping, factory};
+use avacraft_engine::agent::{AgentTeam, Grouping};
 use avacraft_engine::{Controllers, Env, EnvConfig, Mode, OpponentKind, Scenario, Team};
 mod deploy;
+pub mod policy;
 
 pub use deploy::{BridgePlan, BridgeTopic, CertError, RawBridge, RawSecurity, Security, access_control, write_certs};
+pub use policy::{DDS_POLICY, MARL_PREFIX, MarlCheckpoint, PolicyError, PolicySpec};
 
 use avacraft_nodes::{AgentId, TeamNo, UnitTag};
 use serde::Deserialize;
@@ -103,6 +105,8 @@ pub struct RawAgent {
     pub team: Option<u8>,
     #[serde(default)]
     pub units: Vec<u32>,
+    /// A scripted agent's name, `marl:DIR` (a checkpoint of `avacraft train`; DIR relative
+    /// to the launch file's directory, or absolute) or `dds`.
     pub policy: String,
     /// The host that runs it (default: the first). For `policy: dds`, the bridge's host.
     #[serde(default)]
@@ -122,19 +126,17 @@ pub struct AgentPlan {
     pub id: AgentId,
     pub team: TeamNo,
     pub units: Vec<UnitTag>,
-    pub policy: String,
+    /// Checked against the scenario and the node's team at parse time.
+    pub policy: PolicySpec,
     pub host: String,
 }
 
 impl AgentPlan {
     /// Driven over DDS through the bridge rather than by an agent node of ours.
     pub fn is_dds(&self) -> bool {
-        self.policy == DDS_POLICY
+        self.policy.is_dds()
     }
 }
-
-/// The policy name of agents driven from DDS through the bridge.
-pub const DDS_POLICY: &str = "dds";
 
 /// A validated launch file.
 #[derive(Clone, Debug)]
@@ -180,16 +182,8 @@ impl Plan {
     pub fn controllers(&self) -> Result<Controllers, LaunchError> {
         let mut teams = Vec::new();
         for (i, a) in self.agents.iter().enumerate() {
-            let err = |reason: String| LaunchError::Invalid {
-                file: self.file.clone(),
-                field: format!("agents[{i}].policy"),
-                value: format!("{:?}", a.policy),
-                reason,
-            };
-            if a.is_dds() {
-                return Err(err("driven from outside over DDS: it cannot run in-process".to_owned()));
-            }
-            let make = factory(&a.policy).map_err(|e| err(e.to_string()))?;
+            let make =
+                a.policy.factory().map_err(|e| Cx(&self.file).policy_err(format!("agents[{i}].policy"), &a.policy.to_string(), e))?;
             teams.push(AgentTeam::new(a.team.team(), Grouping::Groups(vec![a.units.iter().map(|u| u.get()).collect()]), make));
         }
         Ok(Controllers::new(&self.scenario, teams))
@@ -207,7 +201,7 @@ impl Plan {
 }
 
 /// Why a launch file was refused.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[derive(Debug, Clone, thiserror::Error)]
 pub enum LaunchError {
     #[error("{file}: cannot read: {message}")]
     Io { file: String, message: String },
@@ -215,6 +209,16 @@ pub enum LaunchError {
     Syntax { file: String, message: String },
     #[error("{file}: field `{field}` = {value}: {reason}")]
     Invalid { file: String, field: String, value: String, reason: String },
+    /// A policy refused (a checkpoint missing, unreadable or trained for something else);
+    /// the source says why.
+    #[error("{file}: field `{field}` = {value}")]
+    Policy {
+        file: String,
+        field: String,
+        value: String,
+        #[source]
+        source: Arc<PolicyError>,
+    },
 }
 
 pub(crate) struct Cx<'a>(&'a str);
@@ -222,6 +226,9 @@ pub(crate) struct Cx<'a>(&'a str);
 impl Cx<'_> {
     pub(crate) fn err(&self, field: impl Into<String>, value: impl std::fmt::Display, reason: impl Into<String>) -> LaunchError {
         LaunchError::Invalid { file: self.0.to_owned(), field: field.into(), value: value.to_string(), reason: reason.into() }
+    }
+    pub(crate) fn policy_err(&self, field: impl Into<String>, value: &str, e: PolicyError) -> LaunchError {
+        LaunchError::Policy { file: self.0.to_owned(), field: field.into(), value: format!("{value:?}"), source: Arc::new(e) }
     }
 }
 
@@ -349,11 +356,10 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
     }
     for (i, a) in raw.agents.iter().enumerate() {
         let f = |name: &str| format!("agents[{i}].{name}");
-        // Agent nodes run the engine's agents (the same ones `episode` runs in-process).
-        let known: Vec<&str> = avacraft_engine::agent::AGENTS.iter().map(|(n, _)| *n).collect();
-        if !known.contains(&a.policy.as_str()) && a.policy != DDS_POLICY {
-            return Err(cx.err(f("policy"), format!("{:?}", a.policy), format!("unknown (known: {}, {DDS_POLICY})", known.join(", "))));
-        }
+        // Agent nodes run the engine's agents (the same ones `episode` runs in-process); a
+        // checkpoint is loaded once here for all the nodes of the entry.
+        let policy = PolicySpec::parse(&a.policy, base).map_err(|e| cx.policy_err(f("policy"), &a.policy, e))?;
+        let first_new = agents.len();
         let host = a.host.clone().unwrap_or_else(|| hosts[0].clone());
         if !hosts.contains(&host) {
             return Err(cx.err(f("host"), format!("{host:?}"), format!("not one of the hosts {hosts:?}")));
@@ -390,7 +396,7 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
             let team = team
                 .and_then(|t| TeamNo::new(t.player()).ok())
                 .ok_or_else(|| cx.err(f("units"), "[]", "an agent node needs at least one unit"))?;
-            agents.push(AgentPlan { id: agent, team, units, policy: a.policy.clone(), host: host.clone() });
+            agents.push(AgentPlan { id: agent, team, units, policy: policy.clone(), host: host.clone() });
             Ok(())
         };
         if a.per_unit {
@@ -415,6 +421,9 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
                 return Err(cx.err(f("units"), "[]", "an agent node needs at least one unit"));
             }
             add(id, a.units.clone(), f("id"))?;
+        }
+        for ag in &agents[first_new..] {
+            policy.check(&scenario, ag.team.team()).map_err(|e| cx.policy_err(f("policy"), &a.policy, e))?;
         }
     }
     let bridge = match &raw.bridge {

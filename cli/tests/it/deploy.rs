@@ -7,7 +7,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 use zenoh::Wait;
 
-use crate::common::{Child, exe, free_port, launch_json, tmp, write_launch};
+use crate::common::{Child, exe, free_port, launch_json, marl_checkpoint, tmp, write_launch};
 
 /// Runs `avacraft launch --json` on `body` with its own router on a free port.
 fn launch_on_free_port(name: &str, body: &str) -> serde_json::Value {
@@ -372,4 +372,67 @@ fn deployed_and_in_process_runs_of_a_plan_have_equal_trajectory_hashes() {
         assert!(!deployed.is_empty());
         assert_eq!(deployed, local, "{name}: deployed vs in-process (seed, result, trajectory hash)");
     }
+}
+
+/// (seed, result, trajectory hash) of each episode of `launch --json` or `episode --json`.
+fn outcomes(v: &serde_json::Value) -> Vec<(u64, String, String)> {
+    v.as_array()
+        .or_else(|| v["episodes"].as_array())
+        .expect("episodes")
+        .iter()
+        .map(|e| (e["seed"].as_u64().unwrap_or(0), e["result"].to_string(), e["trajectory_hash"].to_string()))
+        .collect()
+}
+
+/// A trained policy deployed as one agent node per Marine, each loading the checkpoint and
+/// running the network on its own Marine's observation message, plays the games the same
+/// plan plays in-process, episode by episode.
+#[test]
+fn deployed_and_in_process_marl_policies_have_equal_trajectory_hashes() {
+    let ckpt = marl_checkpoint();
+    let name = ckpt.file_name().and_then(|n| n.to_str()).expect("a directory name");
+    // Relative to the launch file's directory (both are in the tests' temporary directory).
+    let body =
+        |policy: &str| format!("scenario: 3m\nepisodes: 3\nseed: 1\nagents:\n  - per_unit: true\n    team: 1\n    policy: {policy}\n");
+    let file = write_launch("marl.yaml", &format!("router: tcp/127.0.0.1:{}\n{}", free_port(), body(&format!("marl:{name}"))));
+    let deployed_raw = launch_json(&file);
+    for e in deployed_raw.as_array().expect("episodes") {
+        assert_eq!((e["missing_actions"][0].as_u64(), e["malformed_messages"].as_u64()), (Some(0), Some(0)), "{e}");
+    }
+    let deployed = outcomes(&deployed_raw);
+    let local = outcomes(&in_process(&file));
+    assert_eq!(deployed.len(), 3);
+    assert_eq!(deployed, local, "deployed vs in-process (seed, result, trajectory hash)");
+    // The network gave orders: units left idle play other games.
+    let idle = outcomes(&in_process(&write_launch("idle.yaml", &body("noop"))));
+    assert!(deployed.iter().zip(&idle).all(|(m, n)| m.2 != n.2), "{deployed:?} vs idle {idle:?}");
+}
+
+/// A checkpoint that cannot play is refused before any process starts, naming the field;
+/// an agent node started by hand refuses it too.
+#[test]
+fn bad_marl_policies_are_refused_up_front() {
+    let ckpt = marl_checkpoint();
+    let run = |args: &[&str]| {
+        let out = Command::new(exe()).args(args).stdin(Stdio::null()).output().expect("run avacraft");
+        (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    let on_2m = write_launch(
+        "marl_2m.yaml",
+        &format!("scenario: 2m_vs_1z\nagents:\n  - {{per_unit: true, team: 1, policy: marl:{}}}\n", ckpt.display()),
+    );
+    let missing = write_launch("marl_missing.yaml", "scenario: 3m\nagents:\n  - {per_unit: true, team: 1, policy: marl:no-such-dir}\n");
+    for (file, says) in [(&on_2m, "trained on scenario `3m`, not `2m_vs_1z`"), (&missing, "does not exist")] {
+        for cmd in ["launch", "episode"] {
+            let f = file.to_str().expect("utf8");
+            let args: Vec<&str> = if cmd == "launch" { vec!["launch", "--json", f] } else { vec!["episode", "--json", "--launch", f] };
+            let (ok, err) = run(&args);
+            assert!(!ok && err.contains("field `agents[0].policy`") && err.contains(says), "{cmd} {f}: {err}");
+        }
+    }
+    let policy = format!("marl:{}", ckpt.display());
+    let (ok, err) = run(&["agent-node", "--id", "a", "--units", "1", "--scenario", "2m_vs_1z", "--policy", &policy]);
+    assert!(!ok && err.contains("--policy") && err.contains("trained on scenario `3m`, not `2m_vs_1z`"), "{err}");
+    let (ok, err) = run(&["episode", "--scenario", "2m_vs_1z", "--agent", &policy, "--episodes", "1"]);
+    assert!(!ok && err.contains("--agent") && err.contains("trained on scenario `3m`, not `2m_vs_1z`"), "{err}");
 }
