@@ -5,6 +5,8 @@ own deterministic simulator (no game binary).
 - `parallel_env`: a PettingZoo `ParallelEnv` in the features, rgb, hybrid or vlm mode
   (needs `pettingzoo` and `gymnasium`: the `pettingzoo` extra).
 - `VecEnv`: many environments on a thread pool, numpy arrays out.
+- `MarlPolicy`: a policy trained by `avacraft train`, acting for a team's agents from SMAC
+  observations (`act`) or `parallel_env` observations (`act_parallel`), as in Rust.
 - `AvacraftError`: bad input (a `ValueError`).
 """
 
@@ -13,6 +15,7 @@ from __future__ import annotations
 from typing import Any
 
 from ._avacraft import AvacraftError, Env, Snapshot, __version__, scenario_info, scenario_names
+from .marl import MarlPolicy
 from .smac import StarCraft2Env
 from .types import Action, Command, UnitInfo
 from .vector import VecEnv
@@ -22,6 +25,7 @@ __all__ = [
     "AvacraftError",
     "Command",
     "Env",
+    "MarlPolicy",
     "Snapshot",
     "StarCraft2Env",
     "UnitInfo",

@@ -118,3 +118,30 @@ class VecEnv:
     def reset(self) -> None: ...
     def step(self, actions: _Indices) -> None: ...
     def buffers(self) -> dict[str, npt.NDArray[Any]]: ...
+
+class MarlPolicy:
+    """A checkpoint of `avacraft train` acting greedily for a team's agents, with one GRU
+    state and last action per agent (`avacraft.MarlPolicy` adds list inputs and `act_parallel`)."""
+
+    def __init__(self, path: Union[str, PathLike[str]]) -> None:
+        """Raises `AvacraftError` when the checkpoint is missing or cannot be read."""
+    @property
+    def scenario(self) -> str:
+        """The scenario it was trained on."""
+    @property
+    def algo(self) -> str: ...
+    @property
+    def n_agents(self) -> int: ...
+    @property
+    def obs_size(self) -> int: ...
+    @property
+    def n_actions(self) -> int: ...
+    def reset(self) -> None:
+        """Forgets the GRU states and last actions (an episode starts)."""
+    def check_env(self, env: Env, team: int = 1) -> None:
+        """Raises `AvacraftError` unless trained on `env`'s scenario with its team's sizes."""
+    def act(self, obs: npt.NDArray[np.float32], avail: npt.NDArray[np.uint8]) -> npt.NDArray[np.int64]:
+        """n_agents x obs_size features and n_agents x n_actions masks in, one greedy action per agent out."""
+    def play(self, env: Env, seed: int) -> dict[str, Any]:
+        """One episode of `env` from `seed` with the Rust agent (`avacraft episode --agent marl:DIR`):
+        {"result": "win" | "loss" | "draw", "steps", "trajectory_hash"}."""

@@ -104,6 +104,11 @@ impl PyEnv {
     fn inner(&mut self) -> &mut Inner {
         self.inner.get_mut().unwrap_or_else(std::sync::PoisonError::into_inner)
     }
+
+    /// The engine environment itself (a trained policy's Rust episode plays on it).
+    pub(crate) fn engine(&mut self) -> &mut Env {
+        &mut self.inner().env
+    }
 }
 
 impl Inner {

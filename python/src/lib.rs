@@ -2,7 +2,8 @@
 //! (one environment, a threaded vector environment), hands observations out as numpy arrays
 //! and checks every input, so a mistake in Python becomes a Python exception naming what is
 //! wrong, never a Rust panic. The SMAC, PettingZoo and vector-environment interfaces users
-//! see are thin pure-Python wrappers over it (`python/avacraft/`).
+//! see are thin pure-Python wrappers over it (`python/avacraft/`). Trained MARL policies
+//! (`avacraft train`'s checkpoints) act from Python through `marl.rs`.
 //!
 //! pyo3's `#[pyclass]`, `#[pymethods]` and `#[pymodule]` macros expand to `unsafe` FFI glue,
 //! so this crate alone allows `unsafe_code` (the workspace denies it; every other crate
@@ -11,6 +12,7 @@
 
 mod convert;
 mod env;
+mod marl;
 mod vec;
 
 use avacraft_engine::{EnvConfig, OpponentKind, RewardMode, Scenario, ScenarioError, builtin_names};
@@ -42,6 +44,8 @@ pub(crate) enum Error {
     Option { option: &'static str, value: String, supported: String },
     #[error(transparent)]
     Video(#[from] avacraft_render::VideoError),
+    #[error(transparent)]
+    Policy(#[from] marl::PolicyError),
 }
 
 impl From<Error> for PyErr {
@@ -147,6 +151,7 @@ fn _avacraft(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<env::PyEnv>()?;
     m.add_class::<env::PySnapshot>()?;
     m.add_class::<vec::PyVecEnv>()?;
+    m.add_class::<marl::PyMarlPolicy>()?;
     m.add_function(wrap_pyfunction!(scenario_names, m)?)?;
     m.add_function(wrap_pyfunction!(scenario_info, m)?)?;
     m.add_function(wrap_pyfunction!(vec::rust_loop_steps_per_s, m)?)?;

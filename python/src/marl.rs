@@ -1,0 +1,227 @@
+//! A trained MARL policy for Python loops: `avacraft.MarlPolicy(dir)` loads a checkpoint of
+//! `avacraft train` and acts for every agent of a team from the SMAC observations and masks
+//! Python holds (`StarCraft2Env.get_obs()`, `get_avail_actions()`, or `parallel_env`'s
+//! dicts through the Python wrapper). It computes what `avacraft_marl::MarlAgent` computes
+//! for one agent driving the whole team (`avacraft episode --agent marl:DIR`): all agents'
+//! rows through the network at once, in agent order, dead agents included, each with its
+//! own GRU state and last action, then the greedy available action. So a Python loop plays
+//! the Rust agent's episodes, action for action; [`PyMarlPolicy::play`] runs that Rust
+//! agent, to check it.
+
+use crate::env::PyEnv;
+use crate::{AvacraftError, Error};
+use avacraft_engine::agent::{AgentTeam, Grouping};
+use avacraft_engine::{Mode, Outcome, Team};
+use avacraft_marl::{MarlAgent, Policy, select_actions};
+use numpy::{PyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// Why a checkpoint cannot act here (the trainer's errors boxed: they are large).
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum PolicyError {
+    #[error("cannot load the checkpoint in {}", dir.display())]
+    Load {
+        dir: PathBuf,
+        #[source]
+        source: Box<avacraft_marl::Error>,
+    },
+    #[error("checkpoint {} was trained on scenario `{trained}`, not `{scenario}`", dir.display())]
+    OtherScenario { dir: PathBuf, trained: String, scenario: String },
+    #[error("checkpoint {} does not fit team {team} of {scenario}", dir.display())]
+    OtherShape {
+        dir: PathBuf,
+        team: u8,
+        scenario: String,
+        #[source]
+        source: Box<avacraft_marl::Error>,
+    },
+    #[error("{what}: shape {given:?} given, {needed:?} needed (n_agents x {what_size})")]
+    Shape { what: &'static str, given: Vec<usize>, needed: [usize; 2], what_size: &'static str },
+    #[error("avail[{agent}]: no action is available (a dead agent has the no-op, 0)")]
+    NoAction { agent: usize },
+    #[error("the network")]
+    Network(#[source] Box<avacraft_marl::Error>),
+}
+
+impl From<PolicyError> for PyErr {
+    fn from(e: PolicyError) -> PyErr {
+        Error::Policy(e).into()
+    }
+}
+
+/// A trained policy acting greedily for a team's agents, with their GRU states.
+#[pyclass(module = "avacraft._avacraft", name = "MarlPolicy", subclass)]
+#[derive(Debug)]
+pub struct PyMarlPolicy {
+    policy: Arc<Policy>,
+    dir: PathBuf,
+    /// n_agents x hidden, and each agent's last action (none before the first step).
+    hidden: Vec<f32>,
+    last: Vec<Option<u32>>,
+}
+
+impl PyMarlPolicy {
+    fn check(&self, env: &avacraft_engine::Env, team: Team) -> Result<(), PolicyError> {
+        let scenario = &env.scenario().name;
+        if &self.policy.scenario != scenario {
+            return Err(PolicyError::OtherScenario {
+                dir: self.dir.clone(),
+                trained: self.policy.scenario.clone(),
+                scenario: scenario.clone(),
+            });
+        }
+        self.policy.check_scenario(env.scenario(), team).map_err(|source| PolicyError::OtherShape {
+            dir: self.dir.clone(),
+            team: team.player(),
+            scenario: scenario.clone(),
+            source: Box::new(source),
+        })
+    }
+}
+
+#[pymethods]
+impl PyMarlPolicy {
+    /// Loads the checkpoint in `path` (`agent.safetensors`, `config.json`).
+    #[new]
+    fn new(path: PathBuf) -> PyResult<Self> {
+        let policy = Policy::load(&path).map_err(|source| PolicyError::Load { dir: path.clone(), source: Box::new(source) })?;
+        let n = policy.shape.n_agents;
+        let width = policy.nets.agent.hidden;
+        Ok(Self { policy: Arc::new(policy), dir: path, hidden: vec![0.0; n * width], last: vec![None; n] })
+    }
+
+    /// The scenario it was trained on.
+    #[getter]
+    fn scenario(&self) -> String {
+        self.policy.scenario.clone()
+    }
+    #[getter]
+    fn algo(&self) -> String {
+        self.policy.cfg.algo.clone()
+    }
+    #[getter]
+    fn n_agents(&self) -> usize {
+        self.policy.shape.n_agents
+    }
+    #[getter]
+    fn obs_size(&self) -> usize {
+        self.policy.shape.obs
+    }
+    #[getter]
+    fn n_actions(&self) -> usize {
+        self.policy.shape.n_actions
+    }
+
+    /// Forgets the GRU states and last actions: call it when an episode starts.
+    fn reset(&mut self) {
+        self.hidden.iter_mut().for_each(|h| *h = 0.0);
+        self.last.iter_mut().for_each(|l| *l = None);
+    }
+
+    /// Raises `AvacraftError` unless the policy can play `team` of `env`'s scenario (the
+    /// scenario it was trained on, with its sizes).
+    #[pyo3(signature = (env, team=1))]
+    fn check_env(&self, env: &Bound<'_, PyEnv>, team: u8) -> PyResult<()> {
+        let team = crate::env::team(team)?;
+        let mut e = env.borrow_mut();
+        Ok(self.check(e.engine(), team)?)
+    }
+
+    /// Greedy actions (int64, one per agent) for one step from every agent's SMAC features
+    /// (`n_agents x obs_size` float32) and masks (`n_agents x n_actions` uint8), agents in
+    /// SMAC order, dead ones included; advances each agent's GRU state.
+    fn act<'py>(
+        &mut self,
+        py: Python<'py>,
+        obs: PyReadonlyArray2<'py, f32>,
+        avail: PyReadonlyArray2<'py, u8>,
+    ) -> PyResult<Bound<'py, PyArray1<i64>>> {
+        let sh = self.policy.shape;
+        let n = sh.n_agents;
+        for (what, a, cols, what_size) in [("obs", obs.shape(), sh.obs, "obs_size"), ("avail", avail.shape(), sh.n_actions, "n_actions")] {
+            if a != [n, cols] {
+                return Err(PolicyError::Shape { what, given: a.to_vec(), needed: [n, cols], what_size }.into());
+            }
+        }
+        let features: Vec<f32> = obs.as_array().iter().copied().collect();
+        let mask: Vec<u8> = avail.as_array().iter().map(|&m| u8::from(m != 0)).collect();
+        if let Some(agent) = mask.chunks(sh.n_actions.max(1)).position(|row| row.iter().all(|&m| m == 0)) {
+            return Err(PolicyError::NoAction { agent }.into());
+        }
+        let agents: Vec<usize> = (0..n).collect();
+        let (q, h2) = self.policy.q_values(&features, &agents, &self.last, &self.hidden).map_err(|e| PolicyError::Network(Box::new(e)))?;
+        // Greedy, as MarlAgent: epsilon 0 never draws from the stream.
+        let acts = select_actions(&q, &mask, sh.n_actions, 0.0, &mut ChaCha8Rng::seed_from_u64(0));
+        self.hidden = h2;
+        for (l, &a) in self.last.iter_mut().zip(&acts) {
+            *l = Some(a);
+        }
+        Ok(PyArray1::from_vec(py, acts.into_iter().map(i64::from).collect()))
+    }
+
+    /// Plays one episode of `env` from `seed` in Rust with `avacraft_marl::MarlAgent` for
+    /// team 1 (what `avacraft episode --agent marl:DIR` runs), leaving `env` at its end:
+    /// the reference a Python loop with `act` reproduces. Returns `{"result": "win" | "loss"
+    /// | "draw", "steps", "trajectory_hash", "actions"}`, `actions` holding per step the SMAC
+    /// index of each agent's order (-1: none, a dead unit). Frames are not recorded. This
+    /// policy's own GRU states are left alone.
+    ///
+    /// The trajectory hash is the typed-action path's: it records no last action for dead
+    /// units, where a SMAC loop records their no-op, so it differs from a Python loop's hash
+    /// once a unit has died although the games are the same; compare actions and units.
+    fn play<'py>(&self, py: Python<'py>, env: &Bound<'py, PyEnv>, seed: u64) -> PyResult<Bound<'py, PyDict>> {
+        let mut e = env.borrow_mut();
+        let env = e.engine();
+        if env.scenario().mode == Mode::Pvp {
+            return Err(AvacraftError::new_err(format!("{} is PvP: play() drives team 1 of a PvE scenario", env.scenario().name)));
+        }
+        self.check(env, Team::One)?;
+        let policy = Arc::clone(&self.policy);
+        let name = format!("marl:{}", self.dir.display());
+        // One agent for the team, as `Controllers` runs it for `episode --agent`.
+        let mut team = AgentTeam::new(Team::One, Grouping::Team, move || Box::new(MarlAgent::new(Arc::clone(&policy), name.clone())));
+        env.reset(seed);
+        team.reset(env);
+        let order = env.agents(Team::One).to_vec();
+        let mut chosen: Vec<Vec<i64>> = Vec::new();
+        while !env.done() {
+            let actions = team.act(env, 0);
+            let layout = env.smac_layout(Team::One);
+            let mut row = vec![-1i64; order.len()];
+            for a in &actions {
+                if let Some(i) = order.iter().position(|&u| u == a.unit) {
+                    row[i] = layout.index_for(env.world(), i, &a.command).map_or(-1, |x| x as i64);
+                }
+            }
+            chosen.push(row);
+            env.submit(Team::One, &actions);
+            env.step();
+        }
+        let d = PyDict::new(py);
+        let result = match env.outcome().unwrap_or(Outcome::Draw) {
+            Outcome::Win => "win",
+            Outcome::Loss => "loss",
+            Outcome::Draw => "draw",
+        };
+        d.set_item("result", result)?;
+        d.set_item("steps", env.steps())?;
+        d.set_item("trajectory_hash", env.trajectory_hash())?;
+        d.set_item("actions", chosen)?;
+        Ok(d)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "MarlPolicy({:?}, scenario={:?}, algo={:?}, n_agents={})",
+            self.dir.display().to_string(),
+            self.policy.scenario,
+            self.policy.cfg.algo,
+            self.policy.shape.n_agents
+        )
+    }
+}

@@ -1,0 +1,96 @@
+"""`avacraft.MarlPolicy`: a checkpoint of `avacraft train` acting from Python plays the episodes
+the Rust agent (`avacraft episode --agent marl:DIR`) plays. The checkpoint is the committed
+launch/policies/3m; nothing here depends on how well it plays."""
+
+import pathlib
+
+import numpy as np
+import pytest
+
+import avacraft
+
+POLICY = pathlib.Path(__file__).resolve().parents[2] / "launch" / "policies" / "3m"
+
+
+def reference(policy, seed):
+    """The Rust agent's episode on `avacraft episode`'s settings (sparse reward, no passive
+    allies), and the environment at its end."""
+    env = avacraft.Env("3m", reward="sparse", passive_allies=False)
+    return policy.play(env, seed), env
+
+
+def smac_episode(policy, seed):
+    """An episode of a SMAC loop with the policy: the actions of every step, the result, the
+    environment at its end."""
+    env = avacraft.StarCraft2Env("3m", seed=seed, reward_sparse=True, passive_allies=False)
+    env.reset()
+    policy.reset()
+    done, info, actions = False, {}, []
+    while not done:
+        avail = env.get_avail_actions()
+        a = policy.act(env.get_obs(), avail)
+        assert a.dtype == np.int64 and all(avail[i][x] for i, x in enumerate(a))
+        actions.append(a.tolist())
+        _, done, info = env.step(a)
+    return actions, info, env.env
+
+
+def test_a_smac_loop_plays_the_rust_agents_episodes_action_for_action():
+    policy = avacraft.MarlPolicy(POLICY)
+    assert (policy.scenario, policy.n_agents, policy.n_actions) == ("3m", 3, 9)
+    for seed in (1, 2, 3):
+        actions, info, env = smac_episode(policy, seed)
+        ref, ref_env = reference(policy, seed)
+        # A dead unit gets no order from the Rust agent (-1) and the no-op from a SMAC loop.
+        assert actions == [[a if a >= 0 else 0 for a in step] for step in ref["actions"]], f"seed {seed}"
+        assert env.steps == ref["steps"] == len(actions)
+        assert env.units() == ref_env.units(), "the same units, positions and health at the end"
+        assert info["battle_won"] == (ref["result"] == "win")
+
+
+def test_parallel_env_observations_play_the_same_episodes():
+    policy = avacraft.MarlPolicy(POLICY)
+    env = avacraft.parallel_env("3m", obs_mode="features")
+    for seed in (4, 5):
+        obs, _ = env.reset(seed=seed)
+        policy.reset()
+        while env.agents:
+            obs, _, _, _, infos = env.step(policy.act_parallel(obs))
+            assert not any("invalid_action" in i for i in infos.values())
+        # The same SMAC actions as the SMAC loop's, so the same trajectory hash.
+        _, _, smac = smac_episode(policy, seed)
+        assert env.env.trajectory_hash == smac.trajectory_hash, f"seed {seed}"
+        ref, ref_env = reference(policy, seed)
+        assert (env.env.steps, env.env.units()) == (ref["steps"], ref_env.units())
+
+
+def test_a_fresh_reset_replays_the_episode_and_state_carries_across_steps():
+    policy = avacraft.MarlPolicy(POLICY)
+    env = avacraft.Env("3m", seed=1)
+    env.reset(7)
+    first = [policy.act(env.obs(), env.avail()).tolist() for _ in range(3)]
+    policy.reset()
+    again = [policy.act(env.obs(), env.avail()).tolist() for _ in range(3)]
+    assert first == again
+
+
+def test_bad_checkpoints_and_inputs_raise(tmp_path):
+    with pytest.raises(avacraft.AvacraftError, match="config.json"):
+        avacraft.MarlPolicy(tmp_path / "missing")
+    (tmp_path / "config.json").write_text("{ not json")
+    with pytest.raises(avacraft.AvacraftError, match="cannot load the checkpoint"):
+        avacraft.MarlPolicy(tmp_path)
+    policy = avacraft.MarlPolicy(POLICY)
+    with pytest.raises(avacraft.AvacraftError, match=r"obs: shape \[2, 30\] given, \[3, 30\] needed"):
+        policy.act(np.zeros((2, 30)), np.ones((3, 9)))
+    with pytest.raises(avacraft.AvacraftError, match=r"avail\[1\]: no action is available"):
+        policy.act(np.zeros((3, 30)), np.array([[1] * 9, [0] * 9, [1] * 9]))
+    with pytest.raises(avacraft.AvacraftError, match="trained on scenario `3m`, not `2m_vs_1z`"):
+        policy.play(avacraft.Env("2m_vs_1z"), 1)
+    with pytest.raises(avacraft.AvacraftError, match="trained on scenario `3m`, not `2m_vs_1z`"):
+        policy.check_env(avacraft.Env("2m_vs_1z"))
+    policy.check_env(avacraft.Env("3m"))
+    with pytest.raises(avacraft.AvacraftError, match="SMAC features of 30 needed"):
+        env = avacraft.parallel_env("3m", obs_mode="rgb")
+        obs, _ = env.reset(seed=1)
+        policy.act_parallel(obs)
