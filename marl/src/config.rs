@@ -7,11 +7,12 @@ use avacraft_engine::{EnvConfig, RewardMode, Rules};
 use serde::{Deserialize, Serialize};
 
 /// The algorithms with a built-in config.
-pub const ALGOS: &[&str] = &["iql", "vdn", "qmix"];
+pub const ALGOS: &[&str] = &["iql", "vdn", "qmix", "qtran"];
 
 const IQL: &str = include_str!("../configs/iql.toml");
 const VDN: &str = include_str!("../configs/vdn.toml");
 const QMIX: &str = include_str!("../configs/qmix.toml");
+const QTRAN: &str = include_str!("../configs/qtran.toml");
 
 /// How the agents' Q-values combine into the team's.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -23,6 +24,9 @@ pub enum MixerKind {
     Vdn,
     /// A monotonic mixing network whose weights a hypernetwork makes from the state (QMIX).
     Qmix,
+    /// A joint action-value network and a state value that the agents' summed Q-values are
+    /// held to (QTRAN-base).
+    Qtran,
 }
 
 /// Every setting of a run (see the TOML files for what each means).
@@ -36,6 +40,11 @@ pub struct Config {
     pub optim_alpha: f64,
     pub optim_eps: f64,
     pub grad_norm_clip: f64,
+    #[serde(default)]
+    pub optimizer: crate::optim::OptimizerKind,
+    /// TD(lambda) targets (PyMARL2); 0: one-step targets (PyMARL).
+    #[serde(default)]
+    pub td_lambda: f64,
     pub batch_size: usize,
     pub buffer_size: usize,
     pub target_update_interval: u64,
@@ -44,6 +53,9 @@ pub struct Config {
     pub epsilon_finish: f64,
     pub epsilon_anneal_time: u64,
     pub rnn_hidden_dim: usize,
+    /// A GRU agent (PyMARL); false: a feed-forward one (EPyMARL's `use_rnn: False`).
+    #[serde(default = "yes")]
+    pub use_rnn: bool,
     pub obs_agent_id: bool,
     pub obs_last_action: bool,
     pub mixing_embed_dim: usize,
@@ -56,9 +68,18 @@ pub struct Config {
     pub test_nepisode: usize,
     pub reward: RewardMode,
     pub passive_agents: bool,
+    /// QTRAN's weights of its optimal-action and non-optimal-action losses.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub opt_loss: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nopt_min_loss: Option<f64>,
     /// Steps before a time-out; 0: the scenario's time limit.
     #[serde(default)]
     pub episode_limit: u32,
+}
+
+fn yes() -> bool {
+    true
 }
 
 /// The built-in config text of `algo`.
@@ -67,6 +88,7 @@ pub fn default_text(algo: &str) -> Result<&'static str, Error> {
         "iql" => Ok(IQL),
         "vdn" => Ok(VDN),
         "qmix" => Ok(QMIX),
+        "qtran" => Ok(QTRAN),
         other => Err(Error::UnknownAlgo { algo: other.to_owned(), known: ALGOS.join(", ") }),
     }
 }
@@ -122,6 +144,12 @@ impl Config {
         }
         if !(1..=2).contains(&self.hypernet_layers) {
             return bad("hypernet_layers", "must be 1 or 2");
+        }
+        if !(0.0..=1.0).contains(&self.td_lambda) {
+            return bad("td_lambda", "must lie in [0, 1]");
+        }
+        if (self.mixer == MixerKind::Qtran) != self.opt_loss.is_some() || self.opt_loss.is_some() != self.nopt_min_loss.is_some() {
+            return bad("opt_loss", "QTRAN (mixer = \"qtran\") needs opt_loss and nopt_min_loss; other mixers have neither");
         }
         if self.target_update_interval == 0 {
             return bad("target_update_interval", "must be at least 1");

@@ -25,12 +25,15 @@ pub mod config;
 pub mod learner;
 pub mod nets;
 pub mod optim;
+pub mod plot;
 pub mod policy;
+pub mod qtran;
 pub mod train;
 
 pub use buffer::{Batch, Episode, ReplayBuffer, Shape};
 pub use config::{ALGOS, Config, MixerKind};
 pub use learner::{Learner, Nets, UpdateStats, select_actions};
+pub use optim::{Optimizer, OptimizerKind};
 pub use policy::{MarlAgent, Policy};
 pub use train::{Progress, RunOptions, Summary, TestResult, train};
 
@@ -63,8 +66,12 @@ pub enum Error {
         #[source]
         source: serde_json::Error,
     },
+    #[error("learning-curve plot: {message}")]
+    Plot { message: String },
     #[error("checkpoint: {message}")]
     Checkpoint { message: String },
     #[error("training diverged at update {update}: loss {loss}")]
     Diverged { update: u64, loss: f64 },
+    #[error("training diverged: the gradients' norm is {norm}")]
+    NonFiniteGradient { norm: f64 },
 }

@@ -2,7 +2,7 @@
 //! parallel, restarting on their own), one batched forward pass of the agent network for
 //! all environments and agents per step, finished episodes into the replay buffer, one
 //! update per `episodes_per_update` finished episodes, greedy test episodes every
-//! `test_interval` steps, a CSV log and checkpoints in the output directory (the latest, and in `best/` the one
+//! `test_interval` steps, a CSV log, learning curves (`curves.png`) and checkpoints in the output directory (the latest, and in `best/` the one
 //! with the highest greedy win rate so far).
 //!
 //! Everything that decides the run draws from streams seeded by the run's seed (the vector
@@ -186,6 +186,7 @@ pub fn train(cfg: &Config, opts: &RunOptions, on_progress: &mut dyn FnMut(&Progr
     let (mut wins_since, mut eps_since) = (0u64, 0u64);
     let mut last = crate::UpdateStats::default();
     let mut tests: Vec<TestResult> = Vec::new();
+    let mut curve: Vec<crate::plot::CurvePoint> = Vec::new();
     let mut test_round = 0u64;
     while t_env < cfg.t_max {
         let eps = cfg.epsilon(t_env);
@@ -207,7 +208,14 @@ pub fn train(cfg: &Config, opts: &RunOptions, on_progress: &mut dyn FnMut(&Progr
             ep.push_outcome(b.reward[i], b.terminated[i]);
             if done[i] {
                 let mut finished = std::mem::take(ep);
-                finished.close(&shape);
+                let last = (b.truncated[i] && !b.terminated[i]).then(|| {
+                    (
+                        &b.final_obs[i * a * o..(i + 1) * a * o],
+                        &b.final_state[i * s..(i + 1) * s],
+                        &b.final_avail[i * a * na..(i + 1) * a * na],
+                    )
+                });
+                finished.close(&shape, last);
                 buffer.insert(finished);
                 episodes += 1;
                 pending += 1;
@@ -249,8 +257,18 @@ pub fn train(cfg: &Config, opts: &RunOptions, on_progress: &mut dyn FnMut(&Progr
                 .and_then(|()| f.flush())
                 .map_err(|source| Error::Io { path: path.clone(), source })?;
             }
+            let train_win_rate = if eps_since > 0 { wins_since as f64 / eps_since as f64 } else { f64::NAN };
+            curve.push(crate::plot::CurvePoint {
+                t_env,
+                test_win_rate: r.win_rate,
+                train_win_rate,
+                test_return: r.mean_return,
+                loss: last.loss,
+            });
             (wins_since, eps_since) = (0, 0);
             if let Some(dir) = &opts.out {
+                let title = format!("{} on {} (seed {})", cfg.algo, opts.scenario.name, opts.seed);
+                crate::plot::curves(&dir.join("curves.png"), &title, &curve)?;
                 policy::save(dir, &learner.nets, cfg, &shape, &opts.scenario.name)?;
                 // Greedy win rates swing while epsilon is high: keep the best one's weights too.
                 if tests.iter().all(|t| t.win_rate <= r.win_rate) {
