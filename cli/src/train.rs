@@ -38,10 +38,15 @@ pub struct TrainArgs {
     /// Override a config key, e.g. --set lr=0.001 (repeatable; values in TOML syntax).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
-    /// Directory for log.csv and the checkpoint (agent.safetensors, mixer.safetensors,
-    /// config.json), which `avacraft episode --agent marl:DIR` plays.
-    #[arg(long)]
-    pub out: PathBuf,
+    /// Directory for log.csv, curves.png and the checkpoint (agent.safetensors,
+    /// mixer.safetensors, config.json), which `avacraft episode --agent marl:DIR` plays.
+    #[arg(long, required_unless_present = "resume", conflicts_with = "resume")]
+    pub out: Option<PathBuf>,
+    /// Go on with the run in DIR from its last test round, with its config (`--steps` and
+    /// `--set` still apply, e.g. to train longer). The replay buffer and the optimiser's
+    /// moments start afresh.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["config", "algo"])]
+    pub resume: Option<PathBuf>,
 }
 
 pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
@@ -55,22 +60,30 @@ pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     if let Some(e) = a.envs {
         overrides.push(format!("envs={e}"));
     }
-    let cfg = match &a.config {
-        Some(path) => {
+    let mut start = None;
+    let cfg = match (&a.config, &a.resume) {
+        (_, Some(dir)) => {
+            let (cfg, state) = avacraft_marl::resume::load(dir).with_context(|| format!("--resume {}", dir.display()))?;
+            start = Some(state);
+            let text = toml::to_string(&cfg).context("the resumed run's config")?;
+            Config::from_toml(&text, &overrides).with_context(|| format!("--resume {}", dir.display()))?
+        }
+        (Some(path), None) => {
             let text = std::fs::read_to_string(path).with_context(|| format!("--config {}", path.display()))?;
             Config::from_toml(&text, &overrides).with_context(|| format!("--config {}", path.display()))?
         }
-        None => Config::for_algo(&a.algo, &overrides)?,
+        (None, None) => Config::for_algo(&a.algo, &overrides)?,
     };
+    let Some(out_dir) = a.out.as_ref().or(a.resume.as_ref()) else { bail!("--out DIR is needed") };
     let scenario = Arc::new(Scenario::load(&a.scenario)?);
     let threads = a.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from));
-    let opts = RunOptions { scenario: Arc::clone(&scenario), seed: a.seed, threads, out: Some(a.out.clone()) };
+    let opts = RunOptions { scenario: Arc::clone(&scenario), seed: a.seed, threads, out: Some(out_dir.clone()) };
     let bar = if std::io::stderr().is_terminal() { ProgressBar::new(cfg.t_max) } else { ProgressBar::hidden() };
     bar.set_style(ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} steps, {per_sec} ({eta})")?.progress_chars("=> "));
     let name = format!("{} on {}", cfg.algo, scenario.name);
     bar.set_message(name.clone());
     let started = std::time::Instant::now();
-    let (_, summary) = avacraft_marl::train(&cfg, &opts, &mut |p| {
+    let (_, summary) = avacraft_marl::train_from(&cfg, &opts, start, &mut |p| {
         bar.set_position(p.t_env);
         let test = p.last_test.map_or_else(|| "-".to_owned(), |t| format!("{:.0}%", 100.0 * t.win_rate));
         bar.set_message(format!("{name}: test win {test}, eps {:.2}, loss {:.3}", p.epsilon, p.loss));
@@ -95,7 +108,7 @@ pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
             t.mean_return
         )?;
     }
-    writeln!(out, "log and checkpoint in {}", a.out.display())?;
+    writeln!(out, "log, curves and checkpoint in {}", out_dir.display())?;
     Ok(())
 }
 

@@ -97,7 +97,7 @@ pub struct Learner {
     pub nets: Nets,
     pub(crate) target: Nets,
     opt: Optimizer,
-    last_target_update: u64,
+    pub(crate) last_target_update: u64,
     pub updates: u64,
 }
 

@@ -28,6 +28,7 @@ pub mod optim;
 pub mod plot;
 pub mod policy;
 pub mod qtran;
+pub mod resume;
 pub mod train;
 
 pub use buffer::{Batch, Episode, ReplayBuffer, Shape};
@@ -35,7 +36,7 @@ pub use config::{ALGOS, Config, MixerKind};
 pub use learner::{Learner, Nets, UpdateStats, select_actions};
 pub use optim::{Optimizer, OptimizerKind};
 pub use policy::{MarlAgent, Policy};
-pub use train::{Progress, RunOptions, Summary, TestResult, train};
+pub use train::{Progress, RunOptions, Summary, TestResult, train, train_from};
 
 /// What can go wrong configuring, training, saving or loading.
 #[derive(Debug, thiserror::Error)]

@@ -9,12 +9,12 @@ use std::path::Path;
 use std::sync::OnceLock;
 
 /// One logged point of a run.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CurvePoint {
     pub t_env: u64,
     pub test_win_rate: f64,
-    /// NaN when no training episode ended since the previous point.
-    pub train_win_rate: f64,
+    /// `None` when no training episode ended since the previous point.
+    pub train_win_rate: Option<f64>,
     pub test_return: f64,
     pub loss: f64,
 }
@@ -53,7 +53,10 @@ pub fn curves(path: &Path, title: &str, points: &[CurvePoint]) -> Result<(), Err
         (
             "win rate",
             0.0..1.02,
-            vec![("greedy test", |p| p.test_win_rate, BLUE), ("training (exploring)", |p| p.train_win_rate, RGBColor(230, 120, 0))],
+            vec![
+                ("greedy test", |p| p.test_win_rate, BLUE),
+                ("training (exploring)", |p| p.train_win_rate.unwrap_or(f64::NAN), RGBColor(230, 120, 0)),
+            ],
         ),
         ("test return", range(|p| p.test_return), vec![("greedy test return", |p| p.test_return, RGBColor(0, 140, 60))]),
         ("loss", range(|p| p.loss), vec![("last update's loss", |p| p.loss, RED)]),

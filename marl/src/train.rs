@@ -11,6 +11,7 @@
 
 use crate::buffer::{Batch, Episode, ReplayBuffer, Shape, act_inputs};
 use crate::learner::{Learner, Nets, select_actions};
+use crate::resume::RunState;
 use crate::{Config, Error, policy};
 use avacraft_engine::{Scenario, VecBuffers, VecEnv};
 use candle_core::{Device, Tensor};
@@ -32,7 +33,7 @@ pub struct RunOptions {
 }
 
 /// One round of greedy test episodes.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TestResult {
     pub t_env: u64,
     pub episodes: usize,
@@ -159,10 +160,23 @@ const CSV_HEADER: &str = "t_env,episodes,updates,epsilon,loss,grad_norm,q_taken,
 /// Trains `cfg.algo` on `opts.scenario` for `cfg.t_max` environment steps; returns the
 /// learner and how the run went. `on_progress` is called after every vector step.
 pub fn train(cfg: &Config, opts: &RunOptions, on_progress: &mut dyn FnMut(&Progress)) -> Result<(Learner, Summary), Error> {
+    train_from(cfg, opts, None, on_progress)
+}
+
+/// [`train`], going on from `start` (see [`crate::resume`]) when given: the checkpoint and
+/// state in `opts.out`.
+pub fn train_from(
+    cfg: &Config,
+    opts: &RunOptions,
+    start: Option<RunState>,
+    on_progress: &mut dyn FnMut(&Progress),
+) -> Result<(Learner, Summary), Error> {
     let started = std::time::Instant::now();
     let e = cfg.envs;
     let base = opts.seed.wrapping_mul(1 << 20);
-    let seeds: Vec<u64> = (0..e as u64).map(|i| base.wrapping_add(i)).collect();
+    // A resumed run's environments start past the episodes already played.
+    let offset = start.as_ref().map_or(0, |s| s.episodes + e as u64);
+    let seeds: Vec<u64> = (0..e as u64).map(|i| base.wrapping_add(offset).wrapping_add(i)).collect();
     let mut env = vec_env(cfg, &opts.scenario, &seeds, opts.threads)?;
     let (a, o, s, na) = env.shape();
     let shape = Shape { n_agents: a, obs: o, state: s, n_actions: na };
@@ -176,8 +190,13 @@ pub fn train(cfg: &Config, opts: &RunOptions, on_progress: &mut dyn FnMut(&Progr
         Some(dir) => {
             std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.clone(), source })?;
             let path = dir.join("log.csv");
-            let mut f = std::fs::File::create(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
-            writeln!(f, "{CSV_HEADER}").map_err(|source| Error::Io { path: path.clone(), source })?;
+            let f = if start.is_some() {
+                std::fs::OpenOptions::new().append(true).open(&path).map_err(|source| Error::Io { path: path.clone(), source })?
+            } else {
+                let mut f = std::fs::File::create(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
+                writeln!(f, "{CSV_HEADER}").map_err(|source| Error::Io { path: path.clone(), source })?;
+                f
+            };
             Some((f, path))
         }
         None => None,
@@ -188,6 +207,19 @@ pub fn train(cfg: &Config, opts: &RunOptions, on_progress: &mut dyn FnMut(&Progr
     let mut tests: Vec<TestResult> = Vec::new();
     let mut curve: Vec<crate::plot::CurvePoint> = Vec::new();
     let mut test_round = 0u64;
+    let mut elapsed_before = 0.0;
+    if let Some(st) = &start {
+        let Some(dir) = &opts.out else {
+            return Err(Error::Checkpoint { message: "resuming needs the run's directory".into() });
+        };
+        crate::resume::restore(dir, &mut learner, st)?;
+        let (ap, sp) = st.rng_positions()?;
+        act_rng.set_word_pos(ap);
+        sample_rng.set_word_pos(sp);
+        (t_env, episodes, last_test_t, test_round, elapsed_before) = (st.t_env, st.episodes, st.t_env, st.test_round, st.elapsed_s);
+        tests.clone_from(&st.tests);
+        curve.clone_from(&st.curve);
+    }
     while t_env < cfg.t_max {
         let eps = cfg.epsilon(t_env);
         let acts = actor.act(&learner.nets, cfg, &shape, &env.buffers, eps, &mut act_rng)?;
@@ -252,12 +284,12 @@ pub fn train(cfg: &Config, opts: &RunOptions, on_progress: &mut dyn FnMut(&Progr
                     last.q_taken,
                     r.win_rate,
                     r.mean_return,
-                    started.elapsed().as_secs_f64()
+                    elapsed_before + started.elapsed().as_secs_f64()
                 )
                 .and_then(|()| f.flush())
                 .map_err(|source| Error::Io { path: path.clone(), source })?;
             }
-            let train_win_rate = if eps_since > 0 { wins_since as f64 / eps_since as f64 } else { f64::NAN };
+            let train_win_rate = (eps_since > 0).then(|| wins_since as f64 / eps_since as f64);
             curve.push(crate::plot::CurvePoint {
                 t_env,
                 test_win_rate: r.win_rate,
@@ -274,6 +306,10 @@ pub fn train(cfg: &Config, opts: &RunOptions, on_progress: &mut dyn FnMut(&Progr
                 if tests.iter().all(|t| t.win_rate <= r.win_rate) {
                     policy::save(&dir.join("best"), &learner.nets, cfg, &shape, &opts.scenario.name)?;
                 }
+                let rngs = (act_rng.get_word_pos(), sample_rng.get_word_pos());
+                let elapsed = elapsed_before + started.elapsed().as_secs_f64();
+                RunState::new(opts.seed, t_env, episodes, test_round, &learner, rngs, elapsed, &tests, &curve)
+                    .save(dir, &learner.target)?;
             }
         }
         on_progress(&Progress {

@@ -217,7 +217,8 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
     let dir = std::env::temp_dir().join(format!("avacraft-marl-e2e-{}", std::process::id()));
     let c = Config::for_algo(
         "qmix",
-        &["t_max=400", "envs=4", "batch_size=4", "test_interval=200", "test_nepisode=4", "epsilon_anneal_time=300"].map(String::from),
+        &["t_max=400", "envs=4", "batch_size=4", "test_interval=200", "test_nepisode=4", "epsilon_anneal_time=300", "episode_limit=20"]
+            .map(String::from),
     )?;
     let scenario = Arc::new(Scenario::load("3m")?);
     let opts = RunOptions { scenario: Arc::clone(&scenario), seed: 5, threads: 2, out: Some(dir.clone()) };
@@ -257,6 +258,18 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
         assert!((f64::from(ret) - r.mean_return).abs() < 1e-4, "seed {seed}: agent {ret}, trainer {}", r.mean_return);
         assert_eq!(env.outcome() == Some(avacraft_engine::Outcome::Win), r.win_rate == 1.0);
     }
+    // A resumed run goes on from the last test round with the log, curves and schedule.
+    let (cfg_back, state) = avacraft_marl::resume::load(&dir)?;
+    assert_eq!(cfg_back, c);
+    assert_eq!((state.t_env, state.tests.clone()), (summary.t_env, summary.tests.clone()));
+    let longer = Config { t_max: 600, ..c.clone() };
+    let (_, resumed) = avacraft_marl::train_from(&longer, &opts, Some(state), &mut |_| {})?;
+    assert!(resumed.t_env >= 600 && resumed.updates > summary.updates, "{resumed:?}");
+    assert_eq!(resumed.tests[..summary.tests.len()], summary.tests[..], "the history is kept");
+    assert!(resumed.tests.len() > summary.tests.len());
+    let log = std::fs::read_to_string(dir.join("log.csv"))?;
+    assert_eq!(log.lines().count(), 1 + resumed.tests.len(), "the log goes on: {log}");
+    assert!(avacraft_marl::resume::load(std::path::Path::new("/nonexistent")).is_err());
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }
