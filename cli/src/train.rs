@@ -1,4 +1,4 @@
-//! `train`: a MARL baseline (IQL, VDN, QMIX) on a scenario in features mode, with a progress
+//! `train`: a MARL baseline (IQL, VDN, QMIX, QTRAN, IPPO, MAPPO) on a scenario in features mode, with a progress
 //! bar, a CSV log, greedy test episodes and checkpoints in `--out` (see `avacraft-marl`).
 
 use anyhow::{Context, Result, bail};
@@ -12,7 +12,8 @@ use std::sync::Arc;
 
 #[derive(Args, Debug)]
 pub struct TrainArgs {
-    /// Algorithm: iql, vdn or qmix (PyMARL's defaults, from marl/configs/ALGO.toml).
+    /// Algorithm: iql, vdn, qmix, qtran (PyMARL's defaults), ippo or mappo (the MAPPO repository's),
+    /// from marl/configs/ALGO.toml.
     #[arg(long, default_value = "qmix")]
     pub algo: String,
     /// Built-in scenario name or path to a scenario file.
@@ -39,7 +40,7 @@ pub struct TrainArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
     /// Directory for log.csv, curves.png and the checkpoint (agent.safetensors,
-    /// mixer.safetensors, config.json), which `avacraft episode --agent marl:DIR` plays.
+    /// mixer.safetensors for QMIX and QTRAN, critic.safetensors for PPO, config.json), which `avacraft episode --agent marl:DIR` plays.
     #[arg(long, required_unless_present = "resume", conflicts_with = "resume")]
     pub out: Option<PathBuf>,
     /// Go on with the run in DIR from its last test round, with its config (`--steps` and
@@ -86,7 +87,7 @@ pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     let (_, summary) = avacraft_marl::train_from(&cfg, &opts, start, &mut |p| {
         bar.set_position(p.t_env);
         let test = p.last_test.map_or_else(|| "-".to_owned(), |t| format!("{:.0}%", 100.0 * t.win_rate));
-        bar.set_message(format!("{name}: test win {test}, eps {:.2}, loss {:.3}", p.epsilon, p.loss));
+        bar.set_message(format!("{name}: test win {test}, eps {:.2}, loss {:.3}, updates {}", p.epsilon, p.loss, p.updates));
     })?;
     bar.finish_and_clear();
     let secs = started.elapsed().as_secs_f64();
@@ -98,6 +99,10 @@ pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
         summary.updates,
         summary.t_env as f64 / secs.max(1e-9)
     )?;
+    if !summary.phases.is_empty() {
+        let phases: Vec<String> = summary.phases.iter().map(|(n, s)| format!("{n} {s:.1} s")).collect();
+        writeln!(out, "  time: {}", phases.join(", "))?;
+    }
     for t in &summary.tests {
         writeln!(
             out,

@@ -1,7 +1,9 @@
 //! MARL baselines on the engine's vector environment: IQL, VDN and QMIX with PyMARL's
 //! conventions (one GRU agent network shared by all agents, agent id and last action in its
 //! input, action masking, an episode replay buffer, target networks, epsilon-greedy,
-//! RMSprop with global-norm gradient clipping), and trained policies as engine [`Agent`]s.
+//! RMSprop with global-norm gradient clipping), IPPO and MAPPO with the MAPPO repository's
+//! (the same agent network as the policy, a recurrent critic, GAE, value normalisation; see
+//! [`ppo`]), and trained policies as engine [`Agent`]s.
 //!
 //! Tensors and automatic differentiation come from candle (CPU), because:
 //! - its tensors are stepped one timestep at a time, so the GRU agent carries its hidden
@@ -27,6 +29,7 @@ pub mod nets;
 pub mod optim;
 pub mod plot;
 pub mod policy;
+pub mod ppo;
 pub mod qtran;
 pub mod resume;
 pub mod train;
@@ -36,7 +39,8 @@ pub use config::{ALGOS, Config, MixerKind};
 pub use learner::{Learner, Nets, UpdateStats, select_actions};
 pub use optim::{Optimizer, OptimizerKind};
 pub use policy::{MarlAgent, Policy};
-pub use train::{Progress, RunOptions, Summary, TestResult, train, train_from};
+pub use ppo::PpoLearner;
+pub use train::{Progress, RunOptions, Summary, TestResult, Trained, train, train_from};
 
 /// What can go wrong configuring, training, saving or loading.
 #[derive(Debug, thiserror::Error)]

@@ -43,6 +43,15 @@ impl Params {
         Ok(())
     }
 
+    /// Multiplies the variables whose name starts with `prefix` by `factor` (PPO starts its
+    /// policy's output layer small, so the first policy is near uniform).
+    pub fn scale(&self, prefix: &str, factor: f64) -> Result<(), Error> {
+        for (_, v) in self.vars.iter().filter(|(n, _)| n.starts_with(prefix)) {
+            v.set(&(v.as_tensor().detach() * factor)?)?;
+        }
+        Ok(())
+    }
+
     /// The values by name (what a safetensors file holds).
     pub fn to_map(&self) -> HashMap<String, Tensor> {
         self.vars.iter().map(|(n, v)| (n.clone(), v.as_tensor().detach())).collect()

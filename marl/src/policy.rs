@@ -1,9 +1,11 @@
 //! Checkpoints and trained policies as engine agents. A checkpoint directory holds
 //! `agent.safetensors` (the shared agent network), `mixer.safetensors` (VDN has no weights,
-//! so only QMIX writes one) and `config.json` (the run's config, the team's sizes and the
+//! so only QMIX writes one), for PPO `critic.safetensors` (written by the PPO learner, not
+//! needed to act), and `config.json` (the run's config, the team's sizes and the
 //! scenario). [`MarlAgent`] acts greedily with the agent network on each controlled unit's
 //! SMAC features and mask, carrying each unit's GRU state and last action across steps, as
-//! in training: decentralised execution, the mixer is not needed.
+//! in training: decentralised execution, the mixer and critic are not needed. A PPO actor's
+//! outputs are logits: the greedy action is the most probable available one.
 
 use crate::buffer::{Shape, act_inputs};
 use crate::learner::{Nets, select_actions};

@@ -223,7 +223,7 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
     let scenario = Arc::new(Scenario::load("3m")?);
     let opts = RunOptions { scenario: Arc::clone(&scenario), seed: 5, threads: 2, out: Some(dir.clone()) };
     let mut calls = 0;
-    let (learner, summary) = train(&c, &opts, &mut |_| calls += 1)?;
+    let (trained, summary) = train(&c, &opts, &mut |_| calls += 1)?;
     assert!(summary.t_env >= 400 && summary.updates > 0 && summary.tests.len() >= 2, "{summary:?}");
     assert!(summary.last_loss.is_finite());
     assert_eq!(calls, 100);
@@ -238,7 +238,7 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
     // The checkpoint plays in-process as an engine agent.
     assert!(Policy::load(&dir.join("best")).is_ok());
     let agent = MarlAgent::load(&dir)?;
-    assert_eq!(agent.policy().shape, learner.shape);
+    assert_eq!(agent.policy().shape, trained.shape());
     let policy = Arc::clone(agent.policy());
     let mut controllers = Controllers::new(
         &scenario,
@@ -246,7 +246,7 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
     );
     // ... and plays each episode exactly as the trainer's greedy test episodes do.
     for seed in 1..=3 {
-        let r = train::test(&learner.nets, &c, &scenario, &[seed], 1)?;
+        let r = train::test(trained.nets(), &c, &scenario, &[seed], 1)?;
         let mut env = Env::new(Arc::clone(&scenario), c.env_config(), seed);
         controllers.reset(&env);
         let mut ret = 0.0;
