@@ -3,6 +3,7 @@
 //! the keys the file has: a typo names the key instead of being silently ignored.
 
 use crate::Error;
+use crate::encoders::settings::{self as obs, Backbone, ObsKind};
 use avacraft_engine::{EnvConfig, RewardMode, Rules};
 use serde::{Deserialize, Serialize};
 
@@ -59,6 +60,38 @@ pub struct Config {
     /// Steps before a time-out; 0: the scenario's time limit.
     #[serde(default)]
     pub episode_limit: u32,
+    // The observation mode and its encoder (`configs/obs.toml`, merged into every config;
+    // the defaults let checkpoints older than these keys load as `features` runs).
+    #[serde(default)]
+    pub obs: ObsKind,
+    #[serde(default)]
+    pub encoder: Backbone,
+    #[serde(default = "obs::screen_size")]
+    pub screen_size: [u32; 2],
+    #[serde(default = "obs::minimap_size")]
+    pub minimap_size: [u32; 2],
+    #[serde(default = "obs::encoder_dim")]
+    pub encoder_dim: usize,
+    #[serde(default = "obs::cnn_channels")]
+    pub cnn_channels: Vec<usize>,
+    #[serde(default = "obs::cnn_pool")]
+    pub cnn_pool: usize,
+    #[serde(default = "obs::swin_patch")]
+    pub swin_patch: usize,
+    #[serde(default = "obs::swin_embed_dim")]
+    pub swin_embed_dim: usize,
+    #[serde(default = "obs::swin_depths")]
+    pub swin_depths: Vec<usize>,
+    #[serde(default = "obs::swin_heads")]
+    pub swin_heads: Vec<usize>,
+    #[serde(default = "obs::swin_window")]
+    pub swin_window: usize,
+    #[serde(default = "obs::text_dim")]
+    pub text_dim: usize,
+    #[serde(default = "obs::text_cache")]
+    pub text_cache: usize,
+    #[serde(default = "obs::text_max_tokens")]
+    pub text_max_tokens: usize,
 }
 
 /// The built-in config text of `algo`.
@@ -82,6 +115,7 @@ impl Config {
     pub fn from_toml(text: &str, overrides: &[String]) -> Result<Config, Error> {
         let mut table: toml::Table =
             toml::from_str(text).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
+        obs::add_defaults(&mut table)?;
         for o in overrides {
             let Some((key, value)) = o.split_once('=') else {
                 return Err(Error::Override { text: o.clone(), message: "expected key=value".into() });
@@ -126,6 +160,7 @@ impl Config {
         if self.target_update_interval == 0 {
             return bad("target_update_interval", "must be at least 1");
         }
+        obs::validate(self)?;
         Ok(())
     }
 

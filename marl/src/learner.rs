@@ -21,6 +21,8 @@ pub struct Nets {
     pub agent_params: Params,
     pub mixer: Option<Mixer>,
     pub mixer_params: Params,
+    /// Image modes: the observation encoder (its weights are in `agent_params`).
+    pub encoder: Option<crate::ObsEncoder>,
 }
 
 impl Nets {
@@ -28,7 +30,7 @@ impl Nets {
     pub fn new(cfg: &Config, shape: &Shape, seed: u64) -> Result<Nets, Error> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut agent_params = Params::default();
-        let input = shape.input(cfg.obs_agent_id, cfg.obs_last_action);
+        let input = crate::encoders::agent_input_width(cfg, shape);
         let agent = AgentNet::new(&mut agent_params, input, cfg.rnn_hidden_dim, shape.n_actions, &mut rng)?;
         let mut mixer_params = Params::default();
         let mixer = match cfg.mixer {
@@ -36,7 +38,8 @@ impl Nets {
             MixerKind::Vdn => Some(Mixer::Vdn),
             MixerKind::Qmix => Some(Mixer::Qmix(QmixMixer::new(&mut mixer_params, shape.n_agents, shape.state, cfg, &mut rng)?)),
         };
-        Ok(Nets { agent, agent_params, mixer, mixer_params })
+        let encoder = crate::ObsEncoder::for_config(cfg, shape, &mut agent_params, seed)?;
+        Ok(Nets { agent, agent_params, mixer, mixer_params, encoder })
     }
 
     fn copy_from(&self, other: &Nets) -> Result<(), Error> {
@@ -47,8 +50,9 @@ impl Nets {
     /// Q-values `(T+1, B*A, n_actions)` of the agent network unrolled over a batch: the
     /// input layers and the output layer run on all steps at once, only the GRU step by step.
     pub fn unroll(&self, batch: &Batch) -> Result<Tensor, Error> {
-        let (t1, rows, width) = batch.inputs.dims3()?;
-        let gi = self.agent.project(&batch.inputs.reshape((t1 * rows, width))?)?.reshape((t1, rows, ()))?;
+        let inputs = self.unroll_inputs(batch)?;
+        let (t1, rows, width) = inputs.dims3()?;
+        let gi = self.agent.project(&inputs.reshape((t1 * rows, width))?)?.reshape((t1, rows, ()))?;
         let mut h = self.agent.zero_hidden(rows)?;
         let mut hs = Vec::with_capacity(t1);
         for ti in 0..t1 {
