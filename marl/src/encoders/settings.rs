@@ -148,8 +148,8 @@ pub fn add_defaults(table: &mut toml::Table) -> Result<(), Error> {
 /// Checks the observation keys of `cfg`.
 pub fn validate(cfg: &Config) -> Result<(), Error> {
     let bad = |key: &str, why: String| Err(Error::BadValue { key: key.to_owned(), message: why });
-    if cfg.screen_size.contains(&0) || cfg.minimap_size.contains(&0) {
-        return bad("screen_size", "frame sizes must be at least 1x1".into());
+    if cfg.screen_size.iter().chain(&cfg.minimap_size).any(|&s| s < 8) {
+        return bad("screen_size", "frame sides must be at least 8 pixels (screen_size and minimap_size)".into());
     }
     if cfg.screen_size.iter().chain(&cfg.minimap_size).any(|&s| s > 4096) {
         return bad("screen_size", "frame sides above 4096 pixels are not supported".into());
