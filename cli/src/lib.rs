@@ -66,7 +66,8 @@ enum Cmd {
     /// Re-simulate a recording's episodes from their seeds and applied actions and check
     /// the trajectory matches.
     Replay(replay::ReplayArgs),
-    /// Train a MARL baseline (IQL, VDN, QMIX, QTRAN, IPPO, MAPPO) and save a checkpoint for `--agent marl:DIR`.
+    /// Train a MARL baseline (IQL, VDN, QMIX, QTRAN, IPPO, MAPPO) on features, rgb, hybrid or
+    /// vision-text observations and save a checkpoint (`features` ones play as `--agent marl:DIR`).
     Train(train::TrainArgs),
 }
 

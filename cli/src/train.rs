@@ -1,5 +1,6 @@
-//! `train`: a MARL baseline (IQL, VDN, QMIX, QTRAN, IPPO, MAPPO) on a scenario in features mode, with a progress
-//! bar, a CSV log, greedy test episodes and checkpoints in `--out` (see `avacraft-marl`).
+//! `train`: a MARL baseline (IQL, VDN, QMIX, QTRAN, IPPO, MAPPO) on a scenario in one of the
+//! observation modes (SMAC features, images, images and features, images and text), with a
+//! progress bar, a CSV log, greedy test episodes and checkpoints in `--out` (see `avacraft-marl`).
 
 use anyhow::{Context, Result, bail};
 use avacraft_engine::Scenario;
@@ -19,9 +20,12 @@ pub struct TrainArgs {
     /// Built-in scenario name or path to a scenario file.
     #[arg(long)]
     pub scenario: String,
-    /// Observation mode (only `features`, SMAC's feature vectors, so far).
-    #[arg(long, default_value = "features")]
-    pub obs: String,
+    /// Observation mode: features (SMAC's vectors), rgb (screen and minimap images), hybrid
+    /// (both) or vision-text (images and the text description's MiniLM embedding); the
+    /// config's `obs` key, `features` unless the config says otherwise. Encoder keys
+    /// (encoder=cnn|swin|swin-tiny, screen_size, ...) are set with --set.
+    #[arg(long)]
+    pub obs: Option<String>,
     /// Environment steps to train for (the config's t_max).
     #[arg(long)]
     pub steps: Option<u64>,
@@ -51,10 +55,13 @@ pub struct TrainArgs {
 }
 
 pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
-    if a.obs != "features" {
-        bail!("--obs {}: only `features` is implemented so far", a.obs);
-    }
     let mut overrides = a.set.clone();
+    if let Some(obs) = &a.obs {
+        if !avacraft_marl::ObsKind::NAMES.contains(&obs.as_str()) {
+            bail!("--obs {obs}: expected one of {}", avacraft_marl::ObsKind::NAMES.join(", "));
+        }
+        overrides.push(format!("obs=\"{obs}\""));
+    }
     if let Some(s) = a.steps {
         overrides.push(format!("t_max={s}"));
     }
@@ -81,7 +88,7 @@ pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     let opts = RunOptions { scenario: Arc::clone(&scenario), seed: a.seed, threads, out: Some(out_dir.clone()) };
     let bar = if std::io::stderr().is_terminal() { ProgressBar::new(cfg.t_max) } else { ProgressBar::hidden() };
     bar.set_style(ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} steps, {per_sec} ({eta})")?.progress_chars("=> "));
-    let name = format!("{} on {}", cfg.algo, scenario.name);
+    let name = format!("{} ({}) on {}", cfg.algo, cfg.obs.name(), scenario.name);
     bar.set_message(name.clone());
     let started = std::time::Instant::now();
     let (_, summary) = avacraft_marl::train_from(&cfg, &opts, start, &mut |p| {

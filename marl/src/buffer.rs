@@ -35,6 +35,8 @@ pub struct Episode {
     pub actions: Vec<u32>,
     pub reward: Vec<f32>,
     pub terminated: Vec<f32>,
+    /// Image modes: the step's frames (empty in `features` mode).
+    pub frames: crate::observe::Frames,
 }
 
 impl Episode {
@@ -129,6 +131,8 @@ pub struct Batch {
     pub terminated: Tensor,
     /// `(T, B, 1)`: 1.0 on real steps, 0.0 on padding.
     pub filled: Tensor,
+    /// Image modes: the episodes' frames (set by the caller; `None` from [`Batch::new`]).
+    pub frames: Option<crate::observe::FrameBatch>,
 }
 
 impl Batch {
@@ -191,6 +195,7 @@ impl Batch {
             reward: Tensor::from_vec(reward, (t, b, 1), &dev)?,
             terminated: Tensor::from_vec(terminated, (t, b, 1), &dev)?,
             filled: Tensor::from_vec(filled, (t, b, 1), &dev)?,
+            frames: None,
         })
     }
 }

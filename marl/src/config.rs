@@ -8,6 +8,7 @@
 //! uses, and an override of a key the file lacks is refused like a typo.
 
 use crate::Error;
+use crate::encoders::settings::{self as obs, Backbone, ObsKind};
 use avacraft_engine::{EnvConfig, RewardMode, Rules};
 use serde::{Deserialize, Serialize};
 
@@ -124,6 +125,38 @@ pub struct Config {
     pub clip_value_loss: bool,
     #[serde(default)]
     pub actor_out_gain: f64,
+    // The observation mode and its encoder (`configs/obs.toml`, merged into every config;
+    // the defaults let checkpoints older than these keys load as `features` runs).
+    #[serde(default)]
+    pub obs: ObsKind,
+    #[serde(default)]
+    pub encoder: Backbone,
+    #[serde(default = "obs::screen_size")]
+    pub screen_size: [u32; 2],
+    #[serde(default = "obs::minimap_size")]
+    pub minimap_size: [u32; 2],
+    #[serde(default = "obs::encoder_dim")]
+    pub encoder_dim: usize,
+    #[serde(default = "obs::cnn_channels")]
+    pub cnn_channels: Vec<usize>,
+    #[serde(default = "obs::cnn_pool")]
+    pub cnn_pool: usize,
+    #[serde(default = "obs::swin_patch")]
+    pub swin_patch: usize,
+    #[serde(default = "obs::swin_embed_dim")]
+    pub swin_embed_dim: usize,
+    #[serde(default = "obs::swin_depths")]
+    pub swin_depths: Vec<usize>,
+    #[serde(default = "obs::swin_heads")]
+    pub swin_heads: Vec<usize>,
+    #[serde(default = "obs::swin_window")]
+    pub swin_window: usize,
+    #[serde(default = "obs::text_dim")]
+    pub text_dim: usize,
+    #[serde(default = "obs::text_cache")]
+    pub text_cache: usize,
+    #[serde(default = "obs::text_max_tokens")]
+    pub text_max_tokens: usize,
 }
 
 fn yes() -> bool {
@@ -154,6 +187,7 @@ impl Config {
     pub fn from_toml(text: &str, overrides: &[String]) -> Result<Config, Error> {
         let mut table: toml::Table =
             toml::from_str(text).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
+        obs::add_defaults(&mut table)?;
         for o in overrides {
             let Some((key, value)) = o.split_once('=') else {
                 return Err(Error::Override { text: o.clone(), message: "expected key=value".into() });
@@ -190,6 +224,9 @@ impl Config {
             return bad("envs", "must be at least 1");
         }
         if self.is_ppo() {
+            if self.obs != ObsKind::Features {
+                return bad("obs", "IPPO and MAPPO train on `features` only so far (the image modes are the Q-learners')");
+            }
             return self.validate_ppo();
         }
         if self.batch_size == 0 || self.buffer_size < self.batch_size {
@@ -213,6 +250,7 @@ impl Config {
         if self.target_update_interval == 0 {
             return bad("target_update_interval", "must be at least 1");
         }
+        obs::validate(self)?;
         Ok(())
     }
 

@@ -25,6 +25,8 @@ pub struct Nets {
     pub mixer_params: Params,
     /// QTRAN's joint action-value and state-value networks (in `mixer_params`).
     pub qtran: Option<QtranMixer>,
+    /// Image modes: the observation encoder (its weights are in `agent_params`).
+    pub encoder: Option<crate::ObsEncoder>,
 }
 
 impl Nets {
@@ -32,7 +34,7 @@ impl Nets {
     pub fn new(cfg: &Config, shape: &Shape, seed: u64) -> Result<Nets, Error> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut agent_params = Params::default();
-        let input = shape.input(cfg.obs_agent_id, cfg.obs_last_action);
+        let input = crate::encoders::agent_input_width(cfg, shape);
         let agent = if cfg.use_rnn {
             AgentNet::new(&mut agent_params, input, cfg.rnn_hidden_dim, shape.n_actions, &mut rng)?
         } else {
@@ -46,7 +48,8 @@ impl Nets {
             MixerKind::Qmix => mixer = Some(Mixer::Qmix(QmixMixer::new(&mut mixer_params, shape.n_agents, shape.state, cfg, &mut rng)?)),
             MixerKind::Qtran => qtran = Some(QtranMixer::new(&mut mixer_params, shape, cfg, &mut rng)?),
         }
-        Ok(Nets { agent, agent_params, mixer, mixer_params, qtran })
+        let encoder = crate::ObsEncoder::for_config(cfg, shape, &mut agent_params, seed)?;
+        Ok(Nets { agent, agent_params, mixer, mixer_params, qtran, encoder })
     }
 
     fn copy_from(&self, other: &Nets) -> Result<(), Error> {
@@ -62,8 +65,9 @@ impl Nets {
 
     /// [`Nets::unroll`] and the GRU's hidden states `(T+1, B*A, hidden)` (QTRAN reads them).
     pub fn unroll_hidden(&self, batch: &Batch) -> Result<(Tensor, Tensor), Error> {
-        let (t1, rows, width) = batch.inputs.dims3()?;
-        let gi = self.agent.project(&batch.inputs.reshape((t1 * rows, width))?)?;
+        let inputs = self.unroll_inputs(batch)?;
+        let (t1, rows, width) = inputs.dims3()?;
+        let gi = self.agent.project(&inputs.reshape((t1 * rows, width))?)?;
         if !self.agent.is_recurrent() {
             let q = self.agent.head(&gi)?.reshape((t1, rows, ()))?;
             return Ok((q, gi.reshape((t1, rows, ()))?));

@@ -15,6 +15,12 @@
 //!   rustc. candle has neither RMSprop nor clipping, so [`optim`] adds both (a few lines over
 //!   its gradient store).
 //!
+//! Four observation modes (the paper's, config key `obs`): SMAC's feature vectors, or an
+//! image encoder ([`encoders`]: a two-stream CNN or Swin Transformer over the renderer's
+//! screen and minimap, trained from scratch) in front of the agent network, with the
+//! SMAC features (`hybrid`) or a frozen all-MiniLM-L6-v2 embedding of the team's text
+//! (`vision-text`); [`observe`] renders the frames while training.
+//!
 //! The weights are initialised from a seeded ChaCha stream and every random choice (actions,
 //! replay samples) draws from seeded streams, so a run is a function of its config and seed.
 //!
@@ -24,8 +30,10 @@
 
 pub mod buffer;
 pub mod config;
+pub mod encoders;
 pub mod learner;
 pub mod nets;
+pub mod observe;
 pub mod optim;
 pub mod plot;
 pub mod policy;
@@ -36,7 +44,9 @@ pub mod train;
 
 pub use buffer::{Batch, Episode, ReplayBuffer, Shape};
 pub use config::{ALGOS, Config, MixerKind};
+pub use encoders::{Backbone, ObsEncoder, ObsKind};
 pub use learner::{Learner, Nets, UpdateStats, select_actions};
+pub use observe::ObsSource;
 pub use optim::{Optimizer, OptimizerKind};
 pub use policy::{MarlAgent, Policy};
 pub use ppo::PpoLearner;
@@ -79,4 +89,16 @@ pub enum Error {
     Diverged { update: u64, loss: f64 },
     #[error("training diverged: the gradients' norm is {norm}")]
     NonFiniteGradient { norm: f64 },
+    #[error("observation: {message}")]
+    Observation { message: String },
+    #[error("text model all-MiniLM-L6-v2: {message}")]
+    TextModel { message: String },
+    #[error("{}", path.display())]
+    Zip {
+        path: std::path::PathBuf,
+        #[source]
+        source: zip::result::ZipError,
+    },
+    #[error("tokenizer")]
+    Tokenizer(#[source] tokenizers::Error),
 }

@@ -18,7 +18,7 @@ pub struct Params {
 
 impl Params {
     /// A new variable of `shape`, uniform in `+-1/sqrt(fan_in)`.
-    fn uniform(&mut self, name: String, shape: &[usize], fan_in: usize, rng: &mut ChaCha8Rng) -> Result<Tensor, Error> {
+    pub(crate) fn uniform(&mut self, name: String, shape: &[usize], fan_in: usize, rng: &mut ChaCha8Rng) -> Result<Tensor, Error> {
         let bound = 1.0 / (fan_in.max(1) as f32).sqrt();
         let n: usize = shape.iter().product();
         let data: Vec<f32> = (0..n).map(|_| rng.random_range(-bound..=bound)).collect();
@@ -26,6 +26,20 @@ impl Params {
         let t = var.as_tensor().clone();
         self.vars.push((name, var));
         Ok(t)
+    }
+
+    /// A new variable of `shape` filled with `value` (layer norms' scales and shifts).
+    pub(crate) fn constant(&mut self, name: String, shape: &[usize], value: f32) -> Result<Tensor, Error> {
+        let n: usize = shape.iter().product();
+        let var = Var::from_vec(vec![value; n], shape, &Device::Cpu)?;
+        let t = var.as_tensor().clone();
+        self.vars.push((name, var));
+        Ok(t)
+    }
+
+    /// The number of trainable scalars.
+    pub fn count(&self) -> usize {
+        self.vars.iter().map(|(_, v)| v.elem_count()).sum()
     }
 
     pub fn vars(&self) -> impl Iterator<Item = &Var> {
@@ -88,6 +102,7 @@ impl Linear {
             b: p.uniform(format!("{name}.bias"), &[out], inp, rng)?,
         })
     }
+    /// `x` of shape `(N, inp)`.
     pub(crate) fn forward(&self, x: &Tensor) -> Result<Tensor, Error> {
         Ok(x.matmul(&self.w.t()?)?.broadcast_add(&self.b)?)
     }

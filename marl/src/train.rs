@@ -4,7 +4,9 @@
 //! a CSV log, learning curves (`curves.png`) and checkpoints in the output directory (the latest, and in `best/` the one
 //! with the highest greedy win rate so far). The Q-learners' loop is here (finished episodes
 //! into the replay buffer, one update per `episodes_per_update` finished episodes); PPO's
-//! is in [`crate::ppo`].
+//! is in [`crate::ppo`]. In the image modes an [`ObsSource`] draws every environment's
+//! frames (and embeds its text) each step, before acting; they go with the episode into the
+//! replay buffer and through the encoder again in each batch.
 //!
 //! Everything that decides the run draws from streams seeded by the run's seed (the vector
 //! environment's results depend on its seeds only, not on its threads); the clock is read
@@ -12,6 +14,7 @@
 
 use crate::buffer::{Batch, Episode, ReplayBuffer, Shape, act_inputs};
 use crate::learner::{Learner, Nets, select_actions};
+use crate::observe::{FrameBatch, ObsSource, StepFrames};
 use crate::plot::CurvePoint;
 use crate::ppo::PpoLearner;
 use crate::resume::RunState;
@@ -83,8 +86,18 @@ impl Actor {
         Ok(Actor { h: nets.agent.zero_hidden(rows)?, last: vec![None; rows], agents: (0..rows).map(|r| r % n_agents.max(1)).collect() })
     }
 
-    /// Actions for every row, epsilon-greedy over the masks.
-    fn act(&mut self, nets: &Nets, cfg: &Config, shape: &Shape, b: &VecBuffers, eps: f64, rng: &mut ChaCha8Rng) -> Result<Vec<u32>, Error> {
+    /// Actions for every row, epsilon-greedy over the masks (`frames`: the image modes').
+    #[allow(clippy::too_many_arguments)]
+    fn act(
+        &mut self,
+        nets: &Nets,
+        cfg: &Config,
+        shape: &Shape,
+        b: &VecBuffers,
+        frames: Option<&StepFrames>,
+        eps: f64,
+        rng: &mut ChaCha8Rng,
+    ) -> Result<Vec<u32>, Error> {
         let width = shape.input(cfg.obs_agent_id, cfg.obs_last_action);
         let rows = self.agents.len();
         let x = Tensor::from_vec(
@@ -92,6 +105,7 @@ impl Actor {
             (rows, width),
             &Device::Cpu,
         )?;
+        let x = nets.step_inputs(x, frames.map(StepFrames::tensors).transpose()?.as_ref())?;
         let (q, h) = nets.agent.step(&x, &self.h)?;
         // Detached: the acting graph must not grow across steps.
         self.h = h.detach();
@@ -132,6 +146,18 @@ pub fn shape_of(cfg: &Config, scenario: &Arc<Scenario>) -> Result<Shape, Error> 
 
 /// Greedy episodes, one per seed, all run together.
 pub fn test(nets: &Nets, cfg: &Config, scenario: &Arc<Scenario>, seeds: &[u64], threads: usize) -> Result<TestResult, Error> {
+    test_with(nets, cfg, scenario, seeds, threads, ObsSource::new(cfg)?.as_mut())
+}
+
+/// [`test`] with the image modes' observation source (`None` in `features` mode).
+pub fn test_with(
+    nets: &Nets,
+    cfg: &Config,
+    scenario: &Arc<Scenario>,
+    seeds: &[u64],
+    threads: usize,
+    mut source: Option<&mut ObsSource>,
+) -> Result<TestResult, Error> {
     let mut env = vec_env(cfg, scenario, seeds, threads)?;
     let (a, ..) = env.shape();
     let shape = {
@@ -142,7 +168,8 @@ pub fn test(nets: &Nets, cfg: &Config, scenario: &Arc<Scenario>, seeds: &[u64], 
     let mut rng = ChaCha8Rng::seed_from_u64(0);
     let (mut finished, mut won, mut returns) = (vec![false; seeds.len()], 0usize, vec![0f64; seeds.len()]);
     while finished.iter().any(|f| !f) {
-        let acts = actor.act(nets, cfg, &shape, &env.buffers, 0.0, &mut rng)?;
+        let frames = source.as_mut().map(|s| s.observe(env.envs())).transpose()?;
+        let acts = actor.act(nets, cfg, &shape, &env.buffers, frames.as_ref(), 0.0, &mut rng)?;
         env.step(&acts.iter().map(|&x| i64::from(x)).collect::<Vec<_>>())?;
         let b = &env.buffers;
         let done: Vec<bool> = b.terminated.iter().zip(&b.truncated).map(|(t, u)| *t || *u).collect();
@@ -366,6 +393,7 @@ fn train_q(
     let mut sample_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x5eed_0002);
     let mut buffer = ReplayBuffer::new(cfg.buffer_size);
     let mut actor = Actor::new(&learner.nets, e, a)?;
+    let mut source = ObsSource::new(cfg)?;
     let mut running: Vec<Episode> = vec![Episode::default(); e];
     let (mut t_env, mut episodes, mut pending) = (0u64, 0u64, 0u64);
     let mut last = crate::UpdateStats::default();
@@ -381,9 +409,13 @@ fn train_q(
     }
     while t_env < cfg.t_max {
         let eps = cfg.epsilon(t_env);
-        let acts = actor.act(&learner.nets, cfg, &shape, &env.buffers, eps, &mut act_rng)?;
+        let frames = source.as_mut().map(|s| s.observe(env.envs())).transpose()?;
+        let acts = actor.act(&learner.nets, cfg, &shape, &env.buffers, frames.as_ref(), eps, &mut act_rng)?;
         for (i, ep) in running.iter_mut().enumerate() {
             let b = &env.buffers;
+            if let Some(f) = &frames {
+                ep.frames.push(f, i);
+            }
             ep.push_step(
                 &b.obs[i * a * o..(i + 1) * a * o],
                 &b.state[i * s..(i + 1) * s],
@@ -418,7 +450,10 @@ fn train_q(
             pending -= cfg.episodes_per_update;
             if buffer.len() >= cfg.batch_size {
                 let sample = buffer.sample(cfg.batch_size, &mut sample_rng);
-                let batch = Batch::new(&sample, &shape, cfg.obs_agent_id, cfg.obs_last_action)?;
+                let mut batch = Batch::new(&sample, &shape, cfg.obs_agent_id, cfg.obs_last_action)?;
+                if source.is_some() {
+                    batch.frames = Some(FrameBatch::new(&sample, cfg)?);
+                }
                 last = learner.train(&batch, episodes)?;
             }
         }
