@@ -68,8 +68,9 @@ enum Cmd {
     /// Re-simulate a recording's episodes from their seeds and applied actions and check
     /// the trajectory matches.
     Replay(replay::ReplayArgs),
-    /// Train a MARL baseline (IQL, VDN, QMIX) and save a checkpoint for `--agent marl:DIR`
-    /// and launch files' `policy: marl:DIR`.
+    /// Train a MARL baseline (IQL, VDN, QMIX, QTRAN, IPPO, MAPPO) on features, rgb, hybrid or
+    /// vision-text observations and save a checkpoint (`features` ones play as `--agent
+    /// marl:DIR` and as launch files' `policy: marl:DIR`).
     Train(train::TrainArgs),
 }
 

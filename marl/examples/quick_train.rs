@@ -1,5 +1,6 @@
 //! A training run without the CLI (which pulls in the deployment stack):
-//! `cargo run --release -p avacraft-marl --example quick_train -- ALGO SCENARIO OUT [key=value ...]`.
+//! `cargo run --release -p avacraft-marl --example quick_train -- ALGO SCENARIO OUT [key=value ...]`
+//! (the seed from the environment variable `SEED`, default 1). Same run as `avacraft train`.
 
 use avacraft_engine::Scenario;
 use avacraft_marl::{Config, RunOptions, train};
@@ -13,7 +14,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let cfg = Config::for_algo(algo, overrides)?;
     let scenario = Arc::new(Scenario::load(scenario)?);
     let threads = std::thread::available_parallelism().map_or(1, usize::from);
-    let opts = RunOptions { scenario, seed: 1, threads, out: Some(out.into()) };
+    let seed = std::env::var("SEED").ok().map(|s| s.parse::<u64>()).transpose()?.unwrap_or(1);
+    let opts = RunOptions { scenario, seed, threads, out: Some(out.into()) };
     let started = std::time::Instant::now();
     let mut last_tests = 0;
     let (_, summary) = train(&cfg, &opts, &mut |p| {

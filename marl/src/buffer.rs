@@ -35,6 +35,8 @@ pub struct Episode {
     pub actions: Vec<u32>,
     pub reward: Vec<f32>,
     pub terminated: Vec<f32>,
+    /// Image modes: the step's frames (empty in `features` mode).
+    pub frames: crate::observe::Frames,
 }
 
 impl Episode {
@@ -51,18 +53,29 @@ impl Episode {
         self.reward.push(reward);
         self.terminated.push(if terminated { 1.0 } else { 0.0 });
     }
-    /// Adds the row after the last step. The vector environment resets on its own, so the
-    /// final observation is gone: the last step is treated as terminal (no bootstrap) also on
-    /// a time-out, and the row is zeros with only the no-op available.
-    pub fn close(&mut self, shape: &Shape) {
-        self.obs.extend(std::iter::repeat_n(0.0, shape.n_agents * shape.obs));
-        self.state.extend(std::iter::repeat_n(0.0, shape.state));
-        for _ in 0..shape.n_agents {
-            self.avail.push(1);
-            self.avail.extend(std::iter::repeat_n(0, shape.n_actions.saturating_sub(1)));
-        }
-        if let Some(t) = self.terminated.last_mut() {
-            *t = 1.0;
+    /// Adds the row after the last step: what the episode ended on (`last`: observations,
+    /// state and masks, from the vector environment's `final_*` buffers) when it timed out,
+    /// so the learner bootstraps there as PyMARL does (a time-out is not a terminal state of
+    /// the game: the value of going on is not zero). A terminal step needs no row (its
+    /// target does not look past it), so it gets zeros with only the no-op available.
+    pub fn close(&mut self, shape: &Shape, last: Option<(&[f32], &[f32], &[u8])>) {
+        match last {
+            Some((obs, state, avail)) => {
+                self.obs.extend_from_slice(obs);
+                self.state.extend_from_slice(state);
+                self.avail.extend_from_slice(avail);
+            }
+            None => {
+                self.obs.extend(std::iter::repeat_n(0.0, shape.n_agents * shape.obs));
+                self.state.extend(std::iter::repeat_n(0.0, shape.state));
+                for _ in 0..shape.n_agents {
+                    self.avail.push(1);
+                    self.avail.extend(std::iter::repeat_n(0, shape.n_actions.saturating_sub(1)));
+                }
+                if let Some(t) = self.terminated.last_mut() {
+                    *t = 1.0;
+                }
+            }
         }
     }
 }
@@ -118,6 +131,8 @@ pub struct Batch {
     pub terminated: Tensor,
     /// `(T, B, 1)`: 1.0 on real steps, 0.0 on padding.
     pub filled: Tensor,
+    /// Image modes: the episodes' frames (set by the caller; `None` from [`Batch::new`]).
+    pub frames: Option<crate::observe::FrameBatch>,
 }
 
 impl Batch {
@@ -180,6 +195,7 @@ impl Batch {
             reward: Tensor::from_vec(reward, (t, b, 1), &dev)?,
             terminated: Tensor::from_vec(terminated, (t, b, 1), &dev)?,
             filled: Tensor::from_vec(filled, (t, b, 1), &dev)?,
+            frames: None,
         })
     }
 }

@@ -1,28 +1,41 @@
-//! One config per algorithm (`configs/{iql,vdn,qmix}.toml`, PyMARL's defaults), built into
-//! the crate so `train --algo qmix` needs no file, with `key=value` overrides checked against
-//! the keys the file has: a typo names the key instead of being silently ignored.
+//! One config per algorithm (`configs/{iql,vdn,qmix}.toml`, PyMARL's defaults;
+//! `configs/{ippo,mappo}.toml`, the MAPPO repository's), built into the crate so
+//! `train --algo qmix` needs no file, with `key=value` overrides checked against the keys the
+//! file has: a typo names the key instead of being silently ignored.
+//!
+//! The Q-learning and PPO families share one [`Config`]; the keys only one family reads
+//! default when absent (`#[serde(default)]`), so each file lists only what its algorithm
+//! uses, and an override of a key the file lacks is refused like a typo.
 
 use crate::Error;
+use crate::encoders::settings::{self as obs, Backbone, ObsKind};
 use avacraft_engine::{EnvConfig, RewardMode, Rules};
 use serde::{Deserialize, Serialize};
 
 /// The algorithms with a built-in config.
-pub const ALGOS: &[&str] = &["iql", "vdn", "qmix"];
+pub const ALGOS: &[&str] = &["iql", "vdn", "qmix", "qtran", "ippo", "mappo"];
 
 const IQL: &str = include_str!("../configs/iql.toml");
 const VDN: &str = include_str!("../configs/vdn.toml");
 const QMIX: &str = include_str!("../configs/qmix.toml");
+const QTRAN: &str = include_str!("../configs/qtran.toml");
+const IPPO: &str = include_str!("../configs/ippo.toml");
+const MAPPO: &str = include_str!("../configs/mappo.toml");
 
 /// How the agents' Q-values combine into the team's.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum MixerKind {
     /// Independent learners: each agent's own TD error on the team reward (IQL).
+    #[default]
     None,
     /// The sum of the agents' Q-values (VDN).
     Vdn,
     /// A monotonic mixing network whose weights a hypernetwork makes from the state (QMIX).
     Qmix,
+    /// A joint action-value network and a state value that the agents' summed Q-values are
+    /// held to (QTRAN-base).
+    Qtran,
 }
 
 /// Every setting of a run (see the TOML files for what each means).
@@ -30,35 +43,124 @@ pub enum MixerKind {
 #[serde(deny_unknown_fields)]
 pub struct Config {
     pub algo: String,
+    #[serde(default)]
     pub mixer: MixerKind,
     pub gamma: f64,
     pub lr: f64,
+    #[serde(default)]
     pub optim_alpha: f64,
     pub optim_eps: f64,
     pub grad_norm_clip: f64,
+    #[serde(default)]
+    pub optimizer: crate::optim::OptimizerKind,
+    /// TD(lambda) targets (PyMARL2); 0: one-step targets (PyMARL).
+    #[serde(default)]
+    pub td_lambda: f64,
+    #[serde(default)]
     pub batch_size: usize,
+    #[serde(default)]
     pub buffer_size: usize,
+    #[serde(default)]
     pub target_update_interval: u64,
+    #[serde(default)]
     pub double_q: bool,
+    #[serde(default)]
     pub epsilon_start: f64,
+    #[serde(default)]
     pub epsilon_finish: f64,
+    #[serde(default)]
     pub epsilon_anneal_time: u64,
     pub rnn_hidden_dim: usize,
+    /// A GRU agent (PyMARL); false: a feed-forward one (EPyMARL's `use_rnn: False`).
+    #[serde(default = "yes")]
+    pub use_rnn: bool,
     pub obs_agent_id: bool,
     pub obs_last_action: bool,
+    #[serde(default)]
     pub mixing_embed_dim: usize,
+    #[serde(default)]
     pub hypernet_layers: usize,
+    #[serde(default)]
     pub hypernet_embed: usize,
     pub t_max: u64,
     pub envs: usize,
+    #[serde(default)]
     pub episodes_per_update: u64,
     pub test_interval: u64,
     pub test_nepisode: usize,
     pub reward: RewardMode,
     pub passive_agents: bool,
+    /// QTRAN's weights of its optimal-action and non-optimal-action losses.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub opt_loss: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nopt_min_loss: Option<f64>,
     /// Steps before a time-out; 0: the scenario's time limit.
     #[serde(default)]
     pub episode_limit: u32,
+    // PPO (ippo, mappo) only; see configs/mappo.toml.
+    #[serde(default)]
+    pub critic_lr: f64,
+    #[serde(default)]
+    pub rollout_len: usize,
+    #[serde(default)]
+    pub data_chunk_length: usize,
+    #[serde(default)]
+    pub ppo_epochs: usize,
+    #[serde(default)]
+    pub num_mini_batch: usize,
+    #[serde(default)]
+    pub clip_param: f64,
+    #[serde(default)]
+    pub entropy_coef: f64,
+    #[serde(default)]
+    pub value_loss_coef: f64,
+    #[serde(default)]
+    pub gae_lambda: f64,
+    #[serde(default)]
+    pub huber_delta: f64,
+    #[serde(default)]
+    pub value_norm: bool,
+    #[serde(default)]
+    pub clip_value_loss: bool,
+    #[serde(default)]
+    pub actor_out_gain: f64,
+    // The observation mode and its encoder (`configs/obs.toml`, merged into every config;
+    // the defaults let checkpoints older than these keys load as `features` runs).
+    #[serde(default)]
+    pub obs: ObsKind,
+    #[serde(default)]
+    pub encoder: Backbone,
+    #[serde(default = "obs::screen_size")]
+    pub screen_size: [u32; 2],
+    #[serde(default = "obs::minimap_size")]
+    pub minimap_size: [u32; 2],
+    #[serde(default = "obs::encoder_dim")]
+    pub encoder_dim: usize,
+    #[serde(default = "obs::cnn_channels")]
+    pub cnn_channels: Vec<usize>,
+    #[serde(default = "obs::cnn_pool")]
+    pub cnn_pool: usize,
+    #[serde(default = "obs::swin_patch")]
+    pub swin_patch: usize,
+    #[serde(default = "obs::swin_embed_dim")]
+    pub swin_embed_dim: usize,
+    #[serde(default = "obs::swin_depths")]
+    pub swin_depths: Vec<usize>,
+    #[serde(default = "obs::swin_heads")]
+    pub swin_heads: Vec<usize>,
+    #[serde(default = "obs::swin_window")]
+    pub swin_window: usize,
+    #[serde(default = "obs::text_dim")]
+    pub text_dim: usize,
+    #[serde(default = "obs::text_cache")]
+    pub text_cache: usize,
+    #[serde(default = "obs::text_max_tokens")]
+    pub text_max_tokens: usize,
+}
+
+fn yes() -> bool {
+    true
 }
 
 /// The built-in config text of `algo`.
@@ -67,6 +169,9 @@ pub fn default_text(algo: &str) -> Result<&'static str, Error> {
         "iql" => Ok(IQL),
         "vdn" => Ok(VDN),
         "qmix" => Ok(QMIX),
+        "qtran" => Ok(QTRAN),
+        "ippo" => Ok(IPPO),
+        "mappo" => Ok(MAPPO),
         other => Err(Error::UnknownAlgo { algo: other.to_owned(), known: ALGOS.join(", ") }),
     }
 }
@@ -82,6 +187,7 @@ impl Config {
     pub fn from_toml(text: &str, overrides: &[String]) -> Result<Config, Error> {
         let mut table: toml::Table =
             toml::from_str(text).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
+        obs::add_defaults(&mut table)?;
         for o in overrides {
             let Some((key, value)) = o.split_once('=') else {
                 return Err(Error::Override { text: o.clone(), message: "expected key=value".into() });
@@ -100,19 +206,31 @@ impl Config {
         Ok(cfg)
     }
 
+    /// PPO (`ippo`, `mappo`) rather than Q-learning.
+    pub fn is_ppo(&self) -> bool {
+        matches!(self.algo.as_str(), "ippo" | "mappo")
+    }
+
     fn validate(&self) -> Result<(), Error> {
         let bad = |key: &str, why: &str| Err(Error::BadValue { key: key.to_owned(), message: why.to_owned() });
+        let positive = |x: f64| x.partial_cmp(&0.0) == Some(std::cmp::Ordering::Greater);
         if !(0.0..=1.0).contains(&self.gamma) {
             return bad("gamma", "must lie in [0, 1]");
         }
-        if self.lr.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        if !positive(self.lr) {
             return bad("lr", "must be positive");
-        }
-        if self.batch_size == 0 || self.buffer_size < self.batch_size {
-            return bad("buffer_size", "needs at least batch_size (>= 1) episodes");
         }
         if self.envs == 0 {
             return bad("envs", "must be at least 1");
+        }
+        if self.is_ppo() {
+            if self.obs != ObsKind::Features {
+                return bad("obs", "IPPO and MAPPO train on `features` only so far (the image modes are the Q-learners')");
+            }
+            return self.validate_ppo();
+        }
+        if self.batch_size == 0 || self.buffer_size < self.batch_size {
+            return bad("buffer_size", "needs at least batch_size (>= 1) episodes");
         }
         if self.episodes_per_update == 0 {
             return bad("episodes_per_update", "must be at least 1");
@@ -123,8 +241,45 @@ impl Config {
         if !(1..=2).contains(&self.hypernet_layers) {
             return bad("hypernet_layers", "must be 1 or 2");
         }
+        if !(0.0..=1.0).contains(&self.td_lambda) {
+            return bad("td_lambda", "must lie in [0, 1]");
+        }
+        if (self.mixer == MixerKind::Qtran) != self.opt_loss.is_some() || self.opt_loss.is_some() != self.nopt_min_loss.is_some() {
+            return bad("opt_loss", "QTRAN (mixer = \"qtran\") needs opt_loss and nopt_min_loss; other mixers have neither");
+        }
         if self.target_update_interval == 0 {
             return bad("target_update_interval", "must be at least 1");
+        }
+        obs::validate(self)?;
+        Ok(())
+    }
+
+    fn validate_ppo(&self) -> Result<(), Error> {
+        let bad = |key: &str, why: &str| Err(Error::BadValue { key: key.to_owned(), message: why.to_owned() });
+        let positive = |x: f64| x.partial_cmp(&0.0) == Some(std::cmp::Ordering::Greater);
+        if !positive(self.critic_lr) {
+            return bad("critic_lr", "must be positive");
+        }
+        if self.data_chunk_length == 0 || self.rollout_len == 0 || !self.rollout_len.is_multiple_of(self.data_chunk_length) {
+            return bad("rollout_len", "must be a positive multiple of data_chunk_length (>= 1)");
+        }
+        if self.ppo_epochs == 0 || self.num_mini_batch == 0 {
+            return bad("ppo_epochs", "ppo_epochs and num_mini_batch must be at least 1");
+        }
+        if self.num_mini_batch > self.envs * self.rollout_len / self.data_chunk_length {
+            return bad("num_mini_batch", "more mini-batches than chunks (envs x rollout_len / data_chunk_length)");
+        }
+        if !positive(self.clip_param) {
+            return bad("clip_param", "must be positive");
+        }
+        if !(0.0..=1.0).contains(&self.gae_lambda) {
+            return bad("gae_lambda", "must lie in [0, 1]");
+        }
+        if self.huber_delta < 0.0 || self.entropy_coef < 0.0 || self.value_loss_coef < 0.0 || self.actor_out_gain < 0.0 {
+            return bad("huber_delta", "huber_delta, entropy_coef, value_loss_coef and actor_out_gain must not be negative");
+        }
+        if self.rnn_hidden_dim == 0 {
+            return bad("rnn_hidden_dim", "must be at least 1");
         }
         Ok(())
     }

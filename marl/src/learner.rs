@@ -1,18 +1,20 @@
-//! PyMARL's `QLearner` for IQL, VDN and QMIX: the agent network unrolled over a batch of
-//! episodes, chosen-action Q-values mixed (or not), double-Q targets from the target
-//! networks, masked squared TD error, RMSprop with global-norm clipping, and target copies
+//! PyMARL's `QLearner` for IQL, VDN and QMIX (and its `QTranLearner`, in [`crate::qtran`]):
+//! the agent network unrolled over a batch of episodes, chosen-action Q-values mixed (or
+//! not), double-Q targets from the target networks (one-step, or PyMARL2's TD(lambda)),
+//! masked squared TD error, RMSprop or Adam with global-norm clipping, and target copies
 //! every `target_update_interval` episodes.
 
 use crate::buffer::{Batch, Shape};
 use crate::nets::{AgentNet, Mixer, Params, QmixMixer};
-use crate::optim::RmsProp;
+use crate::optim::{Optimizer, OptimizerKind};
+use crate::qtran::QtranMixer;
 use crate::{Config, Error, MixerKind};
 use candle_core::{D, Tensor};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 /// Masked-out Q-values (PyMARL's -9999999): finite, so padded rows stay finite too.
-const MASKED: f64 = -1e7;
+pub(crate) const MASKED: f64 = -1e7;
 
 /// An agent network and, for VDN and QMIX, a mixer, with their parameters.
 #[derive(Debug)]
@@ -21,6 +23,10 @@ pub struct Nets {
     pub agent_params: Params,
     pub mixer: Option<Mixer>,
     pub mixer_params: Params,
+    /// QTRAN's joint action-value and state-value networks (in `mixer_params`).
+    pub qtran: Option<QtranMixer>,
+    /// Image modes: the observation encoder (its weights are in `agent_params`).
+    pub encoder: Option<crate::ObsEncoder>,
 }
 
 impl Nets {
@@ -28,15 +34,22 @@ impl Nets {
     pub fn new(cfg: &Config, shape: &Shape, seed: u64) -> Result<Nets, Error> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut agent_params = Params::default();
-        let input = shape.input(cfg.obs_agent_id, cfg.obs_last_action);
-        let agent = AgentNet::new(&mut agent_params, input, cfg.rnn_hidden_dim, shape.n_actions, &mut rng)?;
-        let mut mixer_params = Params::default();
-        let mixer = match cfg.mixer {
-            MixerKind::None => None,
-            MixerKind::Vdn => Some(Mixer::Vdn),
-            MixerKind::Qmix => Some(Mixer::Qmix(QmixMixer::new(&mut mixer_params, shape.n_agents, shape.state, cfg, &mut rng)?)),
+        let input = crate::encoders::agent_input_width(cfg, shape);
+        let agent = if cfg.use_rnn {
+            AgentNet::new(&mut agent_params, input, cfg.rnn_hidden_dim, shape.n_actions, &mut rng)?
+        } else {
+            AgentNet::feed_forward(&mut agent_params, input, cfg.rnn_hidden_dim, shape.n_actions, &mut rng)?
         };
-        Ok(Nets { agent, agent_params, mixer, mixer_params })
+        let mut mixer_params = Params::default();
+        let (mut mixer, mut qtran) = (None, None);
+        match cfg.mixer {
+            MixerKind::None => {}
+            MixerKind::Vdn => mixer = Some(Mixer::Vdn),
+            MixerKind::Qmix => mixer = Some(Mixer::Qmix(QmixMixer::new(&mut mixer_params, shape.n_agents, shape.state, cfg, &mut rng)?)),
+            MixerKind::Qtran => qtran = Some(QtranMixer::new(&mut mixer_params, shape, cfg, &mut rng)?),
+        }
+        let encoder = crate::ObsEncoder::for_config(cfg, shape, &mut agent_params, seed)?;
+        Ok(Nets { agent, agent_params, mixer, mixer_params, qtran, encoder })
     }
 
     fn copy_from(&self, other: &Nets) -> Result<(), Error> {
@@ -47,16 +60,28 @@ impl Nets {
     /// Q-values `(T+1, B*A, n_actions)` of the agent network unrolled over a batch: the
     /// input layers and the output layer run on all steps at once, only the GRU step by step.
     pub fn unroll(&self, batch: &Batch) -> Result<Tensor, Error> {
-        let (t1, rows, width) = batch.inputs.dims3()?;
-        let gi = self.agent.project(&batch.inputs.reshape((t1 * rows, width))?)?.reshape((t1, rows, ()))?;
+        Ok(self.unroll_hidden(batch)?.0)
+    }
+
+    /// [`Nets::unroll`] and the GRU's hidden states `(T+1, B*A, hidden)` (QTRAN reads them).
+    pub fn unroll_hidden(&self, batch: &Batch) -> Result<(Tensor, Tensor), Error> {
+        let inputs = self.unroll_inputs(batch)?;
+        let (t1, rows, width) = inputs.dims3()?;
+        let gi = self.agent.project(&inputs.reshape((t1 * rows, width))?)?;
+        if !self.agent.is_recurrent() {
+            let q = self.agent.head(&gi)?.reshape((t1, rows, ()))?;
+            return Ok((q, gi.reshape((t1, rows, ()))?));
+        }
+        let gi = gi.reshape((t1, rows, ()))?;
         let mut h = self.agent.zero_hidden(rows)?;
         let mut hs = Vec::with_capacity(t1);
         for ti in 0..t1 {
             h = self.agent.recur(&gi.get(ti)?, &h)?;
             hs.push(h.clone());
         }
-        let hs = Tensor::stack(&hs, 0)?.reshape((t1 * rows, self.agent.hidden))?;
-        Ok(self.agent.head(&hs)?.reshape((t1, rows, ()))?)
+        let hs = Tensor::stack(&hs, 0)?;
+        let q = self.agent.head(&hs.reshape((t1 * rows, self.agent.hidden))?)?.reshape((t1, rows, ()))?;
+        Ok((q, hs))
     }
 }
 
@@ -74,9 +99,9 @@ pub struct Learner {
     pub cfg: Config,
     pub shape: Shape,
     pub nets: Nets,
-    target: Nets,
-    opt: RmsProp,
-    last_target_update: u64,
+    pub(crate) target: Nets,
+    opt: Optimizer,
+    pub(crate) last_target_update: u64,
     pub updates: u64,
 }
 
@@ -86,12 +111,18 @@ impl Learner {
         let target = Nets::new(cfg, &shape, seed)?;
         target.copy_from(&nets)?;
         let vars = nets.agent_params.vars().chain(nets.mixer_params.vars()).cloned().collect();
-        let opt = RmsProp::new(vars, cfg.lr, cfg.optim_alpha, cfg.optim_eps, cfg.grad_norm_clip)?;
+        let opt = match cfg.optimizer {
+            OptimizerKind::Rmsprop => Optimizer::rmsprop(vars, cfg.lr, cfg.optim_alpha, cfg.optim_eps, cfg.grad_norm_clip)?,
+            OptimizerKind::Adam => Optimizer::adam(vars, cfg.lr, cfg.optim_eps, cfg.grad_norm_clip)?,
+        };
         Ok(Learner { cfg: cfg.clone(), shape, nets, target, opt, last_target_update: 0, updates: 0 })
     }
 
     /// The TD loss of a batch under the current networks (and its parts).
     pub fn loss(&self, batch: &Batch) -> Result<(Tensor, Tensor, Tensor), Error> {
+        if self.nets.qtran.is_some() {
+            return crate::qtran::loss(self, batch);
+        }
         let (t, b, a) = (batch.t, batch.b, self.shape.n_agents);
         let q = self.nets.unroll(batch)?;
         let chosen = q.narrow(0, 0, t)?.gather(&batch.actions, D::Minus1)?.reshape((t * b, a))?;
@@ -108,8 +139,6 @@ impl Learner {
             masked(&target_q)?.max_keepdim(D::Minus1)?
         }
         .reshape((t * b, a))?;
-        let reward = batch.reward.reshape((t * b, 1))?;
-        let not_done = (1.0 - batch.terminated.reshape((t * b, 1))?)?;
         let filled = batch.filled.reshape((t * b, 1))?;
         let (chosen_tot, target_tot) = match (&self.nets.mixer, &self.target.mixer) {
             (Some(m), Some(tm)) => {
@@ -120,7 +149,7 @@ impl Learner {
             }
             _ => (chosen.clone(), target_max),
         };
-        let targets = reward.broadcast_add(&(not_done.broadcast_mul(&target_tot)? * self.cfg.gamma)?)?.detach();
+        let targets = td_targets(batch, &target_tot, self.cfg.gamma, self.cfg.td_lambda)?;
         let mask = filled.broadcast_as(chosen_tot.shape())?.contiguous()?;
         let td = ((chosen_tot - targets)? * &mask)?;
         let loss = (td.sqr()?.sum_all()? / mask.sum_all()?.to_scalar::<f32>()?.max(1.0) as f64)?;
@@ -151,6 +180,37 @@ impl Learner {
     pub fn update_targets(&mut self) -> Result<(), Error> {
         self.target.copy_from(&self.nets)
     }
+}
+
+/// The targets `(T*B, C)` (time-major rows) of a batch from the target networks' values of
+/// the next steps `next` `(T*B, C)`: `G_t = r_t + gamma (1 - d_t) ((1 - lambda) V_{t+1} +
+/// lambda G_{t+1})`, with `G` of an episode's last step bootstrapped from `V` alone (its
+/// time-out row, or nothing after a terminal step). `lambda = 0` gives one-step targets.
+/// Computed on the CPU in plain loops: the recursion runs backwards in time, which tensors
+/// would do one small op per step.
+pub fn td_targets(batch: &Batch, next: &Tensor, gamma: f64, lambda: f64) -> Result<Tensor, Error> {
+    let (t, b) = (batch.t, batch.b);
+    let c = next.dim(1)?;
+    let v: Vec<f32> = next.detach().flatten_all()?.to_vec1()?;
+    let r: Vec<f32> = batch.reward.flatten_all()?.to_vec1()?;
+    let d: Vec<f32> = batch.terminated.flatten_all()?.to_vec1()?;
+    let f: Vec<f32> = batch.filled.flatten_all()?.to_vec1()?;
+    let (g32, l32) = (gamma as f32, lambda as f32);
+    let mut out = vec![0f32; t * b * c];
+    for bi in 0..b {
+        for ti in (0..t).rev() {
+            let row = ti * b + bi;
+            if f[row] == 0.0 {
+                continue;
+            }
+            let next_real = ti + 1 < t && f[row + b] != 0.0;
+            for k in 0..c {
+                let boot = if next_real { (1.0 - l32) * v[row * c + k] + l32 * out[(row + b) * c + k] } else { v[row * c + k] };
+                out[row * c + k] = r[row] + g32 * (1.0 - d[row]) * boot;
+            }
+        }
+    }
+    Ok(Tensor::from_vec(out, (t * b, c), next.device())?)
 }
 
 /// Epsilon-greedy over the available actions of each row of `q` (`rows x n_actions`): with

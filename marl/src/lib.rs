@@ -1,7 +1,9 @@
 //! MARL baselines on the engine's vector environment: IQL, VDN and QMIX with PyMARL's
 //! conventions (one GRU agent network shared by all agents, agent id and last action in its
 //! input, action masking, an episode replay buffer, target networks, epsilon-greedy,
-//! RMSprop with global-norm gradient clipping), and trained policies as engine [`Agent`]s.
+//! RMSprop with global-norm gradient clipping), IPPO and MAPPO with the MAPPO repository's
+//! (the same agent network as the policy, a recurrent critic, GAE, value normalisation; see
+//! [`ppo`]), and trained policies as engine [`Agent`]s.
 //!
 //! Tensors and automatic differentiation come from candle (CPU), because:
 //! - its tensors are stepped one timestep at a time, so the GRU agent carries its hidden
@@ -13,6 +15,12 @@
 //!   rustc. candle has neither RMSprop nor clipping, so [`optim`] adds both (a few lines over
 //!   its gradient store).
 //!
+//! Four observation modes (the paper's, config key `obs`): SMAC's feature vectors, or an
+//! image encoder ([`encoders`]: a two-stream CNN or Swin Transformer over the renderer's
+//! screen and minimap, trained from scratch) in front of the agent network, with the
+//! SMAC features (`hybrid`) or a frozen all-MiniLM-L6-v2 embedding of the team's text
+//! (`vision-text`); [`observe`] renders the frames while training.
+//!
 //! The weights are initialised from a seeded ChaCha stream and every random choice (actions,
 //! replay samples) draws from seeded streams, so a run is a function of its config and seed.
 //!
@@ -22,17 +30,27 @@
 
 pub mod buffer;
 pub mod config;
+pub mod encoders;
 pub mod learner;
 pub mod nets;
+pub mod observe;
 pub mod optim;
+pub mod plot;
 pub mod policy;
+pub mod ppo;
+pub mod qtran;
+pub mod resume;
 pub mod train;
 
 pub use buffer::{Batch, Episode, ReplayBuffer, Shape};
 pub use config::{ALGOS, Config, MixerKind};
+pub use encoders::{Backbone, ObsEncoder, ObsKind};
 pub use learner::{Learner, Nets, UpdateStats, select_actions};
+pub use observe::ObsSource;
+pub use optim::{Optimizer, OptimizerKind};
 pub use policy::{MarlAgent, Policy};
-pub use train::{Progress, RunOptions, Summary, TestResult, train};
+pub use ppo::PpoLearner;
+pub use train::{Progress, RunOptions, Summary, TestResult, Trained, train, train_from};
 
 /// What can go wrong configuring, training, saving or loading.
 #[derive(Debug, thiserror::Error)]
@@ -63,8 +81,24 @@ pub enum Error {
         #[source]
         source: serde_json::Error,
     },
+    #[error("learning-curve plot: {message}")]
+    Plot { message: String },
     #[error("checkpoint: {message}")]
     Checkpoint { message: String },
     #[error("training diverged at update {update}: loss {loss}")]
     Diverged { update: u64, loss: f64 },
+    #[error("training diverged: the gradients' norm is {norm}")]
+    NonFiniteGradient { norm: f64 },
+    #[error("observation: {message}")]
+    Observation { message: String },
+    #[error("text model all-MiniLM-L6-v2: {message}")]
+    TextModel { message: String },
+    #[error("{}", path.display())]
+    Zip {
+        path: std::path::PathBuf,
+        #[source]
+        source: zip::result::ZipError,
+    },
+    #[error("tokenizer")]
+    Tokenizer(#[source] tokenizers::Error),
 }

@@ -18,7 +18,7 @@ pub struct Params {
 
 impl Params {
     /// A new variable of `shape`, uniform in `+-1/sqrt(fan_in)`.
-    fn uniform(&mut self, name: String, shape: &[usize], fan_in: usize, rng: &mut ChaCha8Rng) -> Result<Tensor, Error> {
+    pub(crate) fn uniform(&mut self, name: String, shape: &[usize], fan_in: usize, rng: &mut ChaCha8Rng) -> Result<Tensor, Error> {
         let bound = 1.0 / (fan_in.max(1) as f32).sqrt();
         let n: usize = shape.iter().product();
         let data: Vec<f32> = (0..n).map(|_| rng.random_range(-bound..=bound)).collect();
@@ -26,6 +26,20 @@ impl Params {
         let t = var.as_tensor().clone();
         self.vars.push((name, var));
         Ok(t)
+    }
+
+    /// A new variable of `shape` filled with `value` (layer norms' scales and shifts).
+    pub(crate) fn constant(&mut self, name: String, shape: &[usize], value: f32) -> Result<Tensor, Error> {
+        let n: usize = shape.iter().product();
+        let var = Var::from_vec(vec![value; n], shape, &Device::Cpu)?;
+        let t = var.as_tensor().clone();
+        self.vars.push((name, var));
+        Ok(t)
+    }
+
+    /// The number of trainable scalars.
+    pub fn count(&self) -> usize {
+        self.vars.iter().map(|(_, v)| v.elem_count()).sum()
     }
 
     pub fn vars(&self) -> impl Iterator<Item = &Var> {
@@ -39,6 +53,15 @@ impl Params {
                 return Err(Error::Checkpoint { message: format!("parameter `{n}` copied from `{m}`") });
             }
             v.set(&w.as_tensor().detach().copy()?)?;
+        }
+        Ok(())
+    }
+
+    /// Multiplies the variables whose name starts with `prefix` by `factor` (PPO starts its
+    /// policy's output layer small, so the first policy is near uniform).
+    pub fn scale(&self, prefix: &str, factor: f64) -> Result<(), Error> {
+        for (_, v) in self.vars.iter().filter(|(n, _)| n.starts_with(prefix)) {
+            v.set(&(v.as_tensor().detach() * factor)?)?;
         }
         Ok(())
     }
@@ -73,39 +96,62 @@ pub struct Linear {
 }
 
 impl Linear {
-    fn new(p: &mut Params, name: &str, inp: usize, out: usize, rng: &mut ChaCha8Rng) -> Result<Linear, Error> {
+    pub(crate) fn new(p: &mut Params, name: &str, inp: usize, out: usize, rng: &mut ChaCha8Rng) -> Result<Linear, Error> {
         Ok(Linear {
             w: p.uniform(format!("{name}.weight"), &[out, inp], inp, rng)?,
             b: p.uniform(format!("{name}.bias"), &[out], inp, rng)?,
         })
     }
-    fn forward(&self, x: &Tensor) -> Result<Tensor, Error> {
+    /// `x` of shape `(N, inp)`.
+    pub(crate) fn forward(&self, x: &Tensor) -> Result<Tensor, Error> {
         Ok(x.matmul(&self.w.t()?)?.broadcast_add(&self.b)?)
     }
 }
 
 /// PyMARL's `RNNAgent`: `fc1 -> ReLU -> GRUCell -> fc2`, one step at a time so the hidden
-/// state can be carried across environment steps while acting.
+/// state can be carried across environment steps while acting; or EPyMARL's `use_rnn: False`
+/// form, `fc1 -> ReLU -> Linear -> ReLU -> fc2`, whose "hidden state" is only the last
+/// layer's output: it unrolls over a whole batch of episodes in one product per layer,
+/// tens of times faster to learn on a CPU, where every small tensor op has a fixed cost.
 #[derive(Debug, Clone)]
 pub struct AgentNet {
     fc1: Linear,
-    w_ih: Tensor,
-    w_hh: Tensor,
-    b_ih: Tensor,
-    b_hh: Tensor,
+    core: Core,
     fc2: Linear,
     pub hidden: usize,
 }
 
+#[derive(Debug, Clone)]
+enum Core {
+    Gru { w_ih: Tensor, w_hh: Tensor, b_ih: Tensor, b_hh: Tensor },
+    Linear(Linear),
+}
+
 impl AgentNet {
+    /// The recurrent agent (PyMARL).
     pub fn new(p: &mut Params, input: usize, hidden: usize, n_actions: usize, rng: &mut ChaCha8Rng) -> Result<AgentNet, Error> {
         let fc1 = Linear::new(p, "fc1", input, hidden, rng)?;
-        let w_ih = p.uniform("rnn.weight_ih".into(), &[3 * hidden, hidden], hidden, rng)?;
-        let w_hh = p.uniform("rnn.weight_hh".into(), &[3 * hidden, hidden], hidden, rng)?;
-        let b_ih = p.uniform("rnn.bias_ih".into(), &[3 * hidden], hidden, rng)?;
-        let b_hh = p.uniform("rnn.bias_hh".into(), &[3 * hidden], hidden, rng)?;
+        let core = Core::Gru {
+            w_ih: p.uniform("rnn.weight_ih".into(), &[3 * hidden, hidden], hidden, rng)?,
+            w_hh: p.uniform("rnn.weight_hh".into(), &[3 * hidden, hidden], hidden, rng)?,
+            b_ih: p.uniform("rnn.bias_ih".into(), &[3 * hidden], hidden, rng)?,
+            b_hh: p.uniform("rnn.bias_hh".into(), &[3 * hidden], hidden, rng)?,
+        };
         let fc2 = Linear::new(p, "fc2", hidden, n_actions, rng)?;
-        Ok(AgentNet { fc1, w_ih, w_hh, b_ih, b_hh, fc2, hidden })
+        Ok(AgentNet { fc1, core, fc2, hidden })
+    }
+
+    /// The feed-forward agent (EPyMARL's `use_rnn: False`).
+    pub fn feed_forward(p: &mut Params, input: usize, hidden: usize, n_actions: usize, rng: &mut ChaCha8Rng) -> Result<AgentNet, Error> {
+        let fc1 = Linear::new(p, "fc1", input, hidden, rng)?;
+        let core = Core::Linear(Linear::new(p, "rnn", hidden, hidden, rng)?);
+        let fc2 = Linear::new(p, "fc2", hidden, n_actions, rng)?;
+        Ok(AgentNet { fc1, core, fc2, hidden })
+    }
+
+    /// Whether the output depends on earlier steps.
+    pub fn is_recurrent(&self) -> bool {
+        matches!(self.core, Core::Gru { .. })
     }
 
     /// One step for `N` rows: inputs `(N, input)`, hidden `(N, hidden)` -> Q `(N, n_actions)`
@@ -115,16 +161,23 @@ impl AgentNet {
         Ok((self.fc2.forward(&h2)?, h2))
     }
 
-    /// The part of a step that does not depend on the hidden state, `(N, input)` ->
-    /// `(N, 3 * hidden)`: done for a whole batch of episodes in one product when learning.
+    /// The part of a step that does not depend on the hidden state: done for a whole batch
+    /// of episodes in one product when learning. GRU: `(N, input)` -> `(N, 3 * hidden)`;
+    /// feed-forward: `(N, input)` -> `(N, hidden)`, the whole core.
     pub fn project(&self, x: &Tensor) -> Result<Tensor, Error> {
         let x = self.fc1.forward(x)?.relu()?;
-        Ok(x.matmul(&self.w_ih.t()?)?.broadcast_add(&self.b_ih)?)
+        match &self.core {
+            Core::Gru { w_ih, b_ih, .. } => Ok(x.matmul(&w_ih.t()?)?.broadcast_add(b_ih)?),
+            Core::Linear(l) => Ok(l.forward(&x)?.relu()?),
+        }
     }
 
-    /// The GRU cell on projected inputs `gi` `(N, 3 * hidden)`.
+    /// The GRU cell on projected inputs `gi` `(N, 3 * hidden)` (feed-forward: `gi` itself).
     pub fn recur(&self, gi: &Tensor, h: &Tensor) -> Result<Tensor, Error> {
-        let gh = h.matmul(&self.w_hh.t()?)?.broadcast_add(&self.b_hh)?;
+        let Core::Gru { w_hh, b_hh, .. } = &self.core else {
+            return Ok(gi.clone());
+        };
+        let gh = h.matmul(&w_hh.t()?)?.broadcast_add(b_hh)?;
         let k = self.hidden;
         let rz = candle_nn::ops::sigmoid(&(gi.narrow(1, 0, 2 * k)? + gh.narrow(1, 0, 2 * k)?)?)?;
         let (r, z) = (rz.narrow(1, 0, k)?, rz.narrow(1, k, k)?);

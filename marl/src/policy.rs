@@ -1,9 +1,16 @@
 //! Checkpoints and trained policies as engine agents. A checkpoint directory holds
 //! `agent.safetensors` (the shared agent network), `mixer.safetensors` (VDN has no weights,
-//! so only QMIX writes one) and `config.json` (the run's config, the team's sizes and the
+//! so only QMIX writes one), for PPO `critic.safetensors` (written by the PPO learner, not
+//! needed to act), and `config.json` (the run's config, the team's sizes and the
 //! scenario). [`MarlAgent`] acts greedily with the agent network on each controlled unit's
 //! SMAC features and mask, carrying each unit's GRU state and last action across steps, as
-//! in training: decentralised execution, the mixer is not needed.
+//! in training: decentralised execution, the mixer and critic are not needed. A PPO actor's
+//! outputs are logits: the greedy action is the most probable available one.
+//!
+//! Image-mode checkpoints (`rgb`, `hybrid`, `vision-text`) hold the encoder's weights in
+//! `agent.safetensors` too. An engine [`Agent`] is handed units, effects and text, not the
+//! world the renderer draws from, so [`MarlAgent`] refuses them; [`Policy::evaluate`] plays
+//! them greedily from rendered frames, exactly as training's test episodes do.
 
 use crate::buffer::{Shape, act_inputs};
 use crate::learner::{Nets, select_actions};
@@ -87,6 +94,24 @@ impl Policy {
         Ok(())
     }
 
+    /// Greedy episodes (one per seed) on `scenario`, in any observation mode: frames are
+    /// rendered from the environments as in training's test episodes.
+    pub fn evaluate(&self, scenario: &Arc<Scenario>, seeds: &[u64], threads: usize) -> Result<crate::TestResult, Error> {
+        self.check_scenario(scenario, Team::One)?;
+        crate::train::test(&self.nets, &self.cfg, scenario, seeds, threads)
+    }
+
+    /// Why an engine agent cannot play this policy (`None`: it can).
+    pub fn agent_refusal(&self) -> Option<String> {
+        (self.cfg.obs != crate::ObsKind::Features).then(|| {
+            format!(
+                "trained on `{}` observations: an engine agent is not handed the frames the encoder reads, so only `features` \
+                 checkpoints play as agents (evaluate image checkpoints with Policy::evaluate)",
+                self.cfg.obs.name()
+            )
+        })
+    }
+
     /// Q-values `(rows x n_actions)` and next hidden states for rows of features.
     pub fn q_values(
         &self,
@@ -95,6 +120,9 @@ impl Policy {
         last: &[Option<u32>],
         hidden: &[f32],
     ) -> Result<(Vec<f32>, Vec<f32>), Error> {
+        if let Some(why) = self.agent_refusal() {
+            return Err(Error::Checkpoint { message: why });
+        }
         let (id, la) = (self.cfg.obs_agent_id, self.cfg.obs_last_action);
         let rows = agents.len();
         let x = Tensor::from_vec(act_inputs(features, agents, last, &self.shape, id, la), (rows, self.shape.input(id, la)), &Device::Cpu)?;
@@ -120,9 +148,14 @@ impl MarlAgent {
     pub fn new(policy: Arc<Policy>, name: impl Into<String>) -> MarlAgent {
         MarlAgent { policy, name: name.into(), hidden: Vec::new(), last: Vec::new(), layout: None, fits: false }
     }
-    /// Loads the checkpoint in `dir`; the agent is named `marl:DIR`.
+    /// Loads the checkpoint in `dir`; the agent is named `marl:DIR`. Image-mode
+    /// checkpoints are refused ([`Policy::agent_refusal`]).
     pub fn load(dir: &Path) -> Result<MarlAgent, Error> {
-        Ok(MarlAgent::new(Arc::new(Policy::load(dir)?), format!("marl:{}", dir.display())))
+        let policy = Policy::load(dir)?;
+        if let Some(why) = policy.agent_refusal() {
+            return Err(Error::Checkpoint { message: format!("{}: {why}", dir.display()) });
+        }
+        Ok(MarlAgent::new(Arc::new(policy), format!("marl:{}", dir.display())))
     }
     pub fn policy(&self) -> &Arc<Policy> {
         &self.policy
@@ -141,7 +174,7 @@ impl Agent for MarlAgent {
         self.hidden = vec![vec![0.0; self.policy.nets.agent.hidden]; n];
         self.last = vec![None; n];
         // A network of other sizes would read other features: it then gives no orders.
-        self.fits = self.policy.check_scenario(&ctx.scenario, ctx.team).is_ok();
+        self.fits = self.policy.check_scenario(&ctx.scenario, ctx.team).is_ok() && self.policy.agent_refusal().is_none();
         self.layout = Some(SmacLayout::new(&ctx.scenario, ctx.team));
     }
     fn act(&mut self, g: &GroupObs) -> Vec<Action> {

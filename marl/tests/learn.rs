@@ -32,7 +32,7 @@ fn random_episodes(shape: &Shape, n: usize, rng: &mut ChaCha8Rng) -> Vec<Episode
                 ep.push_step(&obs, &state, &avail, &acts);
                 ep.push_outcome(rng.random_range(0.0..2.0), t + 1 == len);
             }
-            ep.close(shape);
+            ep.close(shape, None);
             ep
         })
         .collect()
@@ -42,8 +42,17 @@ const SMALL: Shape = Shape { n_agents: 3, obs: 6, state: 7, n_actions: 4 };
 
 #[test]
 fn an_update_on_a_fixed_batch_lowers_the_loss() -> R {
-    for algo in ["iql", "vdn", "qmix"] {
-        let c = cfg(algo, &[])?;
+    for (algo, extra) in [
+        ("iql", &[][..]),
+        ("vdn", &[]),
+        ("qmix", &[]),
+        ("qtran", &[]),
+        ("qmix", &["use_rnn=false"]),
+        ("qmix", &["optimizer=adam", "td_lambda=0.6"]),
+        ("qtran", &["optimizer=adam", "td_lambda=0.6", "use_rnn=false"]),
+    ] {
+        let c = cfg(algo, extra)?;
+        let algo = format!("{algo} {extra:?}");
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         let eps = random_episodes(&SMALL, 8, &mut rng);
         let refs: Vec<&Episode> = eps.iter().collect();
@@ -103,8 +112,8 @@ proptest! {
 #[test]
 fn a_saved_checkpoint_loads_with_identical_q_values() -> R {
     let dir = std::env::temp_dir().join(format!("avacraft-marl-ckpt-{}", std::process::id()));
-    for algo in ["vdn", "qmix"] {
-        let c = cfg(algo, &[])?;
+    for (algo, extra) in [("vdn", &[][..]), ("qmix", &[]), ("qtran", &[]), ("qmix", &["use_rnn=false"])] {
+        let c = cfg(algo, extra)?;
         let mut l = Learner::new(&c, SMALL, 9)?;
         let mut rng = ChaCha8Rng::seed_from_u64(4);
         let eps = random_episodes(&SMALL, 4, &mut rng);
@@ -116,7 +125,13 @@ fn a_saved_checkpoint_loads_with_identical_q_values() -> R {
         assert_eq!(p.cfg, c);
         let q1: Vec<f32> = l.nets.unroll(&batch)?.flatten_all()?.to_vec1()?;
         let q2: Vec<f32> = p.nets.unroll(&batch)?.flatten_all()?.to_vec1()?;
-        assert_eq!(q1, q2, "{algo}");
+        assert_eq!(q1, q2, "{algo} {extra:?}");
+        let (m1, m2) = (l.nets.mixer_params.to_map(), p.nets.mixer_params.to_map());
+        assert_eq!(m1.len(), m2.len());
+        for (name, t) in &m1 {
+            let back = m2.get(name).ok_or_else(|| format!("{algo}: no {name} after loading"))?;
+            assert_eq!(t.flatten_all()?.to_vec1::<f32>()?, back.flatten_all()?.to_vec1::<f32>()?, "{algo} {name}");
+        }
         if let (Some(m1), Some(m2)) = (&l.nets.mixer, &p.nets.mixer) {
             let q = Tensor::from_vec(vec![0.5f32, -1.0, 2.0], (1, 3), &Device::Cpu)?;
             let s = Tensor::from_vec((0..7).map(|i| i as f32 * 0.1).collect::<Vec<f32>>(), (1, 7), &Device::Cpu)?;
@@ -140,7 +155,7 @@ fn a_bad_checkpoint_is_a_clear_error() {
 fn vdn_and_qmix_learn_the_joint_optimum_of_a_matrix_game() -> R {
     const PAYOFF: [[f32; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 8.0]];
     let shape = Shape { n_agents: 2, obs: 1, state: 1, n_actions: 3 };
-    for algo in ["vdn", "qmix"] {
+    for algo in ["vdn", "qmix", "qtran"] {
         let c = cfg(algo, &["lr=0.005", "batch_size=64"])?;
         let mut rng = ChaCha8Rng::seed_from_u64(11);
         let eps: Vec<Episode> = (0..256)
@@ -149,7 +164,7 @@ fn vdn_and_qmix_learn_the_joint_optimum_of_a_matrix_game() -> R {
                 let (a1, a2) = (rng.random_range(0..3u32), rng.random_range(0..3u32));
                 ep.push_step(&[1.0, 1.0], &[1.0], &[1; 6], &[a1, a2]);
                 ep.push_outcome(PAYOFF[a1 as usize][a2 as usize], true);
-                ep.close(&shape);
+                ep.close(&shape, None);
                 ep
             })
             .collect();
@@ -167,22 +182,55 @@ fn vdn_and_qmix_learn_the_joint_optimum_of_a_matrix_game() -> R {
     Ok(())
 }
 
+/// TD(lambda) targets on a hand-computed episode: rewards 1, 2, 3, values of the next
+/// states from a constant target network, the last step a time-out (bootstrapped).
+#[test]
+fn td_lambda_targets_match_a_hand_computation() -> R {
+    let shape = Shape { n_agents: 1, obs: 1, state: 1, n_actions: 2 };
+    let mut ep = Episode::default();
+    for r in [1.0, 2.0, 3.0] {
+        ep.push_step(&[0.0], &[0.0], &[1, 1], &[0]);
+        ep.push_outcome(r, false);
+    }
+    ep.close(&shape, Some((&[0.0], &[0.0], &[1, 1])));
+    let batch = Batch::new(&[&ep], &shape, false, false)?;
+    let v = Tensor::from_vec(vec![10f32, 20.0, 30.0], (3, 1), &Device::Cpu)?;
+    let (g, l) = (0.5f32, 0.5f32);
+    let got: Vec<f32> = avacraft_marl::learner::td_targets(&batch, &v, f64::from(g), f64::from(l))?.flatten_all()?.to_vec1()?;
+    let g2 = 3.0 + g * 30.0;
+    let g1 = 2.0 + g * ((1.0 - l) * 20.0 + l * g2);
+    let g0 = 1.0 + g * ((1.0 - l) * 10.0 + l * g1);
+    assert_eq!(got, vec![g0, g1, g2]);
+    // lambda 0: one-step targets; a terminal last step does not bootstrap.
+    let one: Vec<f32> = avacraft_marl::learner::td_targets(&batch, &v, 0.5, 0.0)?.flatten_all()?.to_vec1()?;
+    assert_eq!(one, vec![1.0 + 5.0, 2.0 + 10.0, 3.0 + 15.0]);
+    let mut term = ep.clone();
+    term.terminated[2] = 1.0;
+    let batch = Batch::new(&[&term], &shape, false, false)?;
+    let t: Vec<f32> = avacraft_marl::learner::td_targets(&batch, &v, 0.5, 0.0)?.flatten_all()?.to_vec1()?;
+    assert_eq!(t[2], 3.0);
+    Ok(())
+}
+
 #[test]
 fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
     let dir = std::env::temp_dir().join(format!("avacraft-marl-e2e-{}", std::process::id()));
     let c = Config::for_algo(
         "qmix",
-        &["t_max=400", "envs=4", "batch_size=4", "test_interval=200", "test_nepisode=4", "epsilon_anneal_time=300"].map(String::from),
+        &["t_max=400", "envs=4", "batch_size=4", "test_interval=200", "test_nepisode=4", "epsilon_anneal_time=300", "episode_limit=20"]
+            .map(String::from),
     )?;
     let scenario = Arc::new(Scenario::load("3m")?);
     let opts = RunOptions { scenario: Arc::clone(&scenario), seed: 5, threads: 2, out: Some(dir.clone()) };
     let mut calls = 0;
-    let (learner, summary) = train(&c, &opts, &mut |_| calls += 1)?;
+    let (trained, summary) = train(&c, &opts, &mut |_| calls += 1)?;
     assert!(summary.t_env >= 400 && summary.updates > 0 && summary.tests.len() >= 2, "{summary:?}");
     assert!(summary.last_loss.is_finite());
     assert_eq!(calls, 100);
     let log = std::fs::read_to_string(dir.join("log.csv"))?;
     assert_eq!(log.lines().count(), 1 + summary.tests.len(), "{log}");
+    let png = std::fs::read(dir.join("curves.png"))?;
+    assert!(png.starts_with(b"\x89PNG") && png.len() > 10_000, "a drawn PNG, {} bytes", png.len());
     // The same seed gives the same run.
     let (_, again) = train(&c, &RunOptions { out: None, ..opts.clone() }, &mut |_| {})?;
     assert_eq!((again.episodes, again.updates, again.last_loss), (summary.episodes, summary.updates, summary.last_loss));
@@ -190,7 +238,7 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
     // The checkpoint plays in-process as an engine agent.
     assert!(Policy::load(&dir.join("best")).is_ok());
     let agent = MarlAgent::load(&dir)?;
-    assert_eq!(agent.policy().shape, learner.shape);
+    assert_eq!(agent.policy().shape, trained.shape());
     let policy = Arc::clone(agent.policy());
     let mut controllers = Controllers::new(
         &scenario,
@@ -198,7 +246,7 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
     );
     // ... and plays each episode exactly as the trainer's greedy test episodes do.
     for seed in 1..=3 {
-        let r = train::test(&learner.nets, &c, &scenario, &[seed], 1)?;
+        let r = train::test(trained.nets(), &c, &scenario, &[seed], 1)?;
         let mut env = Env::new(Arc::clone(&scenario), c.env_config(), seed);
         controllers.reset(&env);
         let mut ret = 0.0;
@@ -210,6 +258,18 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
         assert!((f64::from(ret) - r.mean_return).abs() < 1e-4, "seed {seed}: agent {ret}, trainer {}", r.mean_return);
         assert_eq!(env.outcome() == Some(avacraft_engine::Outcome::Win), r.win_rate == 1.0);
     }
+    // A resumed run goes on from the last test round with the log, curves and schedule.
+    let (cfg_back, state) = avacraft_marl::resume::load(&dir)?;
+    assert_eq!(cfg_back, c);
+    assert_eq!((state.t_env, state.tests.clone()), (summary.t_env, summary.tests.clone()));
+    let longer = Config { t_max: 600, ..c.clone() };
+    let (_, resumed) = avacraft_marl::train_from(&longer, &opts, Some(state), &mut |_| {})?;
+    assert!(resumed.t_env >= 600 && resumed.updates > summary.updates, "{resumed:?}");
+    assert_eq!(resumed.tests[..summary.tests.len()], summary.tests[..], "the history is kept");
+    assert!(resumed.tests.len() > summary.tests.len());
+    let log = std::fs::read_to_string(dir.join("log.csv"))?;
+    assert_eq!(log.lines().count(), 1 + resumed.tests.len(), "the log goes on: {log}");
+    assert!(avacraft_marl::resume::load(std::path::Path::new("/nonexistent")).is_err());
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }

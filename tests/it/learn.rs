@@ -156,6 +156,35 @@ fn vector_env_matches_a_single_env_and_refuses_bad_actions() {
     assert_eq!(v.envs().iter().map(|e| e.state_hash()).collect::<Vec<_>>(), before, "nothing applied");
 }
 
+#[test]
+fn vector_env_keeps_what_an_episode_ended_on() {
+    // A short time limit so that both kinds of ending (time-out, battle over) happen.
+    let cfg = EnvConfig { time_limit_loops: NonZeroU32::new(12 * 8), ..EnvConfig::default() };
+    let mut v = VecEnv::new(Arc::new(builtin("3m").expect("scenario")), cfg.clone(), &[21], 1).expect("vec env");
+    let mut solo = env("3m", cfg, 21);
+    let (agents, obs, state, n_actions) = v.shape();
+    let mut rng = ChaCha8Rng::seed_from_u64(9);
+    let mut ended = 0;
+    for _ in 0..12 {
+        let actions = random_actions(&v.buffers.avail, n_actions, &mut rng);
+        v.step(&actions).expect("valid");
+        let r = solo.step_indices(&actions, None).expect("valid");
+        if r.done {
+            let (mut o, mut s, mut m) = (vec![0.0; agents * obs], vec![0.0; state], vec![0u8; agents * n_actions]);
+            solo.obs_all(Team::One, &mut o).expect("sizes");
+            solo.state_into(Team::One, &mut s).expect("sizes");
+            solo.avail_all(Team::One, &mut m).expect("sizes");
+            assert_eq!(v.buffers.final_obs, o, "the last observation, not the next episode's first");
+            assert_eq!(v.buffers.final_state, s);
+            assert_eq!(v.buffers.final_avail, m);
+            assert_ne!(v.buffers.obs, o, "the buffers moved on to the next episode");
+            ended += 1;
+            break;
+        }
+    }
+    assert_eq!(ended, 1, "the episode ended within its 12-step limit");
+}
+
 /// Plays `e` to the end with random available actions drawn from `rng`; returns the
 /// trajectory hash and the rewards of every step.
 fn play_out(e: &mut Env, rng: &mut ChaCha8Rng) -> (u64, Vec<f32>) {

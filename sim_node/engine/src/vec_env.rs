@@ -49,6 +49,12 @@ pub struct VecBuffers {
     pub info: Vec<StepInfo>,
     /// `E`: the seed of the episode each environment is now in.
     pub seed: Vec<u64>,
+    /// `E x A x obs_shape`, `E x state_shape`, `E x A x n_actions`: where a step ended an
+    /// episode, what it ended on (the automatic reset overwrote `obs`, `state` and `avail`).
+    /// A learner bootstraps a time-out's last step from these. Stale elsewhere.
+    pub final_obs: Vec<f32>,
+    pub final_state: Vec<f32>,
+    pub final_avail: Vec<u8>,
 }
 
 pub struct VecEnv {
@@ -96,6 +102,9 @@ impl VecEnv {
             truncated: vec![false; e],
             info: vec![StepInfo::default(); e],
             seed: seeds.to_vec(),
+            final_obs: vec![0.0; e * n_agents * obs_size],
+            final_state: vec![0.0; e * state_size],
+            final_avail: vec![0; e * n_agents * n_actions],
         };
         let mut v =
             VecEnv { envs, started: vec![1; e], seeds: seeds.to_vec(), pool, threads, buffers, n_agents, obs_size, state_size, n_actions };
@@ -174,21 +183,30 @@ impl VecEnv {
             .zip(b.truncated.iter_mut())
             .zip(b.info.iter_mut())
             .zip(b.seed.iter_mut())
+            .zip(b.final_obs.chunks_mut(oa).zip(b.final_state.chunks_mut(sa)).zip(b.final_avail.chunks_mut(aa)))
             .enumerate()
-            .map(|(i, ((((((((((env, started), acts), obs), state), avail), reward), terminated), truncated), info), seed))| Lane {
-                base_seed: seeds[i],
-                env,
-                started,
-                acts,
-                obs,
-                state,
-                avail,
-                reward,
-                terminated,
-                truncated,
-                info,
-                seed,
-            })
+            .map(
+                |(
+                    i,
+                    (((((((((((env, started), acts), obs), state), avail), reward), terminated), truncated), info), seed), ((fo, fs), fa)),
+                )| Lane {
+                    base_seed: seeds[i],
+                    env,
+                    started,
+                    acts,
+                    obs,
+                    state,
+                    avail,
+                    reward,
+                    terminated,
+                    truncated,
+                    info,
+                    seed,
+                    final_obs: fo,
+                    final_state: fs,
+                    final_avail: fa,
+                },
+            )
             .collect();
         match &self.pool {
             None => lanes.into_iter().for_each(|l| l.step(stride)),
@@ -233,6 +251,9 @@ struct Lane<'a> {
     truncated: &'a mut bool,
     info: &'a mut StepInfo,
     seed: &'a mut u64,
+    final_obs: &'a mut [f32],
+    final_state: &'a mut [f32],
+    final_avail: &'a mut [u8],
 }
 
 impl Lane<'_> {
@@ -245,6 +266,7 @@ impl Lane<'_> {
         *self.truncated = r.truncated;
         *self.info = self.env.info(Team::One);
         if r.done {
+            fill(self.env, self.final_obs, self.final_state, self.final_avail);
             let s = self.base_seed.wrapping_add(*self.started * stride);
             *self.started += 1;
             self.env.reset(s);

@@ -1,0 +1,43 @@
+use avacraft_marl::{Batch, Config, Episode, Learner, Shape};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let cfg = Config::for_algo("qmix", &args)?;
+    let shape = Shape { n_agents: 3, obs: 30, state: 48, n_actions: 9 };
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    let eps: Vec<Episode> = (0..cfg.batch_size)
+        .map(|_| {
+            let mut e = Episode::default();
+            let len = rng.random_range(20..60);
+            for _ in 0..len {
+                let obs: Vec<f32> = (0..90).map(|_| rng.random()).collect();
+                let st: Vec<f32> = (0..48).map(|_| rng.random()).collect();
+                e.push_step(&obs, &st, &[1u8; 27], &[1, 2, 3]);
+                e.push_outcome(rng.random(), false);
+            }
+            e.close(&shape, None);
+            e
+        })
+        .collect();
+    let refs: Vec<&Episode> = eps.iter().collect();
+    let mut l = Learner::new(&cfg, shape, 1)?;
+    for i in 0..12 {
+        let t0 = std::time::Instant::now();
+        let b = Batch::new(&refs, &shape, true, true)?;
+        let t1 = t0.elapsed();
+        let tu = std::time::Instant::now();
+        let _q = l.nets.unroll(&b)?;
+        let tu = tu.elapsed();
+        let t1 = t1 + tu;
+        let (loss, _, _) = l.loss(&b)?;
+        let t2 = t0.elapsed();
+        let g = loss.backward()?;
+        let t3 = t0.elapsed();
+        drop(g);
+        let _ = l.train(&b, i)?;
+        let t4 = t0.elapsed();
+        eprintln!("unroll {tu:?} batch {:?} fwd {:?} bwd {:?} full-train {:?}", t1, t2 - t1, t3 - t2, t4 - t3);
+    }
+    Ok(())
+}

@@ -1,0 +1,203 @@
+//! Image and text encoders for the `rgb`, `hybrid` and `vision-text` observation modes.
+//!
+//! An [`ObsEncoder`] turns a step's frames into a feature vector that replaces SMAC's
+//! feature vector at the agent network's input (`hybrid` keeps both, concatenated):
+//! - two streams with separate weights, one for the screen and one for the minimap, each
+//!   ending in adaptive average pooling so the width does not depend on the frame size
+//!   (the paper's design), concatenated and projected to `encoder_dim` with a ReLU;
+//! - the stream is a small CNN ([`cnn`]) or a Swin Transformer ([`swin`]; Swin-Tiny's own
+//!   sizes selectable), trained from scratch on the TD loss with the agent network: no
+//!   pretrained Swin weights can be had here;
+//! - `vision-text` appends a learned linear projection (`text_dim` wide) of the team
+//!   text's 384-d all-MiniLM-L6-v2 embedding ([`text`]; the paper used GTE-Base, 768-d,
+//!   which cannot be had here), computed by the frozen model once per distinct text.
+//!
+//! The renderer draws one view per team (the whole playable area, as the Python package's
+//! `rgb` mode does); it has no per-unit view, so every agent of a team reads the same
+//! frames and tells itself apart by the agent-id one-hot (and, in `hybrid`, its own SMAC
+//! features). The encoder runs once per frame, not per agent; its output is repeated for
+//! each agent's row.
+//!
+//! Its weights are part of the agent network's [`Params`] (named `encoder.*`): the seed
+//! fixes them, the optimiser trains them, target copies and checkpoints
+//! (`agent.safetensors`) include them.
+
+pub mod cnn;
+pub mod layers;
+pub mod settings;
+pub mod swin;
+pub mod text;
+
+pub use settings::{Backbone, ObsKind, SwinSizes};
+
+use crate::buffer::{Batch, Shape};
+use crate::learner::Nets;
+use crate::nets::{Linear, Params};
+use crate::{Config, Error};
+use candle_core::Tensor;
+use cnn::CnnStream;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use swin::SwinStream;
+
+/// Float tensors of `N` observations: images in [0, 1] and, in `vision-text`, embeddings.
+#[derive(Debug, Clone)]
+pub struct FrameTensors {
+    /// `(N, 3, H, W)`.
+    pub screen: Tensor,
+    /// `(N, 3, h, w)`.
+    pub minimap: Tensor,
+    /// `(N, 384)`.
+    pub text: Option<Tensor>,
+}
+
+#[derive(Debug, Clone)]
+enum Stream {
+    Cnn(CnnStream),
+    Swin(SwinStream),
+}
+
+impl Stream {
+    fn new(p: &mut Params, name: &str, cfg: &Config, rng: &mut ChaCha8Rng) -> Result<Stream, Error> {
+        Ok(match cfg.encoder {
+            Backbone::Cnn => Stream::Cnn(CnnStream::new(p, name, &cfg.cnn_channels, cfg.cnn_pool, rng)?),
+            Backbone::Swin | Backbone::SwinTiny => Stream::Swin(SwinStream::new(p, name, &SwinSizes::of(cfg), rng)?),
+        })
+    }
+    fn out(&self) -> usize {
+        match self {
+            Stream::Cnn(s) => s.out,
+            Stream::Swin(s) => s.out,
+        }
+    }
+    fn forward(&self, x: &Tensor) -> Result<Tensor, Error> {
+        match self {
+            Stream::Cnn(s) => s.forward(x),
+            Stream::Swin(s) => s.forward(x),
+        }
+    }
+}
+
+/// The width of the encoder's output under `cfg` (0 in `features` mode).
+pub fn encoder_width(cfg: &Config) -> usize {
+    if !cfg.obs.images() {
+        return 0;
+    }
+    cfg.encoder_dim + if cfg.obs.text() { cfg.text_dim } else { 0 }
+}
+
+/// The agent network's input width under `cfg`: SMAC's (features, id, last action) or the
+/// encoder's output with the id and last action (and the features in `hybrid`).
+pub fn agent_input_width(cfg: &Config, shape: &Shape) -> usize {
+    let base = shape.input(cfg.obs_agent_id, cfg.obs_last_action);
+    if cfg.obs.features() { base + encoder_width(cfg) } else { base - shape.obs + encoder_width(cfg) }
+}
+
+/// The observation encoder in front of the agent network.
+#[derive(Debug, Clone)]
+pub struct ObsEncoder {
+    kind: ObsKind,
+    screen: Stream,
+    minimap: Stream,
+    head: Linear,
+    text: Option<Linear>,
+    n_agents: usize,
+    obs: usize,
+    /// Output width ([`encoder_width`]).
+    pub out: usize,
+}
+
+impl ObsEncoder {
+    /// The encoder `cfg` asks for (`None` in `features` mode), its weights appended to `p`
+    /// from a stream of its own derived from `seed` (so the agent network and mixer draw
+    /// the same weights in every mode).
+    pub fn for_config(cfg: &Config, shape: &Shape, p: &mut Params, seed: u64) -> Result<Option<ObsEncoder>, Error> {
+        if !cfg.obs.images() {
+            return Ok(None);
+        }
+        let rng = &mut ChaCha8Rng::seed_from_u64(seed ^ 0x0e4c_0de5_0000_0001);
+        let screen = Stream::new(p, "encoder.screen", cfg, rng)?;
+        let minimap = Stream::new(p, "encoder.minimap", cfg, rng)?;
+        let head = Linear::new(p, "encoder.head", screen.out() + minimap.out(), cfg.encoder_dim, rng)?;
+        let text = if cfg.obs.text() { Some(Linear::new(p, "encoder.text", text::TEXT_DIM, cfg.text_dim, rng)?) } else { None };
+        Ok(Some(ObsEncoder {
+            kind: cfg.obs,
+            screen,
+            minimap,
+            head,
+            text,
+            n_agents: shape.n_agents,
+            obs: shape.obs,
+            out: encoder_width(cfg),
+        }))
+    }
+
+    /// Features `(N, out)` of `N` observations.
+    pub fn forward(&self, f: &FrameTensors) -> Result<Tensor, Error> {
+        let image = Tensor::cat(&[self.screen.forward(&f.screen)?, self.minimap.forward(&f.minimap)?], 1)?;
+        let image = self.head.forward(&image)?.relu()?;
+        match (&self.text, &f.text) {
+            (Some(proj), Some(t)) => Ok(Tensor::cat(&[image, proj.forward(t)?], 1)?),
+            (Some(_), None) => Err(Error::Observation { message: "the vision-text encoder was given no text embeddings".into() }),
+            (None, _) => Ok(image),
+        }
+    }
+
+    /// Agent rows: `feats` `(N, F)` of `N` team observations repeated for each agent, then
+    /// each row of `base` `(N * A, width)` (SMAC's input rows: features, id, last action)
+    /// without the features unless in `hybrid`.
+    fn fuse(&self, feats: &Tensor, base: &Tensor) -> Result<Tensor, Error> {
+        let (n, f) = feats.dims2()?;
+        let a = self.n_agents;
+        let rows = feats.unsqueeze(1)?.broadcast_as((n, a, f))?.reshape((n * a, f))?;
+        let width = base.dim(1)?;
+        let rest = if self.kind.features() {
+            base.clone()
+        } else if width > self.obs {
+            base.narrow(1, self.obs, width - self.obs)?
+        } else {
+            return Ok(rows);
+        };
+        Ok(Tensor::cat(&[rows, rest], 1)?)
+    }
+}
+
+impl Nets {
+    /// The agent network's input rows for one step: `x` (SMAC's rows, `E * A`) as is in
+    /// `features` mode, else fused with the encoder's features of the `E` frames.
+    pub fn step_inputs(&self, x: Tensor, frames: Option<&FrameTensors>) -> Result<Tensor, Error> {
+        match (&self.encoder, frames) {
+            (None, _) => Ok(x),
+            (Some(e), Some(f)) => e.fuse(&e.forward(f)?, &x),
+            (Some(_), None) => Err(Error::Observation { message: "an image encoder was given no frames".into() }),
+        }
+    }
+
+    /// The agent network's inputs `(T+1, B*A, input)` for a batch: the encoder runs on the
+    /// batch's real frames only; padded steps get zero features (they are masked out).
+    pub fn unroll_inputs(&self, batch: &Batch) -> Result<Tensor, Error> {
+        let Some(e) = &self.encoder else { return Ok(batch.inputs.clone()) };
+        let Some(fb) = &batch.frames else {
+            return Err(Error::Observation { message: "an image encoder was given a batch without frames".into() });
+        };
+        let (t1, rows, width) = batch.inputs.dims3()?;
+        let feats = e.forward(&fb.frames)?;
+        let f = feats.dim(1)?;
+        let mut per_episode = Vec::with_capacity(fb.lens.len());
+        let mut off = 0;
+        for &len in &fb.lens {
+            let len = len.min(t1);
+            let ep = if len == 0 {
+                Tensor::zeros((t1, f), feats.dtype(), feats.device())?
+            } else {
+                feats.narrow(0, off, len)?.pad_with_zeros(0, 0, t1 - len)?
+            };
+            off += len;
+            per_episode.push(ep);
+        }
+        let b = per_episode.len();
+        let feats = Tensor::stack(&per_episode, 1)?.reshape((t1 * b, f))?; // (t, b) row order
+        let fused = e.fuse(&feats, &batch.inputs.reshape((t1 * rows, width))?)?;
+        Ok(fused.reshape((t1, rows, ()))?)
+    }
+}

@@ -1,0 +1,185 @@
+//! Where the image modes' observations come from while training: every step, team 1's
+//! screen and minimap of each of the vector environment's environments, drawn by the
+//! renderer's CPU back end from the environment's current state (after an automatic reset,
+//! the new episode's first state, as the feature buffers hold), and in `vision-text` the
+//! embedding of the team's text description (the Python package's `vlm` text).
+//!
+//! One view per team (the renderer has no per-unit view): the agents of an environment
+//! share its frames and tell themselves apart by their agent id. Frames are kept as the
+//! renderer's u8 pixels (HWC) in the replay buffer, one per environment step rather than
+//! per agent, and turned into floats only for a batch: at 80x60 plus 32x32 that is 17.5 kB
+//! a step (a 60-step episode about 1 MB; mind `buffer_size`, 5,000 episodes by default).
+
+use crate::buffer::Episode;
+use crate::encoders::layers::pixels_to_tensor;
+use crate::encoders::text::{MiniLm, TEXT_DIM, TextCache};
+use crate::encoders::{FrameTensors, ObsKind};
+use crate::{Config, Error};
+use avacraft_engine::{Env, Team, describe};
+use avacraft_render::{ObsMode, Observer, RenderConfig};
+use candle_core::{Device, Tensor};
+
+/// Frame sizes `(width, height)` of the screen and the minimap.
+type Sizes = ((usize, usize), (usize, usize));
+
+fn sizes(cfg: &Config) -> Sizes {
+    let [sw, sh] = cfg.screen_size;
+    let [mw, mh] = cfg.minimap_size;
+    ((sw as usize, sh as usize), (mw as usize, mh as usize))
+}
+
+/// One step's observations of `n` environments.
+#[derive(Clone, Debug, Default)]
+pub struct StepFrames {
+    pub n: usize,
+    /// `n x H x W x 3`.
+    pub screen: Vec<u8>,
+    /// `n x h x w x 3`.
+    pub minimap: Vec<u8>,
+    /// `n x 384` (`vision-text` only, else empty).
+    pub text: Vec<f32>,
+    sizes: Sizes,
+}
+
+impl StepFrames {
+    /// As float tensors for the encoder.
+    pub fn tensors(&self) -> Result<FrameTensors, Error> {
+        frame_tensors(&self.screen, &self.minimap, &self.text, self.n, self.sizes)
+    }
+}
+
+fn frame_tensors(screen: &[u8], minimap: &[u8], text: &[f32], n: usize, (s, m): Sizes) -> Result<FrameTensors, Error> {
+    let check = |what: &str, got: usize, want: usize| {
+        if got == want {
+            Ok(())
+        } else {
+            Err(Error::Observation { message: format!("{what}: {got} values for {n} frames, {want} expected") })
+        }
+    };
+    check("screen", screen.len(), n * s.0 * s.1 * 3)?;
+    check("minimap", minimap.len(), n * m.0 * m.1 * 3)?;
+    let text = if text.is_empty() {
+        None
+    } else {
+        check("text", text.len(), n * TEXT_DIM)?;
+        Some(Tensor::from_slice(text, (n, TEXT_DIM), &Device::Cpu)?)
+    };
+    Ok(FrameTensors { screen: pixels_to_tensor(screen, n, s)?, minimap: pixels_to_tensor(minimap, n, m)?, text })
+}
+
+/// An episode's stored observations, one per step (the `len + 1`-th row of the episode,
+/// after its last step, has none: the encoder gives it zero features, and it is masked).
+#[derive(Clone, Debug, Default)]
+pub struct Frames {
+    pub len: usize,
+    screen: Vec<u8>,
+    minimap: Vec<u8>,
+    text: Vec<f32>,
+}
+
+impl Frames {
+    /// Appends environment `env`'s observation of `step`.
+    pub fn push(&mut self, step: &StepFrames, env: usize) {
+        let ((sw, sh), (mw, mh)) = step.sizes;
+        let (s, m) = (sw * sh * 3, mw * mh * 3);
+        self.screen.extend_from_slice(&step.screen[env * s..(env + 1) * s]);
+        self.minimap.extend_from_slice(&step.minimap[env * m..(env + 1) * m]);
+        if !step.text.is_empty() {
+            self.text.extend_from_slice(&step.text[env * TEXT_DIM..(env + 1) * TEXT_DIM]);
+        }
+        self.len += 1;
+    }
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        self.screen.len() + self.minimap.len() + 4 * self.text.len()
+    }
+}
+
+/// The frames of a batch of episodes: every real step's, episode after episode.
+#[derive(Debug, Clone)]
+pub struct FrameBatch {
+    pub frames: FrameTensors,
+    /// Steps with frames per episode.
+    pub lens: Vec<usize>,
+}
+
+impl FrameBatch {
+    pub fn new(episodes: &[&Episode], cfg: &Config) -> Result<FrameBatch, Error> {
+        let n: usize = episodes.iter().map(|e| e.frames.len).sum();
+        let mut screen = Vec::new();
+        let mut minimap = Vec::new();
+        let mut text = Vec::new();
+        for e in episodes {
+            if e.frames.len != e.len {
+                return Err(Error::Observation { message: format!("an episode of {} steps holds {} frames", e.len, e.frames.len) });
+            }
+            screen.extend_from_slice(&e.frames.screen);
+            minimap.extend_from_slice(&e.frames.minimap);
+            text.extend_from_slice(&e.frames.text);
+        }
+        let frames = frame_tensors(&screen, &minimap, &text, n, sizes(cfg))?;
+        Ok(FrameBatch { frames, lens: episodes.iter().map(|e| e.frames.len).collect() })
+    }
+}
+
+/// Renders (and describes) environments for an image mode.
+#[derive(Debug)]
+pub struct ObsSource {
+    kind: ObsKind,
+    observer: Observer,
+    text: Option<TextCache>,
+    sizes: Sizes,
+}
+
+impl ObsSource {
+    /// The source `cfg` needs (`None` in `features` mode); `vision-text` loads the text
+    /// model (an error naming the pip command when it is not installed).
+    pub fn new(cfg: &Config) -> Result<Option<ObsSource>, Error> {
+        if !cfg.obs.images() {
+            return Ok(None);
+        }
+        let text = if cfg.obs.text() {
+            let model = MiniLm::load_from(&crate::encoders::text::locate()?, cfg.text_max_tokens)?;
+            Some(TextCache::new(model, cfg.text_cache))
+        } else {
+            None
+        };
+        Ok(Some(ObsSource::with_text(cfg, text)))
+    }
+
+    /// A source with a given text cache (tests share one model).
+    pub fn with_text(cfg: &Config, text: Option<TextCache>) -> ObsSource {
+        let [sw, sh] = cfg.screen_size;
+        let [mw, mh] = cfg.minimap_size;
+        let render = RenderConfig::default().with_screen(sw, sh).with_minimap(mw, mh);
+        ObsSource { kind: cfg.obs, observer: Observer::new(ObsMode::Rgb, render), text, sizes: sizes(cfg) }
+    }
+
+    /// The text cache, if this mode embeds texts.
+    pub fn text_cache(&self) -> Option<&TextCache> {
+        self.text.as_ref()
+    }
+
+    /// Team 1's observation of each environment as it is now.
+    pub fn observe(&mut self, envs: &[Env]) -> Result<StepFrames, Error> {
+        let mut out = StepFrames { n: envs.len(), sizes: self.sizes, ..StepFrames::default() };
+        for env in envs {
+            let s = self.observer.screen(env, Team::One);
+            let m = self.observer.minimap(env, Team::One);
+            out.screen.extend_from_slice(s.as_raw());
+            out.minimap.extend_from_slice(m.as_raw());
+            if self.kind.text() {
+                let Some(cache) = self.text.as_mut() else {
+                    return Err(Error::Observation { message: "vision-text needs the text model".into() });
+                };
+                out.text.extend(cache.embed(&describe(env, Team::One))?.to_vec1::<f32>()?);
+            }
+        }
+        // Validates the renderer's sizes against the config once per step.
+        let ((sw, sh), (mw, mh)) = self.sizes;
+        if out.screen.len() != envs.len() * sw * sh * 3 || out.minimap.len() != envs.len() * mw * mh * 3 {
+            return Err(Error::Observation { message: "the renderer drew frames of another size than configured".into() });
+        }
+        Ok(out)
+    }
+}

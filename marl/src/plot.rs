@@ -1,0 +1,90 @@
+//! Learning curves as a PNG next to the CSV log (`curves.png`): greedy test and training win
+//! rates, the test return and the loss against environment steps, redrawn after every test
+//! round so a run can be watched while it goes. Text is drawn with DejaVu Sans from the
+//! `dejavu` crate, so no system font is needed.
+
+use crate::Error;
+use plotters::prelude::*;
+use std::path::Path;
+use std::sync::OnceLock;
+
+/// One logged point of a run.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CurvePoint {
+    pub t_env: u64,
+    pub test_win_rate: f64,
+    /// `None` when no training episode ended since the previous point.
+    pub train_win_rate: Option<f64>,
+    pub test_return: f64,
+    pub loss: f64,
+}
+
+fn font() -> Result<(), Error> {
+    static REGISTERED: OnceLock<bool> = OnceLock::new();
+    let ok = *REGISTERED.get_or_init(|| plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular()).is_ok());
+    if ok { Ok(()) } else { Err(Error::Plot { message: "the embedded DejaVu Sans font did not load".into() }) }
+}
+
+fn err(e: impl std::fmt::Display) -> Error {
+    Error::Plot { message: e.to_string() }
+}
+
+/// Draws `points` of the run `title` into `path` (PNG, 900x900).
+pub fn curves(path: &Path, title: &str, points: &[CurvePoint]) -> Result<(), Error> {
+    font()?;
+    let root = BitMapBackend::new(path, (900, 900)).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let root = root.titled(title, ("sans-serif", 22)).map_err(err)?;
+    let panels = root.split_evenly((3, 1));
+    let x_max = points.iter().map(|p| p.t_env).max().unwrap_or(1).max(1);
+    let finite = |f: fn(&CurvePoint) -> f64| points.iter().map(f).filter(|v| v.is_finite());
+    let range = |f: fn(&CurvePoint) -> f64| {
+        let (lo, hi) = finite(f).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+        if lo.is_finite() && hi > lo {
+            lo..hi + (hi - lo) * 0.05
+        } else if lo.is_finite() {
+            lo - 1.0..lo + 1.0
+        } else {
+            0.0..1.0
+        }
+    };
+    type Series<'a> = (&'a str, fn(&CurvePoint) -> f64, RGBColor);
+    let specs: [(&str, std::ops::Range<f64>, Vec<Series<'_>>); 3] = [
+        (
+            "win rate",
+            0.0..1.02,
+            vec![
+                ("greedy test", |p| p.test_win_rate, BLUE),
+                ("training (exploring)", |p| p.train_win_rate.unwrap_or(f64::NAN), RGBColor(230, 120, 0)),
+            ],
+        ),
+        ("test return", range(|p| p.test_return), vec![("greedy test return", |p| p.test_return, RGBColor(0, 140, 60))]),
+        ("loss", range(|p| p.loss), vec![("last update's loss", |p| p.loss, RED)]),
+    ];
+    for (area, (label, y, series)) in panels.iter().zip(specs) {
+        let mut chart = ChartBuilder::on(area)
+            .margin(12)
+            .x_label_area_size(36)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0u64..x_max, y)
+            .map_err(err)?;
+        chart.configure_mesh().x_desc("environment steps").y_desc(label).label_style(("sans-serif", 14)).draw().map_err(err)?;
+        for (name, f, color) in series {
+            let pts: Vec<(u64, f64)> = points.iter().map(|p| (p.t_env, f(p))).filter(|(_, v)| v.is_finite()).collect();
+            chart
+                .draw_series(LineSeries::new(pts, color.stroke_width(2)))
+                .map_err(err)?
+                .label(name)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 14))
+            .position(SeriesLabelPosition::LowerRight)
+            .draw()
+            .map_err(err)?;
+    }
+    root.present().map_err(err)
+}

@@ -1,0 +1,354 @@
+//! The PPO learner: the actor (PyMARL's GRU agent network read as logits), a recurrent
+//! critic of the same architecture with one output, Adam on each, and the update: clipped
+//! surrogate, entropy bonus and Huber value loss (optionally clipped) over chunked
+//! sequences, with MAPPO's value normalisation and active masks.
+
+use super::rollout::{MASKED, PpoBatch, Rollout, gae};
+use super::value_norm::ValueNorm;
+use crate::buffer::Shape;
+use crate::learner::Nets;
+use crate::nets::{AgentNet, Params};
+use crate::{Config, Error};
+use candle_core::backprop::GradStore;
+use candle_core::{D, Device, Tensor, Var};
+use candle_nn::{AdamW, Optimizer, ParamsAdamW};
+use rand::seq::SliceRandom;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// What the critic sees besides the agent id one-hot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CriticInput {
+    /// The agent's own observation (IPPO: decentralised).
+    Obs,
+    /// The global state (MAPPO: centralised).
+    State,
+}
+
+impl CriticInput {
+    pub fn of(cfg: &Config) -> CriticInput {
+        if cfg.algo == "mappo" { CriticInput::State } else { CriticInput::Obs }
+    }
+    pub fn width(self, shape: &Shape) -> usize {
+        shape.n_agents
+            + match self {
+                CriticInput::Obs => shape.obs,
+                CriticInput::State => shape.state,
+            }
+    }
+    /// The critic's input rows (`envs x agents`) from a vector step's observations and states.
+    pub fn rows(self, shape: &Shape, obs: &[f32], state: &[f32], envs: usize) -> Vec<f32> {
+        let (a, w) = (shape.n_agents, self.width(shape));
+        let mut out = vec![0f32; envs * a * w];
+        for (i, row) in out.chunks_exact_mut(w.max(1)).enumerate() {
+            let (e, ag) = (i / a.max(1), i % a.max(1));
+            let src = match self {
+                CriticInput::Obs => &obs[i * shape.obs..(i + 1) * shape.obs],
+                CriticInput::State => &state[e * shape.state..(e + 1) * shape.state],
+            };
+            row[..src.len()].copy_from_slice(src);
+            row[src.len() + ag] = 1.0;
+        }
+        out
+    }
+}
+
+/// Statistics of one update (means over its epochs and mini-batches).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PpoStats {
+    pub loss: f64,
+    pub policy_loss: f64,
+    pub value_loss: f64,
+    pub entropy: f64,
+    /// Gradient norms before clipping.
+    pub actor_grad_norm: f64,
+    pub critic_grad_norm: f64,
+    /// The rollout's mean value estimate (denormalised) over active rows.
+    pub value_mean: f64,
+}
+
+/// The loss of a batch and its parts.
+#[derive(Debug)]
+pub struct Losses {
+    pub total: Tensor,
+    pub policy: Tensor,
+    pub value: Tensor,
+    pub entropy: Tensor,
+}
+
+/// Log-probabilities of every action with unavailable ones masked out: `logits` and the
+/// additive `mask` (0 or [`MASKED`]) `(N, n_actions)`. The row maximum is a constant shift,
+/// so it is taken outside the graph (fewer backward operations).
+pub fn masked_log_softmax(logits: &Tensor, mask: &Tensor) -> Result<Tensor, Error> {
+    let z = (logits + mask)?;
+    let z = z.broadcast_sub(&z.max_keepdim(D::Minus1)?.detach())?;
+    let lse = z.exp()?.sum_keepdim(D::Minus1)?.log()?;
+    Ok(z.broadcast_sub(&lse)?)
+}
+
+/// One action per row drawn from the softmax of `logits` over the available actions
+/// (`avail` 0/1), and its log-probability. An unavailable action has probability exactly 0
+/// and is never drawn; a row with none available gets the no-op (0), log-probability 0.
+pub fn sample_actions(logits: &[f32], avail: &[u8], n_actions: usize, rng: &mut ChaCha8Rng) -> (Vec<u32>, Vec<f32>) {
+    let na = n_actions.max(1);
+    logits
+        .chunks_exact(na)
+        .zip(avail.chunks_exact(na))
+        .map(|(lr, ar)| {
+            let avail_logits = || lr.iter().zip(ar).enumerate().filter(|(_, (_, m))| **m != 0).map(|(i, (&l, _))| (i, f64::from(l)));
+            let Some(max) = avail_logits().map(|(_, l)| l).reduce(f64::max) else { return (0, 0.0) };
+            let total: f64 = avail_logits().map(|(_, l)| (l - max).exp()).sum();
+            let u = rng.random::<f64>() * total;
+            let mut acc = 0.0;
+            let mut pick = (0, max);
+            for (i, l) in avail_logits() {
+                pick = (i, l);
+                acc += (l - max).exp();
+                if u < acc {
+                    break;
+                }
+            }
+            (pick.0 as u32, (pick.1 - max - total.ln()) as f32)
+        })
+        .unzip()
+}
+
+/// Huber loss with threshold `delta` (`0`: half the squared error), elementwise.
+fn huber(err: &Tensor, delta: f64) -> Result<Tensor, Error> {
+    if delta <= 0.0 {
+        return Ok((err.sqr()? * 0.5)?);
+    }
+    let a = err.abs()?;
+    let q = a.minimum(delta)?;
+    Ok(((q.sqr()? * 0.5)? + ((a - &q)? * delta)?)?)
+}
+
+/// Scales the gradients of `vars` in `grads` so their global L2 norm is at most `max_norm`
+/// (as `torch.nn.utils.clip_grad_norm_`); returns the norm before clipping.
+pub fn clip_grad_norm(grads: &mut GradStore, vars: &[Var], max_norm: f64) -> Result<f64, Error> {
+    let mut total = 0f64;
+    for v in vars {
+        if let Some(g) = grads.get(v) {
+            total += f64::from(g.sqr()?.sum_all()?.to_scalar::<f32>()?);
+        }
+    }
+    let norm = total.sqrt();
+    if norm > max_norm {
+        let scale = max_norm / (norm + 1e-6);
+        for v in vars {
+            if let Some(g) = grads.remove(v) {
+                grads.insert(v, (g * scale)?);
+            }
+        }
+    }
+    Ok(norm)
+}
+
+fn adam(vars: Vec<Var>, lr: f64, eps: f64) -> Result<AdamW, Error> {
+    Ok(AdamW::new(vars, ParamsAdamW { lr, beta1: 0.9, beta2: 0.999, eps, weight_decay: 0.0 })?)
+}
+
+#[derive(Debug)]
+pub struct PpoLearner {
+    pub cfg: Config,
+    pub shape: Shape,
+    /// The policy: the agent network (no mixer), saved as a Q-learner's checkpoint is.
+    pub actor: Nets,
+    pub critic: AgentNet,
+    pub critic_params: Params,
+    pub critic_input: CriticInput,
+    pub value_norm: ValueNorm,
+    actor_vars: Vec<Var>,
+    critic_vars: Vec<Var>,
+    actor_opt: AdamW,
+    critic_opt: AdamW,
+    /// Updates done (one per rollout).
+    pub updates: u64,
+}
+
+impl PpoLearner {
+    /// Fresh networks, every weight drawn from `seed`.
+    pub fn new(cfg: &Config, shape: Shape, seed: u64) -> Result<PpoLearner, Error> {
+        let actor = Nets::new(cfg, &shape, seed)?;
+        actor.agent_params.scale("fc2.", cfg.actor_out_gain)?;
+        let critic_input = CriticInput::of(cfg);
+        let mut critic_params = Params::default();
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xc817_1c00);
+        let critic = AgentNet::new(&mut critic_params, critic_input.width(&shape), cfg.rnn_hidden_dim, 1, &mut rng)?;
+        let actor_vars: Vec<Var> = actor.agent_params.vars().cloned().collect();
+        let critic_vars: Vec<Var> = critic_params.vars().cloned().collect();
+        let actor_opt = adam(actor_vars.clone(), cfg.lr, cfg.optim_eps)?;
+        let critic_opt = adam(critic_vars.clone(), cfg.critic_lr, cfg.optim_eps)?;
+        Ok(PpoLearner {
+            cfg: cfg.clone(),
+            shape,
+            actor,
+            critic,
+            critic_params,
+            critic_input,
+            value_norm: ValueNorm::default(),
+            actor_vars,
+            critic_vars,
+            actor_opt,
+            critic_opt,
+            updates: 0,
+        })
+    }
+
+    /// The network of `net` unrolled over a batch's chunks from their first hidden states
+    /// `h0`, zeroing the state where an episode starts: `(L * N, out)`.
+    fn unroll(net: &AgentNet, x: &Tensor, h0: &Tensor, keep: &Tensor) -> Result<Tensor, Error> {
+        let (l, n, w) = x.dims3()?;
+        let gi = net.project(&x.reshape((l * n, w))?)?.reshape((l, n, ()))?;
+        let mut h = h0.clone();
+        let mut hs = Vec::with_capacity(l);
+        for li in 0..l {
+            if li > 0 {
+                h = h.broadcast_mul(&keep.get(li)?)?;
+            }
+            h = net.recur(&gi.get(li)?, &h)?;
+            hs.push(h.clone());
+        }
+        net.head(&Tensor::stack(&hs, 0)?.reshape((l * n, net.hidden))?)
+    }
+
+    /// The PPO loss of a batch (MAPPO's, with its means over active rows only).
+    pub fn loss(&self, b: &PpoBatch) -> Result<Losses, Error> {
+        let cfg = &self.cfg;
+        let flat = |x: &Tensor| -> Result<Tensor, Error> {
+            let (l, n, w) = x.dims3()?;
+            Ok(x.reshape((l * n, w))?)
+        };
+        let active = flat(&b.active)?;
+        let n_active = f64::from(active.sum_all()?.to_scalar::<f32>()?).max(1.0);
+        let mean = |x: &Tensor| -> Result<Tensor, Error> { Ok(((x * &active)?.sum_all()? / n_active)?) };
+
+        let logits = Self::unroll(&self.actor.agent, &b.actor_in, &b.h_actor, &b.keep)?;
+        let logp_all = masked_log_softmax(&logits, &flat(&b.mask)?)?;
+        let entropy = (logp_all.exp()? * &logp_all)?.sum_keepdim(D::Minus1)?.neg()?;
+        let logp = logp_all.gather(&flat(&b.actions)?, D::Minus1)?;
+        let ratio = (logp - flat(&b.old_logp)?)?.exp()?;
+        let adv = flat(&b.adv)?;
+        let s1 = (&ratio * &adv)?;
+        let s2 = (ratio.clamp(1.0 - cfg.clip_param, 1.0 + cfg.clip_param)? * &adv)?;
+        let policy = mean(&s1.minimum(&s2)?)?.neg()?;
+        let entropy = mean(&entropy)?;
+
+        let values = Self::unroll(&self.critic, &b.critic_in, &b.h_critic, &b.keep)?;
+        let targets = flat(&b.targets)?;
+        let mut vloss = huber(&(&targets - &values)?, cfg.huber_delta)?;
+        if cfg.clip_value_loss {
+            let old = flat(&b.old_values)?;
+            let clipped = (&old + (&values - &old)?.clamp(-cfg.clip_param, cfg.clip_param)?)?;
+            vloss = vloss.maximum(&huber(&(&targets - clipped)?, cfg.huber_delta)?)?;
+        }
+        let value = mean(&vloss)?;
+        let total = ((&policy - (&entropy * cfg.entropy_coef)?)? + (&value * cfg.value_loss_coef)?)?;
+        Ok(Losses { total, policy, value, entropy })
+    }
+
+    /// One gradient step of actor and critic on `b`; the gradient norms before clipping.
+    pub fn step(&mut self, b: &PpoBatch) -> Result<(Losses, f64, f64), Error> {
+        let losses = self.loss(b)?;
+        let loss_v = f64::from(losses.total.to_scalar::<f32>()?);
+        if !loss_v.is_finite() || loss_v.abs() > 1e8 {
+            return Err(Error::Diverged { update: self.updates, loss: loss_v });
+        }
+        let mut grads = losses.total.backward()?;
+        let an = clip_grad_norm(&mut grads, &self.actor_vars, self.cfg.grad_norm_clip)?;
+        let cn = clip_grad_norm(&mut grads, &self.critic_vars, self.cfg.grad_norm_clip)?;
+        self.actor_opt.step(&grads)?;
+        self.critic_opt.step(&grads)?;
+        Ok((losses, an, cn))
+    }
+
+    /// Advantages and value targets of a finished rollout, then `ppo_epochs` passes of
+    /// `num_mini_batch` steps over its chunks (shuffled by `rng` when more than one).
+    pub fn update(&mut self, r: &Rollout, rng: &mut ChaCha8Rng) -> Result<PpoStats, Error> {
+        let cfg = self.cfg.clone();
+        let (t, rows) = (r.t, r.rows);
+        let values: Vec<f32> = r.values.iter().map(|&v| if cfg.value_norm { self.value_norm.denormalize(v) } else { v }).collect();
+        let a = self.shape.n_agents.max(1);
+        let envs = rows / a;
+        let per_row = |x: &[f32]| -> Vec<f32> { (0..t * rows).map(|i| x[(i / rows) * envs + (i % rows) / a]).collect() };
+        let adv = gae(&per_row(&r.reward), &values, &per_row(&r.done), rows, cfg.gamma, cfg.gae_lambda);
+        let returns: Vec<f32> = adv.iter().zip(&values).map(|(a, v)| a + v).collect();
+        if cfg.value_norm {
+            self.value_norm.update(&returns);
+        }
+        let targets: Vec<f32> = returns.iter().map(|&g| if cfg.value_norm { self.value_norm.normalize(g) } else { g }).collect();
+        // Advantages standardised over the active rows (MAPPO).
+        let n_act = r.active.iter().sum::<f32>().max(1.0) as f64;
+        let m = adv.iter().zip(&r.active).map(|(&x, &w)| f64::from(x * w)).sum::<f64>() / n_act;
+        let var = adv.iter().zip(&r.active).map(|(&x, &w)| f64::from(w) * (f64::from(x) - m).powi(2)).sum::<f64>() / n_act;
+        let sd = var.sqrt() + 1e-5;
+        let adv_n: Vec<f32> = adv.iter().map(|&x| ((f64::from(x) - m) / sd) as f32).collect();
+        let value_mean = values[..t * rows].iter().zip(&r.active).map(|(&v, &w)| f64::from(v * w)).sum::<f64>() / n_act;
+
+        let batch = PpoBatch::new(r, &adv_n, &targets, cfg.data_chunk_length, cfg.rnn_hidden_dim)?;
+        let n = batch.len();
+        let mb = cfg.num_mini_batch.clamp(1, n.max(1));
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        let mut stats = PpoStats { value_mean, ..PpoStats::default() };
+        let mut steps = 0f64;
+        for _ in 0..cfg.ppo_epochs {
+            if mb > 1 {
+                order.shuffle(rng);
+            }
+            for k in 0..mb {
+                let part = if mb == 1 { batch.clone() } else { batch.select(&order[k * n / mb..(k + 1) * n / mb])? };
+                let (l, an, cn) = self.step(&part)?;
+                stats.loss += f64::from(l.total.to_scalar::<f32>()?);
+                stats.policy_loss += f64::from(l.policy.to_scalar::<f32>()?);
+                stats.value_loss += f64::from(l.value.to_scalar::<f32>()?);
+                stats.entropy += f64::from(l.entropy.to_scalar::<f32>()?);
+                stats.actor_grad_norm += an;
+                stats.critic_grad_norm += cn;
+                steps += 1.0;
+            }
+        }
+        for x in [
+            &mut stats.loss,
+            &mut stats.policy_loss,
+            &mut stats.value_loss,
+            &mut stats.entropy,
+            &mut stats.actor_grad_norm,
+            &mut stats.critic_grad_norm,
+        ] {
+            *x /= steps.max(1.0);
+        }
+        self.updates += 1;
+        Ok(stats)
+    }
+
+    /// The acting step for `rows` rows: actor logits and critic values (both as vectors) and
+    /// the next hidden states.
+    pub fn act(&self, x_actor: &[f32], h_actor: &Tensor, x_critic: &[f32], h_critic: &Tensor) -> Result<ActOut, Error> {
+        let rows = h_actor.dim(0)?;
+        let xa = Tensor::from_slice(x_actor, (rows, x_actor.len() / rows.max(1)), &Device::Cpu)?;
+        let xc = Tensor::from_slice(x_critic, (rows, x_critic.len() / rows.max(1)), &Device::Cpu)?;
+        let (logits, ha) = self.actor.agent.step(&xa, h_actor)?;
+        let (values, hc) = self.critic.step(&xc, h_critic)?;
+        Ok(ActOut { logits: logits.flatten_all()?.to_vec1()?, values: values.flatten_all()?.to_vec1()?, h_actor: ha, h_critic: hc })
+    }
+
+    /// Writes the critic's weights (`critic.safetensors`) into `dir`.
+    pub fn save_critic(&self, dir: &std::path::Path) -> Result<(), Error> {
+        std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
+        Ok(candle_core::safetensors::save(&self.critic_params.to_map(), dir.join("critic.safetensors"))?)
+    }
+}
+
+/// What [`PpoLearner::act`] returns.
+#[derive(Debug)]
+pub struct ActOut {
+    pub logits: Vec<f32>,
+    pub values: Vec<f32>,
+    pub h_actor: Tensor,
+    pub h_critic: Tensor,
+}
+
+/// The additive logit masks (`0` or [`MASKED`]) of 0/1 availability masks.
+pub fn additive_mask(avail: &[u8]) -> impl Iterator<Item = f32> + '_ {
+    avail.iter().map(|&m| if m != 0 { 0.0 } else { MASKED })
+}

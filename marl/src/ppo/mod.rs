@@ -1,0 +1,19 @@
+//! IPPO and MAPPO (the MAPPO repository's recurrent PPO for SMAC): a shared GRU actor, the
+//! Q-learners' agent network read as logits so its checkpoints play through
+//! [`crate::MarlAgent`] unchanged, and a recurrent critic of the same architecture with one
+//! output, fed each agent's observation (IPPO) or the global state (MAPPO) with the agent id.
+//!
+//! - [`rollout`]: on-policy rollouts, GAE, the chunks the recurrent nets learn on;
+//! - [`learner`]: losses, Adam with global-norm clipping, the update, masked sampling;
+//! - [`value_norm`]: MAPPO's running normalisation of the value targets;
+//! - [`train`](train()): the loop.
+
+pub mod learner;
+pub mod rollout;
+mod train;
+pub mod value_norm;
+
+pub use learner::{CriticInput, Losses, PpoLearner, PpoStats, clip_grad_norm, masked_log_softmax, sample_actions};
+pub use rollout::{MASKED, PpoBatch, Rollout, gae, to_chunks};
+pub use train::train;
+pub use value_norm::ValueNorm;

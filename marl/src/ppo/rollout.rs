@@ -1,0 +1,192 @@
+//! On-policy rollouts: `rollout_len` steps of all `envs` environments, stored time-major
+//! (`T x R` rows, `R = envs x agents`), the advantages computed on them with GAE, and the
+//! rollout cut into the chunks the recurrent networks learn on.
+//!
+//! The MAPPO repository's recurrent training: each row's `T` steps are cut into chunks of
+//! `data_chunk_length` (`L`) steps, and each chunk is unrolled from the hidden state recorded
+//! while acting at its first step. A chunk is thus a fixed-length sequence whatever the
+//! episodes' lengths, so one update unrolls `L` GRU steps (not `T`) over `T/L x R` sequences
+//! at once: few large tensor operations instead of many small ones. Episodes that start
+//! inside a chunk zero the hidden state there, as acting did.
+//!
+//! The vector environment resets on its own, so the observation after a time-out is gone:
+//! a truncated episode's last step is treated as terminal (no bootstrap from its final
+//! value), which biases the values of states near the time limit low. Once the environment
+//! reports final observations, GAE can bootstrap truncations from them.
+
+use crate::Error;
+use candle_core::{Device, Tensor};
+
+/// The additive logit mask of an unavailable action: finite, so masked rows stay finite,
+/// and so large that its probability underflows to exactly 0 in f32.
+pub const MASKED: f32 = -1e10;
+
+/// One rollout of `t` steps over `rows` rows (`envs x agents`, environment-major).
+#[derive(Clone, Debug, Default)]
+pub struct Rollout {
+    pub t: usize,
+    pub rows: usize,
+    pub n_agents: usize,
+    /// `T x R x` actor input width.
+    pub actor_in: Vec<f32>,
+    /// `T x R x` critic input width.
+    pub critic_in: Vec<f32>,
+    /// `T x R x n_actions`: 0 where available, [`MASKED`] where not.
+    pub mask: Vec<f32>,
+    pub actions: Vec<u32>,
+    /// `T x R`: the log-probability of the action taken, under the acting policy.
+    pub logp: Vec<f32>,
+    /// `(T + 1) x R`: the critic's outputs (normalised scale); the last row is the bootstrap
+    /// value of the state after the rollout.
+    pub values: Vec<f32>,
+    /// `T x R`: 1 where the agent had a choice (more than one available action). Dead agents
+    /// (only the no-op) are left out of the losses, as MAPPO's active masks do.
+    pub active: Vec<f32>,
+    /// `T x R`: 0 where an episode starts at this step (the hidden state was reset before it).
+    pub keep: Vec<f32>,
+    /// `T x envs`: the team's reward and whether the step ended the episode.
+    pub reward: Vec<f32>,
+    pub done: Vec<f32>,
+    /// `T/L x R x hidden`: hidden states at the chunks' first steps.
+    pub h_actor: Vec<f32>,
+    pub h_critic: Vec<f32>,
+}
+
+impl Rollout {
+    /// Empties the rollout, keeping its allocations.
+    pub fn clear(&mut self) {
+        self.t = 0;
+        for v in [
+            &mut self.actor_in,
+            &mut self.critic_in,
+            &mut self.mask,
+            &mut self.logp,
+            &mut self.values,
+            &mut self.active,
+            &mut self.keep,
+            &mut self.reward,
+            &mut self.done,
+            &mut self.h_actor,
+            &mut self.h_critic,
+        ] {
+            v.clear();
+        }
+        self.actions.clear();
+    }
+}
+
+/// Generalised advantage estimation over `T` steps of `rows` independent rows:
+/// `rewards` and `dones` `T x rows`, `values` `(T + 1) x rows` (the last row bootstraps the
+/// step after the rollout). A done step neither bootstraps nor passes advantages back across
+/// the reset that follows it. Returns the advantages; the value targets are `A + V`.
+pub fn gae(rewards: &[f32], values: &[f32], dones: &[f32], rows: usize, gamma: f64, lambda: f64) -> Vec<f32> {
+    let t = rewards.len() / rows.max(1);
+    let mut adv = vec![0f32; t * rows];
+    for r in 0..rows {
+        let mut next = 0f64;
+        for ti in (0..t).rev() {
+            let i = ti * rows + r;
+            let not_done = 1.0 - f64::from(dones[i]);
+            let delta = f64::from(rewards[i]) + gamma * f64::from(values[i + rows]) * not_done - f64::from(values[i]);
+            next = delta + gamma * lambda * not_done * next;
+            adv[i] = next as f32;
+        }
+    }
+    adv
+}
+
+/// Rows of `T x R x width` (time-major) rearranged into `L x (T/L * R) x width`: step `l` of
+/// every chunk, chunk-major then row, so sequence `c * R + r` is row `r`'s chunk `c`.
+pub fn to_chunks(data: &[f32], t: usize, rows: usize, chunk: usize) -> Vec<f32> {
+    let width = data.len() / (t * rows).max(1);
+    let n_chunks = t / chunk.max(1);
+    let block = rows * width;
+    let mut out = Vec::with_capacity(data.len());
+    for l in 0..chunk {
+        for c in 0..n_chunks {
+            let ti = c * chunk + l;
+            out.extend_from_slice(&data[ti * block..(ti + 1) * block]);
+        }
+    }
+    out
+}
+
+/// One update's data as tensors, `L` steps of `N` chunk sequences.
+#[derive(Debug, Clone)]
+pub struct PpoBatch {
+    /// `(L, N, width)`.
+    pub actor_in: Tensor,
+    pub critic_in: Tensor,
+    /// `(L, N, n_actions)` additive mask.
+    pub mask: Tensor,
+    /// `(L, N, 1)` (u32).
+    pub actions: Tensor,
+    /// `(L, N, 1)` each.
+    pub old_logp: Tensor,
+    pub adv: Tensor,
+    pub old_values: Tensor,
+    pub targets: Tensor,
+    pub active: Tensor,
+    pub keep: Tensor,
+    /// `(N, hidden)`.
+    pub h_actor: Tensor,
+    pub h_critic: Tensor,
+}
+
+impl PpoBatch {
+    /// Chunks a finished rollout; `adv` (normalised advantages) and `targets` (normalised
+    /// value targets) are `T x R`.
+    pub fn new(r: &Rollout, adv: &[f32], targets: &[f32], chunk: usize, hidden: usize) -> Result<PpoBatch, Error> {
+        let (t, rows) = (r.t, r.rows);
+        let l = chunk;
+        let n = t / l * rows;
+        let dev = Device::Cpu;
+        let seq = |data: &[f32]| -> Result<Tensor, Error> {
+            let width = data.len() / (t * rows).max(1);
+            Ok(Tensor::from_vec(to_chunks(data, t, rows, l), (l, n, width), &dev)?)
+        };
+        let actions: Vec<f32> = r.actions.iter().map(|&a| a as f32).collect();
+        Ok(PpoBatch {
+            actor_in: seq(&r.actor_in)?,
+            critic_in: seq(&r.critic_in)?,
+            mask: seq(&r.mask)?,
+            actions: seq(&actions)?.to_dtype(candle_core::DType::U32)?,
+            old_logp: seq(&r.logp)?,
+            adv: seq(adv)?,
+            old_values: seq(&r.values[..t * rows])?,
+            targets: seq(targets)?,
+            active: seq(&r.active)?,
+            keep: seq(&r.keep)?,
+            h_actor: Tensor::from_vec(r.h_actor.clone(), (n, hidden), &dev)?,
+            h_critic: Tensor::from_vec(r.h_critic.clone(), (n, hidden), &dev)?,
+        })
+    }
+
+    /// The number of sequences.
+    pub fn len(&self) -> usize {
+        self.h_actor.dim(0).unwrap_or(0)
+    }
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The sequences `idx` (a mini-batch).
+    pub fn select(&self, idx: &[u32]) -> Result<PpoBatch, Error> {
+        let ids = Tensor::from_slice(idx, idx.len(), &Device::Cpu)?;
+        let s1 = |x: &Tensor| x.index_select(&ids, 1);
+        Ok(PpoBatch {
+            actor_in: s1(&self.actor_in)?,
+            critic_in: s1(&self.critic_in)?,
+            mask: s1(&self.mask)?,
+            actions: s1(&self.actions)?,
+            old_logp: s1(&self.old_logp)?,
+            adv: s1(&self.adv)?,
+            old_values: s1(&self.old_values)?,
+            targets: s1(&self.targets)?,
+            active: s1(&self.active)?,
+            keep: s1(&self.keep)?,
+            h_actor: self.h_actor.index_select(&ids, 0)?,
+            h_critic: self.h_critic.index_select(&ids, 0)?,
+        })
+    }
+}

@@ -1,0 +1,125 @@
+//! PPO's loop: all environments step together with one batched forward pass of actor and
+//! critic for every environment and agent, actions drawn from the masked policy, and an
+//! update after every `rollout_len` steps (`envs x rollout_len` environment steps). Tests,
+//! the CSV log and checkpoints are the Q-learners' (see [`crate::train`]); the CSV's
+//! `epsilon` is 0 (PPO explores by sampling), `loss` is the PPO loss (mean over the update's
+//! epochs), `grad_norm` the actor's gradient norm before clipping, `q_taken` the rollout's
+//! mean value estimate, and `updates` counts rollouts.
+//!
+//! A run that ends inside a rollout drops the unfinished rollout (its steps count, but no
+//! update learns from them).
+
+use super::learner::{PpoLearner, additive_mask, sample_actions};
+use super::rollout::Rollout;
+use crate::buffer::{Shape, act_inputs};
+use crate::train::{Monitor, Progress, RunOptions, Summary};
+use crate::{Config, Error, UpdateStats, policy};
+use candle_core::{Device, Tensor};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use std::time::{Duration, Instant};
+
+/// Trains IPPO or MAPPO; returns the learner and how the run went.
+pub fn train(cfg: &Config, opts: &RunOptions, on_progress: &mut dyn FnMut(&Progress)) -> Result<(PpoLearner, Summary), Error> {
+    let e = cfg.envs;
+    let mut monitor = Monitor::new(cfg, opts)?;
+    let mut env = monitor.env()?;
+    let (a, o, s, na) = env.shape();
+    let shape = Shape { n_agents: a, obs: o, state: s, n_actions: na };
+    let mut learner = PpoLearner::new(cfg, shape, opts.seed)?;
+    let mut act_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x5eed_0001);
+    let mut update_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x5eed_0002);
+    let (rows, hidden) = (e * a, cfg.rnn_hidden_dim);
+    let (id, la) = (cfg.obs_agent_id, cfg.obs_last_action);
+    let agents: Vec<usize> = (0..rows).map(|r| r % a.max(1)).collect();
+    let mut last: Vec<Option<u32>> = vec![None; rows];
+    let zeros = || Tensor::zeros((rows, hidden), candle_core::DType::F32, &Device::Cpu);
+    let (mut h_actor, mut h_critic) = (zeros()?, zeros()?);
+    // The run starts an episode everywhere.
+    let mut keep = vec![0f32; rows];
+    let mut roll = Rollout { rows, n_agents: a, ..Rollout::default() };
+    let (mut t_env, mut episodes) = (0u64, 0u64);
+    let mut last_stats = UpdateStats::default();
+    // Wall-clock per phase, for the summary only: nothing learned depends on it.
+    let mut time = [Duration::ZERO; 5];
+    while t_env < cfg.t_max {
+        let clock = Instant::now();
+        let b = &env.buffers;
+        let x_actor = act_inputs(&b.obs, &agents, &last, &shape, id, la);
+        let x_critic = learner.critic_input.rows(&shape, &b.obs, &b.state, e);
+        if roll.t.is_multiple_of(cfg.data_chunk_length) {
+            roll.h_actor.extend(h_actor.flatten_all()?.to_vec1::<f32>()?);
+            roll.h_critic.extend(h_critic.flatten_all()?.to_vec1::<f32>()?);
+        }
+        let out = learner.act(&x_actor, &h_actor, &x_critic, &h_critic)?;
+        let (acts, logp) = sample_actions(&out.logits, &b.avail, na, &mut act_rng);
+        roll.actor_in.extend(x_actor);
+        roll.critic_in.extend(x_critic);
+        roll.mask.extend(additive_mask(&b.avail));
+        roll.actions.extend_from_slice(&acts);
+        roll.logp.extend(logp);
+        roll.values.extend(out.values);
+        roll.active.extend(b.avail.chunks_exact(na.max(1)).map(|m| if m.iter().filter(|&&x| x != 0).count() > 1 { 1.0 } else { 0.0 }));
+        roll.keep.extend_from_slice(&keep);
+        let t_act = clock.elapsed();
+
+        env.step(&acts.iter().map(|&x| i64::from(x)).collect::<Vec<_>>())?;
+        let t_env_step = clock.elapsed();
+        t_env += e as u64;
+        let b = &env.buffers;
+        let done: Vec<bool> = b.terminated.iter().zip(&b.truncated).map(|(t, u)| *t || *u).collect();
+        roll.reward.extend_from_slice(&b.reward);
+        roll.done.extend(done.iter().map(|&d| if d { 1.0 } else { 0.0 }));
+        roll.t += 1;
+        for (i, &d) in done.iter().enumerate() {
+            if d {
+                episodes += 1;
+                monitor.episode_end(b.info[i].battle_won);
+            }
+        }
+        for (r, k) in keep.iter_mut().enumerate() {
+            *k = if done[r / a.max(1)] { 0.0 } else { 1.0 };
+        }
+        (h_actor, h_critic) = (out.h_actor, out.h_critic);
+        if done.iter().any(|&d| d) {
+            let k = Tensor::from_slice(&keep, (rows, 1), &Device::Cpu)?;
+            (h_actor, h_critic) = (h_actor.broadcast_mul(&k)?, h_critic.broadcast_mul(&k)?);
+        }
+        for ((l, &act), &k) in last.iter_mut().zip(&acts).zip(&keep) {
+            *l = if k > 0.0 { Some(act) } else { None };
+        }
+        let t_record = clock.elapsed();
+
+        if roll.t == cfg.rollout_len {
+            let x_critic = learner.critic_input.rows(&shape, &b.obs, &b.state, e);
+            let xc = Tensor::from_slice(&x_critic, (rows, x_critic.len() / rows.max(1)), &Device::Cpu)?;
+            let (v, _) = learner.critic.step(&xc, &h_critic)?;
+            roll.values.extend(v.flatten_all()?.to_vec1::<f32>()?);
+            let st = learner.update(&roll, &mut update_rng)?;
+            last_stats = UpdateStats { loss: st.loss, grad_norm: st.actor_grad_norm, td_abs: st.value_loss, q_taken: st.value_mean };
+            roll.clear();
+        }
+        let t_update = clock.elapsed();
+        let mut save = |dir: &std::path::Path| -> Result<(), Error> {
+            policy::save(dir, &learner.actor, cfg, &shape, &opts.scenario.name)?;
+            learner.save_critic(dir)
+        };
+        monitor.after_step(t_env, (episodes, learner.updates), 0.0, &last_stats, &learner.actor, &mut save)?;
+        let t_test = clock.elapsed();
+        for (acc, d) in time.iter_mut().zip([t_act, t_env_step - t_act, t_record - t_env_step, t_update - t_record, t_test - t_update]) {
+            *acc += d;
+        }
+        on_progress(&Progress {
+            t_env,
+            t_max: cfg.t_max,
+            episodes,
+            updates: learner.updates,
+            epsilon: 0.0,
+            loss: last_stats.loss,
+            last_test: monitor.tests.last().copied(),
+        });
+    }
+    let phases = ["act", "env", "record", "update", "test"].iter().zip(time).map(|(n, d)| (n.to_string(), d.as_secs_f64())).collect();
+    let summary = Summary { t_env, episodes, updates: learner.updates, last_loss: last_stats.loss, tests: monitor.tests, phases };
+    Ok((learner, summary))
+}
