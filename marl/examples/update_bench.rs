@@ -1,3 +1,10 @@
+//! Where a Q-learner's update spends its time, on a fixed batch of 32 random 3m-sized
+//! episodes (20 to 60 steps): building the batch, the unroll, the loss, the backward pass
+//! and a whole `train` step, printed per repetition. Config overrides as arguments:
+//! `cargo run --release -p avacraft-marl --example update_bench -- use_rnn=false`.
+//! It showed that the GRU unroll (tens of small candle ops per time step) dominates, which is
+//! why `use_rnn = false` trains several times faster per wall-clock second.
+
 use avacraft_marl::{Batch, Config, Episode, Learner, Shape};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
