@@ -71,8 +71,8 @@ enum Cmd {
 }
 
 impl Cli {
-    /// Whether the command trains a MARL baseline (the binary then turns candle's
-    /// elementwise thread pool off: see `main.rs`).
+    /// Whether the command trains a MARL baseline (the binary then runs it with candle's
+    /// elementwise thread pool off and glibc's malloc tuned: see `main.rs`).
     pub fn trains(&self) -> bool {
         matches!(self.command, Cmd::Train(_))
     }
