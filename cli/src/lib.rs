@@ -74,6 +74,14 @@ enum Cmd {
     Train(train::TrainArgs),
 }
 
+impl Cli {
+    /// Whether the command trains a MARL baseline (the binary then runs it with candle's
+    /// elementwise thread pool off and glibc's malloc tuned: see `main.rs`).
+    pub fn trains(&self) -> bool {
+        matches!(self.command, Cmd::Train(_))
+    }
+}
+
 /// Runs one command, writing its report to `out`. `alloc` is the process's counting
 /// allocator, when it has one (the binary does), for `bench`'s bytes per environment.
 pub fn run(cli: Cli, out: &mut dyn Write, alloc: Option<&'static StatsAlloc<System>>) -> anyhow::Result<()> {

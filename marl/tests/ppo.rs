@@ -191,6 +191,23 @@ fn a_saved_ppo_checkpoint_loads_and_acts_identically() -> R {
     Ok(())
 }
 
+/// Acting returns hidden states outside the autograd graph: carried across a run's steps,
+/// they would otherwise chain every step's graph (memory grows, and dropping the chain
+/// overflows the stack after some 100k steps).
+#[test]
+fn acting_keeps_no_autograd_graph() -> R {
+    let c = ppo_cfg("ippo", &[])?;
+    let l = PpoLearner::new(&c, SMALL, 4)?;
+    let rows = 6;
+    let h = Tensor::zeros((rows, c.rnn_hidden_dim), candle_core::DType::F32, &Device::Cpu)?;
+    let xa = vec![0.5f32; rows * SMALL.input(true, true)];
+    let xc = vec![0.5f32; rows * CriticInput::of(&c).width(&SMALL)];
+    let out = l.act(&xa, &h, &xc, &h)?;
+    assert!(!out.h_actor.track_op() && !out.h_critic.track_op());
+    assert_eq!((out.logits.len(), out.values.len()), (rows * SMALL.n_actions, rows));
+    Ok(())
+}
+
 /// A short run: `envs` 4, rollouts of 20 steps, 2000 steps.
 fn short(algo: &str) -> Result<Config, avacraft_marl::Error> {
     Config::for_algo(

@@ -329,7 +329,13 @@ impl PpoLearner {
         let xc = Tensor::from_slice(x_critic, (rows, x_critic.len() / rows.max(1)), &Device::Cpu)?;
         let (logits, ha) = self.actor.agent.step(&xa, h_actor)?;
         let (values, hc) = self.critic.step(&xc, h_critic)?;
-        Ok(ActOut { logits: logits.flatten_all()?.to_vec1()?, values: values.flatten_all()?.to_vec1()?, h_actor: ha, h_critic: hc })
+        // Detached: acting must not chain every step's graph onto the previous one's.
+        Ok(ActOut {
+            logits: logits.flatten_all()?.to_vec1()?,
+            values: values.flatten_all()?.to_vec1()?,
+            h_actor: ha.detach(),
+            h_critic: hc.detach(),
+        })
     }
 
     /// Writes the critic's weights (`critic.safetensors`) into `dir`.

@@ -1,0 +1,69 @@
+//! Times the pieces of one PPO gradient step (forward, backward, optimiser) on a random
+//! rollout of 3m's sizes, for profiling the update:
+//! `cargo run --release -p avacraft-marl --example ppo_update_bench -- [ALGO] [key=value ...]`
+//! (with the environment `avacraft train` sets for itself: see the `ppo` module's docs).
+
+use avacraft_engine::Scenario;
+use avacraft_marl::ppo::{CriticInput, MASKED, PpoBatch, PpoLearner, Rollout};
+use avacraft_marl::{Config, train::shape_of};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::sync::Arc;
+use std::time::Instant;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let (algo, overrides) = match args.split_first() {
+        Some((a, rest)) => (a.as_str(), rest.to_vec()),
+        None => ("mappo", Vec::new()),
+    };
+    let cfg = Config::for_algo(algo, &overrides)?;
+    let shape = shape_of(&cfg, &Arc::new(Scenario::load("3m")?))?;
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    let (t, rows, h) = (cfg.rollout_len, cfg.envs * shape.n_agents, cfg.rnn_hidden_dim);
+    let wa = shape.input(cfg.obs_agent_id, cfg.obs_last_action);
+    let wc = CriticInput::of(&cfg).width(&shape);
+    let mut r = Rollout { t, rows, n_agents: shape.n_agents, ..Rollout::default() };
+    let n = t * rows;
+    let mut rand = |k: usize| -> Vec<f32> { (0..k).map(|_| rng.random_range(-1f32..1.0)).collect() };
+    r.actor_in = rand(n * wa);
+    r.critic_in = rand(n * wc);
+    r.h_actor = rand(n / cfg.data_chunk_length * h);
+    r.h_critic = rand(n / cfg.data_chunk_length * h);
+    r.values = rand(n + rows);
+    r.mask = (0..n * shape.n_actions).map(|i| if i % 3 == 0 { MASKED } else { 0.0 }).collect();
+    r.actions = (0..n).map(|i| (1 + i % 2) as u32).collect();
+    r.logp = vec![-1.5; n];
+    r.active = vec![1.0; n];
+    r.keep = (0..n).map(|i| if i % 23 == 0 { 0.0 } else { 1.0 }).collect();
+    let adv = rand(n);
+    let targets = rand(n);
+    let batch = PpoBatch::new(&r, &adv, &targets, cfg.data_chunk_length, h)?;
+    let mut l = PpoLearner::new(&cfg, shape, 1)?;
+    let reps = 20;
+    let clock = Instant::now();
+    for _ in 0..reps {
+        l.loss(&batch)?.total.to_scalar::<f32>()?;
+    }
+    let fwd = clock.elapsed().as_secs_f64() / f64::from(reps);
+    let clock = Instant::now();
+    for _ in 0..reps {
+        l.loss(&batch)?.total.backward()?;
+    }
+    let bwd = clock.elapsed().as_secs_f64() / f64::from(reps) - fwd;
+    let clock = Instant::now();
+    for _ in 0..reps {
+        l.step(&batch)?;
+    }
+    let step = clock.elapsed().as_secs_f64() / f64::from(reps);
+    println!(
+        "{algo}: {} sequences x {} steps: forward {:.1} ms, backward {:.1} ms, clip + Adam {:.1} ms, step {:.1} ms",
+        batch.len(),
+        cfg.data_chunk_length,
+        fwd * 1e3,
+        bwd * 1e3,
+        (step - fwd - bwd) * 1e3,
+        step * 1e3
+    );
+    Ok(())
+}
