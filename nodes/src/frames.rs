@@ -37,7 +37,7 @@ use std::path::{Path as StdPath, PathBuf};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
-use iceoryx2::node::NodeView;
+use iceoryx2::node::{NodeCleanupFailure, NodeView};
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
@@ -475,6 +475,8 @@ fn cleanup_in(config: &Config) -> usize {
             let id = *view.id();
             match view.try_remove_stale_resources() {
                 Ok(()) => cleaned += 1,
+                // another process or thread is removing it right now: nothing for us to do
+                Err(NodeCleanupFailure::AnotherInstanceIsCleaningUpTheNode) => {}
                 Err(e) => eprintln!("avacraft frames: could not remove stale resources of dead node {id:?}: {e}"),
             }
         }
