@@ -17,9 +17,10 @@ pub struct TrainArgs {
     /// from marl/configs/ALGO.toml.
     #[arg(long, default_value = "qmix")]
     pub algo: String,
-    /// Built-in scenario name or path to a scenario file.
-    #[arg(long)]
-    pub scenario: String,
+    /// Built-in scenario name or path to a scenario file (with --resume: the run's own, kept
+    /// in its directory, unless given).
+    #[arg(long, required_unless_present = "resume")]
+    pub scenario: Option<String>,
     /// Observation mode: features (SMAC's vectors), rgb (screen and minimap images), hybrid
     /// (both) or vision-text (images and the text description's MiniLM embedding); the
     /// config's `obs` key, `features` unless the config says otherwise. Encoder keys
@@ -29,8 +30,9 @@ pub struct TrainArgs {
     /// Environment steps to train for (the config's t_max).
     #[arg(long)]
     pub steps: Option<u64>,
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
+    /// Seed of every random stream of the run (default 1; with --resume, the run's).
+    #[arg(long)]
+    pub seed: Option<u64>,
     /// Environments stepped in parallel (the config's envs).
     #[arg(long)]
     pub envs: Option<usize>,
@@ -83,9 +85,14 @@ pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
         (None, None) => Config::for_algo(&a.algo, &overrides)?,
     };
     let Some(out_dir) = a.out.as_ref().or(a.resume.as_ref()) else { bail!("--out DIR is needed") };
-    let scenario = Arc::new(Scenario::load(&a.scenario)?);
+    let scenario = Arc::new(scenario_of_run(a, out_dir)?);
+    let seed = match (&start, a.seed) {
+        (Some(st), Some(s)) if s != st.seed => bail!("--seed {s}: the run in {} has seed {}", out_dir.display(), st.seed),
+        (Some(st), _) => st.seed,
+        (None, s) => s.unwrap_or(1),
+    };
     let threads = a.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from));
-    let opts = RunOptions { scenario: Arc::clone(&scenario), seed: a.seed, threads, out: Some(out_dir.clone()) };
+    let opts = RunOptions { scenario: Arc::clone(&scenario), seed, threads, out: Some(out_dir.clone()) };
     let bar = if std::io::stderr().is_terminal() { ProgressBar::new(cfg.t_max) } else { ProgressBar::hidden() };
     bar.set_style(ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} steps, {per_sec} ({eta})")?.progress_chars("=> "));
     let name = format!("{} ({}) on {}", cfg.algo, cfg.obs.name(), scenario.name);
@@ -122,4 +129,34 @@ pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     }
     writeln!(out, "log, curves and checkpoint in {}", out_dir.display())?;
     Ok(())
+}
+
+/// A copy of a scenario file a run trains on, in the run's directory, so `--resume` finds it.
+const SCENARIO_COPY: &str = "scenario.toml";
+
+/// The scenario to train on: `--scenario`, or when resuming without it the run's own (its
+/// copied file, else the built-in scenario its checkpoint names). A new run over a scenario
+/// file keeps a copy of the file in its directory.
+fn scenario_of_run(a: &TrainArgs, out_dir: &std::path::Path) -> Result<Scenario> {
+    let copy = out_dir.join(SCENARIO_COPY);
+    let Some(name) = &a.scenario else {
+        if copy.is_file() {
+            return Ok(Scenario::load(&copy.to_string_lossy())?);
+        }
+        let policy = avacraft_marl::Policy::load(out_dir).with_context(|| format!("--resume {}", out_dir.display()))?;
+        return Scenario::load(&policy.scenario)
+            .with_context(|| format!("--resume {}: its scenario `{}` (give it with --scenario)", out_dir.display(), policy.scenario));
+    };
+    let scenario = Scenario::load(name)?;
+    let path = std::path::Path::new(name);
+    if a.resume.is_none() {
+        if path.is_file() {
+            std::fs::create_dir_all(out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
+            std::fs::copy(path, &copy).with_context(|| format!("copying {name} to {}", copy.display()))?;
+        } else if copy.is_file() {
+            // an earlier run's file in a reused directory is not this run's scenario
+            std::fs::remove_file(&copy).with_context(|| format!("removing {}", copy.display()))?;
+        }
+    }
+    Ok(scenario)
 }

@@ -222,18 +222,20 @@ pub fn train(cfg: &Config, opts: &RunOptions, on_progress: &mut dyn FnMut(&Progr
 }
 
 /// [`train`], going on from `start` (see [`crate::resume`]) when given: the checkpoint and
-/// state in `opts.out`. The Q-learners only: a PPO run keeps no state to resume from.
+/// state in `opts.out`.
 pub fn train_from(
     cfg: &Config,
     opts: &RunOptions,
     start: Option<RunState>,
     on_progress: &mut dyn FnMut(&Progress),
 ) -> Result<(Trained, Summary), Error> {
+    if let Some(st) = &start
+        && st.seed != opts.seed
+    {
+        return Err(Error::Checkpoint { message: format!("resuming a run of seed {} with seed {}", st.seed, opts.seed) });
+    }
     if cfg.is_ppo() {
-        if start.is_some() {
-            return Err(Error::Checkpoint { message: format!("{} runs cannot be resumed (only the Q-learners' can)", cfg.algo) });
-        }
-        let (l, s) = crate::ppo::train(cfg, opts, on_progress)?;
+        let (l, s) = crate::ppo::train_from(cfg, opts, start, on_progress)?;
         return Ok((Trained::Ppo(Box::new(l)), s));
     }
     let (l, s) = train_q(cfg, opts, start, on_progress)?;
@@ -262,10 +264,6 @@ pub(crate) struct Monitor<'a> {
 }
 
 impl<'a> Monitor<'a> {
-    pub fn new(cfg: &'a Config, opts: &'a RunOptions) -> Result<Monitor<'a>, Error> {
-        Self::resuming(cfg, opts, None)
-    }
-
     /// A monitor that goes on from `start`: the log is appended to, the test history kept.
     pub fn resuming(cfg: &'a Config, opts: &'a RunOptions, start: Option<&RunState>) -> Result<Monitor<'a>, Error> {
         let csv = match &opts.out {
@@ -467,13 +465,13 @@ fn train_q(
                 t_env,
                 episodes,
                 monitor.test_round,
-                &learner,
+                (learner.updates, learner.last_target_update),
                 rngs,
                 monitor.elapsed(),
                 &monitor.tests,
                 &monitor.curve,
             )
-            .save(dir, &learner.target)?;
+            .save(dir, Some(&learner.target))?;
         }
         on_progress(&Progress {
             t_env,

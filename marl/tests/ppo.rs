@@ -264,6 +264,41 @@ fn short_ippo_and_mappo_runs_on_3m_train_checkpoint_reproduce_and_play() -> R {
             assert_eq!(env.refused()[0], 0);
             assert!((f64::from(ret) - r.mean_return).abs() < 1e-4, "{algo} seed {seed}: agent {ret}, trainer {}", r.mean_return);
         }
+        if algo == "mappo" {
+            // A resumed run starts from the saved actor, critic and value statistics and goes on
+            // with the log and the test history.
+            let (cfg_back, state) = avacraft_marl::resume::load(&dir)?;
+            assert_eq!((state.t_env, state.updates, state.seed), (2000, 25, 5));
+            let Trained::Ppo(first) = &trained else { unreachable!() };
+            assert_eq!(state.value_norm.as_ref(), Some(&first.value_norm));
+            let longer = Config { t_max: 3000, ..cfg_back };
+            let mut seen_first = None;
+            let (resumed, s3) = avacraft_marl::train_from(&longer, &opts, Some(state), &mut |p| {
+                seen_first.get_or_insert(p.t_env);
+            })?;
+            assert_eq!(seen_first, Some(2004), "the resumed run starts past the saved steps");
+            assert_eq!((s3.t_env, s3.updates), (3000, 25 + 12), "{s3:?}");
+            assert_eq!(s3.tests[..2], summary.tests[..], "the history is kept");
+            assert_eq!(std::fs::read_to_string(dir.join("log.csv"))?.lines().count(), 1 + s3.tests.len());
+            // Resuming with no step left to train returns what it loaded: the critic and the
+            // value statistics the resumed run ended with.
+            let (same, s4) = avacraft_marl::train_from(
+                &Config { t_max: 3000, ..c.clone() },
+                &opts,
+                Some(avacraft_marl::resume::load(&dir)?.1),
+                &mut |_| {},
+            )?;
+            assert_eq!(s4.updates, s3.updates);
+            let Trained::Ppo(same) = same else { unreachable!() };
+            let Trained::Ppo(resumed) = resumed else { unreachable!() };
+            for (k, v) in resumed.critic_params.to_map() {
+                assert_eq!(v.flatten_all()?.to_vec1::<f32>()?, same.critic_params.to_map()[&k].flatten_all()?.to_vec1::<f32>()?, "{k}");
+            }
+            assert_eq!(same.value_norm, resumed.value_norm);
+            // a run of another seed is not resumed as this one
+            let other = RunOptions { seed: 6, ..opts.clone() };
+            assert!(avacraft_marl::train_from(&c, &other, Some(avacraft_marl::resume::load(&dir)?.1), &mut |_| {}).is_err());
+        }
         let _ = std::fs::remove_dir_all(&dir);
     }
     Ok(())

@@ -7,3 +7,4 @@ mod common;
 mod deploy;
 mod hosts;
 mod replay;
+mod train;

@@ -7,11 +7,12 @@
 //! mean value estimate, and `updates` counts rollouts.
 //!
 //! A run that ends inside a rollout drops the unfinished rollout (its steps count, but no
-//! update learns from them).
+//! update learns from them); so does a run resumed from a test round inside a rollout.
 
 use super::learner::{PpoLearner, additive_mask, sample_actions};
 use super::rollout::Rollout;
 use crate::buffer::{Shape, act_inputs};
+use crate::resume::RunState;
 use crate::train::{Monitor, Progress, RunOptions, Summary};
 use crate::{Config, Error, UpdateStats, policy};
 use candle_core::{Device, Tensor};
@@ -21,14 +22,36 @@ use std::time::{Duration, Instant};
 
 /// Trains IPPO or MAPPO; returns the learner and how the run went.
 pub fn train(cfg: &Config, opts: &RunOptions, on_progress: &mut dyn FnMut(&Progress)) -> Result<(PpoLearner, Summary), Error> {
+    train_from(cfg, opts, None, on_progress)
+}
+
+/// [`train`], going on from `start` (see [`crate::resume`]): the checkpoint and state in
+/// `opts.out`. The resumed run starts a fresh rollout.
+pub fn train_from(
+    cfg: &Config,
+    opts: &RunOptions,
+    start: Option<RunState>,
+    on_progress: &mut dyn FnMut(&Progress),
+) -> Result<(PpoLearner, Summary), Error> {
     let e = cfg.envs;
-    let mut monitor = Monitor::new(cfg, opts)?;
+    let mut monitor = Monitor::resuming(cfg, opts, start.as_ref())?;
     let mut env = monitor.env()?;
     let (a, o, s, na) = env.shape();
     let shape = Shape { n_agents: a, obs: o, state: s, n_actions: na };
     let mut learner = PpoLearner::new(cfg, shape, opts.seed)?;
     let mut act_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x5eed_0001);
     let mut update_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x5eed_0002);
+    let (mut t_env, mut episodes) = (0u64, 0u64);
+    if let Some(st) = &start {
+        let Some(dir) = &opts.out else {
+            return Err(Error::Checkpoint { message: "resuming needs the run's directory".into() });
+        };
+        crate::resume::restore_ppo(dir, &mut learner, st)?;
+        let (ap, up) = st.rng_positions()?;
+        act_rng.set_word_pos(ap);
+        update_rng.set_word_pos(up);
+        (t_env, episodes) = (st.t_env, st.episodes);
+    }
     let (rows, hidden) = (e * a, cfg.rnn_hidden_dim);
     let (id, la) = (cfg.obs_agent_id, cfg.obs_last_action);
     let agents: Vec<usize> = (0..rows).map(|r| r % a.max(1)).collect();
@@ -38,7 +61,6 @@ pub fn train(cfg: &Config, opts: &RunOptions, on_progress: &mut dyn FnMut(&Progr
     // The run starts an episode everywhere.
     let mut keep = vec![0f32; rows];
     let mut roll = Rollout { rows, n_agents: a, ..Rollout::default() };
-    let (mut t_env, mut episodes) = (0u64, 0u64);
     let mut last_stats = UpdateStats::default();
     // Wall-clock per phase, for the summary only: nothing learned depends on it.
     let mut time = [Duration::ZERO; 5];
@@ -104,7 +126,23 @@ pub fn train(cfg: &Config, opts: &RunOptions, on_progress: &mut dyn FnMut(&Progr
             policy::save(dir, &learner.actor, cfg, &shape, &opts.scenario.name)?;
             learner.save_critic(dir)
         };
-        monitor.after_step(t_env, (episodes, learner.updates), 0.0, &last_stats, &learner.actor, &mut save)?;
+        let tested = monitor.after_step(t_env, (episodes, learner.updates), 0.0, &last_stats, &learner.actor, &mut save)?;
+        if tested && let Some(dir) = &opts.out {
+            let rngs = (act_rng.get_word_pos(), update_rng.get_word_pos());
+            let mut state = RunState::new(
+                opts.seed,
+                t_env,
+                episodes,
+                monitor.test_round,
+                (learner.updates, 0),
+                rngs,
+                monitor.elapsed(),
+                &monitor.tests,
+                &monitor.curve,
+            );
+            state.value_norm = Some(learner.value_norm.clone());
+            state.save(dir, None)?;
+        }
         let t_test = clock.elapsed();
         for (acc, d) in time.iter_mut().zip([t_act, t_env_step - t_act, t_record - t_env_step, t_update - t_record, t_test - t_update]) {
             *acc += d;

@@ -8,7 +8,7 @@
 //! stay nearly equal, so the statistics are close to those of every return seen so far.
 
 /// Running mean and variance of the value targets.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ValueNorm {
     beta: f64,
     mean: f64,
