@@ -316,7 +316,7 @@ fn stale_resources_of_killed_process_are_removed() -> TestResult {
         if left == 0 {
             break;
         }
-        std::thread::sleep(Duration::from_millis(10));
+        thread::sleep(Duration::from_millis(10));
     }
     assert_eq!(left, 0, "dead nodes left (before: {dead_before}, cleaned here: {cleaned})");
     eprintln!("stale cleanup: {dead_before} dead node(s) found, {cleaned} removed by cleanup_stale_resources");
