@@ -30,7 +30,8 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 2.0)]
     seconds: f64,
     /// Run exactly this many steps per configuration instead of a time budget (for
-    /// instruction counts under callgrind, which do not depend on machine load).
+    /// instruction counts under callgrind, which do not depend on machine load); with
+    /// --train, the steps each algorithm trains for.
     #[arg(long)]
     steps: Option<u64>,
     #[arg(long)]
@@ -60,6 +61,24 @@ pub struct BenchArgs {
     /// Environments of the vector benchmark.
     #[arg(long, default_value_t = 64, requires = "vec")]
     envs: usize,
+    /// Instead: training throughput (environment steps per second with learning) of each
+    /// `--algo` on `--scenario` (default 3m) for `--steps` steps (default 10000), against the
+    /// same vector environment stepped with random actions in the same run.
+    #[arg(long, conflicts_with_all = ["deploy", "bridge", "render", "scaling", "vec"])]
+    train: bool,
+    /// Algorithms of the training benchmark (default: all six).
+    #[arg(long, num_args = 1.., requires = "train")]
+    algo: Vec<String>,
+    /// Config overrides of the training benchmark, e.g. --set use_rnn=false (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE", requires = "train")]
+    set: Vec<String>,
+}
+
+impl BenchArgs {
+    /// Whether this run trains (and so wants `train`'s process environment).
+    pub fn trains(&self) -> bool {
+        self.train
+    }
 }
 
 /// One back end's rendering speed on one scenario.
@@ -355,6 +374,19 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
     }
     if a.deploy {
         return crate::bench_deploy::run(out);
+    }
+    if a.train {
+        let explicit = a.scenario != BenchArgs::DEFAULT_SCENARIOS;
+        let scenario = match (explicit, a.scenario.as_slice()) {
+            (false, _) => "3m",
+            (true, [one]) => one.as_str(),
+            (true, _) => anyhow::bail!("--train measures one scenario at a time"),
+        };
+        let algos: Vec<String> =
+            if a.algo.is_empty() { avacraft_marl::ALGOS.iter().map(|s| (*s).to_owned()).collect() } else { a.algo.clone() };
+        let b =
+            crate::bench_train::TrainBench { algos: &algos, scenario, steps: a.steps.unwrap_or(10_000), overrides: &a.set, json: a.json };
+        return crate::bench_train::run(&b, out);
     }
     if a.vec {
         if a.envs == 0 {

@@ -5,6 +5,7 @@
 mod bench;
 mod bench_bridge;
 mod bench_deploy;
+mod bench_train;
 mod bench_vec;
 mod bridge;
 mod deploy;
@@ -78,7 +79,7 @@ impl Cli {
     /// Whether the command trains a MARL baseline (the binary then runs it with candle's
     /// elementwise thread pool off and glibc's malloc tuned: see `main.rs`).
     pub fn trains(&self) -> bool {
-        matches!(self.command, Cmd::Train(_))
+        matches!(&self.command, Cmd::Train(_)) || matches!(&self.command, Cmd::Bench(b) if b.trains())
     }
 }
 

@@ -83,6 +83,28 @@ fn bench_reports_steps_per_second() {
 }
 
 #[test]
+fn training_bench_reports_learning_against_the_game_alone() {
+    for (algo, small) in [("vdn", "batch_size=4"), ("mappo", "rollout_len=20")] {
+        let out = run(&["bench", "--train", "--algo", algo, "--steps", "400", "--set", small, "--json"]).expect("runs");
+        let v: Vec<serde_json::Value> = serde_json::from_str(&out).expect("json");
+        assert_eq!(v.len(), 1, "{out}");
+        let r = &v[0];
+        assert_eq!((r["algo"].as_str(), r["scenario"].as_str(), r["steps"].as_u64()), (Some(algo), Some("3m"), Some(400)), "{r}");
+        assert!(r["updates"].as_u64().is_some_and(|u| u > 0), "it learned: {r}");
+        let (Some(train), Some(game), Some(ratio)) =
+            (r["train_steps_per_sec"].as_f64(), r["env_steps_per_sec"].as_f64(), r["ratio"].as_f64())
+        else {
+            panic!("rates missing: {r}")
+        };
+        assert!(train > 0.0 && game > 0.0 && (ratio - train / game).abs() < 1e-9, "{r}");
+    }
+    let err = run(&["bench", "--train", "--algo", "sarsa", "--steps", "10"]).expect_err("unknown algorithm");
+    assert!(err.contains("sarsa"), "{err}");
+    let err = run(&["bench", "--train", "--steps", "0"]).expect_err("no steps");
+    assert!(err.contains("--steps"), "{err}");
+}
+
+#[test]
 fn vector_bench_reports_its_ratio_to_one_env() {
     let out = run(&["bench", "--vec", "--envs", "4", "--scenario", "3m", "--seconds", "0.05", "--json"]).expect("runs");
     let v: serde_json::Value = serde_json::from_str(&out).expect("json");
