@@ -224,9 +224,6 @@ impl Config {
             return bad("envs", "must be at least 1");
         }
         if self.is_ppo() {
-            if self.obs != ObsKind::Features {
-                return bad("obs", "IPPO and MAPPO train on `features` only so far (the image modes are the Q-learners')");
-            }
             return self.validate_ppo();
         }
         if self.batch_size == 0 || self.buffer_size < self.batch_size {

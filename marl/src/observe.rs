@@ -67,6 +67,24 @@ fn frame_tensors(screen: &[u8], minimap: &[u8], text: &[f32], n: usize, (s, m): 
     Ok(FrameTensors { screen: pixels_to_tensor(screen, n, s)?, minimap: pixels_to_tensor(minimap, n, m)?, text })
 }
 
+/// The frames of `steps` (each of the same `n` environments) as one batch of
+/// `steps.len() x n` observations, step-major.
+pub fn concat_steps(steps: &[StepFrames]) -> Result<FrameTensors, Error> {
+    let Some(first) = steps.first() else {
+        return Err(Error::Observation { message: "no frames to batch".into() });
+    };
+    let (mut screen, mut minimap, mut text) = (Vec::new(), Vec::new(), Vec::new());
+    for s in steps {
+        if s.n != first.n || s.sizes != first.sizes {
+            return Err(Error::Observation { message: format!("frames of {} and {} environments in one batch", first.n, s.n) });
+        }
+        screen.extend_from_slice(&s.screen);
+        minimap.extend_from_slice(&s.minimap);
+        text.extend_from_slice(&s.text);
+    }
+    frame_tensors(&screen, &minimap, &text, steps.len() * first.n, first.sizes)
+}
+
 /// An episode's stored observations, one per step (the `len + 1`-th row of the episode,
 /// after its last step, has none: the encoder gives it zero features, and it is masked).
 #[derive(Clone, Debug, Default)]

@@ -199,16 +199,22 @@ fn the_text_cache_embeds_each_distinct_text_once() -> R {
 }
 
 fn short_run(obs: &str, steps: u64, limit: u32, extra: &[&str]) -> R {
-    let dir = std::env::temp_dir().join(format!("avacraft-marl-{obs}-{}", std::process::id()));
-    let mut o: Vec<String> =
-        ["envs=2", "batch_size=2", "buffer_size=16", "test_interval=100000", "test_nepisode=2", "epsilon_anneal_time=200"]
-            .map(String::from)
-            .to_vec();
+    short_run_of("qmix", obs, steps, limit, extra)
+}
+
+fn short_run_of(algo: &str, obs: &str, steps: u64, limit: u32, extra: &[&str]) -> R {
+    let dir = std::env::temp_dir().join(format!("avacraft-marl-{algo}-{obs}-{}", std::process::id()));
+    let small: &[&str] = if algo.ends_with("ppo") {
+        &["envs=2", "rollout_len=10", "data_chunk_length=5", "ppo_epochs=2", "test_interval=100000", "test_nepisode=2"]
+    } else {
+        &["envs=2", "batch_size=2", "buffer_size=16", "test_interval=100000", "test_nepisode=2", "epsilon_anneal_time=200"]
+    };
+    let mut o: Vec<String> = small.iter().map(|s| s.to_string()).collect();
     o.push(format!("t_max={steps}"));
     o.push(format!("episode_limit={limit}"));
     o.push(format!("obs=\"{obs}\""));
     o.extend(extra.iter().map(|s| s.to_string()));
-    let c = Config::for_algo("qmix", &o)?;
+    let c = Config::for_algo(algo, &o)?;
     let scenario = Arc::new(Scenario::load("3m")?);
     let opts = RunOptions { scenario: Arc::clone(&scenario), seed: 2, threads: 2, out: Some(dir.clone()) };
     let (learner, summary) = train(&c, &opts, &mut |_| {})?;
@@ -219,6 +225,12 @@ fn short_run(obs: &str, steps: u64, limit: u32, extra: &[&str]) -> R {
     let enc_weights = learner.nets().agent_params.to_map();
     let loaded = policy.nets.agent_params.to_map();
     assert!(enc_weights.keys().any(|k| k.starts_with("encoder.")));
+    // The encoder learned: its weights moved from the ones the run started with.
+    let start = Nets::new(&c, &learner.shape(), 2)?.agent_params.to_map();
+    let moved = enc_weights.iter().filter(|(k, _)| k.starts_with("encoder.")).try_fold(false, |any, (k, t)| {
+        Ok::<_, candle_core::Error>(any || t.flatten_all()?.to_vec1::<f32>()? != start[k].flatten_all()?.to_vec1::<f32>()?)
+    })?;
+    assert!(moved, "{algo} {obs}: no encoder weight changed");
     for (k, t) in &enc_weights {
         assert_eq!(t.flatten_all()?.to_vec1::<f32>()?, loaded.get(k).ok_or("missing")?.flatten_all()?.to_vec1::<f32>()?, "{k}");
     }
@@ -233,6 +245,17 @@ fn short_run(obs: &str, steps: u64, limit: u32, extra: &[&str]) -> R {
 #[test]
 fn a_short_rgb_qmix_run_on_3m_completes() -> R {
     short_run("rgb", 300, 30, &[])
+}
+
+#[test]
+fn a_short_rgb_mappo_run_on_3m_completes() -> R {
+    // The actor sees the frames through the encoder; the critic keeps the state.
+    short_run_of("mappo", "rgb", 100, 30, &[])
+}
+
+#[test]
+fn a_short_hybrid_ippo_run_on_3m_completes() -> R {
+    short_run_of("ippo", "hybrid", 100, 30, &[])
 }
 
 #[test]

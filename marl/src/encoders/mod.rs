@@ -150,6 +150,13 @@ impl ObsEncoder {
         let (n, f) = feats.dims2()?;
         let a = self.n_agents;
         let rows = feats.unsqueeze(1)?.broadcast_as((n, a, f))?.reshape((n * a, f))?;
+        self.fuse_rows(rows, base)
+    }
+
+    /// Agent rows: each row of `rows` `(M, F)` (the features of that row's team
+    /// observation) then the same row of `base` `(M, width)` without the features unless in
+    /// `hybrid`.
+    pub fn fuse_rows(&self, rows: Tensor, base: &Tensor) -> Result<Tensor, Error> {
         let width = base.dim(1)?;
         let rest = if self.kind.features() {
             base.clone()

@@ -212,6 +212,19 @@ impl PpoLearner {
         net.head(&Tensor::stack(&hs, 0)?.reshape((l * n, net.hidden))?)
     }
 
+    /// The actor's inputs `(L, N, input)`: the batch's rows as they are in `features` mode,
+    /// else fused with the encoder's features of the frame each row saw (the encoder runs on
+    /// the whole rollout's frames, with gradients).
+    fn actor_inputs(&self, b: &PpoBatch) -> Result<Tensor, Error> {
+        let Some(e) = &self.actor.encoder else { return Ok(b.actor_in.clone()) };
+        let Some((frames, idx)) = &b.frames else {
+            return Err(Error::Observation { message: "an image encoder was given a batch without frames".into() });
+        };
+        let (l, n, w) = b.actor_in.dims3()?;
+        let rows = e.forward(frames)?.index_select(&idx.flatten_all()?, 0)?;
+        Ok(e.fuse_rows(rows, &b.actor_in.reshape((l * n, w))?)?.reshape((l, n, ()))?)
+    }
+
     /// The PPO loss of a batch (MAPPO's, with its means over active rows only).
     pub fn loss(&self, b: &PpoBatch) -> Result<Losses, Error> {
         let cfg = &self.cfg;
@@ -223,7 +236,7 @@ impl PpoLearner {
         let n_active = f64::from(active.sum_all()?.to_scalar::<f32>()?).max(1.0);
         let mean = |x: &Tensor| -> Result<Tensor, Error> { Ok(((x * &active)?.sum_all()? / n_active)?) };
 
-        let logits = Self::unroll(&self.actor.agent, &b.actor_in, &b.h_actor, &b.keep)?;
+        let logits = Self::unroll(&self.actor.agent, &self.actor_inputs(b)?, &b.h_actor, &b.keep)?;
         let logp_all = masked_log_softmax(&logits, &flat(&b.mask)?)?;
         let entropy = (logp_all.exp()? * &logp_all)?.sum_keepdim(D::Minus1)?.neg()?;
         let logp = logp_all.gather(&flat(&b.actions)?, D::Minus1)?;
@@ -324,8 +337,21 @@ impl PpoLearner {
     /// The acting step for `rows` rows: actor logits and critic values (both as vectors) and
     /// the next hidden states.
     pub fn act(&self, x_actor: &[f32], h_actor: &Tensor, x_critic: &[f32], h_critic: &Tensor) -> Result<ActOut, Error> {
+        self.act_with(x_actor, h_actor, x_critic, h_critic, None)
+    }
+
+    /// [`PpoLearner::act`] in an image mode: `frames` holds each environment's observation.
+    pub fn act_with(
+        &self,
+        x_actor: &[f32],
+        h_actor: &Tensor,
+        x_critic: &[f32],
+        h_critic: &Tensor,
+        frames: Option<&crate::encoders::FrameTensors>,
+    ) -> Result<ActOut, Error> {
         let rows = h_actor.dim(0)?;
         let xa = Tensor::from_slice(x_actor, (rows, x_actor.len() / rows.max(1)), &Device::Cpu)?;
+        let xa = self.actor.step_inputs(xa, frames)?;
         let xc = Tensor::from_slice(x_critic, (rows, x_critic.len() / rows.max(1)), &Device::Cpu)?;
         let (logits, ha) = self.actor.agent.step(&xa, h_actor)?;
         let (values, hc) = self.critic.step(&xc, h_critic)?;

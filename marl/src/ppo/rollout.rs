@@ -15,6 +15,8 @@
 //! reports final observations, GAE can bootstrap truncations from them.
 
 use crate::Error;
+use crate::encoders::FrameTensors;
+use crate::observe::{StepFrames, concat_steps};
 use candle_core::{Device, Tensor};
 
 /// The additive logit mask of an unavailable action: finite, so masked rows stay finite,
@@ -50,6 +52,9 @@ pub struct Rollout {
     /// `T/L x R x hidden`: hidden states at the chunks' first steps.
     pub h_actor: Vec<f32>,
     pub h_critic: Vec<f32>,
+    /// Image modes: each step's observations of the `envs` environments (the agents of an
+    /// environment share them); empty in `features` mode.
+    pub frames: Vec<StepFrames>,
 }
 
 impl Rollout {
@@ -72,6 +77,7 @@ impl Rollout {
             v.clear();
         }
         self.actions.clear();
+        self.frames.clear();
     }
 }
 
@@ -131,6 +137,9 @@ pub struct PpoBatch {
     /// `(N, hidden)`.
     pub h_actor: Tensor,
     pub h_critic: Tensor,
+    /// Image modes: the rollout's `T x envs` observations, and `(L, N)` (u32) the one each
+    /// chunk step's row sees.
+    pub frames: Option<(FrameTensors, Tensor)>,
 }
 
 impl PpoBatch {
@@ -146,6 +155,25 @@ impl PpoBatch {
             Ok(Tensor::from_vec(to_chunks(data, t, rows, l), (l, n, width), &dev)?)
         };
         let actions: Vec<f32> = r.actions.iter().map(|&a| a as f32).collect();
+        let frames = if r.frames.is_empty() {
+            None
+        } else {
+            if r.frames.len() != t {
+                return Err(Error::Observation { message: format!("a rollout of {t} steps holds {} steps of frames", r.frames.len()) });
+            }
+            let (envs, a) = (r.frames[0].n, r.n_agents.max(1));
+            if envs * a != rows {
+                return Err(Error::Observation { message: format!("frames of {envs} environments for {rows} rows of {a} agents") });
+            }
+            // Sequence `c * R + row`, step `l`: rollout step `c * L + l`, its row's environment.
+            let mut idx = Vec::with_capacity(l * n);
+            for li in 0..l {
+                for c in 0..t / l {
+                    idx.extend((0..rows).map(|row| ((c * l + li) * envs + row / a) as u32));
+                }
+            }
+            Some((concat_steps(&r.frames)?, Tensor::from_vec(idx, (l, n), &dev)?))
+        };
         Ok(PpoBatch {
             actor_in: seq(&r.actor_in)?,
             critic_in: seq(&r.critic_in)?,
@@ -159,6 +187,7 @@ impl PpoBatch {
             keep: seq(&r.keep)?,
             h_actor: Tensor::from_vec(r.h_actor.clone(), (n, hidden), &dev)?,
             h_critic: Tensor::from_vec(r.h_critic.clone(), (n, hidden), &dev)?,
+            frames,
         })
     }
 
@@ -187,6 +216,7 @@ impl PpoBatch {
             keep: s1(&self.keep)?,
             h_actor: self.h_actor.index_select(&ids, 0)?,
             h_critic: self.h_critic.index_select(&ids, 0)?,
+            frames: self.frames.as_ref().map(|(f, idx)| Ok::<_, candle_core::Error>((f.clone(), s1(idx)?))).transpose()?,
         })
     }
 }

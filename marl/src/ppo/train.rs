@@ -6,6 +6,10 @@
 //! epochs), `grad_norm` the actor's gradient norm before clipping, `q_taken` the rollout's
 //! mean value estimate, and `updates` counts rollouts.
 //!
+//! In an image mode the actor also sees each environment's rendered frames (stored with the
+//! rollout, encoded again at every epoch so the encoder learns); the critic keeps its SMAC
+//! input.
+//!
 //! A run that ends inside a rollout drops the unfinished rollout (its steps count, but no
 //! update learns from them); so does a run resumed from a test round inside a rollout.
 
@@ -41,6 +45,7 @@ pub fn train_from(
     let mut learner = PpoLearner::new(cfg, shape, opts.seed)?;
     let mut act_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x5eed_0001);
     let mut update_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x5eed_0002);
+    let mut source = crate::ObsSource::new(cfg)?;
     let (mut t_env, mut episodes) = (0u64, 0u64);
     if let Some(st) = &start {
         let Some(dir) = &opts.out else {
@@ -73,7 +78,10 @@ pub fn train_from(
             roll.h_actor.extend(h_actor.flatten_all()?.to_vec1::<f32>()?);
             roll.h_critic.extend(h_critic.flatten_all()?.to_vec1::<f32>()?);
         }
-        let out = learner.act(&x_actor, &h_actor, &x_critic, &h_critic)?;
+        let frames = source.as_mut().map(|s| s.observe(env.envs())).transpose()?;
+        let tensors = frames.as_ref().map(crate::observe::StepFrames::tensors).transpose()?;
+        let out = learner.act_with(&x_actor, &h_actor, &x_critic, &h_critic, tensors.as_ref())?;
+        roll.frames.extend(frames);
         let (acts, logp) = sample_actions(&out.logits, &b.avail, na, &mut act_rng);
         roll.actor_in.extend(x_actor);
         roll.critic_in.extend(x_critic);
