@@ -42,6 +42,12 @@ pub struct StepFrames {
 }
 
 impl StepFrames {
+    /// Frames of `n` environments from raw pixels (HWC) of the given `(width, height)` sizes.
+    #[cfg(test)]
+    pub(crate) fn from_pixels(n: usize, sizes: Sizes, screen: Vec<u8>, minimap: Vec<u8>) -> StepFrames {
+        StepFrames { n, screen, minimap, text: Vec::new(), sizes }
+    }
+
     /// As float tensors for the encoder.
     pub fn tensors(&self) -> Result<FrameTensors, Error> {
         frame_tensors(&self.screen, &self.minimap, &self.text, self.n, self.sizes)

@@ -220,3 +220,59 @@ impl PpoBatch {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every chunk step's row sees the frame of its own rollout step and environment: the
+    /// frames' indices follow the chunks' layout.
+    #[test]
+    fn chunk_rows_see_their_own_step_and_environment() -> Result<(), Error> {
+        let (t, envs, agents, l) = (6, 3, 2, 3);
+        let rows = envs * agents;
+        let code = |ti: usize, x: usize| (ti * 10 + x) as f32;
+        let mut r = Rollout { t, rows, n_agents: agents, ..Rollout::default() };
+        for ti in 0..t {
+            for row in 0..rows {
+                r.actor_in.push(code(ti, row));
+                r.critic_in.push(0.0);
+                r.mask.push(0.0);
+                r.actions.push(0);
+                r.logp.push(0.0);
+                r.values.push(0.0);
+                r.active.push(1.0);
+                r.keep.push(1.0);
+            }
+            r.reward.extend(std::iter::repeat_n(0.0, envs));
+            r.done.extend(std::iter::repeat_n(0.0, envs));
+            let px: Vec<u8> = (0..envs).flat_map(|e| [(ti * 10 + e) as u8; 3]).collect();
+            r.frames.push(StepFrames::from_pixels(envs, ((1, 1), (1, 1)), px.clone(), px));
+        }
+        r.values.extend(std::iter::repeat_n(0.0, rows));
+        r.h_actor = vec![0.0; t / l * rows];
+        r.h_critic = r.h_actor.clone();
+        let zeros = vec![0.0; t * rows];
+        let b = PpoBatch::new(&r, &zeros, &zeros, l, 1)?;
+        let (frames, idx) = b.frames.as_ref().ok_or_else(|| Error::Observation { message: "no frames".into() })?;
+        let pixels: Vec<f32> = frames.screen.flatten_all()?.to_vec1()?; // (T * envs) x 3
+        let idx: Vec<Vec<u32>> = idx.to_vec2()?;
+        let inputs: Vec<Vec<Vec<f32>>> = b.actor_in.to_vec3()?;
+        assert_eq!((idx.len(), idx[0].len()), (l, t / l * rows));
+        for (li, row_idx) in idx.iter().enumerate() {
+            for (n, &i) in row_idx.iter().enumerate() {
+                let input = inputs[li][n][0] as usize;
+                let (ti, row) = (input / 10, input % 10);
+                let seen = (pixels[i as usize * 3] * 255.0).round() as usize;
+                assert_eq!(seen, ti * 10 + row / agents, "step {li} of sequence {n}");
+            }
+        }
+        // A mini-batch keeps each sequence's frames.
+        let part = b.select(&[4, 1])?;
+        let part_idx: Vec<Vec<u32>> = part.frames.as_ref().map(|(_, i)| i.to_vec2()).transpose()?.unwrap_or_default();
+        for li in 0..l {
+            assert_eq!(part_idx[li], [idx[li][4], idx[li][1]]);
+        }
+        Ok(())
+    }
+}
