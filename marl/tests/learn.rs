@@ -273,3 +273,48 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }
+
+/// IQL, VDN and QTRAN (QMIX and PPO have fuller tests above and in `ppo.rs`) each run a
+/// short training on 3m end to end: updates happen, the losses stay finite, the greedy
+/// tests run and the checkpoint plays as an engine agent without an invalid order.
+#[test]
+fn short_iql_vdn_and_qtran_runs_on_3m_train_and_play() -> R {
+    let scenario = Arc::new(Scenario::load("3m")?);
+    for algo in ["iql", "vdn", "qtran"] {
+        let dir = std::env::temp_dir().join(format!("avacraft-marl-e2e-{algo}-{}", std::process::id()));
+        let c = Config::for_algo(
+            algo,
+            &[
+                "t_max=1000",
+                "envs=4",
+                "batch_size=8",
+                "test_interval=500",
+                "test_nepisode=4",
+                "epsilon_anneal_time=800",
+                "episode_limit=30",
+            ]
+            .map(String::from),
+        )?;
+        let opts = RunOptions { scenario: Arc::clone(&scenario), seed: 3, threads: 2, out: Some(dir.clone()) };
+        let (trained, summary) = train(&c, &opts, &mut |_| {})?;
+        assert!(summary.t_env >= 1000 && summary.updates > 10 && summary.tests.len() == 2, "{algo}: {summary:?}");
+        assert!(summary.last_loss.is_finite(), "{algo}: {summary:?}");
+        assert_eq!(dir.join("mixer.safetensors").is_file(), algo == "qtran", "{algo}: only QTRAN of these has mixing weights");
+        let agent = MarlAgent::load(&dir)?;
+        assert_eq!(agent.policy().shape, trained.shape());
+        let policy = Arc::clone(agent.policy());
+        let mut controllers = Controllers::new(
+            &scenario,
+            vec![AgentTeam::new(Team::One, Grouping::Team, move || Box::new(MarlAgent::new(Arc::clone(&policy), "marl")))],
+        );
+        let mut env = Env::new(Arc::clone(&scenario), c.env_config(), 9);
+        controllers.reset(&env);
+        while !env.done() {
+            controllers.act(&mut env);
+            env.step();
+        }
+        assert_eq!(env.refused()[0], 0, "{algo}: the policy's orders were all valid");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    Ok(())
+}
