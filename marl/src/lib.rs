@@ -1,4 +1,4 @@
-//! MARL baselines on the engine's vector environment: IQL, VDN and QMIX with PyMARL's
+//! MARL baselines on the engine's vector environment: IQL, VDN, QMIX and QTRAN with PyMARL's
 //! conventions (one GRU agent network shared by all agents, agent id and last action in its
 //! input, action masking, an episode replay buffer, target networks, epsilon-greedy,
 //! RMSprop with global-norm gradient clipping), IPPO and MAPPO with the MAPPO repository's
