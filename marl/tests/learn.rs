@@ -1,8 +1,9 @@
 //! The learners on small hand-made data, the checkpoint format, action masking, and a short
 //! end-to-end run on 3m.
 
-use avacraft_engine::agent::{AgentTeam, Grouping};
-use avacraft_engine::{Controllers, Env, Scenario, Team};
+mod common;
+
+use avacraft_engine::Scenario;
 use avacraft_marl::{Batch, Config, Episode, Learner, MarlAgent, Nets, Policy, RunOptions, Shape, select_actions, train};
 use candle_core::{Device, Tensor};
 use proptest::prelude::*;
@@ -239,24 +240,13 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
     assert!(Policy::load(&dir.join("best")).is_ok());
     let agent = MarlAgent::load(&dir)?;
     assert_eq!(agent.policy().shape, trained.shape());
-    let policy = Arc::clone(agent.policy());
-    let mut controllers = Controllers::new(
-        &scenario,
-        vec![AgentTeam::new(Team::One, Grouping::Team, move || Box::new(MarlAgent::new(Arc::clone(&policy), "marl")))],
-    );
     // ... and plays each episode exactly as the trainer's greedy test episodes do.
     for seed in 1..=3 {
         let r = train::test(trained.nets(), &c, &scenario, &[seed], 1)?;
-        let mut env = Env::new(Arc::clone(&scenario), c.env_config(), seed);
-        controllers.reset(&env);
-        let mut ret = 0.0;
-        while !env.done() {
-            controllers.act(&mut env);
-            ret += env.step().reward[0];
-        }
-        assert_eq!(env.refused()[0], 0, "the policy's orders were all valid");
-        assert!((f64::from(ret) - r.mean_return).abs() < 1e-4, "seed {seed}: agent {ret}, trainer {}", r.mean_return);
-        assert_eq!(env.outcome() == Some(avacraft_engine::Outcome::Win), r.win_rate == 1.0);
+        let p = common::play(agent.policy(), &scenario, &c, seed);
+        assert_eq!(p.refused, 0, "the policy's orders were all valid");
+        assert!((f64::from(p.ret) - r.mean_return).abs() < 1e-4, "seed {seed}: agent {}, trainer {}", p.ret, r.mean_return);
+        assert_eq!(p.outcome == Some(avacraft_engine::Outcome::Win), r.win_rate == 1.0);
     }
     // A resumed run goes on from the last test round with the log, curves and schedule.
     let (cfg_back, state) = avacraft_marl::resume::load(&dir)?;
@@ -302,18 +292,7 @@ fn short_iql_vdn_and_qtran_runs_on_3m_train_and_play() -> R {
         assert_eq!(dir.join("mixer.safetensors").is_file(), algo == "qtran", "{algo}: only QTRAN of these has mixing weights");
         let agent = MarlAgent::load(&dir)?;
         assert_eq!(agent.policy().shape, trained.shape());
-        let policy = Arc::clone(agent.policy());
-        let mut controllers = Controllers::new(
-            &scenario,
-            vec![AgentTeam::new(Team::One, Grouping::Team, move || Box::new(MarlAgent::new(Arc::clone(&policy), "marl")))],
-        );
-        let mut env = Env::new(Arc::clone(&scenario), c.env_config(), 9);
-        controllers.reset(&env);
-        while !env.done() {
-            controllers.act(&mut env);
-            env.step();
-        }
-        assert_eq!(env.refused()[0], 0, "{algo}: the policy's orders were all valid");
+        assert_eq!(common::play(agent.policy(), &scenario, &c, 9).refused, 0, "{algo}: the policy's orders were all valid");
         let _ = std::fs::remove_dir_all(&dir);
     }
     Ok(())

@@ -1,8 +1,9 @@
 //! IPPO and MAPPO: the update on a fixed batch, masking and sampling, GAE, value
 //! normalisation, checkpoints, reproducibility and short end-to-end runs on 3m.
 
-use avacraft_engine::agent::{AgentTeam, Grouping};
-use avacraft_engine::{Controllers, Env, Scenario, Team};
+mod common;
+
+use avacraft_engine::Scenario;
 use avacraft_marl::ppo::{CriticInput, MASKED, PpoBatch, PpoLearner, Rollout, ValueNorm, gae, masked_log_softmax, sample_actions};
 use avacraft_marl::{Config, MarlAgent, Policy, RunOptions, Shape, Trained, train};
 use candle_core::{Device, Tensor};
@@ -247,22 +248,11 @@ fn short_ippo_and_mappo_runs_on_3m_train_checkpoint_reproduce_and_play() -> R {
         // The checkpoint plays as an engine agent exactly as the trainer's greedy tests do.
         let agent = MarlAgent::load(&dir)?;
         assert_eq!(agent.policy().shape, trained.shape());
-        let policy = Arc::clone(agent.policy());
-        let mut controllers = Controllers::new(
-            &scenario,
-            vec![AgentTeam::new(Team::One, Grouping::Team, move || Box::new(MarlAgent::new(Arc::clone(&policy), "marl")))],
-        );
         for seed in 1..=2 {
             let r = train::test(trained.nets(), &c, &scenario, &[seed], 1)?;
-            let mut env = Env::new(Arc::clone(&scenario), c.env_config(), seed);
-            controllers.reset(&env);
-            let mut ret = 0.0;
-            while !env.done() {
-                controllers.act(&mut env);
-                ret += env.step().reward[0];
-            }
-            assert_eq!(env.refused()[0], 0);
-            assert!((f64::from(ret) - r.mean_return).abs() < 1e-4, "{algo} seed {seed}: agent {ret}, trainer {}", r.mean_return);
+            let p = common::play(agent.policy(), &scenario, &c, seed);
+            assert_eq!(p.refused, 0);
+            assert!((f64::from(p.ret) - r.mean_return).abs() < 1e-4, "{algo} seed {seed}: agent {}, trainer {}", p.ret, r.mean_return);
         }
         if algo == "mappo" {
             // A resumed run starts from the saved actor, critic and value statistics and goes on
