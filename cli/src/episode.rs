@@ -26,8 +26,8 @@ pub struct EpisodeArgs {
     #[arg(long, conflicts_with_all = ["scenario", "agent", "agent2", "opponent", "episodes", "seed", "full_vision", "passive_agents", "no_jitter", "no_abilities"])]
     pub launch: Option<std::path::PathBuf>,
     /// Policy for team 1: focus-fire, kite, attack-move, builtin, aggressive, defensive, focus, random, hold, noop,
-    /// or marl:DIR, a checkpoint written by `avacraft train --out DIR` (refused if trained on another
-    /// scenario or team size).
+    /// marl:DIR, a checkpoint written by `avacraft train --out DIR` (refused if trained on another
+    /// scenario or team size), or ava, the VLM agent (see the --llm-* options).
     #[arg(long, default_value = "kite")]
     pub agent: String,
     /// Policy for team 2 in PvP scenarios, as --agent (default: the same as --agent).
@@ -65,6 +65,8 @@ pub struct EpisodeArgs {
     /// Print a JSON result instead of a table.
     #[arg(long)]
     pub json: bool,
+    #[command(flatten)]
+    pub ava: crate::ava::AvaArgs,
 }
 
 /// One episode's result.
@@ -110,6 +112,9 @@ pub struct Summary {
 pub struct Report {
     pub summary: Summary,
     pub episodes: Vec<EpisodeRecord>,
+    /// AVA's accounting per episode and team, when AVA played.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub ava: Vec<avacraft_ava::cost::EpisodeCost>,
 }
 
 fn rate(xs: impl Iterator<Item = f64>) -> Rate {
@@ -129,6 +134,8 @@ struct Setup {
     agent: String,
     agent2: Option<String>,
     opponent: Option<OpponentKind>,
+    /// AVA's shared run and its recording folder, when AVA plays a side.
+    ava: Option<(avacraft_ava::AvaSetup, Option<std::path::PathBuf>)>,
 }
 
 fn setup(a: &EpisodeArgs) -> Result<Setup> {
@@ -144,6 +151,7 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
             agent2: None,
             opponent: plan.opponent,
             controllers,
+            ava: None,
         });
     }
     if a.episodes == 0 {
@@ -157,10 +165,25 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
     }
     let agent2 = a.agent2.clone().unwrap_or_else(|| a.agent.clone());
     let pvp = scenario.mode == Mode::Pvp;
+    // AVA's sides share one model, recording and accounting (each call records its team).
+    let uses_ava = a.agent == crate::ava::AVA || (pvp && agent2 == crate::ava::AVA);
+    let ava = if uses_ava { Some(a.ava.setup(&scenario.name, a.seed)?) } else { None };
+    if a.ava.dry_run && !uses_ava {
+        bail!("--dry-run shows what AVA's model would see; it needs --agent ava");
+    }
+    let side = |team: Team, name: &str, flag: &str| -> Result<AgentTeam> {
+        match (&ava, name == crate::ava::AVA) {
+            (Some((s, _)), true) => {
+                let s = s.clone();
+                Ok(AgentTeam::new(team, Grouping::Team, move || Box::new(avacraft_ava::AvaAgent::new(s.clone()))))
+            }
+            _ => team_agent(&scenario, team, name, flag),
+        }
+    };
     // One agent per team, each acting for its units on their own observations.
-    let mut teams = vec![team_agent(&scenario, Team::One, &a.agent, "--agent")?];
+    let mut teams = vec![side(Team::One, &a.agent, "--agent")?];
     if pvp {
-        teams.push(team_agent(&scenario, Team::Two, &agent2, if a.agent2.is_some() { "--agent2" } else { "--agent (for team 2)" })?);
+        teams.push(side(Team::Two, &agent2, if a.agent2.is_some() { "--agent2" } else { "--agent (for team 2)" })?);
     }
     let controllers = Controllers::new(&scenario, teams);
     let cfg = EnvConfig {
@@ -175,7 +198,7 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
         ..EnvConfig::default()
     };
     let seeds = (0..a.episodes as u64).map(|k| a.seed.wrapping_add(k)).collect();
-    Ok(Setup { scenario, cfg, controllers, seeds, agent: a.agent.clone(), agent2: pvp.then_some(agent2), opponent })
+    Ok(Setup { scenario, cfg, controllers, seeds, agent: a.agent.clone(), agent2: pvp.then_some(agent2), opponent, ava })
 }
 
 /// `team` played by one agent of the policy `name` (a scripted agent or `marl:DIR`), checked
@@ -187,7 +210,7 @@ fn team_agent(scenario: &Scenario, team: Team, name: &str, flag: &str) -> Result
 }
 
 pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
-    let Setup { scenario, cfg, mut controllers, seeds, agent, agent2, opponent } = setup(a)?;
+    let Setup { scenario, cfg, mut controllers, seeds, agent, agent2, opponent, ava } = setup(a)?;
     let bar = if a.json || !std::io::stderr().is_terminal() { ProgressBar::hidden() } else { ProgressBar::new(seeds.len() as u64) };
     bar.set_style(ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} episodes ({eta})")?.progress_chars("=> "));
     bar.set_message(scenario.name.clone());
@@ -221,7 +244,14 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
                 eprintln!("--- seed {seed}, step {}\n{}", env.steps(), avacraft_engine::describe(&env, Team::One));
             }
             controllers.act(&mut env);
+            if a.ava.dry_run {
+                // What the model would have seen at the first decision is printed.
+                return Ok(());
+            }
             env.step();
+        }
+        if let Some(why) = ava.as_ref().and_then(|(s, _)| s.run.fatal()) {
+            bail!("AVA stopped at episode seed {seed}: {why}");
         }
         if k == 0
             && let Some((writer, frames, cpu, w, h)) = video.as_mut()
@@ -262,8 +292,12 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
         loss: rate(records.iter().map(is(Outcome::Loss))),
         game_seconds: rate(records.iter().map(|r| r.game_seconds as f64)),
     };
+    let ava_costs = match &ava {
+        Some((s, dir)) => crate::ava::report(&s.run, dir.as_deref(), &mut std::io::sink(), true)?,
+        None => Vec::new(),
+    };
     if a.json {
-        writeln!(out, "{}", serde_json::to_string_pretty(&Report { summary, episodes: records })?)?;
+        writeln!(out, "{}", serde_json::to_string_pretty(&Report { summary, episodes: records, ava: ava_costs })?)?;
         return Ok(());
     }
     let who = match (&summary.opponent, &summary.agent2) {
@@ -294,6 +328,9 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
             t.add_row([a.name().to_owned(), x.to_string(), y.to_string()]);
         }
         writeln!(out, "{t}")?;
+    }
+    if let Some((s, dir)) = &ava {
+        crate::ava::report(&s.run, dir.as_deref(), out, false)?;
     }
     let _ = team_of;
     Ok(())

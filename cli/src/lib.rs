@@ -2,6 +2,7 @@
 //! argument parsing and output of the binary.
 #![forbid(unsafe_code)]
 
+mod ava;
 mod bench;
 mod bench_bridge;
 mod bench_deploy;

@@ -2,10 +2,11 @@
 //! and the annotated VLM screenshot. Fog of war: enemies a team does not see are not drawn,
 //! and cells it does not see are darkened.
 
+use crate::draw::{self, Labels};
 use crate::font::text_width;
 use crate::scene::{Prim, Rgba, Scene};
-use crate::style::{self, Shape};
-use avacraft_engine::{EffectKind, GRID, Team, Unit, UnitId, Vec2, World, grid_cell_center, loops_to_seconds};
+use crate::style;
+use avacraft_engine::{Rect, Team, Unit, UnitId, Vec2, World};
 use std::collections::BTreeSet;
 use std::sync::Arc;
 
@@ -22,7 +23,11 @@ pub struct MapView {
 impl MapView {
     /// Fits the playable area into `area` = [x0, y0, x1, y1] keeping its aspect ratio, centred.
     pub fn fit(world: &World, area: [f32; 4]) -> Self {
-        let p = world.terrain().playable();
+        Self::fit_rect(world.terrain().playable(), area)
+    }
+    /// Fits the world rectangle `p` (a camera's view, say) into `area` = [x0, y0, x1, y1]
+    /// with the same scale on both axes, centred.
+    pub fn fit_rect(p: Rect, area: [f32; 4]) -> Self {
         // An area smaller than the margins degenerates to a point instead of mirroring.
         let area = [area[0], area[1], area[2].max(area[0] + 1.0), area[3].max(area[1] + 1.0)];
         let scale = ((area[2] - area[0]) / p.width()).min((area[3] - area[1]) / p.height()).max(1e-3);
@@ -48,6 +53,15 @@ pub struct VlmOptions {
 /// Where the VLM screenshot puts the map: its transform, the legend panel's width (0: no
 /// legend), the grid label scale and the legend's text scale. Tests use it to find cells.
 pub fn vlm_layout(world: &World, width: u32, height: u32) -> (MapView, f32, u32, u32) {
+    let (margin, panel, label, legend_scale) = vlm_frame(width, height);
+    let view = MapView::fit(world, [margin, margin, width as f32 - panel - 4.0, height as f32 - 4.0]);
+    (view, panel, label, legend_scale)
+}
+
+/// The VLM screenshot's proportions at `width` x `height`: the margin left of and above the
+/// map (room for the grid labels), the legend panel's width (0: none), the grid label scale
+/// and the legend's text scale.
+pub(crate) fn vlm_frame(width: u32, height: u32) -> (f32, f32, u32, u32) {
     let label = ((height as f32 / 1080.0) * 3.0).round().max(1.0) as u32;
     // Room for the widest grid label, "10", left of the map and for a line above it.
     let margin = text_width("10", label) + 8.0;
@@ -55,8 +69,7 @@ pub fn vlm_layout(world: &World, width: u32, height: u32) -> (MapView, f32, u32,
     let legend_scale = (label.max(2) - 1).max(1);
     let panel = (width as f32 * 0.22).min(width as f32 - height as f32).max(0.0);
     let panel = if panel >= 22.0 * 8.0 * legend_scale as f32 + 20.0 { panel } else { 0.0 };
-    let view = MapView::fit(world, [margin, margin, width as f32 - panel - 4.0, height as f32 - 4.0]);
-    (view, panel, label, legend_scale)
+    (margin, panel, label, legend_scale)
 }
 
 /// Terrain colours, keyed by the terrain itself (held, so its address cannot be reused), and
@@ -152,7 +165,7 @@ impl FrameBuilder {
         let mut scene = Scene::new(width, height, style::BACKGROUND);
         let (view, panel, label, legend_scale) = vlm_layout(world, width, height);
         self.ground(world, team, &view, &mut scene);
-        grid(world, &view, &mut scene, label);
+        draw::grid(world.terrain().playable(), &view, &mut scene, label);
         effects(world, team, &view, &mut scene, label as f32);
         shots(world, team, &view, &mut scene);
         units(world, team, &view, &mut scene, 1.0, Some((label.max(2) - 1).max(1)));
@@ -191,136 +204,21 @@ fn seen_units(world: &World, team: Team) -> impl Iterator<Item = &Unit> {
     layer(0).chain(layer(1)).chain(layer(2))
 }
 
-fn shape_prims(s: Shape, c: [f32; 2], r: f32, color: Rgba, scene: &mut Scene) {
-    match s {
-        Shape::Disc => scene.push(Prim::Disc { c, r, color }),
-        Shape::Star => {
-            scene.push(Prim::Polygon { points: style::polygon(Shape::Triangle, c, r), color });
-            scene.push(Prim::Polygon { points: style::polygon(Shape::InvTriangle, c, r), color });
-        }
-        Shape::Cross => {
-            let (a, b) = (r, r * 0.38);
-            scene.push(Prim::Rect { rect: [c[0] - a, c[1] - b, c[0] + a, c[1] + b], color });
-            scene.push(Prim::Rect { rect: [c[0] - b, c[1] - a, c[0] + b, c[1] + a], color });
-        }
-        _ => scene.push(Prim::Polygon { points: style::polygon(s, c, r), color }),
-    }
-}
-
 fn units(world: &World, team: Team, view: &MapView, scene: &mut Scene, min_r: f32, label: Option<u32>) {
-    let mut labels: Vec<([f32; 2], u32, String)> = Vec::new();
-    let mut taken: Vec<[f32; 4]> = Vec::new();
+    let mut labels = Labels::new(None);
     for u in seen_units(world, team) {
         let c = view.px(u.pos);
         let r = (u.radius() * view.scale()).max(min_r);
-        let s = style::shape(u.kind);
-        if u.flying() || u.spec().cliff_walk {
-            // Air units and Colossi: a white outline sets them apart from the ground layer.
-            shape_prims(s, c, r + (r * 0.15).max(1.0), style::AIR_OUTLINE, scene);
-        }
-        shape_prims(s, c, r, side(u, team), scene);
+        draw::unit_body(u.kind, c, r, u.flying() || u.spec().cliff_walk, side(u, team), scene);
         if let Some(scale) = label {
-            bars(u, c, r, scene);
-            let tag = format!("{} {}", u.id.tag(), style::code(u.kind));
-            let (tw, th) = (text_width(&tag, scale), 8.0 * scale as f32);
-            // Greedy placement: below, right, left, above, then further out; the first spot
-            // not covering an earlier label wins, so crowds stay readable.
-            let gap = 3.0;
-            let spots = [
-                [c[0] - tw * 0.5, c[1] + r + gap],
-                [c[0] + r + gap, c[1] - th * 0.5],
-                [c[0] - r - gap - tw, c[1] - th * 0.5],
-                [c[0] - tw * 0.5, c[1] - r - gap - th - 3.0 * th * 0.5],
-                [c[0] - tw * 0.5, c[1] + r + gap + th + 2.0],
-                [c[0] + r + gap, c[1] + th],
-                [c[0] - r - gap - tw, c[1] + th],
-            ];
-            let overlaps = |p: [f32; 2]| {
-                let b = [p[0] - 1.0, p[1] - 1.0, p[0] + tw + 1.0, p[1] + th + 1.0];
-                taken.iter().any(|t| b[0] < t[2] && t[0] < b[2] && b[1] < t[3] && t[1] < b[3])
-            };
-            let (pos, tag, tw) = match spots.iter().copied().find(|&p| !overlaps(p)) {
-                Some(p) => (p, tag, tw),
-                None => {
-                    // Crowded: the bare tag on the unit or just below it if that is clear; else
-                    // no label at all, rather than one far from its unit or merged with another
-                    // into a number that is not there (the unit list still names every unit).
-                    let bare = u.id.tag().to_string();
-                    let w = text_width(&bare, scale);
-                    let clear = |p: [f32; 2]| {
-                        let b = [p[0] - 1.0, p[1] - 1.0, p[0] + w + 1.0, p[1] + th + 1.0];
-                        !taken.iter().any(|t| b[0] < t[2] && t[0] < b[2] && b[1] < t[3] && t[1] < b[3])
-                    };
-                    let near = [[c[0] - w * 0.5, c[1] - th * 0.5], [c[0] - w * 0.5, c[1] + r]];
-                    match near.into_iter().find(|&p| clear(p)) {
-                        Some(p) => (p, bare, w),
-                        None => continue,
-                    }
-                }
-            };
-            taken.push([pos[0], pos[1], pos[0] + tw, pos[1] + th]);
-            labels.push((pos, scale, tag));
+            let shield = (u.max_shield > 0.0).then(|| u.shield / u.max_shield);
+            let energy = (u.spec().energy_max > 0.0).then(|| u.energy / u.spec().energy_max);
+            draw::bars(c, r, u.hp_fraction(), shield, energy, scene);
+            labels.place(c, r, u.id.tag(), u.kind, scale);
         }
     }
     // Labels last, above every unit.
-    for (pos, scale, tag) in labels {
-        outlined_text(scene, pos, scale, &tag, style::LABEL);
-    }
-}
-
-fn bars(u: &Unit, c: [f32; 2], r: f32, scene: &mut Scene) {
-    let w = ((1.2 * r).max(6.0).round()) * 2.0;
-    let h = (r * 0.3).clamp(2.0, 7.0).round();
-    let c = [c[0].round(), c[1].round()];
-    let mut y = c[1] - r.round() - 3.0 - h;
-    let mut bar = |frac: f32, color: Rgba, y: f32| {
-        scene.push(Prim::Rect { rect: [c[0] - w * 0.5, y, c[0] + w * 0.5, y + h], color: style::BAR_BACK });
-        scene.push(Prim::Rect { rect: [c[0] - w * 0.5, y, (c[0] - w * 0.5 + w * frac.clamp(0.0, 1.0)).round(), y + h], color });
-    };
-    let hp = u.hp_fraction();
-    bar(hp, if hp > 0.35 { style::HP_OK } else { style::HP_LOW }, y);
-    if u.max_shield > 0.0 {
-        y -= h + 1.0;
-        bar(u.shield / u.max_shield, style::SHIELD, y);
-    }
-    if u.spec().energy_max > 0.0 {
-        y -= h + 1.0;
-        bar(u.energy / u.spec().energy_max, style::ENERGY, y);
-    }
-}
-
-fn outlined_text(scene: &mut Scene, pos: [f32; 2], scale: u32, text: &str, color: Rgba) {
-    let s = scale as f32;
-    let pos = [pos[0].round(), pos[1].round()];
-    for (dx, dy) in [(-s, 0.0), (s, 0.0), (0.0, -s), (0.0, s)] {
-        scene.push(Prim::Text { pos: [pos[0] + dx, pos[1] + dy], scale, text: text.to_owned(), color: style::SHADOW });
-    }
-    scene.push(Prim::Text { pos, scale, text: text.to_owned(), color });
-}
-
-/// The 10x10 grid of the grid-move action, labelled 1..10 along the top (x) and left (y),
-/// exactly where `grid_cell_center` puts each cell.
-fn grid(world: &World, view: &MapView, scene: &mut Scene, label: u32) {
-    let p = world.terrain().playable();
-    let tl = view.px(Vec2::new(p.left, p.top));
-    let br = view.px(Vec2::new(p.right, p.bottom));
-    for k in 0..=GRID {
-        let f = k as f32 / GRID as f32;
-        // One-pixel lines run through pixel centres, so no back end has to break a tie.
-        let x = (tl[0] + (br[0] - tl[0]) * f).floor() + 0.5;
-        let y = (tl[1] + (br[1] - tl[1]) * f).floor() + 0.5;
-        scene.push(Prim::Line { a: [x, tl[1]], b: [x, br[1]], width: 1.0, color: style::GRID });
-        scene.push(Prim::Line { a: [tl[0], y], b: [br[0], y], width: 1.0, color: style::GRID });
-    }
-    for k in 1..=GRID {
-        let c = view.px(grid_cell_center(p, k, k));
-        let t = k.to_string();
-        let tw = text_width(&t, label);
-        let th = 8.0 * label as f32;
-        let (a, b) = ([c[0] - tw * 0.5, tl[1] - th - 4.0], [tl[0] - tw - 4.0, c[1] - th * 0.5]);
-        scene.push(Prim::Text { pos: [a[0].round(), a[1].round()], scale: label, text: t.clone(), color: style::LABEL });
-        scene.push(Prim::Text { pos: [b[0].round(), b[1].round()], scale: label, text: t, color: style::LABEL });
-    }
+    labels.draw(scene);
 }
 
 /// Area effects the team can see: storms, force fields, Guardian Shields, KD8 charges.
@@ -330,16 +228,7 @@ fn effects(world: &World, team: Team, view: &MapView, scene: &mut Scene, line: f
         if e.team != team && !world.team_sees_point(team, e.pos) {
             continue;
         }
-        let (c, r) = (view.px(e.pos), e.radius * view.scale());
-        match e.kind {
-            EffectKind::PsionicStorm => {
-                scene.push(Prim::Disc { c, r, color: style::STORM });
-                scene.push(Prim::Ring { c, r, width: 2.0 * line, color: style::STORM_EDGE });
-            }
-            EffectKind::ForceField => scene.push(Prim::Disc { c, r, color: style::FORCE_FIELD }),
-            EffectKind::GuardianShield => scene.push(Prim::Ring { c, r, width: 1.5 * line, color: style::GUARDIAN }),
-            EffectKind::Kd8Charge => scene.push(Prim::Ring { c, r, width: line, color: style::CHARGE }),
-        }
+        draw::effect(e.kind, view.px(e.pos), e.radius * view.scale(), line, scene);
     }
 }
 
@@ -367,27 +256,7 @@ fn shots(world: &World, team: Team, view: &MapView, scene: &mut Scene) {
 }
 
 fn legend(world: &World, team: Team, scene: &mut Scene, x: f32, s: u32) {
-    let line = 8.0 * s as f32 + 8.0;
-    let mut y = 12.0;
-    let text = |scene: &mut Scene, t: String, color: Rgba, y: &mut f32| {
-        scene.push(Prim::Text { pos: [(x + 10.0).round(), y.round()], scale: s, text: t, color });
-        *y += line;
-    };
-    text(scene, format!("{team}, loop {}", world.tick()), style::LABEL, &mut y);
-    text(scene, format!("game time {:.1} s", loops_to_seconds(world.tick())), style::LABEL, &mut y);
-    text(scene, "blue: yours".into(), style::OWN, &mut y);
-    text(scene, "red: enemy".into(), style::ENEMY, &mut y);
-    text(scene, "dark: fog of war".into(), style::LABEL, &mut y);
-    text(scene, "outline: air/Colossus".into(), style::LABEL, &mut y);
-    text(scene, "label: tag + type".into(), style::LABEL, &mut y);
-    text(scene, "bars: HP/shield/energy".into(), style::LABEL, &mut y);
-    y += line * 0.5;
     let kinds: BTreeSet<&str> =
         world.units().iter().filter(|u| u.alive && world.visible_to(team, u.id)).map(|u| u.kind.base().name()).collect();
-    for k in kinds {
-        let kind = k.parse().unwrap_or(avacraft_engine::UnitKind::Marine);
-        let r = 4.0 * s as f32;
-        shape_prims(style::shape(kind), [x + 10.0 + r, y + r], r, style::LABEL, scene);
-        text(scene, format!("   {} {k}", style::code(kind)), style::LABEL, &mut y);
-    }
+    draw::legend(scene, x, s, team, world.tick(), &[], kinds);
 }

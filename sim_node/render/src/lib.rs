@@ -1,13 +1,18 @@
 //! Pixels for AVACraft: the MARL screen and minimap, the annotated screenshot for VLM agents,
 //! and episode videos, all obeying the viewing team's fog of war.
 //!
+//! VLM agents get [`FrameBuilder::vlm_obs`]: the screenshot drawn from an agent's
+//! observation alone, framed by a StarCraft II-like [`Camera`] over the team's units.
+//!
 //! Frames are built as a back-end-independent display list ([`Scene`]) and drawn by a back
 //! end: [`CpuBackend`] runs everywhere, [`WgpuBackend`] wherever wgpu finds an adapter
 //! (Mesa's lavapipe gives one on machines without a GPU).
 #![forbid(unsafe_code)]
 
 mod backend;
+mod camera;
 mod cpu;
+mod draw;
 mod font;
 mod frame;
 // wgpu is heavy to compile; the `gpu` feature (on by default) brings it in, and builds
@@ -15,16 +20,19 @@ mod frame;
 #[cfg(feature = "gpu")]
 mod gpu;
 mod modes;
+mod obs_frame;
 mod scene;
 mod style;
 mod video;
 
 pub use backend::{Backend, BackendChoice, GpuError};
+pub use camera::Camera;
 pub use cpu::CpuBackend;
 pub use frame::{FrameBuilder, MapView, VlmOptions, vlm_layout};
 #[cfg(feature = "gpu")]
 pub use gpu::WgpuBackend;
 pub use modes::{ObsMode, Observation, Observer, RenderConfig};
+pub use obs_frame::{ObsLayout, vlm_obs_layout};
 pub use scene::{Prim, Rgba, Scene};
 pub use style::{ENEMY, OWN};
 pub use video::{VideoError, VideoWriter};

@@ -1,0 +1,352 @@
+//! One decision through the pipeline's stages.
+
+use super::run::CallMeta;
+use super::situation::{self, Tally};
+use super::stages::{self, Plan, Priority};
+use super::{AvaSetup, Episode, HistoryItem};
+use crate::config::{AvaConfig, Fallback};
+use crate::decision::{self, Item, Refused, Situation};
+use crate::kb::Retriever;
+use crate::llm::{ChatReply, ChatRequest, Message, Part, Png, Role, Stage};
+use avacraft_engine::agent::{GroupObs, view};
+use avacraft_engine::{Command, UnitId};
+use avacraft_render::{Camera, CpuBackend, FrameBuilder, VlmOptions};
+use serde::Serialize;
+use serde_json::Value;
+use std::time::Instant;
+
+#[derive(Serialize)]
+struct SystemCtx<'a> {
+    team_name: String,
+    scenario: &'a str,
+    objective: &'a str,
+    image: bool,
+    text: bool,
+    camera_width: f32,
+}
+
+#[derive(Serialize)]
+struct Knowledge {
+    title: String,
+    text: String,
+}
+
+#[derive(Serialize)]
+struct DecisionCtx<'a> {
+    situation: &'a str,
+    plan: Option<String>,
+    priorities: &'a [Priority],
+    roles: &'a [super::RoleOf],
+    knowledge: Vec<Knowledge>,
+    history: Vec<&'a HistoryItem>,
+    units: String,
+    image: bool,
+    schema: Option<String>,
+}
+
+#[derive(Serialize)]
+struct RepairCtx<'a> {
+    refused: &'a [Refused],
+    accepted: String,
+    pending: String,
+}
+
+/// The pipeline's state for one decision.
+struct Turn<'a> {
+    setup: &'a AvaSetup,
+    cfg: &'a AvaConfig,
+    ep: &'a mut Episode,
+    obs: &'a GroupObs,
+    /// Model time of this decision as the replies report it, milliseconds.
+    model_ms: f64,
+    /// Wall time spent inside calls (retry pauses included), milliseconds.
+    call_ms: f64,
+}
+
+impl Turn<'_> {
+    fn meta(&self, attempt: u32) -> CallMeta {
+        CallMeta {
+            episode: self.obs.episode,
+            seed: self.ep.seed,
+            team: self.ep.team.player(),
+            step: self.obs.step,
+            decision: self.ep.decisions,
+            attempt,
+        }
+    }
+
+    fn ask(&mut self, stage: Stage, messages: Vec<Message>, schema: Value, attempt: u32) -> Option<ChatReply> {
+        let req = ChatRequest { stage, messages, schema: Some((format!("ava_{}", stage.name()), schema)), sampling: self.cfg.sampling };
+        let meta = self.meta(attempt);
+        let t0 = Instant::now();
+        let r = self.setup.run.call(meta, self.setup.prompts.version(), &req, self.cfg.max_retries, self.cfg.backoff_ms, &mut self.ep.cost);
+        self.call_ms += t0.elapsed().as_secs_f64() * 1000.0;
+        match r {
+            Ok(reply) => {
+                self.model_ms += reply.latency_ms;
+                Some(reply)
+            }
+            Err(e) => {
+                tracing::warn!(stage = stage.name(), step = self.obs.step, "model call failed: {e}");
+                None
+            }
+        }
+    }
+
+    fn render(&self, key: &str, ctx: &impl Serialize) -> String {
+        match self.setup.prompts.render(key, ctx) {
+            Ok(s) => s,
+            Err(e) => {
+                // Templates are checked when loaded; a failure here is a template that uses a
+                // variable this code does not give, which must stop the run.
+                self.setup.run.set_fatal(format!("prompt: {e}"));
+                String::new()
+            }
+        }
+    }
+
+    fn user(&self, text: String, image: Option<&Png>) -> Vec<Message> {
+        let system = self.render(
+            "system",
+            &SystemCtx {
+                team_name: format!("team {}", self.ep.team.player()),
+                scenario: &self.ep.scenario.name,
+                objective: &self.ep.scenario.objective,
+                image: self.cfg.image,
+                text: self.cfg.text,
+                camera_width: self.cfg.camera_width,
+            },
+        );
+        let mut parts = vec![Part::Text(text)];
+        if let Some(png) = image {
+            parts.push(Part::Image(png.clone()));
+        }
+        vec![Message::text(Role::System, system), Message { role: Role::User, parts }]
+    }
+}
+
+fn screenshot(
+    setup: &AvaSetup,
+    frames: &mut FrameBuilder,
+    cpu: &mut CpuBackend,
+    ep: &Episode,
+    obs: &GroupObs,
+    camera: &Camera,
+    hl: &[u32],
+) -> Option<Png> {
+    let (w, h) = setup.config.draw_size();
+    let opts = VlmOptions { highlights: hl.iter().map(|t| UnitId::new((t - 1) as u16)).collect() };
+    let scene = frames.vlm_obs(&ep.scenario.terrain, obs, camera, w, h, &opts);
+    match Png::encode(&cpu.render(&scene)) {
+        Ok(p) => Some(p),
+        Err(e) => {
+            setup.run.set_fatal(format!("screenshot: {e}"));
+            None
+        }
+    }
+}
+
+/// Takes one decision; returns the commands and the model time it took (milliseconds).
+pub(super) fn decide(
+    setup: &AvaSetup,
+    frames: &mut FrameBuilder,
+    cpu: &mut CpuBackend,
+    ep: &mut Episode,
+    obs: &GroupObs,
+    alive: &[u32],
+) -> (Vec<(u32, Command)>, f64) {
+    let t0 = Instant::now();
+    let cfg = Arc::clone(&setup.config);
+    let (w, h) = cfg.draw_size();
+    let playable = ep.scenario.terrain.playable();
+    let own = obs.units.iter().filter(|u| u.own && alive.contains(&u.tag)).map(view::pos);
+    // The camera fills the screenshot's map area, so its grid is the one drawn.
+    let camera = avacraft_render::vlm_obs_layout(w, h).camera(own, cfg.camera_width, playable);
+
+    // What happened since the last decision, and whether the plan is stale.
+    let tally = Tally::of(obs);
+    if let (Some(prev), Some(last)) = (ep.tally, ep.history.back_mut())
+        && last.outcome.is_empty()
+    {
+        last.outcome = prev.outcome(&tally);
+    }
+    let lost = ep.tally.is_some_and(|p| tally.own_units < p.own_units);
+    let enemies: Vec<u32> = obs.units.iter().filter(|u| !u.own).map(|u| u.tag).collect();
+    let new_enemies = enemies.iter().any(|t| !ep.seen_enemies.contains(t));
+    ep.seen_enemies.extend(enemies.iter().copied());
+    ep.tally = Some(tally);
+
+    let situation = if cfg.text {
+        situation::describe(obs, &camera, alive)
+    } else {
+        format!("Step {}. Your units have tags {}.", obs.step, list(alive))
+    };
+    let image = if cfg.image { screenshot(setup, frames, cpu, ep, obs, &camera, &[]) } else { None };
+    let mut turn = Turn { setup, cfg: &cfg, ep, obs, model_ms: 0.0, call_ms: 0.0 };
+
+    // Planner.
+    let mut replanned = false;
+    if cfg.planner && (turn.ep.plan.is_none() || turn.ep.decisions - turn.ep.plan_at >= cfg.plan_every || lost || new_enemies) {
+        let text = turn.render("planner", &serde_json::json!({"situation": situation}));
+        let msgs = turn.user(text, image.as_ref());
+        if let Some(r) = turn.ask(Stage::Planner, msgs, Plan::schema(), 0) {
+            match decision::extract_json(&r.text).ok().and_then(|v| serde_json::from_value::<Plan>(v).ok()) {
+                Some(p) => {
+                    turn.ep.plan = Some(p);
+                    replanned = true;
+                }
+                None => turn.ep.cost.refused_items += 1,
+            }
+        }
+        turn.ep.plan_at = turn.ep.decisions;
+    }
+    let plan = turn.ep.plan.as_ref().filter(|_| cfg.planner).map(Plan::summary);
+
+    // Roles.
+    if cfg.roles && (turn.ep.roles.is_empty() || replanned || lost) {
+        let text = turn.render("roles", &serde_json::json!({"situation": situation, "plan": plan}));
+        let msgs = turn.user(text, image.as_ref());
+        if let Some(r) = turn.ask(Stage::Roles, msgs, stages::roles_schema(), 0) {
+            let v = decision::extract_json(&r.text).unwrap_or(Value::Null);
+            let (roles, dropped) = stages::read_roles(&v, alive);
+            turn.ep.cost.refused_items += dropped as u64;
+            if !roles.is_empty() {
+                turn.ep.roles = roles;
+            }
+        }
+    }
+    turn.ep.roles.retain(|r| alive.contains(&r.unit));
+
+    // Priority inference, and the second screenshot ringing the named enemies.
+    let mut priorities = Vec::new();
+    let mut image2 = None;
+    if cfg.priority && !enemies.is_empty() {
+        let text = turn.render("priority", &serde_json::json!({"situation": situation}));
+        let msgs = turn.user(text, image.as_ref());
+        if let Some(r) = turn.ask(Stage::Priority, msgs, stages::priority_schema(), 0) {
+            let v = decision::extract_json(&r.text).unwrap_or(Value::Null);
+            let (p, dropped) = stages::read_priorities(&v, obs);
+            turn.ep.cost.refused_items += dropped as u64;
+            priorities = p;
+        }
+        if cfg.image && !priorities.is_empty() {
+            let hl: Vec<u32> = priorities.iter().map(|p| p.unit).collect();
+            image2 = screenshot(setup, frames, cpu, turn.ep, obs, &camera, &hl);
+        }
+    }
+
+    // Retrieval: the unit types on the field and the plan's skill.
+    let mut knowledge = Vec::new();
+    if cfg.retrieval {
+        let mut kinds: Vec<&str> = obs.units.iter().map(|u| u.kind.base().name()).collect();
+        kinds.sort_unstable();
+        kinds.dedup();
+        let mut query = kinds.join(" ");
+        if let Some(p) = turn.ep.plan.as_ref().filter(|_| cfg.planner) {
+            query.push(' ');
+            query.push_str(&p.primary_skill.name);
+        }
+        knowledge = setup
+            .retriever
+            .search(&query, cfg.top_k)
+            .into_iter()
+            .map(|h| Knowledge { title: h.passage.title.clone(), text: h.passage.text.clone() })
+            .collect();
+    }
+
+    // The decision, with repair rounds.
+    let abilities: Vec<&str> = {
+        let mut a: Vec<&str> = obs.units.iter().filter(|u| u.own).flat_map(|u| u.abilities.iter().map(|a| a.ability.name())).collect();
+        a.sort_unstable();
+        a.dedup();
+        a
+    };
+    let schema = decision::schema(&abilities);
+    let ctx = DecisionCtx {
+        situation: &situation,
+        plan,
+        priorities: &priorities,
+        roles: &turn.ep.roles.clone(),
+        knowledge,
+        history: turn.ep.history.iter().collect(),
+        units: list(alive),
+        image: cfg.image,
+        schema: cfg.schema_in_prompt.then(|| schema.to_string()),
+    };
+    let text = turn.render("decision", &ctx);
+    let mut msgs = turn.user(text, image2.as_ref().or(image.as_ref()));
+    let sit = Situation { obs, camera: &camera, playable };
+    let mut commands: Vec<(u32, Command)> = Vec::new();
+    for attempt in 0..=cfg.max_repairs {
+        let Some(reply) = turn.ask(Stage::Decision, msgs.clone(), schema.clone(), attempt) else {
+            turn.ep.cost.transport_failures += 1;
+            break;
+        };
+        let pending: Vec<u32> = alive.iter().copied().filter(|t| !commands.iter().any(|(c, _)| c == t)).collect();
+        let refused = match decision::extract_json(&reply.text).and_then(|v| decision::parse_items(&v, "actions")) {
+            Ok((items, refused)) => {
+                // A repair may only give actions to the units still waiting.
+                let mut refused = refused;
+                let items: Vec<(usize, Item)> = items
+                    .into_iter()
+                    .filter(|(i, it)| {
+                        let done = attempt > 0 && !pending.contains(&it.unit) && alive.contains(&it.unit);
+                        if done {
+                            refused.push(Refused {
+                                item: *i,
+                                unit: Some(it.unit),
+                                reason: format!("unit {} already has an accepted action", it.unit),
+                            });
+                        }
+                        !done
+                    })
+                    .collect();
+                let checked = decision::check(&sit, &items, refused);
+                for (t, c) in checked.commands {
+                    if !commands.iter().any(|(u, _)| *u == t) {
+                        commands.push((t, c));
+                    }
+                }
+                checked.refused
+            }
+            Err(e) => vec![Refused { item: 0, unit: None, reason: e.to_string() }],
+        };
+        turn.ep.cost.refused_items += refused.len() as u64;
+        let pending: Vec<u32> = alive.iter().copied().filter(|t| !commands.iter().any(|(c, _)| c == t)).collect();
+        if refused.is_empty() || pending.is_empty() || attempt == cfg.max_repairs {
+            break;
+        }
+        turn.ep.cost.repairs += 1;
+        let accepted: Vec<String> = commands.iter().map(|(t, c)| situation::command_text(*t, c, &camera)).collect();
+        let repair = turn.render("repair", &RepairCtx { refused: &refused, accepted: accepted.join(", "), pending: list(&pending) });
+        msgs.push(Message::text(Role::Assistant, reply.text));
+        msgs.push(Message::text(Role::User, repair));
+    }
+    if commands.is_empty() {
+        turn.ep.cost.fallbacks += 1;
+        if cfg.fallback == Fallback::AttackNearest {
+            commands = situation::attack_nearest(obs, alive);
+        }
+    }
+
+    let actions: Vec<String> = commands.iter().map(|(t, c)| situation::command_text(*t, c, &camera)).collect();
+    turn.ep.history.push_back(HistoryItem { step: obs.step, actions: actions.join(", "), outcome: String::new() });
+    while turn.ep.history.len() > cfg.history {
+        turn.ep.history.pop_front();
+    }
+    let (model_ms, call_ms) = (turn.model_ms, turn.call_ms);
+    let ep = turn.ep;
+    ep.decisions += 1;
+    ep.cost.decisions += 1;
+    ep.cost.episode = obs.episode;
+    // Pipeline time besides the calls'.
+    ep.cost.overhead_ms += (t0.elapsed().as_secs_f64() * 1000.0 - call_ms).max(0.0);
+    setup.run.update_episode(ep.cost_idx, &ep.cost);
+    (commands, model_ms)
+}
+
+use std::sync::Arc;
+
+fn list(tags: &[u32]) -> String {
+    tags.iter().map(u32::to_string).collect::<Vec<_>>().join(", ")
+}

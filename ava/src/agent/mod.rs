@@ -1,0 +1,154 @@
+//! The AVA agent: the paper's pipeline behind the engine's one agent contract, so it plays
+//! in-process, from Python and as an agent node alike.
+//!
+//! Per decision: the screenshot (drawn from the observation through a StarCraft-like camera)
+//! and the unit block in the same grid's terms; the planner's micro plan (refreshed every N
+//! decisions and when a unit is lost or new enemies appear); role assignment; priority
+//! inference with a second screenshot ringing the named enemies; retrieval from the unit
+//! knowledge base; then the decision, checked item by item, with repair rounds that tell the
+//! model why items were refused. The executed actions are the model's, or the fallback's when
+//! nothing valid came; both are counted.
+
+mod decide;
+mod run;
+mod situation;
+mod stages;
+
+pub use run::AvaRun;
+pub use situation::{Tally, describe, place};
+pub use stages::{Plan, Priority, ROLES, RoleOf, Skill};
+
+use crate::config::{AvaConfig, Timing};
+use crate::cost::EpisodeCost;
+use crate::kb::Bm25;
+use crate::prompt::Prompts;
+use avacraft_engine::agent::{Agent, AgentCtx, GroupObs};
+use avacraft_engine::{Action, Command, DEFAULT_STEP_MUL, LOOPS_PER_SECOND, Scenario, Team, UnitId};
+use avacraft_render::{CpuBackend, FrameBuilder};
+use std::collections::{BTreeSet, VecDeque};
+use std::sync::Arc;
+
+/// A past decision, for the prompt.
+#[derive(Clone, Debug, serde::Serialize)]
+struct HistoryItem {
+    step: u32,
+    actions: String,
+    outcome: String,
+}
+
+/// What an agent keeps within an episode.
+#[derive(Debug)]
+struct Episode {
+    scenario: Arc<Scenario>,
+    team: Team,
+    seed: u64,
+    first_step: Option<u32>,
+    decisions: u32,
+    plan: Option<Plan>,
+    plan_at: u32,
+    roles: Vec<RoleOf>,
+    history: VecDeque<HistoryItem>,
+    tally: Option<Tally>,
+    seen_enemies: BTreeSet<u32>,
+    /// Realtime: actions waiting for their step.
+    pending: Option<(u32, Vec<(u32, Command)>)>,
+    /// Game loops per environment step, as observed (for realtime delays).
+    loops_per_step: u32,
+    last_seen: Option<(u32, u32)>,
+    cost_idx: usize,
+    cost: EpisodeCost,
+}
+
+/// Everything an AVA agent is made from; cheap to clone (one per group).
+#[derive(Clone, Debug)]
+pub struct AvaSetup {
+    pub config: Arc<AvaConfig>,
+    pub run: Arc<AvaRun>,
+    pub prompts: Arc<Prompts>,
+    pub retriever: Arc<Bm25>,
+}
+
+/// The agent.
+#[derive(Debug)]
+pub struct AvaAgent {
+    name: String,
+    setup: AvaSetup,
+    frames: FrameBuilder,
+    cpu: CpuBackend,
+    ep: Option<Episode>,
+}
+
+impl AvaAgent {
+    pub fn new(setup: AvaSetup) -> AvaAgent {
+        let name = format!("ava:{}", setup.run.model());
+        AvaAgent { name, setup, frames: FrameBuilder::new(), cpu: CpuBackend::new(), ep: None }
+    }
+}
+
+fn action(tag: u32, c: Command) -> Action {
+    Action::new(UnitId::new((tag - 1) as u16), c)
+}
+
+impl Agent for AvaAgent {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn reset(&mut self, ctx: &AgentCtx) {
+        let cost = EpisodeCost { seed: ctx.seed, team: ctx.team.player(), ..EpisodeCost::default() };
+        let cost_idx = self.setup.run.open_episode(cost.clone());
+        self.ep = Some(Episode {
+            scenario: Arc::clone(&ctx.scenario),
+            team: ctx.team,
+            seed: ctx.seed,
+            first_step: None,
+            decisions: 0,
+            plan: None,
+            plan_at: 0,
+            roles: Vec::new(),
+            history: VecDeque::new(),
+            tally: None,
+            seen_enemies: BTreeSet::new(),
+            pending: None,
+            loops_per_step: DEFAULT_STEP_MUL.get(),
+            last_seen: None,
+            cost_idx,
+            cost,
+        });
+    }
+
+    fn act(&mut self, obs: &GroupObs) -> Vec<Action> {
+        let Some(ep) = self.ep.as_mut() else { return Vec::new() };
+        if let Some((step, lp)) = ep.last_seen
+            && obs.step > step
+            && obs.game_loop > lp
+        {
+            ep.loops_per_step = (obs.game_loop - lp) / (obs.step - step);
+        }
+        ep.last_seen = Some((obs.step, obs.game_loop));
+        let mut alive: Vec<u32> = obs.controlled.iter().filter(|c| c.alive).map(|c| c.unit).collect();
+        alive.sort_unstable();
+        if let Some((ready, _)) = &ep.pending {
+            if obs.step < *ready {
+                return Vec::new();
+            }
+            let (_, cmds) = ep.pending.take().unwrap_or_default();
+            return cmds.into_iter().filter(|(t, _)| alive.contains(t)).map(|(t, c)| action(t, c)).collect();
+        }
+        let first = *ep.first_step.get_or_insert(obs.step);
+        let cfg = Arc::clone(&self.setup.config);
+        if alive.is_empty() || !(obs.step - first).is_multiple_of(cfg.decide_every) {
+            return Vec::new();
+        }
+        let (cmds, model_ms) = decide::decide(&self.setup, &mut self.frames, &mut self.cpu, ep, obs, &alive);
+        if cfg.timing == Timing::Realtime {
+            let step_ms = ep.loops_per_step.max(1) as f64 * 1000.0 / LOOPS_PER_SECOND as f64;
+            let delay = (model_ms / step_ms).ceil() as u32;
+            if delay > 0 {
+                ep.pending = Some((obs.step + delay, cmds));
+                return Vec::new();
+            }
+        }
+        cmds.into_iter().map(|(t, c)| action(t, c)).collect()
+    }
+}

@@ -1,0 +1,104 @@
+//! The model's decision: actions as JSON against a schema, checked item by item against what
+//! the team observes before anything is executed.
+//!
+//! The paper's released code threw the model's decision away and had a text-only model
+//! rewrite the actions; here the executed actions are the model's own, or nothing: an item
+//! that names a unit the agent does not control, a target it cannot see or hit, an ability
+//! its unit lacks or cannot cast now (energy, cooldown, range), is refused with a reason in
+//! words, and the reasons go back to the model in a repair round. The checks are the
+//! engine's rules read from the observation, so an accepted order is not refused later.
+
+mod check;
+mod parse;
+
+pub use check::{Checked, Refused, Situation, check};
+pub use parse::{ParseError, ParsedItems, extract_json, parse_items};
+
+use serde::{Deserialize, Serialize};
+use serde_json::{Value, json};
+
+/// What an item asks a unit to do. The names are the schema's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verb {
+    /// Attack an enemy unit (a healer: heal a friendly one).
+    Attack,
+    /// Move to the centre of a cell of the screenshot's 10x10 grid.
+    MoveGrid,
+    /// Move a few units north, south, east or west.
+    MoveDir,
+    /// Cast an ability, with a unit or cell target where it needs one.
+    Ability,
+    Hold,
+    Stop,
+}
+
+impl Verb {
+    pub const ALL: [Verb; 6] = [Verb::Attack, Verb::MoveGrid, Verb::MoveDir, Verb::Ability, Verb::Hold, Verb::Stop];
+    pub fn name(self) -> &'static str {
+        match self {
+            Verb::Attack => "attack",
+            Verb::MoveGrid => "move_grid",
+            Verb::MoveDir => "move_dir",
+            Verb::Ability => "ability",
+            Verb::Hold => "hold",
+            Verb::Stop => "stop",
+        }
+    }
+}
+
+/// The compass directions of `move_dir` (north is up on the screenshot).
+pub const DIRECTIONS: [&str; 4] = ["north", "south", "east", "west"];
+
+/// One requested action as the model wrote it, before checking.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Item {
+    /// The unit's tag, as drawn on the screenshot.
+    pub unit: u32,
+    pub action: Verb,
+    /// A unit tag: the attack's or the ability's target.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target: Option<u32>,
+    /// A grid cell [column, row], each 1..=10, [1, 1] top left.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cell: Option<[u8; 2]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub direction: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ability: Option<String>,
+}
+
+/// The JSON schema of a decision: flat items with optional fields, so that constrained
+/// decoding of a small model stays simple; what an action needs is checked afterwards, with
+/// a reason the model can act on. `abilities` are the ability names the team may cast.
+pub fn schema(abilities: &[&str]) -> Value {
+    let verbs: Vec<&str> = Verb::ALL.iter().map(|v| v.name()).collect();
+    let mut ability = json!({"type": "string"});
+    if !abilities.is_empty() {
+        ability = json!({"type": "string", "enum": abilities});
+    }
+    json!({
+        "type": "object",
+        "properties": {
+            "reasoning": {"type": "string", "maxLength": 600},
+            "actions": {
+                "type": "array",
+                "items": {
+                    "type": "object",
+                    "properties": {
+                        "unit": {"type": "integer", "minimum": 1},
+                        "action": {"type": "string", "enum": verbs},
+                        "target": {"type": "integer", "minimum": 1},
+                        "cell": {"type": "array", "items": {"type": "integer", "minimum": 1, "maximum": 10}, "minItems": 2, "maxItems": 2},
+                        "direction": {"type": "string", "enum": DIRECTIONS},
+                        "ability": ability
+                    },
+                    "required": ["unit", "action"],
+                    "additionalProperties": false
+                }
+            }
+        },
+        "required": ["reasoning", "actions"],
+        "additionalProperties": false
+    })
+}

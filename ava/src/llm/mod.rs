@@ -1,0 +1,223 @@
+//! Model back ends behind one trait: a chat request (text and image parts, an optional JSON
+//! schema, sampling settings) in, the model's text with token counts and latency out.
+//!
+//! [`OpenAi`] speaks the chat-completions protocol that OpenAI, vLLM, Ollama and llama.cpp's
+//! server share; [`Replay`] answers from a recorded run without calling anything; [`Scripted`]
+//! answers from a list (tests, dry runs). Every call the agent makes goes through a
+//! [`Recorder`], which writes it to the run folder before the answer is used.
+
+mod openai;
+mod record;
+
+pub use openai::{OpenAi, OpenAiConfig, SchemaMode};
+pub use record::{CallRecord, RecordError, Recorder, Replay, StoredMessage, StoredPart};
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use std::sync::Arc;
+
+/// Which step of the pipeline asked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Stage {
+    Planner,
+    Priority,
+    Roles,
+    Decision,
+}
+
+impl Stage {
+    pub const ALL: [Stage; 4] = [Stage::Planner, Stage::Priority, Stage::Roles, Stage::Decision];
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::Planner => "planner",
+            Stage::Priority => "priority",
+            Stage::Roles => "roles",
+            Stage::Decision => "decision",
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Role {
+    System,
+    User,
+    Assistant,
+}
+
+/// A PNG image, encoded once and shared by the requests that show it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Png {
+    pub bytes: Arc<Vec<u8>>,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Png {
+    /// Encodes an RGB image.
+    pub fn encode(img: &image::RgbImage) -> Result<Png, image::ImageError> {
+        let mut bytes = Vec::new();
+        image::DynamicImage::ImageRgb8(img.clone()).write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)?;
+        Ok(Png { bytes: Arc::new(bytes), width: img.width(), height: img.height() })
+    }
+    /// A content hash, which names the image's file in a recording.
+    pub fn hash(&self) -> String {
+        format!("{:016x}", xxhash_rust::xxh3::xxh3_64(&self.bytes))
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Part {
+    Text(String),
+    Image(Png),
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Message {
+    pub role: Role,
+    pub parts: Vec<Part>,
+}
+
+impl Message {
+    pub fn text(role: Role, text: impl Into<String>) -> Message {
+        Message { role, parts: vec![Part::Text(text.into())] }
+    }
+}
+
+/// Sampling settings; the defaults are the paper's.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Sampling {
+    pub temperature: f32,
+    pub top_p: f32,
+    /// At most this many tokens per answer.
+    pub max_tokens: u32,
+}
+
+impl Default for Sampling {
+    fn default() -> Self {
+        Sampling { temperature: 0.7, top_p: 0.95, max_tokens: 1024 }
+    }
+}
+
+/// One call to a model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ChatRequest {
+    pub stage: Stage,
+    pub messages: Vec<Message>,
+    /// The answer's JSON schema, with a name for the servers that want one.
+    pub schema: Option<(String, Value)>,
+    pub sampling: Sampling,
+}
+
+impl ChatRequest {
+    /// A hash of everything the model is shown and asked: a replay checks it, so a replayed
+    /// run that would ask something else stops instead of using an answer to another prompt.
+    pub fn hash(&self) -> String {
+        let mut h = xxhash_rust::xxh3::Xxh3::new();
+        for m in &self.messages {
+            h.update(format!("{:?}\u{0}", m.role).as_bytes());
+            for p in &m.parts {
+                match p {
+                    Part::Text(t) => h.update(t.as_bytes()),
+                    Part::Image(png) => h.update(png.hash().as_bytes()),
+                }
+                h.update(b"\0");
+            }
+        }
+        if let Some((name, schema)) = &self.schema {
+            h.update(name.as_bytes());
+            h.update(schema.to_string().as_bytes());
+        }
+        format!("{:016x}", h.digest())
+    }
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Usage {
+    pub prompt_tokens: u64,
+    pub completion_tokens: u64,
+}
+
+/// A model's answer.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ChatReply {
+    pub text: String,
+    /// As the server reported them (`None`: it did not).
+    pub usage: Option<Usage>,
+    /// Wall-clock time of the call, milliseconds.
+    pub latency_ms: f64,
+    /// The model that answered, as the server names it.
+    pub model: String,
+    /// Why generation stopped (`stop`, `length`, ...), when reported.
+    pub finish: Option<String>,
+}
+
+/// Why a call produced no answer.
+#[derive(Debug, Clone, PartialEq, thiserror::Error, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum LlmError {
+    #[error("cannot reach {url}: {message}")]
+    Transport { url: String, message: String },
+    #[error("{url} did not answer within {seconds} s")]
+    Timeout { url: String, seconds: f64 },
+    #[error("{url} answered HTTP {status}: {body}")]
+    Status { url: String, status: u16, body: String },
+    #[error("{url} answered something that is not a chat completion: {why}")]
+    Envelope { url: String, why: String },
+    #[error("replay: {why}")]
+    Replay { why: String },
+    #[error("local model: {why}")]
+    Local { why: String },
+}
+
+impl LlmError {
+    /// Worth trying again after a pause: the network, a timeout, rate limits and server
+    /// errors. A refused request (4xx) or a broken replay will not get better.
+    pub fn retryable(&self) -> bool {
+        match self {
+            LlmError::Transport { .. } | LlmError::Timeout { .. } => true,
+            LlmError::Status { status, .. } => *status == 429 || *status >= 500,
+            LlmError::Envelope { .. } | LlmError::Replay { .. } | LlmError::Local { .. } => false,
+        }
+    }
+}
+
+/// A model back end.
+pub trait ChatModel: Send {
+    /// The model's name as configured (`gpt-4o`, `replay:runs/x`).
+    fn model(&self) -> &str;
+    fn complete(&mut self, req: &ChatRequest) -> Result<ChatReply, LlmError>;
+    /// Whether retries should wait (a replay answers at once, and waiting would only slow it).
+    fn waits(&self) -> bool {
+        true
+    }
+}
+
+/// Answers from a fixed list, in order (then repeats the last): for tests and `--dry-run`.
+#[derive(Clone, Debug)]
+pub struct Scripted {
+    answers: Vec<String>,
+    next: usize,
+}
+
+impl Scripted {
+    pub fn new(answers: Vec<String>) -> Scripted {
+        Scripted { answers, next: 0 }
+    }
+}
+
+impl ChatModel for Scripted {
+    fn model(&self) -> &str {
+        "scripted"
+    }
+    fn complete(&mut self, _req: &ChatRequest) -> Result<ChatReply, LlmError> {
+        let text = self.answers.get(self.next).or(self.answers.last()).cloned().unwrap_or_default();
+        self.next += 1;
+        Ok(ChatReply { text, usage: None, latency_ms: 0.0, model: "scripted".into(), finish: Some("stop".into()) })
+    }
+    fn waits(&self) -> bool {
+        false
+    }
+}

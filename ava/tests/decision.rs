@@ -1,0 +1,187 @@
+//! Decisions checked against real observations: the reasons given, and the property that
+//! matters most: whatever a model writes, an accepted command is never refused by the engine.
+
+use avacraft_ava::decision::{Item, Situation, Verb, check, extract_json, parse_items, schema};
+use avacraft_engine::agent::{GroupObs, Reads};
+use avacraft_engine::{Ability, Action, Command, Controllers, Env, EnvConfig, Scenario, Team, UnitId};
+use avacraft_render::{Camera, vlm_obs_layout};
+use proptest::prelude::*;
+use std::sync::Arc;
+
+/// `scenario` after `steps` steps of attack-move for both sides.
+fn state(scenario: &str, seed: u64, steps: u32) -> Env {
+    let sc = Arc::new(Scenario::load(scenario).expect("scenario"));
+    let mut env = Env::new(Arc::clone(&sc), EnvConfig::default(), seed);
+    env.reset(seed);
+    let mut c = Controllers::named(&sc, "attack-move", Some("attack-move")).expect("agents");
+    c.reset(&env);
+    while env.steps() < steps && !env.done() {
+        c.act(&mut env);
+        env.step();
+    }
+    env
+}
+
+fn camera(env: &Env, obs: &GroupObs) -> Camera {
+    let own = obs.units.iter().filter(|u| u.own).map(|u| avacraft_engine::Vec2::new(u.x, u.y));
+    vlm_obs_layout(1024, 576).camera(own, Camera::DEFAULT_WIDTH, env.world().terrain().playable())
+}
+
+fn item(unit: u32, action: Verb) -> Item {
+    Item { unit, action, target: None, cell: None, direction: None, ability: None }
+}
+
+#[test]
+fn refusals_say_what_is_wrong() {
+    let env = state("3m", 1, 6);
+    let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
+    let cam = camera(&env, &obs);
+    let sit = Situation { obs: &obs, camera: &cam, playable: env.world().terrain().playable() };
+    let own: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag).collect();
+    let enemy = obs.units.iter().find(|u| !u.own).map(|u| u.tag).expect("an enemy in sight after 6 steps");
+    let items = vec![
+        (0, Item { target: Some(enemy), ..item(own[0], Verb::Attack) }),
+        (1, Item { target: Some(enemy), ..item(own[0], Verb::Attack) }),
+        (2, item(99, Verb::Hold)),
+        (3, Item { target: Some(own[2]), ..item(own[1], Verb::Attack) }),
+        (4, Item { cell: Some([11, 3]), ..item(own[1], Verb::MoveGrid) }),
+        (5, Item { direction: Some("up-left".into()), ..item(own[1], Verb::MoveDir) }),
+        (6, Item { ability: Some("psionic_storm".into()), cell: Some([5, 5]), ..item(own[1], Verb::Ability) }),
+        (7, item(own[2], Verb::Attack)),
+        (8, Item { cell: Some([5, 5]), ..item(own[1], Verb::MoveGrid) }),
+    ];
+    let c = check(&sit, &items, Vec::new());
+    let reasons: Vec<(usize, &str)> = c.refused.iter().map(|r| (r.item, r.reason.as_str())).collect();
+    let want = [
+        (1, "already has an action"),
+        (2, "not one of yours"),
+        (3, "your own unit"),
+        (4, "not on the 10x10 grid"),
+        (5, "unknown direction"),
+        (6, "has no ability `psionic_storm`"),
+        (7, "needs `target`"),
+    ];
+    assert_eq!(reasons.len(), want.len(), "{reasons:?}");
+    for ((i, r), (wi, w)) in reasons.iter().zip(want) {
+        assert_eq!(*i, wi);
+        assert!(r.contains(w), "item {i}: `{r}` should say `{w}`");
+    }
+    assert_eq!(c.commands.len(), 2);
+    assert_eq!(c.commands[0], (own[0], Command::Attack { target: UnitId::new((enemy - 1) as u16) }));
+    // The grid move goes to the camera's cell, the one drawn on the screenshot.
+    let Command::MoveTo { to } = c.commands[1].1 else { panic!("{:?}", c.commands[1]) };
+    assert_eq!(cam.cell_of(to), Some((5, 5)));
+}
+
+#[test]
+fn abilities_are_checked_for_energy_range_and_target_side() {
+    // MMM: Medivacs heal (their attack is a heal on a friendly unit); Marauders and Marines stim.
+    let env = state("MMM_vs_MMM", 2, 4);
+    let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
+    let cam = camera(&env, &obs);
+    let sit = Situation { obs: &obs, camera: &cam, playable: env.world().terrain().playable() };
+    let medivac = obs.units.iter().find(|u| u.own && u.kind.base().name() == "Medivac").expect("a Medivac");
+    let marine = obs.units.iter().find(|u| u.own && u.kind.base().name() == "Marine").expect("a Marine");
+    let items = vec![
+        (0, Item { target: Some(marine.tag), ..item(medivac.tag, Verb::Attack) }),
+        (1, Item { ability: Some("stimpack".into()), ..item(marine.tag, Verb::Ability) }),
+    ];
+    let c = check(&sit, &items, Vec::new());
+    assert!(c.refused.is_empty(), "{:?}", c.refused);
+    assert_eq!(c.commands[1].1, Command::Ability { ability: Ability::Stimpack, target: avacraft_engine::AbilityTarget::None });
+    if let Some(enemy) = obs.units.iter().find(|u| !u.own) {
+        let c = check(&sit, &[(0, Item { target: Some(enemy.tag), ..item(medivac.tag, Verb::Attack) })], Vec::new());
+        assert!(c.refused[0].reason.contains("heals"), "{:?}", c.refused);
+    }
+}
+
+#[test]
+fn the_schema_lists_every_verb_and_the_teams_abilities() {
+    let s = schema(&["stimpack", "heal"]);
+    let props = &s["properties"]["actions"]["items"]["properties"];
+    let verbs: Vec<&str> = props["action"]["enum"].as_array().expect("enum").iter().filter_map(|v| v.as_str()).collect();
+    assert_eq!(verbs, Verb::ALL.map(Verb::name));
+    assert_eq!(props["ability"]["enum"][1], "heal");
+    // Every example item in the decision prompt fits the schema's fields.
+    for name in ["unit", "action", "target", "cell", "direction", "ability"] {
+        assert!(props.get(name).is_some(), "{name}");
+    }
+}
+
+type RawItem = (prop::sample::Index, usize, Option<prop::sample::Index>, Option<(u8, u8)>, Option<usize>, Option<usize>);
+
+fn arb_items() -> impl Strategy<Value = Vec<RawItem>> {
+    prop::collection::vec(
+        (
+            any::<prop::sample::Index>(),
+            0usize..7,
+            prop::option::of(any::<prop::sample::Index>()),
+            prop::option::of((0u8..12, 0u8..12)),
+            prop::option::of(0usize..5),
+            prop::option::of(0usize..=Ability::COUNT),
+        ),
+        1..12,
+    )
+}
+
+/// A model's item from raw draws: tags of the observation (and 99), verbs, cells,
+/// directions and abilities, with junk among each.
+fn to_json(raw: &RawItem, tags: &[u32]) -> serde_json::Value {
+    let verbs = ["attack", "move_grid", "move_dir", "ability", "hold", "stop", "charge"];
+    let dirs = ["north", "south", "east", "west", "sideways"];
+    let (unit, verb, target, cell, dir, ability) = raw;
+    let mut v = serde_json::json!({"unit": tags[unit.index(tags.len())], "action": verbs[*verb]});
+    if let Some(t) = target {
+        v["target"] = tags[t.index(tags.len())].into();
+    }
+    if let Some((c, r)) = cell {
+        v["cell"] = serde_json::json!([c, r]);
+    }
+    if let Some(d) = dir {
+        v["direction"] = dirs[*d].into();
+    }
+    if let Some(a) = ability {
+        v["ability"] = Ability::ALL.get(*a).map_or("nuke", |a| a.name()).into();
+    }
+    v
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    /// Random decisions over several scenarios and moments: whatever is accepted, the engine
+    /// takes; nothing panics.
+    #[test]
+    fn accepted_commands_are_never_refused_by_the_engine(
+        which in 0usize..4,
+        steps in 0u32..30,
+        picks in arb_items(),
+    ) {
+        let scenario = ["3m", "MMM_vs_MMM", "pvz_ht", "8m3mr1mv1st_vs_5s2c"][which];
+        let mut env = state(scenario, 5, steps);
+        prop_assume!(!env.done());
+        let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
+        let mut tags: Vec<u32> = obs.units.iter().map(|u| u.tag).collect();
+        tags.push(99);
+        let raw: Vec<serde_json::Value> = picks.iter().map(|p| to_json(p, &tags)).collect();
+        let text = serde_json::json!({"reasoning": "", "actions": raw}).to_string();
+        let v = extract_json(&text).map_err(|e| TestCaseError::fail(e.to_string()))?;
+        let (items, refused) = parse_items(&v, "actions").map_err(|e| TestCaseError::fail(e.to_string()))?;
+        let cam = camera(&env, &obs);
+        let playable = env.world().terrain().playable();
+        let c = check(&Situation { obs: &obs, camera: &cam, playable }, &items, refused);
+        prop_assert_eq!(c.commands.len() + c.refused.len(), picks.len());
+        let actions: Vec<Action> = c.commands.iter().map(|(t, cmd)| Action::new(UnitId::new((t - 1) as u16), *cmd)).collect();
+        for (a, r) in actions.iter().zip(env.submit(Team::One, &actions)) {
+            prop_assert!(r.is_ok(), "{:?} accepted by AVA but refused by the engine: {:?}", a, r);
+        }
+    }
+
+    /// Arbitrary text never panics the reader.
+    #[test]
+    fn any_text_is_read_or_refused(text in ".{0,200}") {
+        if let Ok(v) = extract_json(&text) {
+            let _ = parse_items(&v, "actions");
+        }
+    }
+}

@@ -1,0 +1,240 @@
+//! `--agent ava`: the AVA agent's model, recording and pipeline options, shared by the
+//! commands that run it, and its cost report.
+
+use anyhow::{Context, Result, bail};
+use avacraft_ava::cost::{EpisodeCost, PriceTable};
+use avacraft_ava::llm::{ChatModel, ChatReply, ChatRequest, LlmError, OpenAi, OpenAiConfig, Part, Recorder, Replay, SchemaMode};
+use avacraft_ava::{AvaConfig, AvaRun, AvaSetup, Bm25, KnowledgeBase, Prompts, Timing};
+use clap::Args;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// The policy name that selects AVA.
+pub const AVA: &str = "ava";
+
+#[derive(Args, Debug, Clone, Default)]
+pub struct AvaArgs {
+    /// AVA: the OpenAI-compatible endpoint, up to /v1 (OpenAI, vLLM, Ollama, llama.cpp's server).
+    #[arg(long, env = "AVACRAFT_LLM_URL")]
+    pub llm_url: Option<String>,
+    /// AVA: the model's name at that endpoint.
+    #[arg(long, env = "AVACRAFT_LLM_MODEL")]
+    pub llm_model: Option<String>,
+    /// AVA: the environment variable holding the API key (its value is never recorded).
+    #[arg(long, default_value = "OPENAI_API_KEY")]
+    pub llm_key_env: String,
+    /// AVA: time limit of one call, seconds.
+    #[arg(long, default_value_t = 60.0)]
+    pub llm_timeout: f64,
+    /// AVA: how the answer's JSON schema is requested.
+    #[arg(long, value_enum, default_value = "json-schema")]
+    pub llm_schema: SchemaMode,
+    /// AVA: record every call here (default: a new folder runs/ava-SCENARIO-seedN[-K]).
+    #[arg(long)]
+    pub llm_record: Option<PathBuf>,
+    /// AVA: answer from a recorded run instead of a model; the episodes must ask exactly
+    /// what was recorded (same scenario, seeds and settings), or the run stops.
+    #[arg(long, conflicts_with = "llm_url")]
+    pub llm_replay: Option<PathBuf>,
+    /// AVA: a price table (TOML, dollars per million tokens by model) instead of the built-in one.
+    #[arg(long)]
+    pub llm_prices: Option<PathBuf>,
+    /// AVA: pipeline settings (TOML with the fields of the `ava` block of a launch file).
+    #[arg(long)]
+    pub ava_config: Option<PathBuf>,
+    /// AVA: switch pipeline parts off: planner, priority, retrieval, roles, image, text.
+    #[arg(long, value_delimiter = ',')]
+    pub ablate: Vec<String>,
+    /// AVA: decide every N steps.
+    #[arg(long)]
+    pub decide_every: Option<u32>,
+    /// AVA: lockstep (the game waits for the model) or realtime.
+    #[arg(long, value_enum)]
+    pub timing: Option<Timing>,
+    /// AVA: a folder of prompt templates (system.j2, planner.j2, ...) instead of the built-in v1.
+    #[arg(long)]
+    pub prompts: Option<PathBuf>,
+    /// AVA: print what the model would be sent at the first decision and stop (no model is called).
+    #[arg(long)]
+    pub dry_run: bool,
+}
+
+/// Prints requests instead of sending them (`--dry-run`).
+struct DryRun {
+    out: PathBuf,
+    shown: usize,
+}
+
+impl ChatModel for DryRun {
+    fn model(&self) -> &str {
+        "dry-run"
+    }
+    fn complete(&mut self, req: &ChatRequest) -> Result<ChatReply, LlmError> {
+        self.shown += 1;
+        let mut s = format!("===== {} call {} =====\n", req.stage.name(), self.shown);
+        for m in &req.messages {
+            s.push_str(&format!("--- {:?}\n", m.role).to_lowercase());
+            for p in &m.parts {
+                match p {
+                    Part::Text(t) => s.push_str(&format!("{t}\n")),
+                    Part::Image(png) => s.push_str(&format!(
+                        "[image {}x{}: {}]\n",
+                        png.width,
+                        png.height,
+                        self.out.join(format!("images/{}.png", png.hash())).display()
+                    )),
+                }
+            }
+        }
+        if let Some((name, schema)) = &req.schema {
+            s.push_str(&format!("--- response schema {name}: {schema}\n"));
+        }
+        print!("{s}");
+        Err(LlmError::Local { why: "dry run: no model is called".into() })
+    }
+    fn waits(&self) -> bool {
+        false
+    }
+}
+
+/// A recording folder that does not exist yet under runs/.
+fn fresh_dir(scenario: &str, seed: u64) -> PathBuf {
+    let base = PathBuf::from("runs").join(format!("ava-{scenario}-seed{seed}"));
+    if !base.exists() {
+        return base;
+    }
+    (2..).map(|k| PathBuf::from(format!("{}-{k}", base.display()))).find(|p| !p.exists()).unwrap_or(base)
+}
+
+impl AvaArgs {
+    /// The configuration: the file's, then the flags over it.
+    pub fn config(&self) -> Result<AvaConfig> {
+        let mut cfg = match &self.ava_config {
+            Some(p) => {
+                let text = std::fs::read_to_string(p).with_context(|| format!("--ava-config {}", p.display()))?;
+                toml::from_str::<AvaConfig>(&text).with_context(|| format!("--ava-config {}", p.display()))?
+            }
+            None => AvaConfig::default(),
+        };
+        for part in &self.ablate {
+            cfg.set_part(part.trim(), false).context("--ablate")?;
+        }
+        if let Some(n) = self.decide_every {
+            cfg.decide_every = n;
+        }
+        if let Some(t) = self.timing {
+            cfg.timing = t;
+        }
+        if self.llm_schema == SchemaMode::None {
+            cfg.schema_in_prompt = true;
+        }
+        cfg.validate().context("AVA settings")?;
+        Ok(cfg)
+    }
+
+    /// Everything AVA agents of this run share. Returns the setup and the recording folder.
+    pub fn setup(&self, scenario: &str, seed: u64) -> Result<(AvaSetup, Option<PathBuf>)> {
+        let config = self.config()?;
+        let prompts = match &self.prompts {
+            Some(d) => Prompts::from_dir(d)?,
+            None => Prompts::builtin()?,
+        };
+        let prices = match &self.llm_prices {
+            Some(p) => {
+                let text = std::fs::read_to_string(p).with_context(|| format!("--llm-prices {}", p.display()))?;
+                PriceTable::from_toml(&p.display().to_string(), &text)?
+            }
+            None => PriceTable::builtin(),
+        };
+        let record_dir = match (&self.llm_record, &self.llm_replay) {
+            (Some(d), _) => Some(d.clone()),
+            (None, None) => Some(fresh_dir(scenario, seed)),
+            (None, Some(_)) => None,
+        };
+        let model: Box<dyn ChatModel> = if self.dry_run {
+            Box::new(DryRun { out: record_dir.clone().unwrap_or_default(), shown: 0 })
+        } else if let Some(dir) = &self.llm_replay {
+            Box::new(Replay::open(dir).with_context(|| format!("--llm-replay {}", dir.display()))?)
+        } else {
+            let Some(url) = &self.llm_url else {
+                bail!("--agent ava needs a model: --llm-url URL --llm-model NAME (or AVACRAFT_LLM_URL), --llm-replay DIR, or --dry-run")
+            };
+            let Some(model) = &self.llm_model else { bail!("--llm-url needs --llm-model NAME (or AVACRAFT_LLM_MODEL)") };
+            if !(self.llm_timeout.is_finite() && self.llm_timeout > 0.0) {
+                bail!("--llm-timeout must be a positive number of seconds");
+            }
+            let key = std::env::var(&self.llm_key_env).ok().filter(|k| !k.is_empty());
+            Box::new(OpenAi::new(OpenAiConfig {
+                base_url: url.clone(),
+                model: model.clone(),
+                key,
+                timeout_s: self.llm_timeout,
+                schema_mode: self.llm_schema,
+            }))
+        };
+        let recorder = match &record_dir {
+            Some(d) => Some(Recorder::create(d).with_context(|| format!("recording AVA's calls in {}", d.display()))?),
+            None => None,
+        };
+        let kb = KnowledgeBase::builtin()?;
+        let setup = AvaSetup {
+            config: Arc::new(config),
+            run: AvaRun::new(model, recorder, prices),
+            prompts: Arc::new(prompts),
+            retriever: Arc::new(Bm25::new(&kb)),
+        };
+        Ok((setup, record_dir))
+    }
+}
+
+/// Writes `costs.json` into the recording folder and prints the cost table.
+pub fn report(run: &AvaRun, dir: Option<&Path>, out: &mut dyn Write, json: bool) -> Result<Vec<EpisodeCost>> {
+    let eps = run.episodes();
+    if let Some(d) = dir {
+        let path = d.join("costs.json");
+        std::fs::write(&path, serde_json::to_string_pretty(&eps)?).with_context(|| format!("writing {}", path.display()))?;
+    }
+    if json {
+        return Ok(eps);
+    }
+    let mut t = comfy_table::Table::new();
+    t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header([
+        "AVA episode",
+        "team",
+        "decisions",
+        "calls/decision",
+        "tokens/decision",
+        "model s/decision",
+        "failed calls",
+        "repairs",
+        "refused items",
+        "fallbacks",
+        "cost $",
+        "overhead ms/decision",
+    ]);
+    for e in &eps {
+        let (calls, tokens, ms) = e.per_decision();
+        let n = e.decisions.max(1) as f64;
+        let cost = if e.total.unpriced_calls > 0 { "unpriced".to_owned() } else { format!("{:.4}", e.total.cost_usd) };
+        t.add_row([
+            e.episode.to_string(),
+            e.team.to_string(),
+            e.decisions.to_string(),
+            format!("{calls:.2}"),
+            format!("{tokens:.0}"),
+            format!("{:.2}", ms / 1000.0),
+            e.total.failed_calls.to_string(),
+            e.repairs.to_string(),
+            e.refused_items.to_string(),
+            e.fallbacks.to_string(),
+            cost,
+            format!("{:.2}", e.overhead_ms / n),
+        ]);
+    }
+    writeln!(out, "{t}")?;
+    if let Some(d) = dir {
+        writeln!(out, "AVA's calls are recorded in {} (replay with --llm-replay {})", d.display(), d.display())?;
+    }
+    Ok(eps)
+}
