@@ -36,7 +36,7 @@ fn refusals_say_what_is_wrong() {
     let env = state("3m", 1, 6);
     let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
     let cam = camera(&env, &obs);
-    let sit = Situation { obs: &obs, camera: &cam, playable: env.world().terrain().playable() };
+    let sit = Situation { obs: &obs, camera: &cam, terrain: env.world().terrain() };
     let own: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag).collect();
     let enemy = obs.units.iter().find(|u| !u.own).map(|u| u.tag).expect("an enemy in sight after 6 steps");
     let items = vec![
@@ -79,7 +79,7 @@ fn abilities_are_checked_for_energy_range_and_target_side() {
     let env = state("MMM_vs_MMM", 2, 4);
     let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
     let cam = camera(&env, &obs);
-    let sit = Situation { obs: &obs, camera: &cam, playable: env.world().terrain().playable() };
+    let sit = Situation { obs: &obs, camera: &cam, terrain: env.world().terrain() };
     let medivac = obs.units.iter().find(|u| u.own && u.kind.base().name() == "Medivac").expect("a Medivac");
     let marine = obs.units.iter().find(|u| u.own && u.kind.base().name() == "Marine").expect("a Marine");
     let items = vec![
@@ -168,8 +168,8 @@ proptest! {
         let v = extract_json(&text).map_err(|e| TestCaseError::fail(e.to_string()))?;
         let (items, refused) = parse_items(&v, "actions").map_err(|e| TestCaseError::fail(e.to_string()))?;
         let cam = camera(&env, &obs);
-        let playable = env.world().terrain().playable();
-        let c = check(&Situation { obs: &obs, camera: &cam, playable }, &items, refused);
+        let terrain = env.scenario().terrain.clone();
+        let c = check(&Situation { obs: &obs, camera: &cam, terrain: &terrain }, &items, refused);
         prop_assert_eq!(c.commands.len() + c.refused.len(), picks.len());
         let actions: Vec<Action> = c.commands.iter().map(|(t, cmd)| Action::new(UnitId::new((t - 1) as u16), *cmd)).collect();
         for (a, r) in actions.iter().zip(env.submit(Team::One, &actions)) {

@@ -158,7 +158,8 @@ pub(super) fn decide(
     let t0 = Instant::now();
     let cfg = Arc::clone(&setup.config);
     let (w, h) = cfg.draw_size();
-    let playable = ep.scenario.terrain.playable();
+    let scenario = Arc::clone(&ep.scenario);
+    let playable = scenario.terrain.playable();
     let own = obs.units.iter().filter(|u| u.own && alive.contains(&u.tag)).map(view::pos);
     // The camera fills the screenshot's map area, so its grid is the one drawn.
     let camera = avacraft_render::vlm_obs_layout(w, h).camera(own, cfg.camera_width, playable);
@@ -275,7 +276,7 @@ pub(super) fn decide(
     };
     let text = turn.render("decision", &ctx);
     let mut msgs = turn.user(text, image2.as_ref().or(image.as_ref()));
-    let sit = Situation { obs, camera: &camera, playable };
+    let sit = Situation { obs, camera: &camera, terrain: &scenario.terrain };
     let mut commands: Vec<(u32, Command)> = Vec::new();
     for attempt in 0..=cfg.max_repairs {
         let Some(reply) = turn.ask(Stage::Decision, msgs.clone(), schema.clone(), attempt) else {

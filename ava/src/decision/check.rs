@@ -4,7 +4,9 @@
 use super::{Item, Verb};
 use avacraft_engine::agent::GroupObs;
 use avacraft_engine::agent::view;
-use avacraft_engine::{Ability, AbilityTarget, Command, Direction, Rect, TargetKind, TargetRule, UnitId, UnitInfo, Vec2};
+use avacraft_engine::{
+    Ability, AbilityTarget, Attrs, Buffs, Command, Direction, MOVE_AMOUNT, TargetKind, TargetRule, Terrain, UnitId, UnitInfo, Vec2,
+};
 use avacraft_render::Camera;
 use serde::{Deserialize, Serialize};
 
@@ -26,12 +28,13 @@ pub struct Checked {
 }
 
 /// What items are checked against: the group's observation, the camera its grid cells are
-/// cells of, and the playable area (a point outside it is refused by the engine).
+/// cells of, and the map (a player knows it: points off it or on ground a unit cannot reach
+/// are refused by the engine).
 #[derive(Clone, Copy, Debug)]
 pub struct Situation<'a> {
     pub obs: &'a GroupObs,
     pub camera: &'a Camera,
-    pub playable: Rect,
+    pub terrain: &'a Terrain,
 }
 
 impl Situation<'_> {
@@ -50,7 +53,7 @@ impl Situation<'_> {
             .camera
             .cell_center(cell[0], cell[1])
             .ok_or_else(|| format!("cell [{}, {}] is not on the 10x10 grid (columns and rows are 1 to 10)", cell[0], cell[1]))?;
-        if !self.playable.contains(p) {
+        if !self.terrain.playable().contains(p) {
             return Err(format!("cell [{}, {}] is off the map", cell[0], cell[1]));
         }
         Ok(p)
@@ -88,13 +91,27 @@ fn name(u: &UnitInfo) -> String {
 
 fn command(s: &Situation<'_>, u: &UnitInfo, item: &Item) -> Result<Command, String> {
     let needs_move = || if view::mobile(u) { Ok(()) } else { Err(format!("{} cannot move now", name(u))) };
+    // Ground units go as near as they can get; with no ground they can reach, the engine
+    // refuses the move.
+    let reach = |to: Vec2| {
+        if view::flying(u) || s.terrain.reachable_point(view::pos(u), to, u.kind.spec().cliff_walk).is_some() {
+            Ok(())
+        } else {
+            Err(format!("{} has no ground path towards that point", name(u)))
+        }
+    };
+    if u.buffs.contains(Buffs::MORPHING) && !matches!(item.action, Verb::Stop | Verb::Ability) {
+        return Err(format!("{} is morphing: only `stop` (which cancels it) is possible now", name(u)));
+    }
     match item.action {
         Verb::Hold => Ok(Command::Hold),
         Verb::Stop => Ok(Command::Stop),
         Verb::MoveGrid => {
             let cell = item.cell.ok_or("move_grid needs `cell`: [column, row]")?;
             needs_move()?;
-            Ok(Command::MoveTo { to: s.point(cell)? })
+            let to = s.point(cell)?;
+            reach(to)?;
+            Ok(Command::MoveTo { to })
         }
         Verb::MoveDir => {
             let d = item.direction.as_deref().ok_or("move_dir needs `direction`: north, south, east or west")?;
@@ -106,6 +123,7 @@ fn command(s: &Situation<'_>, u: &UnitInfo, item: &Item) -> Result<Command, Stri
                 other => return Err(format!("unknown direction `{other}` (north, south, east or west)")),
             };
             needs_move()?;
+            reach(s.terrain.playable().clamp(view::pos(u) + dir.vector() * MOVE_AMOUNT, 0.0))?;
             Ok(Command::MoveDir { dir })
         }
         Verb::Attack => attack(s, u, item.target.ok_or("attack needs `target`: the tag of a unit on screen")?),
@@ -120,6 +138,9 @@ fn attack(s: &Situation<'_>, u: &UnitInfo, tag: u32) -> Result<Command, String> 
         if !t.own || t.tag == u.tag {
             return Err(format!("{} heals: its target must be another of your units", name(u)));
         }
+        if !t.kind.spec().attrs.has(Attrs::BIOLOGICAL) {
+            return Err(format!("{} heals biological units only, and {} is not", name(u), name(t)));
+        }
         return Ok(Command::Attack { target });
     }
     if u.kind.spec().weapons.is_empty() {
@@ -131,6 +152,9 @@ fn attack(s: &Situation<'_>, u: &UnitInfo, tag: u32) -> Result<Command, String> 
     if !view::can_attack(u, t) {
         let layer = if view::flying(t) { "air" } else { "ground" };
         return Err(format!("{} cannot hit {} units such as {}", name(u), layer, name(t)));
+    }
+    if !view::mobile(u) && view::weapon_against(u, t).is_some_and(|w| view::edge(u, t) > w.range || view::edge(u, t) < w.min_range) {
+        return Err(format!("{} cannot move now, and {} is outside its weapon's range", name(u), name(t)));
     }
     Ok(Command::Attack { target })
 }
