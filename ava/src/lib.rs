@@ -20,8 +20,10 @@ pub mod decision;
 pub mod kb;
 pub mod llm;
 mod prompt;
+mod spec;
 
 pub use agent::{AvaAgent, AvaRun, AvaSetup, Plan, Priority, ROLES, RoleOf, Skill, Tally, describe, place};
 pub use config::{AvaConfig, ConfigError, Fallback, Timing};
 pub use kb::{Bm25, Hit, KbError, KnowledgeBase, Passage, Retriever, Topic, UnitDoc};
 pub use prompt::{PromptError, Prompts, TEMPLATES};
+pub use spec::{AvaSpec, ModelSpec, SpecError};

@@ -69,6 +69,11 @@ pub struct BenchArgs {
     /// Algorithms of the training benchmark (default: all six).
     #[arg(long, num_args = 1.., requires = "train")]
     algo: Vec<String>,
+    /// Instead: AVA's pipeline time per decision beyond the model's (default scenarios: 3m
+    /// and pvz_ht; `--steps` decisions per variant, default 60), against its goals and an
+    /// environment step.
+    #[arg(long, conflicts_with_all = ["deploy", "bridge", "render", "scaling", "vec", "train"])]
+    ava: bool,
     /// Config overrides of the training benchmark, e.g. --set use_rnn=false (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE", requires = "train")]
     set: Vec<String>,
@@ -387,6 +392,11 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
         let b =
             crate::bench_train::TrainBench { algos: &algos, scenario, steps: a.steps.unwrap_or(10_000), overrides: &a.set, json: a.json };
         return crate::bench_train::run(&b, out);
+    }
+    if a.ava {
+        let explicit = a.scenario != BenchArgs::DEFAULT_SCENARIOS;
+        let names = if explicit { scenario_names(a) } else { vec!["3m".to_owned(), "pvz_ht".to_owned()] };
+        return crate::bench_ava::run(&names, a.steps.unwrap_or(60).max(1), a.json, out);
     }
     if a.vec {
         if a.envs == 0 {

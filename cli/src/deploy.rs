@@ -45,6 +45,10 @@ pub struct AgentNodeArgs {
     /// whose network acts for each unit on the unit's own observation.
     #[arg(long, default_value = "focus-fire")]
     pub policy: String,
+    /// With `--policy ava`: its settings as JSON (what a launch file's `ava:` block holds;
+    /// `launch` passes it). Calls are recorded under `record/<id>` when it names a folder.
+    #[arg(long)]
+    pub ava_spec: Option<String>,
     /// The scenario being played: a built-in name or a scenario file.
     #[arg(long)]
     pub scenario: String,
@@ -100,9 +104,16 @@ pub fn agent_node(a: &AgentNodeArgs) -> Result<()> {
     let scenario =
         Arc::new(avacraft_engine::Scenario::load(&a.scenario).with_context(|| format!("agent-node: --scenario {}", a.scenario))?);
     let team = avacraft_nodes::TeamNo::new(a.team)?;
-    let policy = PolicySpec::parse(&a.policy, None).with_context(|| format!("agent-node: --policy {}", a.policy))?;
+    let policy = match (a.policy.as_str(), &a.ava_spec) {
+        (avacraft_launch::AVA_POLICY, Some(json)) => {
+            let spec: avacraft_ava::AvaSpec = serde_json::from_str(json).context("agent-node: --ava-spec")?;
+            PolicySpec::ava(spec).context("agent-node: --ava-spec")?
+        }
+        (_, Some(_)) => bail!("agent-node: --ava-spec goes with --policy ava"),
+        (p, None) => PolicySpec::parse(p, None).with_context(|| format!("agent-node: --policy {}", a.policy))?,
+    };
     policy.check(&scenario, team.team()).with_context(|| format!("agent-node: --policy {}", a.policy))?;
-    let mut agent = policy.agent().with_context(|| format!("agent-node: --policy {}", a.policy))?;
+    let mut agent = policy.factory_for(id.as_str()).with_context(|| format!("agent-node: --policy {}", a.policy))?();
     let topics = Topics::new(&a.node.namespace)?;
     let node = Node::open(&a.node, &a.node.namespace, &format!("agent_{id}")).context("agent-node: opening the Zenoh session")?;
     let cfg = avacraft_agent_nodes::AgentConfig { id, team, units, scenario };

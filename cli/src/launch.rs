@@ -152,6 +152,10 @@ fn spawn_host_nodes(a: &LaunchArgs, plan: &Plan, host: &str, common: &[String], 
             "--scenario".into(),
             plan.scenario_arg.clone(),
         ];
+        if let avacraft_launch::PolicySpec::Ava(spec) = &ag.policy {
+            args.push("--ava-spec".into());
+            args.push(serde_json::to_string(spec.as_ref())?);
+        }
         args.extend(common.iter().cloned());
         procs.0.push(spawn(&format!("agent {}", ag.id), &args)?);
         n += 1;

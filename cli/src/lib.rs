@@ -4,6 +4,7 @@
 
 mod ava;
 mod bench;
+mod bench_ava;
 mod bench_bridge;
 mod bench_deploy;
 mod bench_train;

@@ -10,7 +10,7 @@ mod deploy;
 pub mod policy;
 
 pub use deploy::{BridgePlan, BridgeTopic, CertError, RawBridge, RawSecurity, Security, access_control, write_certs};
-pub use policy::{DDS_POLICY, MARL_PREFIX, MarlCheckpoint, PolicyError, PolicySpec};
+pub use policy::{AVA_POLICY, DDS_POLICY, MARL_PREFIX, MarlCheckpoint, PolicyError, PolicySpec};
 
 use avacraft_nodes::{AgentId, TeamNo, UnitTag};
 use serde::Deserialize;
@@ -48,6 +48,9 @@ pub struct RawLaunch {
     pub security: Option<RawSecurity>,
     #[serde(default)]
     pub bridge: Option<RawBridge>,
+    /// Settings of the agents whose policy is `ava` (an agent entry may have its own).
+    #[serde(default)]
+    pub ava: Option<avacraft_ava::AvaSpec>,
 }
 
 /// Rendered frames the simulator publishes (`sensor_msgs/Image` per agent team).
@@ -111,6 +114,10 @@ pub struct RawAgent {
     /// The host that runs it (default: the first). For `policy: dds`, the bridge's host.
     #[serde(default)]
     pub host: Option<String>,
+    /// For `policy: ava`: this entry's settings instead of the launch file's `ava:` (in PvP,
+    /// each team its own model).
+    #[serde(default)]
+    pub ava: Option<avacraft_ava::AvaSpec>,
 }
 
 /// The clock of the simulator node.
@@ -182,8 +189,10 @@ impl Plan {
     pub fn controllers(&self) -> Result<Controllers, LaunchError> {
         let mut teams = Vec::new();
         for (i, a) in self.agents.iter().enumerate() {
-            let make =
-                a.policy.factory().map_err(|e| Cx(&self.file).policy_err(format!("agents[{i}].policy"), &a.policy.to_string(), e))?;
+            let make = a
+                .policy
+                .factory_for(a.id.as_str())
+                .map_err(|e| Cx(&self.file).policy_err(format!("agents[{i}].policy"), &a.policy.to_string(), e))?;
             teams.push(AgentTeam::new(a.team.team(), Grouping::Groups(vec![a.units.iter().map(|u| u.get()).collect()]), make));
         }
         Ok(Controllers::new(&self.scenario, teams))
@@ -358,7 +367,23 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
         let f = |name: &str| format!("agents[{i}].{name}");
         // Agent nodes run the engine's agents (the same ones `episode` runs in-process); a
         // checkpoint is loaded once here for all the nodes of the entry.
-        let policy = PolicySpec::parse(&a.policy, base).map_err(|e| cx.policy_err(f("policy"), &a.policy, e))?;
+        let policy = if a.policy == AVA_POLICY {
+            let mut spec = a
+                .ava
+                .clone()
+                .or_else(|| raw.ava.clone())
+                .ok_or_else(|| cx.policy_err(f("policy"), &a.policy, PolicyError::AvaWithoutSpec))?;
+            if let Some(b) = base {
+                spec.resolve(b);
+            }
+            let field = if a.ava.is_some() { f("ava") } else { "ava".to_owned() };
+            PolicySpec::ava(spec).map_err(|e| cx.policy_err(field, &a.policy, e))?
+        } else {
+            if a.ava.is_some() {
+                return Err(cx.err(f("ava"), "{..}", "AVA settings go with `policy: ava`"));
+            }
+            PolicySpec::parse(&a.policy, base).map_err(|e| cx.policy_err(f("policy"), &a.policy, e))?
+        };
         let first_new = agents.len();
         let host = a.host.clone().unwrap_or_else(|| hosts[0].clone());
         if !hosts.contains(&host) {
@@ -492,11 +517,38 @@ mod tests {
             ("scenario: 3m\ncolour: red\nagents: []\n", "colour"),
             ("scenario: 3m\nagents:\n  - {per_unit: true, team: 2, policy: noop}\n", "agents[0].units"),
             ("scenario: 3m\nagents:\n  - {id: a, team: 1, units: [1], policy: noop}\n", "agents[0].team"),
+            ("scenario: 3m\nagents:\n  - {id: a, units: [1], policy: ava}\n", "agents[0].policy"),
+            ("scenario: 3m\nagents:\n  - {id: a, units: [1], policy: noop, ava: {model: {kind: synthetic}}}\n", "agents[0].ava"),
+            ("scenario: 3m\nava: {model: {kind: openai, url: ftp://x, model: m}}\nagents:\n  - {id: a, units: [1], policy: ava}\n", "ava"),
+            (
+                "scenario: 3m\nava: {model: {kind: synthetic}, config: {decide_every: 0}}\nagents:\n  - {id: a, units: [1], policy: ava}\n",
+                "ava",
+            ),
+            (
+                "scenario: 3m\nava: {model: {kind: synthetic}, config: {planer: false}}\nagents:\n  - {id: a, units: [1], policy: ava}\n",
+                "planer",
+            ),
+            ("scenario: 3m\nava: {model: {kind: gpt}}\nagents:\n  - {id: a, units: [1], policy: ava}\n", "gpt"),
         ];
         for (text, field) in cases {
             let e = parse("bad.yaml", text, None).expect_err(text).to_string();
             assert!(e.starts_with("bad.yaml") && e.contains(field), "{text}: {e}");
         }
+    }
+
+    #[test]
+    fn ava_settings_come_from_the_file_or_the_entry() {
+        let text = "scenario: 8m3mr1mv1st_mirror_pvp\nava: {model: {kind: synthetic}, record: calls}\nagents:\n  - {id: blue, units: [1, 2], policy: ava}\n  - {id: red, units: [14], policy: ava, ava: {model: {kind: replay, dir: old}, config: {roles: false}}}\n";
+        let p = parse("pvp.yaml", text, Some(Path::new("/base"))).expect("plan");
+        let spec = |i: usize| match &p.agents[i].policy {
+            PolicySpec::Ava(s) => s.clone(),
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(spec(0).model, avacraft_ava::ModelSpec::Synthetic);
+        assert_eq!(spec(0).record.as_deref(), Some(Path::new("/base/calls")), "paths are resolved against the launch file");
+        assert_eq!(spec(1).model, avacraft_ava::ModelSpec::Replay { dir: PathBuf::from("/base/old") });
+        assert!(!spec(1).config.roles && spec(0).config.roles);
+        assert_eq!(p.agents[1].policy.to_string(), "ava");
     }
 
     proptest::proptest! {

@@ -10,6 +10,7 @@
 //! scenario or team size. The loaded network is shared (`Arc`) by every agent made from it:
 //! the per-unit agents of one launch entry load the file once.
 
+use avacraft_ava::{AvaAgent, AvaSpec};
 use avacraft_engine::agent::{AGENTS, Agent, factory};
 use avacraft_engine::{Scenario, SmacLayout, Team};
 use avacraft_marl::{MarlAgent, Policy};
@@ -20,6 +21,8 @@ use std::sync::Arc;
 pub const MARL_PREFIX: &str = "marl:";
 /// The policy name of agents driven from DDS through the bridge.
 pub const DDS_POLICY: &str = "dds";
+/// The policy name of the AVA agent (its settings come with it, see [`PolicySpec::ava`]).
+pub const AVA_POLICY: &str = "ava";
 
 /// What makes a fresh agent of a policy (one per agent group, per episode).
 pub type AgentFactory = Box<dyn Fn() -> Box<dyn Agent> + Send>;
@@ -31,6 +34,8 @@ pub enum PolicySpec {
     Scripted(&'static str),
     /// A trained MARL policy.
     Marl(MarlCheckpoint),
+    /// The AVA agent with its settings.
+    Ava(Arc<AvaSpec>),
     /// An agent outside, over DDS through the bridge: no agent node of ours runs it.
     Dds,
 }
@@ -79,6 +84,10 @@ pub enum PolicyError {
     OtherShape { dir: PathBuf, trained: (usize, usize, usize), team: Team, scenario: String, here: (usize, usize, usize) },
     #[error("policy `{DDS_POLICY}` is an agent outside, driven over DDS through the bridge: it cannot run here")]
     Dds,
+    #[error("policy `{AVA_POLICY}` needs its settings: an `ava:` block (with at least `model:`) in the launch file or on the agent entry")]
+    AvaWithoutSpec,
+    #[error("policy `{AVA_POLICY}`")]
+    Ava(#[source] Arc<avacraft_ava::SpecError>),
 }
 
 impl MarlCheckpoint {
@@ -149,6 +158,9 @@ impl PolicySpec {
         if text == DDS_POLICY {
             return Ok(PolicySpec::Dds);
         }
+        if text == AVA_POLICY {
+            return Err(PolicyError::AvaWithoutSpec);
+        }
         if let Some(dir) = text.strip_prefix(MARL_PREFIX) {
             if dir.trim().is_empty() {
                 return Err(PolicyError::NoDir);
@@ -172,12 +184,31 @@ impl PolicySpec {
         matches!(self, PolicySpec::Dds)
     }
 
+    /// The AVA agent with `spec` (checked here, so a bad setting is refused where it is named).
+    pub fn ava(spec: AvaSpec) -> Result<PolicySpec, PolicyError> {
+        spec.validate().map_err(|e| PolicyError::Ava(Arc::new(e)))?;
+        Ok(PolicySpec::Ava(Arc::new(spec)))
+    }
+
+    /// [`PolicySpec::factory`] for the agent node `agent`: AVA records each node's calls in
+    /// its own folder under the spec's (`record/<agent>`).
+    pub fn factory_for(&self, agent: &str) -> Result<AgentFactory, PolicyError> {
+        match self {
+            PolicySpec::Ava(spec) => {
+                let record = spec.record.as_ref().map(|r| r.join(agent));
+                let setup = spec.setup(record.as_deref()).map_err(|e| PolicyError::Ava(Arc::new(e)))?;
+                Ok(Box::new(move || Box::new(AvaAgent::new(setup.clone()))))
+            }
+            other => other.factory(),
+        }
+    }
+
     /// Refuses a policy that cannot play `team` in `scenario` (a checkpoint of another
     /// scenario or size); scripted agents and DDS agents play anything.
     pub fn check(&self, scenario: &Scenario, team: Team) -> Result<(), PolicyError> {
         match self {
             PolicySpec::Marl(m) => m.check(scenario, team),
-            PolicySpec::Scripted(_) | PolicySpec::Dds => Ok(()),
+            PolicySpec::Scripted(_) | PolicySpec::Dds | PolicySpec::Ava(_) => Ok(()),
         }
     }
 
@@ -192,6 +223,10 @@ impl PolicySpec {
             PolicySpec::Marl(m) => {
                 let (policy, name) = (Arc::clone(&m.policy), m.name());
                 Ok(Box::new(move || Box::new(MarlAgent::new(Arc::clone(&policy), name.clone()))))
+            }
+            PolicySpec::Ava(spec) => {
+                let setup = spec.setup(None).map_err(|e| PolicyError::Ava(Arc::new(e)))?;
+                Ok(Box::new(move || Box::new(AvaAgent::new(setup.clone()))))
             }
             PolicySpec::Dds => Err(PolicyError::Dds),
         }
@@ -210,6 +245,7 @@ impl std::fmt::Display for PolicySpec {
         match self {
             PolicySpec::Scripted(name) => f.write_str(name),
             PolicySpec::Marl(m) => f.write_str(&m.name()),
+            PolicySpec::Ava(_) => f.write_str(AVA_POLICY),
             PolicySpec::Dds => f.write_str(DDS_POLICY),
         }
     }
@@ -220,6 +256,7 @@ impl std::fmt::Debug for PolicySpec {
         match self {
             PolicySpec::Scripted(name) => f.debug_tuple("Scripted").field(name).finish(),
             PolicySpec::Marl(m) => f.debug_tuple("Marl").field(m).finish(),
+            PolicySpec::Ava(s) => f.debug_tuple("Ava").field(&s.model.label()).finish(),
             PolicySpec::Dds => f.write_str("Dds"),
         }
     }
@@ -232,6 +269,7 @@ impl PartialEq for PolicySpec {
             (PolicySpec::Scripted(a), PolicySpec::Scripted(b)) => a == b,
             (PolicySpec::Marl(a), PolicySpec::Marl(b)) => a.dir == b.dir,
             (PolicySpec::Dds, PolicySpec::Dds) => true,
+            (PolicySpec::Ava(a), PolicySpec::Ava(b)) => a == b,
             _ => false,
         }
     }

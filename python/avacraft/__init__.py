@@ -7,6 +7,8 @@ own deterministic simulator (no game binary).
 - `VecEnv`: many environments on a thread pool, numpy arrays out.
 - `MarlPolicy`: a policy trained by `avacraft train`, acting for a team's agents from SMAC
   observations (`act`) or `parallel_env` observations (`act_parallel`), as in Rust.
+- `Ava`: the paper's VLM agent on an OpenAI-compatible endpoint, a recording or a stand-in,
+  with every model call recorded and costed.
 - `AvacraftError`: bad input (a `ValueError`).
 """
 
@@ -15,6 +17,7 @@ from __future__ import annotations
 from typing import Any
 
 from ._avacraft import AvacraftError, Env, Snapshot, __version__, scenario_info, scenario_names
+from .ava import Ava
 from .marl import MarlPolicy
 from .smac import StarCraft2Env
 from .types import Action, Command, UnitInfo
@@ -22,6 +25,7 @@ from .vector import VecEnv
 
 __all__ = [
     "Action",
+    "Ava",
     "AvacraftError",
     "Command",
     "Env",

@@ -145,3 +145,13 @@ class MarlPolicy:
     def play(self, env: Env, seed: int) -> dict[str, Any]:
         """One episode of `env` from `seed` with the Rust agent (`avacraft episode --agent marl:DIR`):
         {"result": "win" | "loss" | "draw", "steps", "trajectory_hash"}."""
+
+class Ava:
+    """The AVA agent over an `AvaSpec` given as JSON (`avacraft.Ava` builds it from keywords)."""
+
+    def __init__(self, spec_json: str, record: Optional[str] = None) -> None:
+        """Raises `AvacraftError` naming the setting that is wrong."""
+    def spec_json(self) -> str: ...
+    def play(self, env: Env, seed: int, team: int = 1) -> dict[str, Any]:
+        """One episode with AVA as `team`: {"result", "steps", "trajectory_hash", "cost" (JSON)}."""
+    def costs_json(self) -> str: ...

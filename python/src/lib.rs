@@ -10,6 +10,7 @@
 //! forbids it). None is written by hand here.
 #![allow(unsafe_code)]
 
+mod ava;
 mod convert;
 mod env;
 mod marl;
@@ -152,6 +153,7 @@ fn _avacraft(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<env::PySnapshot>()?;
     m.add_class::<vec::PyVecEnv>()?;
     m.add_class::<marl::PyMarlPolicy>()?;
+    m.add_class::<ava::PyAva>()?;
     m.add_function(wrap_pyfunction!(scenario_names, m)?)?;
     m.add_function(wrap_pyfunction!(scenario_info, m)?)?;
     m.add_function(wrap_pyfunction!(vec::rust_loop_steps_per_s, m)?)?;

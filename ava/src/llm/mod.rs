@@ -8,9 +8,11 @@
 
 mod openai;
 mod record;
+mod synthetic;
 
 pub use openai::{OpenAi, OpenAiConfig, SchemaMode};
 pub use record::{CallRecord, RecordError, Recorder, Replay, StoredMessage, StoredPart};
+pub use synthetic::{Synthetic, first_user_text, synthetic_answer, tags_under};
 
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
@@ -55,10 +57,18 @@ pub struct Png {
 }
 
 impl Png {
-    /// Encodes an RGB image.
+    /// Encodes an RGB image. Fast compression: a decision's screenshots are encoded while
+    /// the game waits, and flat-coloured renders compress well anyway.
     pub fn encode(img: &image::RgbImage) -> Result<Png, image::ImageError> {
+        use image::ImageEncoder as _;
+        use image::codecs::png::{CompressionType, FilterType, PngEncoder};
         let mut bytes = Vec::new();
-        image::DynamicImage::ImageRgb8(img.clone()).write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)?;
+        PngEncoder::new_with_quality(&mut bytes, CompressionType::Fast, FilterType::Sub).write_image(
+            img.as_raw(),
+            img.width(),
+            img.height(),
+            image::ExtendedColorType::Rgb8,
+        )?;
         Ok(Png { bytes: Arc::new(bytes), width: img.width(), height: img.height() })
     }
     /// A content hash, which names the image's file in a recording.

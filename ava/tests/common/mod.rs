@@ -1,14 +1,14 @@
 //! Shared by the AVA tests: a fake OpenAI-compatible server on loopback, and an episode
 //! runner.
 //!
-//! The fake "model" reads the prompt as a model would and answers in the schema: every unit
-//! of ours attacks the enemy with the lowest tag in sight. Faults queued with
+//! The fake "model" reads the prompt as a model would and answers in the schema (the
+//! synthetic model's answers: every unit of ours attacks the enemy with the lowest tag). Faults queued with
 //! [`FakeServer::push`] replace the next answers: HTTP errors, broken envelopes, cut-off or
 //! invalid JSON, slow answers.
 
 #![allow(dead_code)]
 
-use avacraft_ava::llm::{OpenAi, OpenAiConfig, SchemaMode};
+use avacraft_ava::llm::{OpenAi, OpenAiConfig, SchemaMode, Stage, synthetic_answer};
 use avacraft_ava::{AvaAgent, AvaConfig, AvaRun, AvaSetup, Bm25, KnowledgeBase, Prompts};
 use avacraft_engine::agent::{AgentTeam, Grouping};
 use avacraft_engine::{Controllers, Env, EnvConfig, Scenario, Team};
@@ -129,61 +129,22 @@ async fn chat(State(s): State<Arc<Mutex<Inner>>>, headers: HeaderMap, body: Stri
     }
 }
 
-/// The user text of the request's last user message.
-fn prompt_text(body: &Value) -> String {
-    let msgs = body["messages"].as_array().cloned().unwrap_or_default();
-    let Some(last) = msgs.iter().rev().find(|m| m["role"] == "user") else { return String::new() };
-    match &last["content"] {
+/// The fake model's answer: the synthetic model's, for the stage the schema names, from
+/// the first user message (a repair re-answers for every unit; the agent keeps what it needs).
+fn answer(body: &Value) -> String {
+    let stage = match body["response_format"]["json_schema"]["name"].as_str().unwrap_or("") {
+        "ava_planner" => Stage::Planner,
+        "ava_priority" => Stage::Priority,
+        "ava_roles" => Stage::Roles,
+        _ => Stage::Decision,
+    };
+    let first_user = body["messages"].as_array().and_then(|m| m.iter().find(|m| m["role"] == "user").cloned()).unwrap_or(Value::Null);
+    let text = match &first_user["content"] {
         Value::String(s) => s.clone(),
         Value::Array(parts) => parts.iter().filter_map(|p| p["text"].as_str()).collect::<Vec<_>>().join("\n"),
         _ => String::new(),
-    }
-}
-
-/// Tags listed under a heading (`- <tag> <Type> at ...`) up to the next heading.
-pub fn tags_under(text: &str, heading: &str) -> Vec<u32> {
-    let mut out = Vec::new();
-    let mut on = false;
-    for line in text.lines() {
-        if line.starts_with(heading) {
-            on = true;
-            continue;
-        }
-        if on {
-            match line.strip_prefix("- ").and_then(|r| r.split_whitespace().next()).and_then(|t| t.parse().ok()) {
-                Some(t) => out.push(t),
-                None => break,
-            }
-        }
-    }
-    out
-}
-
-/// The fake model's answer for the stage the schema names. Decisions: every unit of ours
-/// named in the (first) prompt attacks the lowest-tagged enemy; repairs re-answer for the
-/// units the repair asks about.
-fn answer(body: &Value) -> String {
-    let stage = body["response_format"]["json_schema"]["name"].as_str().unwrap_or("");
-    let first_user = body["messages"]
-        .as_array()
-        .and_then(|m| m.iter().find(|m| m["role"] == "user").cloned())
-        .map(|m| prompt_text(&json!({"messages": [m]})))
-        .unwrap_or_default();
-    let mine = tags_under(&first_user, "Your units:");
-    let enemies = tags_under(&first_user, "Enemies in sight:");
-    match stage {
-        "ava_planner" => json!({"primary_skill": {"name": "focus fire", "description": "all shoot one target", "steps": ["pick the weakest enemy", "all attack it"]},
-            "secondary_skills": [{"name": "kiting", "description": "step back while reloading", "when_to_use": "when outranging the enemy"}]}).to_string(),
-        "ava_priority" => json!({"priorities": enemies.iter().take(2).map(|t| json!({"unit": t, "reason": "closest"})).collect::<Vec<_>>()}).to_string(),
-        "ava_roles" => json!({"roles": mine.iter().map(|t| json!({"unit": t, "role": "attacker", "task": "focus fire"})).collect::<Vec<_>>()}).to_string(),
-        _ => {
-            let actions: Vec<Value> = match enemies.first() {
-                Some(e) => mine.iter().map(|t| json!({"unit": t, "action": "attack", "target": e})).collect(),
-                None => mine.iter().map(|t| json!({"unit": t, "action": "move_dir", "direction": "east"})).collect(),
-            };
-            json!({"reasoning": "focus the lowest tag", "actions": actions}).to_string()
-        }
-    }
+    };
+    synthetic_answer(stage, &text)
 }
 
 /// An AVA setup over `model` with `cfg`, recording into `record` when given.

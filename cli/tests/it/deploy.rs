@@ -436,3 +436,39 @@ fn bad_marl_policies_are_refused_up_front() {
     let (ok, err) = run(&["episode", "--scenario", "2m_vs_1z", "--agent", &policy, "--episodes", "1"]);
     assert!(!ok && err.contains("--agent") && err.contains("trained on scenario `3m`, not `2m_vs_1z`"), "{err}");
 }
+
+/// AVA as two role-group agent nodes (the instant stand-in model): the deployment plays the
+/// game `episode --launch` plays in-process, every node records its own calls, and no
+/// action is missing, foreign or refused.
+#[test]
+fn ava_role_groups_play_the_same_game_deployed_and_in_process() {
+    let body = |calls: &Path| {
+        format!(
+            "scenario: 3m\nepisodes: 1\nseed: 3\nava:\n  model: {{kind: synthetic}}\n  record: {}\n  config: {{image_max: 256}}\nagents:\n  - {{id: front, units: [1, 2], policy: ava}}\n  - {{id: back, units: [3], policy: ava}}\n",
+            calls.display()
+        )
+    };
+    let (deployed_calls, local_calls) = (tmp("ava-deployed"), tmp("ava-local"));
+    let v = launch_on_free_port("ava.yaml", &body(&deployed_calls));
+    let e = &v[0];
+    assert_eq!(e["missing_actions"][0], 0, "{e}");
+    assert_eq!(e["foreign_actions"][0], 0, "{e}");
+    assert_eq!(e["refused_actions"][0], 0, "{e}");
+    for id in ["front", "back"] {
+        let text = std::fs::read_to_string(deployed_calls.join(id).join("calls.jsonl")).expect("each node records its calls");
+        let calls: Vec<avacraft_ava::llm::CallRecord> = text.lines().map(|l| serde_json::from_str(l).expect("a call record")).collect();
+        assert!(calls.iter().any(|c| c.stage == avacraft_ava::llm::Stage::Decision), "{id}");
+        assert!(calls.iter().all(|c| c.reply.is_some() && c.model == "synthetic"), "{id}");
+    }
+    let file = write_launch("ava-local.yaml", &format!("router: tcp/127.0.0.1:{}\n{}", free_port(), body(&local_calls)));
+    let out = Command::new(exe()).args(["episode", "--json", "--launch"]).arg(&file).stderr(Stdio::inherit()).output().expect("episode");
+    assert!(out.status.success());
+    let local: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    assert_eq!(local["episodes"][0]["trajectory_hash"], e["trajectory_hash"], "deployed and in-process AVA play the same game");
+    let deployed_text = std::fs::read_to_string(deployed_calls.join("front/calls.jsonl")).expect("calls");
+    let local_text = std::fs::read_to_string(local_calls.join("front/calls.jsonl")).expect("calls");
+    let hashes = |t: &str| {
+        t.lines().map(|l| serde_json::from_str::<avacraft_ava::llm::CallRecord>(l).expect("record").request_hash).collect::<Vec<_>>()
+    };
+    assert_eq!(hashes(&deployed_text), hashes(&local_text), "the node was asked exactly what the in-process agent was asked");
+}

@@ -1,0 +1,187 @@
+//! An AVA run as data: which model answers, the pipeline's settings, and where calls are
+//! recorded. The command line, launch files, agent nodes and Python all build an
+//! [`AvaSpec`], and [`AvaSpec::setup`] turns it into agents, so every way of running AVA
+//! makes the same thing from the same settings.
+
+use crate::config::{AvaConfig, ConfigError};
+use crate::cost::{PriceError, PriceTable};
+use crate::kb::{Bm25, KbError, KnowledgeBase};
+use crate::llm::{ChatModel, OpenAi, OpenAiConfig, RecordError, Recorder, Replay, SchemaMode, Synthetic};
+use crate::prompt::{PromptError, Prompts};
+use crate::{AvaRun, AvaSetup};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+fn key_env() -> String {
+    "OPENAI_API_KEY".into()
+}
+fn timeout() -> f64 {
+    60.0
+}
+
+/// Which model answers.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ModelSpec {
+    /// An OpenAI-compatible endpoint. The key is read from the environment variable
+    /// `key_env` when the run starts; it is never written anywhere.
+    Openai {
+        url: String,
+        model: String,
+        #[serde(default = "key_env")]
+        key_env: String,
+        #[serde(default = "timeout")]
+        timeout_s: f64,
+        #[serde(default)]
+        schema: SchemaMode,
+    },
+    /// Answers from a recorded run.
+    Replay { dir: PathBuf },
+    /// The instant stand-in model (crude focus fire), for pipelines and tests.
+    Synthetic,
+}
+
+impl ModelSpec {
+    /// A short description for logs and reports.
+    pub fn label(&self) -> String {
+        match self {
+            ModelSpec::Openai { url, model, .. } => format!("{model} at {url}"),
+            ModelSpec::Replay { dir } => format!("replay of {}", dir.display()),
+            ModelSpec::Synthetic => "synthetic".into(),
+        }
+    }
+}
+
+/// Everything an AVA run is made from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AvaSpec {
+    pub model: ModelSpec,
+    #[serde(default)]
+    pub config: AvaConfig,
+    /// Record every call here (a folder that holds no recording yet).
+    #[serde(default)]
+    pub record: Option<PathBuf>,
+    /// A price table file instead of the built-in one.
+    #[serde(default)]
+    pub prices: Option<PathBuf>,
+    /// A folder of prompt templates instead of the built-in v1.
+    #[serde(default)]
+    pub prompts: Option<PathBuf>,
+}
+
+/// Why an AVA run could not be set up.
+#[derive(Debug, thiserror::Error)]
+pub enum SpecError {
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    #[error(transparent)]
+    Prompts(#[from] PromptError),
+    #[error(transparent)]
+    Prices(#[from] PriceError),
+    #[error(transparent)]
+    Record(#[from] RecordError),
+    #[error(transparent)]
+    Kb(#[from] KbError),
+    #[error("{}: {what}", path.display())]
+    Io {
+        path: PathBuf,
+        what: &'static str,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("model: {0}")]
+    Model(String),
+}
+
+impl AvaSpec {
+    /// Paths relative to `base` (a launch file's folder) made absolute, so a node started
+    /// elsewhere finds them.
+    pub fn resolve(&mut self, base: &Path) {
+        let fix = |p: &mut PathBuf| {
+            if p.is_relative() {
+                *p = base.join(&*p);
+            }
+        };
+        if let ModelSpec::Replay { dir } = &mut self.model {
+            fix(dir);
+        }
+        for p in [&mut self.record, &mut self.prices, &mut self.prompts].into_iter().flatten() {
+            fix(p);
+        }
+    }
+
+    /// Checks what can be checked without starting anything.
+    pub fn validate(&self) -> Result<(), SpecError> {
+        self.config.validate()?;
+        if let ModelSpec::Openai { url, model, timeout_s, .. } = &self.model {
+            if !(url.starts_with("http://") || url.starts_with("https://")) {
+                return Err(SpecError::Model(format!("url `{url}` must start with http:// or https://")));
+            }
+            if model.trim().is_empty() {
+                return Err(SpecError::Model("the model's name is empty".into()));
+            }
+            if !(timeout_s.is_finite() && *timeout_s > 0.0) {
+                return Err(SpecError::Model(format!("timeout_s {timeout_s} must be a positive number of seconds")));
+            }
+        }
+        Ok(())
+    }
+
+    /// The model back end.
+    pub fn model(&self) -> Result<Box<dyn ChatModel>, SpecError> {
+        Ok(match &self.model {
+            ModelSpec::Openai { url, model, key_env, timeout_s, schema } => Box::new(OpenAi::new(OpenAiConfig {
+                base_url: url.clone(),
+                model: model.clone(),
+                key: std::env::var(key_env).ok().filter(|k| !k.is_empty()),
+                timeout_s: *timeout_s,
+                schema_mode: *schema,
+            })),
+            ModelSpec::Replay { dir } => Box::new(Replay::open(dir)?),
+            ModelSpec::Synthetic => Box::new(Synthetic),
+        })
+    }
+
+    /// Agents' shared setup over `model`, recording into `record` (the spec's own folder
+    /// unless the caller names another, e.g. one per agent node).
+    pub fn setup_with(&self, model: Box<dyn ChatModel>, record: Option<&Path>) -> Result<AvaSetup, SpecError> {
+        self.validate()?;
+        let mut config = self.config.clone();
+        if matches!(self.model, ModelSpec::Openai { schema: SchemaMode::None, .. }) {
+            config.schema_in_prompt = true;
+        }
+        let prompts = match &self.prompts {
+            Some(d) => Prompts::from_dir(d)?,
+            None => Prompts::builtin()?,
+        };
+        let prices = match &self.prices {
+            Some(p) => {
+                let text = std::fs::read_to_string(p).map_err(|source| SpecError::Io {
+                    path: p.clone(),
+                    what: "cannot read the price table",
+                    source,
+                })?;
+                PriceTable::from_toml(&p.display().to_string(), &text)?
+            }
+            None => PriceTable::builtin(),
+        };
+        let recorder = match record.or(self.record.as_deref()) {
+            Some(d) => Some(Recorder::create(d)?),
+            None => None,
+        };
+        let kb = KnowledgeBase::builtin()?;
+        Ok(AvaSetup {
+            config: Arc::new(config),
+            run: AvaRun::new(model, recorder, prices),
+            prompts: Arc::new(prompts),
+            retriever: Arc::new(Bm25::new(&kb)),
+        })
+    }
+
+    /// [`AvaSpec::setup_with`] the spec's own model.
+    pub fn setup(&self, record: Option<&Path>) -> Result<AvaSetup, SpecError> {
+        self.setup_with(self.model()?, record)
+    }
+}
