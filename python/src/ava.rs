@@ -7,7 +7,7 @@ use crate::AvacraftError;
 use crate::env::PyEnv;
 use avacraft_ava::{AvaAgent, AvaSetup, AvaSpec};
 use avacraft_engine::agent::{AgentTeam, Grouping};
-use avacraft_engine::{Mode, Outcome, Team};
+use avacraft_engine::{Mode, Team};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
@@ -88,15 +88,7 @@ impl PyAva {
         if let Some(why) = fatal {
             return Err(err(format!("AVA stopped: {why}")));
         }
-        let d = PyDict::new(py);
-        let result = match env.outcome().map(|o| o.for_team(team)).unwrap_or(Outcome::Draw) {
-            Outcome::Win => "win",
-            Outcome::Loss => "loss",
-            Outcome::Draw => "draw",
-        };
-        d.set_item("result", result)?;
-        d.set_item("steps", env.steps())?;
-        d.set_item("trajectory_hash", env.trajectory_hash())?;
+        let d = crate::marl::episode_result(py, env, team)?;
         let cost = self.setup.run.episodes().get(before).cloned().unwrap_or_default();
         d.set_item("cost", serde_json::to_string(&cost).map_err(err)?)?;
         Ok(d)

@@ -202,15 +202,7 @@ impl PyMarlPolicy {
             env.submit(Team::One, &actions);
             env.step();
         }
-        let d = PyDict::new(py);
-        let result = match env.outcome().unwrap_or(Outcome::Draw) {
-            Outcome::Win => "win",
-            Outcome::Loss => "loss",
-            Outcome::Draw => "draw",
-        };
-        d.set_item("result", result)?;
-        d.set_item("steps", env.steps())?;
-        d.set_item("trajectory_hash", env.trajectory_hash())?;
+        let d = episode_result(py, env, Team::One)?;
         d.set_item("actions", chosen)?;
         Ok(d)
     }
@@ -224,4 +216,19 @@ impl PyMarlPolicy {
             self.policy.shape.n_agents
         )
     }
+}
+
+/// What `play` returns for an episode that ended, from `team`'s side: `{"result": "win" |
+/// "loss" | "draw", "steps", "trajectory_hash"}` (shared by `MarlPolicy` and `Ava`).
+pub(crate) fn episode_result<'py>(py: Python<'py>, env: &avacraft_engine::Env, team: Team) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    let result = match env.outcome().map(|o| o.for_team(team)).unwrap_or(Outcome::Draw) {
+        Outcome::Win => "win",
+        Outcome::Loss => "loss",
+        Outcome::Draw => "draw",
+    };
+    d.set_item("result", result)?;
+    d.set_item("steps", env.steps())?;
+    d.set_item("trajectory_hash", env.trajectory_hash())?;
+    Ok(d)
 }
