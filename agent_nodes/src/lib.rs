@@ -6,6 +6,9 @@
 //! A restarted agent node rejoins at the next step: it keeps no state the simulator needs.
 #![forbid(unsafe_code)]
 
+mod command;
+pub use command::{CommandedConfig, run_commander, run_role_group};
+
 use avacraft_engine::agent::{Agent, AgentCtx, AgentObs, GroupObs, agent_seed, complete};
 use avacraft_engine::{Scenario, Team};
 use avacraft_msgs::{ActionBatch, UnitObservation};
@@ -35,7 +38,7 @@ pub struct AgentStats {
 
 /// How long after the first observation of a step the node acts even if some of its units'
 /// observations are still missing (a lost sample must not stall the node for good).
-const GATHER: Duration = Duration::from_millis(500);
+pub(crate) const GATHER: Duration = Duration::from_millis(500);
 
 /// Observations gathered for one step, by unit tag.
 type Pending = BTreeMap<(u64, u32), (Instant, BTreeMap<u32, AgentObs>)>;

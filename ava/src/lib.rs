@@ -22,7 +22,7 @@ pub mod llm;
 mod prompt;
 mod spec;
 
-pub use agent::{AvaAgent, AvaRun, AvaSetup, Plan, Priority, ROLES, RoleOf, Skill, Tally, describe, place};
+pub use agent::{AvaAgent, AvaCommander, AvaRun, AvaSetup, Plan, Priority, ROLES, RoleOf, Skill, Tally, describe, place};
 pub use config::{AvaConfig, ConfigError, Fallback, Timing};
 pub use kb::{Bm25, Hit, KbError, KnowledgeBase, Passage, Retriever, Topic, UnitDoc};
 pub use prompt::{PromptError, Prompts, TEMPLATES};

@@ -3,7 +3,8 @@
 
 use crate::record::{self, RecordArgs};
 use anyhow::{Context, Result, bail};
-use avacraft_launch::{ClockMode, Plan, PolicySpec};
+use avacraft_engine::agent::GroupRole;
+use avacraft_launch::{ClockMode, CommanderPolicy, Plan, PolicySpec};
 use avacraft_nodes::{AgentId, Node, NodeArgs, Shutdown, Topics, UnitTag};
 use avacraft_sim_node::{Clock, SimConfig};
 use clap::Args;
@@ -34,9 +35,20 @@ pub struct AgentNodeArgs {
     /// This agent node's id (its action topic is `<namespace>/agents/<id>/actions`).
     #[arg(long)]
     pub id: String,
-    /// Tags of the units it owns, e.g. `--units 1,2`.
-    #[arg(long, value_delimiter = ',', required = true)]
+    /// Tags of the units it owns, e.g. `--units 1,2` (with `--role`: those it starts with).
+    #[arg(long, value_delimiter = ',', required_unless_present = "commander")]
     pub units: Vec<u32>,
+    /// A role group under its team's commander (attacker, defender, scout or support): it
+    /// acts each step for the units the simulator's `team_<n>/roles` give it.
+    #[arg(long, conflicts_with = "commander")]
+    pub role: Option<String>,
+    /// The team's commander (`--policy ava` or `rotate`): it orders units between the role
+    /// groups `--groups` names, and drives no unit itself.
+    #[arg(long, requires = "groups")]
+    pub commander: bool,
+    /// With `--commander`: the roles of the team's role groups, in the launch file's order.
+    #[arg(long, value_delimiter = ',')]
+    pub groups: Vec<String>,
     /// The team of its units (1 or 2).
     #[arg(long, default_value_t = 1)]
     pub team: u8,
@@ -68,6 +80,11 @@ pub(crate) fn sim_config(plan: &Plan, startup: Duration) -> SimConfig {
         wait_for_recorder: plan.record.is_some(),
         dds_agents: plan.agents.iter().filter(|a| a.is_dds()).map(|a| a.id.clone()).collect(),
         launch_file: plan.file.clone(),
+        commands: plan
+            .commanders
+            .iter()
+            .map(|c| avacraft_sim_node::TeamCommand { team: c.team, commander: c.id.clone(), groups: c.groups.clone() })
+            .collect(),
         frames: plan.frames.as_ref().map(|f| avacraft_sim_node::FrameSpec {
             kinds: f.kinds.clone(),
             screen: f.screen,
@@ -104,6 +121,34 @@ pub fn agent_node(a: &AgentNodeArgs) -> Result<()> {
     let scenario =
         Arc::new(avacraft_engine::Scenario::load(&a.scenario).with_context(|| format!("agent-node: --scenario {}", a.scenario))?);
     let team = avacraft_nodes::TeamNo::new(a.team)?;
+    let role = |field: &str, name: &str| {
+        GroupRole::from_name(name)
+            .filter(|r| GroupRole::ASSIGNABLE.contains(r))
+            .with_context(|| format!("agent-node: {field} {name}: a role is one of attacker, defender, scout, support"))
+    };
+    if a.commander {
+        let groups = a.groups.iter().map(|g| role("--groups", g)).collect::<Result<Vec<_>>>()?;
+        let ava = match &a.ava_spec {
+            Some(json) => Some(serde_json::from_str::<avacraft_ava::AvaSpec>(json).context("agent-node: --ava-spec")?),
+            None => None,
+        };
+        let policy = match (a.policy.as_str(), ava) {
+            (avacraft_launch::AVA_POLICY, Some(spec)) => {
+                spec.validate().context("agent-node: --ava-spec")?;
+                CommanderPolicy::Ava(Arc::new(spec))
+            }
+            (avacraft_launch::ROTATE_POLICY, None) => CommanderPolicy::Rotate,
+            (p, _) => bail!("agent-node: --commander --policy {p}: a commander's policy is ava (with --ava-spec) or rotate"),
+        };
+        let mut commander = policy.factory_for(id.as_str()).context("agent-node: --policy")?();
+        let topics = Topics::new(&a.node.namespace)?;
+        let node = Node::open(&a.node, &a.node.namespace, &format!("agent_{id}")).context("agent-node: opening the Zenoh session")?;
+        let cfg = avacraft_agent_nodes::CommandedConfig { id, team, initial: Vec::new(), groups, scenario };
+        let stats = avacraft_agent_nodes::run_commander(&node, &topics, &cfg, commander.as_mut(), &shutdown, None)?;
+        tracing::info!(orders = stats.batches, malformed = stats.malformed, "commander node stops");
+        return Ok(());
+    }
+    let group_role = a.role.as_deref().map(|r| role("--role", r)).transpose()?;
     let policy = match (a.policy.as_str(), &a.ava_spec) {
         (avacraft_launch::AVA_POLICY, Some(json)) => {
             let spec: avacraft_ava::AvaSpec = serde_json::from_str(json).context("agent-node: --ava-spec")?;
@@ -116,8 +161,16 @@ pub fn agent_node(a: &AgentNodeArgs) -> Result<()> {
     let mut agent = policy.factory_for(id.as_str()).with_context(|| format!("agent-node: --policy {}", a.policy))?();
     let topics = Topics::new(&a.node.namespace)?;
     let node = Node::open(&a.node, &a.node.namespace, &format!("agent_{id}")).context("agent-node: opening the Zenoh session")?;
-    let cfg = avacraft_agent_nodes::AgentConfig { id, team, units, scenario };
-    let stats = avacraft_agent_nodes::run(&node, &topics, &cfg, agent.as_mut(), &shutdown, None)?;
+    let stats = match group_role {
+        Some(_) => {
+            let cfg = avacraft_agent_nodes::CommandedConfig { id, team, initial: units, groups: Vec::new(), scenario };
+            avacraft_agent_nodes::run_role_group(&node, &topics, &cfg, agent.as_mut(), &shutdown, None)?
+        }
+        None => {
+            let cfg = avacraft_agent_nodes::AgentConfig { id, team, units, scenario };
+            avacraft_agent_nodes::run(&node, &topics, &cfg, agent.as_mut(), &shutdown, None)?
+        }
+    };
     tracing::info!(batches = stats.batches, malformed = stats.malformed, "agent node stops");
     Ok(())
 }

@@ -156,8 +156,36 @@ fn spawn_host_nodes(a: &LaunchArgs, plan: &Plan, host: &str, common: &[String], 
             args.push("--ava-spec".into());
             args.push(serde_json::to_string(spec.as_ref())?);
         }
+        if let Some(role) = ag.role {
+            args.push("--role".into());
+            args.push(role.name().into());
+        }
         args.extend(common.iter().cloned());
         procs.0.push(spawn(&format!("agent {}", ag.id), &args)?);
+        n += 1;
+    }
+    for c in plan.commanders.iter().filter(|c| c.host == host) {
+        let groups: Vec<&str> = c.groups.iter().map(|(_, r)| r.name()).collect();
+        let mut args = vec![
+            "agent-node".to_owned(),
+            "--id".into(),
+            c.id.to_string(),
+            "--team".into(),
+            c.team.get().to_string(),
+            "--commander".into(),
+            "--groups".into(),
+            groups.join(","),
+            "--policy".into(),
+            c.policy.to_string(),
+            "--scenario".into(),
+            plan.scenario_arg.clone(),
+        ];
+        if let avacraft_launch::CommanderPolicy::Ava(spec) = &c.policy {
+            args.push("--ava-spec".into());
+            args.push(serde_json::to_string(spec.as_ref())?);
+        }
+        args.extend(common.iter().cloned());
+        procs.0.push(spawn(&format!("commander {}", c.id), &args)?);
         n += 1;
     }
     if plan.bridge.as_ref().is_some_and(|b| b.host == host) {

@@ -324,9 +324,13 @@ pub fn access_control(plan: &Plan, topics: &Topics, domain: u32) -> serde_json::
     for host in plan.hosts.iter().skip(1) {
         let agents: Vec<_> = plan.agents.iter().filter(|a| &a.host == host).collect();
         let bridged = plan.bridge.as_ref().filter(|b| &b.host == host);
+        let commanders: Vec<_> = plan.commanders.iter().filter(|c| &c.host == host).collect();
         let mut teams: BTreeSet<TeamNo> = agents.iter().map(|a| a.team).collect();
         teams.extend(bridged.iter().flat_map(|b| b.teams.iter().copied()));
-        let sends: Vec<String> = agents.iter().map(|a| key(&topics.actions(&a.id))).collect();
+        teams.extend(commanders.iter().map(|c| c.team));
+        let mut sends: Vec<String> = agents.iter().map(|a| key(&topics.actions(&a.id))).collect();
+        // A commander sends its team's orders (the simulator checks them).
+        sends.extend(commanders.iter().map(|c| key(&topics.orders(c.team))));
         let mut reads: Vec<String> = teams.iter().map(|t| key(&topics.team_prefix(*t))).collect();
         reads.push(key(&topics.status()));
         if bridged.is_some_and(|b| b.topics.contains(&BridgeTopic::Roles)) {
@@ -343,8 +347,9 @@ pub fn access_control(plan: &Plan, topics: &Topics, domain: u32) -> serde_json::
         // A publisher sends only where it knows of a subscriber: the host must learn of the
         // simulator's subscription to every agent's actions (its existence, nothing more).
         if !sends.is_empty() {
-            let any = avacraft_nodes::ros::pattern_space(domain, &topics.any_actions());
-            rule(format!("{host}_matching"), &["declare_subscriber"], &["egress"], &[any]);
+            let mut matching = vec![avacraft_nodes::ros::pattern_space(domain, &topics.any_actions())];
+            matching.extend(commanders.iter().map(|c| key(&topics.orders(c.team))));
+            rule(format!("{host}_matching"), &["declare_subscriber"], &["egress"], &matching);
         }
         rule(format!("{host}_subscribe"), &["declare_subscriber"], &["ingress"], &reads);
         rule(format!("{host}_receive"), &["put"], &["egress"], &reads);
@@ -352,6 +357,7 @@ pub fn access_control(plan: &Plan, topics: &Topics, domain: u32) -> serde_json::
         // agent or the simulator), may ask, and learns only whether the simulator is up.
         let mut own: Vec<String> = Vec::new();
         let mut names_on_host: Vec<String> = agents.iter().map(|a| format!("agent_{}", a.id)).collect();
+        names_on_host.extend(commanders.iter().map(|c| format!("agent_{}", c.id)));
         names_on_host.push(format!("launch_{host}"));
         if bridged.is_some() {
             names_on_host.push("bridge".into());

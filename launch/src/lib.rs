@@ -4,11 +4,13 @@
 //! and the value.
 #![forbid(unsafe_code)]
 
-use avacraft_engine::agent::{AgentTeam, Grouping};
+use avacraft_engine::agent::{AgentTeam, CommandedTeam, GroupRole, Grouping, RoleGroupSpec};
 use avacraft_engine::{Controllers, Env, EnvConfig, Mode, OpponentKind, Scenario, Team};
+mod command;
 mod deploy;
 pub mod policy;
 
+pub use command::{CommanderPlan, CommanderPolicy, ROTATE_EVERY, ROTATE_POLICY};
 pub use deploy::{BridgePlan, BridgeTopic, CertError, RawBridge, RawSecurity, Security, access_control, write_certs};
 pub use policy::{AVA_POLICY, DDS_POLICY, MARL_PREFIX, MarlCheckpoint, PolicyError, PolicySpec};
 
@@ -118,6 +120,13 @@ pub struct RawAgent {
     /// each team its own model).
     #[serde(default)]
     pub ava: Option<avacraft_ava::AvaSpec>,
+    /// This entry is its `team`'s commander (policy `ava` or `rotate`): the team's units move
+    /// between its role groups as the commander orders.
+    #[serde(default)]
+    pub commander: bool,
+    /// Under a commander: this role group's role (attacker, defender, scout or support).
+    #[serde(default)]
+    pub role: Option<String>,
 }
 
 /// The clock of the simulator node.
@@ -136,6 +145,8 @@ pub struct AgentPlan {
     /// Checked against the scenario and the node's team at parse time.
     pub policy: PolicySpec,
     pub host: String,
+    /// Under a commander: the group's role (its `units` are those it starts with).
+    pub role: Option<GroupRole>,
 }
 
 impl AgentPlan {
@@ -159,6 +170,8 @@ pub struct Plan {
     pub record: Option<PathBuf>,
     pub frames: Option<FramePlan>,
     pub agents: Vec<AgentPlan>,
+    /// Teams under a commander (at most one per team).
+    pub commanders: Vec<CommanderPlan>,
     /// Never empty; the first runs the router, the simulator and the recorder.
     pub hosts: Vec<String>,
     pub security: Option<Security>,
@@ -188,14 +201,27 @@ impl Plan {
     /// DDS have no in-process counterpart.
     pub fn controllers(&self) -> Result<Controllers, LaunchError> {
         let mut teams = Vec::new();
-        for (i, a) in self.agents.iter().enumerate() {
+        let mut commanded = Vec::new();
+        for c in &self.commanders {
+            let make = c.policy.factory_for(c.id.as_str()).map_err(|e| Cx(&self.file).policy_err("agents", &c.policy.to_string(), e))?;
+            let mut groups = Vec::new();
+            for (i, a) in self.agents.iter().enumerate().filter(|(_, a)| a.team == c.team) {
+                let make = a
+                    .policy
+                    .factory_for(a.id.as_str())
+                    .map_err(|e| Cx(&self.file).policy_err(format!("agents[{i}].policy"), &a.policy.to_string(), e))?;
+                groups.push(RoleGroupSpec { role: a.role.unwrap_or_default(), initial: a.units.iter().map(|u| u.get()).collect(), make });
+            }
+            commanded.push(CommandedTeam::new(c.team.team(), make, groups));
+        }
+        for (i, a) in self.agents.iter().enumerate().filter(|(_, a)| !self.commanders.iter().any(|c| c.team == a.team)) {
             let make = a
                 .policy
                 .factory_for(a.id.as_str())
                 .map_err(|e| Cx(&self.file).policy_err(format!("agents[{i}].policy"), &a.policy.to_string(), e))?;
             teams.push(AgentTeam::new(a.team.team(), Grouping::Groups(vec![a.units.iter().map(|u| u.get()).collect()]), make));
         }
-        Ok(Controllers::new(&self.scenario, teams))
+        Ok(Controllers::new(&self.scenario, teams).with_commanded(&self.scenario, commanded))
     }
 
     /// The host that runs the router, the simulator and the recorder.
@@ -359,6 +385,8 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
     let env = Env::new(Arc::clone(&scenario), EnvConfig::default(), 0);
     let agent_team = |t: Team| env.is_agent_team(t);
     let mut agents = Vec::new();
+    let mut fields: Vec<String> = Vec::new();
+    let mut commanders: Vec<CommanderPlan> = Vec::new();
     let mut owner: BTreeMap<u32, String> = BTreeMap::new();
     if raw.agents.is_empty() {
         return Err(cx.err("agents", "[]", "at least one agent node is needed"));
@@ -367,7 +395,9 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
         let f = |name: &str| format!("agents[{i}].{name}");
         // Agent nodes run the engine's agents (the same ones `episode` runs in-process); a
         // checkpoint is loaded once here for all the nodes of the entry.
-        let policy = if a.policy == AVA_POLICY {
+        let policy = if a.commander && a.policy == ROTATE_POLICY {
+            PolicySpec::Scripted(ROTATE_POLICY)
+        } else if a.policy == AVA_POLICY {
             let mut spec = a
                 .ava
                 .clone()
@@ -388,6 +418,49 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
         let host = a.host.clone().unwrap_or_else(|| hosts[0].clone());
         if !hosts.contains(&host) {
             return Err(cx.err(f("host"), format!("{host:?}"), format!("not one of the hosts {hosts:?}")));
+        }
+        if a.commander {
+            if a.per_unit || !a.units.is_empty() || a.role.is_some() {
+                return Err(cx.err(f("commander"), "true", "a commander takes an `id` and a `team`, not `units`, `per_unit` or `role`"));
+            }
+            let Some(id) = a.id.clone() else { return Err(cx.err(f("id"), "none", "a commander needs an `id`")) };
+            let id = AgentId::parse(&id).map_err(|e| cx.err(f("id"), format!("{id:?}"), e.to_string()))?;
+            let team = match a.team {
+                Some(1) => Team::One,
+                Some(2) => Team::Two,
+                other => return Err(cx.err(f("team"), format!("{other:?}"), "must be 1 or 2")),
+            };
+            if !agent_team(team) {
+                return Err(cx.err(f("team"), team.player(), "the opponent policy drives this team"));
+            }
+            let team = TeamNo::new(team.player()).map_err(|e| cx.err(f("team"), team.player(), e.to_string()))?;
+            if commanders.iter().any(|c| c.team == team) {
+                return Err(cx.err(f("team"), team.get(), "the team has a commander already"));
+            }
+            if commanders.iter().any(|c| c.id == id) || agents.iter().any(|x: &AgentPlan| x.id == id) {
+                return Err(cx.err(f("id"), &id, "two agent nodes share this id"));
+            }
+            let policy = match policy {
+                PolicySpec::Ava(spec) => CommanderPolicy::Ava(spec),
+                PolicySpec::Scripted(ROTATE_POLICY) => CommanderPolicy::Rotate,
+                _ => {
+                    return Err(cx.err(
+                        f("policy"),
+                        format!("{:?}", a.policy),
+                        format!("a commander's policy is {AVA_POLICY} or {ROTATE_POLICY}"),
+                    ));
+                }
+            };
+            commanders.push(CommanderPlan { id, team, policy, host, groups: Vec::new() });
+            continue;
+        }
+        let role = a.role.as_deref().map(|r| command::role(&cx, f("role"), r)).transpose()?;
+        if role.is_some() && a.per_unit {
+            return Err(cx.err(
+                f("role"),
+                a.role.as_deref().unwrap_or_default(),
+                "a role group names its `id` and `units`, not `per_unit`",
+            ));
         }
         let mut add = |id: String, tags: Vec<u32>, field: String| -> Result<(), LaunchError> {
             let agent = AgentId::parse(&id).map_err(|e| cx.err(field.clone(), format!("{id:?}"), e.to_string()))?;
@@ -421,7 +494,10 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
             let team = team
                 .and_then(|t| TeamNo::new(t.player()).ok())
                 .ok_or_else(|| cx.err(f("units"), "[]", "an agent node needs at least one unit"))?;
-            agents.push(AgentPlan { id: agent, team, units, policy: policy.clone(), host: host.clone() });
+            if commanders.iter().any(|c| c.id == agent) {
+                return Err(cx.err(field, format!("{id:?}"), "two agent nodes share this id"));
+            }
+            agents.push(AgentPlan { id: agent, team, units, policy: policy.clone(), host: host.clone(), role: None });
             Ok(())
         };
         if a.per_unit {
@@ -447,10 +523,13 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
             }
             add(id, a.units.clone(), f("id"))?;
         }
-        for ag in &agents[first_new..] {
+        for ag in &mut agents[first_new..] {
             policy.check(&scenario, ag.team.team()).map_err(|e| cx.policy_err(f("policy"), &a.policy, e))?;
+            ag.role = role;
+            fields.push(format!("agents[{i}]"));
         }
     }
+    command::link(&cx, &mut commanders, &agents, &fields)?;
     let bridge = match &raw.bridge {
         None => {
             if let Some(a) = agents.iter().position(|a| a.is_dds()) {
@@ -485,6 +564,7 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
         record: raw.record,
         frames,
         agents,
+        commanders,
         hosts,
         security,
         bridge,

@@ -301,7 +301,10 @@ pub struct RoleAssignment {
     pub header: Header,
     pub episode: u64,
     pub step: u32,
+    pub team: u8,
     pub groups: Vec<RoleGroup>,
+    pub plan: String,
+    pub priority_tags: Vec<u32>,
 }
 
 /// `avacraft_msgs/msg/SessionInfo`: what a replay needs besides seeds and applied actions.

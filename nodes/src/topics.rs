@@ -184,6 +184,17 @@ impl Topics {
     pub fn roles(&self) -> Topic {
         self.make("roles")
     }
+    /// A team's effective role groups under its commander, with the commander's briefing
+    /// (`RoleAssignment`, every step): what its role-group nodes act on. Under the team's
+    /// prefix, since the plan is the team's secret.
+    pub fn team_roles(&self, team: TeamNo) -> Topic {
+        self.make(&format!("team_{}/roles", team.0))
+    }
+    /// A team commander's orders (`RoleAssignment` for the next step), which the simulator
+    /// checks before ownership follows them.
+    pub fn orders(&self, team: TeamNo) -> Topic {
+        self.make(&format!("team_{}/orders", team.0))
+    }
     /// What the session runs (`SessionInfo`: scenario text, environment configuration,
     /// seeds), published at start and at each episode's start, so recordings replay alone.
     pub fn session(&self) -> Topic {
@@ -207,6 +218,8 @@ impl Topics {
             ["session"] => TopicKind::Session,
             ["agents", agent, "actions"] => TopicKind::Actions(AgentId::parse(agent).ok()?),
             [t, "obs"] => TopicKind::TeamObs(team(t)?),
+            [t, "roles"] => TopicKind::TeamRoles(team(t)?),
+            [t, "orders"] => TopicKind::Orders(team(t)?),
             [t, u, "obs"] => {
                 let unit = u.strip_prefix("unit_").and_then(|n| n.parse::<u32>().ok()).and_then(|n| UnitTag::new(n).ok())?;
                 TopicKind::UnitObs(team(t)?, unit)
@@ -227,6 +240,8 @@ pub enum TopicKind {
     Status,
     Applied,
     Roles,
+    TeamRoles(TeamNo),
+    Orders(TeamNo),
     Session,
 }
 
@@ -302,6 +317,8 @@ mod tests {
             (t.status(), TopicKind::Status),
             (t.applied(), TopicKind::Applied),
             (t.roles(), TopicKind::Roles),
+            (t.team_roles(two), TopicKind::TeamRoles(two)),
+            (t.orders(one), TopicKind::Orders(one)),
             (t.session(), TopicKind::Session),
         ];
         built.extend(FrameKind::ALL.map(|k| (t.frames(one, k), TopicKind::Frames(one, k))));

@@ -146,7 +146,19 @@ fn screenshot(
     }
 }
 
-/// Takes one decision; returns the commands and the model time it took (milliseconds).
+/// What a call of [`decide`] does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Mode {
+    /// The whole pipeline (an AVA agent on its own).
+    Full,
+    /// Planner, roles and priorities for the whole team, no decision (a commander); the
+    /// results stay in the episode's `plan`, `roles` and `priorities`.
+    Command,
+}
+
+/// Takes one decision; returns the commands and the model time it took (milliseconds). A role
+/// group with a commander's briefing (`ep.briefing`) skips the planner, roles and priority
+/// stages and uses the briefing's plan and priorities instead.
 pub(super) fn decide(
     setup: &AvaSetup,
     frames: &mut FrameBuilder,
@@ -154,6 +166,7 @@ pub(super) fn decide(
     ep: &mut Episode,
     obs: &GroupObs,
     alive: &[u32],
+    mode: Mode,
 ) -> (Vec<(u32, Command)>, f64) {
     let t0 = Instant::now();
     let cfg = Arc::clone(&setup.config);
@@ -183,11 +196,13 @@ pub(super) fn decide(
         format!("Step {}. Your units have tags {}.", obs.step, list(alive))
     };
     let image = if cfg.image { screenshot(setup, frames, cpu, ep, obs, &camera, &[]) } else { None };
+    let briefing = ep.briefing.clone();
+    let staged = briefing.is_none();
     let mut turn = Turn { setup, cfg: &cfg, ep, obs, model_ms: 0.0, call_ms: 0.0 };
 
     // Planner.
     let mut replanned = false;
-    if cfg.planner && (turn.ep.plan.is_none() || turn.ep.decisions - turn.ep.plan_at >= cfg.plan_every || lost || new_enemies) {
+    if staged && cfg.planner && (turn.ep.plan.is_none() || turn.ep.decisions - turn.ep.plan_at >= cfg.plan_every || lost || new_enemies) {
         let text = turn.render("planner", &serde_json::json!({"situation": situation}));
         let msgs = turn.user(text, image.as_ref());
         if let Some(r) = turn.ask(Stage::Planner, msgs, Plan::schema(), 0) {
@@ -201,10 +216,13 @@ pub(super) fn decide(
         }
         turn.ep.plan_at = turn.ep.decisions;
     }
-    let plan = turn.ep.plan.as_ref().filter(|_| cfg.planner).map(Plan::summary);
+    let plan = match &briefing {
+        Some(b) => Some(b.plan.clone()).filter(|p| !p.is_empty()),
+        None => turn.ep.plan.as_ref().filter(|_| cfg.planner).map(Plan::summary),
+    };
 
     // Roles.
-    if cfg.roles && (turn.ep.roles.is_empty() || replanned || lost) {
+    if staged && (cfg.roles || mode == Mode::Command) && (turn.ep.roles.is_empty() || replanned || lost) {
         let text = turn.render("roles", &serde_json::json!({"situation": situation, "plan": plan}));
         let msgs = turn.user(text, image.as_ref());
         if let Some(r) = turn.ask(Stage::Roles, msgs, stages::roles_schema(), 0) {
@@ -217,11 +235,22 @@ pub(super) fn decide(
         }
     }
     turn.ep.roles.retain(|r| alive.contains(&r.unit));
+    if let Some(b) = &briefing {
+        // The commander gave the group its role.
+        turn.ep.roles = alive.iter().map(|&unit| super::RoleOf { unit, role: b.role.name().to_owned(), task: String::new() }).collect();
+    }
 
     // Priority inference, and the second screenshot ringing the named enemies.
     let mut priorities = Vec::new();
     let mut image2 = None;
-    if cfg.priority && !enemies.is_empty() {
+    if let Some(b) = &briefing {
+        priorities = b
+            .priorities
+            .iter()
+            .filter(|t| enemies.contains(t))
+            .map(|&unit| Priority { unit, reason: "named by the commander".into() })
+            .collect();
+    } else if cfg.priority && !enemies.is_empty() {
         let text = turn.render("priority", &serde_json::json!({"situation": situation}));
         let msgs = turn.user(text, image.as_ref());
         if let Some(r) = turn.ask(Stage::Priority, msgs, stages::priority_schema(), 0) {
@@ -235,6 +264,21 @@ pub(super) fn decide(
             image2 = screenshot(setup, frames, cpu, turn.ep, obs, &camera, &hl);
         }
     }
+    if cfg.image && briefing.is_some() && !priorities.is_empty() {
+        let hl: Vec<u32> = priorities.iter().map(|p| p.unit).collect();
+        image2 = screenshot(setup, frames, cpu, turn.ep, obs, &camera, &hl);
+    }
+    if mode == Mode::Command {
+        turn.ep.priorities = priorities;
+        let (model_ms, call_ms) = (turn.model_ms, turn.call_ms);
+        let ep = turn.ep;
+        ep.decisions += 1;
+        ep.cost.decisions += 1;
+        ep.cost.episode = obs.episode;
+        ep.cost.overhead_ms += (t0.elapsed().as_secs_f64() * 1000.0 - call_ms).max(0.0);
+        setup.run.update_episode(ep.cost_idx, &ep.cost);
+        return (Vec::new(), model_ms);
+    }
 
     // Retrieval: the unit types on the field and the plan's skill.
     let mut knowledge = Vec::new();
@@ -243,7 +287,7 @@ pub(super) fn decide(
         kinds.sort_unstable();
         kinds.dedup();
         let mut query = kinds.join(" ");
-        if let Some(p) = turn.ep.plan.as_ref().filter(|_| cfg.planner) {
+        if let Some(p) = turn.ep.plan.as_ref().filter(|_| cfg.planner && staged) {
             query.push(' ');
             query.push_str(&p.primary_skill.name);
         }

@@ -9,11 +9,13 @@
 //! model why items were refused. The executed actions are the model's, or the fallback's when
 //! nothing valid came; both are counted.
 
+mod command;
 mod decide;
 mod run;
 mod situation;
 mod stages;
 
+pub use command::AvaCommander;
 pub use run::AvaRun;
 pub use situation::{Tally, describe, place};
 pub use stages::{Plan, Priority, ROLES, RoleOf, Skill};
@@ -22,7 +24,7 @@ use crate::config::{AvaConfig, Timing};
 use crate::cost::EpisodeCost;
 use crate::kb::Bm25;
 use crate::prompt::Prompts;
-use avacraft_engine::agent::{Agent, AgentCtx, GroupObs};
+use avacraft_engine::agent::{Agent, AgentCtx, Briefing, GroupObs};
 use avacraft_engine::{Action, Command, DEFAULT_STEP_MUL, LOOPS_PER_SECOND, Scenario, Team, UnitId};
 use avacraft_render::{CpuBackend, FrameBuilder};
 use std::collections::{BTreeSet, VecDeque};
@@ -47,6 +49,10 @@ struct Episode {
     plan: Option<Plan>,
     plan_at: u32,
     roles: Vec<RoleOf>,
+    /// The last priority stage's answer (a commander passes it on).
+    priorities: Vec<Priority>,
+    /// A commander's briefing for this step (role groups under dynamic roles).
+    briefing: Option<Briefing>,
     history: VecDeque<HistoryItem>,
     tally: Option<Tally>,
     seen_enemies: BTreeSet<u32>,
@@ -57,6 +63,31 @@ struct Episode {
     last_seen: Option<(u32, u32)>,
     cost_idx: usize,
     cost: EpisodeCost,
+}
+
+impl Episode {
+    fn new(ctx: &AgentCtx, cost_idx: usize, cost: EpisodeCost) -> Episode {
+        Episode {
+            scenario: Arc::clone(&ctx.scenario),
+            team: ctx.team,
+            seed: ctx.seed,
+            first_step: None,
+            decisions: 0,
+            plan: None,
+            plan_at: 0,
+            roles: Vec::new(),
+            priorities: Vec::new(),
+            briefing: None,
+            history: VecDeque::new(),
+            tally: None,
+            seen_enemies: BTreeSet::new(),
+            pending: None,
+            loops_per_step: DEFAULT_STEP_MUL.get(),
+            last_seen: None,
+            cost_idx,
+            cost,
+        }
+    }
 }
 
 /// Everything an AVA agent is made from; cheap to clone (one per group).
@@ -97,24 +128,13 @@ impl Agent for AvaAgent {
     fn reset(&mut self, ctx: &AgentCtx) {
         let cost = EpisodeCost { seed: ctx.seed, team: ctx.team.player(), ..EpisodeCost::default() };
         let cost_idx = self.setup.run.open_episode(cost.clone());
-        self.ep = Some(Episode {
-            scenario: Arc::clone(&ctx.scenario),
-            team: ctx.team,
-            seed: ctx.seed,
-            first_step: None,
-            decisions: 0,
-            plan: None,
-            plan_at: 0,
-            roles: Vec::new(),
-            history: VecDeque::new(),
-            tally: None,
-            seen_enemies: BTreeSet::new(),
-            pending: None,
-            loops_per_step: DEFAULT_STEP_MUL.get(),
-            last_seen: None,
-            cost_idx,
-            cost,
-        });
+        self.ep = Some(Episode::new(ctx, cost_idx, cost));
+    }
+
+    fn brief(&mut self, briefing: &Briefing) {
+        if let Some(ep) = self.ep.as_mut() {
+            ep.briefing = Some(briefing.clone());
+        }
     }
 
     fn act(&mut self, obs: &GroupObs) -> Vec<Action> {
@@ -140,7 +160,7 @@ impl Agent for AvaAgent {
         if alive.is_empty() || !(obs.step - first).is_multiple_of(cfg.decide_every) {
             return Vec::new();
         }
-        let (cmds, model_ms) = decide::decide(&self.setup, &mut self.frames, &mut self.cpu, ep, obs, &alive);
+        let (cmds, model_ms) = decide::decide(&self.setup, &mut self.frames, &mut self.cpu, ep, obs, &alive, decide::Mode::Full);
         if cfg.timing == Timing::Realtime {
             let step_ms = ep.loops_per_step.max(1) as f64 * 1000.0 / LOOPS_PER_SECOND as f64;
             let delay = (model_ms / step_ms).ceil() as u32;

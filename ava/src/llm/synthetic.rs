@@ -38,7 +38,20 @@ pub fn synthetic_answer(stage: Stage, prompt: &str) -> String {
         })
         .to_string(),
         Stage::Priority => json!({"priorities": enemies.iter().take(2).map(|t| json!({"unit": t, "reason": "lowest tag"})).collect::<Vec<_>>()}).to_string(),
-        Stage::Roles => json!({"roles": mine.iter().map(|t| json!({"unit": t, "role": "attacker", "task": "focus fire"})).collect::<Vec<_>>()}).to_string(),
+        // The first half of the units attack, the rest defend: as units fall the split moves,
+        // so a commander's units change groups during an episode.
+        Stage::Roles => {
+            let half = mine.len().div_ceil(2);
+            let roles: Vec<Value> = mine
+                .iter()
+                .enumerate()
+                .map(|(i, t)| {
+                    let (role, task) = if i < half { ("attacker", "focus fire") } else { ("defender", "cover the attackers") };
+                    json!({"unit": t, "role": role, "task": task})
+                })
+                .collect();
+            json!({ "roles": roles }).to_string()
+        }
         Stage::Decision => {
             let actions: Vec<Value> = match enemies.first() {
                 Some(e) => mine.iter().map(|t| json!({"unit": t, "action": "attack", "target": e})).collect(),

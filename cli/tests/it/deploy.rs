@@ -472,3 +472,80 @@ fn ava_role_groups_play_the_same_game_deployed_and_in_process() {
     };
     assert_eq!(hashes(&deployed_text), hashes(&local_text), "the node was asked exactly what the in-process agent was asked");
 }
+
+/// In-process `episode --launch` of launch text, as JSON.
+fn in_process_text(name: &str, body: &str) -> serde_json::Value {
+    in_process(&write_launch(name, &format!("router: tcp/127.0.0.1:{}\n{body}", free_port())))
+}
+
+/// Dynamic role groups: a commander (the scripted `rotate`, which hands every unit to the next
+/// group every few steps) moves units between two running agent nodes with different
+/// policies. Ownership follows the orders at step boundaries: no action is missing (a unit
+/// driven by no node) or foreign (a unit driven by a node that does not own it), no order is
+/// refused or late, units did change hands, and the game is the one played in-process.
+#[test]
+fn a_commander_moves_units_between_running_role_groups() {
+    let body = "scenario: 3m\nepisodes: 2\nseed: 7\nagents:\n  - {id: cmd, team: 1, commander: true, policy: rotate}\n  - {id: front, units: [1, 2], policy: focus-fire, role: attacker}\n  - {id: back, units: [3], policy: hold, role: defender}\n";
+    let v = launch_on_free_port("rotate.yaml", body);
+    let local = in_process_text("rotate-local.yaml", body);
+    for (k, e) in v.as_array().expect("episodes").iter().enumerate() {
+        for field in ["missing_actions", "foreign_actions", "refused_actions", "refused_orders", "missing_orders"] {
+            assert_eq!(e[field][0], 0, "{field}: {e}");
+        }
+        assert!(e["role_changes"][0].as_u64().unwrap_or(0) >= 3, "units changed groups: {e}");
+        assert_eq!(
+            local["episodes"][k]["trajectory_hash"], e["trajectory_hash"],
+            "episode {k}: deployed and in-process play the same game"
+        );
+    }
+    // Without the commander the same groups play another game: ownership mattered.
+    let fixed = in_process_text(
+        "fixed.yaml",
+        &body
+            .replace("  - {id: cmd, team: 1, commander: true, policy: rotate}\n", "")
+            .replace(", role: attacker", "")
+            .replace(", role: defender", ""),
+    );
+    assert_ne!(fixed["episodes"][0]["trajectory_hash"], local["episodes"][0]["trajectory_hash"]);
+}
+
+/// AVA under dynamic roles (the stand-in model): the commander node runs the planner, roles
+/// and priorities, the role-group nodes decide for the units they are given, and the
+/// deployment asks every model call the in-process run asks and plays the same game.
+#[test]
+fn an_ava_commander_and_its_role_groups_play_the_same_game_deployed_and_in_process() {
+    let body = |calls: &Path| {
+        format!(
+            "scenario: 3m\nepisodes: 1\nseed: 4\nava:\n  model: {{kind: synthetic}}\n  record: {}\n  config: {{image_max: 256}}\nagents:\n  - {{id: cmd, team: 1, commander: true, policy: ava}}\n  - {{id: front, units: [1], policy: ava, role: attacker}}\n  - {{id: back, units: [2, 3], policy: ava, role: defender}}\n",
+            calls.display()
+        )
+    };
+    let (deployed_calls, local_calls) = (tmp("cmd-deployed"), tmp("cmd-local"));
+    let v = launch_on_free_port("ava-cmd.yaml", &body(&deployed_calls));
+    let e = &v[0];
+    for field in ["missing_actions", "foreign_actions", "refused_actions", "refused_orders", "missing_orders"] {
+        assert_eq!(e[field][0], 0, "{field}: {e}");
+    }
+    assert!(e["role_changes"][0].as_u64().unwrap_or(0) >= 1, "the commander moved a unit: {e}");
+    let local = in_process_text("ava-cmd-local.yaml", &body(&local_calls));
+    assert_eq!(local["episodes"][0]["trajectory_hash"], e["trajectory_hash"], "deployed and in-process play the same game");
+    let calls = |dir: &Path, id: &str| {
+        let text = std::fs::read_to_string(dir.join(id).join("calls.jsonl")).unwrap_or_else(|e| panic!("{id} records its calls: {e}"));
+        text.lines().map(|l| serde_json::from_str::<avacraft_ava::llm::CallRecord>(l).expect("a call record")).collect::<Vec<_>>()
+    };
+    let stages = |c: &[avacraft_ava::llm::CallRecord]| c.iter().map(|c| c.stage).collect::<std::collections::BTreeSet<_>>();
+    use avacraft_ava::llm::Stage;
+    let cmd = calls(&deployed_calls, "cmd");
+    assert!(
+        stages(&cmd).contains(&Stage::Roles) && !stages(&cmd).contains(&Stage::Decision),
+        "the commander plans and assigns, and decides nothing"
+    );
+    for id in ["front", "back"] {
+        let c = calls(&deployed_calls, id);
+        assert_eq!(stages(&c).into_iter().collect::<Vec<_>>(), vec![Stage::Decision], "{id}: the role groups only decide");
+    }
+    for id in ["cmd", "front", "back"] {
+        let hashes = |c: Vec<avacraft_ava::llm::CallRecord>| c.into_iter().map(|c| c.request_hash).collect::<Vec<_>>();
+        assert_eq!(hashes(calls(&deployed_calls, id)), hashes(calls(&local_calls, id)), "{id} was asked what it is asked in-process");
+    }
+}

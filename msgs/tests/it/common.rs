@@ -248,6 +248,14 @@ pub fn role_group(min_len: usize) -> impl Strategy<Value = RoleGroup> {
 }
 
 pub fn role_assignment(min_len: usize) -> impl Strategy<Value = RoleAssignment> {
-    (header(), any::<u64>(), any::<u32>(), vec(role_group(min_len), min_len..3))
-        .prop_map(|(header, episode, step, groups)| RoleAssignment { header, episode, step, groups })
+    (header(), any::<u64>(), any::<u32>(), any::<u8>(), vec(role_group(min_len), min_len..3), text(), vec(any::<u32>(), min_len..4))
+        .prop_map(|(header, episode, step, team, groups, plan, priority_tags)| RoleAssignment {
+            header,
+            episode,
+            step,
+            team,
+            groups,
+            plan,
+            priority_tags,
+        })
 }

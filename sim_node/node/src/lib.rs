@@ -7,8 +7,12 @@
 //! they arrive.
 #![forbid(unsafe_code)]
 
+mod command;
 mod convert;
 mod session;
+
+pub use command::TeamCommand;
+use command::{Command, OrderCounts};
 
 pub use convert::{BadAction, action_from_msg, header, unit_state};
 pub use session::{SessionError, env_config, scenario, session_info};
@@ -51,6 +55,22 @@ pub struct SimConfig {
     pub dds_agents: BTreeSet<AgentId>,
     /// The launch file it came from (carried in the session description, for people).
     pub launch_file: String,
+    /// Teams under a commander: ownership of their units follows the commander's orders.
+    pub commands: Vec<TeamCommand>,
+}
+
+impl SimConfig {
+    /// The team an agent node plays for (from the units it owns at the start), or a
+    /// commander's team.
+    pub fn team_of(&self, agent: &AgentId) -> Option<TeamNo> {
+        let by_unit = self
+            .owners
+            .iter()
+            .find(|(_, a)| *a == agent)
+            .and_then(|(t, _)| self.scenario.units.get(t.get() as usize - 1))
+            .and_then(|u| TeamNo::new(u.team.player()).ok());
+        by_unit.or_else(|| self.commands.iter().find(|c| &c.commander == agent).map(|c| c.team))
+    }
 }
 
 /// Which frames the simulator renders and publishes per agent team.
@@ -78,6 +98,15 @@ pub struct EpisodeSummary {
     pub missing_actions: [u32; 2],
     pub foreign_actions: [u32; 2],
     pub malformed_messages: u32,
+    /// Commanders' orders refused (naming a dead or foreign unit, a unit twice or none, an
+    /// unknown group) and missing at a step's deadline, per team.
+    #[serde(default)]
+    pub refused_orders: [u32; 2],
+    #[serde(default)]
+    pub missing_orders: [u32; 2],
+    /// Units that changed role group, per team.
+    #[serde(default)]
+    pub role_changes: [u32; 2],
     /// Wall time of the episode.
     pub wall_seconds: f64,
     /// Observation-to-action round trip per step (publishing every observation until the
@@ -163,6 +192,7 @@ pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -
     let mut frames = Frames::new(node, topics, &teams, cfg.frames.clone())?;
     let mut roles_pub = node.publisher::<avacraft_msgs::RoleAssignment>(&topics.roles(), reliable)?;
     let actions = node.subscriber::<ActionBatch>(topics.any_actions(), reliable)?;
+    let mut command = Command::new(node, topics, cfg)?;
     wait_for_agents(node, topics, cfg, shutdown)?;
     let mut out = Vec::new();
     for (episode, &seed) in cfg.seeds.iter().enumerate() {
@@ -171,18 +201,23 @@ pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -
         }
         env.reset(seed);
         let mut counts = Counts::default();
+        let mut owners = cfg.owners.clone();
+        let mut orders = OrderCounts::default();
+        command.reset();
         let episode = episode as u64;
         let started = Instant::now();
         let mut trips = Vec::new();
         tracing::info!(episode, seed, scenario = %cfg.scenario.name, "episode starts");
         session_pub.put(&session_info(cfg, episode, header(env.world(), "map")))?;
-        roles_pub.put(&roles(&env, cfg, episode))?;
+        roles_pub.put(&roles(&env, &owners, episode))?;
         loop {
             let t0 = Instant::now();
+            command.publish(&env, &owners, episode)?;
             publish_step(&env, &teams, episode, &mut unit_pubs, &mut team_pubs)?;
             frames.publish(&env)?;
             status_pub.put(&status(&env, cfg, episode, seed, &counts))?;
-            let applied = collect_actions(&mut env, &teams, cfg, &actions, topics, episode, &mut counts, shutdown, started)?;
+            let mut wait = Wait { cfg, topics, owners: &owners, command: &mut command, orders: &mut orders, episode, shutdown, started };
+            let applied = collect_actions(&mut env, &teams, &actions, &mut wait, &mut counts)?;
             trips.push(t0.elapsed().as_micros() as u64);
             applied_pub.put(&ActionBatch {
                 header: header(env.world(), "map"),
@@ -194,7 +229,12 @@ pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -
             if shutdown.requested() {
                 return Err(SimError::Interrupted { episodes: out.len() });
             }
-            if env.step().done {
+            let done = env.step().done;
+            // Ownership follows the checked orders from the next step on.
+            if command.apply(&mut owners, &mut orders) {
+                roles_pub.put(&roles(&env, &owners, episode))?;
+            }
+            if done {
                 break;
             }
         }
@@ -213,6 +253,9 @@ pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -
             missing_actions: counts.missing,
             foreign_actions: counts.foreign,
             malformed_messages: counts.malformed,
+            refused_orders: orders.refused,
+            missing_orders: orders.missing,
+            role_changes: orders.changes,
             wall_seconds: started.elapsed().as_secs_f64(),
             round_trip_us: percentiles(trips),
         };
@@ -223,15 +266,16 @@ pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -
 }
 
 /// Who owns which units this episode (the launch file's groups; each group is a role).
-fn roles(env: &Env, cfg: &SimConfig, episode: u64) -> avacraft_msgs::RoleAssignment {
+fn roles(env: &Env, owners: &BTreeMap<UnitTag, AgentId>, episode: u64) -> avacraft_msgs::RoleAssignment {
     let mut groups: BTreeMap<&AgentId, Vec<u32>> = BTreeMap::new();
-    for (tag, agent) in &cfg.owners {
+    for (tag, agent) in owners {
         groups.entry(agent).or_default().push(tag.get());
     }
     avacraft_msgs::RoleAssignment {
         header: header(env.world(), "map"),
         episode,
         step: env.steps(),
+        team: 0,
         groups: groups
             .into_iter()
             .map(|(a, units)| avacraft_msgs::RoleGroup {
@@ -240,6 +284,8 @@ fn roles(env: &Env, cfg: &SimConfig, episode: u64) -> avacraft_msgs::RoleAssignm
                 unit_tags: units,
             })
             .collect(),
+        plan: String::new(),
+        priority_tags: Vec::new(),
     }
 }
 
@@ -318,6 +364,11 @@ fn wait_for_agents(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shu
         wanted.insert((TokenKind::Subscription, name.clone(), Some(topics.unit_obs(team, *tag))));
         wanted.insert((TokenKind::Publisher, name, Some(topics.actions(agent))));
     }
+    for c in &cfg.commands {
+        let name = format!("agent_{}", c.commander);
+        wanted.insert((TokenKind::Publisher, name.clone(), Some(topics.orders(c.team))));
+        wanted.insert((TokenKind::Subscription, name, Some(topics.team_roles(c.team))));
+    }
     if cfg.wait_for_recorder {
         wanted.insert((TokenKind::Subscription, "recorder".to_owned(), None));
     }
@@ -352,27 +403,37 @@ fn unit_of(env: &Env, tag: u32) -> Option<&avacraft_engine::Unit> {
     env.world().unit(UnitId::new(i))
 }
 
+/// What a step waits for besides the actions.
+struct Wait<'a> {
+    cfg: &'a SimConfig,
+    topics: &'a Topics,
+    /// Who owns which unit this step.
+    owners: &'a BTreeMap<UnitTag, AgentId>,
+    command: &'a mut Command,
+    orders: &'a mut OrderCounts,
+    episode: u64,
+    shutdown: &'a Shutdown,
+    started: Instant,
+}
+
 /// Gathers the actions of this step from the wire and submits them; returns the ones the
-/// engine accepted, in the order applied (published for replay).
-#[allow(clippy::too_many_arguments)]
+/// engine accepted, in the order applied (published for replay). Commanders' orders for the
+/// step are gathered too (and checked, to apply after the step).
 fn collect_actions(
     env: &mut Env,
     teams: &[Team],
-    cfg: &SimConfig,
     sub: &avacraft_nodes::Subscriber<ActionBatch>,
-    topics: &Topics,
-    episode: u64,
+    w: &mut Wait<'_>,
     c: &mut Counts,
-    shutdown: &Shutdown,
-    episode_start: Instant,
 ) -> Result<Vec<avacraft_msgs::UnitAction>, NodeError> {
+    let (cfg, topics, episode, shutdown, episode_start) = (w.cfg, w.topics, w.episode, w.shutdown, w.started);
     let step = env.steps();
     let mut applied = Vec::new();
     // Units whose action this step is still awaited: live units with an owner.
     let mut waiting: BTreeSet<UnitId> = BTreeSet::new();
     for &team in teams {
         for u in env.world().alive(team) {
-            if UnitTag::new(u.id.tag()).is_ok_and(|t| cfg.owners.contains_key(&t)) {
+            if UnitTag::new(u.id.tag()).is_ok_and(|t| w.owners.contains_key(&t)) {
                 waiting.insert(u.id);
             }
         }
@@ -383,18 +444,22 @@ fn collect_actions(
         // make the clock drift.
         Clock::RealTime => (episode_start + Duration::from_secs_f64((step + 1) as f64 * cfg.env.step_mul.get() as f64 / 22.4), true),
     };
-    while (realtime || !waiting.is_empty()) && !shutdown.requested() {
+    w.command.expect(episode, step);
+    while (realtime || !waiting.is_empty() || w.command.waiting()) && !shutdown.requested() {
         let now = Instant::now();
         if now >= deadline {
             break;
         }
-        let Some(r) = sub.recv_timeout((deadline - now).min(Duration::from_millis(50)))? else { continue };
+        w.command.receive(env, episode, step, w.orders)?;
+        // Orders come on their own topics: look there often while any is awaited.
+        let slice = if w.command.waiting() { Duration::from_millis(2) } else { Duration::from_millis(50) };
+        let Some(r) = sub.recv_timeout((deadline - now).min(slice))? else { continue };
         let Some(TopicKind::Actions(agent)) = topics.classify(&r.topic) else {
             c.malformed += 1;
             continue;
         };
         // The sender's team: the team of the units it owns (foreign actions count against it).
-        let sender_team = cfg.owners.iter().find(|(_, a)| **a == agent).and_then(|(t, _)| unit_of(env, t.get())).map(|u| u.team);
+        let sender_team = cfg.team_of(&agent).map(TeamNo::team);
         let si = sender_team.map_or(0, |t| t.index());
         let batch = match r.msg {
             Ok(b) => b,
@@ -406,7 +471,7 @@ fn collect_actions(
         };
         // Ownership first, whatever step the batch is for.
         let (mine, foreign): (Vec<_>, Vec<_>) =
-            batch.actions.iter().partition(|a| UnitTag::new(a.unit_tag).ok().and_then(|t| cfg.owners.get(&t)) == Some(&agent));
+            batch.actions.iter().partition(|a| UnitTag::new(a.unit_tag).ok().and_then(|t| w.owners.get(&t)) == Some(&agent));
         if !foreign.is_empty() {
             tracing::warn!(%agent, units = ?foreign.iter().map(|a| a.unit_tag).collect::<Vec<_>>(), "actions for units this agent node does not own refused");
             c.foreign[si] += foreign.len() as u32;
@@ -436,6 +501,7 @@ fn collect_actions(
         let ti = env.world().unit(id).map_or(0, |u| u.team.index());
         c.missing[ti] += 1;
     }
+    w.command.deadline(w.orders);
     Ok(applied)
 }
 

@@ -125,6 +125,7 @@ mod tests {
             wait_for_recorder: false,
             dds_agents: Default::default(),
             launch_file: "launch/pvz.yaml".into(),
+            commands: Vec::new(),
         }
     }
 

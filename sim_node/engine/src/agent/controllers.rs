@@ -2,20 +2,25 @@
 //! value, so every tool (episodes, rendering, tests) plays episodes the same way.
 
 use super::scripted::factory;
-use super::{AgentTeam, Grouping, UnknownAgent};
+use super::{AgentTeam, CommandedTeam, Grouping, UnknownAgent};
 use crate::env::Env;
 use crate::ids::Team;
 use crate::scenario::{Mode, Scenario};
 
 pub struct Controllers {
     teams: Vec<AgentTeam>,
+    /// Teams under a commander (dynamic role groups).
+    commanded: Vec<CommandedTeam>,
     /// Episodes started so far, less one (the episode number the agents are told).
     episode: Option<u64>,
 }
 
 impl std::fmt::Debug for Controllers {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_list().entries(self.teams.iter().map(|t| (t.team(), t.name()))).finish()
+        f.debug_list()
+            .entries(self.teams.iter().map(|t| (t.team(), t.name())))
+            .entries(self.commanded.iter().map(|t| (t.team(), t.name())))
+            .finish()
     }
 }
 
@@ -23,7 +28,18 @@ impl Controllers {
     /// The given agent teams; one for team 2 is dropped in PvE, where the opponent plays it.
     pub fn new(scenario: &Scenario, teams: Vec<AgentTeam>) -> Self {
         let teams = teams.into_iter().filter(|t| t.team() == Team::One || scenario.mode == Mode::Pvp).collect();
-        Self { teams, episode: None }
+        Self { teams, commanded: Vec::new(), episode: None }
+    }
+
+    /// Adds teams under a commander (one dropped in PvE for team 2, as in [`Controllers::new`]).
+    pub fn with_commanded(mut self, scenario: &Scenario, commanded: Vec<CommandedTeam>) -> Self {
+        self.commanded.extend(commanded.into_iter().filter(|t| t.team() == Team::One || scenario.mode == Mode::Pvp));
+        self
+    }
+
+    /// The commanded teams (their ownership and refused orders, for reports and tests).
+    pub fn commanded(&self) -> &[CommandedTeam] {
+        &self.commanded
     }
 
     /// Scripted policies by name, one agent per team: `second` drives team 2 in PvP
@@ -48,13 +64,17 @@ impl Controllers {
         for t in &mut self.teams {
             t.reset(env);
         }
+        for t in &mut self.commanded {
+            t.reset(env);
+        }
     }
 
     /// Every team's agents act on this step's observations, then all their actions are
     /// submitted: no side sees the other's orders of the same step.
     pub fn act(&mut self, env: &mut Env) {
         let episode = self.episode.unwrap_or(0);
-        let actions: Vec<_> = self.teams.iter_mut().map(|t| (t.team(), t.act(env, episode))).collect();
+        let mut actions: Vec<_> = self.teams.iter_mut().map(|t| (t.team(), t.act(env, episode))).collect();
+        actions.extend(self.commanded.iter_mut().map(|t| (t.team(), t.act(env, episode))));
         for (team, a) in actions {
             env.submit(team, &a);
         }
@@ -62,6 +82,9 @@ impl Controllers {
 
     /// Names of the policies, team 1 first.
     pub fn names(&self) -> Vec<String> {
-        self.teams.iter().map(AgentTeam::name).collect()
+        let mut names: Vec<(Team, String)> = self.teams.iter().map(|t| (t.team(), t.name())).collect();
+        names.extend(self.commanded.iter().map(|t| (t.team(), t.name())));
+        names.sort_by_key(|(t, _)| t.index());
+        names.into_iter().map(|(_, n)| n).collect()
     }
 }

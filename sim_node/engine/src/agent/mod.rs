@@ -3,6 +3,7 @@
 //! as an agent node with the same results. An agent controls a group of units (one unit, a
 //! role group, or a whole team) and sees what its units' observations say, nothing more.
 
+mod command;
 mod controllers;
 pub(crate) mod micro;
 mod obs;
@@ -10,6 +11,10 @@ mod runner;
 mod scripted;
 pub mod view;
 
+pub use command::{
+    Assignment, Briefing, CommandedTeam, Commander, GroupRole, MakeAgent, MakeCommander, Orders, OrdersError, RoleGroupSpec, Rotate,
+    commander_seed, validate as validate_orders,
+};
 pub use controllers::Controllers;
 pub use obs::{AgentObs, Controlled, EffectInfo, GroupObs, effects};
 pub use runner::{AgentTeam, Grouping};
@@ -43,6 +48,9 @@ pub trait Agent: Send {
     fn reads(&self) -> Reads {
         Reads::ALL
     }
+    /// A commander's briefing for this step (a role group under dynamic roles gets one before
+    /// each `act`); agents that take no orders ignore it.
+    fn brief(&mut self, _briefing: &Briefing) {}
 }
 
 /// Parts of an observation an agent may not need: SMAC's features and masks, and the text.

@@ -1,0 +1,250 @@
+//! Agent nodes under a commander (dynamic role groups). Both kinds subscribe to every unit of
+//! their team and to `team_<n>/roles`, the groups in force each step with the commander's
+//! briefing, published by the simulator:
+//! - a **role-group node** acts, each step, for the units the roles give it (none: it sends
+//!   nothing), on the fold of their observations, briefed first;
+//! - the **commander node** folds the whole team's observations, asks its [`Commander`] and
+//!   publishes the orders for the next step on `team_<n>/orders`.
+//!
+//! That is the in-process schedule of [`avacraft_engine::agent::CommandedTeam`], message for
+//! message, so a deployment and `episode --launch` play the same game.
+
+use crate::{AgentStats, GATHER};
+use avacraft_engine::agent::{
+    Agent, AgentCtx, AgentObs, Assignment, Briefing, Commander, GroupObs, GroupRole, agent_seed, commander_seed, complete,
+};
+use avacraft_engine::{Scenario, Team};
+use avacraft_msgs::{ActionBatch, RoleAssignment, RoleGroup, UnitObservation};
+use avacraft_nodes::{AgentId, Node, NodeError, Qos, Shutdown, Subscriber, TeamNo, TopicKind, Topics, UnitTag, wire};
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// A node of a commanded team.
+#[derive(Debug)]
+pub struct CommandedConfig {
+    pub id: AgentId,
+    pub team: TeamNo,
+    /// A role group's units at the start of each episode (its first unit seeds it); empty
+    /// for the commander.
+    pub initial: Vec<UnitTag>,
+    /// The roles of the team's groups, in order (the commander's view of them).
+    pub groups: Vec<GroupRole>,
+    pub scenario: Arc<Scenario>,
+}
+
+/// One step being gathered: the roles in force and the observations so far.
+struct Step {
+    since: Instant,
+    roles: Option<RoleAssignment>,
+    obs: BTreeMap<u32, AgentObs>,
+}
+
+struct Inputs {
+    subs: Vec<Subscriber<UnitObservation>>,
+    roles: Subscriber<RoleAssignment>,
+    steps: BTreeMap<(u64, u32), Step>,
+    last_done: Option<(u64, u32)>,
+    /// Every unit of the team, in agent order.
+    order: Vec<u32>,
+}
+
+impl Inputs {
+    fn open(node: &Node, topics: &Topics, cfg: &CommandedConfig) -> Result<Inputs, NodeError> {
+        let reliable = Qos::Reliable { depth: 10 };
+        let order: Vec<u32> = cfg.scenario.agent_order(cfg.team.team()).iter().map(|id| id.tag()).collect();
+        let mut subs = Vec::new();
+        for &t in &order {
+            let tag =
+                UnitTag::new(t).map_err(|e| NodeError::Declare { what: "a unit topic", key: e.to_string(), message: String::new() })?;
+            subs.push(node.subscriber::<UnitObservation>(&topics.unit_obs(cfg.team, tag), reliable)?);
+        }
+        let roles = node.subscriber::<RoleAssignment>(&topics.team_roles(cfg.team), reliable)?;
+        Ok(Inputs { subs, roles, steps: BTreeMap::new(), last_done: None, order })
+    }
+
+    fn fresh(&mut self, key: (u64, u32)) -> Option<&mut Step> {
+        // A restarted simulator counts episodes from 0 again.
+        if self.last_done.is_some_and(|d| key.0 < d.0) {
+            self.last_done = None;
+        }
+        if self.last_done.is_some_and(|d| key <= d) {
+            return None;
+        }
+        Some(self.steps.entry(key).or_insert_with(|| Step { since: Instant::now(), roles: None, obs: BTreeMap::new() }))
+    }
+
+    /// Takes what has arrived; blocks up to a millisecond when nothing has.
+    fn poll(&mut self, cfg: &CommandedConfig, topics: &Topics, stats: &mut AgentStats) -> Result<(), NodeError> {
+        let mut got = false;
+        while let Some(r) = self.roles.try_recv()? {
+            got = true;
+            match r.msg {
+                Ok(m) if m.team == cfg.team.get() && topics.classify(&r.topic) == Some(TopicKind::TeamRoles(cfg.team)) => {
+                    if let Some(s) = self.fresh((m.episode, m.step)) {
+                        s.roles = Some(m);
+                    }
+                }
+                _ => stats.malformed += 1,
+            }
+        }
+        for i in 0..self.subs.len() {
+            while let Some(r) = self.subs[i].try_recv()? {
+                got = true;
+                self.accept(cfg, topics, r, stats);
+            }
+        }
+        if !got && let Some(r) = self.roles.recv_timeout(Duration::from_millis(1))? {
+            match r.msg {
+                Ok(m) if m.team == cfg.team.get() => {
+                    if let Some(s) = self.fresh((m.episode, m.step)) {
+                        s.roles = Some(m);
+                    }
+                }
+                _ => stats.malformed += 1,
+            }
+        }
+        Ok(())
+    }
+
+    fn accept(&mut self, cfg: &CommandedConfig, topics: &Topics, r: avacraft_nodes::Received<UnitObservation>, stats: &mut AgentStats) {
+        let Ok(o) = r.msg else {
+            stats.malformed += 1;
+            return;
+        };
+        let on_its_topic = matches!(topics.classify(&r.topic), Some(TopicKind::UnitObs(t, u)) if t == cfg.team && u.get() == o.unit_tag);
+        if !on_its_topic {
+            stats.malformed += 1;
+            return;
+        }
+        match wire::agent_obs(&o, cfg.team.get()) {
+            Ok(obs) => {
+                if let Some(s) = self.fresh((o.episode, o.step)) {
+                    s.obs.insert(o.unit_tag, obs);
+                }
+            }
+            Err(e) => {
+                stats.malformed += 1;
+                tracing::warn!(agent = %cfg.id, error = %e, "observation refused");
+            }
+        }
+    }
+
+    /// The newest step that has its roles and the observations `needed` says it needs (or
+    /// has waited long enough), removed with everything older.
+    fn ready(&mut self, needed: impl Fn(&RoleAssignment) -> Vec<u32>) -> Option<((u64, u32), RoleAssignment, Vec<AgentObs>)> {
+        let key = self
+            .steps
+            .iter()
+            .rev()
+            .find(|(_, s)| s.roles.as_ref().is_some_and(|r| needed(r).iter().all(|t| s.obs.contains_key(t)) || s.since.elapsed() >= GATHER))
+            .map(|(k, _)| *k)?;
+        let s = self.steps.remove(&key)?;
+        self.steps.retain(|k, _| *k > key);
+        self.last_done = Some(key);
+        let roles = s.roles?;
+        let want = needed(&roles);
+        Some((key, roles, s.obs.into_iter().filter(|(t, _)| want.contains(t)).map(|(_, o)| o).collect()))
+    }
+
+    fn index(&self) -> impl Fn(u32) -> usize + '_ {
+        |tag| self.order.iter().position(|&t| t == tag).unwrap_or(0)
+    }
+}
+
+/// The units `roles` gives the group `id`.
+fn owned(roles: &RoleAssignment, id: &AgentId) -> Vec<u32> {
+    roles.groups.iter().filter(|g| g.agent_id == id.as_str()).flat_map(|g| g.unit_tags.iter().copied()).collect()
+}
+
+fn team_of(no: TeamNo) -> Team {
+    no.team()
+}
+
+/// Runs a role-group node until `shutdown` (or `max_batches` batches).
+pub fn run_role_group(
+    node: &Node,
+    topics: &Topics,
+    cfg: &CommandedConfig,
+    agent: &mut dyn Agent,
+    shutdown: &Shutdown,
+    max_batches: Option<u64>,
+) -> Result<AgentStats, NodeError> {
+    let mut inputs = Inputs::open(node, topics, cfg)?;
+    let mut out = node.publisher::<ActionBatch>(&topics.actions(&cfg.id), Qos::Reliable { depth: 10 })?;
+    let team = team_of(cfg.team);
+    let initial: Vec<u32> = cfg.initial.iter().map(|u| u.get()).collect();
+    let mut stats = AgentStats::default();
+    let mut episode: Option<(u64, u64)> = None;
+    tracing::info!(agent = %cfg.id, units = initial.len(), policy = agent.name(), "role-group node up");
+    while !shutdown.requested() && max_batches.is_none_or(|m| stats.batches < m) {
+        inputs.poll(cfg, topics, &mut stats)?;
+        let Some((key, roles, obs)) = inputs.ready(|r| owned(r, &cfg.id)) else { continue };
+        let Some(first) = obs.first() else { continue };
+        if episode != Some((first.episode, first.seed)) {
+            let seed = agent_seed(first.seed, team, initial.first().copied().unwrap_or(0));
+            agent.reset(&AgentCtx { scenario: Arc::clone(&cfg.scenario), team, units: initial.clone(), seed });
+            episode = Some((first.episode, first.seed));
+        }
+        let role =
+            roles.groups.iter().find(|g| g.agent_id == cfg.id.as_str()).and_then(|g| GroupRole::from_code(g.role)).unwrap_or_default();
+        agent.brief(&Briefing { role, plan: roles.plan.clone(), priorities: roles.priority_tags.clone() });
+        let actions = GroupObs::fold(&obs, inputs.index()).map(|g| complete(agent.act(&g), &g)).unwrap_or_default();
+        let actions = actions.iter().map(wire::unit_action).collect();
+        out.put(&ActionBatch { header: Default::default(), episode: key.0, step: key.1, agent_id: cfg.id.to_string(), actions })?;
+        stats.batches += 1;
+    }
+    Ok(stats)
+}
+
+/// Runs a commander node until `shutdown` (or `max_batches` orders).
+pub fn run_commander(
+    node: &Node,
+    topics: &Topics,
+    cfg: &CommandedConfig,
+    commander: &mut dyn Commander,
+    shutdown: &Shutdown,
+    max_batches: Option<u64>,
+) -> Result<AgentStats, NodeError> {
+    let mut inputs = Inputs::open(node, topics, cfg)?;
+    let mut out = node.publisher::<RoleAssignment>(&topics.orders(cfg.team), Qos::Reliable { depth: 10 })?;
+    let team = team_of(cfg.team);
+    let all = inputs.order.clone();
+    let mut stats = AgentStats::default();
+    let mut episode: Option<(u64, u64)> = None;
+    tracing::info!(agent = %cfg.id, groups = cfg.groups.len(), policy = commander.name(), "commander node up");
+    while !shutdown.requested() && max_batches.is_none_or(|m| stats.batches < m) {
+        inputs.poll(cfg, topics, &mut stats)?;
+        let Some((key, roles, obs)) = inputs.ready(|_| all.clone()) else { continue };
+        let Some(first) = obs.first() else { continue };
+        if episode != Some((first.episode, first.seed)) {
+            let ctx = AgentCtx { scenario: Arc::clone(&cfg.scenario), team, units: all.clone(), seed: commander_seed(first.seed, team) };
+            commander.reset(&ctx, &cfg.groups);
+            episode = Some((first.episode, first.seed));
+        }
+        // The groups in force, by index.
+        let current = Assignment::new(roles.groups.iter().map(|g| g.unit_tags.clone()).collect());
+        let Some(g) = GroupObs::fold(&obs, inputs.index()) else { continue };
+        let orders = commander.command(&g, &current);
+        let mut groups: Vec<RoleGroup> =
+            roles.groups.iter().map(|r| RoleGroup { role: r.role, agent_id: r.agent_id.clone(), unit_tags: Vec::new() }).collect();
+        for (unit, i) in orders.owners {
+            match groups.get_mut(i) {
+                Some(gr) => gr.unit_tags.push(unit),
+                // An index past the groups: say so on the wire, where the simulator refuses it.
+                None => groups.push(RoleGroup { role: 0, agent_id: format!("group_{i}"), unit_tags: vec![unit] }),
+            }
+        }
+        out.put(&RoleAssignment {
+            header: Default::default(),
+            episode: key.0,
+            step: key.1,
+            team: cfg.team.get(),
+            groups,
+            plan: orders.briefing.plan,
+            priority_tags: orders.briefing.priorities,
+        })?;
+        stats.batches += 1;
+    }
+    Ok(stats)
+}

@@ -1,0 +1,368 @@
+//! Dynamic role groups. A commander sees the whole team and, every step, says which role
+//! group owns each living unit from the next step on, with a briefing (a plan, the enemies
+//! that matter) for the groups. The groups are ordinary [`Agent`]s: each acts for the units it
+//! owns at that step, on the fold of their observations, exactly as a deployed agent node of
+//! the group does. Orders take effect at a step boundary: what a commander decides on step
+//! `s` applies from step `s + 1`, so the commander and the groups of one step can think at
+//! the same time (deployed, they are separate processes) and the game still replays.
+//!
+//! [`validate`] is the one check of orders, used in-process and by the simulator node: every
+//! living unit exactly once, known groups only. Refused orders leave ownership as it was.
+
+use super::{Agent, AgentCtx, GroupObs, Reads, agent_seed, complete};
+use crate::action::Action;
+use crate::env::Env;
+use crate::ids::Team;
+
+/// A role group's role. The codes are `RoleGroup.msg`'s `ROLE_*` constants.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum GroupRole {
+    /// Fixed ownership (no commander).
+    #[default]
+    None,
+    Attacker,
+    Defender,
+    Scout,
+    Support,
+}
+
+impl GroupRole {
+    pub const ALL: [GroupRole; 5] = [GroupRole::None, GroupRole::Attacker, GroupRole::Defender, GroupRole::Scout, GroupRole::Support];
+    /// The roles a commander hands out.
+    pub const ASSIGNABLE: [GroupRole; 4] = [GroupRole::Attacker, GroupRole::Defender, GroupRole::Scout, GroupRole::Support];
+
+    pub fn code(self) -> u8 {
+        self as u8
+    }
+    pub fn from_code(code: u8) -> Option<GroupRole> {
+        GroupRole::ALL.get(code as usize).copied()
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            GroupRole::None => "none",
+            GroupRole::Attacker => "attacker",
+            GroupRole::Defender => "defender",
+            GroupRole::Scout => "scout",
+            GroupRole::Support => "support",
+        }
+    }
+    pub fn from_name(name: &str) -> Option<GroupRole> {
+        GroupRole::ALL.into_iter().find(|r| r.name().eq_ignore_ascii_case(name))
+    }
+}
+
+impl std::fmt::Display for GroupRole {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// What a commander tells its groups besides who owns what.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Briefing {
+    /// The role of the group being briefed.
+    pub role: GroupRole,
+    /// The plan in words (empty: none).
+    pub plan: String,
+    /// Enemy units that matter most, by tag, most important first.
+    pub priorities: Vec<u32>,
+}
+
+/// A commander's answer for one step: each living unit's group (an index into the team's
+/// groups) from the next step on, and the briefing.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Orders {
+    pub owners: Vec<(u32, usize)>,
+    pub briefing: Briefing,
+}
+
+/// A commander: sees every unit of its team, controls none itself.
+pub trait Commander: Send {
+    fn name(&self) -> &str;
+    /// Called at the start of every episode with the roles of the team's groups, in order.
+    fn reset(&mut self, ctx: &AgentCtx, groups: &[GroupRole]);
+    /// Orders from this step's observation of the whole team and the ownership in force.
+    fn command(&mut self, obs: &GroupObs, current: &Assignment) -> Orders;
+}
+
+/// Which group owns each unit: per group, its units' tags in ascending order.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Assignment {
+    groups: Vec<Vec<u32>>,
+}
+
+impl Assignment {
+    pub fn new(mut groups: Vec<Vec<u32>>) -> Assignment {
+        for g in &mut groups {
+            g.sort_unstable();
+            g.dedup();
+        }
+        Assignment { groups }
+    }
+    pub fn groups(&self) -> &[Vec<u32>] {
+        &self.groups
+    }
+    pub fn owner(&self, tag: u32) -> Option<usize> {
+        self.groups.iter().position(|g| g.contains(&tag))
+    }
+    /// The same ownership with the units that are not `living` dropped.
+    pub fn living(&self, living: &[u32]) -> Assignment {
+        Assignment { groups: self.groups.iter().map(|g| g.iter().copied().filter(|t| living.contains(t)).collect()).collect() }
+    }
+    /// As `(unit, group)` pairs in unit order (what [`Orders::owners`] holds).
+    pub fn pairs(&self) -> Vec<(u32, usize)> {
+        let mut v: Vec<(u32, usize)> = self.groups.iter().enumerate().flat_map(|(i, g)| g.iter().map(move |&t| (t, i))).collect();
+        v.sort_unstable();
+        v
+    }
+}
+
+/// Why orders were refused.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum OrdersError {
+    #[error("unit {unit} is given to group {group}, but the team has {groups} groups")]
+    NoSuchGroup { unit: u32, group: usize, groups: usize },
+    #[error("unit {unit} is not a living unit of the team")]
+    NotLiving { unit: u32 },
+    #[error("unit {unit} is given twice")]
+    Twice { unit: u32 },
+    #[error("living unit {unit} is given to no group")]
+    Unassigned { unit: u32 },
+}
+
+/// Checks orders against the team's living units and its number of groups.
+pub fn validate(owners: &[(u32, usize)], living: &[u32], groups: usize) -> Result<Assignment, OrdersError> {
+    let mut out = vec![Vec::new(); groups];
+    let mut seen = Vec::with_capacity(owners.len());
+    for &(unit, group) in owners {
+        if group >= groups {
+            return Err(OrdersError::NoSuchGroup { unit, group, groups });
+        }
+        if !living.contains(&unit) {
+            return Err(OrdersError::NotLiving { unit });
+        }
+        if seen.contains(&unit) {
+            return Err(OrdersError::Twice { unit });
+        }
+        seen.push(unit);
+        out[group].push(unit);
+    }
+    if let Some(&unit) = living.iter().find(|t| !seen.contains(t)) {
+        return Err(OrdersError::Unassigned { unit });
+    }
+    Ok(Assignment::new(out))
+}
+
+/// What makes a fresh agent or commander (one per episode).
+pub type MakeAgent = Box<dyn Fn() -> Box<dyn Agent> + Send>;
+pub type MakeCommander = Box<dyn Fn() -> Box<dyn Commander> + Send>;
+
+/// One role group of a commanded team.
+pub struct RoleGroupSpec {
+    pub role: GroupRole,
+    /// The units it owns at the start of an episode (not empty: its first unit seeds it).
+    pub initial: Vec<u32>,
+    pub make: MakeAgent,
+}
+
+impl std::fmt::Debug for RoleGroupSpec {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RoleGroupSpec").field("role", &self.role).field("initial", &self.initial).finish()
+    }
+}
+
+/// A team under a commander, in-process: the same schedule a deployment runs.
+pub struct CommandedTeam {
+    team: Team,
+    make_commander: MakeCommander,
+    specs: Vec<RoleGroupSpec>,
+    commander: Option<Box<dyn Commander>>,
+    agents: Vec<Box<dyn Agent>>,
+    assignment: Assignment,
+    briefing: Briefing,
+    refused: Vec<OrdersError>,
+}
+
+impl std::fmt::Debug for CommandedTeam {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CommandedTeam")
+            .field("team", &self.team)
+            .field("groups", &self.specs.len())
+            .field("assignment", &self.assignment)
+            .finish()
+    }
+}
+
+impl CommandedTeam {
+    pub fn new(team: Team, make_commander: MakeCommander, groups: Vec<RoleGroupSpec>) -> CommandedTeam {
+        CommandedTeam {
+            team,
+            make_commander,
+            specs: groups,
+            commander: None,
+            agents: Vec::new(),
+            assignment: Assignment::default(),
+            briefing: Briefing::default(),
+            refused: Vec::new(),
+        }
+    }
+    pub fn team(&self) -> Team {
+        self.team
+    }
+    pub fn name(&self) -> String {
+        self.commander.as_ref().map_or_else(|| (self.make_commander)().name().to_owned(), |c| c.name().to_owned())
+    }
+    /// The ownership in force.
+    pub fn assignment(&self) -> &Assignment {
+        &self.assignment
+    }
+    /// Orders refused this episode, in order.
+    pub fn refused(&self) -> &[OrdersError] {
+        &self.refused
+    }
+
+    pub fn reset(&mut self, env: &Env) {
+        let tags: Vec<u32> = env.agents(self.team).iter().map(|id| id.tag()).collect();
+        let scenario = std::sync::Arc::clone(env.scenario());
+        let roles: Vec<GroupRole> = self.specs.iter().map(|s| s.role).collect();
+        self.agents = self
+            .specs
+            .iter()
+            .map(|s| {
+                let mut a = (s.make)();
+                let first = s.initial.first().copied().unwrap_or(0);
+                a.reset(&AgentCtx {
+                    scenario: scenario.clone(),
+                    team: self.team,
+                    units: s.initial.clone(),
+                    seed: agent_seed(env.seed(), self.team, first),
+                });
+                a
+            })
+            .collect();
+        let mut c = (self.make_commander)();
+        c.reset(&AgentCtx { scenario, team: self.team, units: tags.clone(), seed: commander_seed(env.seed(), self.team) }, &roles);
+        self.commander = Some(c);
+        self.assignment =
+            Assignment::new(self.specs.iter().map(|s| s.initial.iter().copied().filter(|t| tags.contains(t)).collect()).collect());
+        self.briefing = Briefing::default();
+        self.refused.clear();
+    }
+
+    /// This step's actions of every group, then the commander's orders for the next step.
+    pub fn act(&mut self, env: &Env, episode: u64) -> Vec<Action> {
+        let order: Vec<u32> = env.agents(self.team).iter().map(|id| id.tag()).collect();
+        let index = |tag: u32| order.iter().position(|&t| t == tag).unwrap_or(0);
+        let living: Vec<u32> = env.world().alive(self.team).map(|u| u.id.tag()).filter(|t| order.contains(t)).collect();
+        self.assignment = self.assignment.living(&living);
+        let mut out = Vec::new();
+        for ((agent, units), spec) in self.agents.iter_mut().zip(self.assignment.groups()).zip(&self.specs) {
+            if units.is_empty() {
+                continue;
+            }
+            agent.brief(&Briefing { role: spec.role, ..self.briefing.clone() });
+            let mine = env.agent_observations_of(self.team, episode, units, agent.reads());
+            if let Some(g) = GroupObs::fold(&mine, index) {
+                out.extend(complete(agent.act(&g), &g));
+            }
+        }
+        if let Some(c) = self.commander.as_mut() {
+            let g = GroupObs::team(env, self.team, episode, Reads::ALL);
+            let orders = c.command(&g, &self.assignment);
+            match validate(&orders.owners, &living, self.specs.len()) {
+                Ok(a) => {
+                    self.assignment = a;
+                    self.briefing = orders.briefing;
+                }
+                Err(e) => self.refused.push(e),
+            }
+        }
+        out
+    }
+}
+
+/// The seed of a team's commander in an episode (distinct from every group's).
+pub fn commander_seed(episode_seed: u64, team: Team) -> u64 {
+    agent_seed(episode_seed, team, 0)
+}
+
+/// A scripted commander for tests and demonstrations: every `every` steps it hands each living
+/// unit to the next group, round robin, so units keep moving between running groups.
+#[derive(Clone, Debug)]
+pub struct Rotate {
+    every: u32,
+    groups: usize,
+}
+
+impl Rotate {
+    pub const NAME: &'static str = "rotate";
+    pub fn new(every: u32) -> Rotate {
+        Rotate { every: every.max(1), groups: 1 }
+    }
+}
+
+impl Commander for Rotate {
+    fn name(&self) -> &str {
+        Rotate::NAME
+    }
+    fn reset(&mut self, _ctx: &AgentCtx, groups: &[GroupRole]) {
+        self.groups = groups.len().max(1);
+    }
+    fn command(&mut self, obs: &GroupObs, current: &Assignment) -> Orders {
+        let turn = (obs.step + 1).is_multiple_of(self.every);
+        let owners = current.pairs().into_iter().map(|(t, g)| (t, if turn { (g + 1) % self.groups } else { g })).collect();
+        Orders { owners, briefing: Briefing::default() }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn validation_names_what_is_wrong() {
+        let living = [1, 2, 3];
+        assert_eq!(validate(&[(1, 0), (2, 1), (3, 1)], &living, 2), Ok(Assignment::new(vec![vec![1], vec![2, 3]])));
+        assert_eq!(validate(&[(1, 0), (2, 2), (3, 1)], &living, 2), Err(OrdersError::NoSuchGroup { unit: 2, group: 2, groups: 2 }));
+        assert_eq!(validate(&[(1, 0), (2, 0), (3, 0), (4, 0)], &living, 2), Err(OrdersError::NotLiving { unit: 4 }));
+        assert_eq!(validate(&[(1, 0), (1, 1), (3, 0)], &living, 2), Err(OrdersError::Twice { unit: 1 }));
+        assert_eq!(validate(&[(1, 0), (3, 0)], &living, 2), Err(OrdersError::Unassigned { unit: 2 }));
+    }
+
+    proptest::proptest! {
+        /// Whatever a commander (or the wire) says, accepted orders give every living unit
+        /// exactly one known group, and refused ones say which unit is wrong.
+        #[test]
+        fn accepted_orders_cover_the_living_exactly_once(
+            owners in proptest::collection::vec((0u32..8, 0usize..4), 0..10),
+            living in proptest::collection::btree_set(1u32..8, 0..6),
+            groups in 1usize..4,
+        ) {
+            let living: Vec<u32> = living.into_iter().collect();
+            match validate(&owners, &living, groups) {
+                Ok(a) => {
+                    proptest::prop_assert_eq!(a.groups().len(), groups);
+                    for t in &living {
+                        proptest::prop_assert_eq!(a.groups().iter().filter(|g| g.contains(t)).count(), 1);
+                    }
+                    proptest::prop_assert_eq!(a.groups().iter().map(Vec::len).sum::<usize>(), living.len());
+                }
+                Err(e) => {
+                    let unit = match e {
+                        OrdersError::NoSuchGroup { unit, .. } | OrdersError::NotLiving { unit } | OrdersError::Twice { unit } | OrdersError::Unassigned { unit } => unit,
+                    };
+                    proptest::prop_assert!(owners.iter().any(|(u, _)| *u == unit) || living.contains(&unit));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn role_codes_round_trip() {
+        for r in GroupRole::ALL {
+            assert_eq!(GroupRole::from_code(r.code()), Some(r));
+            assert_eq!(GroupRole::from_name(r.name()), Some(r));
+        }
+        assert_eq!(GroupRole::from_code(5), None);
+    }
+}
