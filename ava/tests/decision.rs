@@ -1,11 +1,12 @@
 //! Decisions checked against real observations: the reasons given, and the property that
 //! matters most: whatever a model writes, an accepted command is never refused by the engine.
 
-use avacraft_ava::decision::{Item, Situation, Verb, check, extract_json, parse_items, schema};
+use avacraft_ava::decision::{Item, Situation, Verb, check, extract_json, parse_items, schema, targets};
 use avacraft_engine::agent::{GroupObs, Reads};
 use avacraft_engine::{Ability, Action, Command, Controllers, Env, EnvConfig, Scenario, Team, UnitId};
 use avacraft_render::{Camera, vlm_obs_layout};
 use proptest::prelude::*;
+use serde_json::{Value, json};
 use std::sync::Arc;
 
 /// `scenario` after `steps` steps of attack-move for both sides.
@@ -95,16 +96,111 @@ fn abilities_are_checked_for_energy_range_and_target_side() {
     }
 }
 
+/// Asserts that `s` stays inside OpenAI's strict `json_schema` subset (the strictest server
+/// AVA sends it to): every object requires all its properties and allows no others, arrays
+/// have `items`, `enum`s are not empty, and only the keywords strict mode supports appear
+/// (since May 2025 these include `maxLength`, `minimum`/`maximum` and `minItems`/`maxItems`).
+fn assert_strict(s: &Value, at: &str) {
+    const KEYWORDS: [&str; 12] = [
+        "type",
+        "properties",
+        "required",
+        "additionalProperties",
+        "items",
+        "enum",
+        "anyOf",
+        "maxLength",
+        "minimum",
+        "maximum",
+        "minItems",
+        "maxItems",
+    ];
+    let obj = s.as_object().unwrap_or_else(|| panic!("{at}: a schema is an object: {s}"));
+    for k in obj.keys() {
+        assert!(KEYWORDS.contains(&k.as_str()), "{at}: keyword `{k}` is outside strict mode's subset");
+    }
+    if let Some(e) = obj.get("enum") {
+        assert!(e.as_array().is_some_and(|e| !e.is_empty()), "{at}: an empty enum");
+    }
+    if let Some(any) = obj.get("anyOf") {
+        for (i, a) in any.as_array().expect("anyOf is a list").iter().enumerate() {
+            assert_strict(a, &format!("{at}.anyOf[{i}]"));
+        }
+        return;
+    }
+    match obj.get("type").and_then(Value::as_str) {
+        Some("object") => {
+            let props = obj["properties"].as_object().unwrap_or_else(|| panic!("{at}: an object without properties"));
+            let mut required: Vec<&str> = obj["required"].as_array().expect("required").iter().filter_map(Value::as_str).collect();
+            let mut names: Vec<&str> = props.keys().map(String::as_str).collect();
+            required.sort_unstable();
+            names.sort_unstable();
+            assert_eq!(required, names, "{at}: strict mode requires every property");
+            assert_eq!(obj.get("additionalProperties"), Some(&Value::Bool(false)), "{at}");
+            for (k, v) in props {
+                assert_strict(v, &format!("{at}.{k}"));
+            }
+        }
+        Some("array") => assert_strict(obj.get("items").unwrap_or_else(|| panic!("{at}: an array without items")), &format!("{at}[]")),
+        Some("string" | "integer" | "number" | "boolean" | "null") => {}
+        other => panic!("{at}: type {other:?}"),
+    }
+}
+
+fn verbs(s: &Value) -> Vec<&str> {
+    let e = s["properties"]["actions"]["items"]["properties"]["action"]["enum"].as_array().expect("enum");
+    e.iter().filter_map(Value::as_str).collect()
+}
+
 #[test]
-fn the_schema_lists_every_verb_and_the_teams_abilities() {
-    let s = schema(&["stimpack", "heal"]);
-    let props = &s["properties"]["actions"]["items"]["properties"];
-    let verbs: Vec<&str> = props["action"]["enum"].as_array().expect("enum").iter().filter_map(|v| v.as_str()).collect();
-    assert_eq!(verbs, Verb::ALL.map(Verb::name));
-    assert_eq!(props["ability"]["enum"][1], "heal");
+fn the_schema_names_the_tags_there_are_and_bounds_the_list() {
+    let s = schema(&[1, 2, 3], &[4, 5, 6], &["stimpack", "heal"]);
+    assert_strict(&s, "decision");
+    let actions = &s["properties"]["actions"];
+    assert_eq!(actions["maxItems"], 3, "at most one item per unit: the list ends");
+    let props = &actions["items"]["properties"];
+    assert_eq!(verbs(&s), Verb::ALL.map(Verb::name));
+    assert_eq!(props["unit"]["enum"], json!([1, 2, 3]));
+    assert_eq!(props["target"]["anyOf"][0]["enum"], json!([4, 5, 6]));
+    assert_eq!(props["target"]["anyOf"][1], json!({"type": "null"}));
+    assert_eq!(props["ability"]["anyOf"][0]["enum"][1], "heal");
     // Every example item in the decision prompt fits the schema's fields.
     for name in ["unit", "action", "target", "cell", "direction", "ability"] {
         assert!(props.get(name).is_some(), "{name}");
+    }
+    // Nothing in sight and no abilities: the verbs that would be refused are left out, and
+    // their fields can only be null.
+    let s = schema(&[7], &[], &[]);
+    assert_strict(&s, "decision without targets");
+    assert_eq!(verbs(&s), ["move_grid", "move_dir", "hold", "stop"]);
+    let props = &s["properties"]["actions"]["items"]["properties"];
+    assert_eq!(props["target"], json!({"type": "null"}));
+    assert_eq!(props["ability"], json!({"type": "null"}));
+    // No unit left: an empty list is the only answer (and no enum is empty).
+    let s = schema(&[], &[4], &[]);
+    assert_strict(&s, "decision without units");
+    assert_eq!(s["properties"]["actions"]["maxItems"], 0);
+    // What the schema makes a model write (unused fields null) parses into items.
+    let v = extract_json(r#"{"reasoning": "x", "actions": [{"unit": 1, "action": "attack", "target": 4, "cell": null, "direction": null, "ability": null}]}"#)
+        .expect("object");
+    let (items, refused) = parse_items(&v, "actions").expect("list");
+    assert!(refused.is_empty(), "{refused:?}");
+    assert_eq!(items[0].1, Item { target: Some(4), ..item(1, Verb::Attack) });
+}
+
+#[test]
+fn targets_are_enemies_in_sight_and_own_units_only_for_those_that_heal() {
+    let env = state("3m", 1, 8);
+    let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
+    let enemies: Vec<u32> = obs.units.iter().filter(|u| !u.own).map(|u| u.tag).collect();
+    assert!(!enemies.is_empty(), "3m's enemies are in sight after 8 steps of attack-move");
+    assert_eq!(targets(&obs), enemies, "Marines act on enemies only");
+    // MMM: Medivacs heal other units of theirs.
+    let env = state("MMM_vs_MMM", 2, 4);
+    let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
+    let t = targets(&obs);
+    for u in &obs.units {
+        assert!(t.contains(&u.tag), "{} {} is a target", if u.own { "own" } else { "enemy" }, u.tag);
     }
 }
 
@@ -126,16 +222,16 @@ fn arb_items() -> impl Strategy<Value = Vec<RawItem>> {
 
 /// A model's item from raw draws: tags of the observation (and 99), verbs, cells,
 /// directions and abilities, with junk among each.
-fn to_json(raw: &RawItem, tags: &[u32]) -> serde_json::Value {
+fn to_json(raw: &RawItem, tags: &[u32]) -> Value {
     let verbs = ["attack", "move_grid", "move_dir", "ability", "hold", "stop", "charge"];
     let dirs = ["north", "south", "east", "west", "sideways"];
     let (unit, verb, target, cell, dir, ability) = raw;
-    let mut v = serde_json::json!({"unit": tags[unit.index(tags.len())], "action": verbs[*verb]});
+    let mut v = json!({"unit": tags[unit.index(tags.len())], "action": verbs[*verb]});
     if let Some(t) = target {
         v["target"] = tags[t.index(tags.len())].into();
     }
     if let Some((c, r)) = cell {
-        v["cell"] = serde_json::json!([c, r]);
+        v["cell"] = json!([c, r]);
     }
     if let Some(d) = dir {
         v["direction"] = dirs[*d].into();
@@ -163,8 +259,8 @@ proptest! {
         let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
         let mut tags: Vec<u32> = obs.units.iter().map(|u| u.tag).collect();
         tags.push(99);
-        let raw: Vec<serde_json::Value> = picks.iter().map(|p| to_json(p, &tags)).collect();
-        let text = serde_json::json!({"reasoning": "", "actions": raw}).to_string();
+        let raw: Vec<Value> = picks.iter().map(|p| to_json(p, &tags)).collect();
+        let text = json!({"reasoning": "", "actions": raw}).to_string();
         let v = extract_json(&text).map_err(|e| TestCaseError::fail(e.to_string()))?;
         let (items, refused) = parse_items(&v, "actions").map_err(|e| TestCaseError::fail(e.to_string()))?;
         let cam = camera(&env, &obs);

@@ -33,7 +33,7 @@ fn requests_carry_the_image_the_schema_and_the_key() {
                 parts: vec![Part::Text("Your units:\n- 1 Marine at cell [1, 1]\n".into()), Part::Image(png.clone())],
             },
         ],
-        schema: Some(("ava_decision".into(), avacraft_ava::decision::schema(&["stimpack"]))),
+        schema: Some(("ava_decision".into(), avacraft_ava::decision::schema(&[1], &[4], &["stimpack"]))),
         sampling: Sampling::default(),
     };
     let reply = client.complete(&req).expect("reply");
@@ -61,7 +61,7 @@ fn requests_carry_the_image_the_schema_and_the_key() {
     assert_eq!(b["response_format"]["type"], "json_schema");
     assert_eq!(b["response_format"]["json_schema"]["name"], "ava_decision");
     assert_eq!(
-        b["response_format"]["json_schema"]["schema"]["properties"]["actions"]["items"]["properties"]["ability"]["enum"][0],
+        b["response_format"]["json_schema"]["schema"]["properties"]["actions"]["items"]["properties"]["ability"]["anyOf"][0]["enum"][0],
         "stimpack"
     );
 }

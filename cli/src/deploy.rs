@@ -3,8 +3,10 @@
 
 use crate::record::{self, RecordArgs};
 use anyhow::{Context, Result, bail};
+use avacraft_ava::llm::{CallRecord, ChatRequest, Part, Stage};
 use avacraft_engine::agent::GroupRole;
 use avacraft_launch::{ClockMode, CommanderPolicy, Plan, PolicySpec};
+use avacraft_msgs::ModelCall;
 use avacraft_nodes::{AgentId, Node, NodeArgs, Shutdown, Topics, UnitTag};
 use avacraft_sim_node::{Clock, SimConfig};
 use clap::Args;
@@ -140,9 +142,10 @@ pub fn agent_node(a: &AgentNodeArgs) -> Result<()> {
             (avacraft_launch::ROTATE_POLICY, None) => CommanderPolicy::Rotate,
             (p, _) => bail!("agent-node: --commander --policy {p}: a commander's policy is ava (with --ava-spec) or rotate"),
         };
-        let mut commander = policy.factory_for(id.as_str()).context("agent-node: --policy")?();
         let topics = Topics::new(&a.node.namespace)?;
         let node = Node::open(&a.node, &a.node.namespace, &format!("agent_{id}")).context("agent-node: opening the Zenoh session")?;
+        let observer = matches!(policy, CommanderPolicy::Ava(_)).then(|| call_observer(&node, &topics, &id)).transpose()?;
+        let mut commander = policy.factory_observed(id.as_str(), observer).context("agent-node: --policy")?();
         let cfg = avacraft_agent_nodes::CommandedConfig { id, team, initial: Vec::new(), groups, scenario };
         let stats = avacraft_agent_nodes::run_commander(&node, &topics, &cfg, commander.as_mut(), &shutdown, None)?;
         tracing::info!(orders = stats.batches, malformed = stats.malformed, "commander node stops");
@@ -158,9 +161,10 @@ pub fn agent_node(a: &AgentNodeArgs) -> Result<()> {
         (p, None) => PolicySpec::parse(p, None).with_context(|| format!("agent-node: --policy {}", a.policy))?,
     };
     policy.check(&scenario, team.team()).with_context(|| format!("agent-node: --policy {}", a.policy))?;
-    let mut agent = policy.factory_for(id.as_str()).with_context(|| format!("agent-node: --policy {}", a.policy))?();
     let topics = Topics::new(&a.node.namespace)?;
     let node = Node::open(&a.node, &a.node.namespace, &format!("agent_{id}")).context("agent-node: opening the Zenoh session")?;
+    let observer = matches!(policy, PolicySpec::Ava(_)).then(|| call_observer(&node, &topics, &id)).transpose()?;
+    let mut agent = policy.factory_observed(id.as_str(), observer).with_context(|| format!("agent-node: --policy {}", a.policy))?();
     let stats = match group_role {
         Some(_) => {
             let cfg = avacraft_agent_nodes::CommandedConfig { id, team, initial: units, groups: Vec::new(), scenario };
@@ -173,6 +177,61 @@ pub fn agent_node(a: &AgentNodeArgs) -> Result<()> {
     };
     tracing::info!(batches = stats.batches, malformed = stats.malformed, "agent node stops");
     Ok(())
+}
+
+/// Publishes each of the node's model calls on `agents/<id>/model_calls`, so the session's
+/// MCAP holds them next to the game (the run folder's `calls.jsonl` stays what replays).
+fn call_observer(node: &Node, topics: &Topics, id: &AgentId) -> Result<avacraft_ava::CallObserver> {
+    let mut publisher = node.publisher::<ModelCall>(&topics.model_calls(id), avacraft_nodes::Qos::Reliable { depth: 10 })?;
+    let frame = id.to_string();
+    Ok(Box::new(move |r, req| {
+        if let Err(e) = publisher.put(&model_call(r, req, &frame)) {
+            tracing::warn!(error = %e, "a model call could not be published (the run folder has it)");
+        }
+    }))
+}
+
+/// A call record as the `ModelCall` message.
+pub(crate) fn model_call(r: &CallRecord, req: &ChatRequest, frame: &str) -> ModelCall {
+    let stage = match r.stage {
+        Stage::Planner => ModelCall::STAGE_PLANNER,
+        Stage::Priority => ModelCall::STAGE_PRIORITY,
+        Stage::Roles => ModelCall::STAGE_ROLES,
+        Stage::Decision => ModelCall::STAGE_DECISION,
+    };
+    let images: Vec<&avacraft_ava::llm::Png> = req
+        .messages
+        .iter()
+        .flat_map(|m| m.parts.iter())
+        .filter_map(|p| match p {
+            Part::Image(png) => Some(png),
+            Part::Text(_) => None,
+        })
+        .collect();
+    let usage = r.reply.as_ref().and_then(|x| x.usage);
+    let tokens = |n: u64| u32::try_from(n).unwrap_or(u32::MAX);
+    ModelCall {
+        header: avacraft_msgs::Header { frame_id: frame.to_owned(), ..Default::default() },
+        episode: r.episode,
+        step: r.step,
+        team: r.team,
+        decision: r.decision,
+        stage,
+        attempt: r.attempt,
+        retry: r.retry,
+        model: r.model.clone(),
+        prompts_version: r.prompts.clone(),
+        request_hash: r.request_hash.clone(),
+        request_json: serde_json::json!({"messages": r.messages, "schema": r.schema, "sampling": r.sampling}).to_string(),
+        response: r.reply.as_ref().map(|x| x.text.clone()).unwrap_or_default(),
+        error: r.error.as_ref().map(|e| e.to_string()).unwrap_or_default(),
+        prompt_tokens: usage.map_or(0, |u| tokens(u.prompt_tokens)),
+        completion_tokens: usage.map_or(0, |u| tokens(u.completion_tokens)),
+        latency_ms: r.reply.as_ref().map_or(0.0, |x| x.latency_ms),
+        cost_usd: r.cost_usd.unwrap_or(f64::NAN),
+        images: images.len() as u32,
+        first_image_png: images.first().map(|p| p.bytes.as_ref().clone()).unwrap_or_default(),
+    }
 }
 
 pub fn record(a: &RecordArgs) -> Result<()> {

@@ -3,7 +3,7 @@
 //! role group with a distinct `role` and the units it starts with.
 
 use crate::{AgentPlan, Cx, LaunchError, PolicyError};
-use avacraft_ava::{AvaCommander, AvaSpec};
+use avacraft_ava::{AvaCommander, AvaSpec, CallObserver};
 use avacraft_engine::agent::{GroupRole, MakeCommander, Rotate};
 use avacraft_nodes::{AgentId, TeamNo};
 use std::sync::Arc;
@@ -24,11 +24,15 @@ pub enum CommanderPolicy {
 impl CommanderPolicy {
     /// What makes fresh commanders; AVA records the node's calls under `record/<agent>`.
     pub fn factory_for(&self, agent: &str) -> Result<MakeCommander, PolicyError> {
+        self.factory_observed(agent, None)
+    }
+
+    /// [`CommanderPolicy::factory_for`], with AVA's calls also handed to `observer`.
+    pub fn factory_observed(&self, agent: &str, observer: Option<CallObserver>) -> Result<MakeCommander, PolicyError> {
         match self {
             CommanderPolicy::Rotate => Ok(Box::new(|| Box::new(Rotate::new(ROTATE_EVERY)))),
             CommanderPolicy::Ava(spec) => {
-                let record = spec.record.as_ref().map(|r| r.join(agent));
-                let setup = spec.setup(record.as_deref()).map_err(|e| PolicyError::Ava(Arc::new(e)))?;
+                let setup = crate::policy::ava_setup(spec, agent, observer)?;
                 Ok(Box::new(move || Box::new(AvaCommander::new(setup.clone()))))
             }
         }

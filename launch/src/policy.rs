@@ -10,7 +10,7 @@
 //! scenario or team size. The loaded network is shared (`Arc`) by every agent made from it:
 //! the per-unit agents of one launch entry load the file once.
 
-use avacraft_ava::{AvaAgent, AvaSpec};
+use avacraft_ava::{AvaAgent, AvaSetup, AvaSpec, CallObserver};
 use avacraft_engine::agent::{AGENTS, Agent, factory};
 use avacraft_engine::{Scenario, SmacLayout, Team};
 use avacraft_marl::{MarlAgent, Policy};
@@ -193,10 +193,15 @@ impl PolicySpec {
     /// [`PolicySpec::factory`] for the agent node `agent`: AVA records each node's calls in
     /// its own folder under the spec's (`record/<agent>`).
     pub fn factory_for(&self, agent: &str) -> Result<AgentFactory, PolicyError> {
+        self.factory_observed(agent, None)
+    }
+
+    /// [`PolicySpec::factory_for`], with AVA's calls also handed to `observer` (an agent
+    /// node publishes them); other policies make no calls.
+    pub fn factory_observed(&self, agent: &str, observer: Option<CallObserver>) -> Result<AgentFactory, PolicyError> {
         match self {
             PolicySpec::Ava(spec) => {
-                let record = spec.record.as_ref().map(|r| r.join(agent));
-                let setup = spec.setup(record.as_deref()).map_err(|e| PolicyError::Ava(Arc::new(e)))?;
+                let setup = ava_setup(spec, agent, observer)?;
                 Ok(Box::new(move || Box::new(AvaAgent::new(setup.clone()))))
             }
             other => other.factory(),
@@ -236,6 +241,16 @@ impl PolicySpec {
     pub fn agent(&self) -> Result<Box<dyn Agent>, PolicyError> {
         Ok(self.factory()?())
     }
+}
+
+/// AVA's setup for the agent node `agent`: calls recorded under `record/<agent>`.
+pub(crate) fn ava_setup(spec: &AvaSpec, agent: &str, observer: Option<CallObserver>) -> Result<AvaSetup, PolicyError> {
+    let record = spec.record.as_ref().map(|r| r.join(agent));
+    let setup = spec.setup(record.as_deref()).map_err(|e| PolicyError::Ava(Arc::new(e)))?;
+    if let Some(o) = observer {
+        setup.run.observe(o);
+    }
+    Ok(setup)
 }
 
 /// The text [`PolicySpec::parse`] reads back to the same policy (a checkpoint by its

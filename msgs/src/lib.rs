@@ -21,7 +21,7 @@ pub use parser::{
 };
 pub use registry::{Registry, RegistryError};
 pub use types::{
-    AbilityState, ActionBatch, AreaEffect, EpisodeStatus, Header, Image, RoleAssignment, RoleGroup, SessionInfo, StdString,
+    AbilityState, ActionBatch, AreaEffect, EpisodeStatus, Header, Image, ModelCall, RoleAssignment, RoleGroup, SessionInfo, StdString,
     TeamObservation, Time, UnitAction, UnitObservation, UnitState,
 };
 

@@ -114,4 +114,5 @@ ros_messages! {
     RoleGroup => "avacraft_msgs", "RoleGroup", "../msg/RoleGroup.msg";
     RoleAssignment => "avacraft_msgs", "RoleAssignment", "../msg/RoleAssignment.msg";
     SessionInfo => "avacraft_msgs", "SessionInfo", "../msg/SessionInfo.msg";
+    ModelCall => "avacraft_msgs", "ModelCall", "../msg/ModelCall.msg";
 }

@@ -356,3 +356,44 @@ impl SessionInfo {
         ("CLOCK_REALTIME", Self::CLOCK_REALTIME),
     ];
 }
+
+/// `avacraft_msgs/msg/ModelCall`: one model call of an AVA agent node.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ModelCall {
+    pub header: Header,
+    pub episode: u64,
+    pub step: u32,
+    pub team: u8,
+    pub decision: u32,
+    pub stage: u8,
+    pub attempt: u32,
+    pub retry: u32,
+    pub model: String,
+    pub prompts_version: String,
+    pub request_hash: String,
+    pub request_json: String,
+    pub response: String,
+    pub error: String,
+    pub prompt_tokens: u32,
+    pub completion_tokens: u32,
+    pub latency_ms: f64,
+    pub cost_usd: f64,
+    pub images: u32,
+    #[serde(with = "serde_bytes")]
+    pub first_image_png: Vec<u8>,
+}
+
+impl ModelCall {
+    pub const STAGE_PLANNER: u8 = 0;
+    pub const STAGE_PRIORITY: u8 = 1;
+    pub const STAGE_ROLES: u8 = 2;
+    pub const STAGE_DECISION: u8 = 3;
+
+    /// Name/value pairs of all constants, for checking against the `.msg`.
+    pub const CONSTANTS: &'static [(&'static str, u8)] = &[
+        ("STAGE_PLANNER", Self::STAGE_PLANNER),
+        ("STAGE_PRIORITY", Self::STAGE_PRIORITY),
+        ("STAGE_ROLES", Self::STAGE_ROLES),
+        ("STAGE_DECISION", Self::STAGE_DECISION),
+    ];
+}

@@ -167,6 +167,10 @@ impl Topics {
     pub fn actions(&self, agent: &AgentId) -> Topic {
         self.make(&format!("agents/{}/actions", agent.0))
     }
+    /// The model calls of an AVA agent node (`ModelCall`), for the session's recording.
+    pub fn model_calls(&self, agent: &AgentId) -> Topic {
+        self.make(&format!("agents/{}/model_calls", agent.0))
+    }
     /// Every agent node's action topic (a pattern: `*` is one segment).
     pub fn any_actions(&self) -> TopicPattern {
         TopicPattern(format!("{}/agents/*/actions", self.ns))
@@ -217,6 +221,7 @@ impl Topics {
             ["roles"] => TopicKind::Roles,
             ["session"] => TopicKind::Session,
             ["agents", agent, "actions"] => TopicKind::Actions(AgentId::parse(agent).ok()?),
+            ["agents", agent, "model_calls"] => TopicKind::ModelCalls(AgentId::parse(agent).ok()?),
             [t, "obs"] => TopicKind::TeamObs(team(t)?),
             [t, "roles"] => TopicKind::TeamRoles(team(t)?),
             [t, "orders"] => TopicKind::Orders(team(t)?),
@@ -237,6 +242,7 @@ pub enum TopicKind {
     TeamObs(TeamNo),
     Frames(TeamNo, FrameKind),
     Actions(AgentId),
+    ModelCalls(AgentId),
     Status,
     Applied,
     Roles,
@@ -314,6 +320,7 @@ mod tests {
             (t.unit_obs(two, u), TopicKind::UnitObs(two, u)),
             (t.team_obs(one), TopicKind::TeamObs(one)),
             (t.actions(&a), TopicKind::Actions(a.clone())),
+            (t.model_calls(&a), TopicKind::ModelCalls(a.clone())),
             (t.status(), TopicKind::Status),
             (t.applied(), TopicKind::Applied),
             (t.roles(), TopicKind::Roles),

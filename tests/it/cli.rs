@@ -116,3 +116,22 @@ fn vector_bench_reports_its_ratio_to_one_env() {
     let err = run(&["bench", "--vec", "--envs", "0"]).expect_err("no environments");
     assert!(err.contains("--envs"), "{err}");
 }
+
+#[test]
+fn llm_local_names_a_missing_model_and_excludes_the_other_back_ends() {
+    let dir = std::env::temp_dir().join(format!("avacraft-llm-local-{}", std::process::id()));
+    let missing = dir.join("missing.gguf");
+    let record = dir.join("rec");
+    let (m, r) = (missing.to_string_lossy().into_owned(), record.to_string_lossy().into_owned());
+    let e = run(&["episode", "--scenario", "3m", "--agent", "ava", "--llm-local", &m, "--llm-record", &r]).expect_err("no model file");
+    assert!(e.contains("--llm-local") && e.contains(&m) && e.contains("no such file"), "{e}");
+    let e = run(&["episode", "--scenario", "3m", "--agent", "ava", "--llm-local", &m, "--llm-url", "http://127.0.0.1:9/v1"])
+        .expect_err("two back ends");
+    assert!(e.contains("--llm-local") && e.contains("--llm-url"), "{e}");
+    // The flags become the same settings a launch file's `model: {kind: local}` holds, checked
+    // the same way before anything loads.
+    let e = run(&["episode", "--scenario", "3m", "--agent", "ava", "--llm-local", &m, "--llm-threads", "5000", "--llm-record", &r])
+        .expect_err("bad threads");
+    assert!(e.contains("--llm-local") && e.contains("n_threads 5000"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

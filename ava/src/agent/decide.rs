@@ -306,7 +306,7 @@ pub(super) fn decide(
         a.dedup();
         a
     };
-    let schema = decision::schema(&abilities);
+    let schema = decision::schema(alive, &decision::targets(obs), &abilities);
     let ctx = DecisionCtx {
         situation: &situation,
         plan,

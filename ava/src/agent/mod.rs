@@ -16,7 +16,7 @@ mod situation;
 mod stages;
 
 pub use command::AvaCommander;
-pub use run::AvaRun;
+pub use run::{AvaRun, CallObserver};
 pub use situation::{Tally, describe, place};
 pub use stages::{Plan, Priority, ROLES, RoleOf, Skill};
 

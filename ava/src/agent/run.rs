@@ -16,12 +16,27 @@ pub(crate) struct CallMeta {
     pub attempt: u32,
 }
 
+/// Sees every call as it is recorded (an agent node publishes them for the session's MCAP).
+pub type CallObserver = Box<dyn FnMut(&CallRecord, &ChatRequest) + Send>;
+
 struct Inner {
     model: Box<dyn ChatModel>,
     recorder: Option<Recorder>,
+    observer: Option<CallObserver>,
     prices: PriceTable,
     episodes: Vec<EpisodeCost>,
     fatal: Option<String>,
+}
+
+/// The accounting's file in a recording's folder.
+pub const COSTS_FILE: &str = "costs.json";
+
+impl Drop for AvaRun {
+    fn drop(&mut self) {
+        if let Err(e) = self.write_costs() {
+            tracing::warn!(error = %e, "the AVA accounting could not be written");
+        }
+    }
 }
 
 /// A model shared by a run's AVA agents (both teams of a PvP game may share one; calls are
@@ -39,12 +54,17 @@ impl std::fmt::Debug for AvaRun {
 
 impl AvaRun {
     pub fn new(model: Box<dyn ChatModel>, recorder: Option<Recorder>, prices: PriceTable) -> Arc<AvaRun> {
-        Arc::new(AvaRun { inner: Mutex::new(Inner { model, recorder, prices, episodes: Vec::new(), fatal: None }) })
+        Arc::new(AvaRun { inner: Mutex::new(Inner { model, recorder, observer: None, prices, episodes: Vec::new(), fatal: None }) })
     }
 
     fn lock(&self) -> MutexGuard<'_, Inner> {
         // A panic elsewhere while holding the lock leaves plain data behind; keep going.
         self.inner.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Hands every later call's record to `observer` too (the run folder keeps them as well).
+    pub fn observe(&self, observer: CallObserver) {
+        self.lock().observer = Some(observer);
     }
 
     /// The model's configured name.
@@ -84,6 +104,17 @@ impl AvaRun {
         }
     }
 
+    /// Writes the accounting so far to `costs.json` in the recording's folder (done when the
+    /// run is dropped too, so an agent node stopped at the end of a session leaves it).
+    pub fn write_costs(&self) -> Result<(), crate::llm::RecordError> {
+        let g = self.lock();
+        let Some(rec) = g.recorder.as_ref() else { return Ok(()) };
+        let path = rec.dir().join(COSTS_FILE);
+        let io = |source| crate::llm::RecordError::Io { path: path.clone(), what: "cannot write the accounting", source };
+        let text = serde_json::to_string_pretty(&g.episodes).map_err(|e| io(std::io::Error::other(e)))?;
+        std::fs::write(&path, text).map_err(io)
+    }
+
     /// One call with retries: transport errors, 429s and 5xxs are tried again after pauses
     /// of `backoff_ms`, doubling, up to `max_retries` times. Every attempt is recorded and
     /// accounted in `cost` before its answer is used.
@@ -112,31 +143,39 @@ impl AvaRun {
             cost.total.add_call(usage, latency, cost_usd, failed);
             cost.by_stage.entry(req.stage).or_default().add_call(usage, latency, cost_usd, failed);
             let inner = &mut *g;
-            if let Some(rec) = inner.recorder.as_mut() {
-                let stored = rec.store(req).and_then(|messages| {
-                    rec.write(CallRecord {
-                        seq: 0,
-                        episode: meta.episode,
-                        seed: meta.seed,
-                        team: meta.team,
-                        step: meta.step,
-                        decision: meta.decision,
-                        stage: req.stage,
-                        attempt: meta.attempt,
-                        retry: attempt,
-                        model: model.clone(),
-                        prompts: prompts.to_owned(),
-                        request_hash: hash.clone(),
-                        messages,
-                        schema: req.schema.as_ref().map(|s| s.0.clone()),
-                        sampling: req.sampling,
-                        reply: result.as_ref().ok().cloned(),
-                        error: result.as_ref().err().cloned(),
-                        cost_usd,
-                    })
-                });
-                if let Err(e) = stored {
-                    inner.fatal.get_or_insert_with(|| format!("recording: {e}"));
+            if inner.recorder.is_some() || inner.observer.is_some() {
+                let record = |messages| CallRecord {
+                    seq: 0,
+                    episode: meta.episode,
+                    seed: meta.seed,
+                    team: meta.team,
+                    step: meta.step,
+                    decision: meta.decision,
+                    stage: req.stage,
+                    attempt: meta.attempt,
+                    retry: attempt,
+                    model: model.clone(),
+                    prompts: prompts.to_owned(),
+                    request_hash: hash.clone(),
+                    messages,
+                    schema: req.schema.as_ref().map(|s| s.0.clone()),
+                    sampling: req.sampling,
+                    reply: result.as_ref().ok().cloned(),
+                    error: result.as_ref().err().cloned(),
+                    cost_usd,
+                };
+                let record = match inner.recorder.as_mut() {
+                    Some(rec) => match rec.store(req).and_then(|messages| rec.write(record(messages))) {
+                        Ok(r) => Some(r),
+                        Err(e) => {
+                            inner.fatal.get_or_insert_with(|| format!("recording: {e}"));
+                            None
+                        }
+                    },
+                    None => Some(record(crate::llm::unstored(req))),
+                };
+                if let (Some(r), Some(observe)) = (record, inner.observer.as_mut()) {
+                    observe(&r, req);
                 }
             }
             match result {

@@ -60,6 +60,20 @@ impl Situation<'_> {
     }
 }
 
+/// The tags an item's `target` may name: the enemies in sight, and the team's own units when
+/// one of the group's units can act on them (a healer, an ability cast on allies). [`check`]
+/// would refuse an attack on any other tag, so the schema leaves them out (an ability aimed
+/// at the ground under an own unit takes a `cell` instead).
+pub fn targets(obs: &GroupObs) -> Vec<u32> {
+    let helps = obs.units.iter().filter(|u| u.own && obs.controlled.iter().any(|c| c.unit == u.tag && c.alive)).any(|u| {
+        u.flags.contains(avacraft_engine::UnitFlags::HEALER) || u.abilities.iter().any(|a| a.ability.spec().rule == TargetRule::Ally)
+    });
+    let mut tags: Vec<u32> = obs.units.iter().filter(|u| helps || !u.own).map(|u| u.tag).collect();
+    tags.sort_unstable();
+    tags.dedup();
+    tags
+}
+
 /// Checks `items` (with their indices in the model's list). Refusals of earlier stages (items
 /// that did not parse) are passed in `refused` and kept.
 pub fn check(s: &Situation<'_>, items: &[(usize, Item)], mut refused: Vec<Refused>) -> Checked {

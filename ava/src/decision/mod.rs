@@ -11,7 +11,7 @@
 mod check;
 mod parse;
 
-pub use check::{Checked, Refused, Situation, check};
+pub use check::{Checked, Refused, Situation, check, targets};
 pub use parse::{ParseError, ParsedItems, extract_json, parse_items};
 
 use serde::{Deserialize, Serialize};
@@ -68,32 +68,53 @@ pub struct Item {
     pub ability: Option<String>,
 }
 
-/// The JSON schema of a decision: flat items with optional fields, so that constrained
-/// decoding of a small model stays simple; what an action needs is checked afterwards, with
-/// a reason the model can act on. `abilities` are the ability names the team may cast.
-pub fn schema(abilities: &[&str]) -> Value {
-    let verbs: Vec<&str> = Verb::ALL.iter().map(|v| v.name()).collect();
-    let mut ability = json!({"type": "string"});
-    if !abilities.is_empty() {
-        ability = json!({"type": "string", "enum": abilities});
-    }
+/// The JSON schema of a decision, for the team's alive controllable `units`, the unit tags an
+/// action may target (`targets`, see [`targets`]) and the ability names the team may cast.
+///
+/// Flat items: every field is present and those an action does not use are `null`, as
+/// OpenAI's strict `json_schema` mode requires (every property required, none extra);
+/// llama.cpp's grammar and the other servers take the same schema. What an action needs is
+/// checked afterwards, with a reason the model can act on.
+///
+/// The schema is as tight as the situation allows, because constrained decoding makes a
+/// small model follow it to the letter: unit and target tags are `enum`s of the tags there
+/// are, so no decoding is spent on tags that would be refused, and the list holds at most
+/// one item per unit, so it ends: with an unbounded list SmolLM2-135M went on listing actions
+/// until `max_tokens` cut the JSON off. Verbs that cannot succeed are left out (`attack`
+/// with nothing to target, `ability` for a team without abilities).
+pub fn schema(units: &[u32], targets: &[u32], abilities: &[&str]) -> Value {
+    let verbs: Vec<&str> = Verb::ALL
+        .iter()
+        .filter(|v| match v {
+            Verb::Attack => !targets.is_empty(),
+            Verb::Ability => !abilities.is_empty(),
+            _ => true,
+        })
+        .map(|v| v.name())
+        .collect();
+    // `enum` must not be empty: with no tag to name, a field can only be null.
+    let nullable = |s: Value| json!({"anyOf": [s, {"type": "null"}]});
+    let unit = if units.is_empty() { json!({"type": "integer", "minimum": 1}) } else { json!({"type": "integer", "enum": units}) };
+    let target = if targets.is_empty() { json!({"type": "null"}) } else { nullable(json!({"type": "integer", "enum": targets})) };
+    let ability = if abilities.is_empty() { json!({"type": "null"}) } else { nullable(json!({"type": "string", "enum": abilities})) };
     json!({
         "type": "object",
         "properties": {
             "reasoning": {"type": "string", "maxLength": 600},
             "actions": {
                 "type": "array",
+                "maxItems": units.len(),
                 "items": {
                     "type": "object",
                     "properties": {
-                        "unit": {"type": "integer", "minimum": 1},
+                        "unit": unit,
                         "action": {"type": "string", "enum": verbs},
-                        "target": {"type": "integer", "minimum": 1},
-                        "cell": {"type": "array", "items": {"type": "integer", "minimum": 1, "maximum": 10}, "minItems": 2, "maxItems": 2},
-                        "direction": {"type": "string", "enum": DIRECTIONS},
+                        "target": target,
+                        "cell": nullable(json!({"type": "array", "items": {"type": "integer", "minimum": 1, "maximum": 10}, "minItems": 2, "maxItems": 2})),
+                        "direction": nullable(json!({"type": "string", "enum": DIRECTIONS})),
                         "ability": ability
                     },
-                    "required": ["unit", "action"],
+                    "required": ["unit", "action", "target", "cell", "direction", "ability"],
                     "additionalProperties": false
                 }
             }

@@ -2,16 +2,21 @@
 //! schema, sampling settings) in, the model's text with token counts and latency out.
 //!
 //! [`OpenAi`] speaks the chat-completions protocol that OpenAI, vLLM, Ollama and llama.cpp's
-//! server share; [`Replay`] answers from a recorded run without calling anything; [`Scripted`]
-//! answers from a list (tests, dry runs). Every call the agent makes goes through a
+//! server share; `Local` (feature `local`) runs a GGUF model on the CPU, offline; [`Replay`]
+//! answers from a recorded run without calling anything; [`Scripted`] answers from a list
+//! (tests, dry runs). Every call the agent makes goes through a
 //! [`Recorder`], which writes it to the run folder before the answer is used.
 
+#[cfg(feature = "local")]
+mod local;
 mod openai;
 mod record;
 mod synthetic;
 
+#[cfg(feature = "local")]
+pub use local::{GgufError, Local, LocalConfig, LocalStats, SMOLLM2, SMOLLM2_ENV, SMOLLM2_FILE, SMOLLM2_INSTALL, check_gguf, find_smollm2};
 pub use openai::{OpenAi, OpenAiConfig, SchemaMode};
-pub use record::{CallRecord, RecordError, Recorder, Replay, StoredMessage, StoredPart};
+pub use record::{CallRecord, RecordError, Recorder, Replay, StoredMessage, StoredPart, read_calls, unstored};
 pub use synthetic::{Synthetic, first_user_text, synthetic_answer, tags_under};
 
 use serde::{Deserialize, Serialize};

@@ -132,16 +132,36 @@ impl Recorder {
         Ok(out)
     }
 
-    /// Appends a record (its `seq` is set here) and flushes it to disk.
-    pub fn write(&mut self, mut rec: CallRecord) -> Result<(), RecordError> {
+    /// Appends a record (its `seq` is set here) and flushes it to disk; returns it as written.
+    pub fn write(&mut self, mut rec: CallRecord) -> Result<CallRecord, RecordError> {
         rec.seq = self.seq;
         self.seq += 1;
         let path = self.dir.join(CALLS_FILE);
         let mut line = serde_json::to_string(&rec).map_err(|e| io(&path, "cannot encode a record")(std::io::Error::other(e)))?;
         line.push('\n');
         self.file.write_all(line.as_bytes()).map_err(io(&path, "cannot append"))?;
-        self.file.flush().map_err(io(&path, "cannot flush"))
+        self.file.flush().map_err(io(&path, "cannot flush"))?;
+        Ok(rec)
     }
+}
+
+/// A request's messages as a record holds them, without a recording to store images in
+/// (images by size, no file).
+pub fn unstored(req: &ChatRequest) -> Vec<StoredMessage> {
+    req.messages
+        .iter()
+        .map(|m| StoredMessage {
+            role: m.role,
+            parts: m
+                .parts
+                .iter()
+                .map(|p| match p {
+                    Part::Text(t) => StoredPart::Text { text: t.clone() },
+                    Part::Image(png) => StoredPart::Image { file: String::new(), width: png.width, height: png.height },
+                })
+                .collect(),
+        })
+        .collect()
 }
 
 /// Reads a recording's calls.

@@ -520,8 +520,8 @@ fn an_ava_commander_and_its_role_groups_play_the_same_game_deployed_and_in_proce
             calls.display()
         )
     };
-    let (deployed_calls, local_calls) = (tmp("cmd-deployed"), tmp("cmd-local"));
-    let v = launch_on_free_port("ava-cmd.yaml", &body(&deployed_calls));
+    let (deployed_calls, local_calls, mcap) = (tmp("cmd-deployed"), tmp("cmd-local"), tmp("cmd.mcap"));
+    let v = launch_on_free_port("ava-cmd.yaml", &format!("record: {}\n{}", mcap.display(), body(&deployed_calls)));
     let e = &v[0];
     for field in ["missing_actions", "foreign_actions", "refused_actions", "refused_orders", "missing_orders"] {
         assert_eq!(e[field][0], 0, "{field}: {e}");
@@ -544,8 +544,32 @@ fn an_ava_commander_and_its_role_groups_play_the_same_game_deployed_and_in_proce
         let c = calls(&deployed_calls, id);
         assert_eq!(stages(&c).into_iter().collect::<Vec<_>>(), vec![Stage::Decision], "{id}: the role groups only decide");
     }
+    // The session's MCAP holds every call too, on each node's model_calls topic.
+    let bytes = std::fs::read(&mcap).expect("the recording");
+    let mut recorded: std::collections::BTreeMap<String, Vec<avacraft_msgs::ModelCall>> = Default::default();
+    for m in mcap::MessageStream::new(&bytes).expect("an MCAP file") {
+        let m = m.expect("a message");
+        if let Some(id) = m.channel.topic.strip_prefix("/avacraft/agents/").and_then(|t| t.strip_suffix("/model_calls")) {
+            assert_eq!(m.channel.schema.as_ref().map(|s| s.name.as_str()), Some("avacraft_msgs/msg/ModelCall"));
+            recorded.entry(id.to_owned()).or_default().push(avacraft_msgs::decode(&m.data).expect("a ModelCall"));
+        }
+    }
     for id in ["cmd", "front", "back"] {
         let hashes = |c: Vec<avacraft_ava::llm::CallRecord>| c.into_iter().map(|c| c.request_hash).collect::<Vec<_>>();
-        assert_eq!(hashes(calls(&deployed_calls, id)), hashes(calls(&local_calls, id)), "{id} was asked what it is asked in-process");
+        let deployed = hashes(calls(&deployed_calls, id));
+        assert_eq!(deployed, hashes(calls(&local_calls, id)), "{id} was asked what it is asked in-process");
+        let on_topic: Vec<String> = recorded.get(id).map(|v| v.iter().map(|c| c.request_hash.clone()).collect()).unwrap_or_default();
+        assert_eq!(on_topic, deployed, "{id}: the MCAP has every call, in order");
     }
+    // Each node leaves its accounting when it stops: one entry per episode, every call counted.
+    for id in ["cmd", "front", "back"] {
+        let path = deployed_calls.join(id).join("costs.json");
+        let costs: Vec<avacraft_ava::cost::EpisodeCost> =
+            serde_json::from_str(&std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))).expect("costs");
+        assert_eq!(costs.len(), 1, "{id}");
+        assert_eq!(costs[0].total.calls, calls(&deployed_calls, id).len() as u64, "{id}: {costs:?}");
+    }
+    let first = &recorded["front"][0];
+    assert_eq!((first.stage, first.model.as_str()), (avacraft_msgs::ModelCall::STAGE_DECISION, "synthetic"));
+    assert!(first.first_image_png.starts_with(b"\x89PNG") && first.images >= 1 && !first.response.is_empty(), "{first:?}");
 }

@@ -126,6 +126,8 @@ proptest! {
     fn role_assignment_round_trips(v in role_assignment(0)) { round_trip(&v)?; }
     #[test]
     fn session_info_round_trips(v in session_info(0)) { round_trip(&v)?; }
+    #[test]
+    fn model_call_round_trips(v in model_call(0)) { round_trip(&v)?; }
 
     /// Any bytes, with or without a valid header, give a value or an error, never a panic.
     #[test]
@@ -139,6 +141,7 @@ proptest! {
         let _ = decode::<EpisodeStatus>(&bytes);
         let _ = decode::<RoleAssignment>(&bytes);
         let _ = decode::<SessionInfo>(&bytes);
+        let _ = decode::<avacraft_msgs::ModelCall>(&bytes);
         let _ = decode::<Image>(&bytes);
         let _ = decode::<AreaEffect>(&bytes);
         let _ = decode::<UnitState>(&bytes);

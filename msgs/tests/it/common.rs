@@ -7,7 +7,7 @@
 #![allow(dead_code)]
 
 use avacraft_msgs::{
-    AbilityState, ActionBatch, AreaEffect, EpisodeStatus, Header, Image, RoleAssignment, RoleGroup, SessionInfo, StdString,
+    AbilityState, ActionBatch, AreaEffect, EpisodeStatus, Header, Image, ModelCall, RoleAssignment, RoleGroup, SessionInfo, StdString,
     TeamObservation, Time, UnitAction, UnitObservation, UnitState,
 };
 use proptest::collection::vec;
@@ -258,4 +258,40 @@ pub fn role_assignment(min_len: usize) -> impl Strategy<Value = RoleAssignment> 
             plan,
             priority_tags,
         })
+}
+
+pub fn model_call(min_len: usize) -> impl Strategy<Value = ModelCall> {
+    (
+        (header(), any::<u64>(), any::<u32>(), any::<u8>(), any::<u32>(), any::<u8>(), any::<u32>(), any::<u32>()),
+        (text(), text(), text(), text(), text(), text()),
+        (any::<u32>(), any::<u32>(), -1e9..1e9f64, -1e9..1e9f64, any::<u32>(), vec(any::<u8>(), min_len..64)),
+    )
+        .prop_map(
+            |(
+                (header, episode, step, team, decision, stage, attempt, retry),
+                (model, prompts_version, request_hash, request_json, response, error),
+                (prompt_tokens, completion_tokens, latency_ms, cost_usd, images, first_image_png),
+            )| ModelCall {
+                header,
+                episode,
+                step,
+                team,
+                decision,
+                stage,
+                attempt,
+                retry,
+                model,
+                prompts_version,
+                request_hash,
+                request_json,
+                response,
+                error,
+                prompt_tokens,
+                completion_tokens,
+                latency_ms,
+                cost_usd,
+                images,
+                first_image_png,
+            },
+        )
 }

@@ -21,6 +21,7 @@ enum Shape {
     U32,
     U64,
     F32,
+    F64,
     Str,
     Bytes,
     Seq(Option<Box<Shape>>),
@@ -95,7 +96,7 @@ impl ser::Serializer for Recorder {
         Ok(Shape::F32)
     }
     fn serialize_f64(self, _: f64) -> Result<Shape, Unsupported> {
-        no("f64")
+        Ok(Shape::F64)
     }
     fn serialize_char(self, _: char) -> Result<Shape, Unsupported> {
         no("char")
@@ -217,6 +218,7 @@ fn primitive_shape(p: PrimitiveType) -> Option<Shape> {
         PrimitiveType::UInt32 => Shape::U32,
         PrimitiveType::UInt64 => Shape::U64,
         PrimitiveType::Float32 => Shape::F32,
+        PrimitiveType::Float64 => Shape::F64,
         _ => return None, // not used by any embedded type; extend when one is
     })
 }
@@ -282,6 +284,7 @@ fn every_struct_matches_its_msg() {
     check(role_group(1));
     check(role_assignment(1));
     check(session_info(1));
+    check(model_call(1));
 }
 
 /// The checker itself must catch a swapped field, or the test above proves nothing.
@@ -322,8 +325,13 @@ fn rust_constants_match_msg_constants() {
     check_constants::<UnitState>(UnitState::CONSTANTS);
     check_constants::<AbilityState>(AbilityState::CONSTANTS);
     check_constants::<RoleGroup>(RoleGroup::CONSTANTS);
+    check_constants::<avacraft_msgs::ModelCall>(avacraft_msgs::ModelCall::CONSTANTS);
     // Every constant of the messages whose constants are all mirrored here.
-    for (spec, n) in [(UnitAction::TYPE_NAME, UnitAction::CONSTANTS.len()), (RoleGroup::TYPE_NAME, RoleGroup::CONSTANTS.len())] {
+    for (spec, n) in [
+        (UnitAction::TYPE_NAME, UnitAction::CONSTANTS.len()),
+        (RoleGroup::TYPE_NAME, RoleGroup::CONSTANTS.len()),
+        (avacraft_msgs::ModelCall::TYPE_NAME, avacraft_msgs::ModelCall::CONSTANTS.len()),
+    ] {
         assert_eq!(embedded_registry().get(spec).expect("embedded").constants.len(), n, "{spec}");
     }
 }
