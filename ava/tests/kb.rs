@@ -118,3 +118,40 @@ proptest! {
         prop_assert_eq!(a, bm25().search(&query, k));
     }
 }
+
+fn dense() -> &'static avacraft_ava::kb::Dense {
+    static R: OnceLock<avacraft_ava::kb::Dense> = OnceLock::new();
+    R.get_or_init(|| avacraft_ava::kb::Dense::load(kb()).unwrap_or_else(|e| panic!("dense retrieval needs all-MiniLM-L6-v2: {e}")))
+}
+
+/// Dense retrieval (all-MiniLM-L6-v2): a unit's name finds that unit among the first three
+/// passages, and a question in words finds the unit it describes, which keywords alone can
+/// miss.
+#[test]
+fn dense_retrieval_finds_units_by_name_and_by_meaning() {
+    let mut first = 0;
+    for kind in UnitKind::ALL {
+        let hits = dense().search(kind.name(), 3);
+        assert!(
+            hits.iter().any(|h| h.passage.kind == kind),
+            "query `{kind}`: {:?}",
+            hits.iter().map(|h| &h.passage.title).collect::<Vec<_>>()
+        );
+        first += usize::from(hits.first().is_some_and(|h| h.passage.kind == kind));
+        assert!(hits.windows(2).all(|w| w[0].score >= w[1].score), "best first");
+    }
+    assert!(first * 10 >= UnitKind::ALL.len() * 8, "the unit itself first for most names: {first} of {}", UnitKind::ALL.len());
+    for (question, kind) in
+        [("which unit heals wounded infantry", UnitKind::Medivac), ("a psionic storm that damages an area", UnitKind::HighTemplar)]
+    {
+        let hits = dense().search(question, 4);
+        assert!(
+            hits.iter().any(|h| h.passage.kind == kind),
+            "`{question}`: {:?}",
+            hits.iter().map(|h| &h.passage.title).collect::<Vec<_>>()
+        );
+    }
+    // The same query ranks the same way (cached or not).
+    assert_eq!(dense().search("Stalker blink", 4), dense().search("Stalker blink", 4));
+    assert!(dense().search("", 4).is_empty() && dense().search("Marine", 0).is_empty());
+}

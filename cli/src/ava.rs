@@ -4,7 +4,7 @@
 use anyhow::{Context, Result, bail};
 use avacraft_ava::cost::{EpisodeCost, PriceTable};
 use avacraft_ava::llm::{ChatModel, ChatReply, ChatRequest, LlmError, OpenAi, OpenAiConfig, Part, Recorder, Replay, SchemaMode};
-use avacraft_ava::{AvaConfig, AvaRun, AvaSetup, Bm25, KnowledgeBase, Prompts, Timing};
+use avacraft_ava::{AvaConfig, AvaRun, AvaSetup, Prompts, Timing};
 use clap::Args;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -199,13 +199,8 @@ impl AvaArgs {
             Some(d) => Some(Recorder::create(d).with_context(|| format!("recording AVA's calls in {}", d.display()))?),
             None => None,
         };
-        let kb = KnowledgeBase::builtin()?;
-        let setup = AvaSetup {
-            config: Arc::new(config),
-            run: AvaRun::new(model, recorder, prices),
-            prompts: Arc::new(prompts),
-            retriever: Arc::new(Bm25::new(&kb)),
-        };
+        let retriever = avacraft_ava::kb::retriever(config.retriever)?;
+        let setup = AvaSetup { config: Arc::new(config), run: AvaRun::new(model, recorder, prices), prompts: Arc::new(prompts), retriever };
         Ok((setup, record_dir))
     }
 }

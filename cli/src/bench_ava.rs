@@ -6,7 +6,7 @@
 use anyhow::Result;
 use avacraft_ava::cost::PriceTable;
 use avacraft_ava::llm::Synthetic;
-use avacraft_ava::{AvaAgent, AvaConfig, AvaRun, AvaSetup, Bm25, KnowledgeBase, Prompts};
+use avacraft_ava::{AvaAgent, AvaConfig, AvaRun, AvaSetup, Prompts};
 use avacraft_engine::agent::{AgentTeam, Grouping};
 use avacraft_engine::{Controllers, Env, EnvConfig, Scenario, Team};
 use serde::Serialize;
@@ -36,12 +36,12 @@ fn goal(scenario: &str) -> f64 {
 /// Plays episodes of `scenario` with AVA over the stand-in model until `decisions` decisions;
 /// returns (decisions, calls, overhead ms).
 fn play(scenario: &Arc<Scenario>, cfg: AvaConfig, decisions: u64) -> Result<(u64, u64, f64)> {
-    let kb = KnowledgeBase::builtin()?;
+    let retriever = avacraft_ava::kb::retriever(cfg.retriever)?;
     let setup = AvaSetup {
         config: Arc::new(cfg),
         run: AvaRun::new(Box::new(Synthetic), None, PriceTable::builtin()),
         prompts: Arc::new(Prompts::builtin()?),
-        retriever: Arc::new(Bm25::new(&kb)),
+        retriever,
     };
     let s = setup.clone();
     let team = AgentTeam::new(Team::One, Grouping::Team, move || Box::new(AvaAgent::new(s.clone())));

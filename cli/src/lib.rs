@@ -12,6 +12,8 @@ mod bench_vec;
 mod bridge;
 mod deploy;
 mod episode;
+mod eval;
+mod human;
 mod info;
 mod launch;
 mod probe;
@@ -75,6 +77,12 @@ enum Cmd {
     /// vision-text observations and save a checkpoint (`features` ones play as `--agent
     /// marl:DIR` and as launch files' `policy: marl:DIR`).
     Train(train::TrainArgs),
+    /// Evaluate agents from a plan file (scenarios, agents, opponents, seeds, head-to-head
+    /// pairings): parallel, resumable, shardable; writes the paper's tables and plots.
+    Eval(eval::EvalArgs),
+    /// Human evaluation: pack blinded replays of an evaluation, serve the local rating page,
+    /// analyze the ratings (Mann-Whitney U per metric and agent kind).
+    HumanEval(human::HumanArgs),
 }
 
 impl Cli {
@@ -103,6 +111,8 @@ pub fn run(cli: Cli, out: &mut dyn Write, alloc: Option<&'static StatsAlloc<Syst
         Cmd::Bridge(a) => bridge::run(&a),
         Cmd::Replay(a) => replay::run(&a, out),
         Cmd::Train(a) => train::run(&a, out),
+        Cmd::Eval(a) => eval::run(&a, out),
+        Cmd::HumanEval(a) => human::run(&a, out),
     }
 }
 

@@ -6,7 +6,6 @@ use super::stages::{self, Plan, Priority};
 use super::{AvaSetup, Episode, HistoryItem};
 use crate::config::{AvaConfig, Fallback};
 use crate::decision::{self, Item, Refused, Situation};
-use crate::kb::Retriever;
 use crate::llm::{ChatReply, ChatRequest, Message, Part, Png, Role, Stage};
 use avacraft_engine::agent::{GroupObs, view};
 use avacraft_engine::{Command, UnitId};
@@ -299,9 +298,11 @@ pub(super) fn decide(
             .collect();
     }
 
-    // The decision, with repair rounds.
+    // The decision, with repair rounds. The schema offers only abilities some unit can cast
+    // now: a small model held to the schema otherwise fills in one it cannot use.
     let abilities: Vec<&str> = {
-        let mut a: Vec<&str> = obs.units.iter().filter(|u| u.own).flat_map(|u| u.abilities.iter().map(|a| a.ability.name())).collect();
+        let mut a: Vec<&str> =
+            obs.units.iter().filter(|u| u.own).flat_map(|u| u.abilities.iter().filter(|a| a.available).map(|a| a.ability.name())).collect();
         a.sort_unstable();
         a.dedup();
         a

@@ -22,7 +22,7 @@ pub use stages::{Plan, Priority, ROLES, RoleOf, Skill};
 
 use crate::config::{AvaConfig, Timing};
 use crate::cost::EpisodeCost;
-use crate::kb::Bm25;
+use crate::kb::SharedRetriever;
 use crate::prompt::Prompts;
 use avacraft_engine::agent::{Agent, AgentCtx, Briefing, GroupObs};
 use avacraft_engine::{Action, Command, DEFAULT_STEP_MUL, LOOPS_PER_SECOND, Scenario, Team, UnitId};
@@ -96,7 +96,7 @@ pub struct AvaSetup {
     pub config: Arc<AvaConfig>,
     pub run: Arc<AvaRun>,
     pub prompts: Arc<Prompts>,
-    pub retriever: Arc<Bm25>,
+    pub retriever: SharedRetriever,
 }
 
 /// The agent.

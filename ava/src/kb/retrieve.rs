@@ -18,7 +18,7 @@ pub struct Hit<'a> {
 }
 
 /// Ranks a knowledge base's passages for a query.
-pub trait Retriever {
+pub trait Retriever: std::fmt::Debug {
     /// At most `k` passages with a positive score, best first; ties in passage order.
     fn search(&self, query: &str, k: usize) -> Vec<Hit<'_>>;
 }

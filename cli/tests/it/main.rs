@@ -5,6 +5,8 @@
 mod bridge;
 mod common;
 mod deploy;
+mod eval;
 mod hosts;
+mod human;
 mod replay;
 mod train;

@@ -1,0 +1,160 @@
+//! `avacraft eval PLAN.toml`: plays an evaluation plan (resuming what a previous run
+//! finished), then writes its report; `eval merge` combines shards' folders; `eval report`
+//! rewrites a folder's report.
+
+use anyhow::{Context, Result, bail};
+use avacraft_eval::{CellKey, EpisodeResult, Meta, Progress, Report, RunOptions, Shard};
+use clap::{Args, Subcommand};
+use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
+use std::collections::BTreeMap;
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+#[derive(Args, Debug)]
+#[command(args_conflicts_with_subcommands = true)]
+pub struct EvalArgs {
+    #[command(subcommand)]
+    cmd: Option<EvalCmd>,
+    /// The evaluation plan (TOML; see the README).
+    plan: Option<PathBuf>,
+    /// The evaluation's folder (results.jsonl, AVA recordings, the report). Default:
+    /// runs/eval-<plan name>. Run again with the same folder to resume.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Play only this machine's share of the plan: i/n plays every n-th episode from the
+    /// i-th (e.g. a cluster array job's index); merge the folders with `eval merge`.
+    #[arg(long)]
+    shard: Option<Shard>,
+    /// Worker threads (0: one per core).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Print the report's Markdown when done (default: only where it was written).
+    #[arg(long)]
+    print: bool,
+}
+
+#[derive(Subcommand, Debug)]
+enum EvalCmd {
+    /// Combine shards' evaluation folders into one and write its report.
+    Merge {
+        /// The merged folder (must not hold results yet).
+        #[arg(long)]
+        out: PathBuf,
+        /// The shards' folders.
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
+    },
+    /// Write the report of an evaluation folder again (e.g. while a run is going on).
+    Report { dir: PathBuf },
+}
+
+/// Per-cell progress under one bar of episodes.
+struct Bars {
+    bar: ProgressBar,
+    cell: ProgressBar,
+    per_cell: usize,
+    tally: Mutex<BTreeMap<CellKey, (usize, usize, usize)>>,
+}
+
+impl Progress for Bars {
+    fn start(&self, total: usize, skipped: usize) {
+        self.bar.set_length(total as u64);
+        self.bar.set_position(skipped as u64);
+        if skipped > 0 {
+            self.bar.println(format!("resuming: {skipped} of {total} episodes are done already"));
+        }
+    }
+    fn done(&self, r: &EpisodeResult) {
+        self.bar.inc(1);
+        let mut t = self.tally.lock().unwrap_or_else(|p| p.into_inner());
+        let e = t.entry(r.cell.clone()).or_default();
+        e.0 += 1;
+        if r.result.as_deref() == Some("win") {
+            e.1 += 1;
+        }
+        if let Some(why) = &r.error {
+            e.2 += 1;
+            self.bar.println(format!("FAILED {} seed {}: {why}", r.cell, r.seed));
+        }
+        let failed = if e.2 > 0 { format!(", {} failed", e.2) } else { String::new() };
+        self.cell.set_message(format!("{}: {}/{} played, {} won{failed}", r.cell, e.0, self.per_cell, e.1));
+    }
+}
+
+pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
+    match &a.cmd {
+        Some(EvalCmd::Merge { out: dir, shards }) => return merge(dir, shards, out),
+        Some(EvalCmd::Report { dir }) => return report(dir, out, a.print),
+        None => {}
+    }
+    let Some(path) = &a.plan else { bail!("eval: name a plan file (or `eval merge`, `eval report`)") };
+    let plan = avacraft_eval::load(path)?;
+    let dir = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("eval-{}", plan.name)));
+    avacraft_eval::write_meta(&dir, &Meta::of(&plan))?;
+    let shown = std::io::stderr().is_terminal();
+    let multi = MultiProgress::new();
+    let (bar, cell) = if shown {
+        (multi.add(ProgressBar::new(0)), multi.add(ProgressBar::new_spinner()))
+    } else {
+        (ProgressBar::hidden(), ProgressBar::hidden())
+    };
+    bar.set_style(ProgressStyle::with_template("[{bar:40}] {pos}/{len} episodes ({eta})")?.progress_chars("=> "));
+    cell.set_style(ProgressStyle::with_template("{msg}")?);
+    let bars = Bars { bar, cell, per_cell: plan.seeds.len(), tally: Mutex::new(BTreeMap::new()) };
+    let opts = RunOptions { out: dir.clone(), shard: a.shard, threads: a.threads };
+    let stats = avacraft_eval::run(&plan, &opts, &bars).with_context(|| format!("eval: {}", plan.file))?;
+    bars.bar.finish_and_clear();
+    bars.cell.finish_and_clear();
+    writeln!(
+        out,
+        "{}: {} episodes in this {}: {} played now, {} done before, {} failed",
+        plan.name,
+        stats.planned,
+        if a.shard.is_some() { "shard" } else { "plan" },
+        stats.played,
+        stats.skipped,
+        stats.failed
+    )?;
+    report(&dir, out, a.print)?;
+    if stats.failed > 0 {
+        bail!("{} episodes failed (see above; run again to retry them)", stats.failed);
+    }
+    Ok(())
+}
+
+fn report(dir: &Path, out: &mut dyn Write, print: bool) -> Result<()> {
+    let meta = avacraft_eval::read_meta(dir)?;
+    let loaded = avacraft_eval::read(&dir.join(avacraft_eval::RESULTS_FILE))?;
+    for why in &loaded.unreadable {
+        writeln!(out, "skipped an unreadable result line: {why}")?;
+    }
+    let r = Report::build(meta, &loaded);
+    let files = r.write(dir)?;
+    if print {
+        writeln!(out, "{}", r.markdown())?;
+    }
+    for f in files {
+        writeln!(out, "wrote {}", f.display())?;
+    }
+    Ok(())
+}
+
+fn merge(dir: &Path, shards: &[PathBuf], out: &mut dyn Write) -> Result<()> {
+    let mut meta: Option<Meta> = None;
+    for s in shards {
+        let m = avacraft_eval::read_meta(s)?;
+        if let Some(first) = &meta
+            && (first.cells != m.cells || first.seeds != m.seeds)
+        {
+            bail!("eval merge: {} holds another plan's results than {}", s.display(), shards[0].display());
+        }
+        meta.get_or_insert(m);
+    }
+    let Some(meta) = meta else { bail!("eval merge: name the shards' folders") };
+    avacraft_eval::write_meta(dir, &meta)?;
+    let parts: Vec<PathBuf> = shards.iter().map(|s| s.join(avacraft_eval::RESULTS_FILE)).collect();
+    let merged = avacraft_eval::merge(&parts, &dir.join(avacraft_eval::RESULTS_FILE))?;
+    writeln!(out, "merged {} episodes from {} shards into {}", merged.done.len(), shards.len(), dir.display())?;
+    report(dir, out, false)
+}

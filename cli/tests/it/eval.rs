@@ -1,0 +1,242 @@
+//! `avacraft eval`: a plan of scripted, MARL and AVA agents on PvE scenarios and a
+//! head-to-head matrix plays in parallel, writes its report, resumes after an interruption
+//! without replaying finished episodes, splits into shards that merge to the same results,
+//! and keeps other cells' results when one cell's endpoint is down.
+
+use crate::common::{exe, marl_checkpoint, tmp};
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+
+fn eval(args: &[&str]) -> Output {
+    Command::new(exe()).arg("eval").args(args).stderr(Stdio::inherit()).output().expect("run avacraft eval")
+}
+
+fn text(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// (cell, seed) -> (result, trajectory hash) of a results file.
+fn episodes(dir: &Path) -> BTreeMap<(String, u64), (String, String)> {
+    let text = std::fs::read_to_string(dir.join("results.jsonl")).expect("results");
+    text.lines()
+        .filter_map(|l| serde_json::from_str::<avacraft_eval::EpisodeResult>(l).ok())
+        .filter(|r| r.ok())
+        .map(|r| ((r.cell.to_string(), r.seed), (r.result.unwrap_or_default(), r.trajectory_hash)))
+        .collect()
+}
+
+fn plan(name: &str) -> std::path::PathBuf {
+    let dir = tmp(&format!("eval-{name}"));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let marl = marl_checkpoint();
+    let body = format!(
+        r#"name = "{name}"
+scenarios = ["3m", "2m_vs_1z"]
+seeds = [1, 2, 3]
+
+[[agents]]
+name = "focus-fire"
+policy = "focus-fire"
+
+[[agents]]
+name = "hold"
+policy = "hold"
+
+[[agents]]
+name = "qmix"
+policy = "marl:{marl}"
+scenarios = ["3m"]
+
+[[agents]]
+name = "ava-standin"
+policy = "ava"
+scenarios = ["3m"]
+ava = {{ model = {{ kind = "synthetic" }}, record = "calls", config = {{ image = false, decide_every = 4 }} }}
+
+[[headtohead]]
+scenarios = ["MMM_vs_MMM"]
+agents = ["focus-fire", "hold"]
+
+[[curves]]
+name = "qmix 3m"
+dir = "{marl}"
+"#,
+        marl = marl.display()
+    );
+    let p = dir.join("plan.toml");
+    std::fs::write(&p, body).expect("plan");
+    p
+}
+
+#[test]
+fn a_plan_plays_reports_resumes_and_shards_into_the_same_results() {
+    let p = plan("full");
+    let out = tmp("eval-full-out");
+    let o = eval(&[p.to_str().expect("utf-8"), "--out", out.to_str().expect("utf-8"), "--threads", "2"]);
+    assert!(o.status.success(), "{}", text(&o));
+    // 3m: 4 agents, 2m_vs_1z: 2 (the checkpoint and AVA are limited to 3m), MMM: 4 pairings.
+    let all = episodes(&out);
+    assert_eq!(all.len(), (4 + 2 + 4) * 3, "{:?}", all.keys().collect::<Vec<_>>());
+    for f in ["report.md", "report.csv", "report.json", "winrate.png", "headtohead-MMM_vs_MMM.png", "curves.png", "plan.json"] {
+        assert!(out.join(f).is_file(), "{f} written");
+    }
+    let md = std::fs::read_to_string(out.join("report.md")).expect("report");
+    for needle in [
+        "## Win rate per scenario (default)",
+        "### Best of each kind",
+        "## Cost per agent",
+        "## Head to head on MMM_vs_MMM",
+        "| 3m |",
+        "ava-standin",
+    ] {
+        assert!(md.contains(needle), "report lacks `{needle}`:\n{md}");
+    }
+    let report: avacraft_eval::Report =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).expect("json")).expect("report");
+    let ff = report.cells.iter().find(|c| c.key.scenario == "3m" && c.key.agent == "focus-fire").expect("cell");
+    assert_eq!(ff.episodes, 3);
+    assert_eq!(ff.wins + ff.draws + ff.losses, 3);
+    assert!(ff.win_ci95.0 <= ff.win_rate.mean && ff.win_rate.mean <= ff.win_ci95.1, "{ff:?}");
+    let ava = report.cells.iter().find(|c| c.key.agent == "ava-standin").and_then(|c| c.cost.clone()).expect("AVA's cost");
+    assert!(ava.calls_per_decision >= 1.0 && ava.decisions_per_episode > 0.0, "{ava:?}");
+    let csv = std::fs::read_to_string(out.join("report.csv")).expect("csv");
+    assert_eq!(csv.lines().count(), 1 + report.cells.len());
+    // The episodes equal what `episode` plays in-process for the same agent and seed.
+    let one = Command::new(exe())
+        .args(["episode", "--scenario", "3m", "--agent", "focus-fire", "--seed", "2", "--json"])
+        .output()
+        .expect("episode");
+    let v: serde_json::Value = serde_json::from_slice(&one.stdout).expect("json");
+    let key = ("3m / focus-fire vs opponent:default".to_owned(), 2);
+    assert_eq!(v["episodes"][0]["trajectory_hash"].as_str(), Some(all[&key].1.as_str()));
+
+    // Interrupted: half the lines and a torn last one are left; the rerun plays only the rest.
+    let text_all = std::fs::read_to_string(out.join("results.jsonl")).expect("results");
+    let lines: Vec<&str> = text_all.lines().collect();
+    let keep = lines.len() / 2;
+    let torn = format!("{}\n{}", lines[..keep].join("\n"), &lines[keep][..lines[keep].len() / 2]);
+    std::fs::write(out.join("results.jsonl"), torn).expect("truncate");
+    let o = eval(&[p.to_str().expect("utf-8"), "--out", out.to_str().expect("utf-8")]);
+    assert!(o.status.success(), "{}", text(&o));
+    let said = text(&o);
+    assert!(said.contains(&format!("{} played now, {keep} done before", lines.len() - keep)), "{said}");
+    assert!(said.contains("skipped an unreadable result line"), "the torn line is reported: {said}");
+    assert_eq!(episodes(&out), all, "the resumed run has the same episodes");
+
+    // Two shards, merged: the same episodes, the same games.
+    let (s1, s2, merged) = (tmp("eval-shard1"), tmp("eval-shard2"), tmp("eval-merged"));
+    for (s, d) in [("1/2", &s1), ("2/2", &s2)] {
+        let o = eval(&[p.to_str().expect("utf-8"), "--out", d.to_str().expect("utf-8"), "--shard", s]);
+        assert!(o.status.success(), "{}", text(&o));
+    }
+    let (a, b) = (episodes(&s1), episodes(&s2));
+    assert!(a.keys().all(|k| !b.contains_key(k)), "shards do not overlap");
+    let o = eval(&["merge", "--out", merged.to_str().expect("utf-8"), s1.to_str().expect("utf-8"), s2.to_str().expect("utf-8")]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert_eq!(episodes(&merged), all, "merged shards hold the single run's episodes");
+    assert!(merged.join("report.md").is_file());
+    // Merging into a folder with results is refused (nothing is overwritten).
+    let o = eval(&["merge", "--out", merged.to_str().expect("utf-8"), s1.to_str().expect("utf-8")]);
+    assert!(!o.status.success());
+}
+
+#[test]
+fn a_cell_whose_endpoint_is_down_plays_on_fallbacks_and_counts_the_failed_calls() {
+    let dir = tmp("eval-down");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let port = std::net::TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).map(|a| a.port()).expect("port");
+    let body = format!(
+        r#"scenarios = ["3m"]
+seeds = [5, 6]
+[[agents]]
+name = "focus-fire"
+policy = "focus-fire"
+[[agents]]
+name = "ava-down"
+policy = "ava"
+ava = {{ model = {{ kind = "openai", url = "http://127.0.0.1:{port}/v1", model = "m", timeout_s = 2.0 }}, config = {{ max_retries = 0, image = false, decide_every = 50 }} }}
+"#
+    );
+    let p = dir.join("down.toml");
+    std::fs::write(&p, body).expect("plan");
+    let out = dir.join("out");
+    let o = eval(&[p.to_str().expect("utf-8"), "--out", out.to_str().expect("utf-8")]);
+    let said = text(&o);
+    // AVA falls back when its endpoint is down: the episodes finish, every failed call counted.
+    let report: avacraft_eval::Report =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).expect("json")).expect("report");
+    let ff = report.cells.iter().find(|c| c.key.agent == "focus-fire").expect("focus-fire's cell");
+    assert_eq!(ff.episodes, 2, "{said}");
+    let ava = report.cells.iter().find(|c| c.key.agent == "ava-down").expect("AVA's cell");
+    let cost = ava.cost.as_ref().expect("cost");
+    assert!(cost.failed_calls > 0 && cost.fallbacks > 0, "{cost:?}");
+    assert!(o.status.success(), "{said}");
+}
+
+/// A cell whose agent cannot start (AVA replaying a recording that is not there) fails
+/// episode by episode with the reason, the other cells' results are kept, the run exits with
+/// an error, and the next run plays the failed episodes again (only those).
+#[test]
+fn failed_episodes_are_reported_kept_apart_and_played_again() {
+    let dir = tmp("eval-fail");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let body = r#"scenarios = ["3m"]
+seeds = [1, 2]
+[[agents]]
+name = "focus-fire"
+policy = "focus-fire"
+[[agents]]
+name = "ava-replay"
+policy = "ava"
+ava = { model = { kind = "replay", dir = "no-such-recording" } }
+"#;
+    let p = dir.join("fail.toml");
+    std::fs::write(&p, body).expect("plan");
+    let out = dir.join("out");
+    for round in 0..2 {
+        let o = eval(&[p.to_str().expect("utf-8"), "--out", out.to_str().expect("utf-8")]);
+        let said = text(&o);
+        assert!(!o.status.success(), "failed episodes make the run fail: {said}");
+        let played = if round == 0 { "2 played now, 0 done before, 2 failed" } else { "0 played now, 2 done before, 2 failed" };
+        assert!(said.contains(played), "round {round}: {said}");
+        let report: avacraft_eval::Report =
+            serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).expect("json")).expect("report");
+        assert_eq!(report.cells.len(), 1, "only focus-fire's cell has results");
+        assert_eq!(report.missing.len(), 1, "AVA's cell is reported as not played");
+        let lines = std::fs::read_to_string(out.join("results.jsonl")).expect("results");
+        let failed: Vec<avacraft_eval::EpisodeResult> =
+            lines.lines().filter_map(|l| serde_json::from_str::<avacraft_eval::EpisodeResult>(l).ok()).filter(|r| !r.ok()).collect();
+        assert_eq!(failed.len(), 2 * (round + 1));
+        assert!(failed.iter().all(|r| r.error.as_deref().is_some_and(|e| e.contains("no-such-recording"))), "{failed:?}");
+    }
+}
+
+#[test]
+fn plan_mistakes_name_the_field() {
+    let dir = tmp("eval-bad");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let cases = [
+        ("seeds = []\nscenarios = [\"3m\"]\n", "seeds"),
+        ("seeds = [1, 1]\nscenarios = [\"3m\"]\n[[agents]]\nname = \"a\"\npolicy = \"hold\"\n", "seeds[1]"),
+        ("seeds = [1]\nscenarios = [\"4m\"]\n[[agents]]\nname = \"a\"\npolicy = \"hold\"\n", "scenarios[0]"),
+        ("seeds = [1]\nscenarios = [\"MMM_vs_MMM\"]\n[[agents]]\nname = \"a\"\npolicy = \"hold\"\n", "headtohead"),
+        ("seeds = [1]\nscenarios = [\"3m\"]\n[[agents]]\nname = \"a\"\npolicy = \"dance\"\n", "agents[0].policy"),
+        ("seeds = [1]\nscenarios = [\"3m\"]\n[[agents]]\nname = \"a b\"\npolicy = \"hold\"\n", "agents[0].name"),
+        ("seeds = [1]\nscenarios = [\"3m\"]\n[[agents]]\nname = \"a\"\npolicy = \"ava\"\n", "agents[0].policy"),
+        ("seeds = [1]\nscenarios = [\"3m\"]\nopponents = [\"nice\"]\n[[agents]]\nname = \"a\"\npolicy = \"hold\"\n", "opponents[0]"),
+        (
+            "seeds = [1]\n[[agents]]\nname = \"a\"\npolicy = \"hold\"\n[[headtohead]]\nscenarios = [\"MMM_vs_MMM\"]\nagents = [\"b\"]\n",
+            "headtohead[0].agents[0]",
+        ),
+        ("seeds = [1]\nscenarios = [\"3m\"]\nepisodes = 3\n", "unknown field"),
+    ];
+    for (body, field) in cases {
+        let p = dir.join("bad.toml");
+        std::fs::write(&p, body).expect("plan");
+        let e = avacraft_eval::load(&p).expect_err(body);
+        let msg = format!("{e}");
+        assert!(msg.contains(field), "{body}: {msg}");
+        assert!(msg.starts_with(&p.display().to_string()), "{msg}");
+    }
+}

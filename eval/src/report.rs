@@ -1,0 +1,326 @@
+//! The report of an evaluation folder: the paper's tables as Markdown, every cell as CSV and
+//! JSON, and the plots. It reads only the folder (`plan.json` and `results.jsonl`), so merged
+//! shards report like one run.
+
+use crate::plan::{AgentKind, CellKey, Plan};
+use crate::results::{EpisodeResult, Loaded};
+use crate::stats::CellStats;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// What the report needs of the plan, written next to the results.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Meta {
+    pub name: String,
+    /// Name, kind and policy of each agent, in plan order.
+    pub agents: Vec<(String, AgentKind, String)>,
+    pub seeds: Vec<u64>,
+    /// Learning curves: name and training folder.
+    pub curves: Vec<(String, PathBuf)>,
+    /// Every cell the plan has, in plan order.
+    pub cells: Vec<CellKey>,
+}
+
+pub const META_FILE: &str = "plan.json";
+
+impl Meta {
+    pub fn of(plan: &Plan) -> Meta {
+        Meta {
+            name: plan.name.clone(),
+            agents: plan.agents.iter().map(|a| (a.name.clone(), a.kind, a.policy.to_string())).collect(),
+            seeds: plan.seeds.clone(),
+            curves: plan.curves.iter().map(|c| (c.name.clone(), c.dir.clone())).collect(),
+            cells: plan.cells.iter().map(|c| c.key.clone()).collect(),
+        }
+    }
+
+    fn kind(&self, agent: &str) -> Option<AgentKind> {
+        self.agents.iter().find(|(n, _, _)| n == agent).map(|(_, k, _)| *k)
+    }
+}
+
+/// The whole report.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Report {
+    pub meta: Meta,
+    pub cells: Vec<CellStats>,
+    /// Cells of the plan with no finished episode yet.
+    pub missing: Vec<CellKey>,
+}
+
+impl Report {
+    pub fn build(meta: Meta, loaded: &Loaded) -> Report {
+        let mut by_cell: BTreeMap<&CellKey, Vec<&EpisodeResult>> = BTreeMap::new();
+        for ((k, _), r) in &loaded.done {
+            by_cell.entry(k).or_default().push(r);
+        }
+        let mut failed: BTreeMap<&CellKey, usize> = BTreeMap::new();
+        for r in &loaded.failed {
+            // A failure later made good by a retry is not a failure of the cell.
+            if !loaded.done.contains_key(&(r.cell.clone(), r.seed)) {
+                *failed.entry(&r.cell).or_default() += 1;
+            }
+        }
+        let mut cells = Vec::new();
+        let mut missing = Vec::new();
+        for key in &meta.cells {
+            match by_cell.get(key) {
+                Some(rs) => cells.push(CellStats::of(key.clone(), rs, failed.get(key).copied().unwrap_or(0))),
+                None => missing.push(key.clone()),
+            }
+        }
+        Report { meta, cells, missing }
+    }
+
+    fn pve(&self) -> impl Iterator<Item = &CellStats> {
+        self.cells.iter().filter(|c| c.key.against.starts_with("opponent:"))
+    }
+
+    /// The opponents PvE cells were played against, in first-seen order.
+    fn opponents(&self) -> Vec<&str> {
+        let mut v: Vec<&str> = Vec::new();
+        for c in self.pve() {
+            if !v.contains(&c.key.against.as_str()) {
+                v.push(&c.key.against);
+            }
+        }
+        v
+    }
+
+    fn scenarios(&self, pvp: bool) -> Vec<&str> {
+        let mut v: Vec<&str> = Vec::new();
+        for c in &self.cells {
+            if c.key.against.starts_with("opponent:") != pvp && !v.contains(&c.key.scenario.as_str()) {
+                v.push(&c.key.scenario);
+            }
+        }
+        v
+    }
+
+    fn cell(&self, scenario: &str, agent: &str, against: &str) -> Option<&CellStats> {
+        self.cells.iter().find(|c| c.key.scenario == scenario && c.key.agent == agent && c.key.against == against)
+    }
+
+    /// The paper's tables as Markdown.
+    pub fn markdown(&self) -> String {
+        let mut s = String::new();
+        let m = &self.meta;
+        let _ = writeln!(s, "# Evaluation `{}`\n", m.name);
+        let episodes: usize = self.cells.iter().map(|c| c.episodes).sum();
+        let _ = writeln!(
+            s,
+            "{} cells, {} episodes finished ({} seeds per cell); win rates are mean ± standard deviation over seeds, [95% Wilson interval].\n",
+            self.cells.len(),
+            episodes,
+            m.seeds.len()
+        );
+        let agents: Vec<&str> = m.agents.iter().map(|(n, _, _)| n.as_str()).collect();
+        for against in self.opponents() {
+            let _ = writeln!(s, "## Win rate per scenario ({})\n", against.trim_start_matches("opponent:"));
+            let shown: Vec<&str> =
+                agents.iter().copied().filter(|a| self.pve().any(|c| c.key.agent == *a && c.key.against == against)).collect();
+            table_header(&mut s, "scenario", &shown);
+            for sc in self.scenarios(false) {
+                let row: Vec<String> = shown.iter().map(|a| self.cell(sc, a, against).map_or("–".to_owned(), win_text)).collect();
+                table_row(&mut s, sc, &row);
+            }
+            s.push('\n');
+            // MARL against VLM: the best agent of each kind per scenario.
+            let kinds: Vec<AgentKind> = {
+                let mut k: Vec<AgentKind> = shown.iter().filter_map(|a| m.kind(a)).collect();
+                k.sort();
+                k.dedup();
+                k
+            };
+            if kinds.len() > 1 {
+                let _ = writeln!(s, "### Best of each kind ({})\n", against.trim_start_matches("opponent:"));
+                let names: Vec<&str> = kinds.iter().map(|k| k.name()).collect();
+                table_header(&mut s, "scenario", &names);
+                for sc in self.scenarios(false) {
+                    let row: Vec<String> = kinds
+                        .iter()
+                        .map(|k| {
+                            // On a tie, the agent named first in the plan.
+                            let of_kind: Vec<&CellStats> = self
+                                .pve()
+                                .filter(|c| c.key.scenario == sc && c.key.against == against && m.kind(&c.key.agent) == Some(*k))
+                                .collect();
+                            of_kind
+                                .into_iter()
+                                .rev()
+                                .max_by(|a, b| a.win_rate.mean.total_cmp(&b.win_rate.mean))
+                                .map_or("–".to_owned(), |c| format!("{:.2} ({})", c.win_rate.mean, c.key.agent))
+                        })
+                        .collect();
+                    table_row(&mut s, sc, &row);
+                }
+                s.push('\n');
+            }
+        }
+        let vlm: Vec<&str> = agents.iter().copied().filter(|a| m.kind(a) == Some(AgentKind::Vlm)).collect();
+        if vlm.len() > 1 {
+            let _ = writeln!(s, "## Ablations (VLM agents, win rate per scenario)\n");
+            table_header(&mut s, "scenario", &vlm);
+            for sc in self.scenarios(false) {
+                let row: Vec<String> = vlm
+                    .iter()
+                    .map(|a| {
+                        self.pve()
+                            .find(|c| c.key.scenario == sc && c.key.agent == *a)
+                            .map_or("–".to_owned(), |c| format!("{:.2}", c.win_rate.mean))
+                    })
+                    .collect();
+                table_row(&mut s, sc, &row);
+            }
+            s.push('\n');
+        }
+        let costed: Vec<&CellStats> = self.cells.iter().filter(|c| c.cost.is_some()).collect();
+        if !costed.is_empty() {
+            let _ = writeln!(s, "## Cost per agent\n");
+            table_header(
+                &mut s,
+                "agent",
+                &["decisions/episode", "calls/decision", "tokens/decision", "$/episode", "model s/decision", "failed calls", "fallbacks"],
+            );
+            for a in &agents {
+                let cs: Vec<&crate::stats::CostStats> =
+                    costed.iter().filter(|c| c.key.agent == *a).filter_map(|c| c.cost.as_ref()).collect();
+                if cs.is_empty() {
+                    continue;
+                }
+                let n = cs.len() as f64;
+                let avg = |f: &dyn Fn(&crate::stats::CostStats) -> f64| cs.iter().map(|c| f(c)).sum::<f64>() / n;
+                let unpriced = cs.iter().any(|c| c.unpriced_episodes > 0);
+                let row = vec![
+                    format!("{:.1}", avg(&|c| c.decisions_per_episode)),
+                    format!("{:.2}", avg(&|c| c.calls_per_decision)),
+                    format!("{:.0}", avg(&|c| c.tokens_per_decision)),
+                    if unpriced { "unpriced".to_owned() } else { format!("{:.4}", avg(&|c| c.dollars_per_episode)) },
+                    format!("{:.2}", avg(&|c| c.model_seconds_per_decision)),
+                    cs.iter().map(|c| c.failed_calls).sum::<u64>().to_string(),
+                    cs.iter().map(|c| c.fallbacks).sum::<u64>().to_string(),
+                ];
+                table_row(&mut s, a, &row);
+            }
+            s.push('\n');
+        }
+        for sc in self.scenarios(true) {
+            let _ = writeln!(s, "## Head to head on {sc} (row's win rate as team 1)\n");
+            let names: Vec<&str> = agents
+                .iter()
+                .copied()
+                .filter(|a| self.cells.iter().any(|c| c.key.scenario == sc && (c.key.agent == *a || c.key.against == *a)))
+                .collect();
+            table_header(&mut s, "team 1 \\ team 2", &names);
+            for a in &names {
+                let row: Vec<String> =
+                    names.iter().map(|b| self.cell(sc, a, b).map_or("–".to_owned(), |c| format!("{:.2}", c.win_rate.mean))).collect();
+                table_row(&mut s, a, &row);
+            }
+            s.push('\n');
+        }
+        let _ = writeln!(s, "## Every cell\n");
+        table_header(
+            &mut s,
+            "scenario",
+            &["agent", "against", "episodes", "W/D/L", "win rate", "game s", "damage dealt", "kills", "deaths", "refused"],
+        );
+        for c in &self.cells {
+            let row = vec![
+                c.key.agent.clone(),
+                c.key.against.clone(),
+                if c.failed > 0 { format!("{} ({} failed)", c.episodes, c.failed) } else { c.episodes.to_string() },
+                format!("{}/{}/{}", c.wins, c.draws, c.losses),
+                win_text(c),
+                format!("{:.1}", c.game_seconds.mean),
+                format!("{:.0}", c.damage_dealt.mean),
+                format!("{:.1}", c.kills.mean),
+                format!("{:.1}", c.deaths.mean),
+                format!("{:.1}", c.refused_actions.mean),
+            ];
+            table_row(&mut s, &c.key.scenario, &row);
+        }
+        if !self.missing.is_empty() {
+            let _ = writeln!(s, "\nNot played yet: {}.", self.missing.iter().map(|k| k.to_string()).collect::<Vec<_>>().join("; "));
+        }
+        s
+    }
+
+    /// Every cell as CSV.
+    pub fn csv(&self) -> String {
+        let mut s = String::from(
+            "scenario,agent,kind,against,episodes,failed,wins,draws,losses,win_rate,win_std,win_ci_low,win_ci_high,game_seconds,damage_dealt,damage_taken,kills,deaths,refused_actions,calls_per_decision,tokens_per_decision,dollars_per_episode,model_seconds_per_decision\n",
+        );
+        for c in &self.cells {
+            let kind = self.meta.kind(&c.key.agent).map_or("", AgentKind::name);
+            let cost = c.cost.as_ref();
+            let opt = |f: &dyn Fn(&crate::stats::CostStats) -> f64| cost.map_or(String::new(), |k| format!("{:.6}", f(k)));
+            let _ = writeln!(
+                s,
+                "{},{},{},{},{},{},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{},{},{},{}",
+                csv_field(&c.key.scenario),
+                csv_field(&c.key.agent),
+                kind,
+                csv_field(&c.key.against),
+                c.episodes,
+                c.failed,
+                c.wins,
+                c.draws,
+                c.losses,
+                c.win_rate.mean,
+                c.win_rate.std,
+                c.win_ci95.0,
+                c.win_ci95.1,
+                c.game_seconds.mean,
+                c.damage_dealt.mean,
+                c.damage_taken.mean,
+                c.kills.mean,
+                c.deaths.mean,
+                c.refused_actions.mean,
+                opt(&|k| k.calls_per_decision),
+                opt(&|k| k.tokens_per_decision),
+                opt(&|k| k.dollars_per_episode),
+                opt(&|k| k.model_seconds_per_decision),
+            );
+        }
+        s
+    }
+
+    /// Writes `report.md`, `report.csv`, `report.json` and the plots into `dir`; returns the
+    /// files written.
+    pub fn write(&self, dir: &Path) -> Result<Vec<PathBuf>, crate::EvalError> {
+        let mut files = Vec::new();
+        let mut put = |name: &str, text: &str| -> Result<(), crate::EvalError> {
+            let p = dir.join(name);
+            std::fs::write(&p, text).map_err(|source| crate::EvalError::Io { path: p.clone(), source })?;
+            files.push(p);
+            Ok(())
+        };
+        put("report.md", &self.markdown())?;
+        put("report.csv", &self.csv())?;
+        let json = serde_json::to_string_pretty(self)
+            .map_err(|e| crate::EvalError::Io { path: dir.join("report.json"), source: std::io::Error::other(e) })?;
+        put("report.json", &json)?;
+        files.extend(crate::plot::all(self, dir)?);
+        Ok(files)
+    }
+}
+
+fn win_text(c: &CellStats) -> String {
+    format!("{:.2} ± {:.2} [{:.2}, {:.2}]", c.win_rate.mean, c.win_rate.std, c.win_ci95.0, c.win_ci95.1)
+}
+
+fn table_header(s: &mut String, first: &str, cols: &[&str]) {
+    let _ = writeln!(s, "| {first} | {} |", cols.join(" | "));
+    let _ = writeln!(s, "|---|{}", "---|".repeat(cols.len()));
+}
+
+fn table_row(s: &mut String, first: &str, cols: &[String]) {
+    let _ = writeln!(s, "| {first} | {} |", cols.join(" | "));
+}
+
+fn csv_field(v: &str) -> String {
+    if v.contains([',', '"', '\n']) { format!("\"{}\"", v.replace('"', "\"\"")) } else { v.to_owned() }
+}

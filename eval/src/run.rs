@@ -1,0 +1,243 @@
+//! Playing a plan: every job not already in the results file, on a pool of threads (one per
+//! core unless told otherwise), each result appended the moment its episode ends. A job that
+//! fails (an endpoint down, a replay that diverged, an agent that panicked) is written as a
+//! failed result with the reason and played again on the next run; the others go on.
+
+use crate::plan::{AgentDef, Cell, Job, Plan, Shard};
+use crate::results::{Appender, EpisodeResult, ModelUse, ResultsError};
+use avacraft_engine::agent::{AgentTeam, Grouping};
+use avacraft_engine::{Controllers, Env, EnvConfig, LOOPS_PER_SECOND, Outcome, RewardMode, Team};
+use avacraft_launch::PolicySpec;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// How to run.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    /// The evaluation's folder: `results.jsonl`, AVA's recordings under `ava/`.
+    pub out: PathBuf,
+    pub shard: Option<Shard>,
+    /// Worker threads (0: one per core).
+    pub threads: usize,
+}
+
+/// What a run did.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct RunStats {
+    /// Jobs of this shard.
+    pub planned: usize,
+    /// Already in the results file.
+    pub skipped: usize,
+    pub played: usize,
+    pub failed: usize,
+}
+
+/// Progress, as each job ends (for a progress bar).
+pub trait Progress: Sync {
+    fn start(&self, total: usize, skipped: usize);
+    fn done(&self, result: &EpisodeResult);
+}
+
+/// Plays the plan's jobs of this shard that the results file lacks.
+pub fn run(plan: &Plan, opts: &RunOptions, progress: &dyn Progress) -> Result<RunStats, ResultsError> {
+    let path = opts.out.join(crate::RESULTS_FILE);
+    let loaded = crate::results::read(&path)?;
+    for why in &loaded.unreadable {
+        tracing::warn!("skipping an unreadable result line: {why}");
+    }
+    let jobs: Vec<(usize, Job)> = plan.jobs().into_iter().enumerate().filter(|(i, _)| opts.shard.is_none_or(|s| s.takes(*i))).collect();
+    let todo: Vec<Job> =
+        jobs.iter().map(|(_, j)| *j).filter(|j| !loaded.done.contains_key(&(plan.cells[j.cell].key.clone(), j.seed))).collect();
+    let mut stats = RunStats { planned: jobs.len(), skipped: jobs.len() - todo.len(), ..RunStats::default() };
+    progress.start(jobs.len(), stats.skipped);
+    let mut appender = Appender::open(&path)?;
+    let threads = if opts.threads == 0 { std::thread::available_parallelism().map_or(1, |n| n.get()) } else { opts.threads };
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().map_err(|e| ResultsError::Io {
+        path: path.clone(),
+        what: "cannot start the worker threads",
+        source: std::io::Error::other(e),
+    })?;
+    let (tx, rx) = std::sync::mpsc::channel::<EpisodeResult>();
+    let mut write_error = None;
+    std::thread::scope(|s| {
+        s.spawn(|| {
+            use rayon::prelude::*;
+            pool.install(|| todo.par_iter().for_each_with(tx, |tx, job| drop(tx.send(play_job(plan, *job, &opts.out)))));
+        });
+        for r in rx {
+            if r.ok() {
+                stats.played += 1;
+            } else {
+                stats.failed += 1;
+            }
+            if write_error.is_none()
+                && let Err(e) = appender.append(&r)
+            {
+                write_error = Some(e);
+            }
+            progress.done(&r);
+        }
+    });
+    match write_error {
+        Some(e) => Err(e),
+        None => Ok(stats),
+    }
+}
+
+/// Plays one job; never panics (a panicking agent becomes a failed result).
+pub fn play_job(plan: &Plan, job: Job, out: &Path) -> EpisodeResult {
+    let cell = &plan.cells[job.cell];
+    let failed = |why: String| EpisodeResult {
+        cell: cell.key.clone(),
+        seed: job.seed,
+        result: None,
+        error: Some(why),
+        steps: 0,
+        game_seconds: 0.0,
+        damage_dealt: [0.0; 2],
+        kills: [0; 2],
+        units_left: [0; 2],
+        refused_actions: [0; 2],
+        trajectory_hash: String::new(),
+        model: None,
+        model2: None,
+    };
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| play(plan, cell, job.seed, out, None))) {
+        Ok(Ok(r)) => r,
+        Ok(Err(why)) => failed(why),
+        Err(p) => {
+            let msg = p.downcast_ref::<String>().cloned().or_else(|| p.downcast_ref::<&str>().map(|s| (*s).to_owned())).unwrap_or_default();
+            failed(format!("an agent panicked: {msg}"))
+        }
+    }
+}
+
+/// The folders an AVA side of an episode records in: the first try's, then `-try2`, ...
+fn ava_dirs(out: &Path, agent: &str, cell: &Cell, seed: u64, team: Team) -> impl Iterator<Item = PathBuf> {
+    let base =
+        out.join("ava").join(agent).join(format!("{}-{}-seed{seed}-team{}", cell.key.scenario, slug(&cell.key.against), team.player()));
+    (1..100).map(move |k| if k == 1 { base.clone() } else { PathBuf::from(format!("{}-try{k}", base.display())) })
+}
+
+/// One side's agents, and AVA's run when the side is AVA. Replaying, AVA answers from the
+/// episode's recording (the last try's: the one that finished).
+fn side(
+    agent: &AgentDef,
+    cell: &Cell,
+    team: Team,
+    seed: u64,
+    out: &Path,
+    replay: bool,
+) -> Result<(AgentTeam, Option<Arc<avacraft_ava::AvaRun>>), String> {
+    match &agent.policy {
+        PolicySpec::Ava(spec) => {
+            let setup = if replay {
+                let mut spec = spec.as_ref().clone();
+                if spec.record.is_some() {
+                    let Some(dir) = ava_dirs(out, &agent.name, cell, seed, team).take_while(|p| p.exists()).last() else {
+                        return Err(format!("{}: no recording of this episode under {}", agent.name, out.join("ava").display()));
+                    };
+                    spec.model = avacraft_ava::ModelSpec::Replay { dir };
+                    // A replay records nothing (the spec's own folder holds the first run).
+                    spec.record = None;
+                } else if spec.model != avacraft_ava::ModelSpec::Synthetic {
+                    return Err(format!("{}: AVA ran without `record`, so its episodes cannot be replayed", agent.name));
+                }
+                spec.setup(None)
+            } else {
+                // Each episode records in its own folder (a failed one's is kept: a retry
+                // takes the next free name).
+                let dir = spec.record.as_ref().and_then(|_| ava_dirs(out, &agent.name, cell, seed, team).find(|p| !p.exists()));
+                spec.setup(dir.as_deref())
+            }
+            .map_err(|e| format!("{}: {e}", agent.name))?;
+            let run = Arc::clone(&setup.run);
+            Ok((AgentTeam::new(team, Grouping::Team, move || Box::new(avacraft_ava::AvaAgent::new(setup.clone()))), Some(run)))
+        }
+        p => Ok((AgentTeam::new(team, Grouping::Team, p.factory().map_err(|e| format!("{}: {e}", agent.name))?), None)),
+    }
+}
+
+fn slug(s: &str) -> String {
+    s.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' }).collect()
+}
+
+fn model_use(run: &avacraft_ava::AvaRun) -> ModelUse {
+    let mut m = ModelUse::default();
+    for e in run.episodes() {
+        m.decisions += e.decisions;
+        m.calls += e.total.calls;
+        m.prompt_tokens += e.total.prompt_tokens;
+        m.completion_tokens += e.total.completion_tokens;
+        m.cost_usd += e.total.cost_usd;
+        m.unpriced_calls += e.total.unpriced_calls;
+        m.model_ms += e.total.latency_ms;
+        m.failed_calls += e.total.failed_calls;
+        m.fallbacks += e.fallbacks;
+    }
+    m
+}
+
+/// Plays a finished episode again, calling `on_step` with the environment before each step
+/// and once after the last (to draw it); AVA answers from the episode's recording, so no
+/// model is asked. The result's trajectory hash is the recorded one when all went well.
+pub fn replay_job(plan: &Plan, job: Job, out: &Path, on_step: &mut dyn FnMut(&Env)) -> Result<EpisodeResult, String> {
+    let cell = plan.cells.get(job.cell).ok_or_else(|| format!("no cell {}", job.cell))?;
+    play(plan, cell, job.seed, out, Some(on_step))
+}
+
+fn play(plan: &Plan, cell: &Cell, seed: u64, out: &Path, mut on_step: Option<&mut dyn FnMut(&Env)>) -> Result<EpisodeResult, String> {
+    let replay = on_step.is_some();
+    let (one, run1) = side(&plan.agents[cell.agent], cell, Team::One, seed, out, replay)?;
+    let mut teams = vec![one];
+    let mut run2 = None;
+    if let Some(b) = cell.agent2 {
+        let (two, r) = side(&plan.agents[b], cell, Team::Two, seed, out, replay)?;
+        teams.push(two);
+        run2 = r;
+    }
+    let mut controllers = Controllers::new(&cell.scenario, teams);
+    let cfg = EnvConfig { opponent: cell.opponent, reward: RewardMode::Sparse, ..EnvConfig::default() };
+    let mut env = Env::new(Arc::clone(&cell.scenario), cfg, seed);
+    controllers.reset(&env);
+    while !env.done() {
+        if let Some(f) = on_step.as_mut() {
+            f(&env);
+        }
+        controllers.act(&mut env);
+        env.step();
+    }
+    if let Some(f) = on_step.as_mut() {
+        f(&env);
+    }
+    for r in [&run1, &run2].into_iter().flatten() {
+        if let Some(why) = r.fatal() {
+            return Err(why);
+        }
+    }
+    let w = env.world();
+    let per = |f: &dyn Fn(Team) -> f64| [f(Team::One), f(Team::Two)];
+    let result = match env.outcome().unwrap_or(Outcome::Draw) {
+        Outcome::Win => "win",
+        Outcome::Draw => "draw",
+        Outcome::Loss => "loss",
+    };
+    let damage = per(&|t| f64::from(w.stats(t).damage_dealt));
+    let kills = per(&|t| f64::from(w.stats(t).kills));
+    let left = per(&|t| w.alive(t).count() as f64);
+    Ok(EpisodeResult {
+        cell: cell.key.clone(),
+        seed,
+        result: Some(result.to_owned()),
+        error: None,
+        steps: env.steps(),
+        game_seconds: f64::from(w.tick()) / f64::from(LOOPS_PER_SECOND),
+        damage_dealt: damage,
+        kills: kills.map(|k| k as u32),
+        units_left: left.map(|k| k as u32),
+        refused_actions: env.refused(),
+        trajectory_hash: format!("{:016x}", env.trajectory_hash()),
+        model: run1.as_deref().map(model_use),
+        model2: run2.as_deref().map(model_use),
+    })
+}
