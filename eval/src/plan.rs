@@ -402,3 +402,29 @@ impl Shard {
         job_index % self.count == self.index - 1
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The plan the README shows parses, with its checkpoint found from the plan's folder.
+    #[test]
+    fn the_shipped_plan_is_valid() {
+        let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("plans/pve_scripted.toml");
+        let plan = load(&p).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(plan.agents.iter().map(|a| a.kind).filter(|k| *k == AgentKind::Marl).count(), 1);
+        assert_eq!(plan.jobs().len(), plan.cells.len() * 5);
+        assert!(plan.cells.iter().any(|c| c.agent2.is_some()), "the head-to-head matrix");
+    }
+
+    #[test]
+    fn shards_split_every_job_once() {
+        let shards: Vec<Shard> = ["1/3", "2/3", "3/3"].iter().map(|s| s.parse().expect("shard")).collect();
+        for i in 0..30 {
+            assert_eq!(shards.iter().filter(|s| s.takes(i)).count(), 1);
+        }
+        for bad in ["0/3", "4/3", "1/0", "a/b", "3"] {
+            assert!(bad.parse::<Shard>().is_err(), "{bad}");
+        }
+    }
+}

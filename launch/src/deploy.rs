@@ -330,8 +330,10 @@ pub fn access_control(plan: &Plan, topics: &Topics, domain: u32) -> serde_json::
         teams.extend(commanders.iter().map(|c| c.team));
         let mut sends: Vec<String> = agents.iter().map(|a| key(&topics.actions(&a.id))).collect();
         // AVA nodes publish their model calls for the recording.
-        sends.extend(agents.iter().map(|a| key(&topics.model_calls(&a.id))));
-        sends.extend(commanders.iter().map(|c| key(&topics.model_calls(&c.id))));
+        sends.extend(agents.iter().filter(|a| matches!(a.policy, crate::PolicySpec::Ava(_))).map(|a| key(&topics.model_calls(&a.id))));
+        sends.extend(
+            commanders.iter().filter(|c| matches!(c.policy, crate::CommanderPolicy::Ava(_))).map(|c| key(&topics.model_calls(&c.id))),
+        );
         // A commander sends its team's orders (the simulator checks them).
         sends.extend(commanders.iter().map(|c| key(&topics.orders(c.team))));
         let mut reads: Vec<String> = teams.iter().map(|t| key(&topics.team_prefix(*t))).collect();
