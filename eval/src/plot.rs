@@ -8,10 +8,14 @@ use plotters::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-fn font() -> Result<(), EvalError> {
+/// Registers DejaVu Sans as plotters' `sans-serif` once per process; false if it failed.
+pub(crate) fn font_registered() -> bool {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
-    let ok = *REGISTERED.get_or_init(|| plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular()).is_ok());
-    if ok { Ok(()) } else { Err(EvalError::Plot { message: "the embedded DejaVu Sans font did not load".into() }) }
+    *REGISTERED.get_or_init(|| plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular()).is_ok())
+}
+
+fn font() -> Result<(), EvalError> {
+    if font_registered() { Ok(()) } else { Err(EvalError::Plot { message: "the embedded DejaVu Sans font did not load".into() }) }
 }
 
 fn err(e: impl std::fmt::Display) -> EvalError {

@@ -269,14 +269,7 @@ pub(super) fn decide(
     }
     if mode == Mode::Command {
         turn.ep.priorities = priorities;
-        let (model_ms, call_ms) = (turn.model_ms, turn.call_ms);
-        let ep = turn.ep;
-        ep.decisions += 1;
-        ep.cost.decisions += 1;
-        ep.cost.episode = obs.episode;
-        ep.cost.overhead_ms += (t0.elapsed().as_secs_f64() * 1000.0 - call_ms).max(0.0);
-        setup.run.update_episode(ep.cost_idx, &ep.cost);
-        return (Vec::new(), model_ms);
+        return (Vec::new(), close(turn, t0));
     }
 
     // Retrieval: the unit types on the field and the plan's skill.
@@ -380,15 +373,19 @@ pub(super) fn decide(
     while turn.ep.history.len() > cfg.history {
         turn.ep.history.pop_front();
     }
-    let (model_ms, call_ms) = (turn.model_ms, turn.call_ms);
-    let ep = turn.ep;
+    (commands, close(turn, t0))
+}
+
+/// Counts the decision, adds the pipeline time besides the calls' to the episode's overhead
+/// and publishes its accounting; returns the decision's model time (milliseconds).
+fn close(turn: Turn<'_>, t0: Instant) -> f64 {
+    let Turn { setup, ep, obs, model_ms, call_ms, .. } = turn;
     ep.decisions += 1;
     ep.cost.decisions += 1;
     ep.cost.episode = obs.episode;
-    // Pipeline time besides the calls'.
     ep.cost.overhead_ms += (t0.elapsed().as_secs_f64() * 1000.0 - call_ms).max(0.0);
     setup.run.update_episode(ep.cost_idx, &ep.cost);
-    (commands, model_ms)
+    model_ms
 }
 
 use std::sync::Arc;

@@ -260,9 +260,11 @@ impl Analysis {
 
 /// DejaVu Sans from the `dejavu` crate, so no system font is needed (as the report's plots).
 fn font() -> Result<(), HumanError> {
-    static REGISTERED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    let ok = *REGISTERED.get_or_init(|| plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular()).is_ok());
-    if ok { Ok(()) } else { Err(HumanError::Plot { message: "the embedded DejaVu Sans font did not load".into() }) }
+    if crate::plot::font_registered() {
+        Ok(())
+    } else {
+        Err(HumanError::Plot { message: "the embedded DejaVu Sans font did not load".into() })
+    }
 }
 
 /// Analyzes a study folder's ratings; writes `analysis.md` and `analysis.png` into it and
