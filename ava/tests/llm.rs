@@ -64,6 +64,11 @@ fn requests_carry_the_image_the_schema_and_the_key() {
         b["response_format"]["json_schema"]["schema"]["properties"]["actions"]["items"]["properties"]["ability"]["anyOf"][0]["enum"][0],
         "stimpack"
     );
+    // Strict decoding writes properties in the order the schema lists them: the schema goes
+    // out in the order of `required` (reasoning before actions, the unit first in an item).
+    let at = |k: &str| s.raw.find(&format!("\"{k}\":")).unwrap_or_else(|| panic!("{k} missing from {}", s.raw));
+    assert!(at("reasoning") < at("actions"), "{}", s.raw);
+    assert!(at("unit") < at("action") && at("action") < at("target") && at("target") < at("ability"), "{}", s.raw);
 }
 
 #[test]

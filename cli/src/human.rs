@@ -50,6 +50,11 @@ enum HumanCmd {
         /// Port (0: a free one; the URL is printed).
         #[arg(long, default_value_t = 8737)]
         port: u16,
+        /// A host name raters reach this machine by (repeatable). IP addresses and
+        /// `localhost` always work; other names in a request's Host header are refused, so a
+        /// web page elsewhere cannot reach the server through DNS rebinding.
+        #[arg(long = "allow-host", value_name = "NAME")]
+        allow_hosts: Vec<String>,
     },
     /// Un-blind the ratings and compare the kinds per metric (Mann-Whitney U); writes
     /// STUDY/analysis.md and STUDY/analysis.png.
@@ -83,9 +88,9 @@ pub fn run(a: &HumanArgs, out: &mut dyn Write) -> Result<()> {
             )?;
             Ok(())
         }
-        HumanCmd::Serve { study, addr, port } => {
-            let server =
-                Server::start(study, SocketAddr::new(*addr, *port)).with_context(|| format!("human-eval serve {}", study.display()))?;
+        HumanCmd::Serve { study, addr, port, allow_hosts } => {
+            let server = Server::start(study, SocketAddr::new(*addr, *port), allow_hosts)
+                .with_context(|| format!("human-eval serve {}", study.display()))?;
             if !addr.is_loopback() {
                 writeln!(out, "warning: listening on {addr}: anyone who can reach this machine can rate")?;
             }

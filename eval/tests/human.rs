@@ -176,10 +176,15 @@ fn database_keeps_one_rating_per_rater_and_replay() {
 /// One raw HTTP/1.1 request (so paths reach the server exactly as written): status, headers
 /// and body.
 fn http(addr: std::net::SocketAddr, method: &str, path: &str, body: &str) -> (u16, String, String) {
+    http_as(&addr.to_string(), addr, method, path, body)
+}
+
+/// [`http`] with the given `Host` header.
+fn http_as(host: &str, addr: std::net::SocketAddr, method: &str, path: &str, body: &str) -> (u16, String, String) {
     let mut s = std::net::TcpStream::connect(addr).unwrap();
     s.set_read_timeout(Some(std::time::Duration::from_secs(20))).unwrap();
     let req = format!(
-        "{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\nContent-Type: application/json\r\nContent-Length: {}\r\n\r\n{body}",
+        "{method} {path} HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\nContent-Type: application/json\r\nContent-Length: {}\r\n\r\n{body}",
         body.len()
     );
     s.write_all(req.as_bytes()).unwrap();
@@ -199,9 +204,28 @@ fn server_serves_only_the_study_and_checks_ratings() {
     // A frame that is a link out of the replays folder must not be followed.
     #[cfg(unix)]
     std::os::unix::fs::symlink(dir.path().join("key.json"), dir.path().join("replays/ra1/000001.png")).unwrap();
-    let server = Server::start(dir.path(), "127.0.0.1:0".parse().unwrap()).unwrap();
+    let server = Server::start(dir.path(), "127.0.0.1:0".parse().unwrap(), &["raters.lab".to_owned()]).unwrap();
     let addr = server.addr();
     assert!(addr.ip().is_loopback());
+
+    // DNS rebinding: a foreign name in Host is refused on every route, before anything else.
+    let port = addr.port();
+    for host in ["evil.example", &format!("evil.example:{port}"), "127.0.0.1.evil.example", "localhost.evil", "[::1", ""] {
+        for (method, path) in [("GET", "/"), ("GET", "/api/rater/alice"), ("POST", "/api/ratings")] {
+            let (st, _, body) = http_as(host, addr, method, path, "");
+            assert_eq!(st, 421, "Host {host:?}: {method} {path} answered {st}: {body}");
+            assert!(body.contains("Host header"), "{body}");
+        }
+    }
+    for host in [
+        format!("localhost:{port}"),
+        format!("LOCALHOST.:{port}"),
+        format!("[::1]:{port}"),
+        "raters.lab".into(),
+        format!("Raters.Lab:{port}"),
+    ] {
+        assert_eq!(http_as(&host, addr, "GET", "/api/study", "").0, 200, "Host {host:?}");
+    }
 
     let (st, head, body) = http(addr, "GET", "/", "");
     assert_eq!(st, 200);

@@ -1,12 +1,13 @@
-//! Runs the Python test suite (`python/tests/test_*.py`) under `cargo test`, against an
-//! extension built from the current source: `cargo build -p avacraft-python` into a target
-//! directory of its own (`target/pytest`: the outer `cargo test` holds the lock of the
-//! usual one), the library staged as `avacraft/_avacraft.abi3.so` next to copies of the
-//! pure-Python sources in a temporary directory, and that directory first on `PYTHONPATH`,
-//! so neither a stale build nor a `pip install`ed copy is what gets tested.
+//! Runs the Python test suite (`python/tests/test_*.py`) under `cargo test`, against the
+//! extension built from the current source by the same `cargo test`: the library is a
+//! `cdylib` and an `rlib`, so Cargo builds it (fresh, with this build's profile and features)
+//! before this test, next to the test binary in `deps/`. The library is staged as
+//! `avacraft/_avacraft.abi3.so` next to copies of the pure-Python sources in a temporary
+//! directory, and that directory first on `PYTHONPATH`, so neither a stale build nor a
+//! `pip install`ed copy is what gets tested.
 #![allow(clippy::unwrap_used)]
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
 use std::time::Instant;
 
@@ -16,9 +17,12 @@ fn python() -> String {
     std::env::var("PYTHON").unwrap_or_else(|_| "python3".into())
 }
 
-/// The built extension and the name Python imports it under.
-fn built_library(target: &Path) -> (PathBuf, &'static str) {
-    let dir = target.join("debug");
+/// The extension Cargo built for this test (in the test binary's own `deps/` folder: a
+/// library that is also a `cdylib` gets no hash in its file name) and the name Python
+/// imports it under.
+fn built_library() -> (PathBuf, &'static str) {
+    let exe = std::env::current_exe().unwrap();
+    let dir = exe.parent().unwrap().to_owned();
     if cfg!(target_os = "windows") {
         (dir.join("_avacraft.dll"), "_avacraft.pyd")
     } else if cfg!(target_os = "macos") {
@@ -31,7 +35,6 @@ fn built_library(target: &Path) -> (PathBuf, &'static str) {
 #[test]
 fn pytest_suite() {
     let crate_dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let root = crate_dir.parent().unwrap().to_owned();
     let py = python();
 
     let missing = Command::new(&py).args(["-c", "import numpy, pettingzoo, gymnasium, pytest"]).output().unwrap_or_else(|e| {
@@ -44,18 +47,6 @@ fn pytest_suite() {
     );
 
     let start = Instant::now();
-    let target = root.join("target").join("pytest");
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let status = Command::new(cargo)
-        .current_dir(&root)
-        .env_remove("CARGO_TARGET_DIR")
-        .args(["build", "--quiet", "-p", "avacraft-python", "--target-dir"])
-        .arg(&target)
-        .status()
-        .unwrap();
-    assert!(status.success(), "building the extension (cargo build -p avacraft-python) failed");
-    let built = start.elapsed();
-
     let stage = std::env::temp_dir().join(format!("avacraft-pytest-{}", std::process::id()));
     let pkg = stage.join("avacraft");
     let _ = std::fs::remove_dir_all(&stage);
@@ -67,8 +58,10 @@ fn pytest_suite() {
             std::fs::copy(&path, pkg.join(path.file_name().unwrap())).unwrap();
         }
     }
-    let (lib, name) = built_library(&target);
-    std::fs::copy(&lib, pkg.join(name)).unwrap_or_else(|e| panic!("{}: {e}", lib.display()));
+    let (lib, name) = built_library();
+    std::fs::copy(&lib, pkg.join(name)).unwrap_or_else(|e| {
+        panic!("{}: {e} (Cargo builds it before this test: is python/Cargo.toml's crate-type still cdylib and rlib?)", lib.display())
+    });
 
     // From the staging directory: `python -m` puts the working directory first on the path,
     // and python/ holds the sources without the extension.
@@ -87,6 +80,6 @@ fn pytest_suite() {
     let _ = std::fs::remove_dir_all(&stage);
     let stdout = String::from_utf8_lossy(&out.stdout);
     println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    println!("extension built in {:.1?}, pytest ran in {:.1?}", built, start.elapsed() - built);
+    println!("pytest ran in {:.1?}", start.elapsed());
     assert!(out.status.success(), "the Python test suite failed (see above)");
 }

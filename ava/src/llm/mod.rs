@@ -236,3 +236,64 @@ impl ChatModel for Scripted {
         false
     }
 }
+
+/// The schema's text with each object's properties in the order of its `required` list (the
+/// others after them, by name). Constrained decoders (llama.cpp's grammar, OpenAI's strict
+/// mode) make the model write the properties in the order the text lists them, and
+/// serde_json's maps list them by name: a decision item would start with `ability` and end
+/// with `unit`, and `actions` would come before `reasoning`. In the schema's own order the
+/// model names the unit first and reasons before it acts, as the schema's author meant.
+pub(crate) fn schema_text(schema: &Value) -> String {
+    fn write(v: &Value, order: Option<&Vec<Value>>, out: &mut String) {
+        match v {
+            Value::Object(map) => {
+                let rank = |k: &str| order.and_then(|o| o.iter().position(|r| r.as_str() == Some(k))).unwrap_or(usize::MAX);
+                let mut keys: Vec<&String> = map.keys().collect();
+                keys.sort_by_key(|k| rank(k)); // stable: the rest stay in name order
+                out.push('{');
+                for (i, k) in keys.into_iter().enumerate() {
+                    if i > 0 {
+                        out.push(',');
+                    }
+                    out.push_str(&Value::from(k.as_str()).to_string());
+                    out.push(':');
+                    let inner = if k == "properties" { map.get("required").and_then(Value::as_array) } else { None };
+                    write(&map[k], inner, out);
+                }
+                out.push('}');
+            }
+            Value::Array(items) => {
+                out.push('[');
+                for (i, x) in items.iter().enumerate() {
+                    if i > 0 {
+                        out.push(',');
+                    }
+                    write(x, None, out);
+                }
+                out.push(']');
+            }
+            scalar => out.push_str(&scalar.to_string()),
+        }
+    }
+    let mut out = String::new();
+    write(schema, None, &mut out);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::schema_text;
+    use serde_json::{Value, json};
+
+    #[test]
+    fn properties_are_listed_in_the_order_they_are_required() {
+        let schema = json!({"type": "object", "properties": {"b": {"type": "integer"}, "z": {"type": "object", "properties": {"y": {}, "x": {}}, "required": ["y", "x"]}, "a": {"enum": ["q\""]}},
+            "required": ["z", "b"]});
+        let text = schema_text(&schema);
+        assert_eq!(
+            text,
+            r#"{"properties":{"z":{"properties":{"y":{},"x":{}},"required":["y","x"],"type":"object"},"b":{"type":"integer"},"a":{"enum":["q\""]}},"required":["z","b"],"type":"object"}"#
+        );
+        assert_eq!(serde_json::from_str::<Value>(&text).ok(), Some(schema), "the same schema");
+    }
+}

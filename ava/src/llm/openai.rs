@@ -5,6 +5,7 @@
 use super::{ChatModel, ChatReply, ChatRequest, LlmError, Part, Role, Usage};
 use base64::Engine as _;
 use serde::{Deserialize, Serialize};
+use serde_json::value::RawValue;
 use serde_json::{Value, json};
 use std::time::{Duration, Instant};
 
@@ -50,8 +51,9 @@ impl OpenAi {
         OpenAi { cfg, url, agent }
     }
 
-    /// The request body.
-    pub fn body(&self, req: &ChatRequest) -> Value {
+    /// The request body, as sent. The schema keeps its properties in the order of `required`
+    /// ([`super::schema_text`]): in strict mode the model writes them in the order listed.
+    pub fn body(&self, req: &ChatRequest) -> Result<String, LlmError> {
         let messages: Vec<Value> = req
             .messages
             .iter()
@@ -80,26 +82,27 @@ impl OpenAi {
                 json!({"role": role, "content": content})
             })
             .collect();
-        let mut body = json!({
-            "model": self.cfg.model,
-            "messages": messages,
-            "temperature": req.sampling.temperature,
-            "top_p": req.sampling.top_p,
-            "max_tokens": req.sampling.max_tokens,
-        });
-        if let Some((name, schema)) = &req.schema {
-            let format = match self.cfg.schema_mode {
-                SchemaMode::JsonSchema => {
-                    Some(json!({"type": "json_schema", "json_schema": {"name": name, "schema": schema, "strict": true}}))
-                }
-                SchemaMode::JsonObject => Some(json!({"type": "json_object"})),
-                SchemaMode::None => None,
-            };
-            if let Some(f) = format {
-                body["response_format"] = f;
+        let response_format = match (&req.schema, self.cfg.schema_mode) {
+            (Some((name, schema)), SchemaMode::JsonSchema) => {
+                let schema = RawValue::from_string(super::schema_text(schema)).map_err(|e| self.envelope(e))?;
+                Some(ResponseFormat::JsonSchema { json_schema: JsonSchema { name, schema, strict: true } })
             }
-        }
-        body
+            (Some(_), SchemaMode::JsonObject) => Some(ResponseFormat::JsonObject),
+            (Some(_), SchemaMode::None) | (None, _) => None,
+        };
+        let body = Body {
+            model: &self.cfg.model,
+            messages,
+            temperature: req.sampling.temperature,
+            top_p: req.sampling.top_p,
+            max_tokens: req.sampling.max_tokens,
+            response_format,
+        };
+        serde_json::to_string(&body).map_err(|e| self.envelope(e))
+    }
+
+    fn envelope(&self, e: serde_json::Error) -> LlmError {
+        LlmError::Envelope { url: self.url.clone(), why: format!("cannot write the request: {e}") }
     }
 
     fn err_transport(&self, e: ureq::Error) -> LlmError {
@@ -108,6 +111,33 @@ impl OpenAi {
             e => LlmError::Transport { url: self.url.clone(), message: e.to_string() },
         }
     }
+}
+
+/// The request body; fields in the order servers document them.
+#[derive(Serialize)]
+struct Body<'a> {
+    model: &'a str,
+    messages: Vec<Value>,
+    temperature: f32,
+    top_p: f32,
+    max_tokens: u32,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    response_format: Option<ResponseFormat<'a>>,
+}
+
+#[derive(Serialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+enum ResponseFormat<'a> {
+    JsonSchema { json_schema: JsonSchema<'a> },
+    JsonObject,
+}
+
+#[derive(Serialize)]
+struct JsonSchema<'a> {
+    name: &'a str,
+    /// Written as [`super::schema_text`] orders it.
+    schema: Box<RawValue>,
+    strict: bool,
 }
 
 #[derive(Deserialize)]
@@ -146,13 +176,13 @@ impl ChatModel for OpenAi {
     }
 
     fn complete(&mut self, req: &ChatRequest) -> Result<ChatReply, LlmError> {
-        let body = self.body(req);
+        let body = self.body(req)?;
         let t0 = Instant::now();
         let mut call = self.agent.post(&self.url).header("Content-Type", "application/json");
         if let Some(key) = &self.cfg.key {
             call = call.header("Authorization", &format!("Bearer {key}"));
         }
-        let mut resp = call.send_json(&body).map_err(|e| self.err_transport(e))?;
+        let mut resp = call.send(body.as_str()).map_err(|e| self.err_transport(e))?;
         let status = resp.status().as_u16();
         let text = resp.body_mut().read_to_string().map_err(|e| self.err_transport(e))?;
         let latency_ms = t0.elapsed().as_secs_f64() * 1000.0;

@@ -44,6 +44,8 @@ pub struct Seen {
     pub authorization: Option<String>,
     pub content_type: Option<String>,
     pub body: Value,
+    /// The body as sent.
+    pub raw: String,
 }
 
 #[derive(Default)]
@@ -101,7 +103,12 @@ async fn chat(State(s): State<Arc<Mutex<Inner>>>, headers: HeaderMap, body: Stri
     let header = |k: &str| headers.get(k).and_then(|v| v.to_str().ok()).map(str::to_owned);
     let fault = {
         let mut g = s.lock().expect("lock");
-        g.seen.push(Seen { authorization: header("authorization"), content_type: header("content-type"), body: value.clone() });
+        g.seen.push(Seen {
+            authorization: header("authorization"),
+            content_type: header("content-type"),
+            body: value.clone(),
+            raw: body.clone(),
+        });
         g.faults.pop_front()
     };
     let answer = answer(&value);

@@ -255,7 +255,7 @@ ava = { model = { kind = "synthetic" }, record = "calls", config = { image = fal
         }
     }
 
-    let server = Server::start(&study, "127.0.0.1:0".parse().expect("addr")).expect("serve");
+    let server = Server::start(&study, "127.0.0.1:0".parse().expect("addr"), &[]).expect("serve");
     let url = server.url();
     let profile = dir.join("chromium-profile");
     let mut b = Browser::launch(&profile);

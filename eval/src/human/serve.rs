@@ -11,6 +11,11 @@
 //!   rater who stops and comes back goes on where they were);
 //! - `POST /api/ratings` with a [`Rating`]: 201, or 400 (bad name, score or comment), 404
 //!   (not a replay of the study) or 409 (rated already), each with `{"error": "..."}`.
+//!
+//! Every request must name this server by an IP address or `localhost` (or a name the
+//! operator allows) in its `Host` header, else 421: a page on another site that a rater
+//! opens could otherwise reach a loopback server through a DNS name resolving to 127.0.0.1
+//! (DNS rebinding) and read or forge ratings.
 
 use super::{DB_FILE, Db, HumanError, MANIFEST_FILE, METRICS, REPLAYS_DIR, Rating, check_rater, read_study, valid_id_shape};
 use axum::Json;
@@ -37,6 +42,8 @@ struct App {
     /// The canonical replays folder: every file sent must resolve inside it.
     replays: PathBuf,
     db: Mutex<Db>,
+    /// Host names answered besides IP literals and `localhost` (lower case, no port).
+    hosts: Vec<String>,
 }
 
 /// A running rating server (on its own thread); stopped when dropped.
@@ -55,13 +62,15 @@ impl std::fmt::Debug for App {
 
 impl Server {
     /// Opens the study (and its database, creating it) and starts serving on `addr` (port 0:
-    /// a free one; see [`Server::addr`]).
-    pub fn start(study: &Path, addr: SocketAddr) -> Result<Server, HumanError> {
+    /// a free one; see [`Server::addr`]). Requests are answered when their `Host` is an IP
+    /// address, `localhost` or one of `hosts` (for raters who reach a shared machine by name).
+    pub fn start(study: &Path, addr: SocketAddr, hosts: &[String]) -> Result<Server, HumanError> {
         let (s, _) = read_study(study)?;
         let replays_dir = study.join(REPLAYS_DIR);
         let replays = replays_dir.canonicalize().map_err(super::io(&replays_dir))?;
         let db = Db::open(&study.join(DB_FILE))?;
-        let app = Arc::new(App { ids: s.replays.iter().cloned().collect(), order: s.replays, replays, db: Mutex::new(db) });
+        let hosts = hosts.iter().map(|h| h.trim_end_matches('.').to_ascii_lowercase()).collect();
+        let app = Arc::new(App { ids: s.replays.iter().cloned().collect(), order: s.replays, replays, db: Mutex::new(db), hosts });
         let serve_err = |source| HumanError::Serve { addr: addr.to_string(), source };
         let listener = std::net::TcpListener::bind(addr).map_err(serve_err)?;
         listener.set_nonblocking(true).map_err(serve_err)?;
@@ -134,7 +143,47 @@ fn router(app: Arc<App>) -> axum::Router {
         .route("/api/rater/{name}", get(rater))
         .route("/api/ratings", post(submit))
         .route("/replays/{id}/{file}", get(replay_file))
+        .layer(axum::middleware::from_fn_with_state(Arc::clone(&app), check_host))
         .with_state(app)
+}
+
+async fn check_host(State(app): State<Arc<App>>, req: axum::extract::Request, next: axum::middleware::Next) -> Response {
+    let host = req.headers().get(header::HOST).and_then(|h| h.to_str().ok());
+    if host.is_some_and(|h| host_allowed(h, &app.hosts)) {
+        return next.run(req).await;
+    }
+    let shown: String = host.unwrap_or("(none)").chars().take(80).collect();
+    error(
+        StatusCode::MISDIRECTED_REQUEST,
+        format!(
+            "this server answers only to an IP address or localhost in the Host header, not {shown:?}: open it by its address, or start it with --allow-host NAME"
+        ),
+    )
+}
+
+/// Whether a `Host` header value (`name[:port]`, `[v6]:port`) names this server acceptably:
+/// an IP literal (a rebinding attack needs a DNS name), `localhost`, or an allowed name.
+pub(super) fn host_allowed(host: &str, allowed: &[String]) -> bool {
+    let name = if let Some(rest) = host.strip_prefix('[') {
+        match rest.split_once(']') {
+            Some((v6, port)) if port.is_empty() || port.strip_prefix(':').is_some_and(is_port) => {
+                return v6.parse::<std::net::Ipv6Addr>().is_ok();
+            }
+            _ => return false,
+        }
+    } else {
+        match host.rsplit_once(':') {
+            Some((name, port)) if is_port(port) => name,
+            Some(_) => return false,
+            None => host,
+        }
+    };
+    let name = name.trim_end_matches('.').to_ascii_lowercase();
+    !name.is_empty() && (name.parse::<std::net::Ipv4Addr>().is_ok() || name == "localhost" || allowed.contains(&name))
+}
+
+fn is_port(s: &str) -> bool {
+    !s.is_empty() && s.len() <= 5 && s.bytes().all(|b| b.is_ascii_digit())
 }
 
 fn asset(content_type: &'static str, body: &'static str) -> Response {
@@ -220,5 +269,34 @@ async fn replay_file(State(app): State<Arc<App>>, UrlPath((id, file)): UrlPath<(
             ([(header::CONTENT_TYPE, ct), (header::CACHE_CONTROL, "private, max-age=3600")], bytes).into_response()
         }
         Err(_) => not_found(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::host_allowed;
+
+    #[test]
+    fn only_ip_literals_localhost_and_allowed_names_pass() {
+        let allowed = ["study.lab".to_owned()];
+        for ok in ["127.0.0.1", "127.0.0.1:8737", "10.0.0.7:80", "[::1]:8737", "[::1]", "localhost", "LocalHost.:1", "study.lab:8737"] {
+            assert!(host_allowed(ok, &allowed), "{ok}");
+        }
+        for bad in [
+            "",
+            ":80",
+            "evil.com",
+            "evil.com:8737",
+            "127.0.0.1.evil.com",
+            "localhost.evil.com",
+            "[::1",
+            "[::1]x",
+            "[evil]:1",
+            "127.0.0.1:99999x",
+            "127.0.0.1:",
+            "study.lab.evil:1",
+        ] {
+            assert!(!host_allowed(bad, &allowed), "{bad}");
+        }
     }
 }

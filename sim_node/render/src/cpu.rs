@@ -7,8 +7,8 @@ use image::RgbImage;
 /// Draws scenes on the CPU.
 #[derive(Debug, Default, Clone)]
 pub struct CpuBackend {
-    xs: Vec<u32>,
-    ys: Vec<u32>,
+    /// A `Cells` primitive's columns as runs of pixels over the same cell: (first, end, cell).
+    runs: Vec<(u32, u32, u32)>,
 }
 
 fn blend(dst: &mut [u8], c: Rgba) {
@@ -18,7 +18,41 @@ fn blend(dst: &mut [u8], c: Rgba) {
         return;
     }
     for (d, &s) in dst.iter_mut().zip(&c.0[..3]) {
-        *d = ((s as u32 * a + *d as u32 * (255 - a) + 127) / 255) as u8;
+        *d = div255(s as u32 * a + *d as u32 * (255 - a));
+    }
+}
+
+/// `x / 255` rounded to nearest (`(x + 127) / 255`) for `x <= 255 * 255`, without a division:
+/// blending is most of the time of a screenshot's fog.
+#[inline]
+fn div255(x: u32) -> u8 {
+    let t = x + 128;
+    ((t + (t >> 8)) >> 8) as u8
+}
+
+/// Fills RGB pixels with one colour: the first pixel, then doubling copies (memcpy speed;
+/// VLM screenshots are mostly large flat areas).
+fn fill_rgb(px: &mut [u8], rgb: [u8; 3]) {
+    if px.len() < 3 {
+        return;
+    }
+    px[..3].copy_from_slice(&rgb);
+    let mut filled = 3;
+    while filled < px.len() {
+        let n = filled.min(px.len() - filled);
+        px.copy_within(..n, filled);
+        filled += n;
+    }
+}
+
+/// Pixels `xs` of one RGB row in colour `c`: copied when opaque, blended otherwise, left
+/// alone when fully transparent (which blending would leave as they are too).
+fn fill_span(row: &mut [u8], xs: std::ops::Range<u32>, c: Rgba) {
+    let px = &mut row[xs.start as usize * 3..xs.end as usize * 3];
+    match c.0[3] {
+        0 => {}
+        255 => fill_rgb(px, [c.0[0], c.0[1], c.0[2]]),
+        _ => px.chunks_exact_mut(3).for_each(|p| blend(p, c)),
     }
 }
 
@@ -47,9 +81,7 @@ impl CpuBackend {
             *img = RgbImage::new(scene.width, scene.height);
         }
         let bg = scene.background.0;
-        for px in img.as_mut().chunks_exact_mut(3) {
-            px.copy_from_slice(&bg[..3]);
-        }
+        fill_rgb(img.as_mut(), [bg[0], bg[1], bg[2]]);
         for p in &scene.prims {
             self.draw(p, img);
         }
@@ -66,27 +98,28 @@ impl CpuBackend {
         match p {
             Prim::Cells { rect, cols, rows, colors } => {
                 let (cw, ch) = ((rect[2] - rect[0]) / *cols as f32, (rect[3] - rect[1]) / *rows as f32);
-                let xr = span(rect[0], rect[2], w);
-                let yr = span(rect[1], rect[3], h);
-                self.xs.clear();
-                self.xs.extend(xr.clone().map(|x| (((x as f32 + 0.5 - rect[0]) / cw) as u32).min(cols - 1)));
-                self.ys.clear();
-                self.ys.extend(yr.clone().map(|y| (((y as f32 + 0.5 - rect[1]) / ch) as u32).min(rows - 1)));
-                for (y, &cy) in yr.zip(self.ys.iter()) {
-                    let row = &colors[(cy * cols) as usize..((cy + 1) * cols) as usize];
-                    for (x, &cx) in xr.clone().zip(self.xs.iter()) {
-                        let c = row[cx as usize];
-                        if c.0[3] != 0 {
-                            put(x, y, c);
-                        }
+                let cell_x = |x: u32| (((x as f32 + 0.5 - rect[0]) / cw) as u32).min(cols - 1);
+                self.runs.clear();
+                for x in span(rect[0], rect[2], w) {
+                    let cx = cell_x(x);
+                    match self.runs.last_mut() {
+                        Some(run) if run.2 == cx => run.1 = x + 1,
+                        _ => self.runs.push((x, x + 1, cx)),
+                    }
+                }
+                for y in span(rect[1], rect[3], h) {
+                    let cy = (((y as f32 + 0.5 - rect[1]) / ch) as u32).min(rows - 1);
+                    let cells = &colors[(cy * cols) as usize..((cy + 1) * cols) as usize];
+                    let row = &mut buf[y as usize * stride..(y as usize + 1) * stride];
+                    for &(x0, x1, cx) in &self.runs {
+                        fill_span(row, x0..x1, cells[cx as usize]);
                     }
                 }
             }
             Prim::Rect { rect, color } => {
+                let xs = span(rect[0], rect[2], w);
                 for y in span(rect[1], rect[3], h) {
-                    for x in span(rect[0], rect[2], w) {
-                        put(x, y, *color);
-                    }
+                    fill_span(&mut buf[y as usize * stride..(y as usize + 1) * stride], xs.clone(), *color);
                 }
             }
             Prim::Disc { c, r, color } => {
@@ -122,10 +155,9 @@ impl CpuBackend {
                 }
             }
             Prim::Text { pos, scale, text, color } => crate::font::runs(*pos, *scale, text, |r| {
+                let xs = span(r[0], r[2], w);
                 for y in span(r[1], r[3], h) {
-                    for x in span(r[0], r[2], w) {
-                        put(x, y, *color);
-                    }
+                    fill_span(&mut buf[y as usize * stride..(y as usize + 1) * stride], xs.clone(), *color);
                 }
             }),
         }
@@ -195,6 +227,13 @@ mod tests {
         assert_eq!(img.get_pixel(4, 4).0, [255, 0, 0]);
         assert_eq!(img.get_pixel(7, 5).0, [0, 0, 0], "centre (7.5, 5.5) is 2.55 away");
         assert_eq!(img.get_pixel(0, 0).0, [0, 0, 0]);
+    }
+
+    #[test]
+    fn div255_rounds_as_the_division_does() {
+        for x in 0..=255 * 255 {
+            assert_eq!(div255(x) as u32, (x + 127) / 255, "{x}");
+        }
     }
 
     #[test]
