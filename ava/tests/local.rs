@@ -256,9 +256,22 @@ fn a_whole_3m_episode_is_played_by_the_local_model() {
     assert_eq!((c.total.prompt_tokens, c.total.completion_tokens), (usage(|u| u.prompt_tokens), usage(|u| u.completion_tokens)));
     assert_eq!(c.transport_failures, 0, "{c:?}");
 
-    // Every answer the grammar let close is JSON of the schema, naming only tags the schema
-    // allowed (the recording keeps the schema's name, not the schema: the team's tags stand
-    // in for the alive units it named); an answer cut by max_tokens is refused (and counted).
+    // Every answer the grammar let close is JSON of the schema the call was asked with (the
+    // recording keeps it, in the order asked), naming only tags it allowed: the alive units
+    // of the team and the enemies in sight. An answer cut by max_tokens is refused (and
+    // counted).
+    let tags = |r: &avacraft_ava::llm::CallRecord| {
+        let file = r.schema_file.as_ref().expect("the recording keeps each call's schema");
+        let text = std::fs::read_to_string(dir.join(file)).expect("the schema's file");
+        assert!(text.find("\"reasoning\"") < text.find("\"actions\""), "kept in the order asked: {text}");
+        let schema: serde_json::Value = serde_json::from_str(&text).expect("the schema is JSON");
+        let item = &schema["properties"]["actions"]["items"]["properties"];
+        let ints =
+            |v: &serde_json::Value| v.as_array().map(|a| a.iter().filter_map(|t| t.as_u64()).map(|t| t as u32).collect::<Vec<u32>>());
+        let units = ints(&item["unit"]["enum"]).expect("a unit enum");
+        let targets = ints(&item["target"]["anyOf"][0]["enum"]).unwrap_or_default();
+        (units, targets)
+    };
     let start = {
         let sc = std::sync::Arc::new(avacraft_engine::Scenario::load("3m").expect("3m"));
         let mut env = avacraft_engine::Env::new(sc, avacraft_engine::EnvConfig::default(), 5);
@@ -280,9 +293,16 @@ fn a_whole_3m_episode_is_played_by_the_local_model() {
         let v = extract_json(&reply.text).unwrap_or_else(|e| panic!("decision {}: {e}: {}", r.decision, reply.text));
         let (items, refused) = parse_items(&v, "actions").unwrap_or_else(|e| panic!("{e}: {}", reply.text));
         assert!(refused.is_empty(), "every item fits the schema: {refused:?}");
+        let (units, targets) = tags(r);
+        assert!(!units.is_empty() && units.iter().all(|u| own.contains(u)), "the schema offers our units only: {units:?}");
+        assert!(targets.iter().all(|t| enemies.contains(t)), "the schema offers enemies only: {targets:?}");
         for (_, it) in &items {
-            assert!(own.contains(&it.unit), "unit {} is one of ours {own:?}: {}", it.unit, reply.text);
-            assert!(it.target.is_none_or(|t| enemies.contains(&t)), "Marines target enemies {enemies:?}: {}", reply.text);
+            assert!(units.contains(&it.unit), "unit {} is one the schema allowed {units:?}: {}", it.unit, reply.text);
+            assert!(
+                it.target.is_none_or(|t| targets.contains(&t)),
+                "Marines target enemies the schema allowed {targets:?}: {}",
+                reply.text
+            );
         }
         assert!(items.len() <= own.len(), "{}", reply.text);
         items_total += items.len() as u64;

@@ -2,13 +2,12 @@
 //! commands that run it, and its cost report.
 
 use anyhow::{Context, Result, bail};
-use avacraft_ava::cost::{EpisodeCost, PriceTable};
-use avacraft_ava::llm::{ChatModel, ChatReply, ChatRequest, LlmError, OpenAi, OpenAiConfig, Part, Recorder, Replay, SchemaMode};
-use avacraft_ava::{AvaConfig, AvaRun, AvaSetup, Prompts, Timing};
+use avacraft_ava::cost::EpisodeCost;
+use avacraft_ava::llm::{ChatModel, ChatReply, ChatRequest, LlmError, Part, SchemaMode};
+use avacraft_ava::{AvaConfig, AvaRun, AvaSetup, AvaSpec, ModelSpec, Timing};
 use clap::Args;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 /// The policy name that selects AVA.
 pub const AVA: &str = "ava";
@@ -150,31 +149,17 @@ impl AvaArgs {
         Ok(cfg)
     }
 
-    /// Everything AVA agents of this run share. Returns the setup and the recording folder.
-    pub fn setup(&self, scenario: &str, seed: u64) -> Result<(AvaSetup, Option<PathBuf>)> {
-        let config = self.config()?;
-        let prompts = match &self.prompts {
-            Some(d) => Prompts::from_dir(d)?,
-            None => Prompts::builtin()?,
-        };
-        let prices = match &self.llm_prices {
-            Some(p) => {
-                let text = std::fs::read_to_string(p).with_context(|| format!("--llm-prices {}", p.display()))?;
-                PriceTable::from_toml(&p.display().to_string(), &text)?
-            }
-            None => PriceTable::builtin(),
-        };
-        let record_dir = match (&self.llm_record, &self.llm_replay) {
-            (Some(d), _) => Some(d.clone()),
-            (None, None) => Some(fresh_dir(scenario, seed)),
-            (None, Some(_)) => None,
-        };
-        let model: Box<dyn ChatModel> = if self.dry_run {
-            Box::new(DryRun { out: record_dir.clone().unwrap_or_default(), shown: 0 })
+    /// The flags as the settings a launch file's `ava:` block or Python's `avacraft.Ava` give:
+    /// one [`AvaSpec`], so all three are checked and set up by the same code. `record` is the
+    /// recording folder (`--llm-record`, or a new one under runs/ unless replaying).
+    pub fn spec(&self, scenario: &str, seed: u64) -> Result<AvaSpec> {
+        let model = if self.dry_run {
+            // The dry run's own stand-in replaces it; nothing is loaded or called.
+            ModelSpec::Synthetic
         } else if let Some(dir) = &self.llm_replay {
-            Box::new(Replay::open(dir).with_context(|| format!("--llm-replay {}", dir.display()))?)
-        } else if let Some(model) = &self.llm_local {
-            self.local(model, &config, seed)?
+            ModelSpec::Replay { dir: dir.clone() }
+        } else if let Some(path) = &self.llm_local {
+            self.local(path, seed)?
         } else {
             let Some(url) = &self.llm_url else {
                 bail!(
@@ -183,52 +168,60 @@ impl AvaArgs {
                 )
             };
             let Some(model) = &self.llm_model else { bail!("--llm-url needs --llm-model NAME (or AVACRAFT_LLM_MODEL)") };
-            if !(self.llm_timeout.is_finite() && self.llm_timeout > 0.0) {
-                bail!("--llm-timeout must be a positive number of seconds");
-            }
-            let key = std::env::var(&self.llm_key_env).ok().filter(|k| !k.is_empty());
-            Box::new(OpenAi::new(OpenAiConfig {
-                base_url: url.clone(),
+            ModelSpec::Openai {
+                url: url.clone(),
                 model: model.clone(),
-                key,
+                key_env: self.llm_key_env.clone(),
                 timeout_s: self.llm_timeout,
-                schema_mode: self.llm_schema,
-            }))
+                schema: self.llm_schema,
+            }
         };
-        let recorder = match &record_dir {
-            Some(d) => Some(Recorder::create(d).with_context(|| format!("recording AVA's calls in {}", d.display()))?),
-            None => None,
+        let record = match (&self.llm_record, &self.llm_replay) {
+            (Some(d), _) => Some(d.clone()),
+            (None, None) => Some(fresh_dir(scenario, seed)),
+            (None, Some(_)) => None,
         };
-        let retriever = avacraft_ava::kb::retriever(config.retriever)?;
-        let setup = AvaSetup { config: Arc::new(config), run: AvaRun::new(model, recorder, prices), prompts: Arc::new(prompts), retriever };
-        Ok((setup, record_dir))
+        Ok(AvaSpec { model, config: self.config()?, record, prices: self.llm_prices.clone(), prompts: self.prompts.clone() })
     }
-}
 
-impl AvaArgs {
-    /// The `--llm-local` model, sampling with the episode's seed: made from the same
-    /// [`ModelSpec`] a launch file's `ava:` block or Python would give, and checked the same way.
-    #[cfg(feature = "local")]
-    fn local(&self, path: &str, config: &AvaConfig, seed: u64) -> Result<Box<dyn ChatModel>> {
-        let spec = avacraft_ava::AvaSpec {
-            model: avacraft_ava::ModelSpec::Local {
-                path: PathBuf::from(path),
-                mmproj: self.llm_mmproj.clone(),
-                n_ctx: self.llm_ctx,
-                n_threads: self.llm_threads,
-                seed,
-            },
-            config: config.clone(),
-            record: None,
-            prices: None,
-            prompts: None,
+    /// Everything AVA agents of this run share. Returns the setup and the recording folder.
+    pub fn setup(&self, scenario: &str, seed: u64) -> Result<(AvaSetup, Option<PathBuf>)> {
+        let spec = self.spec(scenario, seed)?;
+        let flag = match &spec.model {
+            ModelSpec::Openai { .. } => "--llm-url, --llm-model, --llm-timeout",
+            ModelSpec::Replay { .. } => "--llm-replay",
+            #[cfg(feature = "local")]
+            ModelSpec::Local { .. } => "--llm-local",
+            ModelSpec::Synthetic => "AVA settings",
         };
-        spec.validate().context("--llm-local")?;
-        spec.model().context("--llm-local")
+        spec.validate().context(flag)?;
+        let setup = if self.dry_run {
+            let out = spec.record.clone().unwrap_or_default();
+            spec.setup_with(Box::new(DryRun { out, shown: 0 }), None)
+        } else {
+            spec.setup(None)
+        };
+        let setup = setup.with_context(|| match &spec.record {
+            Some(d) => format!("{flag} (recording AVA's calls in {})", d.display()),
+            None => flag.to_owned(),
+        })?;
+        Ok((setup, spec.record.clone()))
+    }
+
+    /// The `--llm-local` model, sampling with the episode's seed.
+    #[cfg(feature = "local")]
+    fn local(&self, path: &str, seed: u64) -> Result<ModelSpec> {
+        Ok(ModelSpec::Local {
+            path: PathBuf::from(path),
+            mmproj: self.llm_mmproj.clone(),
+            n_ctx: self.llm_ctx,
+            n_threads: self.llm_threads,
+            seed,
+        })
     }
 
     #[cfg(not(feature = "local"))]
-    fn local(&self, _path: &str, _config: &AvaConfig, _seed: u64) -> Result<Box<dyn ChatModel>> {
+    fn local(&self, _path: &str, _seed: u64) -> Result<ModelSpec> {
         bail!("--llm-local: this avacraft was built without the `local` feature (cargo build -p avacraft-cli --features local)")
     }
 }

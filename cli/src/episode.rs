@@ -115,6 +115,10 @@ pub struct Report {
     /// AVA's accounting per episode and team, when AVA played.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub ava: Vec<avacraft_ava::cost::EpisodeCost>,
+    /// With `--launch`: each AVA node's accounting (agent node or commander id to its
+    /// episodes), as each node's `costs.json` holds it when deployed.
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub ava_nodes: std::collections::BTreeMap<String, Vec<avacraft_ava::cost::EpisodeCost>>,
 }
 
 fn rate(xs: impl Iterator<Item = f64>) -> Rate {
@@ -136,12 +140,14 @@ struct Setup {
     opponent: Option<OpponentKind>,
     /// AVA's shared run and its recording folder, when AVA plays a side.
     ava: Option<(avacraft_ava::AvaSetup, Option<std::path::PathBuf>)>,
+    /// With `--launch`: each AVA node's run, in the file's order.
+    nodes: Vec<(String, Arc<avacraft_ava::AvaRun>)>,
 }
 
 fn setup(a: &EpisodeArgs) -> Result<Setup> {
     if let Some(path) = &a.launch {
         let plan = avacraft_launch::load(path)?;
-        let controllers = plan.controllers()?;
+        let (controllers, runs) = plan.controllers_and_runs()?;
         let names = controllers.names();
         return Ok(Setup {
             cfg: plan.env_config(),
@@ -152,6 +158,7 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
             opponent: plan.opponent,
             controllers,
             ava: None,
+            nodes: runs.into_iter().map(|(id, run)| (id.to_string(), run)).collect(),
         });
     }
     if a.episodes == 0 {
@@ -198,7 +205,7 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
         ..EnvConfig::default()
     };
     let seeds = (0..a.episodes as u64).map(|k| a.seed.wrapping_add(k)).collect();
-    Ok(Setup { scenario, cfg, controllers, seeds, agent: a.agent.clone(), agent2: pvp.then_some(agent2), opponent, ava })
+    Ok(Setup { scenario, cfg, controllers, seeds, agent: a.agent.clone(), agent2: pvp.then_some(agent2), opponent, ava, nodes: Vec::new() })
 }
 
 /// `team` played by one agent of the policy `name` (a scripted agent or `marl:DIR`), checked
@@ -210,7 +217,7 @@ fn team_agent(scenario: &Scenario, team: Team, name: &str, flag: &str) -> Result
 }
 
 pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
-    let Setup { scenario, cfg, mut controllers, seeds, agent, agent2, opponent, ava } = setup(a)?;
+    let Setup { scenario, cfg, mut controllers, seeds, agent, agent2, opponent, ava, nodes } = setup(a)?;
     let bar = if a.json || !std::io::stderr().is_terminal() { ProgressBar::hidden() } else { ProgressBar::new(seeds.len() as u64) };
     bar.set_style(ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} episodes ({eta})")?.progress_chars("=> "));
     bar.set_message(scenario.name.clone());
@@ -297,7 +304,8 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
         None => Vec::new(),
     };
     if a.json {
-        writeln!(out, "{}", serde_json::to_string_pretty(&Report { summary, episodes: records, ava: ava_costs })?)?;
+        let ava_nodes = nodes.iter().map(|(id, run)| (id.clone(), run.episodes())).collect();
+        writeln!(out, "{}", serde_json::to_string_pretty(&Report { summary, episodes: records, ava: ava_costs, ava_nodes })?)?;
         return Ok(());
     }
     let who = match (&summary.opponent, &summary.agent2) {
@@ -331,6 +339,11 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
     }
     if let Some((s, dir)) = &ava {
         crate::ava::report(&s.run, dir.as_deref(), out, false)?;
+    }
+    // Each node's costs.json is written by the node's run itself when it records.
+    for (id, run) in &nodes {
+        writeln!(out, "AVA node {id}:")?;
+        crate::ava::report(run, None, out, false)?;
     }
     let _ = team_of;
     Ok(())

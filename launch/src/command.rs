@@ -3,7 +3,7 @@
 //! role group with a distinct `role` and the units it starts with.
 
 use crate::{AgentPlan, Cx, LaunchError, PolicyError};
-use avacraft_ava::{AvaCommander, AvaSpec, CallObserver};
+use avacraft_ava::{AvaCommander, AvaRun, AvaSpec, CallObserver};
 use avacraft_engine::agent::{GroupRole, MakeCommander, Rotate};
 use avacraft_nodes::{AgentId, TeamNo};
 use std::sync::Arc;
@@ -29,11 +29,17 @@ impl CommanderPolicy {
 
     /// [`CommanderPolicy::factory_for`], with AVA's calls also handed to `observer`.
     pub fn factory_observed(&self, agent: &str, observer: Option<CallObserver>) -> Result<MakeCommander, PolicyError> {
+        self.factory_run(agent, observer).map(|(f, _)| f)
+    }
+
+    /// [`CommanderPolicy::factory_observed`], and for AVA its run (the node's accounting).
+    pub fn factory_run(&self, agent: &str, observer: Option<CallObserver>) -> Result<(MakeCommander, Option<Arc<AvaRun>>), PolicyError> {
         match self {
-            CommanderPolicy::Rotate => Ok(Box::new(|| Box::new(Rotate::new(ROTATE_EVERY)))),
+            CommanderPolicy::Rotate => Ok((Box::new(|| Box::new(Rotate::new(ROTATE_EVERY))), None)),
             CommanderPolicy::Ava(spec) => {
                 let setup = crate::policy::ava_setup(spec, agent, observer)?;
-                Ok(Box::new(move || Box::new(AvaCommander::new(setup.clone()))))
+                let run = setup.run.clone();
+                Ok((Box::new(move || Box::new(AvaCommander::new(setup.clone()))), Some(run)))
             }
         }
     }

@@ -4,6 +4,7 @@
 //! and the value.
 #![forbid(unsafe_code)]
 
+use avacraft_ava::AvaRun;
 use avacraft_engine::agent::{AgentTeam, CommandedTeam, GroupRole, Grouping, RoleGroupSpec};
 use avacraft_engine::{Controllers, Env, EnvConfig, Mode, OpponentKind, Scenario, Team};
 mod command;
@@ -200,28 +201,39 @@ impl Plan {
     /// so `episode --launch` plays the games the lockstep deployment plays. Agents driven from
     /// DDS have no in-process counterpart.
     pub fn controllers(&self) -> Result<Controllers, LaunchError> {
+        self.controllers_and_runs().map(|(c, _)| c)
+    }
+
+    /// [`Plan::controllers`], and the run (calls, tokens, dollars) of each AVA node, in the
+    /// file's order: what `avacraft episode --launch` reports.
+    pub fn controllers_and_runs(&self) -> Result<(Controllers, NodeRuns), LaunchError> {
         let mut teams = Vec::new();
         let mut commanded = Vec::new();
+        let mut runs = Vec::new();
         for c in &self.commanders {
-            let make = c.policy.factory_for(c.id.as_str()).map_err(|e| Cx(&self.file).policy_err("agents", &c.policy.to_string(), e))?;
+            let (make, run) =
+                c.policy.factory_run(c.id.as_str(), None).map_err(|e| Cx(&self.file).policy_err("agents", &c.policy.to_string(), e))?;
+            runs.extend(run.map(|r| (c.id.clone(), r)));
             let mut groups = Vec::new();
             for (i, a) in self.agents.iter().enumerate().filter(|(_, a)| a.team == c.team) {
-                let make = a
+                let (make, run) = a
                     .policy
-                    .factory_for(a.id.as_str())
+                    .factory_run(a.id.as_str(), None)
                     .map_err(|e| Cx(&self.file).policy_err(format!("agents[{i}].policy"), &a.policy.to_string(), e))?;
+                runs.extend(run.map(|r| (a.id.clone(), r)));
                 groups.push(RoleGroupSpec { role: a.role.unwrap_or_default(), initial: a.units.iter().map(|u| u.get()).collect(), make });
             }
             commanded.push(CommandedTeam::new(c.team.team(), make, groups));
         }
         for (i, a) in self.agents.iter().enumerate().filter(|(_, a)| !self.commanders.iter().any(|c| c.team == a.team)) {
-            let make = a
+            let (make, run) = a
                 .policy
-                .factory_for(a.id.as_str())
+                .factory_run(a.id.as_str(), None)
                 .map_err(|e| Cx(&self.file).policy_err(format!("agents[{i}].policy"), &a.policy.to_string(), e))?;
+            runs.extend(run.map(|r| (a.id.clone(), r)));
             teams.push(AgentTeam::new(a.team.team(), Grouping::Groups(vec![a.units.iter().map(|u| u.get()).collect()]), make));
         }
-        Ok(Controllers::new(&self.scenario, teams).with_commanded(&self.scenario, commanded))
+        Ok((Controllers::new(&self.scenario, teams).with_commanded(&self.scenario, commanded), runs))
     }
 
     /// The host that runs the router, the simulator and the recorder.
@@ -234,6 +246,9 @@ impl Plan {
         self.agents.iter().flat_map(|a| a.units.iter().map(move |u| (*u, a.id.clone()))).collect()
     }
 }
+
+/// Each AVA node's run (its calls, tokens and dollars), by node.
+pub type NodeRuns = Vec<(AgentId, Arc<AvaRun>)>;
 
 /// Why a launch file was refused.
 #[derive(Debug, Clone, thiserror::Error)]

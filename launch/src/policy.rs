@@ -10,7 +10,7 @@
 //! scenario or team size. The loaded network is shared (`Arc`) by every agent made from it:
 //! the per-unit agents of one launch entry load the file once.
 
-use avacraft_ava::{AvaAgent, AvaSetup, AvaSpec, CallObserver};
+use avacraft_ava::{AvaAgent, AvaRun, AvaSetup, AvaSpec, CallObserver};
 use avacraft_engine::agent::{AGENTS, Agent, factory};
 use avacraft_engine::{Scenario, SmacLayout, Team};
 use avacraft_marl::{MarlAgent, Policy};
@@ -199,12 +199,19 @@ impl PolicySpec {
     /// [`PolicySpec::factory_for`], with AVA's calls also handed to `observer` (an agent
     /// node publishes them); other policies make no calls.
     pub fn factory_observed(&self, agent: &str, observer: Option<CallObserver>) -> Result<AgentFactory, PolicyError> {
+        self.factory_run(agent, observer).map(|(f, _)| f)
+    }
+
+    /// [`PolicySpec::factory_observed`], and for AVA its run (the node's accounting), so that
+    /// a caller playing the launch file in-process can report each node's costs.
+    pub fn factory_run(&self, agent: &str, observer: Option<CallObserver>) -> Result<(AgentFactory, Option<Arc<AvaRun>>), PolicyError> {
         match self {
             PolicySpec::Ava(spec) => {
                 let setup = ava_setup(spec, agent, observer)?;
-                Ok(Box::new(move || Box::new(AvaAgent::new(setup.clone()))))
+                let run = setup.run.clone();
+                Ok((Box::new(move || Box::new(AvaAgent::new(setup.clone()))), Some(run)))
             }
-            other => other.factory(),
+            other => Ok((other.factory()?, None)),
         }
     }
 

@@ -144,7 +144,7 @@ impl AvaRun {
             cost.by_stage.entry(req.stage).or_default().add_call(usage, latency, cost_usd, failed);
             let inner = &mut *g;
             if inner.recorder.is_some() || inner.observer.is_some() {
-                let record = |messages| CallRecord {
+                let record = |messages, schema_file| CallRecord {
                     seq: 0,
                     episode: meta.episode,
                     seed: meta.seed,
@@ -159,20 +159,23 @@ impl AvaRun {
                     request_hash: hash.clone(),
                     messages,
                     schema: req.schema.as_ref().map(|s| s.0.clone()),
+                    schema_file,
                     sampling: req.sampling,
                     reply: result.as_ref().ok().cloned(),
                     error: result.as_ref().err().cloned(),
                     cost_usd,
                 };
                 let record = match inner.recorder.as_mut() {
-                    Some(rec) => match rec.store(req).and_then(|messages| rec.write(record(messages))) {
-                        Ok(r) => Some(r),
-                        Err(e) => {
-                            inner.fatal.get_or_insert_with(|| format!("recording: {e}"));
-                            None
+                    Some(rec) => {
+                        match rec.store(req).and_then(|m| Ok((m, rec.store_schema(req)?))).and_then(|(m, s)| rec.write(record(m, s))) {
+                            Ok(r) => Some(r),
+                            Err(e) => {
+                                inner.fatal.get_or_insert_with(|| format!("recording: {e}"));
+                                None
+                            }
                         }
-                    },
-                    None => Some(record(crate::llm::unstored(req))),
+                    }
+                    None => Some(record(crate::llm::unstored(req), None)),
                 };
                 if let (Some(r), Some(observe)) = (record, inner.observer.as_mut()) {
                     observe(&r, req);

@@ -1,8 +1,9 @@
 //! Every model call of a run, kept: `calls.jsonl` in the run folder (one line per call,
-//! written and flushed before its answer is used, so a crash loses nothing already asked)
-//! and each image once as `images/<hash>.png`. [`Replay`] answers from that file, in order,
-//! and checks that each request is the one recorded: an AVA episode then re-simulates
-//! exactly without calling any model.
+//! written and flushed before its answer is used, so a crash loses nothing already asked),
+//! each image once as `images/<hash>.png` and each answer schema once as
+//! `schemas/<hash>.json` (in the order the model was asked to write it). [`Replay`] answers
+//! from that file, in order, and checks that each request is the one recorded: an AVA
+//! episode then re-simulates exactly without calling any model.
 
 use super::{ChatModel, ChatReply, ChatRequest, LlmError, Part, Role, Sampling, Stage};
 use serde::{Deserialize, Serialize};
@@ -48,7 +49,13 @@ pub struct CallRecord {
     pub prompts: String,
     pub request_hash: String,
     pub messages: Vec<StoredMessage>,
+    /// The answer schema's name.
     pub schema: Option<String>,
+    /// The schema itself, in the recording (`schemas/<hash>.json`): it changes from call to
+    /// call (the tags and abilities there are), so what the model could answer is known.
+    /// Absent in recordings made before it was kept, and for calls not recorded to disk.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub schema_file: Option<String>,
     pub sampling: Sampling,
     pub reply: Option<ChatReply>,
     pub error: Option<LlmError>,
@@ -83,6 +90,7 @@ pub struct Recorder {
     dir: PathBuf,
     file: std::fs::File,
     images: BTreeSet<String>,
+    schemas: BTreeSet<String>,
     seq: u64,
 }
 
@@ -94,6 +102,7 @@ impl Recorder {
     /// Starts a recording in `dir` (created if missing); refused if it already holds one.
     pub fn create(dir: &Path) -> Result<Recorder, RecordError> {
         std::fs::create_dir_all(dir.join("images")).map_err(io(dir, "cannot create the folder"))?;
+        std::fs::create_dir_all(dir.join("schemas")).map_err(io(dir, "cannot create the folder"))?;
         let path = dir.join(CALLS_FILE);
         let file = std::fs::OpenOptions::new().write(true).create_new(true).open(&path).map_err(|e| {
             if e.kind() == std::io::ErrorKind::AlreadyExists {
@@ -102,7 +111,7 @@ impl Recorder {
                 io(&path, "cannot create")(e)
             }
         })?;
-        Ok(Recorder { dir: dir.to_path_buf(), file, images: BTreeSet::new(), seq: 0 })
+        Ok(Recorder { dir: dir.to_path_buf(), file, images: BTreeSet::new(), schemas: BTreeSet::new(), seq: 0 })
     }
 
     pub fn dir(&self) -> &Path {
@@ -130,6 +139,18 @@ impl Recorder {
             out.push(StoredMessage { role: m.role, parts });
         }
         Ok(out)
+    }
+
+    /// Where the request's schema is kept in the recording, writing it if not yet written.
+    pub fn store_schema(&mut self, req: &ChatRequest) -> Result<Option<String>, RecordError> {
+        let Some((_, schema)) = &req.schema else { return Ok(None) };
+        let text = super::schema_text(schema);
+        let file = format!("schemas/{:016x}.json", xxhash_rust::xxh3::xxh3_64(text.as_bytes()));
+        if self.schemas.insert(file.clone()) {
+            let path = self.dir.join(&file);
+            std::fs::write(&path, text).map_err(io(&path, "cannot write the schema"))?;
+        }
+        Ok(Some(file))
     }
 
     /// Appends a record (its `seq` is set here) and flushes it to disk; returns it as written.

@@ -533,6 +533,15 @@ fn an_ava_commander_and_its_role_groups_play_the_same_game_deployed_and_in_proce
         let text = std::fs::read_to_string(dir.join(id).join("calls.jsonl")).unwrap_or_else(|e| panic!("{id} records its calls: {e}"));
         text.lines().map(|l| serde_json::from_str::<avacraft_ava::llm::CallRecord>(l).expect("a call record")).collect::<Vec<_>>()
     };
+    // `episode --launch` reports each AVA node's accounting, as the node's costs.json has it.
+    for id in ["cmd", "front", "back"] {
+        let costs = &local["ava_nodes"][id];
+        let episodes = costs.as_array().unwrap_or_else(|| panic!("{id}'s costs in the report: {local}"));
+        let n: u64 = episodes.iter().map(|e| e["total"]["calls"].as_u64().expect("calls")).sum();
+        assert_eq!(n, calls(&local_calls, id).len() as u64, "{id}: {costs}");
+        let file = std::fs::read_to_string(local_calls.join(id).join("costs.json")).expect("each node leaves costs.json");
+        assert_eq!(&serde_json::from_str::<serde_json::Value>(&file).expect("json"), costs, "{id}");
+    }
     let stages = |c: &[avacraft_ava::llm::CallRecord]| c.iter().map(|c| c.stage).collect::<std::collections::BTreeSet<_>>();
     use avacraft_ava::llm::Stage;
     let cmd = calls(&deployed_calls, "cmd");
