@@ -66,6 +66,12 @@ pub struct BenchArgs {
     /// same vector environment stepped with random actions in the same run.
     #[arg(long, conflicts_with_all = ["deploy", "bridge", "render", "scaling", "vec"])]
     train: bool,
+    /// With --train: the learners' goal rows (IPPO and MAPPO with JaxMARL's settings on 3m
+    /// and 2s3z, QMIX with PyMARL's defaults and feed-forward, MAPPO rgb and vision-text),
+    /// each against its goal, `--steps` steps each (default 153600; the image modes one or two
+    /// rollouts of their config).
+    #[arg(long, requires = "train", conflicts_with = "algo")]
+    goals: bool,
     /// Algorithms of the training benchmark (default: all six).
     #[arg(long, num_args = 1.., requires = "train")]
     algo: Vec<String>,
@@ -389,8 +395,14 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
         };
         let algos: Vec<String> =
             if a.algo.is_empty() { avacraft_marl::ALGOS.iter().map(|s| (*s).to_owned()).collect() } else { a.algo.clone() };
-        let b =
-            crate::bench_train::TrainBench { algos: &algos, scenario, steps: a.steps.unwrap_or(10_000), overrides: &a.set, json: a.json };
+        let b = crate::bench_train::TrainBench {
+            algos: &algos,
+            scenario,
+            steps: a.steps.unwrap_or(if a.goals { 153_600 } else { 10_000 }),
+            overrides: &a.set,
+            json: a.json,
+            goals: a.goals,
+        };
         return crate::bench_train::run(&b, out);
     }
     if a.ava {

@@ -4,7 +4,7 @@
 //! (with the environment `avacraft train` sets for itself: see the `ppo` module's docs).
 
 use avacraft_engine::Scenario;
-use avacraft_marl::ppo::{CriticInput, MASKED, PpoBatch, PpoLearner, Rollout};
+use avacraft_marl::ppo::{CriticInput, FlatBatch, MASKED, PpoLearner, Rollout};
 use avacraft_marl::{Config, train::shape_of};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -38,32 +38,34 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     r.keep = (0..n).map(|i| if i % 23 == 0 { 0.0 } else { 1.0 }).collect();
     let adv = rand(n);
     let targets = rand(n);
-    let batch = PpoBatch::new(&r, &adv, &targets, cfg.data_chunk_length, h)?;
+    let flat = FlatBatch::new(&r, &adv, &targets, cfg.data_chunk_length)?;
+    let mb = cfg.num_mini_batch.max(1);
+    let idx: Vec<u32> = (0..(flat.len() / mb) as u32).collect();
+    let part = flat.select(&idx);
+    let batch = part.tensors(h)?;
     let mut l = PpoLearner::new(&cfg, shape, 1)?;
-    let reps = 20;
-    let clock = Instant::now();
-    for _ in 0..reps {
-        l.loss(&batch)?.total.to_scalar::<f32>()?;
+    let reps = 10;
+    let time = |f: &mut dyn FnMut() -> Result<(), Box<dyn std::error::Error>>| -> Result<f64, Box<dyn std::error::Error>> {
+        let clock = Instant::now();
+        for _ in 0..reps {
+            f()?;
+        }
+        Ok(clock.elapsed().as_secs_f64() / f64::from(reps) * 1e3)
+    };
+    if std::env::var_os("FUSED_ONLY").is_some() {
+        let fused = time(&mut || Ok(l.gradients(&part).map(|_| ())?))?;
+        println!("{algo}: fused forward+backward {fused:.1} ms");
+        return Ok(());
     }
-    let fwd = clock.elapsed().as_secs_f64() / f64::from(reps);
-    let clock = Instant::now();
-    for _ in 0..reps {
-        l.loss(&batch)?.total.backward()?;
-    }
-    let bwd = clock.elapsed().as_secs_f64() / f64::from(reps) - fwd;
-    let clock = Instant::now();
-    for _ in 0..reps {
-        l.step(&batch)?;
-    }
-    let step = clock.elapsed().as_secs_f64() / f64::from(reps);
+    let candle_fwd = time(&mut || Ok(l.loss(&batch)?.total.to_scalar::<f32>().map(|_| ())?))?;
+    let candle_all = time(&mut || Ok(l.loss(&batch)?.total.backward().map(|_| ())?))?;
+    let fused = time(&mut || Ok(l.gradients(&part).map(|_| ())?))?;
+    let step = time(&mut || Ok(l.step(&part).map(|_| ())?))?;
     println!(
-        "{algo}: {} sequences x {} steps: forward {:.1} ms, backward {:.1} ms, clip + Adam {:.1} ms, step {:.1} ms",
-        batch.len(),
+        "{algo}: mini-batch of {} sequences x {} steps: candle forward {candle_fwd:.1} ms, forward+backward {candle_all:.1} ms; fused forward+backward {fused:.1} ms ({:.1}x), step with Adam {step:.1} ms",
+        part.len(),
         cfg.data_chunk_length,
-        fwd * 1e3,
-        bwd * 1e3,
-        (step - fwd - bwd) * 1e3,
-        step * 1e3
+        candle_all / fused,
     );
     Ok(())
 }

@@ -37,11 +37,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     })?;
     println!(
-        "{} steps, {} episodes, {} updates in {:.0} s",
+        "{} steps, {} episodes, {} updates in {:.1} s ({:.0} steps/s); phases (s): {:?}",
         summary.t_env,
         summary.episodes,
         summary.updates,
-        started.elapsed().as_secs_f64()
+        started.elapsed().as_secs_f64(),
+        summary.t_env as f64 / started.elapsed().as_secs_f64(),
+        summary.phases.iter().map(|(n, s)| format!("{n} {s:.1}")).collect::<Vec<_>>()
     );
     Ok(())
 }

@@ -106,10 +106,13 @@ impl ReplayBuffer {
         }
         self.next = (self.next + 1) % self.capacity;
     }
-    /// `n` distinct episodes drawn uniformly (fewer if the buffer holds fewer).
+    /// `n` distinct episodes drawn uniformly (fewer if the buffer holds fewer), longest
+    /// first (ties in drawing order): the fused networks then skip each episode's padding.
     pub fn sample(&self, n: usize, rng: &mut ChaCha8Rng) -> Vec<&Episode> {
         let n = n.min(self.episodes.len());
-        sample(rng, self.episodes.len(), n).into_iter().map(|i| &self.episodes[i]).collect()
+        let mut out: Vec<&Episode> = sample(rng, self.episodes.len(), n).into_iter().map(|i| &self.episodes[i]).collect();
+        out.sort_by_key(|e| std::cmp::Reverse(e.len));
+        out
     }
 }
 
@@ -118,6 +121,9 @@ impl ReplayBuffer {
 pub struct Batch {
     pub b: usize,
     pub t: usize,
+    /// Each episode's length (steps).
+    pub lens: Vec<usize>,
+    pub n_agents: usize,
     /// `(T+1, B*A, input)`.
     pub inputs: Tensor,
     /// `(T+1, B*A, n_actions)`, 1.0 where available.
@@ -188,6 +194,8 @@ impl Batch {
         Ok(Batch {
             b,
             t,
+            lens: episodes.iter().map(|e| e.len).collect(),
+            n_agents: a,
             inputs: Tensor::from_vec(inputs, (t + 1, b * a, width), &dev)?,
             avail: Tensor::from_vec(avail, (t + 1, b * a, na), &dev)?,
             actions: Tensor::from_vec(actions, (t, b * a, 1), &dev)?,
@@ -197,6 +205,14 @@ impl Batch {
             filled: Tensor::from_vec(filled, (t, b, 1), &dev)?,
             frames: None,
         })
+    }
+}
+
+impl Batch {
+    /// Each row's (`B*A`, episode-major) real steps: its episode's steps and the row after
+    /// the last one (what the targets bootstrap from); the rest is padding.
+    pub fn row_lens(&self) -> Vec<usize> {
+        self.lens.iter().flat_map(|&len| std::iter::repeat_n((len + 1).min(self.t + 1), self.n_agents)).collect()
     }
 }
 

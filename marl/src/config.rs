@@ -212,73 +212,86 @@ impl Config {
     }
 
     fn validate(&self) -> Result<(), Error> {
-        let bad = |key: &str, why: &str| Err(Error::BadValue { key: key.to_owned(), message: why.to_owned() });
-        let positive = |x: f64| x.partial_cmp(&0.0) == Some(std::cmp::Ordering::Greater);
-        if !(0.0..=1.0).contains(&self.gamma) {
-            return bad("gamma", "must lie in [0, 1]");
-        }
-        if !positive(self.lr) {
-            return bad("lr", "must be positive");
-        }
-        if self.envs == 0 {
-            return bad("envs", "must be at least 1");
-        }
+        let default = Config::for_algo_unchecked(&self.algo);
+        let def = |f: fn(&Config) -> f64, fallback: f64| default.as_ref().map_or(fallback, f);
+        unit("gamma", self.gamma)?;
+        positive("lr", self.lr, def(|c| c.lr, 5e-4))?;
+        at_least("envs", self.envs, 1)?;
+        at_least("rnn_hidden_dim", self.rnn_hidden_dim, 1)?;
         if self.is_ppo() {
-            return self.validate_ppo();
+            return self.validate_ppo(&def);
         }
-        if self.batch_size == 0 || self.buffer_size < self.batch_size {
-            return bad("buffer_size", "needs at least batch_size (>= 1) episodes");
-        }
-        if self.episodes_per_update == 0 {
-            return bad("episodes_per_update", "must be at least 1");
-        }
-        if self.rnn_hidden_dim == 0 || self.mixing_embed_dim == 0 || self.hypernet_embed == 0 {
-            return bad("rnn_hidden_dim", "network widths must be at least 1");
-        }
+        at_least("batch_size", self.batch_size, 1)?;
+        at_least("buffer_size", self.buffer_size, self.batch_size)
+            .map_err(|e| rule(e, "must hold at least batch_size episodes (batch_size is the nearest)"))?;
+        at_least("episodes_per_update", self.episodes_per_update, 1)?;
+        at_least("mixing_embed_dim", self.mixing_embed_dim, 1)?;
+        at_least("hypernet_embed", self.hypernet_embed, 1)?;
         if !(1..=2).contains(&self.hypernet_layers) {
-            return bad("hypernet_layers", "must be 1 or 2");
+            return Err(bad("hypernet_layers", self.hypernet_layers, "must be 1 or 2", self.hypernet_layers.clamp(1, 2)));
         }
-        if !(0.0..=1.0).contains(&self.td_lambda) {
-            return bad("td_lambda", "must lie in [0, 1]");
-        }
+        unit("td_lambda", self.td_lambda)?;
         if (self.mixer == MixerKind::Qtran) != self.opt_loss.is_some() || self.opt_loss.is_some() != self.nopt_min_loss.is_some() {
-            return bad("opt_loss", "QTRAN (mixer = \"qtran\") needs opt_loss and nopt_min_loss; other mixers have neither");
+            let nearest = if self.mixer == MixerKind::Qtran { "opt_loss = 1.0 with nopt_min_loss = 0.1" } else { "no opt_loss" };
+            return Err(bad(
+                "opt_loss",
+                format!("{:?}", self.opt_loss),
+                "QTRAN (mixer = \"qtran\") needs opt_loss and nopt_min_loss; other mixers have neither",
+                nearest,
+            ));
         }
-        if self.target_update_interval == 0 {
-            return bad("target_update_interval", "must be at least 1");
+        at_least("target_update_interval", self.target_update_interval, 1)?;
+        obs::validate(self)?;
+        Ok(())
+    }
+
+    fn validate_ppo(&self, def: &dyn Fn(fn(&Config) -> f64, f64) -> f64) -> Result<(), Error> {
+        positive("critic_lr", self.critic_lr, def(|c| c.critic_lr, 5e-4))?;
+        at_least("data_chunk_length", self.data_chunk_length, 1)?;
+        at_least("rollout_len", self.rollout_len, self.data_chunk_length)?;
+        if !self.rollout_len.is_multiple_of(self.data_chunk_length) {
+            let c = self.data_chunk_length;
+            let down = self.rollout_len / c * c;
+            let nearest = if self.rollout_len - down <= c / 2 { down } else { down + c };
+            return Err(bad(
+                "rollout_len",
+                self.rollout_len,
+                &format!("must be a multiple of data_chunk_length ({c})"),
+                format!("{nearest} (or data_chunk_length = a divisor of {})", self.rollout_len),
+            ));
+        }
+        at_least("ppo_epochs", self.ppo_epochs, 1)?;
+        at_least("num_mini_batch", self.num_mini_batch, 1)?;
+        let chunks = self.envs * self.rollout_len / self.data_chunk_length;
+        if self.num_mini_batch > chunks {
+            return Err(bad(
+                "num_mini_batch",
+                self.num_mini_batch,
+                &format!("at most the number of chunks, envs x rollout_len / data_chunk_length = {chunks}"),
+                chunks,
+            ));
+        }
+        positive("clip_param", self.clip_param, def(|c| c.clip_param, 0.2))?;
+        unit("gae_lambda", self.gae_lambda)?;
+        for (key, v) in [
+            ("huber_delta", self.huber_delta),
+            ("entropy_coef", self.entropy_coef),
+            ("value_loss_coef", self.value_loss_coef),
+            ("actor_out_gain", self.actor_out_gain),
+        ] {
+            if v.is_nan() || v < 0.0 {
+                return Err(bad(key, v, "must not be negative", 0.0));
+            }
         }
         obs::validate(self)?;
         Ok(())
     }
 
-    fn validate_ppo(&self) -> Result<(), Error> {
-        let bad = |key: &str, why: &str| Err(Error::BadValue { key: key.to_owned(), message: why.to_owned() });
-        let positive = |x: f64| x.partial_cmp(&0.0) == Some(std::cmp::Ordering::Greater);
-        if !positive(self.critic_lr) {
-            return bad("critic_lr", "must be positive");
-        }
-        if self.data_chunk_length == 0 || self.rollout_len == 0 || !self.rollout_len.is_multiple_of(self.data_chunk_length) {
-            return bad("rollout_len", "must be a positive multiple of data_chunk_length (>= 1)");
-        }
-        if self.ppo_epochs == 0 || self.num_mini_batch == 0 {
-            return bad("ppo_epochs", "ppo_epochs and num_mini_batch must be at least 1");
-        }
-        if self.num_mini_batch > self.envs * self.rollout_len / self.data_chunk_length {
-            return bad("num_mini_batch", "more mini-batches than chunks (envs x rollout_len / data_chunk_length)");
-        }
-        if !positive(self.clip_param) {
-            return bad("clip_param", "must be positive");
-        }
-        if !(0.0..=1.0).contains(&self.gae_lambda) {
-            return bad("gae_lambda", "must lie in [0, 1]");
-        }
-        if self.huber_delta < 0.0 || self.entropy_coef < 0.0 || self.value_loss_coef < 0.0 || self.actor_out_gain < 0.0 {
-            return bad("huber_delta", "huber_delta, entropy_coef, value_loss_coef and actor_out_gain must not be negative");
-        }
-        if self.rnn_hidden_dim == 0 {
-            return bad("rnn_hidden_dim", "must be at least 1");
-        }
-        Ok(())
+    /// The built-in config of `algo` as it is (no overrides, no checks).
+    fn for_algo_unchecked(algo: &str) -> Option<Config> {
+        let mut table: toml::Table = toml::from_str(default_text(algo).ok()?).ok()?;
+        obs::add_defaults(&mut table).ok()?;
+        table.try_into().ok()
     }
 
     /// Epsilon after `t_env` environment steps (linear, then flat).
@@ -293,6 +306,46 @@ impl Config {
         let time_limit_loops = std::num::NonZeroU32::new(self.episode_limit.saturating_mul(base.step_mul.get()));
         EnvConfig { reward: self.reward, time_limit_loops, ..base }
     }
+}
+
+/// The error of a refused value: the key, the value, the rule, the nearest valid value.
+pub(crate) fn bad(key: &str, value: impl std::fmt::Display, rule: &str, nearest: impl std::fmt::Display) -> Error {
+    Error::BadValue(Box::new(crate::Refused {
+        key: key.to_owned(),
+        value: value.to_string(),
+        rule: rule.to_owned(),
+        nearest: nearest.to_string(),
+    }))
+}
+
+/// `e` with another rule text.
+fn rule(e: Error, text: &str) -> Error {
+    match e {
+        Error::BadValue(mut r) => {
+            r.rule = text.to_owned();
+            Error::BadValue(r)
+        }
+        other => other,
+    }
+}
+
+/// `value` must lie in `[0, 1]`.
+fn unit(key: &str, value: f64) -> Result<(), Error> {
+    if (0.0..=1.0).contains(&value) {
+        Ok(())
+    } else {
+        Err(bad(key, value, "must lie in [0, 1]", if value.is_nan() { 0.0 } else { value.clamp(0.0, 1.0) }))
+    }
+}
+
+/// `value` must be above 0 (an open bound: the nearest is the built-in default).
+fn positive(key: &str, value: f64, default: f64) -> Result<(), Error> {
+    if value > 0.0 { Ok(()) } else { Err(bad(key, value, "must be above 0", format!("any positive value, e.g. the default {default}"))) }
+}
+
+/// `value` must be at least `min`.
+fn at_least<T: PartialOrd + std::fmt::Display + Copy>(key: &str, value: T, min: T) -> Result<(), Error> {
+    if value >= min { Ok(()) } else { Err(bad(key, value, &format!("must be at least {min}"), min)) }
 }
 
 /// A TOML value of the same type as `old`; integers widen to floats, bare words are strings.
@@ -337,7 +390,26 @@ mod tests {
         let e = Config::for_algo("qmix", &["mixer=sum".into()]).err().map(|e| e.to_string()).unwrap_or_default();
         assert!(e.contains("sum"), "{e}");
         let e = Config::for_algo("qmix", &["gamma=2.0".into()]).err().map(|e| e.to_string()).unwrap_or_default();
-        assert!(e.contains("gamma"), "{e}");
+        assert!(e.contains("gamma = 2") && e.contains("[0, 1]") && e.contains("nearest valid value: 1"), "{e}");
+        let e = Config::for_algo("ippo", &["rollout_len=117".into(), "data_chunk_length=10".into()])
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(
+            e.starts_with("`rollout_len = 117`")
+                && e.contains("multiple of data_chunk_length (10)")
+                && e.contains("nearest valid value: 120"),
+            "{e}"
+        );
+        let e = Config::for_algo("ippo", &["envs=2".into(), "rollout_len=20".into(), "num_mini_batch=9".into()])
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(e.contains("num_mini_batch = 9") && e.contains("nearest valid value: 4"), "{e}");
+        let e = Config::for_algo("qmix", &["lr=-1".into()]).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("lr = -1") && e.contains("default 0.0005"), "{e}");
+        let e = Config::for_algo("qmix", &["buffer_size=3".into()]).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("buffer_size = 3") && e.contains("nearest valid value: 32"), "{e}");
         assert!(Config::for_algo("coma", &[]).is_err());
     }
 }

@@ -9,7 +9,8 @@ use crate::nets::{AgentNet, Mixer, Params, QmixMixer};
 use crate::optim::{Optimizer, OptimizerKind};
 use crate::qtran::QtranMixer;
 use crate::{Config, Error, MixerKind};
-use candle_core::{D, Tensor};
+use candle_core::backprop::GradStore;
+use candle_core::{D, Device, Tensor, Var};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -118,15 +119,21 @@ impl Learner {
         Ok(Learner { cfg: cfg.clone(), shape, nets, target, opt, last_target_update: 0, updates: 0 })
     }
 
-    /// The TD loss of a batch under the current networks (and its parts).
+    /// The TD loss of a batch under the current networks (and its parts), by candle's
+    /// autograd all through: the reference for the fused path [`Learner::train`] takes.
     pub fn loss(&self, batch: &Batch) -> Result<(Tensor, Tensor, Tensor), Error> {
         if self.nets.qtran.is_some() {
             return crate::qtran::loss(self, batch);
         }
+        self.loss_of(batch, &self.nets.unroll(batch)?, &self.target.unroll(batch)?)
+    }
+
+    /// The TD loss from the agent network's Q-values `q` and the target network's
+    /// `target_q`, both `(T+1, B*A, n_actions)`.
+    fn loss_of(&self, batch: &Batch, q: &Tensor, target_q: &Tensor) -> Result<(Tensor, Tensor, Tensor), Error> {
         let (t, b, a) = (batch.t, batch.b, self.shape.n_agents);
-        let q = self.nets.unroll(batch)?;
         let chosen = q.narrow(0, 0, t)?.gather(&batch.actions, D::Minus1)?.reshape((t * b, a))?;
-        let target_q = self.target.unroll(batch)?.narrow(0, 1, t)?.detach();
+        let target_q = target_q.narrow(0, 1, t)?.detach();
         let avail_next = batch.avail.narrow(0, 1, t)?;
         let masked = |x: &Tensor| -> Result<Tensor, Error> {
             let fill = Tensor::full(MASKED as f32, x.dims(), x.device())?;
@@ -156,14 +163,30 @@ impl Learner {
         Ok((loss, td, chosen))
     }
 
+    /// The loss of `batch`, its parts and its gradients: with `fused`, the agent networks run
+    /// in the fused kernels (QTRAN's, which its mixer reads the hidden states of, always in
+    /// candle) and the mixer and the loss in candle; without, all in candle (the reference).
+    pub fn gradients(&self, batch: &Batch, fused: bool) -> Result<(GradStore, Tensor, Tensor, Tensor), Error> {
+        let fused = if fused && self.nets.qtran.is_none() { Some(FusedUnroll::run(&self.nets, batch, true)?) } else { None };
+        let (loss, td, chosen) = match &fused {
+            None => self.loss(batch)?,
+            Some(f) => self.loss_of(batch, f.q.as_tensor(), FusedUnroll::run(&self.target, batch, false)?.q.as_tensor())?,
+        };
+        let mut grads = loss.backward()?;
+        if let Some(f) = &fused {
+            f.backward(&self.nets, &mut grads)?;
+        }
+        Ok((grads, loss, td, chosen))
+    }
+
     /// One gradient step on `batch`; `episodes` (finished so far) decides the target copies.
     pub fn train(&mut self, batch: &Batch, episodes: u64) -> Result<UpdateStats, Error> {
-        let (loss, td, chosen) = self.loss(batch)?;
+        let (mut grads, loss, td, chosen) = self.gradients(batch, true)?;
         let loss_v = f64::from(loss.to_scalar::<f32>()?);
         if !loss_v.is_finite() || loss_v > 1e8 {
             return Err(Error::Diverged { update: self.updates, loss: loss_v });
         }
-        let grad_norm = self.opt.backward_step(&loss)?;
+        let grad_norm = self.opt.step(&mut grads)?;
         self.updates += 1;
         if episodes.saturating_sub(self.last_target_update) >= self.cfg.target_update_interval {
             self.update_targets()?;
@@ -179,6 +202,63 @@ impl Learner {
     /// Copies the networks into the targets.
     pub fn update_targets(&mut self) -> Result<(), Error> {
         self.target.copy_from(&self.nets)
+    }
+}
+
+/// The agent network unrolled over a batch by the fused kernels ([`crate::kernels`]): Q
+/// `(T+1, B*A, n_actions)` as a leaf variable of candle's graph, so the mixer and the loss
+/// stay in candle and their gradient with respect to Q comes back through
+/// [`FusedUnroll::backward`] (in image modes, on into the encoder's candle graph).
+struct FusedUnroll {
+    theta: Vec<f32>,
+    fwd: crate::kernels::Forward,
+    /// The input rows as a candle tensor with the encoder's graph (image modes).
+    x_graph: Option<Tensor>,
+    q: Var,
+}
+
+impl FusedUnroll {
+    fn run(nets: &Nets, batch: &Batch, tape: bool) -> Result<FusedUnroll, Error> {
+        let layout = nets.agent.layout();
+        let x = nets.unroll_inputs(batch)?;
+        let (t1, rows, _) = x.dims3()?;
+        let x_graph = (nets.encoder.is_some() && tape).then(|| x.clone());
+        let xv: Vec<f32> = x.flatten_all()?.to_vec1()?;
+        let theta = nets.agent_params.flat(nets.agent.var_count())?;
+        let h0 = vec![0f32; rows * layout.hidden];
+        // Rows past an episode's closing row are padding: skipped when the batch is sorted
+        // longest first (`Batch::new` sorts it).
+        let lens = batch.row_lens();
+        let sorted = lens.windows(2).all(|w| w[0] >= w[1]);
+        let fwd = layout.forward(&theta, &xv, &h0, None, sorted.then_some(&lens[..]), t1, rows, tape);
+        let q = Var::from_slice(&fwd.out, (t1, rows, layout.out), &Device::Cpu)?;
+        Ok(FusedUnroll { theta, fwd, x_graph, q })
+    }
+
+    /// Replaces the gradient with respect to Q in `grads` by the agent network's parameters'
+    /// (and the encoder's).
+    fn backward(&self, nets: &Nets, grads: &mut GradStore) -> Result<(), Error> {
+        let layout = nets.agent.layout();
+        let Some(dq) = grads.remove(self.q.as_tensor()) else { return Ok(()) };
+        let dq: Vec<f32> = dq.flatten_all()?.to_vec1()?;
+        let mut g = vec![0f32; layout.len()];
+        let dx = layout.backward(&self.theta, &self.fwd, &dq, None, &mut g, self.x_graph.is_some());
+        let mut at = 0;
+        for v in nets.agent_params.vars().take(nets.agent.var_count()) {
+            let n = v.elem_count();
+            grads.insert(v, Tensor::from_slice(&g[at..at + n], v.shape(), &Device::Cpu)?);
+            at += n;
+        }
+        if let (Some(x), Some(dx)) = (&self.x_graph, dx) {
+            let d = Tensor::from_vec(dx, x.dims(), &Device::Cpu)?;
+            let enc = (x * d)?.sum_all()?.backward()?;
+            for v in nets.agent_params.vars_after(nets.agent.var_count()) {
+                if let Some(g) = enc.get(v) {
+                    grads.insert(v, g.clone());
+                }
+            }
+        }
+        Ok(())
     }
 }
 

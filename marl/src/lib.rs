@@ -26,11 +26,14 @@
 //!
 //! [`Agent`]: avacraft_engine::Agent
 
-#![forbid(unsafe_code)]
+// Denied (not forbidden) so that `kernels::gemm`, the one call into a matrix-product kernel
+// by pointer, can allow it behind a bounds-checked safe function.
+#![deny(unsafe_code)]
 
 pub mod buffer;
 pub mod config;
 pub mod encoders;
+pub mod kernels;
 pub mod learner;
 pub mod nets;
 pub mod observe;
@@ -52,6 +55,17 @@ pub use policy::{MarlAgent, Policy};
 pub use ppo::PpoLearner;
 pub use train::{Progress, RunOptions, Summary, TestResult, Trained, train, train_from};
 
+/// A config value refused: its key, the value, the rule it breaks and the nearest valid value
+/// (boxed in [`Error`] to keep the error small).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("`{key} = {value}`: {rule}; nearest valid value: {nearest}")]
+pub struct Refused {
+    pub key: String,
+    pub value: String,
+    pub rule: String,
+    pub nearest: String,
+}
+
 /// What can go wrong configuring, training, saving or loading.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
@@ -63,8 +77,8 @@ pub enum Error {
     Override { text: String, message: String },
     #[error("{what}: {message}")]
     ConfigParse { what: String, message: String },
-    #[error("config `{key}`: {message}")]
-    BadValue { key: String, message: String },
+    #[error("{0}")]
+    BadValue(Box<Refused>),
     #[error("tensor operation failed")]
     Tensor(#[from] candle_core::Error),
     #[error("environment")]

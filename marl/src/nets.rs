@@ -66,6 +66,35 @@ impl Params {
         Ok(())
     }
 
+    /// The first `k` variables' values, flattened and concatenated (the fused networks'
+    /// parameter vector, [`crate::kernels::NetLayout`]).
+    pub fn flat(&self, k: usize) -> Result<Vec<f32>, Error> {
+        let mut out = Vec::new();
+        for (_, v) in self.vars.iter().take(k) {
+            out.extend(v.as_tensor().flatten_all()?.to_vec1::<f32>()?);
+        }
+        Ok(out)
+    }
+
+    /// Sets the first `k` variables from a flat vector ([`Params::flat`]'s layout).
+    pub fn set_flat(&self, k: usize, flat: &[f32]) -> Result<(), Error> {
+        let mut at = 0;
+        for (n, v) in self.vars.iter().take(k) {
+            let len = v.elem_count();
+            let Some(part) = flat.get(at..at + len) else {
+                return Err(Error::Checkpoint { message: format!("a flat vector of {} values ends inside `{n}`", flat.len()) });
+            };
+            v.set(&Tensor::from_slice(part, v.shape(), &Device::Cpu)?)?;
+            at += len;
+        }
+        Ok(())
+    }
+
+    /// The variables after the first `k` (an agent network's encoder).
+    pub fn vars_after(&self, k: usize) -> impl Iterator<Item = &Var> {
+        self.vars.iter().skip(k).map(|(_, v)| v)
+    }
+
     /// The values by name (what a safetensors file holds).
     pub fn to_map(&self) -> HashMap<String, Tensor> {
         self.vars.iter().map(|(n, v)| (n.clone(), v.as_tensor().detach())).collect()
@@ -147,6 +176,18 @@ impl AgentNet {
         let core = Core::Linear(Linear::new(p, "rnn", hidden, hidden, rng)?);
         let fc2 = Linear::new(p, "fc2", hidden, n_actions, rng)?;
         Ok(AgentNet { fc1, core, fc2, hidden })
+    }
+
+    /// The fused kernels' view of this network.
+    pub fn layout(&self) -> crate::kernels::NetLayout {
+        let (out, _) = self.fc2.w.dims2().unwrap_or((0, 0));
+        let (_, input) = self.fc1.w.dims2().unwrap_or((0, 0));
+        crate::kernels::NetLayout { input, hidden: self.hidden, out, recurrent: self.is_recurrent() }
+    }
+
+    /// How many of its parameter list's variables are this network's (they come first).
+    pub fn var_count(&self) -> usize {
+        if self.is_recurrent() { 8 } else { 6 }
     }
 
     /// Whether the output depends on earlier steps.

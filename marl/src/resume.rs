@@ -136,7 +136,7 @@ pub(crate) fn restore_ppo(dir: &Path, learner: &mut PpoLearner, state: &RunState
         .clone()
         .ok_or_else(|| Error::Checkpoint { message: format!("{}: no value statistics to resume from", dir.display()) })?;
     learner.updates = state.updates;
-    Ok(())
+    learner.load_weights()
 }
 
 /// Loads the checkpoint's and the saved targets' weights into `learner`.

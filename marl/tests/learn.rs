@@ -41,6 +41,41 @@ fn random_episodes(shape: &Shape, n: usize, rng: &mut ChaCha8Rng) -> Vec<Episode
 
 const SMALL: Shape = Shape { n_agents: 3, obs: 6, state: 7, n_actions: 4 };
 
+/// The fused agent networks (what training runs) give the gradients candle's autograd gives
+/// through the reference networks, for every mixer and both agent networks.
+#[test]
+fn fused_gradients_match_the_candle_reference() -> R {
+    for (algo, extra) in [("iql", &[][..]), ("vdn", &[]), ("qmix", &[]), ("qmix", &["use_rnn=false"]), ("qmix", &["td_lambda=0.6"])] {
+        let c = cfg(algo, extra)?;
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let eps = random_episodes(&SMALL, 40, &mut rng);
+        let mut refs: Vec<&Episode> = eps.iter().collect();
+        // Longest first, as the replay buffer samples them: the fused pass skips the padding.
+        refs.sort_by_key(|e| std::cmp::Reverse(e.len));
+        assert!(refs.first().map(|e| e.len) > refs.last().map(|e| e.len), "the batch must hold padding");
+        let batch = Batch::new(&refs, &SMALL, true, true)?;
+        let l = Learner::new(&c, SMALL, 2)?;
+        let (fused, loss_f, _, _) = l.gradients(&batch, true)?;
+        let (reference, loss_r, _, _) = l.gradients(&batch, false)?;
+        let (a, b) = (loss_f.to_scalar::<f32>()?, loss_r.to_scalar::<f32>()?);
+        assert!((a - b).abs() <= 1e-5 * b.abs().max(1.0), "{algo} {extra:?}: loss {a} vs {b}");
+        let mut compared = 0;
+        for v in l.nets.agent_params.vars().chain(l.nets.mixer_params.vars()) {
+            let (Some(g), Some(w)) = (fused.get(v), reference.get(v)) else {
+                panic!("{algo} {extra:?}: a variable without a gradient");
+            };
+            let (g, w) = (g.flatten_all()?.to_vec1::<f32>()?, w.flatten_all()?.to_vec1::<f32>()?);
+            let scale = w.iter().fold(0f32, |m, x| m.max(x.abs())).max(1e-5);
+            for (x, y) in g.iter().zip(&w) {
+                assert!((x - y).abs() <= 1e-4 * scale, "{algo} {extra:?}: fused {x}, candle {y} (scale {scale})");
+            }
+            compared += 1;
+        }
+        assert!(compared >= 6, "{algo}: {compared} variables");
+    }
+    Ok(())
+}
+
 #[test]
 fn an_update_on_a_fixed_batch_lowers_the_loss() -> R {
     for (algo, extra) in [

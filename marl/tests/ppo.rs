@@ -4,7 +4,7 @@
 mod common;
 
 use avacraft_engine::Scenario;
-use avacraft_marl::ppo::{CriticInput, MASKED, PpoBatch, PpoLearner, Rollout, ValueNorm, gae, masked_log_softmax, sample_actions};
+use avacraft_marl::ppo::{CriticInput, FlatBatch, MASKED, PpoLearner, Rollout, ValueNorm, gae, masked_log_softmax, sample_actions};
 use avacraft_marl::{Config, MarlAgent, Policy, RunOptions, Shape, Trained, train};
 use candle_core::{Device, Tensor};
 use rand::{Rng, SeedableRng};
@@ -64,13 +64,15 @@ fn an_update_on_a_fixed_batch_lowers_the_surrogate_and_value_loss() -> R {
         let r = random_rollout(&c, 2, 8, &mut rng);
         let adv: Vec<f32> = (0..r.t * r.rows).map(|_| rng.random_range(-1f32..1.0)).collect();
         let targets: Vec<f32> = (0..r.t * r.rows).map(|_| rng.random_range(-2f32..2.0)).collect();
-        let batch = PpoBatch::new(&r, &adv, &targets, c.data_chunk_length, c.rnn_hidden_dim)?;
+        let flat = FlatBatch::new(&r, &adv, &targets, c.data_chunk_length)?;
+        let batch = flat.tensors(c.rnn_hidden_dim)?;
         let mut l = PpoLearner::new(&c, SMALL, 1)?;
         let before = l.loss(&batch)?;
         let b_sv = before.policy.to_scalar::<f32>()? + before.value.to_scalar::<f32>()?;
         for _ in 0..10 {
-            l.step(&batch)?;
+            l.step(&flat)?;
         }
+        l.store_weights()?;
         let after = l.loss(&batch)?;
         let a_sv = after.policy.to_scalar::<f32>()? + after.value.to_scalar::<f32>()?;
         assert!(a_sv < b_sv - 1e-3, "{algo}: surrogate + value loss {b_sv} -> {a_sv}");
@@ -192,20 +194,67 @@ fn a_saved_ppo_checkpoint_loads_and_acts_identically() -> R {
     Ok(())
 }
 
-/// Acting returns hidden states outside the autograd graph: carried across a run's steps,
-/// they would otherwise chain every step's graph (memory grows, and dropping the chain
-/// overflows the stack after some 100k steps).
+/// The fused kernels' loss and gradients (what training runs) equal candle's autograd on the
+/// reference loss built from tensor operations, in every loss variant.
 #[test]
-fn acting_keeps_no_autograd_graph() -> R {
+fn fused_gradients_match_the_candle_reference() -> R {
+    for (algo, extra) in [
+        ("ippo", vec![]),
+        ("mappo", vec![]),
+        ("mappo", vec!["clip_value_loss=false", "huber_delta=0.0"]),
+        ("ippo", vec!["huber_delta=0.3", "entropy_coef=0.2"]),
+    ] {
+        let c = ppo_cfg(algo, &extra)?;
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let r = random_rollout(&c, 3, 8, &mut rng);
+        let adv: Vec<f32> = (0..r.t * r.rows).map(|_| rng.random_range(-1f32..1.0)).collect();
+        let targets: Vec<f32> = (0..r.t * r.rows).map(|_| rng.random_range(-2f32..2.0)).collect();
+        let flat = FlatBatch::new(&r, &adv, &targets, c.data_chunk_length)?;
+        let mut l = PpoLearner::new(&c, SMALL, 3)?;
+        // One step first, so ratios leave 1 and some clip.
+        l.step(&flat)?;
+        l.store_weights()?;
+        let reference = l.loss(&flat.tensors(c.rnn_hidden_dim)?)?;
+        let grads = reference.total.backward()?;
+        let g = l.gradients(&flat)?;
+        let (fused, ga, gc) = (g.loss, g.actor, g.critic);
+        let want = f64::from(reference.total.to_scalar::<f32>()?);
+        assert!((fused.total - want).abs() < 1e-4 * want.abs().max(1.0), "{algo} {extra:?}: loss {} vs {want}", fused.total);
+        for (what, vars, g) in [
+            ("actor", l.actor.agent_params.vars().take(8).cloned().collect::<Vec<_>>(), ga),
+            ("critic", l.critic_params.vars().cloned().collect(), gc),
+        ] {
+            let mut want = Vec::new();
+            for v in &vars {
+                want.extend(grads.get(v).map_or(Ok(vec![0.0; v.elem_count()]), |t| t.flatten_all()?.to_vec1::<f32>())?);
+            }
+            let scale = want.iter().fold(0f32, |m, x| m.max(x.abs())).max(1e-4);
+            for (i, (a, b)) in g.iter().zip(&want).enumerate() {
+                assert!((a - b).abs() <= 2e-4 * scale, "{algo} {extra:?}: {what} gradient [{i}]: fused {a}, candle {b}");
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Acting (one fused step) gives the reference network's logits and hidden states.
+#[test]
+fn acting_matches_the_reference_network() -> R {
     let c = ppo_cfg("ippo", &[])?;
     let l = PpoLearner::new(&c, SMALL, 4)?;
     let rows = 6;
-    let h = Tensor::zeros((rows, c.rnn_hidden_dim), candle_core::DType::F32, &Device::Cpu)?;
-    let xa = vec![0.5f32; rows * SMALL.input(true, true)];
+    let h: Vec<f32> = (0..rows * c.rnn_hidden_dim).map(|i| (i as f32 * 0.1).sin() * 0.5).collect();
+    let xa: Vec<f32> = (0..rows * SMALL.input(true, true)).map(|i| (i as f32 * 0.3).cos()).collect();
     let xc = vec![0.5f32; rows * CriticInput::of(&c).width(&SMALL)];
     let out = l.act(&xa, &h, &xc, &h)?;
-    assert!(!out.h_actor.track_op() && !out.h_critic.track_op());
     assert_eq!((out.logits.len(), out.values.len()), (rows * SMALL.n_actions, rows));
+    let x = Tensor::from_vec(xa, (rows, SMALL.input(true, true)), &Device::Cpu)?;
+    let (q, h2) = l.actor.agent.step(&x, &Tensor::from_vec(h, (rows, c.rnn_hidden_dim), &Device::Cpu)?)?;
+    for (a, b) in
+        out.logits.iter().zip(q.flatten_all()?.to_vec1::<f32>()?).chain(out.h_actor.iter().zip(h2.flatten_all()?.to_vec1::<f32>()?))
+    {
+        assert!((a - b).abs() < 1e-5, "fused {a}, reference {b}");
+    }
     Ok(())
 }
 

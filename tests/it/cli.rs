@@ -90,6 +90,7 @@ fn training_bench_reports_learning_against_the_game_alone() {
         assert_eq!(v.len(), 1, "{out}");
         let r = &v[0];
         assert_eq!((r["algo"].as_str(), r["scenario"].as_str(), r["steps"].as_u64()), (Some(algo), Some("3m"), Some(400)), "{r}");
+        assert!(r.get("goal").is_none(), "only goal rows have goals: {r}");
         assert!(r["updates"].as_u64().is_some_and(|u| u > 0), "it learned: {r}");
         let (Some(train), Some(game), Some(ratio)) =
             (r["train_steps_per_sec"].as_f64(), r["env_steps_per_sec"].as_f64(), r["ratio"].as_f64())
@@ -102,6 +103,10 @@ fn training_bench_reports_learning_against_the_game_alone() {
     assert!(err.contains("sarsa"), "{err}");
     let err = run(&["bench", "--train", "--steps", "0"]).expect_err("no steps");
     assert!(err.contains("--steps"), "{err}");
+    // A refused value: its key, value, rule and the nearest valid value come first.
+    let err = run(&["bench", "--train", "--algo", "ippo", "--steps", "400", "--set", "rollout_len=117"]).expect_err("not a multiple");
+    assert!(err.trim_start().starts_with("`rollout_len = 117`"), "{err}");
+    assert!(err.contains("multiple of data_chunk_length (10)") && err.contains("nearest valid value: 120"), "{err}");
 }
 
 #[test]

@@ -147,33 +147,68 @@ pub fn add_defaults(table: &mut toml::Table) -> Result<(), Error> {
 
 /// Checks the observation keys of `cfg`.
 pub fn validate(cfg: &Config) -> Result<(), Error> {
-    let bad = |key: &str, why: String| Err(Error::BadValue { key: key.to_owned(), message: why });
-    if cfg.screen_size.iter().chain(&cfg.minimap_size).any(|&s| s < 8) {
-        return bad("screen_size", "frame sides must be at least 8 pixels (screen_size and minimap_size)".into());
-    }
-    if cfg.screen_size.iter().chain(&cfg.minimap_size).any(|&s| s > 4096) {
-        return bad("screen_size", "frame sides above 4096 pixels are not supported".into());
+    let bad = |key: &str, value: String, why: &str, nearest: String| Err(crate::config::bad(key, value, why, nearest));
+    for (key, size) in [("screen_size", cfg.screen_size), ("minimap_size", cfg.minimap_size)] {
+        if size.iter().any(|&s| !(8..=4096).contains(&s)) {
+            let near = size.map(|s| s.clamp(8, 4096));
+            return bad(key, format!("{size:?}"), "frame sides must lie in 8..=4096 pixels", format!("{near:?}"));
+        }
     }
     if !(2..=512).contains(&cfg.text_max_tokens) {
-        return bad("text_max_tokens", "must lie in 2..=512 (BERT's positions)".into());
+        return bad(
+            "text_max_tokens",
+            cfg.text_max_tokens.to_string(),
+            "must lie in 2..=512 (BERT's positions)",
+            cfg.text_max_tokens.clamp(2, 512).to_string(),
+        );
     }
-    if cfg.encoder_dim == 0 || cfg.text_dim == 0 {
-        return bad("encoder_dim", "encoder widths must be at least 1".into());
+    for (key, v) in [("encoder_dim", cfg.encoder_dim), ("text_dim", cfg.text_dim), ("cnn_pool", cfg.cnn_pool)] {
+        if v == 0 {
+            return bad(key, "0".into(), "must be at least 1", "1".into());
+        }
     }
-    if cfg.cnn_channels.is_empty() || cfg.cnn_channels.contains(&0) || cfg.cnn_pool == 0 {
-        return bad("cnn_channels", "needs at least one convolution, every width and cnn_pool at least 1".into());
+    if cfg.cnn_channels.is_empty() || cfg.cnn_channels.contains(&0) {
+        let near: Vec<usize> = if cfg.cnn_channels.is_empty() { vec![16] } else { cfg.cnn_channels.iter().map(|&c| c.max(1)).collect() };
+        return bad(
+            "cnn_channels",
+            format!("{:?}", cfg.cnn_channels),
+            "needs at least one convolution, every width at least 1",
+            format!("{near:?}"),
+        );
     }
     let s = SwinSizes::of(cfg);
     if s.depths.is_empty() || s.depths.len() != s.heads.len() {
-        return bad("swin_depths", format!("{} stages but {} head counts", s.depths.len(), s.heads.len()));
+        let near: Vec<usize> = s.depths.iter().map(|_| 2).collect();
+        return bad(
+            "swin_heads",
+            format!("{:?}", s.heads),
+            &format!("one head count per stage ({} stages in swin_depths)", s.depths.len()),
+            format!("{near:?}"),
+        );
     }
-    if s.patch == 0 || s.window == 0 || s.embed_dim == 0 || s.depths.contains(&0) {
-        return bad("swin_patch", "Swin sizes must be at least 1".into());
+    for (key, v) in [("swin_patch", s.patch), ("swin_window", s.window), ("swin_embed_dim", s.embed_dim)] {
+        if v == 0 {
+            return bad(key, "0".into(), "Swin sizes must be at least 1", "1".into());
+        }
+    }
+    if s.depths.contains(&0) {
+        return bad(
+            "swin_depths",
+            format!("{:?}", s.depths),
+            "every stage needs at least 1 block",
+            format!("{:?}", s.depths.iter().map(|&d| d.max(1)).collect::<Vec<_>>()),
+        );
     }
     for (i, &h) in s.heads.iter().enumerate() {
         let width = s.embed_dim << i;
         if h == 0 || !width.is_multiple_of(h) {
-            return bad("swin_heads", format!("stage {} is {width} wide: its {h} heads must divide it", i + 1));
+            let near = (1..=width).filter(|d| width.is_multiple_of(*d)).min_by_key(|d| d.abs_diff(h)).unwrap_or(1);
+            return bad(
+                "swin_heads",
+                format!("{:?}", s.heads),
+                &format!("stage {} is {width} wide: its {h} heads must divide it", i + 1),
+                format!("{near} heads at stage {}", i + 1),
+            );
         }
     }
     Ok(())

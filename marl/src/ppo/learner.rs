@@ -3,9 +3,11 @@
 //! surrogate, entropy bonus and Huber value loss (optionally clipped) over chunked
 //! sequences, with MAPPO's value normalisation and active masks.
 
-use super::rollout::{MASKED, PpoBatch, Rollout, gae};
+use super::rollout::{FlatBatch, MASKED, PpoBatch, Rollout, gae};
 use super::value_norm::ValueNorm;
 use crate::buffer::Shape;
+use crate::kernels::ppo_loss::{LossGrads, LossRows, LossSettings, ppo_loss};
+use crate::kernels::{Adam, NetLayout, clip_global_norm};
 use crate::learner::Nets;
 use crate::nets::{AgentNet, Params};
 use crate::{Config, Error};
@@ -123,31 +125,13 @@ fn huber(err: &Tensor, delta: f64) -> Result<Tensor, Error> {
     Ok(((q.sqr()? * 0.5)? + ((a - &q)? * delta)?)?)
 }
 
-/// Scales the gradients of `vars` in `grads` so their global L2 norm is at most `max_norm`
-/// (as `torch.nn.utils.clip_grad_norm_`); returns the norm before clipping.
-pub fn clip_grad_norm(grads: &mut GradStore, vars: &[Var], max_norm: f64) -> Result<f64, Error> {
-    let mut total = 0f64;
-    for v in vars {
-        if let Some(g) = grads.get(v) {
-            total += f64::from(g.sqr()?.sum_all()?.to_scalar::<f32>()?);
-        }
-    }
-    let norm = total.sqrt();
-    if norm > max_norm {
-        let scale = max_norm / (norm + 1e-6);
-        for v in vars {
-            if let Some(g) = grads.remove(v) {
-                grads.insert(v, (g * scale)?);
-            }
-        }
-    }
-    Ok(norm)
-}
-
 fn adam(vars: Vec<Var>, lr: f64, eps: f64) -> Result<AdamW, Error> {
     Ok(AdamW::new(vars, ParamsAdamW { lr, beta1: 0.9, beta2: 0.999, eps, weight_decay: 0.0 })?)
 }
 
+/// The PPO learner. Its networks train as flat parameter vectors through the fused kernels
+/// ([`crate::kernels`]); the candle networks (`actor`, `critic`) hold the same weights after
+/// every update, for checkpoints, tests and the reference loss ([`PpoLearner::loss`]).
 #[derive(Debug)]
 pub struct PpoLearner {
     pub cfg: Config,
@@ -158,12 +142,40 @@ pub struct PpoLearner {
     pub critic_params: Params,
     pub critic_input: CriticInput,
     pub value_norm: ValueNorm,
-    actor_vars: Vec<Var>,
-    critic_vars: Vec<Var>,
-    actor_opt: AdamW,
-    critic_opt: AdamW,
+    actor_layout: NetLayout,
+    critic_layout: NetLayout,
+    actor_theta: Vec<f32>,
+    critic_theta: Vec<f32>,
+    actor_adam: Adam,
+    critic_adam: Adam,
+    /// Image modes: the encoder's variables and their Adam (candle's, on candle gradients).
+    encoder_vars: Vec<Var>,
+    encoder_opt: Option<AdamW>,
     /// Updates done (one per rollout).
     pub updates: u64,
+}
+
+/// A batch's loss and gradients ([`PpoLearner::gradients`]).
+#[derive(Debug)]
+pub struct Gradients {
+    /// The loss, its parts and its gradients with respect to the logits and values.
+    pub loss: LossGrads,
+    /// The agent network's flat parameter gradient ([`crate::kernels::NetLayout`]'s order).
+    pub actor: Vec<f32>,
+    pub critic: Vec<f32>,
+    /// Image modes: the encoder's gradients (candle's).
+    pub encoder: Option<GradStore>,
+}
+
+/// What one gradient step reports.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StepReport {
+    pub total: f64,
+    pub policy: f64,
+    pub value: f64,
+    pub entropy: f64,
+    pub actor_grad_norm: f64,
+    pub critic_grad_norm: f64,
 }
 
 impl PpoLearner {
@@ -175,11 +187,10 @@ impl PpoLearner {
         let mut critic_params = Params::default();
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xc817_1c00);
         let critic = AgentNet::new(&mut critic_params, critic_input.width(&shape), cfg.rnn_hidden_dim, 1, &mut rng)?;
-        let actor_vars: Vec<Var> = actor.agent_params.vars().cloned().collect();
-        let critic_vars: Vec<Var> = critic_params.vars().cloned().collect();
-        let actor_opt = adam(actor_vars.clone(), cfg.lr, cfg.optim_eps)?;
-        let critic_opt = adam(critic_vars.clone(), cfg.critic_lr, cfg.optim_eps)?;
-        Ok(PpoLearner {
+        let (actor_layout, critic_layout) = (actor.agent.layout(), critic.layout());
+        let encoder_vars: Vec<Var> = actor.agent_params.vars_after(actor.agent.var_count()).cloned().collect();
+        let encoder_opt = if encoder_vars.is_empty() { None } else { Some(adam(encoder_vars.clone(), cfg.lr, cfg.optim_eps)?) };
+        let mut l = PpoLearner {
             cfg: cfg.clone(),
             shape,
             actor,
@@ -187,12 +198,31 @@ impl PpoLearner {
             critic_params,
             critic_input,
             value_norm: ValueNorm::default(),
-            actor_vars,
-            critic_vars,
-            actor_opt,
-            critic_opt,
+            actor_adam: Adam::new(actor_layout.len(), cfg.lr, cfg.optim_eps),
+            critic_adam: Adam::new(critic_layout.len(), cfg.critic_lr, cfg.optim_eps),
+            actor_layout,
+            critic_layout,
+            actor_theta: Vec::new(),
+            critic_theta: Vec::new(),
+            encoder_vars,
+            encoder_opt,
             updates: 0,
-        })
+        };
+        l.load_weights()?;
+        Ok(l)
+    }
+
+    /// Reads the candle networks' weights into the flat vectors (after a restore).
+    pub fn load_weights(&mut self) -> Result<(), Error> {
+        self.actor_theta = self.actor.agent_params.flat(self.actor.agent.var_count())?;
+        self.critic_theta = self.critic_params.flat(self.critic.var_count())?;
+        Ok(())
+    }
+
+    /// Writes the flat vectors into the candle networks (done after every update).
+    pub fn store_weights(&self) -> Result<(), Error> {
+        self.actor.agent_params.set_flat(self.actor.agent.var_count(), &self.actor_theta)?;
+        self.critic_params.set_flat(self.critic.var_count(), &self.critic_theta)
     }
 
     /// The network of `net` unrolled over a batch's chunks from their first hidden states
@@ -260,19 +290,108 @@ impl PpoLearner {
         Ok(Losses { total, policy, value, entropy })
     }
 
-    /// One gradient step of actor and critic on `b`; the gradient norms before clipping.
-    pub fn step(&mut self, b: &PpoBatch) -> Result<(Losses, f64, f64), Error> {
-        let losses = self.loss(b)?;
-        let loss_v = f64::from(losses.total.to_scalar::<f32>()?);
-        if !loss_v.is_finite() || loss_v.abs() > 1e8 {
-            return Err(Error::Diverged { update: self.updates, loss: loss_v });
+    /// The actor's input rows `(L * N, input)` of a batch: as they are in `features` mode,
+    /// else fused with the encoder's features (a candle tensor with its graph, returned too:
+    /// the encoder learns through it).
+    fn actor_rows(&self, b: &FlatBatch) -> Result<(Vec<f32>, Option<Tensor>), Error> {
+        let Some(e) = &self.actor.encoder else { return Ok((b.actor_in.clone(), None)) };
+        let Some((frames, idx)) = &b.frames else {
+            return Err(Error::Observation { message: "an image encoder was given a batch without frames".into() });
+        };
+        let rows = b.l * b.n;
+        let idx = Tensor::from_slice(idx, idx.len(), &Device::Cpu)?;
+        let feats = e.forward(frames)?.index_select(&idx, 0)?;
+        let base = Tensor::from_slice(&b.actor_in, (rows, b.actor_in.len() / rows.max(1)), &Device::Cpu)?;
+        let x = e.fuse_rows(feats, &base)?;
+        Ok((x.flatten_all()?.to_vec1()?, Some(x)))
+    }
+
+    /// The loss of a batch and its gradients, by the fused kernels, without changing
+    /// anything.
+    pub fn gradients(&self, b: &FlatBatch) -> Result<Gradients, Error> {
+        let cfg = &self.cfg;
+        let (l, n) = (b.l, b.n);
+        let (x, x_graph) = self.actor_rows(b)?;
+        let fa = self.actor_layout.forward(&self.actor_theta, &x, &b.h_actor, Some(&b.keep), None, l, n, true);
+        let fc = self.critic_layout.forward(&self.critic_theta, &b.critic_in, &b.h_critic, Some(&b.keep), None, l, n, true);
+        let settings = LossSettings {
+            clip: cfg.clip_param as f32,
+            entropy_coef: cfg.entropy_coef as f32,
+            value_coef: cfg.value_loss_coef as f32,
+            huber_delta: cfg.huber_delta as f32,
+            clip_value_loss: cfg.clip_value_loss,
+        };
+        let rows = LossRows {
+            n_actions: self.actor_layout.out,
+            logits: &fa.out,
+            mask: &b.mask,
+            actions: &b.actions,
+            old_logp: &b.old_logp,
+            adv: &b.adv,
+            active: &b.active,
+            values: &fc.out,
+            old_values: &b.old_values,
+            targets: &b.targets,
+        };
+        let lg = ppo_loss(&rows, &settings);
+        if !lg.total.is_finite() || lg.total.abs() > 1e8 {
+            return Err(Error::Diverged { update: self.updates, loss: lg.total });
         }
-        let mut grads = losses.total.backward()?;
-        let an = clip_grad_norm(&mut grads, &self.actor_vars, self.cfg.grad_norm_clip)?;
-        let cn = clip_grad_norm(&mut grads, &self.critic_vars, self.cfg.grad_norm_clip)?;
-        self.actor_opt.step(&grads)?;
-        self.critic_opt.step(&grads)?;
-        Ok((losses, an, cn))
+        let mut ga = vec![0f32; self.actor_layout.len()];
+        let dx = self.actor_layout.backward(&self.actor_theta, &fa, &lg.d_logits, None, &mut ga, x_graph.is_some());
+        let mut gc = vec![0f32; self.critic_layout.len()];
+        self.critic_layout.backward(&self.critic_theta, &fc, &lg.d_values, None, &mut gc, false);
+        let enc = match (x_graph, dx) {
+            (Some(xg), Some(dx)) => {
+                let d = Tensor::from_vec(dx, xg.dims(), &Device::Cpu)?;
+                Some((xg * d)?.sum_all()?.backward()?)
+            }
+            _ => None,
+        };
+        Ok(Gradients { loss: lg, actor: ga, critic: gc, encoder: enc })
+    }
+
+    /// One gradient step of actor and critic on `b` (each clipped to `grad_norm_clip`).
+    pub fn step(&mut self, b: &FlatBatch) -> Result<StepReport, Error> {
+        let Gradients { loss: lg, actor: mut ga, critic: mut gc, encoder: enc } = self.gradients(b)?;
+        let clip = self.cfg.grad_norm_clip;
+        let an = match enc {
+            None => clip_global_norm(&mut ga, clip),
+            Some(mut grads) => {
+                // One norm over the agent network and its encoder, as one network.
+                let mut sq: f64 = ga.iter().map(|&g| f64::from(g) * f64::from(g)).sum();
+                for v in &self.encoder_vars {
+                    if let Some(g) = grads.get(v) {
+                        sq += f64::from(g.sqr()?.sum_all()?.to_scalar::<f32>()?);
+                    }
+                }
+                let norm = sq.sqrt();
+                if norm > clip {
+                    let s = clip / (norm + 1e-6);
+                    ga.iter_mut().for_each(|g| *g *= s as f32);
+                    for v in &self.encoder_vars {
+                        if let Some(g) = grads.remove(v) {
+                            grads.insert(v, (g * s)?);
+                        }
+                    }
+                }
+                if let Some(opt) = &mut self.encoder_opt {
+                    opt.step(&grads)?;
+                }
+                norm
+            }
+        };
+        let cn = clip_global_norm(&mut gc, clip);
+        self.actor_adam.step(&mut self.actor_theta, &ga);
+        self.critic_adam.step(&mut self.critic_theta, &gc);
+        Ok(StepReport {
+            total: lg.total,
+            policy: lg.policy,
+            value: lg.value,
+            entropy: lg.entropy,
+            actor_grad_norm: an,
+            critic_grad_norm: cn,
+        })
     }
 
     /// Advantages and value targets of a finished rollout, then `ppo_epochs` passes of
@@ -298,7 +417,7 @@ impl PpoLearner {
         let adv_n: Vec<f32> = adv.iter().map(|&x| ((f64::from(x) - m) / sd) as f32).collect();
         let value_mean = values[..t * rows].iter().zip(&r.active).map(|(&v, &w)| f64::from(v * w)).sum::<f64>() / n_act;
 
-        let batch = PpoBatch::new(r, &adv_n, &targets, cfg.data_chunk_length, cfg.rnn_hidden_dim)?;
+        let batch = FlatBatch::new(r, &adv_n, &targets, cfg.data_chunk_length)?;
         let n = batch.len();
         let mb = cfg.num_mini_batch.clamp(1, n.max(1));
         let mut order: Vec<u32> = (0..n as u32).collect();
@@ -309,14 +428,20 @@ impl PpoLearner {
                 order.shuffle(rng);
             }
             for k in 0..mb {
-                let part = if mb == 1 { batch.clone() } else { batch.select(&order[k * n / mb..(k + 1) * n / mb])? };
-                let (l, an, cn) = self.step(&part)?;
-                stats.loss += f64::from(l.total.to_scalar::<f32>()?);
-                stats.policy_loss += f64::from(l.policy.to_scalar::<f32>()?);
-                stats.value_loss += f64::from(l.value.to_scalar::<f32>()?);
-                stats.entropy += f64::from(l.entropy.to_scalar::<f32>()?);
-                stats.actor_grad_norm += an;
-                stats.critic_grad_norm += cn;
+                let part;
+                let b = if mb == 1 {
+                    &batch
+                } else {
+                    part = batch.select(&order[k * n / mb..(k + 1) * n / mb]);
+                    &part
+                };
+                let st = self.step(b)?;
+                stats.loss += st.total;
+                stats.policy_loss += st.policy;
+                stats.value_loss += st.value;
+                stats.entropy += st.entropy;
+                stats.actor_grad_norm += st.actor_grad_norm;
+                stats.critic_grad_norm += st.critic_grad_norm;
                 steps += 1.0;
             }
         }
@@ -331,12 +456,13 @@ impl PpoLearner {
             *x /= steps.max(1.0);
         }
         self.updates += 1;
+        self.store_weights()?;
         Ok(stats)
     }
 
-    /// The acting step for `rows` rows: actor logits and critic values (both as vectors) and
-    /// the next hidden states.
-    pub fn act(&self, x_actor: &[f32], h_actor: &Tensor, x_critic: &[f32], h_critic: &Tensor) -> Result<ActOut, Error> {
+    /// The acting step for `rows` rows: actor logits and critic values and the next hidden
+    /// states (`rows x hidden`).
+    pub fn act(&self, x_actor: &[f32], h_actor: &[f32], x_critic: &[f32], h_critic: &[f32]) -> Result<ActOut, Error> {
         self.act_with(x_actor, h_actor, x_critic, h_critic, None)
     }
 
@@ -344,24 +470,27 @@ impl PpoLearner {
     pub fn act_with(
         &self,
         x_actor: &[f32],
-        h_actor: &Tensor,
+        h_actor: &[f32],
         x_critic: &[f32],
-        h_critic: &Tensor,
+        h_critic: &[f32],
         frames: Option<&crate::encoders::FrameTensors>,
     ) -> Result<ActOut, Error> {
-        let rows = h_actor.dim(0)?;
-        let xa = Tensor::from_slice(x_actor, (rows, x_actor.len() / rows.max(1)), &Device::Cpu)?;
-        let xa = self.actor.step_inputs(xa, frames)?;
-        let xc = Tensor::from_slice(x_critic, (rows, x_critic.len() / rows.max(1)), &Device::Cpu)?;
-        let (logits, ha) = self.actor.agent.step(&xa, h_actor)?;
-        let (values, hc) = self.critic.step(&xc, h_critic)?;
-        // Detached: acting must not chain every step's graph onto the previous one's.
-        Ok(ActOut {
-            logits: logits.flatten_all()?.to_vec1()?,
-            values: values.flatten_all()?.to_vec1()?,
-            h_actor: ha.detach(),
-            h_critic: hc.detach(),
-        })
+        let rows = h_actor.len() / self.actor_layout.hidden.max(1);
+        let xa = if self.actor.encoder.is_some() {
+            let xa = Tensor::from_slice(x_actor, (rows, x_actor.len() / rows.max(1)), &Device::Cpu)?;
+            self.actor.step_inputs(xa, frames)?.flatten_all()?.to_vec1()?
+        } else {
+            x_actor.to_vec()
+        };
+        let fa = self.actor_layout.forward(&self.actor_theta, &xa, h_actor, None, None, 1, rows, false);
+        let fc = self.critic_layout.forward(&self.critic_theta, x_critic, h_critic, None, None, 1, rows, false);
+        Ok(ActOut { logits: fa.out, values: fc.out, h_actor: fa.hidden, h_critic: fc.hidden })
+    }
+
+    /// The critic's values of `rows` rows (a rollout's bootstrap).
+    pub fn values(&self, x_critic: &[f32], h_critic: &[f32]) -> Vec<f32> {
+        let rows = h_critic.len() / self.critic_layout.hidden.max(1);
+        self.critic_layout.forward(&self.critic_theta, x_critic, h_critic, None, None, 1, rows, false).out
     }
 
     /// Writes the critic's weights (`critic.safetensors`) into `dir`.
@@ -376,8 +505,8 @@ impl PpoLearner {
 pub struct ActOut {
     pub logits: Vec<f32>,
     pub values: Vec<f32>,
-    pub h_actor: Tensor,
-    pub h_critic: Tensor,
+    pub h_actor: Vec<f32>,
+    pub h_critic: Vec<f32>,
 }
 
 /// The additive logit masks (`0` or [`MASKED`]) of 0/1 availability masks.

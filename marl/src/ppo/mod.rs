@@ -21,7 +21,7 @@ pub mod rollout;
 mod train;
 pub mod value_norm;
 
-pub use learner::{CriticInput, Losses, PpoLearner, PpoStats, clip_grad_norm, masked_log_softmax, sample_actions};
-pub use rollout::{MASKED, PpoBatch, Rollout, gae, to_chunks};
+pub use learner::{CriticInput, Gradients, Losses, PpoLearner, PpoStats, StepReport, masked_log_softmax, sample_actions};
+pub use rollout::{FlatBatch, MASKED, PpoBatch, Rollout, gae, to_chunks};
 pub use train::{train, train_from};
 pub use value_norm::ValueNorm;

@@ -117,7 +117,152 @@ pub fn to_chunks(data: &[f32], t: usize, rows: usize, chunk: usize) -> Vec<f32> 
     out
 }
 
-/// One update's data as tensors, `L` steps of `N` chunk sequences.
+/// One update's data, flat: `L` steps of `N` chunk sequences, time-major `(L, N, width)`
+/// (the fused networks' layout). [`PpoBatch`] is the same as candle tensors.
+#[derive(Debug, Clone, Default)]
+pub struct FlatBatch {
+    pub l: usize,
+    pub n: usize,
+    pub actor_in: Vec<f32>,
+    pub critic_in: Vec<f32>,
+    /// `(L, N, n_actions)` additive mask.
+    pub mask: Vec<f32>,
+    /// `(L, N)` each.
+    pub actions: Vec<u32>,
+    pub old_logp: Vec<f32>,
+    pub adv: Vec<f32>,
+    pub old_values: Vec<f32>,
+    pub targets: Vec<f32>,
+    pub active: Vec<f32>,
+    pub keep: Vec<f32>,
+    /// `(N, hidden)`.
+    pub h_actor: Vec<f32>,
+    pub h_critic: Vec<f32>,
+    /// Image modes: the rollout's `T x envs` observations, and `(L, N)` the one each chunk
+    /// step's row sees.
+    pub frames: Option<(FrameTensors, Vec<u32>)>,
+}
+
+impl FlatBatch {
+    /// Chunks a finished rollout; `adv` (normalised advantages) and `targets` (normalised
+    /// value targets) are `T x R`.
+    pub fn new(r: &Rollout, adv: &[f32], targets: &[f32], chunk: usize) -> Result<FlatBatch, Error> {
+        let (t, rows) = (r.t, r.rows);
+        let l = chunk.max(1);
+        let n = t / l * rows;
+        let seq = |data: &[f32]| to_chunks(data, t, rows, l);
+        let frames = if r.frames.is_empty() {
+            None
+        } else {
+            if r.frames.len() != t {
+                return Err(Error::Observation { message: format!("a rollout of {t} steps holds {} steps of frames", r.frames.len()) });
+            }
+            let (envs, a) = (r.frames[0].n, r.n_agents.max(1));
+            if envs * a != rows {
+                return Err(Error::Observation { message: format!("frames of {envs} environments for {rows} rows of {a} agents") });
+            }
+            // Sequence `c * R + row`, step `l`: rollout step `c * L + l`, its row's environment.
+            let mut idx = Vec::with_capacity(l * n);
+            for li in 0..l {
+                for c in 0..t / l {
+                    idx.extend((0..rows).map(|row| ((c * l + li) * envs + row / a) as u32));
+                }
+            }
+            Some((concat_steps(&r.frames)?, idx))
+        };
+        let actions: Vec<f32> = r.actions.iter().map(|&a| a as f32).collect();
+        Ok(FlatBatch {
+            l,
+            n,
+            actor_in: seq(&r.actor_in),
+            critic_in: seq(&r.critic_in),
+            mask: seq(&r.mask),
+            actions: seq(&actions).into_iter().map(|a| a as u32).collect(),
+            old_logp: seq(&r.logp),
+            adv: seq(adv),
+            old_values: seq(&r.values[..t * rows]),
+            targets: seq(targets),
+            active: seq(&r.active),
+            keep: seq(&r.keep),
+            h_actor: r.h_actor.clone(),
+            h_critic: r.h_critic.clone(),
+            frames,
+        })
+    }
+
+    /// The number of sequences.
+    pub fn len(&self) -> usize {
+        self.n
+    }
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// The sequences `idx` (a mini-batch), in that order.
+    pub fn select(&self, idx: &[u32]) -> FlatBatch {
+        let (l, n, m) = (self.l, self.n, idx.len());
+        fn pick<T: Copy>(data: &[T], l: usize, n: usize, idx: &[u32]) -> Vec<T> {
+            let w = data.len() / (l * n).max(1);
+            let mut out = Vec::with_capacity(l * idx.len() * w);
+            for t in 0..l {
+                for &i in idx {
+                    let at = (t * n + i as usize) * w;
+                    out.extend_from_slice(&data[at..at + w]);
+                }
+            }
+            out
+        }
+        FlatBatch {
+            l,
+            n: m,
+            actor_in: pick(&self.actor_in, l, n, idx),
+            critic_in: pick(&self.critic_in, l, n, idx),
+            mask: pick(&self.mask, l, n, idx),
+            actions: pick(&self.actions, l, n, idx),
+            old_logp: pick(&self.old_logp, l, n, idx),
+            adv: pick(&self.adv, l, n, idx),
+            old_values: pick(&self.old_values, l, n, idx),
+            targets: pick(&self.targets, l, n, idx),
+            active: pick(&self.active, l, n, idx),
+            keep: pick(&self.keep, l, n, idx),
+            h_actor: pick(&self.h_actor, 1, n, idx),
+            h_critic: pick(&self.h_critic, 1, n, idx),
+            frames: self.frames.as_ref().map(|(f, i)| (f.clone(), pick(i, l, n, idx))),
+        }
+    }
+
+    /// As candle tensors (the reference loss's input).
+    pub fn tensors(&self, hidden: usize) -> Result<PpoBatch, Error> {
+        let (l, n) = (self.l, self.n);
+        let dev = Device::Cpu;
+        let seq = |data: &[f32]| -> Result<Tensor, Error> {
+            let width = data.len() / (l * n).max(1);
+            Ok(Tensor::from_slice(data, (l, n, width), &dev)?)
+        };
+        Ok(PpoBatch {
+            actor_in: seq(&self.actor_in)?,
+            critic_in: seq(&self.critic_in)?,
+            mask: seq(&self.mask)?,
+            actions: Tensor::from_slice(&self.actions, (l, n, 1), &dev)?,
+            old_logp: seq(&self.old_logp)?,
+            adv: seq(&self.adv)?,
+            old_values: seq(&self.old_values)?,
+            targets: seq(&self.targets)?,
+            active: seq(&self.active)?,
+            keep: seq(&self.keep)?,
+            h_actor: Tensor::from_slice(&self.h_actor, (n, hidden), &dev)?,
+            h_critic: Tensor::from_slice(&self.h_critic, (n, hidden), &dev)?,
+            frames: self
+                .frames
+                .as_ref()
+                .map(|(f, i)| Ok::<_, candle_core::Error>((f.clone(), Tensor::from_slice(i, (l, n), &dev)?)))
+                .transpose()?,
+        })
+    }
+}
+
+/// One update's data as candle tensors, `L` steps of `N` chunk sequences: the input of the
+/// reference loss ([`crate::ppo::PpoLearner::loss`]).
 #[derive(Debug, Clone)]
 pub struct PpoBatch {
     /// `(L, N, width)`.
@@ -143,52 +288,9 @@ pub struct PpoBatch {
 }
 
 impl PpoBatch {
-    /// Chunks a finished rollout; `adv` (normalised advantages) and `targets` (normalised
-    /// value targets) are `T x R`.
+    /// Chunks a finished rollout ([`FlatBatch::new`]) into tensors.
     pub fn new(r: &Rollout, adv: &[f32], targets: &[f32], chunk: usize, hidden: usize) -> Result<PpoBatch, Error> {
-        let (t, rows) = (r.t, r.rows);
-        let l = chunk;
-        let n = t / l * rows;
-        let dev = Device::Cpu;
-        let seq = |data: &[f32]| -> Result<Tensor, Error> {
-            let width = data.len() / (t * rows).max(1);
-            Ok(Tensor::from_vec(to_chunks(data, t, rows, l), (l, n, width), &dev)?)
-        };
-        let actions: Vec<f32> = r.actions.iter().map(|&a| a as f32).collect();
-        let frames = if r.frames.is_empty() {
-            None
-        } else {
-            if r.frames.len() != t {
-                return Err(Error::Observation { message: format!("a rollout of {t} steps holds {} steps of frames", r.frames.len()) });
-            }
-            let (envs, a) = (r.frames[0].n, r.n_agents.max(1));
-            if envs * a != rows {
-                return Err(Error::Observation { message: format!("frames of {envs} environments for {rows} rows of {a} agents") });
-            }
-            // Sequence `c * R + row`, step `l`: rollout step `c * L + l`, its row's environment.
-            let mut idx = Vec::with_capacity(l * n);
-            for li in 0..l {
-                for c in 0..t / l {
-                    idx.extend((0..rows).map(|row| ((c * l + li) * envs + row / a) as u32));
-                }
-            }
-            Some((concat_steps(&r.frames)?, Tensor::from_vec(idx, (l, n), &dev)?))
-        };
-        Ok(PpoBatch {
-            actor_in: seq(&r.actor_in)?,
-            critic_in: seq(&r.critic_in)?,
-            mask: seq(&r.mask)?,
-            actions: seq(&actions)?.to_dtype(candle_core::DType::U32)?,
-            old_logp: seq(&r.logp)?,
-            adv: seq(adv)?,
-            old_values: seq(&r.values[..t * rows])?,
-            targets: seq(targets)?,
-            active: seq(&r.active)?,
-            keep: seq(&r.keep)?,
-            h_actor: Tensor::from_vec(r.h_actor.clone(), (n, hidden), &dev)?,
-            h_critic: Tensor::from_vec(r.h_critic.clone(), (n, hidden), &dev)?,
-            frames,
-        })
+        FlatBatch::new(r, adv, targets, chunk)?.tensors(hidden)
     }
 
     /// The number of sequences.
@@ -197,27 +299,6 @@ impl PpoBatch {
     }
     pub fn is_empty(&self) -> bool {
         self.len() == 0
-    }
-
-    /// The sequences `idx` (a mini-batch).
-    pub fn select(&self, idx: &[u32]) -> Result<PpoBatch, Error> {
-        let ids = Tensor::from_slice(idx, idx.len(), &Device::Cpu)?;
-        let s1 = |x: &Tensor| x.index_select(&ids, 1);
-        Ok(PpoBatch {
-            actor_in: s1(&self.actor_in)?,
-            critic_in: s1(&self.critic_in)?,
-            mask: s1(&self.mask)?,
-            actions: s1(&self.actions)?,
-            old_logp: s1(&self.old_logp)?,
-            adv: s1(&self.adv)?,
-            old_values: s1(&self.old_values)?,
-            targets: s1(&self.targets)?,
-            active: s1(&self.active)?,
-            keep: s1(&self.keep)?,
-            h_actor: self.h_actor.index_select(&ids, 0)?,
-            h_critic: self.h_critic.index_select(&ids, 0)?,
-            frames: self.frames.as_ref().map(|(f, idx)| Ok::<_, candle_core::Error>((f.clone(), s1(idx)?))).transpose()?,
-        })
     }
 }
 
@@ -268,10 +349,10 @@ mod tests {
             }
         }
         // A mini-batch keeps each sequence's frames.
-        let part = b.select(&[4, 1])?;
-        let part_idx: Vec<Vec<u32>> = part.frames.as_ref().map(|(_, i)| i.to_vec2()).transpose()?.unwrap_or_default();
+        let part = FlatBatch::new(&r, &zeros, &zeros, l)?.select(&[4, 1]);
+        let part_idx = part.frames.as_ref().map(|(_, i)| i.clone()).unwrap_or_default();
         for li in 0..l {
-            assert_eq!(part_idx[li], [idx[li][4], idx[li][1]]);
+            assert_eq!(part_idx[li * 2..li * 2 + 2], [idx[li][4], idx[li][1]]);
         }
         Ok(())
     }

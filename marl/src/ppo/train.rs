@@ -19,7 +19,6 @@ use crate::buffer::{Shape, act_inputs};
 use crate::resume::RunState;
 use crate::train::{Monitor, Progress, RunOptions, Summary};
 use crate::{Config, Error, UpdateStats, policy};
-use candle_core::{Device, Tensor};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::time::{Duration, Instant};
@@ -61,8 +60,7 @@ pub fn train_from(
     let (id, la) = (cfg.obs_agent_id, cfg.obs_last_action);
     let agents: Vec<usize> = (0..rows).map(|r| r % a.max(1)).collect();
     let mut last: Vec<Option<u32>> = vec![None; rows];
-    let zeros = || Tensor::zeros((rows, hidden), candle_core::DType::F32, &Device::Cpu);
-    let (mut h_actor, mut h_critic) = (zeros()?, zeros()?);
+    let (mut h_actor, mut h_critic) = (vec![0f32; rows * hidden], vec![0f32; rows * hidden]);
     // The run starts an episode everywhere.
     let mut keep = vec![0f32; rows];
     let mut roll = Rollout { rows, n_agents: a, ..Rollout::default() };
@@ -75,8 +73,8 @@ pub fn train_from(
         let x_actor = act_inputs(&b.obs, &agents, &last, &shape, id, la);
         let x_critic = learner.critic_input.rows(&shape, &b.obs, &b.state, e);
         if roll.t.is_multiple_of(cfg.data_chunk_length) {
-            roll.h_actor.extend(h_actor.flatten_all()?.to_vec1::<f32>()?);
-            roll.h_critic.extend(h_critic.flatten_all()?.to_vec1::<f32>()?);
+            roll.h_actor.extend_from_slice(&h_actor);
+            roll.h_critic.extend_from_slice(&h_critic);
         }
         let frames = source.as_mut().map(|s| s.observe(env.envs())).transpose()?;
         let tensors = frames.as_ref().map(crate::observe::StepFrames::tensors).transpose()?;
@@ -111,9 +109,11 @@ pub fn train_from(
             *k = if done[r / a.max(1)] { 0.0 } else { 1.0 };
         }
         (h_actor, h_critic) = (out.h_actor, out.h_critic);
-        if done.iter().any(|&d| d) {
-            let k = Tensor::from_slice(&keep, (rows, 1), &Device::Cpu)?;
-            (h_actor, h_critic) = (h_actor.broadcast_mul(&k)?, h_critic.broadcast_mul(&k)?);
+        for ((ha, hc), &k) in h_actor.chunks_exact_mut(hidden.max(1)).zip(h_critic.chunks_exact_mut(hidden.max(1))).zip(&keep) {
+            if k == 0.0 {
+                ha.fill(0.0);
+                hc.fill(0.0);
+            }
         }
         for ((l, &act), &k) in last.iter_mut().zip(&acts).zip(&keep) {
             *l = if k > 0.0 { Some(act) } else { None };
@@ -122,9 +122,7 @@ pub fn train_from(
 
         if roll.t == cfg.rollout_len {
             let x_critic = learner.critic_input.rows(&shape, &b.obs, &b.state, e);
-            let xc = Tensor::from_slice(&x_critic, (rows, x_critic.len() / rows.max(1)), &Device::Cpu)?;
-            let (v, _) = learner.critic.step(&xc, &h_critic)?;
-            roll.values.extend(v.flatten_all()?.to_vec1::<f32>()?);
+            roll.values.extend(learner.values(&x_critic, &h_critic));
             let st = learner.update(&roll, &mut update_rng)?;
             last_stats = UpdateStats { loss: st.loss, grad_norm: st.actor_grad_norm, td_abs: st.value_loss, q_taken: st.value_mean };
             roll.clear();

@@ -1,0 +1,46 @@
+//! Adam (PyTorch's, as candle's `AdamW` with no weight decay: bias-corrected moments,
+//! `eps` added to the root) and global-norm gradient clipping on flat vectors.
+
+/// Adam's state for one flat parameter vector.
+#[derive(Clone, Debug)]
+pub struct Adam {
+    pub lr: f64,
+    pub eps: f64,
+    beta1: f64,
+    beta2: f64,
+    m: Vec<f32>,
+    v: Vec<f32>,
+    steps: i32,
+}
+
+impl Adam {
+    pub fn new(len: usize, lr: f64, eps: f64) -> Adam {
+        Adam { lr, eps, beta1: 0.9, beta2: 0.999, m: vec![0.0; len], v: vec![0.0; len], steps: 0 }
+    }
+
+    /// One step of `theta` along `grad`.
+    pub fn step(&mut self, theta: &mut [f32], grad: &[f32]) {
+        assert_eq!((theta.len(), grad.len()), (self.m.len(), self.m.len()), "Adam over a vector of another size");
+        self.steps += 1;
+        let (b1, b2) = (self.beta1 as f32, self.beta2 as f32);
+        let scale_m = (1.0 / (1.0 - self.beta1.powi(self.steps))) as f32;
+        let scale_v = (1.0 / (1.0 - self.beta2.powi(self.steps))) as f32;
+        let (lr, eps) = (self.lr as f32, self.eps as f32);
+        for (((p, &g), m), v) in theta.iter_mut().zip(grad).zip(&mut self.m).zip(&mut self.v) {
+            *m = *m * b1 + g * (1.0 - b1);
+            *v = *v * b2 + g * g * (1.0 - b2);
+            *p -= lr * (*m * scale_m) / ((*v * scale_v).sqrt() + eps);
+        }
+    }
+}
+
+/// Scales `grad` so its L2 norm is at most `max_norm` (as `torch.nn.utils.clip_grad_norm_`);
+/// returns the norm before clipping.
+pub fn clip_global_norm(grad: &mut [f32], max_norm: f64) -> f64 {
+    let norm = grad.iter().map(|&g| f64::from(g) * f64::from(g)).sum::<f64>().sqrt();
+    if norm > max_norm {
+        let s = (max_norm / (norm + 1e-6)) as f32;
+        grad.iter_mut().for_each(|g| *g *= s);
+    }
+    norm
+}

@@ -1,0 +1,526 @@
+//! PyMARL's agent network (`fc1 -> ReLU -> GRUCell -> fc2`, or the feed-forward
+//! `fc1 -> ReLU -> Linear -> ReLU -> fc2`) forward and backward over `L` steps of `N`
+//! sequences, by hand, on one flat parameter vector.
+//!
+//! Why not candle's autograd: the GRU runs one step at a time, and candle builds and walks a
+//! graph of about twenty tensors per step (each a fresh allocation), then a backward op per
+//! node. Here a step is one matrix product and one fused elementwise loop, the products that
+//! do not depend on the hidden state run over all steps at once, and the backward pass
+//! needs no graph: the tape holds the gates.
+//!
+//! Threads: the `N` sequences are cut into a fixed number of chunks that depends on `N`
+//! alone; each chunk runs its whole forward and backward pass on its own (sequences are
+//! independent) on any thread, and the chunks' weight gradients are summed in chunk order.
+//! So the results are the same bits whatever the number of threads.
+//!
+//! Checked against candle's autograd (the crate's reference networks, [`crate::nets`]) by
+//! the tests below.
+
+use super::act::{sigmoid, tanh};
+use super::gemm::{Mat, matmul};
+use rayon::prelude::*;
+
+/// The network's sizes and where each parameter sits in the flat vector, in the order of
+/// [`crate::nets::AgentNet`]'s variables (so a flat vector is their concatenation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NetLayout {
+    pub input: usize,
+    pub hidden: usize,
+    pub out: usize,
+    pub recurrent: bool,
+}
+
+/// Offsets of the parameters.
+#[derive(Clone, Copy, Debug)]
+struct Offsets {
+    w1: usize,
+    b1: usize,
+    /// GRU: `w_ih`; feed-forward: the core layer's weight.
+    wi: usize,
+    /// GRU: `w_hh`; feed-forward: the core layer's bias.
+    wh: usize,
+    bi: usize,
+    bh: usize,
+    w2: usize,
+    b2: usize,
+    end: usize,
+}
+
+impl NetLayout {
+    fn offsets(&self) -> Offsets {
+        let (i, h, o) = (self.input, self.hidden, self.out);
+        let w1 = 0;
+        let b1 = w1 + h * i;
+        let wi = b1 + h;
+        if self.recurrent {
+            let wh = wi + 3 * h * h;
+            let bi = wh + 3 * h * h;
+            let bh = bi + 3 * h;
+            let w2 = bh + 3 * h;
+            Offsets { w1, b1, wi, wh, bi, bh, w2, b2: w2 + o * h, end: w2 + o * h + o }
+        } else {
+            let wh = wi + h * h; // the core's bias
+            let w2 = wh + h;
+            Offsets { w1, b1, wi, wh, bi: wh, bh: wh, w2, b2: w2 + o * h, end: w2 + o * h + o }
+        }
+    }
+
+    /// The number of parameters.
+    pub fn len(&self) -> usize {
+        self.offsets().end
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The chunks `N` sequences are cut into: a function of `N` only (see the module docs).
+    fn chunks(n: usize) -> Vec<(usize, usize)> {
+        const MIN_ROWS: usize = 24;
+        const MAX_CHUNKS: usize = 8;
+        let k = (n / MIN_ROWS).clamp(1, MAX_CHUNKS);
+        (0..k).map(|c| (c * n / k, (c + 1) * n / k)).filter(|(a, b)| b > a).collect()
+    }
+
+    /// How many chunks `n` sequences are cut into.
+    pub fn chunk_count(n: usize) -> usize {
+        NetLayout::chunks(n).len()
+    }
+
+    /// Runs the network over `l` steps of `n` sequences: `x` `(L, N, input)` time-major,
+    /// `h0` `(N, hidden)` (ignored by the feed-forward network), `keep` `(L, N)` (0 where an
+    /// episode starts at that step, resetting the hidden state; `None`: never). With `tape`,
+    /// keeps what [`NetLayout::backward`] needs. `lens` (`N`, non-increasing): sequence `i`'s
+    /// steps from `lens[i]` on are padding, skipped (their outputs are 0, their gradients
+    /// ignored), so a batch of episodes sorted longest first costs its real steps only.
+    #[allow(clippy::too_many_arguments)]
+    pub fn forward(
+        &self,
+        theta: &[f32],
+        x: &[f32],
+        h0: &[f32],
+        keep: Option<&[f32]>,
+        lens: Option<&[usize]>,
+        l: usize,
+        n: usize,
+        tape: bool,
+    ) -> Forward {
+        assert_eq!(theta.len(), self.len(), "parameters");
+        assert_eq!(x.len(), l * n * self.input, "inputs");
+        if self.recurrent {
+            assert_eq!(h0.len(), n * self.hidden, "initial hidden states");
+        }
+        if let Some(k) = keep {
+            assert_eq!(k.len(), l * n, "episode-start mask");
+        }
+        if let Some(ls) = lens {
+            assert_eq!(ls.len(), n, "sequence lengths");
+            assert!(ls.windows(2).all(|w| w[0] >= w[1]), "sequence lengths must not increase");
+        }
+        let chunks: Vec<Chunk> = NetLayout::chunks(n)
+            .into_par_iter()
+            .map(|(c0, c1)| {
+                // Step t's rows: the chunk's first `count` sequences (the longer ones), packed.
+                let mut steps = Vec::with_capacity(l);
+                let mut at = 0;
+                for t in 0..l {
+                    let count = lens.map_or(c1 - c0, |ls| ls[c0..c1].iter().take_while(|&&len| len > t).count());
+                    steps.push((at, count));
+                    at += count;
+                }
+                let xs = gather(x, n, self.input, c0, &steps);
+                let h0 = if self.recurrent { &h0[c0 * self.hidden..c1 * self.hidden] } else { &[][..] };
+                let keep = keep.map(|k| gather(k, n, 1, c0, &steps));
+                self.forward_chunk(theta, xs, h0, keep, steps, tape, (c0, c1))
+            })
+            .collect();
+        let mut out = vec![0f32; l * n * self.out];
+        let mut hidden = vec![0f32; l * n * self.hidden];
+        for c in &chunks {
+            scatter(&mut out, &c.out, n, self.out, c.range.0, &c.steps);
+            scatter(&mut hidden, &c.hs, n, self.hidden, c.range.0, &c.steps);
+        }
+        Forward { l, n, out, hidden, chunks: if tape { chunks } else { Vec::new() } }
+    }
+
+    /// One chunk's pass on its packed rows (`steps`: each step's first row and row count).
+    #[allow(clippy::too_many_arguments)]
+    fn forward_chunk(
+        &self,
+        theta: &[f32],
+        x: Vec<f32>,
+        h0: &[f32],
+        keep: Option<Vec<f32>>,
+        steps: Vec<(usize, usize)>,
+        tape: bool,
+        range: (usize, usize),
+    ) -> Chunk {
+        let (i, h, o) = (self.input, self.hidden, self.out);
+        let off = self.offsets();
+        let nc = range.1 - range.0;
+        let rows: usize = steps.iter().map(|s| s.1).sum();
+        let p = |a: usize, len: usize| &theta[a..a + len];
+        // a1 = relu(x W1^T + b1)
+        let mut a1 = bias_rows(p(off.b1, h), rows);
+        matmul(&mut a1, h, Mat::rows(&x, rows, i), Mat::t(p(off.w1, h * i), i, h), true);
+        relu(&mut a1);
+        let mut c = Chunk { range, x, a1, out: Vec::new(), ..Chunk::default() };
+        c.steps = steps.clone();
+        if self.recurrent {
+            let h3 = 3 * h;
+            // The input side of every step at once: gi = a1 W_ih^T + b_ih.
+            let mut gi = bias_rows(p(off.bi, h3), rows);
+            matmul(&mut gi, h3, Mat::rows(&c.a1, rows, h), Mat::t(p(off.wi, h3 * h), h, h3), true);
+            let w_hh = Mat::t(p(off.wh, h3 * h), h, h3);
+            let b_hh = p(off.bh, h3);
+            let mut hs = vec![0f32; rows * h];
+            // The gates of every step with a tape, of the current step only without.
+            let kept = if tape { rows * h } else { nc * h };
+            let (mut hp_all, mut r_all, mut z_all, mut n_all, mut ghn_all) =
+                (vec![0f32; kept], vec![0f32; kept], vec![0f32; kept], vec![0f32; kept], vec![0f32; kept]);
+            let mut hp = vec![0f32; nc * h];
+            let mut gh = vec![0f32; nc * h3];
+            for (t, &(base, cnt)) in steps.iter().enumerate() {
+                let hp = &mut hp[..cnt * h];
+                if t == 0 {
+                    hp.copy_from_slice(&h0[..cnt * h]);
+                } else {
+                    let prev = steps[t - 1].0;
+                    hp.copy_from_slice(&hs[prev * h..(prev + cnt) * h]);
+                    if let Some(k) = keep.as_deref() {
+                        for (row, &kv) in hp.chunks_exact_mut(h).zip(&k[base..base + cnt]) {
+                            if kv != 1.0 {
+                                row.iter_mut().for_each(|v| *v *= kv);
+                            }
+                        }
+                    }
+                }
+                let gh = &mut gh[..cnt * h3];
+                for row in gh.chunks_exact_mut(h3) {
+                    row.copy_from_slice(b_hh);
+                }
+                matmul(gh, h3, Mat::rows(hp, cnt, h), w_hh, true);
+                let at = if tape { base * h } else { 0 };
+                pulp::Arch::new().dispatch(GatesForward {
+                    h,
+                    gi: &gi[base * h3..(base + cnt) * h3],
+                    gh,
+                    hp,
+                    hs: &mut hs[base * h..(base + cnt) * h],
+                    r: &mut r_all[at..at + cnt * h],
+                    z: &mut z_all[at..at + cnt * h],
+                    n: &mut n_all[at..at + cnt * h],
+                    ghn: &mut ghn_all[at..at + cnt * h],
+                });
+                hp_all[at..at + cnt * h].copy_from_slice(hp);
+            }
+            c.hs = hs;
+            c.hp = hp_all;
+            c.r = r_all;
+            c.z = z_all;
+            c.n = n_all;
+            c.ghn = ghn_all;
+            c.keep = keep;
+        } else {
+            let mut a2 = bias_rows(p(off.wh, h), rows);
+            matmul(&mut a2, h, Mat::rows(&c.a1, rows, h), Mat::t(p(off.wi, h * h), h, h), true);
+            relu(&mut a2);
+            c.hs = a2;
+        }
+        let mut out = bias_rows(p(off.b2, o), rows);
+        matmul(&mut out, o, Mat::rows(&c.hs, rows, h), Mat::t(p(off.w2, o * h), h, o), true);
+        c.out = out;
+        if !tape {
+            c.x = Vec::new();
+            c.a1 = Vec::new();
+        }
+        c
+    }
+
+    /// Gradients of a loss from its gradients `d_out` `(L, N, out)` with respect to the
+    /// outputs (and `d_hidden` `(L, N, hidden)`, to the hidden states, if the loss reads
+    /// them): the parameters' gradient (summed into `grad`), and with `want_dx` the inputs'.
+    pub fn backward(
+        &self,
+        theta: &[f32],
+        f: &Forward,
+        d_out: &[f32],
+        d_hidden: Option<&[f32]>,
+        grad: &mut [f32],
+        want_dx: bool,
+    ) -> Option<Vec<f32>> {
+        assert!(!f.chunks.is_empty() || f.n == 0, "backward needs a forward pass run with a tape");
+        assert_eq!(d_out.len(), f.l * f.n * self.out, "output gradients");
+        assert_eq!(grad.len(), self.len(), "parameter gradients");
+        let (l, n) = (f.l, f.n);
+        let parts: Vec<(Vec<f32>, Option<Vec<f32>>)> = f
+            .chunks
+            .par_iter()
+            .map(|c| {
+                let dout = gather(d_out, n, self.out, c.range.0, &c.steps);
+                let dh = d_hidden.map(|d| gather(d, n, self.hidden, c.range.0, &c.steps));
+                self.backward_chunk(theta, c, dout, dh, want_dx)
+            })
+            .collect();
+        let mut dx = want_dx.then(|| vec![0f32; l * n * self.input]);
+        for ((g, cdx), c) in parts.iter().zip(&f.chunks) {
+            grad.iter_mut().zip(g).for_each(|(a, b)| *a += b);
+            if let (Some(dx), Some(cdx)) = (dx.as_mut(), cdx) {
+                scatter(dx, cdx, n, self.input, c.range.0, &c.steps);
+            }
+        }
+        dx
+    }
+
+    fn backward_chunk(
+        &self,
+        theta: &[f32],
+        c: &Chunk,
+        dout: Vec<f32>,
+        dh_extra: Option<Vec<f32>>,
+        want_dx: bool,
+    ) -> (Vec<f32>, Option<Vec<f32>>) {
+        let (i, h, o) = (self.input, self.hidden, self.out);
+        let off = self.offsets();
+        let nc = c.range.1 - c.range.0;
+        let rows: usize = c.steps.iter().map(|s| s.1).sum();
+        let p = |a: usize, len: usize| &theta[a..a + len];
+        let mut g = vec![0f32; self.len()];
+        // Output layer.
+        matmul(&mut g[off.w2..off.w2 + o * h], h, Mat::t(&dout, o, rows), Mat::rows(&c.hs, rows, h), false);
+        col_sums(&dout, o, &mut g[off.b2..off.b2 + o]);
+        let mut dhs = dh_extra.unwrap_or_else(|| vec![0f32; rows * h]);
+        matmul(&mut dhs, h, Mat::rows(&dout, rows, o), Mat::rows(p(off.w2, o * h), o, h), true);
+        // d(pre-activation of a1).
+        let mut da1 = vec![0f32; rows * h];
+        if self.recurrent {
+            let h3 = 3 * h;
+            let mut dgi = vec![0f32; rows * h3];
+            let mut dgh = vec![0f32; rows * h3];
+            let w_hh = Mat::rows(p(off.wh, h3 * h), h3, h);
+            let mut carry = vec![0f32; nc * h];
+            let mut dhp = vec![0f32; nc * h];
+            for t in (0..c.steps.len()).rev() {
+                let (base, cnt) = c.steps[t];
+                let (a, b) = (base * h, (base + cnt) * h);
+                let dhp = &mut dhp[..cnt * h];
+                pulp::Arch::new().dispatch(GatesBackward {
+                    h,
+                    dh: &dhs[a..b],
+                    carry: &carry[..cnt * h],
+                    tape: [&c.r[a..b], &c.z[a..b], &c.n[a..b], &c.ghn[a..b], &c.hp[a..b]],
+                    dgi: &mut dgi[base * h3..(base + cnt) * h3],
+                    dgh: &mut dgh[base * h3..(base + cnt) * h3],
+                    dhp,
+                });
+                if t == 0 {
+                    break;
+                }
+                matmul(dhp, h, Mat::rows(&dgh[base * h3..(base + cnt) * h3], cnt, h3), w_hh, true);
+                let keep = c.keep.as_deref();
+                // The previous step's rows past `cnt` (longer sequences only) get no carry.
+                carry[cnt * h..].fill(0.0);
+                simd(|| {
+                    for (r, (cr, dr)) in carry.chunks_exact_mut(h).zip(dhp.chunks_exact(h)).enumerate() {
+                        let kv = keep.map_or(1.0, |k| k[base + r]);
+                        cr.iter_mut().zip(dr).for_each(|(c, &d)| *c = kv * d);
+                    }
+                });
+            }
+            matmul(&mut g[off.wh..off.wh + h3 * h], h, Mat::t(&dgh, h3, rows), Mat::rows(&c.hp, rows, h), false);
+            col_sums(&dgh, h3, &mut g[off.bh..off.bh + h3]);
+            matmul(&mut g[off.wi..off.wi + h3 * h], h, Mat::t(&dgi, h3, rows), Mat::rows(&c.a1, rows, h), false);
+            col_sums(&dgi, h3, &mut g[off.bi..off.bi + h3]);
+            matmul(&mut da1, h, Mat::rows(&dgi, rows, h3), Mat::rows(p(off.wi, h3 * h), h3, h), false);
+        } else {
+            // hs = relu(a1 Wc^T + bc): dhs through the ReLU.
+            relu_grad(&mut dhs, &c.hs);
+            matmul(&mut g[off.wi..off.wi + h * h], h, Mat::t(&dhs, h, rows), Mat::rows(&c.a1, rows, h), false);
+            col_sums(&dhs, h, &mut g[off.wh..off.wh + h]);
+            matmul(&mut da1, h, Mat::rows(&dhs, rows, h), Mat::rows(p(off.wi, h * h), h, h), false);
+        }
+        relu_grad(&mut da1, &c.a1);
+        matmul(&mut g[off.w1..off.w1 + h * i], i, Mat::t(&da1, h, rows), Mat::rows(&c.x, rows, i), false);
+        col_sums(&da1, h, &mut g[off.b1..off.b1 + h]);
+        let dx = want_dx.then(|| {
+            let mut dx = vec![0f32; rows * i];
+            matmul(&mut dx, i, Mat::rows(&da1, rows, h), Mat::rows(p(off.w1, h * i), h, i), false);
+            dx
+        });
+        (g, dx)
+    }
+}
+
+/// One forward pass's results, time-major `(L, N, ·)`.
+#[derive(Debug, Default)]
+pub struct Forward {
+    pub l: usize,
+    pub n: usize,
+    /// `(L, N, out)`.
+    pub out: Vec<f32>,
+    /// `(L, N, hidden)`: the GRU's hidden states (feed-forward: the core layer's output).
+    pub hidden: Vec<f32>,
+    chunks: Vec<Chunk>,
+}
+
+/// One chunk's pass, its rows time-major within the chunk (`t * nc + i`).
+#[derive(Debug, Default)]
+struct Chunk {
+    range: (usize, usize),
+    /// Each step's first packed row and row count.
+    steps: Vec<(usize, usize)>,
+    x: Vec<f32>,
+    a1: Vec<f32>,
+    hs: Vec<f32>,
+    out: Vec<f32>,
+    hp: Vec<f32>,
+    r: Vec<f32>,
+    z: Vec<f32>,
+    n: Vec<f32>,
+    ghn: Vec<f32>,
+    keep: Option<Vec<f32>>,
+}
+
+/// A chunk's packed rows of a `(L, N, w)` array: at step `t`, sequences `c0..c0 + count`.
+fn gather(data: &[f32], n: usize, w: usize, c0: usize, steps: &[(usize, usize)]) -> Vec<f32> {
+    let mut out = Vec::with_capacity(steps.iter().map(|s| s.1).sum::<usize>() * w);
+    for (t, &(_, count)) in steps.iter().enumerate() {
+        out.extend_from_slice(&data[(t * n + c0) * w..(t * n + c0 + count) * w]);
+    }
+    out
+}
+
+/// The inverse of [`gather`] (rows not packed are left as they are).
+fn scatter(data: &mut [f32], part: &[f32], n: usize, w: usize, c0: usize, steps: &[(usize, usize)]) {
+    for (t, &(at, count)) in steps.iter().enumerate() {
+        data[(t * n + c0) * w..(t * n + c0 + count) * w].copy_from_slice(&part[at * w..(at + count) * w]);
+    }
+}
+
+fn bias_rows(b: &[f32], rows: usize) -> Vec<f32> {
+    let mut out = Vec::with_capacity(rows * b.len());
+    for _ in 0..rows {
+        out.extend_from_slice(b);
+    }
+    out
+}
+
+fn relu(x: &mut [f32]) {
+    simd(|| x.iter_mut().for_each(|v| *v = v.max(0.0)));
+}
+
+/// Runs `f` compiled for the best instruction set this processor has (AVX-512, AVX2+FMA,
+/// else baseline), so the elementwise loops inlined into it are vectorised for it.
+#[inline(always)]
+fn simd<R>(f: impl FnOnce() -> R) -> R {
+    pulp::Arch::new().dispatch(f)
+}
+
+/// One GRU step's gates for `nc` rows (PyTorch's `GRUCell`): `gi` and `gh` the input and
+/// hidden projections `(nc, 3h)` (biases in), `hp` the previous hidden state. A struct (not a
+/// closure) so that its loop is inlined into, and vectorised for, `dispatch`'s target.
+struct GatesForward<'a> {
+    h: usize,
+    gi: &'a [f32],
+    gh: &'a [f32],
+    hp: &'a [f32],
+    hs: &'a mut [f32],
+    r: &'a mut [f32],
+    z: &'a mut [f32],
+    n: &'a mut [f32],
+    ghn: &'a mut [f32],
+}
+
+impl pulp::WithSimd for GatesForward<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) {
+        let GatesForward { h, gi, gh, hp, hs, r, z, n, ghn } = self;
+        let h3 = 3 * h;
+        for row in 0..hs.len() / h.max(1) {
+            let (gir, ghr) = (&gi[row * h3..(row + 1) * h3], &gh[row * h3..(row + 1) * h3]);
+            let s = row * h..(row + 1) * h;
+            // Every slice exactly `h` long, so the loop runs without bounds checks (and vectorises).
+            let (gi_r, gi_z, gi_n) = (&gir[..h], &gir[h..2 * h], &gir[2 * h..3 * h]);
+            let (gh_r, gh_z, gh_n) = (&ghr[..h], &ghr[h..2 * h], &ghr[2 * h..3 * h]);
+            let (rr, zr) = (&mut r[s.clone()][..h], &mut z[s.clone()][..h]);
+            let (nr, gr) = (&mut n[s.clone()][..h], &mut ghn[s.clone()][..h]);
+            let (hpr, out) = (&hp[s.clone()][..h], &mut hs[s][..h]);
+            for k in 0..h {
+                let rg = sigmoid(gi_r[k] + gh_r[k]);
+                let zg = sigmoid(gi_z[k] + gh_z[k]);
+                let ng = tanh(gi_n[k] + rg * gh_n[k]);
+                rr[k] = rg;
+                zr[k] = zg;
+                gr[k] = gh_n[k];
+                nr[k] = ng;
+                out[k] = ng + zg * (hpr[k] - ng);
+            }
+        }
+    }
+}
+
+/// One GRU step backwards: from `dh` (the loss's) plus `carry` (the next step's) to the
+/// gates' pre-activations `dgi`, `dgh` `(nc, 3h)` and `dhp`, the direct part of the previous
+/// hidden state's gradient (the part through `w_hh` is added after). `tape`: the step's
+/// `r`, `z`, `n`, `gh_n` and previous hidden state.
+struct GatesBackward<'a> {
+    h: usize,
+    dh: &'a [f32],
+    carry: &'a [f32],
+    tape: [&'a [f32]; 5],
+    dgi: &'a mut [f32],
+    dgh: &'a mut [f32],
+    dhp: &'a mut [f32],
+}
+
+impl pulp::WithSimd for GatesBackward<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) {
+        let GatesBackward { h, dh, carry, tape: [r, z, n, ghn, hp], dgi, dgh, dhp } = self;
+        let h3 = 3 * h;
+        for row in 0..dh.len() / h.max(1) {
+            let s = row * h..(row + 1) * h;
+            let (dhr, cr, rr, zr) = (&dh[s.clone()][..h], &carry[s.clone()][..h], &r[s.clone()][..h], &z[s.clone()][..h]);
+            let (nr, gr, hpr) = (&n[s.clone()][..h], &ghn[s.clone()][..h], &hp[s.clone()][..h]);
+            let dpr = &mut dhp[s][..h];
+            let (dgir, dghr) = (&mut dgi[row * h3..(row + 1) * h3], &mut dgh[row * h3..(row + 1) * h3]);
+            let (di_r, rest) = dgir.split_at_mut(h);
+            let (di_z, di_n) = rest.split_at_mut(h);
+            let (dh_r, rest) = dghr.split_at_mut(h);
+            let (dh_z, dh_n) = rest.split_at_mut(h);
+            let (di_r, di_z, di_n) = (&mut di_r[..h], &mut di_z[..h], &mut di_n[..h]);
+            let (dh_r, dh_z, dh_n) = (&mut dh_r[..h], &mut dh_z[..h], &mut dh_n[..h]);
+            for k in 0..h {
+                let d = dhr[k] + cr[k];
+                let dn = d * (1.0 - zr[k]);
+                let dz = d * (hpr[k] - nr[k]);
+                let dan = dn * (1.0 - nr[k] * nr[k]);
+                let dar = dan * gr[k] * rr[k] * (1.0 - rr[k]);
+                let daz = dz * zr[k] * (1.0 - zr[k]);
+                di_r[k] = dar;
+                di_z[k] = daz;
+                di_n[k] = dan;
+                dh_r[k] = dar;
+                dh_z[k] = daz;
+                dh_n[k] = dan * rr[k];
+                dpr[k] = d * zr[k];
+            }
+        }
+    }
+}
+
+/// `d *= [y > 0]` for `y = relu(·)`.
+fn relu_grad(d: &mut [f32], y: &[f32]) {
+    simd(|| d.iter_mut().zip(y).for_each(|(d, &y)| *d = if y > 0.0 { *d } else { 0.0 }));
+}
+
+/// Adds the column sums of a row-major `(·, w)` matrix to `out`.
+fn col_sums(m: &[f32], w: usize, out: &mut [f32]) {
+    simd(|| {
+        for row in m.chunks_exact(w) {
+            out.iter_mut().zip(row).for_each(|(o, &v)| *o += v);
+        }
+    });
+}

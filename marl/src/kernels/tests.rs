@@ -1,0 +1,185 @@
+//! The fused network against candle's autograd on the crate's reference network
+//! ([`crate::nets::AgentNet`]), and the same bits whatever the number of threads.
+
+use super::NetLayout;
+use crate::Error;
+use crate::nets::{AgentNet, Params};
+use candle_core::{Device, Tensor, Var};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn random(n: usize, rng: &mut ChaCha8Rng) -> Vec<f32> {
+    (0..n).map(|_| rng.random_range(-1f32..1.0)).collect()
+}
+
+struct Case {
+    layout: NetLayout,
+    l: usize,
+    n: usize,
+    x: Vec<f32>,
+    h0: Vec<f32>,
+    keep: Vec<f32>,
+    /// Weights of the test loss `sum(out * w_out) + sum(hidden * w_hid)`.
+    w_out: Vec<f32>,
+    w_hid: Vec<f32>,
+}
+
+fn case(recurrent: bool, rng: &mut ChaCha8Rng) -> (Case, AgentNet, Params) {
+    let (input, hidden, out, l, n) = (7, 5, 4, 6, 50);
+    let mut p = Params::default();
+    let net =
+        if recurrent { AgentNet::new(&mut p, input, hidden, out, rng) } else { AgentNet::feed_forward(&mut p, input, hidden, out, rng) }
+            .unwrap_or_else(|e| panic!("{e}"));
+    let keep = (0..l * n).map(|_| if rng.random_bool(0.2) { 0.0 } else { 1.0 }).collect();
+    let c = Case {
+        layout: net.layout(),
+        l,
+        n,
+        x: random(l * n * input, rng),
+        h0: random(n * hidden, rng),
+        keep,
+        w_out: random(l * n * out, rng),
+        w_hid: random(l * n * hidden, rng),
+    };
+    (c, net, p)
+}
+
+/// Candle's pass: the learners' unroll (hidden state times `keep` before each step after the
+/// first), the test loss, its gradients.
+/// Outputs, parameter gradients and input gradients.
+type Passes = (Vec<f32>, Vec<f32>, Vec<f32>);
+
+fn reference(c: &Case, net: &AgentNet, p: &Params) -> Result<Passes, Error> {
+    let dev = Device::Cpu;
+    let (l, n, h) = (c.l, c.n, c.layout.hidden);
+    let x = Var::from_slice(&c.x, (l * n, c.layout.input), &dev)?;
+    let gi = net.project(x.as_tensor())?.reshape((l, n, ()))?;
+    let keep = Tensor::from_slice(&c.keep, (l, n, 1), &dev)?;
+    let mut hcur = Tensor::from_slice(&c.h0, (n, h), &dev)?;
+    let mut hs = Vec::new();
+    for t in 0..l {
+        if t > 0 && net.is_recurrent() {
+            hcur = hcur.broadcast_mul(&keep.get(t)?)?;
+        }
+        hcur = net.recur(&gi.get(t)?, &hcur)?;
+        hs.push(hcur.clone());
+    }
+    let hs = Tensor::stack(&hs, 0)?.reshape((l * n, h))?;
+    let out = net.head(&hs)?;
+    let loss = ((&out * Tensor::from_slice(&c.w_out, out.dims(), &dev)?)?.sum_all()?
+        + (&hs * Tensor::from_slice(&c.w_hid, hs.dims(), &dev)?)?.sum_all()?)?;
+    let grads = loss.backward()?;
+    let mut g = Vec::new();
+    for v in p.vars() {
+        let gv = grads.get(v).map(|t| t.flatten_all().and_then(|t| t.to_vec1::<f32>())).transpose()?;
+        g.extend(gv.unwrap_or_else(|| vec![0.0; v.elem_count()]));
+    }
+    let dx = grads.get(&x).map(|t| t.flatten_all().and_then(|t| t.to_vec1::<f32>())).transpose()?.unwrap_or_default();
+    Ok((out.flatten_all()?.to_vec1()?, g, dx))
+}
+
+fn close(what: &str, got: &[f32], want: &[f32], tol: f32) {
+    assert_eq!(got.len(), want.len(), "{what}: lengths");
+    let scale = want.iter().fold(0f32, |m, v| m.max(v.abs())).max(1e-3);
+    for (i, (a, b)) in got.iter().zip(want).enumerate() {
+        assert!((a - b).abs() <= tol * scale, "{what}[{i}]: fused {a}, candle {b} (scale {scale})");
+    }
+}
+
+#[test]
+fn fused_passes_match_candles_autograd() -> Result<(), Error> {
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    for recurrent in [true, false] {
+        let (c, net, p) = case(recurrent, &mut rng);
+        let theta = p.flat(net.var_count())?;
+        assert_eq!(theta.len(), c.layout.len());
+        let f = c.layout.forward(&theta, &c.x, &c.h0, Some(&c.keep), None, c.l, c.n, true);
+        let (out, g_ref, dx_ref) = reference(&c, &net, &p)?;
+        close("outputs", &f.out, &out, 1e-5);
+        let mut g = vec![0f32; c.layout.len()];
+        let dx = c.layout.backward(&theta, &f, &c.w_out, Some(&c.w_hid), &mut g, true).unwrap_or_default();
+        close(&format!("parameter gradients (recurrent {recurrent})"), &g, &g_ref, 2e-5);
+        close("input gradients", &dx, &dx_ref, 2e-5);
+        // Padding skipped: sequences sorted longest first, the padded rows' loss weights 0.
+        let mut lens: Vec<usize> = (0..c.n).map(|_| rng.random_range(1..=c.l)).collect();
+        lens.sort_by(|a, b| b.cmp(a));
+        let pad = |w: &[f32], width: usize| -> Vec<f32> {
+            let mut w = w.to_vec();
+            for t in 0..c.l {
+                for (i, &len) in lens.iter().enumerate() {
+                    if t >= len {
+                        w[(t * c.n + i) * width..(t * c.n + i + 1) * width].fill(0.0);
+                    }
+                }
+            }
+            w
+        };
+        let cp = Case {
+            w_out: pad(&c.w_out, c.layout.out),
+            w_hid: pad(&c.w_hid, c.layout.hidden),
+            x: c.x.clone(),
+            h0: c.h0.clone(),
+            keep: c.keep.clone(),
+            ..c
+        };
+        let fp = cp.layout.forward(&theta, &cp.x, &cp.h0, Some(&cp.keep), Some(&lens), cp.l, cp.n, true);
+        let (out_all, g_ref, _) = reference(&cp, &net, &p)?;
+        close("outputs of real steps", &fp.out, &pad(&out_all, cp.layout.out), 1e-5);
+        let mut g = vec![0f32; cp.layout.len()];
+        cp.layout.backward(&theta, &fp, &cp.w_out, Some(&cp.w_hid), &mut g, false);
+        close(&format!("parameter gradients without padding (recurrent {recurrent})"), &g, &g_ref, 2e-5);
+        // A single step without a tape gives the same outputs as the first step with one.
+        let one = c.layout.forward(&theta, &c.x[..c.n * c.layout.input], &c.h0, None, None, 1, c.n, false);
+        close("one step", &one.out, &f.out[..c.n * c.layout.out], 1e-6);
+    }
+    Ok(())
+}
+
+#[test]
+fn results_do_not_depend_on_the_thread_count() -> Result<(), Error> {
+    let mut rng = ChaCha8Rng::seed_from_u64(4);
+    let (c, net, p) = case(true, &mut rng);
+    let theta = p.flat(net.var_count())?;
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap_or_else(|e| panic!("{e}"));
+        pool.install(|| {
+            let f = c.layout.forward(&theta, &c.x, &c.h0, Some(&c.keep), None, c.l, c.n, true);
+            let mut g = vec![0f32; c.layout.len()];
+            let dx = c.layout.backward(&theta, &f, &c.w_out, Some(&c.w_hid), &mut g, true);
+            (f.out, g, dx)
+        })
+    };
+    let one = run(1);
+    assert!(NetLayout::chunk_count(c.n) > 1, "the case must cut its sequences into several chunks");
+    for threads in [2, 3] {
+        assert!(run(threads) == one, "{threads} threads changed the results");
+    }
+    Ok(())
+}
+
+/// The flat Adam takes candle's `AdamW` steps (no weight decay), and clipping scales the
+/// norm down to its bound.
+#[test]
+fn flat_adam_matches_candles_and_clipping_bounds_the_norm() -> Result<(), Error> {
+    use candle_nn::Optimizer as _;
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let start = random(40, &mut rng);
+    let var = Var::from_slice(&start, 40, &Device::Cpu)?;
+    let params = candle_nn::ParamsAdamW { lr: 0.01, eps: 1e-5, weight_decay: 0.0, ..candle_nn::ParamsAdamW::default() };
+    let mut reference = candle_nn::AdamW::new(vec![var.clone()], params)?;
+    let mut flat = start.clone();
+    let mut adam = super::Adam::new(40, 0.01, 1e-5);
+    for _ in 0..5 {
+        let g = random(40, &mut rng);
+        let loss = (var.as_tensor() * Tensor::from_slice(&g, 40, &Device::Cpu)?)?.sum_all()?;
+        reference.step(&loss.backward()?)?;
+        adam.step(&mut flat, &g);
+    }
+    close("Adam", &flat, &var.as_tensor().to_vec1::<f32>()?, 1e-6);
+    let mut g = vec![3.0f32, 4.0];
+    assert_eq!(super::clip_global_norm(&mut g, 10.0), 5.0);
+    assert_eq!(g, [3.0, 4.0]);
+    assert!((super::clip_global_norm(&mut g, 1.0) - 5.0).abs() < 1e-12);
+    assert!((g[0].hypot(g[1]) - 1.0).abs() < 1e-5);
+    Ok(())
+}
