@@ -8,13 +8,13 @@
 //! - [`value_norm`]: MAPPO's running normalisation of the value targets;
 //! - [`train`](train()): the loop.
 //!
-//! Speed: the update is one forward and backward pass over all chunks per epoch, with
-//! the GRU unrolled `data_chunk_length` steps. On a small shared machine it runs
-//! several times faster with `CANDLE_NUM_THREADS=1` (candle's elementwise pool spins) and
-//! glibc's malloc kept from unmapping freed tensors
-//! (`GLIBC_TUNABLES=glibc.malloc.mmap_threshold=33554432:glibc.malloc.trim_threshold=536870912`);
-//! `avacraft train` sets both unless they are set (see its `main.rs`). The example
-//! `ppo_update_bench` times the update's parts.
+//! Speed: the actor and critic train through the fused kernels ([`crate::kernels`]: the
+//! networks' forward and backward passes, the loss's gradient and Adam by hand, on both
+//! cores), each mini-batch one pass over its chunks with the GRU unrolled
+//! `data_chunk_length` steps; candle runs only the image encoders. `avacraft train` still
+//! sets `CANDLE_NUM_THREADS=1` (candle's elementwise pool spins) and a glibc malloc tuning
+//! (see its `main.rs`) for those. The example `ppo_update_bench` times candle's update against
+//! the fused one.
 
 pub mod learner;
 pub mod rollout;
