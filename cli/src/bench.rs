@@ -72,6 +72,19 @@ pub struct BenchArgs {
     /// rollouts of their config).
     #[arg(long, requires = "train", conflicts_with = "algo")]
     goals: bool,
+    /// With --goals: only the goal rows whose label, algorithm or scenario contains this
+    /// (repeatable), e.g. --only QMIX --only 2s3z.
+    #[arg(long, requires = "goals")]
+    only: Vec<String>,
+    /// With --goals: a JaxMARL checkout (github.com/FLAIROx/JaxMARL) whose IPPO and MAPPO SMAX
+    /// baselines run in this run with the same settings, beside the rows they compare with;
+    /// the 3m goals become 1.2x its IPPO. Needs a Python with jax and JaxMARL's dependencies
+    /// (--jaxmarl-python).
+    #[arg(long, requires = "goals", value_name = "DIR")]
+    jaxmarl: Option<std::path::PathBuf>,
+    /// The Python that runs JaxMARL.
+    #[arg(long, requires = "jaxmarl", default_value = "python3", value_name = "PATH")]
+    jaxmarl_python: std::path::PathBuf,
     /// Algorithms of the training benchmark (default: all six).
     #[arg(long, num_args = 1.., requires = "train")]
     algo: Vec<String>,
@@ -402,6 +415,8 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
             overrides: &a.set,
             json: a.json,
             goals: a.goals,
+            only: &a.only,
+            peer: a.jaxmarl.clone().map(|dir| crate::bench_train::Peer { dir, python: a.jaxmarl_python.clone() }),
         };
         return crate::bench_train::run(&b, out);
     }

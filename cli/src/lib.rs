@@ -10,6 +10,7 @@ mod bench_deploy;
 mod bench_train;
 mod bench_vec;
 mod bridge;
+mod curves;
 mod deploy;
 mod episode;
 mod eval;
@@ -77,6 +78,9 @@ enum Cmd {
     /// vision-text observations and save a checkpoint (`features` ones play as `--agent
     /// marl:DIR` and as launch files' `policy: marl:DIR`).
     Train(train::TrainArgs),
+    /// Compare training runs: groups of runs' learning curves in one figure (against
+    /// environment steps and wall-clock seconds) and when each run reached given win rates.
+    Curves(curves::CurvesArgs),
     /// Evaluate agents from a plan file (scenarios, agents, opponents, seeds, head-to-head
     /// pairings): parallel, resumable, shardable; writes the paper's tables and plots.
     Eval(eval::EvalArgs),
@@ -111,6 +115,7 @@ pub fn run(cli: Cli, out: &mut dyn Write, alloc: Option<&'static StatsAlloc<Syst
         Cmd::Bridge(a) => bridge::run(&a),
         Cmd::Replay(a) => replay::run(&a, out),
         Cmd::Train(a) => train::run(&a, out),
+        Cmd::Curves(a) => curves::run(&a, out),
         Cmd::Eval(a) => eval::run(&a, out),
         Cmd::HumanEval(a) => human::run(&a, out),
     }

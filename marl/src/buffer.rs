@@ -116,7 +116,8 @@ impl ReplayBuffer {
     }
 }
 
-/// A training batch of `B` episodes padded to `T` steps (time-major tensors).
+/// A training batch of `B` episodes padded to `T` steps, as flat time-major arrays (what the
+/// fused update reads; [`Batch::tensors`] gives the same as candle tensors).
 #[derive(Debug)]
 pub struct Batch {
     pub b: usize,
@@ -124,25 +125,46 @@ pub struct Batch {
     /// Each episode's length (steps).
     pub lens: Vec<usize>,
     pub n_agents: usize,
+    /// The agent network's input width.
+    pub width: usize,
+    pub n_actions: usize,
+    pub state_dim: usize,
     /// `(T+1, B*A, input)`.
-    pub inputs: Tensor,
+    pub inputs: Vec<f32>,
     /// `(T+1, B*A, n_actions)`, 1.0 where available.
-    pub avail: Tensor,
-    /// `(T, B*A, 1)` chosen action indices.
-    pub actions: Tensor,
+    pub avail: Vec<f32>,
+    /// `(T, B*A)` chosen action indices.
+    pub actions: Vec<u32>,
     /// `(T+1, B, state)`.
-    pub state: Tensor,
-    /// `(T, B, 1)`.
-    pub reward: Tensor,
-    pub terminated: Tensor,
-    /// `(T, B, 1)`: 1.0 on real steps, 0.0 on padding.
-    pub filled: Tensor,
+    pub state: Vec<f32>,
+    /// `(T, B)`.
+    pub reward: Vec<f32>,
+    pub terminated: Vec<f32>,
+    /// `(T, B)`: 1.0 on real steps, 0.0 on padding.
+    pub filled: Vec<f32>,
     /// Image modes: the episodes' frames (set by the caller; `None` from [`Batch::new`]).
     pub frames: Option<crate::observe::FrameBatch>,
 }
 
+/// A [`Batch`] as candle tensors (the reference loss's and QTRAN's input).
+#[derive(Debug)]
+pub struct BatchTensors {
+    /// `(T+1, B*A, input)`.
+    pub inputs: Tensor,
+    /// `(T+1, B*A, n_actions)`.
+    pub avail: Tensor,
+    /// `(T, B*A, 1)`.
+    pub actions: Tensor,
+    /// `(T+1, B, state)`.
+    pub state: Tensor,
+    /// `(T, B, 1)` each.
+    pub reward: Tensor,
+    pub terminated: Tensor,
+    pub filled: Tensor,
+}
+
 impl Batch {
-    /// Pads and stacks `episodes` into tensors.
+    /// Pads and stacks `episodes`.
     pub fn new(episodes: &[&Episode], shape: &Shape, agent_id: bool, last_action: bool) -> Result<Batch, Error> {
         let b = episodes.len();
         let t = episodes.iter().map(|e| e.len).max().unwrap_or(0);
@@ -154,6 +176,9 @@ impl Batch {
         let mut state = vec![0f32; (t + 1) * b * s];
         let (mut reward, mut terminated, mut filled) = (vec![0f32; t * b], vec![0f32; t * b], vec![0f32; t * b]);
         for (bi, ep) in episodes.iter().enumerate() {
+            if ep.obs.len() < (ep.len + 1) * a * o || ep.avail.len() < (ep.len + 1) * a * na || ep.state.len() < (ep.len + 1) * s {
+                return Err(Error::Observation { message: format!("an episode of {} steps is not closed (see Episode::close)", ep.len) });
+            }
             for ti in 0..=t {
                 let real = ti <= ep.len;
                 for ag in 0..a {
@@ -190,20 +215,37 @@ impl Batch {
                 }
             }
         }
-        let dev = Device::Cpu;
         Ok(Batch {
             b,
             t,
             lens: episodes.iter().map(|e| e.len).collect(),
             n_agents: a,
-            inputs: Tensor::from_vec(inputs, (t + 1, b * a, width), &dev)?,
-            avail: Tensor::from_vec(avail, (t + 1, b * a, na), &dev)?,
-            actions: Tensor::from_vec(actions, (t, b * a, 1), &dev)?,
-            state: Tensor::from_vec(state, (t + 1, b, s), &dev)?,
-            reward: Tensor::from_vec(reward, (t, b, 1), &dev)?,
-            terminated: Tensor::from_vec(terminated, (t, b, 1), &dev)?,
-            filled: Tensor::from_vec(filled, (t, b, 1), &dev)?,
+            width,
+            n_actions: na,
+            state_dim: s,
+            inputs,
+            avail,
+            actions,
+            state,
+            reward,
+            terminated,
+            filled,
             frames: None,
+        })
+    }
+
+    /// The batch as candle tensors.
+    pub fn tensors(&self) -> Result<BatchTensors, Error> {
+        let dev = Device::Cpu;
+        let (t, b, a) = (self.t, self.b, self.n_agents);
+        Ok(BatchTensors {
+            inputs: Tensor::from_slice(&self.inputs, (t + 1, b * a, self.width), &dev)?,
+            avail: Tensor::from_slice(&self.avail, (t + 1, b * a, self.n_actions), &dev)?,
+            actions: Tensor::from_slice(&self.actions, (t, b * a, 1), &dev)?,
+            state: Tensor::from_slice(&self.state, (t + 1, b, self.state_dim), &dev)?,
+            reward: Tensor::from_slice(&self.reward, (t, b, 1), &dev)?,
+            terminated: Tensor::from_slice(&self.terminated, (t, b, 1), &dev)?,
+            filled: Tensor::from_slice(&self.filled, (t, b, 1), &dev)?,
         })
     }
 }

@@ -125,6 +125,10 @@ pub struct Config {
     pub clip_value_loss: bool,
     #[serde(default)]
     pub actor_out_gain: f64,
+    /// IPPO: the critic is a value head on the actor's trunk (JaxMARL's `ActorCriticRNN`)
+    /// rather than a network of its own.
+    #[serde(default)]
+    pub shared_trunk: bool,
     // The observation mode and its encoder (`configs/obs.toml`, merged into every config;
     // the defaults let checkpoints older than these keys load as `features` runs).
     #[serde(default)]
@@ -272,6 +276,25 @@ impl Config {
             ));
         }
         positive("clip_param", self.clip_param, def(|c| c.clip_param, 0.2))?;
+        if self.shared_trunk && self.algo != "ippo" {
+            return Err(bad(
+                "shared_trunk",
+                true,
+                "only IPPO's critic can share the actor's trunk: MAPPO's critic reads the global state, which the actor never sees",
+                false,
+            ));
+        }
+        if self.shared_trunk && self.obs != ObsKind::Features {
+            return Err(bad(
+                "shared_trunk",
+                true,
+                &format!(
+                    "a shared trunk reads SMAC's features only (obs = \"{}\" has an image encoder in front of the actor)",
+                    self.obs.name()
+                ),
+                false,
+            ));
+        }
         unit("gae_lambda", self.gae_lambda)?;
         for (key, v) in [
             ("huber_delta", self.huber_delta),

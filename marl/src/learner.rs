@@ -3,14 +3,22 @@
 //! not), double-Q targets from the target networks (one-step, or PyMARL2's TD(lambda)),
 //! masked squared TD error, RMSprop or Adam with global-norm clipping, and target copies
 //! every `target_update_interval` episodes.
+//!
+//! IQL, VDN and QMIX train on flat parameter vectors through the fused kernels (agent
+//! network, mixer, loss and optimiser by hand: [`crate::kernels`], and [`fused`] here); the
+//! candle networks in [`Nets`] hold the same weights after every update and are the
+//! reference the gradient tests hold the kernels to ([`Learner::gradients`] computes both).
+//! QTRAN, whose mixer reads the GRU's hidden states, trains through candle.
 
-use crate::buffer::{Batch, Shape};
+mod fused;
+
+use crate::buffer::{Batch, BatchTensors, Shape};
 use crate::nets::{AgentNet, Mixer, Params, QmixMixer};
 use crate::optim::{Optimizer, OptimizerKind};
 use crate::qtran::QtranMixer;
 use crate::{Config, Error, MixerKind};
-use candle_core::backprop::GradStore;
-use candle_core::{D, Device, Tensor, Var};
+use candle_core::{D, Tensor};
+use fused::FlatState;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -53,9 +61,24 @@ impl Nets {
         Ok(Nets { agent, agent_params, mixer, mixer_params, qtran, encoder })
     }
 
-    fn copy_from(&self, other: &Nets) -> Result<(), Error> {
+    pub(crate) fn copy_from(&self, other: &Nets) -> Result<(), Error> {
         self.agent_params.copy_from(&other.agent_params)?;
         self.mixer_params.copy_from(&other.mixer_params)
+    }
+
+    /// Every weight as one flat vector: the agent network's, its encoder's, the mixer's.
+    pub fn flat(&self) -> Result<Vec<f32>, Error> {
+        let mut v = self.agent_params.flat(self.agent_params.vars().count())?;
+        v.extend(self.mixer_params.flat(self.mixer_params.vars().count())?);
+        Ok(v)
+    }
+
+    /// Sets every weight from a vector in [`Nets::flat`]'s layout.
+    pub fn set_flat(&self, flat: &[f32]) -> Result<(), Error> {
+        let n = self.agent_params.count();
+        let (agent, mixer) = flat.split_at(n.min(flat.len()));
+        self.agent_params.set_flat(self.agent_params.vars().count(), agent)?;
+        self.mixer_params.set_flat(self.mixer_params.vars().count(), mixer)
     }
 
     /// Q-values `(T+1, B*A, n_actions)` of the agent network unrolled over a batch: the
@@ -95,13 +118,27 @@ pub struct UpdateStats {
     pub q_taken: f64,
 }
 
+/// A batch's loss and gradients ([`Learner::gradients`]).
+#[derive(Debug, Clone)]
+pub struct QGrads {
+    pub loss: f64,
+    /// Every parameter's gradient in [`Nets::flat`]'s layout.
+    pub grad: Vec<f32>,
+    /// The mean absolute TD error and the mean chosen Q-value over real steps.
+    pub td_abs: f64,
+    pub q_taken: f64,
+}
+
 #[derive(Debug)]
 pub struct Learner {
     pub cfg: Config,
     pub shape: Shape,
+    /// The networks (for IQL, VDN and QMIX, a mirror of the flat vectors that train).
     pub nets: Nets,
     pub(crate) target: Nets,
-    opt: Optimizer,
+    /// QTRAN's optimiser (candle's); the others train through `flat`.
+    opt: Option<Optimizer>,
+    flat: Option<FlatState>,
     pub(crate) last_target_update: u64,
     pub updates: u64,
 }
@@ -111,30 +148,45 @@ impl Learner {
         let nets = Nets::new(cfg, &shape, seed)?;
         let target = Nets::new(cfg, &shape, seed)?;
         target.copy_from(&nets)?;
-        let vars = nets.agent_params.vars().chain(nets.mixer_params.vars()).cloned().collect();
-        let opt = match cfg.optimizer {
-            OptimizerKind::Rmsprop => Optimizer::rmsprop(vars, cfg.lr, cfg.optim_alpha, cfg.optim_eps, cfg.grad_norm_clip)?,
-            OptimizerKind::Adam => Optimizer::adam(vars, cfg.lr, cfg.optim_eps, cfg.grad_norm_clip)?,
+        let (opt, flat) = if nets.qtran.is_some() {
+            let vars = nets.agent_params.vars().chain(nets.mixer_params.vars()).cloned().collect();
+            let opt = match cfg.optimizer {
+                OptimizerKind::Rmsprop => Optimizer::rmsprop(vars, cfg.lr, cfg.optim_alpha, cfg.optim_eps, cfg.grad_norm_clip)?,
+                OptimizerKind::Adam => Optimizer::adam(vars, cfg.lr, cfg.optim_eps, cfg.grad_norm_clip)?,
+            };
+            (Some(opt), None)
+        } else {
+            (None, Some(FlatState::new(cfg, &shape, &nets)?))
         };
-        Ok(Learner { cfg: cfg.clone(), shape, nets, target, opt, last_target_update: 0, updates: 0 })
+        Ok(Learner { cfg: cfg.clone(), shape, nets, target, opt, flat, last_target_update: 0, updates: 0 })
+    }
+
+    /// Reads the flat vectors back from the candle networks (after a restore).
+    pub(crate) fn reload(&mut self) -> Result<(), Error> {
+        if let Some(f) = &mut self.flat {
+            f.theta = self.nets.flat()?;
+            f.target = self.target.flat()?;
+        }
+        Ok(())
     }
 
     /// The TD loss of a batch under the current networks (and its parts), by candle's
-    /// autograd all through: the reference for the fused path [`Learner::train`] takes.
+    /// autograd all through: the reference for the fused update.
     pub fn loss(&self, batch: &Batch) -> Result<(Tensor, Tensor, Tensor), Error> {
         if self.nets.qtran.is_some() {
             return crate::qtran::loss(self, batch);
         }
-        self.loss_of(batch, &self.nets.unroll(batch)?, &self.target.unroll(batch)?)
+        let bt = batch.tensors()?;
+        self.loss_of(batch, &bt, &self.nets.unroll(batch)?, &self.target.unroll(batch)?)
     }
 
     /// The TD loss from the agent network's Q-values `q` and the target network's
     /// `target_q`, both `(T+1, B*A, n_actions)`.
-    fn loss_of(&self, batch: &Batch, q: &Tensor, target_q: &Tensor) -> Result<(Tensor, Tensor, Tensor), Error> {
+    fn loss_of(&self, batch: &Batch, bt: &BatchTensors, q: &Tensor, target_q: &Tensor) -> Result<(Tensor, Tensor, Tensor), Error> {
         let (t, b, a) = (batch.t, batch.b, self.shape.n_agents);
-        let chosen = q.narrow(0, 0, t)?.gather(&batch.actions, D::Minus1)?.reshape((t * b, a))?;
+        let chosen = q.narrow(0, 0, t)?.gather(&bt.actions, D::Minus1)?.reshape((t * b, a))?;
         let target_q = target_q.narrow(0, 1, t)?.detach();
-        let avail_next = batch.avail.narrow(0, 1, t)?;
+        let avail_next = bt.avail.narrow(0, 1, t)?;
         let masked = |x: &Tensor| -> Result<Tensor, Error> {
             let fill = Tensor::full(MASKED as f32, x.dims(), x.device())?;
             Ok(avail_next.gt(0.0)?.where_cond(x, &fill)?)
@@ -146,12 +198,12 @@ impl Learner {
             masked(&target_q)?.max_keepdim(D::Minus1)?
         }
         .reshape((t * b, a))?;
-        let filled = batch.filled.reshape((t * b, 1))?;
+        let filled = bt.filled.reshape((t * b, 1))?;
         let (chosen_tot, target_tot) = match (&self.nets.mixer, &self.target.mixer) {
             (Some(m), Some(tm)) => {
-                let s = batch.state.dim(2)?;
-                let st = batch.state.narrow(0, 0, t)?.reshape((t * b, s))?;
-                let st1 = batch.state.narrow(0, 1, t)?.reshape((t * b, s))?;
+                let s = batch.state_dim;
+                let st = bt.state.narrow(0, 0, t)?.reshape((t * b, s))?;
+                let st1 = bt.state.narrow(0, 1, t)?.reshape((t * b, s))?;
                 (m.forward(&chosen, &st)?, tm.forward(&target_max, &st1)?.detach())
             }
             _ => (chosen.clone(), target_max),
@@ -163,118 +215,99 @@ impl Learner {
         Ok((loss, td, chosen))
     }
 
-    /// The loss of `batch`, its parts and its gradients: with `fused`, the agent networks run
-    /// in the fused kernels (QTRAN's, which its mixer reads the hidden states of, always in
-    /// candle) and the mixer and the loss in candle; without, all in candle (the reference).
-    pub fn gradients(&self, batch: &Batch, fused: bool) -> Result<(GradStore, Tensor, Tensor, Tensor), Error> {
-        let fused = if fused && self.nets.qtran.is_none() { Some(FusedUnroll::run(&self.nets, batch, true)?) } else { None };
-        let (loss, td, chosen) = match &fused {
-            None => self.loss(batch)?,
-            Some(f) => self.loss_of(batch, f.q.as_tensor(), FusedUnroll::run(&self.target, batch, false)?.q.as_tensor())?,
-        };
-        let mut grads = loss.backward()?;
-        if let Some(f) = &fused {
-            f.backward(&self.nets, &mut grads)?;
+    /// The loss of `batch` and every parameter's gradient ([`Nets::flat`]'s layout), without
+    /// changing anything: with `fused`, by the fused update (IQL, VDN, QMIX); without, by
+    /// candle's autograd through the reference networks.
+    pub fn gradients(&self, batch: &Batch, fused: bool) -> Result<QGrads, Error> {
+        if fused && let Some(f) = &self.flat {
+            return f.gradients(self, batch);
         }
-        Ok((grads, loss, td, chosen))
+        let (loss, td, chosen) = self.loss(batch)?;
+        let grads = loss.backward()?;
+        let mut grad = Vec::new();
+        for v in self.nets.agent_params.vars().chain(self.nets.mixer_params.vars()) {
+            match grads.get(v) {
+                Some(g) => grad.extend(g.flatten_all()?.to_vec1::<f32>()?),
+                None => grad.extend(std::iter::repeat_n(0.0, v.elem_count())),
+            }
+        }
+        let filled: f64 = batch.filled.iter().map(|&f| f64::from(f)).sum::<f64>().max(1.0);
+        let td_abs = f64::from(td.abs()?.sum_all()?.to_scalar::<f32>()?) / filled;
+        let fill = Tensor::from_slice(&batch.filled, (batch.t * batch.b, 1), chosen.device())?;
+        let q_taken = f64::from(chosen.broadcast_mul(&fill)?.sum_all()?.to_scalar::<f32>()?) / (filled * self.shape.n_agents as f64);
+        Ok(QGrads { loss: f64::from(loss.to_scalar::<f32>()?), grad, td_abs, q_taken })
     }
 
     /// One gradient step on `batch`; `episodes` (finished so far) decides the target copies.
     pub fn train(&mut self, batch: &Batch, episodes: u64) -> Result<UpdateStats, Error> {
-        let (mut grads, loss, td, chosen) = self.gradients(batch, true)?;
-        let loss_v = f64::from(loss.to_scalar::<f32>()?);
-        if !loss_v.is_finite() || loss_v > 1e8 {
-            return Err(Error::Diverged { update: self.updates, loss: loss_v });
-        }
-        let grad_norm = self.opt.step(&mut grads)?;
+        let stats = match (&mut self.opt, self.flat.is_some()) {
+            (_, true) => {
+                let g = self.gradients(batch, true)?;
+                check_loss(g.loss, self.updates)?;
+                let Some(f) = &mut self.flat else { unreachable_flat()? };
+                let grad_norm = f.step(g.grad)?;
+                self.nets.set_flat(&f.theta)?;
+                UpdateStats { loss: g.loss, grad_norm, td_abs: g.td_abs, q_taken: g.q_taken }
+            }
+            (Some(_), false) => {
+                let (loss, td, chosen) = self.loss(batch)?;
+                let loss_v = f64::from(loss.to_scalar::<f32>()?);
+                check_loss(loss_v, self.updates)?;
+                let mut grads = loss.backward()?;
+                let Some(opt) = &mut self.opt else { unreachable_flat()? };
+                let grad_norm = opt.step(&mut grads)?;
+                let n = batch.filled.iter().map(|&f| f64::from(f)).sum::<f64>().max(1.0);
+                let td_abs = f64::from(td.abs()?.sum_all()?.to_scalar::<f32>()?) / n;
+                let fill = Tensor::from_slice(&batch.filled, (batch.t * batch.b, 1), chosen.device())?;
+                let q_taken = f64::from(chosen.broadcast_mul(&fill)?.sum_all()?.to_scalar::<f32>()?) / (n * self.shape.n_agents as f64);
+                UpdateStats { loss: loss_v, grad_norm, td_abs, q_taken }
+            }
+            (None, false) => unreachable_flat()?,
+        };
         self.updates += 1;
         if episodes.saturating_sub(self.last_target_update) >= self.cfg.target_update_interval {
             self.update_targets()?;
             self.last_target_update = episodes;
         }
-        let n = batch.filled.sum_all()?.to_scalar::<f32>()?.max(1.0) as f64;
-        let td_abs = f64::from(td.abs()?.sum_all()?.to_scalar::<f32>()?) / n;
-        let q_taken = f64::from((chosen.broadcast_mul(&batch.filled.reshape(((), 1))?)?).sum_all()?.to_scalar::<f32>()?)
-            / (n * self.shape.n_agents as f64);
-        Ok(UpdateStats { loss: loss_v, grad_norm, td_abs, q_taken })
+        Ok(stats)
     }
 
     /// Copies the networks into the targets.
     pub fn update_targets(&mut self) -> Result<(), Error> {
+        if let Some(f) = &mut self.flat {
+            f.target.clone_from(&f.theta);
+        }
         self.target.copy_from(&self.nets)
     }
-}
 
-/// The agent network unrolled over a batch by the fused kernels ([`crate::kernels`]): Q
-/// `(T+1, B*A, n_actions)` as a leaf variable of candle's graph, so the mixer and the loss
-/// stay in candle and their gradient with respect to Q comes back through
-/// [`FusedUnroll::backward`] (in image modes, on into the encoder's candle graph).
-struct FusedUnroll {
-    theta: Vec<f32>,
-    fwd: crate::kernels::Forward,
-    /// The input rows as a candle tensor with the encoder's graph (image modes).
-    x_graph: Option<Tensor>,
-    q: Var,
-}
-
-impl FusedUnroll {
-    fn run(nets: &Nets, batch: &Batch, tape: bool) -> Result<FusedUnroll, Error> {
-        let layout = nets.agent.layout();
-        let x = nets.unroll_inputs(batch)?;
-        let (t1, rows, _) = x.dims3()?;
-        let x_graph = (nets.encoder.is_some() && tape).then(|| x.clone());
-        let xv: Vec<f32> = x.flatten_all()?.to_vec1()?;
-        let theta = nets.agent_params.flat(nets.agent.var_count())?;
-        let h0 = vec![0f32; rows * layout.hidden];
-        // Rows past an episode's closing row are padding: skipped when the batch is sorted
-        // longest first (`Batch::new` sorts it).
-        let lens = batch.row_lens();
-        let sorted = lens.windows(2).all(|w| w[0] >= w[1]);
-        let fwd = layout.forward(&theta, &xv, &h0, None, sorted.then_some(&lens[..]), t1, rows, tape);
-        let q = Var::from_slice(&fwd.out, (t1, rows, layout.out), &Device::Cpu)?;
-        Ok(FusedUnroll { theta, fwd, x_graph, q })
-    }
-
-    /// Replaces the gradient with respect to Q in `grads` by the agent network's parameters'
-    /// (and the encoder's).
-    fn backward(&self, nets: &Nets, grads: &mut GradStore) -> Result<(), Error> {
-        let layout = nets.agent.layout();
-        let Some(dq) = grads.remove(self.q.as_tensor()) else { return Ok(()) };
-        let dq: Vec<f32> = dq.flatten_all()?.to_vec1()?;
-        let mut g = vec![0f32; layout.len()];
-        let dx = layout.backward(&self.theta, &self.fwd, &dq, None, &mut g, self.x_graph.is_some());
-        let mut at = 0;
-        for v in nets.agent_params.vars().take(nets.agent.var_count()) {
-            let n = v.elem_count();
-            grads.insert(v, Tensor::from_slice(&g[at..at + n], v.shape(), &Device::Cpu)?);
-            at += n;
+    /// The acting network's flat weights (IQL, VDN, QMIX: what trains; QTRAN: read from the
+    /// candle network).
+    pub(crate) fn agent_theta(&self) -> Result<std::borrow::Cow<'_, [f32]>, Error> {
+        match &self.flat {
+            Some(f) => Ok(std::borrow::Cow::Borrowed(&f.theta[..self.nets.agent.layout().len()])),
+            None => Ok(std::borrow::Cow::Owned(self.nets.agent_params.flat(self.nets.agent.var_count())?)),
         }
-        if let (Some(x), Some(dx)) = (&self.x_graph, dx) {
-            let d = Tensor::from_vec(dx, x.dims(), &Device::Cpu)?;
-            let enc = (x * d)?.sum_all()?.backward()?;
-            for v in nets.agent_params.vars_after(nets.agent.var_count()) {
-                if let Some(g) = enc.get(v) {
-                    grads.insert(v, g.clone());
-                }
-            }
-        }
-        Ok(())
     }
 }
 
-/// The targets `(T*B, C)` (time-major rows) of a batch from the target networks' values of
-/// the next steps `next` `(T*B, C)`: `G_t = r_t + gamma (1 - d_t) ((1 - lambda) V_{t+1} +
-/// lambda G_{t+1})`, with `G` of an episode's last step bootstrapped from `V` alone (its
-/// time-out row, or nothing after a terminal step). `lambda = 0` gives one-step targets.
-/// Computed on the CPU in plain loops: the recursion runs backwards in time, which tensors
-/// would do one small op per step.
-pub fn td_targets(batch: &Batch, next: &Tensor, gamma: f64, lambda: f64) -> Result<Tensor, Error> {
+fn check_loss(loss: f64, update: u64) -> Result<(), Error> {
+    if !loss.is_finite() || loss > 1e8 { Err(Error::Diverged { update, loss }) } else { Ok(()) }
+}
+
+/// A learner has either a flat state or candle's optimiser (QTRAN); never neither.
+fn unreachable_flat<T>() -> Result<T, Error> {
+    Err(Error::Checkpoint { message: "a learner without an optimiser".into() })
+}
+
+/// The targets (time-major rows `t * B + b`, `C` columns) of a batch from the target
+/// networks' values of the next steps `next` `(T*B, C)`: `G_t = r_t + gamma (1 - d_t)
+/// ((1 - lambda) V_{t+1} + lambda G_{t+1})`, with `G` of an episode's last step bootstrapped
+/// from `V` alone (its time-out row, or nothing after a terminal step). `lambda = 0` gives
+/// one-step targets. Plain loops: the recursion runs backwards in time, which tensors would
+/// do one small op per step.
+pub fn td_targets_flat(batch: &Batch, next: &[f32], c: usize, gamma: f64, lambda: f64) -> Vec<f32> {
     let (t, b) = (batch.t, batch.b);
-    let c = next.dim(1)?;
-    let v: Vec<f32> = next.detach().flatten_all()?.to_vec1()?;
-    let r: Vec<f32> = batch.reward.flatten_all()?.to_vec1()?;
-    let d: Vec<f32> = batch.terminated.flatten_all()?.to_vec1()?;
-    let f: Vec<f32> = batch.filled.flatten_all()?.to_vec1()?;
+    let (r, d, f) = (&batch.reward, &batch.terminated, &batch.filled);
     let (g32, l32) = (gamma as f32, lambda as f32);
     let mut out = vec![0f32; t * b * c];
     for bi in 0..b {
@@ -285,12 +318,20 @@ pub fn td_targets(batch: &Batch, next: &Tensor, gamma: f64, lambda: f64) -> Resu
             }
             let next_real = ti + 1 < t && f[row + b] != 0.0;
             for k in 0..c {
-                let boot = if next_real { (1.0 - l32) * v[row * c + k] + l32 * out[(row + b) * c + k] } else { v[row * c + k] };
+                let boot = if next_real { (1.0 - l32) * next[row * c + k] + l32 * out[(row + b) * c + k] } else { next[row * c + k] };
                 out[row * c + k] = r[row] + g32 * (1.0 - d[row]) * boot;
             }
         }
     }
-    Ok(Tensor::from_vec(out, (t * b, c), next.device())?)
+    out
+}
+
+/// [`td_targets_flat`] on tensors.
+pub fn td_targets(batch: &Batch, next: &Tensor, gamma: f64, lambda: f64) -> Result<Tensor, Error> {
+    let c = next.dim(1)?;
+    let v: Vec<f32> = next.detach().flatten_all()?.to_vec1()?;
+    let out = td_targets_flat(batch, &v, c, gamma, lambda);
+    Ok(Tensor::from_vec(out, (batch.t * batch.b, c), next.device())?)
 }
 
 /// Epsilon-greedy over the available actions of each row of `q` (`rows x n_actions`): with

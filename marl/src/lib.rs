@@ -47,12 +47,13 @@ pub mod policy;
 pub mod ppo;
 pub mod qtran;
 pub mod resume;
+pub mod runlog;
 pub mod train;
 
 pub use buffer::{Batch, Episode, ReplayBuffer, Shape};
 pub use config::{ALGOS, Config, MixerKind};
 pub use encoders::{Backbone, ObsEncoder, ObsKind};
-pub use learner::{Learner, Nets, UpdateStats, select_actions};
+pub use learner::{Learner, Nets, QGrads, UpdateStats, select_actions};
 pub use observe::ObsSource;
 pub use optim::{Optimizer, OptimizerKind};
 pub use policy::{MarlAgent, Policy};

@@ -19,13 +19,13 @@ pub struct CurvePoint {
     pub loss: f64,
 }
 
-fn font() -> Result<(), Error> {
+pub(crate) fn font() -> Result<(), Error> {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
     let ok = *REGISTERED.get_or_init(|| plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular()).is_ok());
     if ok { Ok(()) } else { Err(Error::Plot { message: "the embedded DejaVu Sans font did not load".into() }) }
 }
 
-fn err(e: impl std::fmt::Display) -> Error {
+pub(crate) fn err(e: impl std::fmt::Display) -> Error {
     Error::Plot { message: e.to_string() }
 }
 

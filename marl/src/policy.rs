@@ -17,7 +17,7 @@ use crate::learner::{Nets, select_actions};
 use crate::{Config, Error};
 use avacraft_engine::agent::view::id_of;
 use avacraft_engine::{Action, Agent, AgentCtx, GroupObs, Reads, Scenario, SmacLayout, Team};
-use candle_core::{Device, Tensor};
+use candle_core::Device;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -56,6 +56,10 @@ pub struct Policy {
     /// The scenario it was trained on.
     pub scenario: String,
     pub nets: Nets,
+    /// The agent network's weights flat, for the fused forward pass every actor runs
+    /// ([`crate::kernels::NetLayout`]): training's, tests' and agents' actions come from one
+    /// implementation.
+    theta: Vec<f32>,
 }
 
 impl Policy {
@@ -78,7 +82,8 @@ impl Policy {
         if nets.mixer_params.vars().next().is_some() {
             nets.mixer_params.load_map(&load("mixer.safetensors")?, "mixer.safetensors")?;
         }
-        Ok(Policy { cfg: meta.config, shape: meta.shape, scenario: meta.scenario, nets })
+        let theta = nets.agent_params.flat(nets.agent.var_count())?;
+        Ok(Policy { cfg: meta.config, shape: meta.shape, scenario: meta.scenario, nets, theta })
     }
 
     /// Checks that `team`'s agents in `scenario` have the sizes the network was trained on.
@@ -125,10 +130,16 @@ impl Policy {
         }
         let (id, la) = (self.cfg.obs_agent_id, self.cfg.obs_last_action);
         let rows = agents.len();
-        let x = Tensor::from_vec(act_inputs(features, agents, last, &self.shape, id, la), (rows, self.shape.input(id, la)), &Device::Cpu)?;
-        let h = Tensor::from_vec(hidden.to_vec(), (rows, self.nets.agent.hidden), &Device::Cpu)?;
-        let (q, h2) = self.nets.agent.step(&x, &h)?;
-        Ok((q.detach().flatten_all()?.to_vec1()?, h2.detach().flatten_all()?.to_vec1()?))
+        let x = act_inputs(features, agents, last, &self.shape, id, la);
+        let layout = self.nets.agent.layout();
+        if hidden.len() != rows * layout.hidden || x.len() != rows * layout.input {
+            return Err(Error::Checkpoint {
+                message: format!("{rows} rows with {} hidden values and {} inputs for a network of {layout:?}", hidden.len(), x.len()),
+            });
+        }
+        let f = layout.forward(&self.theta, &x, hidden, None, None, 1, rows, false);
+        // A feed-forward network's "hidden state" is its core layer's output, as candle's step gives it.
+        Ok((f.out, f.hidden))
     }
 }
 

@@ -86,34 +86,35 @@ pub(crate) fn loss(l: &Learner, batch: &Batch) -> Result<(Tensor, Tensor, Tensor
     };
     let (t, b, a) = (batch.t, batch.b, l.shape.n_agents);
     let cfg = &l.cfg;
+    let bt = batch.tensors()?;
     let (q, hs) = l.nets.unroll_hidden(batch)?;
     let (_, ths) = l.target.unroll_hidden(batch)?;
     let hdim = hs.dim(2)?;
     let rows = t * b * a;
     let fill = Tensor::full(MASKED as f32, q.dims(), q.device())?;
-    let masked_q = batch.avail.gt(0.0)?.where_cond(&q.detach(), &fill)?;
+    let masked_q = bt.avail.gt(0.0)?.where_cond(&q.detach(), &fill)?;
     // The greedy actions of the online network (double Q: they pick the target's action too).
     let best = masked_q.argmax_keepdim(D::Minus1)?;
     // Not detached: the opt loss trains the agents' greedy Q-values (PyMARL's clone).
-    let best_q = batch.avail.gt(0.0)?.where_cond(&q, &fill)?.max_keepdim(D::Minus1)?;
-    let chosen = q.narrow(0, 0, t)?.gather(&batch.actions, D::Minus1)?.reshape((t * b, a))?;
-    let s = batch.state.dim(2)?;
-    let st = batch.state.narrow(0, 0, t)?.reshape((t * b, s))?;
-    let st1 = batch.state.narrow(0, 1, t)?.reshape((t * b, s))?;
+    let best_q = bt.avail.gt(0.0)?.where_cond(&q, &fill)?.max_keepdim(D::Minus1)?;
+    let chosen = q.narrow(0, 0, t)?.gather(&bt.actions, D::Minus1)?.reshape((t * b, a))?;
+    let s = bt.state.dim(2)?;
+    let st = bt.state.narrow(0, 0, t)?.reshape((t * b, s))?;
+    let st1 = bt.state.narrow(0, 1, t)?.reshape((t * b, s))?;
     let h_now = hs.narrow(0, 0, t)?.reshape((rows, hdim))?;
-    let joint = mix.joint_q(&st, &h_now, &mix.one_hot(&batch.actions.reshape((rows, 1))?)?)?;
+    let joint = mix.joint_q(&st, &h_now, &mix.one_hot(&bt.actions.reshape((rows, 1))?)?)?;
     let vs = mix.value(&st)?;
     let next_actions = if cfg.double_q {
         best.narrow(0, 1, t)?
     } else {
         let tq = l.target.unroll(batch)?.narrow(0, 1, t)?;
         let tfill = Tensor::full(MASKED as f32, tq.dims(), tq.device())?;
-        batch.avail.narrow(0, 1, t)?.gt(0.0)?.where_cond(&tq, &tfill)?.argmax_keepdim(D::Minus1)?
+        bt.avail.narrow(0, 1, t)?.gt(0.0)?.where_cond(&tq, &tfill)?.argmax_keepdim(D::Minus1)?
     };
     let target_joint =
         tmix.joint_q(&st1, &ths.narrow(0, 1, t)?.reshape((rows, hdim))?, &tmix.one_hot(&next_actions.reshape((rows, 1))?)?)?.detach();
     let targets = td_targets(batch, &target_joint, cfg.gamma, cfg.td_lambda)?;
-    let mask = batch.filled.reshape((t * b, 1))?;
+    let mask = bt.filled.reshape((t * b, 1))?;
     let n = mask.sum_all()?.to_scalar::<f32>()?.max(1.0) as f64;
     let td = ((&joint - targets)? * &mask)?;
     let td_loss = (td.sqr()?.sum_all()? / n)?;

@@ -152,5 +152,5 @@ pub(crate) fn restore(dir: &Path, learner: &mut Learner, state: &RunState) -> Re
     }
     learner.updates = state.updates;
     learner.last_target_update = state.last_target_update;
-    Ok(())
+    learner.reload()
 }

@@ -73,23 +73,28 @@ pub struct Summary {
 }
 
 /// The acting side of a set of rows (environments x agents): GRU hidden states and last
-/// actions, reset per environment when its episode restarts.
+/// actions, reset per environment when its episode restarts. It acts through the fused
+/// network ([`crate::kernels::NetLayout`]) on the flat weights it is handed.
 struct Actor {
-    h: Tensor,
+    h: Vec<f32>,
     last: Vec<Option<u32>>,
     agents: Vec<usize>,
+    hidden: usize,
 }
 
 impl Actor {
-    fn new(nets: &Nets, envs: usize, n_agents: usize) -> Result<Actor, Error> {
+    fn new(nets: &Nets, envs: usize, n_agents: usize) -> Actor {
         let rows = envs * n_agents;
-        Ok(Actor { h: nets.agent.zero_hidden(rows)?, last: vec![None; rows], agents: (0..rows).map(|r| r % n_agents.max(1)).collect() })
+        let hidden = nets.agent.hidden;
+        Actor { h: vec![0.0; rows * hidden], last: vec![None; rows], agents: (0..rows).map(|r| r % n_agents.max(1)).collect(), hidden }
     }
 
-    /// Actions for every row, epsilon-greedy over the masks (`frames`: the image modes').
+    /// Actions for every row, epsilon-greedy over the masks (`frames`: the image modes'),
+    /// with the agent network's flat weights `theta`.
     #[allow(clippy::too_many_arguments)]
     fn act(
         &mut self,
+        theta: &[f32],
         nets: &Nets,
         cfg: &Config,
         shape: &Shape,
@@ -98,19 +103,18 @@ impl Actor {
         eps: f64,
         rng: &mut ChaCha8Rng,
     ) -> Result<Vec<u32>, Error> {
-        let width = shape.input(cfg.obs_agent_id, cfg.obs_last_action);
         let rows = self.agents.len();
-        let x = Tensor::from_vec(
-            act_inputs(&b.obs, &self.agents, &self.last, shape, cfg.obs_agent_id, cfg.obs_last_action),
-            (rows, width),
-            &Device::Cpu,
-        )?;
-        let x = nets.step_inputs(x, frames.map(StepFrames::tensors).transpose()?.as_ref())?;
-        let (q, h) = nets.agent.step(&x, &self.h)?;
-        // Detached: the acting graph must not grow across steps.
-        self.h = h.detach();
-        let q: Vec<f32> = q.detach().flatten_all()?.to_vec1()?;
-        let acts = select_actions(&q, &b.avail, shape.n_actions, eps, rng);
+        let mut x = act_inputs(&b.obs, &self.agents, &self.last, shape, cfg.obs_agent_id, cfg.obs_last_action);
+        if nets.encoder.is_some() {
+            let width = shape.input(cfg.obs_agent_id, cfg.obs_last_action);
+            let t = Tensor::from_vec(x, (rows, width), &Device::Cpu)?;
+            x = nets.step_inputs(t, frames.map(StepFrames::tensors).transpose()?.as_ref())?.flatten_all()?.to_vec1()?;
+        }
+        let f = nets.agent.layout().forward(theta, &x, &self.h, None, None, 1, rows, false);
+        if nets.agent.is_recurrent() {
+            self.h = f.hidden;
+        }
+        let acts = select_actions(&f.out, &b.avail, shape.n_actions, eps, rng);
         for (l, &a) in self.last.iter_mut().zip(&acts) {
             *l = Some(a);
         }
@@ -118,19 +122,14 @@ impl Actor {
     }
 
     /// Clears the rows of the environments whose episode just ended.
-    fn reset_envs(&mut self, done: &[bool], n_agents: usize) -> Result<(), Error> {
-        if !done.iter().any(|&d| d) {
-            return Ok(());
-        }
-        let keep: Vec<f32> = done.iter().flat_map(|&d| std::iter::repeat_n(if d { 0.0 } else { 1.0 }, n_agents)).collect();
-        let rows = keep.len();
-        self.h = self.h.broadcast_mul(&Tensor::from_vec(keep, (rows, 1), &Device::Cpu)?)?;
+    fn reset_envs(&mut self, done: &[bool], n_agents: usize) {
         for (e, &d) in done.iter().enumerate() {
             if d {
-                self.last[e * n_agents..(e + 1) * n_agents].iter_mut().for_each(|l| *l = None);
+                let rows = e * n_agents..(e + 1) * n_agents;
+                self.h[rows.start * self.hidden..rows.end * self.hidden].fill(0.0);
+                self.last[rows].iter_mut().for_each(|l| *l = None);
             }
         }
-        Ok(())
     }
 }
 
@@ -164,12 +163,13 @@ pub fn test_with(
         let (n_agents, obs, state, n_actions) = env.shape();
         Shape { n_agents, obs, state, n_actions }
     };
-    let mut actor = Actor::new(nets, seeds.len(), a)?;
+    let mut actor = Actor::new(nets, seeds.len(), a);
+    let theta = nets.agent_params.flat(nets.agent.var_count())?;
     let mut rng = ChaCha8Rng::seed_from_u64(0);
     let (mut finished, mut won, mut returns) = (vec![false; seeds.len()], 0usize, vec![0f64; seeds.len()]);
     while finished.iter().any(|f| !f) {
         let frames = source.as_mut().map(|s| s.observe(env.envs())).transpose()?;
-        let acts = actor.act(nets, cfg, &shape, &env.buffers, frames.as_ref(), 0.0, &mut rng)?;
+        let acts = actor.act(&theta, nets, cfg, &shape, &env.buffers, frames.as_ref(), 0.0, &mut rng)?;
         env.step(&acts.iter().map(|&x| i64::from(x)).collect::<Vec<_>>())?;
         let b = &env.buffers;
         let done: Vec<bool> = b.terminated.iter().zip(&b.truncated).map(|(t, u)| *t || *u).collect();
@@ -182,7 +182,7 @@ pub fn test_with(
                 }
             }
         }
-        actor.reset_envs(&done, a)?;
+        actor.reset_envs(&done, a);
     }
     let n = seeds.len().max(1) as f64;
     Ok(TestResult { t_env: 0, episodes: seeds.len(), win_rate: won as f64 / n, mean_return: returns.iter().sum::<f64>() / n })
@@ -390,7 +390,7 @@ fn train_q(
     let mut act_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x5eed_0001);
     let mut sample_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x5eed_0002);
     let mut buffer = ReplayBuffer::new(cfg.buffer_size);
-    let mut actor = Actor::new(&learner.nets, e, a)?;
+    let mut actor = Actor::new(&learner.nets, e, a);
     let mut source = ObsSource::new(cfg)?;
     let mut running: Vec<Episode> = vec![Episode::default(); e];
     let (mut t_env, mut episodes, mut pending) = (0u64, 0u64, 0u64);
@@ -408,7 +408,7 @@ fn train_q(
     while t_env < cfg.t_max {
         let eps = cfg.epsilon(t_env);
         let frames = source.as_mut().map(|s| s.observe(env.envs())).transpose()?;
-        let acts = actor.act(&learner.nets, cfg, &shape, &env.buffers, frames.as_ref(), eps, &mut act_rng)?;
+        let acts = actor.act(&learner.agent_theta()?, &learner.nets, cfg, &shape, &env.buffers, frames.as_ref(), eps, &mut act_rng)?;
         for (i, ep) in running.iter_mut().enumerate() {
             let b = &env.buffers;
             if let Some(f) = &frames {
@@ -443,7 +443,7 @@ fn train_q(
                 monitor.episode_end(b.info[i].battle_won);
             }
         }
-        actor.reset_envs(&done, a)?;
+        actor.reset_envs(&done, a);
         while pending >= cfg.episodes_per_update {
             pending -= cfg.episodes_per_update;
             if buffer.len() >= cfg.batch_size {

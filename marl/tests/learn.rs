@@ -45,7 +45,15 @@ const SMALL: Shape = Shape { n_agents: 3, obs: 6, state: 7, n_actions: 4 };
 /// through the reference networks, for every mixer and both agent networks.
 #[test]
 fn fused_gradients_match_the_candle_reference() -> R {
-    for (algo, extra) in [("iql", &[][..]), ("vdn", &[]), ("qmix", &[]), ("qmix", &["use_rnn=false"]), ("qmix", &["td_lambda=0.6"])] {
+    for (algo, extra) in [
+        ("iql", &[][..]),
+        ("vdn", &[]),
+        ("qmix", &[]),
+        ("qmix", &["use_rnn=false"]),
+        ("qmix", &["td_lambda=0.6"]),
+        ("qmix", &["hypernet_layers=1", "double_q=false"]),
+        ("iql", &["double_q=false", "use_rnn=false"]),
+    ] {
         let c = cfg(algo, extra)?;
         let mut rng = ChaCha8Rng::seed_from_u64(9);
         let eps = random_episodes(&SMALL, 40, &mut rng);
@@ -55,18 +63,22 @@ fn fused_gradients_match_the_candle_reference() -> R {
         assert!(refs.first().map(|e| e.len) > refs.last().map(|e| e.len), "the batch must hold padding");
         let batch = Batch::new(&refs, &SMALL, true, true)?;
         let l = Learner::new(&c, SMALL, 2)?;
-        let (fused, loss_f, _, _) = l.gradients(&batch, true)?;
-        let (reference, loss_r, _, _) = l.gradients(&batch, false)?;
-        let (a, b) = (loss_f.to_scalar::<f32>()?, loss_r.to_scalar::<f32>()?);
+        let fused = l.gradients(&batch, true)?;
+        let reference = l.gradients(&batch, false)?;
+        let (a, b) = (fused.loss, reference.loss);
         assert!((a - b).abs() <= 1e-5 * b.abs().max(1.0), "{algo} {extra:?}: loss {a} vs {b}");
+        assert!((fused.td_abs - reference.td_abs).abs() <= 1e-4 * reference.td_abs.max(1.0), "{algo} {extra:?}: |td|");
+        assert!((fused.q_taken - reference.q_taken).abs() <= 1e-4 * reference.q_taken.abs().max(1.0), "{algo} {extra:?}: q");
+        assert_eq!(fused.grad.len(), reference.grad.len());
         let mut compared = 0;
+        let mut at = 0;
         for v in l.nets.agent_params.vars().chain(l.nets.mixer_params.vars()) {
-            let (Some(g), Some(w)) = (fused.get(v), reference.get(v)) else {
-                panic!("{algo} {extra:?}: a variable without a gradient");
-            };
-            let (g, w) = (g.flatten_all()?.to_vec1::<f32>()?, w.flatten_all()?.to_vec1::<f32>()?);
+            let k = v.elem_count();
+            let (g, w) = (&fused.grad[at..at + k], &reference.grad[at..at + k]);
+            at += k;
             let scale = w.iter().fold(0f32, |m, x| m.max(x.abs())).max(1e-5);
-            for (x, y) in g.iter().zip(&w) {
+            assert!(w.iter().any(|&x| x != 0.0), "{algo} {extra:?}: a variable without a gradient");
+            for (x, y) in g.iter().zip(w) {
                 assert!((x - y).abs() <= 1e-4 * scale, "{algo} {extra:?}: fused {x}, candle {y} (scale {scale})");
             }
             compared += 1;
@@ -329,6 +341,40 @@ fn short_iql_vdn_and_qtran_runs_on_3m_train_and_play() -> R {
         assert_eq!(agent.policy().shape, trained.shape());
         assert_eq!(common::play(agent.policy(), &scenario, &c, 9).refused, 0, "{algo}: the policy's orders were all valid");
         let _ = std::fs::remove_dir_all(&dir);
+    }
+    Ok(())
+}
+
+/// A run is the same bits whatever the number of threads: the fused kernels cut their work
+/// into chunks that depend on the sizes only, and the environments' results on their seeds.
+#[test]
+fn runs_do_not_depend_on_the_thread_count() -> R {
+    let scenario = Arc::new(Scenario::load("3m")?);
+    for (algo, extra) in [
+        ("qmix", &["batch_size=8", "epsilon_anneal_time=300"][..]),
+        ("qmix", &["batch_size=8", "use_rnn=false", "optimizer=adam", "td_lambda=0.6"]),
+        ("ippo", &["rollout_len=20", "data_chunk_length=10", "num_mini_batch=2", "ppo_epochs=2", "shared_trunk=true"]),
+        ("mappo", &["rollout_len=20", "data_chunk_length=10", "num_mini_batch=2", "ppo_epochs=2", "rnn_hidden_dim=32"]),
+    ] {
+        let mut o: Vec<String> =
+            ["t_max=1200", "envs=8", "test_interval=600", "test_nepisode=4", "episode_limit=30"].map(String::from).to_vec();
+        o.extend(extra.iter().map(|s| s.to_string()));
+        let c = Config::for_algo(algo, &o)?;
+        let run = |threads: usize| -> Result<(Vec<f32>, avacraft_marl::Summary), Box<dyn std::error::Error>> {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
+            pool.install(|| {
+                let opts = RunOptions { scenario: Arc::clone(&scenario), seed: 3, threads, out: None };
+                let (trained, summary) = train(&c, &opts, &mut |_| {})?;
+                Ok((trained.nets().flat()?, summary))
+            })
+        };
+        let (w1, s1) = run(1)?;
+        assert!(s1.updates > 0, "{algo}: no update");
+        for threads in [2, 3] {
+            let (w, s) = run(threads)?;
+            assert!(w == w1, "{algo} {extra:?}: {threads} threads changed the weights");
+            assert_eq!((s.episodes, s.updates, &s.tests), (s1.episodes, s1.updates, &s1.tests), "{algo} {extra:?}: {threads} threads");
+        }
     }
     Ok(())
 }

@@ -183,11 +183,12 @@ impl Nets {
     /// The agent network's inputs `(T+1, B*A, input)` for a batch: the encoder runs on the
     /// batch's real frames only; padded steps get zero features (they are masked out).
     pub fn unroll_inputs(&self, batch: &Batch) -> Result<Tensor, Error> {
-        let Some(e) = &self.encoder else { return Ok(batch.inputs.clone()) };
+        let inputs = Tensor::from_slice(&batch.inputs, (batch.t + 1, batch.b * batch.n_agents, batch.width), &candle_core::Device::Cpu)?;
+        let Some(e) = &self.encoder else { return Ok(inputs) };
         let Some(fb) = &batch.frames else {
             return Err(Error::Observation { message: "an image encoder was given a batch without frames".into() });
         };
-        let (t1, rows, width) = batch.inputs.dims3()?;
+        let (t1, rows, width) = inputs.dims3()?;
         let feats = e.forward(&fb.frames)?;
         let f = feats.dim(1)?;
         let mut per_episode = Vec::with_capacity(fb.lens.len());
@@ -204,7 +205,7 @@ impl Nets {
         }
         let b = per_episode.len();
         let feats = Tensor::stack(&per_episode, 1)?.reshape((t1 * b, f))?; // (t, b) row order
-        let fused = e.fuse(&feats, &batch.inputs.reshape((t1 * rows, width))?)?;
+        let fused = e.fuse(&feats, &inputs.reshape((t1 * rows, width))?)?;
         Ok(fused.reshape((t1, rows, ()))?)
     }
 }

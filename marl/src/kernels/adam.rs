@@ -1,5 +1,6 @@
 //! Adam (PyTorch's, as candle's `AdamW` with no weight decay: bias-corrected moments,
-//! `eps` added to the root) and global-norm gradient clipping on flat vectors.
+//! `eps` added to the root), RMSprop (PyTorch's, as [`crate::optim`]'s: no momentum, not
+//! centred) and global-norm gradient clipping on flat vectors.
 
 /// Adam's state for one flat parameter vector.
 #[derive(Clone, Debug)]
@@ -30,6 +31,31 @@ impl Adam {
             *m = *m * b1 + g * (1.0 - b1);
             *v = *v * b2 + g * g * (1.0 - b2);
             *p -= lr * (*m * scale_m) / ((*v * scale_v).sqrt() + eps);
+        }
+    }
+}
+
+/// RMSprop's state for one flat parameter vector.
+#[derive(Clone, Debug)]
+pub struct RmsProp {
+    pub lr: f64,
+    pub alpha: f64,
+    pub eps: f64,
+    square_avg: Vec<f32>,
+}
+
+impl RmsProp {
+    pub fn new(len: usize, lr: f64, alpha: f64, eps: f64) -> RmsProp {
+        RmsProp { lr, alpha, eps, square_avg: vec![0.0; len] }
+    }
+
+    /// One step of `theta` along `grad`.
+    pub fn step(&mut self, theta: &mut [f32], grad: &[f32]) {
+        assert_eq!((theta.len(), grad.len()), (self.square_avg.len(), self.square_avg.len()), "RMSprop over a vector of another size");
+        let (a, lr, eps) = (self.alpha as f32, self.lr as f32, self.eps as f32);
+        for ((p, &g), sq) in theta.iter_mut().zip(grad).zip(&mut self.square_avg) {
+            *sq = *sq * a + g * g * (1.0 - a);
+            *p -= g / (sq.sqrt() + eps) * lr;
         }
     }
 }

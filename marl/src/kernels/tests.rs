@@ -183,3 +183,48 @@ fn flat_adam_matches_candles_and_clipping_bounds_the_norm() -> Result<(), Error>
     assert!((g[0].hypot(g[1]) - 1.0).abs() < 1e-5);
     Ok(())
 }
+
+/// The fused QMIX mixer against candle's (`nets::QmixMixer`): `Q_tot`, every parameter's
+/// gradient and the agents' Q-values' gradient, for one- and two-layer hypernetworks.
+#[test]
+fn fused_mixer_matches_candles_autograd() -> Result<(), Error> {
+    use super::MixerLayout;
+    let mut rng = ChaCha8Rng::seed_from_u64(6);
+    for layers in [1usize, 2] {
+        let (a, s, n) = (3, 11, 300);
+        let mut cfg = crate::Config::for_algo("qmix", &[])?;
+        (cfg.mixing_embed_dim, cfg.hypernet_layers, cfg.hypernet_embed) = (8, layers, 12);
+        let mut p = Params::default();
+        let mixer = crate::nets::QmixMixer::new(&mut p, a, s, &cfg, &mut rng)?;
+        let layout = MixerLayout { n_agents: a, state: s, embed: 8, hyper_embed: 12, two_layer: layers == 2 };
+        let theta = p.flat(p.vars().count())?;
+        assert_eq!(theta.len(), layout.len());
+        let (q, st, w) = (random(n * a, &mut rng), random(n * s, &mut rng), random(n, &mut rng));
+        let dev = Device::Cpu;
+        let qv = Var::from_slice(&q, (n, a), &dev)?;
+        let out = mixer.forward(qv.as_tensor(), &Tensor::from_slice(&st, (n, s), &dev)?)?;
+        let loss = (&out * Tensor::from_slice(&w, (n, 1), &dev)?)?.sum_all()?;
+        let grads = loss.backward()?;
+        let mut g_ref = Vec::new();
+        for v in p.vars() {
+            let gv = grads.get(v).map(|t| t.flatten_all().and_then(|t| t.to_vec1::<f32>())).transpose()?;
+            g_ref.extend(gv.unwrap_or_else(|| vec![0.0; v.elem_count()]));
+        }
+        let dq_ref = grads.get(&qv).map(|t| t.flatten_all().and_then(|t| t.to_vec1::<f32>())).transpose()?.unwrap_or_default();
+        let f = layout.forward(&theta, &q, &st, n, true);
+        close(&format!("Q_tot ({layers} layers)"), &f.out, &out.flatten_all()?.to_vec1()?, 1e-5);
+        let mut g = vec![0f32; layout.len()];
+        let dq = layout.backward(&theta, &f, &w, &mut g);
+        close(&format!("mixer gradients ({layers} layers)"), &g, &g_ref, 2e-5);
+        close(&format!("Q gradients ({layers} layers)"), &dq, &dq_ref, 2e-5);
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap_or_else(|e| panic!("{e}"));
+        let g3 = pool.install(|| {
+            let f = layout.forward(&theta, &q, &st, n, true);
+            let mut g = vec![0f32; layout.len()];
+            layout.backward(&theta, &f, &w, &mut g);
+            g
+        });
+        assert!(g3 == g, "3 threads changed the mixer's gradients");
+    }
+    Ok(())
+}

@@ -9,7 +9,7 @@ use crate::buffer::Shape;
 use crate::kernels::ppo_loss::{LossGrads, LossRows, LossSettings, ppo_loss};
 use crate::kernels::{Adam, NetLayout, clip_global_norm};
 use crate::learner::Nets;
-use crate::nets::{AgentNet, Params};
+use crate::nets::{AgentNet, Linear, Params};
 use crate::{Config, Error};
 use candle_core::backprop::GradStore;
 use candle_core::{D, Device, Tensor, Var};
@@ -53,6 +53,16 @@ impl CriticInput {
         }
         out
     }
+}
+
+/// The critic: a recurrent network of its own (the MAPPO repository's design), or a value
+/// head on the actor's trunk (`shared_trunk`: JaxMARL's IPPO, whose one GRU feeds both heads).
+#[derive(Debug, Clone)]
+pub enum Critic {
+    Own(AgentNet),
+    /// One linear layer `hidden -> 1` on the actor's GRU output. In the flat vector it is the
+    /// last row of the actor's output layer (the fused network's `out` is `n_actions + 1`).
+    Head(Linear),
 }
 
 /// Statistics of one update (means over its epochs and mini-batches).
@@ -138,12 +148,14 @@ pub struct PpoLearner {
     pub shape: Shape,
     /// The policy: the agent network (no mixer), saved as a Q-learner's checkpoint is.
     pub actor: Nets,
-    pub critic: AgentNet,
+    pub critic: Critic,
     pub critic_params: Params,
     pub critic_input: CriticInput,
     pub value_norm: ValueNorm,
+    /// With a shared trunk, one output more than the policy has actions: the value.
     actor_layout: NetLayout,
-    critic_layout: NetLayout,
+    /// `None` with a shared trunk.
+    critic_layout: Option<NetLayout>,
     actor_theta: Vec<f32>,
     critic_theta: Vec<f32>,
     actor_adam: Adam,
@@ -186,8 +198,17 @@ impl PpoLearner {
         let critic_input = CriticInput::of(cfg);
         let mut critic_params = Params::default();
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xc817_1c00);
-        let critic = AgentNet::new(&mut critic_params, critic_input.width(&shape), cfg.rnn_hidden_dim, 1, &mut rng)?;
-        let (actor_layout, critic_layout) = (actor.agent.layout(), critic.layout());
+        let (critic, critic_layout) = if cfg.shared_trunk {
+            (Critic::Head(Linear::new(&mut critic_params, "value", cfg.rnn_hidden_dim, 1, &mut rng)?), None)
+        } else {
+            let net = AgentNet::new(&mut critic_params, critic_input.width(&shape), cfg.rnn_hidden_dim, 1, &mut rng)?;
+            let layout = net.layout();
+            (Critic::Own(net), Some(layout))
+        };
+        let mut actor_layout = actor.agent.layout();
+        if cfg.shared_trunk {
+            actor_layout.out += 1;
+        }
         let encoder_vars: Vec<Var> = actor.agent_params.vars_after(actor.agent.var_count()).cloned().collect();
         let encoder_opt = if encoder_vars.is_empty() { None } else { Some(adam(encoder_vars.clone(), cfg.lr, cfg.optim_eps)?) };
         let mut l = PpoLearner {
@@ -199,7 +220,7 @@ impl PpoLearner {
             critic_input,
             value_norm: ValueNorm::default(),
             actor_adam: Adam::new(actor_layout.len(), cfg.lr, cfg.optim_eps),
-            critic_adam: Adam::new(critic_layout.len(), cfg.critic_lr, cfg.optim_eps),
+            critic_adam: Adam::new(critic_layout.map_or(0, |l| l.len()), cfg.critic_lr, cfg.optim_eps),
             actor_layout,
             critic_layout,
             actor_theta: Vec::new(),
@@ -214,20 +235,71 @@ impl PpoLearner {
 
     /// Reads the candle networks' weights into the flat vectors (after a restore).
     pub fn load_weights(&mut self) -> Result<(), Error> {
-        self.actor_theta = self.actor.agent_params.flat(self.actor.agent.var_count())?;
-        self.critic_theta = self.critic_params.flat(self.critic.var_count())?;
+        let actor = self.actor.agent_params.flat(self.actor.agent.var_count())?;
+        match &self.critic {
+            Critic::Own(net) => {
+                self.actor_theta = actor;
+                self.critic_theta = self.critic_params.flat(net.var_count())?;
+            }
+            Critic::Head(_) => {
+                let head = self.critic_params.flat(2)?;
+                self.actor_theta = with_value_row(&actor, &head, self.actor_layout.out - 1);
+                self.critic_theta = Vec::new();
+            }
+        }
         Ok(())
     }
 
     /// Writes the flat vectors into the candle networks (done after every update).
     pub fn store_weights(&self) -> Result<(), Error> {
-        self.actor.agent_params.set_flat(self.actor.agent.var_count(), &self.actor_theta)?;
-        self.critic_params.set_flat(self.critic.var_count(), &self.critic_theta)
+        let k = self.actor.agent.var_count();
+        match &self.critic {
+            Critic::Own(net) => {
+                self.actor.agent_params.set_flat(k, &self.actor_theta)?;
+                self.critic_params.set_flat(net.var_count(), &self.critic_theta)
+            }
+            Critic::Head(_) => {
+                let (actor, head) = without_value_row(&self.actor_theta, self.actor_layout.out - 1, self.actor_layout.hidden);
+                self.actor.agent_params.set_flat(k, &actor)?;
+                self.critic_params.set_flat(2, &head)
+            }
+        }
+    }
+
+    /// Candle's gradients of the reference loss ([`PpoLearner::loss`]) in the fused
+    /// vectors' layouts (actor, critic), for comparing the two.
+    pub fn flat_gradients(&self, grads: &GradStore) -> Result<(Vec<f32>, Vec<f32>), Error> {
+        let flat = |vars: &mut dyn Iterator<Item = &Var>| -> Result<Vec<f32>, Error> {
+            let mut out = Vec::new();
+            for v in vars {
+                match grads.get(v) {
+                    Some(g) => out.extend(g.flatten_all()?.to_vec1::<f32>()?),
+                    None => out.extend(std::iter::repeat_n(0.0, v.elem_count())),
+                }
+            }
+            Ok(out)
+        };
+        let actor = flat(&mut self.actor.agent_params.vars().take(self.actor.agent.var_count()))?;
+        let critic = flat(&mut self.critic_params.vars())?;
+        Ok(match self.critic {
+            Critic::Own(_) => (actor, critic),
+            Critic::Head(_) => (with_value_row(&actor, &critic, self.shape.n_actions), Vec::new()),
+        })
+    }
+
+    /// Whether the critic is a head on the actor's trunk.
+    pub fn shared(&self) -> bool {
+        self.critic_layout.is_none()
     }
 
     /// The network of `net` unrolled over a batch's chunks from their first hidden states
     /// `h0`, zeroing the state where an episode starts: `(L * N, out)`.
     fn unroll(net: &AgentNet, x: &Tensor, h0: &Tensor, keep: &Tensor) -> Result<Tensor, Error> {
+        net.head(&Self::unroll_hidden(net, x, h0, keep)?)
+    }
+
+    /// [`PpoLearner::unroll`]'s hidden states `(L * N, hidden)`, before the output layer.
+    fn unroll_hidden(net: &AgentNet, x: &Tensor, h0: &Tensor, keep: &Tensor) -> Result<Tensor, Error> {
         let (l, n, w) = x.dims3()?;
         let gi = net.project(&x.reshape((l * n, w))?)?.reshape((l, n, ()))?;
         let mut h = h0.clone();
@@ -239,7 +311,7 @@ impl PpoLearner {
             h = net.recur(&gi.get(li)?, &h)?;
             hs.push(h.clone());
         }
-        net.head(&Tensor::stack(&hs, 0)?.reshape((l * n, net.hidden))?)
+        Ok(Tensor::stack(&hs, 0)?.reshape((l * n, net.hidden))?)
     }
 
     /// The actor's inputs `(L, N, input)`: the batch's rows as they are in `features` mode,
@@ -266,7 +338,16 @@ impl PpoLearner {
         let n_active = f64::from(active.sum_all()?.to_scalar::<f32>()?).max(1.0);
         let mean = |x: &Tensor| -> Result<Tensor, Error> { Ok(((x * &active)?.sum_all()? / n_active)?) };
 
-        let logits = Self::unroll(&self.actor.agent, &self.actor_inputs(b)?, &b.h_actor, &b.keep)?;
+        let (logits, values) = match &self.critic {
+            Critic::Own(critic) => (
+                Self::unroll(&self.actor.agent, &self.actor_inputs(b)?, &b.h_actor, &b.keep)?,
+                Self::unroll(critic, &b.critic_in, &b.h_critic, &b.keep)?,
+            ),
+            Critic::Head(head) => {
+                let hs = Self::unroll_hidden(&self.actor.agent, &self.actor_inputs(b)?, &b.h_actor, &b.keep)?;
+                (self.actor.agent.head(&hs)?, head.forward(&hs)?)
+            }
+        };
         let logp_all = masked_log_softmax(&logits, &flat(&b.mask)?)?;
         let entropy = (logp_all.exp()? * &logp_all)?.sum_keepdim(D::Minus1)?.neg()?;
         let logp = logp_all.gather(&flat(&b.actions)?, D::Minus1)?;
@@ -277,7 +358,6 @@ impl PpoLearner {
         let policy = mean(&s1.minimum(&s2)?)?.neg()?;
         let entropy = mean(&entropy)?;
 
-        let values = Self::unroll(&self.critic, &b.critic_in, &b.h_critic, &b.keep)?;
         let targets = flat(&b.targets)?;
         let mut vloss = huber(&(&targets - &values)?, cfg.huber_delta)?;
         if cfg.clip_value_loss {
@@ -313,7 +393,15 @@ impl PpoLearner {
         let (l, n) = (b.l, b.n);
         let (x, x_graph) = self.actor_rows(b)?;
         let fa = self.actor_layout.forward(&self.actor_theta, &x, &b.h_actor, Some(&b.keep), None, l, n, true);
-        let fc = self.critic_layout.forward(&self.critic_theta, &b.critic_in, &b.h_critic, Some(&b.keep), None, l, n, true);
+        let fc = self.critic_layout.map(|cl| cl.forward(&self.critic_theta, &b.critic_in, &b.h_critic, Some(&b.keep), None, l, n, true));
+        let na = self.shape.n_actions;
+        // A shared trunk's outputs are the logits and then the value, per row.
+        let split = fc.is_none().then(|| split_value(&fa.out, na));
+        let (logits, values) = match (&split, &fc) {
+            (Some((lg, v)), _) => (&lg[..], &v[..]),
+            (None, Some(fc)) => (&fa.out[..], &fc.out[..]),
+            (None, None) => unreachable!("a critic of its own, or the actor's value head"),
+        };
         let settings = LossSettings {
             clip: cfg.clip_param as f32,
             entropy_coef: cfg.entropy_coef as f32,
@@ -322,14 +410,14 @@ impl PpoLearner {
             clip_value_loss: cfg.clip_value_loss,
         };
         let rows = LossRows {
-            n_actions: self.actor_layout.out,
-            logits: &fa.out,
+            n_actions: na,
+            logits,
             mask: &b.mask,
             actions: &b.actions,
             old_logp: &b.old_logp,
             adv: &b.adv,
             active: &b.active,
-            values: &fc.out,
+            values,
             old_values: &b.old_values,
             targets: &b.targets,
         };
@@ -338,9 +426,22 @@ impl PpoLearner {
             return Err(Error::Diverged { update: self.updates, loss: lg.total });
         }
         let mut ga = vec![0f32; self.actor_layout.len()];
-        let dx = self.actor_layout.backward(&self.actor_theta, &fa, &lg.d_logits, None, &mut ga, x_graph.is_some());
-        let mut gc = vec![0f32; self.critic_layout.len()];
-        self.critic_layout.backward(&self.critic_theta, &fc, &lg.d_values, None, &mut gc, false);
+        let mut gc = vec![0f32; self.critic_theta.len()];
+        let dx = match (&fc, self.critic_layout) {
+            (Some(fc), Some(cl)) => {
+                cl.backward(&self.critic_theta, fc, &lg.d_values, None, &mut gc, false);
+                self.actor_layout.backward(&self.actor_theta, &fa, &lg.d_logits, None, &mut ga, x_graph.is_some())
+            }
+            _ => {
+                let d_out: Vec<f32> = lg
+                    .d_logits
+                    .chunks_exact(na)
+                    .zip(&lg.d_values)
+                    .flat_map(|(d, &v)| d.iter().copied().chain(std::iter::once(v)))
+                    .collect();
+                self.actor_layout.backward(&self.actor_theta, &fa, &d_out, None, &mut ga, x_graph.is_some())
+            }
+        };
         let enc = match (x_graph, dx) {
             (Some(xg), Some(dx)) => {
                 let d = Tensor::from_vec(dx, xg.dims(), &Device::Cpu)?;
@@ -483,14 +584,32 @@ impl PpoLearner {
             x_actor.to_vec()
         };
         let fa = self.actor_layout.forward(&self.actor_theta, &xa, h_actor, None, None, 1, rows, false);
-        let fc = self.critic_layout.forward(&self.critic_theta, x_critic, h_critic, None, None, 1, rows, false);
-        Ok(ActOut { logits: fa.out, values: fc.out, h_actor: fa.hidden, h_critic: fc.hidden })
+        match self.critic_layout {
+            Some(cl) => {
+                let fc = cl.forward(&self.critic_theta, x_critic, h_critic, None, None, 1, rows, false);
+                Ok(ActOut { logits: fa.out, values: fc.out, h_actor: fa.hidden, h_critic: fc.hidden })
+            }
+            None => {
+                let (logits, values) = split_value(&fa.out, self.shape.n_actions);
+                Ok(ActOut { logits, values, h_actor: fa.hidden, h_critic: Vec::new() })
+            }
+        }
     }
 
-    /// The critic's values of `rows` rows (a rollout's bootstrap).
-    pub fn values(&self, x_critic: &[f32], h_critic: &[f32]) -> Vec<f32> {
-        let rows = h_critic.len() / self.critic_layout.hidden.max(1);
-        self.critic_layout.forward(&self.critic_theta, x_critic, h_critic, None, None, 1, rows, false).out
+    /// The critic's values of `rows` rows (a rollout's bootstrap): from the critic's inputs
+    /// and hidden states, or with a shared trunk from the actor's.
+    pub fn values(&self, x_actor: &[f32], h_actor: &[f32], x_critic: &[f32], h_critic: &[f32]) -> Vec<f32> {
+        match self.critic_layout {
+            Some(cl) => {
+                let rows = h_critic.len() / cl.hidden.max(1);
+                cl.forward(&self.critic_theta, x_critic, h_critic, None, None, 1, rows, false).out
+            }
+            None => {
+                let rows = h_actor.len() / self.actor_layout.hidden.max(1);
+                let fa = self.actor_layout.forward(&self.actor_theta, x_actor, h_actor, None, None, 1, rows, false);
+                split_value(&fa.out, self.shape.n_actions).1
+            }
+        }
     }
 
     /// Writes the critic's weights (`critic.safetensors`) into `dir`.
@@ -507,6 +626,37 @@ pub struct ActOut {
     pub values: Vec<f32>,
     pub h_actor: Vec<f32>,
     pub h_critic: Vec<f32>,
+}
+
+/// A shared trunk's outputs `(rows, n_actions + 1)` as logits `(rows, n_actions)` and values.
+fn split_value(out: &[f32], na: usize) -> (Vec<f32>, Vec<f32>) {
+    let logits = out.chunks_exact(na + 1).flat_map(|r| r[..na].iter().copied()).collect();
+    let values = out.chunks_exact(na + 1).map(|r| r[na]).collect();
+    (logits, values)
+}
+
+/// The agent network's flat weights `actor` (output layer `n_actions x hidden` and its bias
+/// last) with a value head's `[w (hidden), b]` appended as one more output row.
+fn with_value_row(actor: &[f32], head: &[f32], na: usize) -> Vec<f32> {
+    let h = head.len() - 1;
+    let base = actor.len() - na * h - na;
+    let mut out = Vec::with_capacity(actor.len() + head.len());
+    out.extend_from_slice(&actor[..base + na * h]);
+    out.extend_from_slice(&head[..h]);
+    out.extend_from_slice(&actor[base + na * h..]);
+    out.push(head[h]);
+    out
+}
+
+/// The inverse of [`with_value_row`]: the agent network's weights and the head's.
+fn without_value_row(theta: &[f32], na: usize, h: usize) -> (Vec<f32>, Vec<f32>) {
+    let base = theta.len() - (na + 1) * h - (na + 1);
+    let mut actor = Vec::with_capacity(theta.len() - h - 1);
+    actor.extend_from_slice(&theta[..base + na * h]);
+    actor.extend_from_slice(&theta[base + (na + 1) * h..theta.len() - 1]);
+    let mut head = theta[base + na * h..base + (na + 1) * h].to_vec();
+    head.push(theta[theta.len() - 1]);
+    (actor, head)
 }
 
 /// The additive logit masks (`0` or [`MASKED`]) of 0/1 availability masks.

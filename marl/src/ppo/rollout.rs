@@ -251,7 +251,8 @@ impl FlatBatch {
             active: seq(&self.active)?,
             keep: seq(&self.keep)?,
             h_actor: Tensor::from_slice(&self.h_actor, (n, hidden), &dev)?,
-            h_critic: Tensor::from_slice(&self.h_critic, (n, hidden), &dev)?,
+            // Empty when the critic is a head on the actor's trunk.
+            h_critic: Tensor::from_slice(&self.h_critic, (n, if self.h_critic.is_empty() { 0 } else { hidden }), &dev)?,
             frames: self
                 .frames
                 .as_ref()

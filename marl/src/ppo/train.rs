@@ -60,7 +60,8 @@ pub fn train_from(
     let (id, la) = (cfg.obs_agent_id, cfg.obs_last_action);
     let agents: Vec<usize> = (0..rows).map(|r| r % a.max(1)).collect();
     let mut last: Vec<Option<u32>> = vec![None; rows];
-    let (mut h_actor, mut h_critic) = (vec![0f32; rows * hidden], vec![0f32; rows * hidden]);
+    let shared = learner.shared();
+    let (mut h_actor, mut h_critic) = (vec![0f32; rows * hidden], vec![0f32; if shared { 0 } else { rows * hidden }]);
     // The run starts an episode everywhere.
     let mut keep = vec![0f32; rows];
     let mut roll = Rollout { rows, n_agents: a, ..Rollout::default() };
@@ -71,7 +72,8 @@ pub fn train_from(
         let clock = Instant::now();
         let b = &env.buffers;
         let x_actor = act_inputs(&b.obs, &agents, &last, &shape, id, la);
-        let x_critic = learner.critic_input.rows(&shape, &b.obs, &b.state, e);
+        // A shared trunk's critic reads the actor's rows: no rows or states of its own.
+        let x_critic = if shared { Vec::new() } else { learner.critic_input.rows(&shape, &b.obs, &b.state, e) };
         if roll.t.is_multiple_of(cfg.data_chunk_length) {
             roll.h_actor.extend_from_slice(&h_actor);
             roll.h_critic.extend_from_slice(&h_critic);
@@ -109,10 +111,11 @@ pub fn train_from(
             *k = if done[r / a.max(1)] { 0.0 } else { 1.0 };
         }
         (h_actor, h_critic) = (out.h_actor, out.h_critic);
-        for ((ha, hc), &k) in h_actor.chunks_exact_mut(hidden.max(1)).zip(h_critic.chunks_exact_mut(hidden.max(1))).zip(&keep) {
-            if k == 0.0 {
-                ha.fill(0.0);
-                hc.fill(0.0);
+        for h in [&mut h_actor, &mut h_critic] {
+            for (row, &k) in h.chunks_exact_mut(hidden.max(1)).zip(&keep) {
+                if k == 0.0 {
+                    row.fill(0.0);
+                }
             }
         }
         for ((l, &act), &k) in last.iter_mut().zip(&acts).zip(&keep) {
@@ -121,8 +124,9 @@ pub fn train_from(
         let t_record = clock.elapsed();
 
         if roll.t == cfg.rollout_len {
-            let x_critic = learner.critic_input.rows(&shape, &b.obs, &b.state, e);
-            roll.values.extend(learner.values(&x_critic, &h_critic));
+            let x_critic = if shared { Vec::new() } else { learner.critic_input.rows(&shape, &b.obs, &b.state, e) };
+            let x_actor = if shared { act_inputs(&b.obs, &agents, &last, &shape, id, la) } else { Vec::new() };
+            roll.values.extend(learner.values(&x_actor, &h_actor, &x_critic, &h_critic));
             let st = learner.update(&roll, &mut update_rng)?;
             last_stats = UpdateStats { loss: st.loss, grad_norm: st.actor_grad_norm, td_abs: st.value_loss, q_taken: st.value_mean };
             roll.clear();

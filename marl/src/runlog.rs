@@ -1,0 +1,246 @@
+//! A run's `log.csv` read back, and runs compared: learning curves of groups of runs (say,
+//! the same config over seeds, old code against new) in one figure against environment steps
+//! and against wall-clock seconds, and when each run first reached given win rates.
+//!
+//! The reader is strict about the columns it needs (a missing column or a number that does
+//! not parse names the file, the line and the column) and ignores columns it does not know,
+//! so logs of older builds with the same core columns still read.
+
+use crate::Error;
+use plotters::prelude::*;
+use std::path::{Path, PathBuf};
+
+/// One row of a run's log: a test round.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LogRow {
+    pub t_env: u64,
+    pub episodes: u64,
+    pub updates: u64,
+    /// Training episodes' win rate since the previous row (`NaN` when none ended).
+    pub train_win_rate: f64,
+    pub test_win_rate: f64,
+    pub test_return: f64,
+    /// Wall-clock seconds of training so far.
+    pub elapsed_s: f64,
+}
+
+/// The columns the reader needs.
+const NEEDED: [&str; 7] = ["t_env", "episodes", "updates", "train_win_rate", "test_win_rate", "test_return", "elapsed_s"];
+
+fn bad(path: &Path, message: String) -> Error {
+    Error::Observation { message: format!("{}: {message}", path.display()) }
+}
+
+/// Parses the text of a `log.csv` (`path` names it in errors).
+pub fn parse_log(path: &Path, text: &str) -> Result<Vec<LogRow>, Error> {
+    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
+    let Some((_, header)) = lines.next() else { return Err(bad(path, "empty: no header line".into())) };
+    let cols: Vec<&str> = header.split(',').map(str::trim).collect();
+    let mut at = [0usize; NEEDED.len()];
+    for (slot, name) in at.iter_mut().zip(NEEDED) {
+        *slot = cols.iter().position(|c| *c == name).ok_or_else(|| bad(path, format!("the header has no `{name}` column")))?;
+    }
+    let mut rows = Vec::new();
+    for (i, line) in lines {
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        if fields.len() != cols.len() {
+            return Err(bad(path, format!("line {}: {} fields, the header has {}", i + 1, fields.len(), cols.len())));
+        }
+        let num = |k: usize| -> Result<f64, Error> {
+            let text = fields[at[k]];
+            text.parse::<f64>().map_err(|_| bad(path, format!("line {}: `{}` = `{text}` is not a number", i + 1, NEEDED[k])))
+        };
+        let count = |k: usize| -> Result<u64, Error> {
+            let text = fields[at[k]];
+            text.parse::<u64>().map_err(|_| bad(path, format!("line {}: `{}` = `{text}` is not a count", i + 1, NEEDED[k])))
+        };
+        rows.push(LogRow {
+            t_env: count(0)?,
+            episodes: count(1)?,
+            updates: count(2)?,
+            train_win_rate: num(3)?,
+            test_win_rate: num(4)?,
+            test_return: num(5)?,
+            elapsed_s: num(6)?,
+        });
+    }
+    Ok(rows)
+}
+
+/// Reads `dir/log.csv` (or a CSV file given directly).
+pub fn read_log(path: &Path) -> Result<Vec<LogRow>, Error> {
+    let file = if path.is_dir() { path.join("log.csv") } else { path.to_path_buf() };
+    let text = std::fs::read_to_string(&file).map_err(|source| Error::Io { path: file.clone(), source })?;
+    parse_log(&file, &text)
+}
+
+/// A named group of runs (e.g. one code version over seeds).
+#[derive(Clone, Debug)]
+pub struct Group {
+    pub name: String,
+    pub runs: Vec<(PathBuf, Vec<LogRow>)>,
+}
+
+/// The first row at which a run's greedy test win rate is at least `test` and its training
+/// win rate at least `train` (both on the same row).
+pub fn first_reaching(rows: &[LogRow], test: f64, train: f64) -> Option<LogRow> {
+    rows.iter().copied().find(|r| r.test_win_rate >= test && r.train_win_rate >= train)
+}
+
+const COLORS: [RGBColor; 6] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(255, 127, 14),
+    RGBColor(148, 103, 189),
+    RGBColor(23, 190, 207),
+];
+
+/// Draws the groups' greedy test and training win rates against environment steps and
+/// against wall-clock seconds (four panels; each run a thin line, each group's mean over its
+/// runs a thick one) into `path` (PNG).
+pub fn compare(path: &Path, title: &str, groups: &[Group]) -> Result<(), Error> {
+    crate::plot::font()?;
+    let err = crate::plot::err;
+    let root = BitMapBackend::new(path, (1400, 900)).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let root = root.titled(title, ("sans-serif", 22)).map_err(err)?;
+    let panels = root.split_evenly((2, 2));
+    let all = || groups.iter().flat_map(|g| g.runs.iter().flat_map(|(_, r)| r.iter()));
+    let max_steps = all().map(|r| r.t_env).max().unwrap_or(1).max(1) as f64;
+    let max_secs = all().map(|r| r.elapsed_s).fold(1.0, f64::max);
+    type Pick = fn(&LogRow) -> f64;
+    let specs: [(&str, Pick, &str, Pick, f64); 4] = [
+        ("greedy test win rate", |r| r.test_win_rate, "environment steps", |r| r.t_env as f64, max_steps),
+        ("training win rate", |r| r.train_win_rate, "environment steps", |r| r.t_env as f64, max_steps),
+        ("greedy test win rate", |r| r.test_win_rate, "wall-clock seconds", |r| r.elapsed_s, max_secs),
+        ("training win rate", |r| r.train_win_rate, "wall-clock seconds", |r| r.elapsed_s, max_secs),
+    ];
+    for (area, (y_label, y, x_label, x, x_max)) in panels.iter().zip(specs) {
+        let mut chart = ChartBuilder::on(area)
+            .margin(12)
+            .x_label_area_size(36)
+            .y_label_area_size(56)
+            .build_cartesian_2d(0.0..x_max, 0.0..1.02)
+            .map_err(err)?;
+        chart.configure_mesh().x_desc(x_label).y_desc(y_label).label_style(("sans-serif", 14)).draw().map_err(err)?;
+        for (gi, g) in groups.iter().enumerate() {
+            let color = COLORS[gi % COLORS.len()];
+            for (_, rows) in &g.runs {
+                let pts: Vec<(f64, f64)> = rows.iter().map(|r| (x(r), y(r))).filter(|(_, v)| v.is_finite()).collect();
+                chart.draw_series(LineSeries::new(pts, color.mix(0.35).stroke_width(1))).map_err(err)?;
+            }
+            let mean = mean_curve(&g.runs, x, y);
+            chart
+                .draw_series(LineSeries::new(mean, color.stroke_width(3)))
+                .map_err(err)?
+                .label(format!("{} ({} runs, mean)", g.name, g.runs.len()))
+                .legend(move |(px, py)| PathElement::new(vec![(px, py), (px + 18, py)], color.stroke_width(3)));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 14))
+            .position(SeriesLabelPosition::LowerRight)
+            .draw()
+            .map_err(err)?;
+    }
+    root.present().map_err(err)
+}
+
+/// The mean over runs of `y` at each run's `x` points, each run held at its last value past
+/// its end and at its first before its start (step interpolation on the union of points).
+fn mean_curve(runs: &[(PathBuf, Vec<LogRow>)], x: fn(&LogRow) -> f64, y: fn(&LogRow) -> f64) -> Vec<(f64, f64)> {
+    let mut xs: Vec<f64> = runs.iter().flat_map(|(_, r)| r.iter().map(x)).collect();
+    xs.sort_by(f64::total_cmp);
+    xs.dedup();
+    xs.into_iter()
+        .filter_map(|at| {
+            let vals: Vec<f64> = runs
+                .iter()
+                .filter_map(|(_, r)| {
+                    let upto: Vec<&LogRow> = r.iter().filter(|p| x(p) <= at && y(p).is_finite()).collect();
+                    upto.last().map(|p| y(p)).or_else(|| r.iter().find(|p| y(p).is_finite()).map(y))
+                })
+                .collect();
+            (!vals.is_empty()).then(|| (at, vals.iter().sum::<f64>() / vals.len() as f64))
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn text(rows: &[LogRow]) -> String {
+        let mut s =
+            String::from("t_env,episodes,updates,epsilon,loss,grad_norm,q_taken,train_win_rate,test_win_rate,test_return,elapsed_s\n");
+        for r in rows {
+            s.push_str(&format!(
+                "{},{},{},0.05,0.1,0.2,0.3,{},{},{},{}\n",
+                r.t_env, r.episodes, r.updates, r.train_win_rate, r.test_win_rate, r.test_return, r.elapsed_s
+            ));
+        }
+        s
+    }
+
+    proptest! {
+        /// What the trainer writes reads back as it was.
+        #[test]
+        fn logs_round_trip(rows in prop::collection::vec((0u64..1 << 40, 0u64..1 << 30, 0u64..1 << 30, 0.0f64..1.0, 0.0f64..1.0, -50.0f64..250.0, 0.0f64..1e6), 0..20)) {
+            let rows: Vec<LogRow> = rows.into_iter().map(|(t, e, u, tr, te, ret, s)| LogRow {
+                t_env: t, episodes: e, updates: u, train_win_rate: tr, test_win_rate: te, test_return: ret, elapsed_s: s,
+            }).collect();
+            let back = parse_log(Path::new("log.csv"), &text(&rows)).map_err(|e| TestCaseError::fail(e.to_string()))?;
+            prop_assert_eq!(back, rows);
+        }
+
+        /// Any text either parses or is refused with the file named; it never panics.
+        #[test]
+        fn any_text_is_parsed_or_refused(s in ".{0,300}") {
+            if let Err(e) = parse_log(Path::new("x/log.csv"), &s) {
+                prop_assert!(e.to_string().starts_with("observation: x/log.csv:"), "{}", e);
+            }
+        }
+    }
+
+    #[test]
+    fn mistakes_name_the_line_and_column() {
+        let e = |t: &str| parse_log(Path::new("log.csv"), t).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e("").contains("no header"));
+        assert!(e("t_env,episodes\n1,2\n").contains("no `updates` column"));
+        let good = text(&[LogRow {
+            t_env: 10,
+            episodes: 1,
+            updates: 1,
+            train_win_rate: 0.5,
+            test_win_rate: 1.0,
+            test_return: 3.0,
+            elapsed_s: 1.0,
+        }]);
+        assert!(e(&good.replace("10,1,1", "ten,1,1")).contains("line 2: `t_env` = `ten` is not a count"));
+        assert!(e(&format!("{good}1,2\n")).contains("line 3: 2 fields"));
+        assert!(e(&good.replace(",0.5,", ",half,")).contains("`train_win_rate` = `half`"));
+        // NaN (no training episode since the last row) is a number.
+        assert!(parse_log(Path::new("log.csv"), &good.replace(",0.5,", ",NaN,")).is_ok());
+    }
+
+    #[test]
+    fn the_first_row_meeting_both_rates_is_found() {
+        let row = |t, tr, te| LogRow {
+            t_env: t,
+            episodes: 0,
+            updates: 0,
+            train_win_rate: tr,
+            test_win_rate: te,
+            test_return: 0.0,
+            elapsed_s: t as f64,
+        };
+        let rows = [row(1, 0.9, 0.5), row(2, 0.5, 1.0), row(3, 0.8, 0.95), row(4, 1.0, 1.0)];
+        assert_eq!(first_reaching(&rows, 0.95, 0.8).map(|r| r.t_env), Some(3));
+        assert_eq!(first_reaching(&rows[..2], 0.95, 0.8), None);
+        assert!(first_reaching(&[row(1, f64::NAN, 1.0)], 0.95, 0.8).is_none());
+    }
+}
