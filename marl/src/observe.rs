@@ -14,13 +14,14 @@ use crate::buffer::Episode;
 use crate::encoders::layers::pixels_to_tensor;
 use crate::encoders::text::{MiniLm, TEXT_DIM, TextCache};
 use crate::encoders::{FrameTensors, ObsKind};
+use crate::kernels::Pixels;
 use crate::{Config, Error};
 use avacraft_engine::{Env, Team, describe};
 use avacraft_render::{ObsMode, Observer, RenderConfig};
 use candle_core::{Device, Tensor};
 
 /// Frame sizes `(width, height)` of the screen and the minimap.
-type Sizes = ((usize, usize), (usize, usize));
+pub type Sizes = ((usize, usize), (usize, usize));
 
 fn sizes(cfg: &Config) -> Sizes {
     let [sw, sh] = cfg.screen_size;
@@ -28,7 +29,7 @@ fn sizes(cfg: &Config) -> Sizes {
     ((sw as usize, sh as usize), (mw as usize, mh as usize))
 }
 
-/// One step's observations of `n` environments.
+/// The observations of `n` environments at one step, or of a batch's `n` steps.
 #[derive(Clone, Debug, Default)]
 pub struct StepFrames {
     pub n: usize,
@@ -42,19 +43,36 @@ pub struct StepFrames {
 }
 
 impl StepFrames {
-    /// Frames of `n` environments from raw pixels (HWC) of the given `(width, height)` sizes.
-    #[cfg(test)]
-    pub(crate) fn from_pixels(n: usize, sizes: Sizes, screen: Vec<u8>, minimap: Vec<u8>) -> StepFrames {
+    /// Frames of `n` environments from raw pixels (HWC) of the given `(width, height)`
+    /// sizes, `((screen), (minimap))` (tests and benchmarks; [`StepFrames::check`] them).
+    pub fn from_pixels(n: usize, sizes: Sizes, screen: Vec<u8>, minimap: Vec<u8>) -> StepFrames {
         StepFrames { n, screen, minimap, text: Vec::new(), sizes }
     }
 
-    /// As float tensors for the encoder.
+    /// As float tensors for the candle encoders.
     pub fn tensors(&self) -> Result<FrameTensors, Error> {
         frame_tensors(&self.screen, &self.minimap, &self.text, self.n, self.sizes)
     }
+
+    /// Checks the pixel and embedding counts against `n` and the sizes.
+    pub fn check(&self) -> Result<(), Error> {
+        check_sizes(&self.screen, &self.minimap, &self.text, self.n, self.sizes)
+    }
+
+    /// As the fused encoder reads them: every frame, in order.
+    pub fn pixels(&self) -> Pixels<'_> {
+        Pixels { stored: self.n, screen: &self.screen, minimap: &self.minimap, text: &self.text, pick: None }
+    }
 }
 
-fn frame_tensors(screen: &[u8], minimap: &[u8], text: &[f32], n: usize, (s, m): Sizes) -> Result<FrameTensors, Error> {
+fn frame_tensors(screen: &[u8], minimap: &[u8], text: &[f32], n: usize, sizes: Sizes) -> Result<FrameTensors, Error> {
+    check_sizes(screen, minimap, text, n, sizes)?;
+    let (s, m) = sizes;
+    let text = if text.is_empty() { None } else { Some(Tensor::from_slice(text, (n, TEXT_DIM), &Device::Cpu)?) };
+    Ok(FrameTensors { screen: pixels_to_tensor(screen, n, s)?, minimap: pixels_to_tensor(minimap, n, m)?, text })
+}
+
+fn check_sizes(screen: &[u8], minimap: &[u8], text: &[f32], n: usize, (s, m): Sizes) -> Result<(), Error> {
     let check = |what: &str, got: usize, want: usize| {
         if got == want {
             Ok(())
@@ -64,13 +82,10 @@ fn frame_tensors(screen: &[u8], minimap: &[u8], text: &[f32], n: usize, (s, m): 
     };
     check("screen", screen.len(), n * s.0 * s.1 * 3)?;
     check("minimap", minimap.len(), n * m.0 * m.1 * 3)?;
-    let text = if text.is_empty() {
-        None
-    } else {
+    if !text.is_empty() {
         check("text", text.len(), n * TEXT_DIM)?;
-        Some(Tensor::from_slice(text, (n, TEXT_DIM), &Device::Cpu)?)
-    };
-    Ok(FrameTensors { screen: pixels_to_tensor(screen, n, s)?, minimap: pixels_to_tensor(minimap, n, m)?, text })
+    }
+    Ok(())
 }
 
 /// The frames of `steps` (each of the same `n` environments) as one batch of

@@ -31,6 +31,7 @@ pub mod text;
 pub use settings::{Backbone, ObsKind, SwinSizes};
 
 use crate::buffer::{Batch, Shape};
+use crate::kernels::EncoderLayout;
 use crate::learner::Nets;
 use crate::nets::{Linear, Params};
 use crate::{Config, Error};
@@ -105,6 +106,8 @@ pub struct ObsEncoder {
     obs: usize,
     /// Output width ([`encoder_width`]).
     pub out: usize,
+    /// The CNN backbone's fused kernels ([`crate::kernels::conv`]); Swin has none.
+    kernel: Option<EncoderLayout>,
 }
 
 impl ObsEncoder {
@@ -120,6 +123,15 @@ impl ObsEncoder {
         let minimap = Stream::new(p, "encoder.minimap", cfg, rng)?;
         let head = Linear::new(p, "encoder.head", screen.out() + minimap.out(), cfg.encoder_dim, rng)?;
         let text = if cfg.obs.text() { Some(Linear::new(p, "encoder.text", text::TEXT_DIM, cfg.text_dim, rng)?) } else { None };
+        let kernel = match cfg.encoder {
+            Backbone::Cnn => {
+                let [sw, sh] = cfg.screen_size.map(|v| v as usize);
+                let [mw, mh] = cfg.minimap_size.map(|v| v as usize);
+                let text_dim = cfg.obs.text().then_some(cfg.text_dim);
+                Some(EncoderLayout::new(&cfg.cnn_channels, cfg.cnn_pool, (sw, sh), (mw, mh), cfg.encoder_dim, text_dim)?)
+            }
+            Backbone::Swin | Backbone::SwinTiny => None,
+        };
         Ok(Some(ObsEncoder {
             kind: cfg.obs,
             screen,
@@ -129,7 +141,14 @@ impl ObsEncoder {
             n_agents: shape.n_agents,
             obs: shape.obs,
             out: encoder_width(cfg),
+            kernel,
         }))
+    }
+
+    /// The fused kernels of this encoder (the CNN backbone's), reading the encoder's
+    /// variables as one flat vector in their [`Params`] order.
+    pub fn kernel(&self) -> Option<&EncoderLayout> {
+        self.kernel.as_ref()
     }
 
     /// Features `(N, out)` of `N` observations.
