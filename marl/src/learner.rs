@@ -5,6 +5,7 @@
 //! every `target_update_interval` episodes.
 
 use crate::buffer::{Batch, Shape};
+use crate::kernels::EncoderForward;
 use crate::nets::{AgentNet, Mixer, Params, QmixMixer};
 use crate::optim::{Optimizer, OptimizerKind};
 use crate::qtran::QtranMixer;
@@ -13,6 +14,7 @@ use candle_core::backprop::GradStore;
 use candle_core::{D, Device, Tensor, Var};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use std::sync::Mutex;
 
 /// Masked-out Q-values (PyMARL's -9999999): finite, so padded rows stay finite too.
 pub(crate) const MASKED: f64 = -1e7;
@@ -104,6 +106,8 @@ pub struct Learner {
     opt: Optimizer,
     pub(crate) last_target_update: u64,
     pub updates: u64,
+    /// The fused encoder's buffers, kept across updates (see [`crate::kernels::conv`]).
+    encoder_pass: Mutex<EncoderForward>,
 }
 
 impl Learner {
@@ -116,7 +120,16 @@ impl Learner {
             OptimizerKind::Rmsprop => Optimizer::rmsprop(vars, cfg.lr, cfg.optim_alpha, cfg.optim_eps, cfg.grad_norm_clip)?,
             OptimizerKind::Adam => Optimizer::adam(vars, cfg.lr, cfg.optim_eps, cfg.grad_norm_clip)?,
         };
-        Ok(Learner { cfg: cfg.clone(), shape, nets, target, opt, last_target_update: 0, updates: 0 })
+        Ok(Learner {
+            cfg: cfg.clone(),
+            shape,
+            nets,
+            target,
+            opt,
+            last_target_update: 0,
+            updates: 0,
+            encoder_pass: Mutex::new(EncoderForward::default()),
+        })
     }
 
     /// The TD loss of a batch under the current networks (and its parts), by candle's
@@ -167,14 +180,26 @@ impl Learner {
     /// in the fused kernels (QTRAN's, which its mixer reads the hidden states of, always in
     /// candle) and the mixer and the loss in candle; without, all in candle (the reference).
     pub fn gradients(&self, batch: &Batch, fused: bool) -> Result<(GradStore, Tensor, Tensor, Tensor), Error> {
-        let fused = if fused && self.nets.qtran.is_none() { Some(FusedUnroll::run(&self.nets, batch, true)?) } else { None };
+        let poisoned = || Error::Observation { message: "a thread panicked while it held the encoder's buffers".into() };
+        let mut fused = if fused && self.nets.qtran.is_none() {
+            let scratch = std::mem::take(&mut *self.encoder_pass.lock().map_err(|_| poisoned())?);
+            Some(FusedUnroll::run(&self.nets, batch, true, scratch)?)
+        } else {
+            None
+        };
         let (loss, td, chosen) = match &fused {
             None => self.loss(batch)?,
-            Some(f) => self.loss_of(batch, f.q.as_tensor(), FusedUnroll::run(&self.target, batch, false)?.q.as_tensor())?,
+            Some(f) => {
+                let target = FusedUnroll::run(&self.target, batch, false, EncoderForward::default())?;
+                self.loss_of(batch, f.q.as_tensor(), target.q.as_tensor())?
+            }
         };
         let mut grads = loss.backward()?;
-        if let Some(f) = &fused {
-            f.backward(&self.nets, &mut grads)?;
+        if let Some(f) = &mut fused {
+            f.backward(&self.nets, batch, &mut grads)?;
+            if let Some((_, pass, _)) = f.encoded.take() {
+                *self.encoder_pass.lock().map_err(|_| poisoned())? = pass;
+            }
         }
         Ok((grads, loss, td, chosen))
     }
@@ -208,22 +233,37 @@ impl Learner {
 /// The agent network unrolled over a batch by the fused kernels ([`crate::kernels`]): Q
 /// `(T+1, B*A, n_actions)` as a leaf variable of candle's graph, so the mixer and the loss
 /// stay in candle and their gradient with respect to Q comes back through
-/// [`FusedUnroll::backward`] (in image modes, on into the encoder's candle graph).
+/// [`FusedUnroll::backward`] (in image modes, on into the fused CNN encoder, or the Swin
+/// encoder's candle graph).
 struct FusedUnroll {
     theta: Vec<f32>,
     fwd: crate::kernels::Forward,
-    /// The input rows as a candle tensor with the encoder's graph (image modes).
+    /// The input rows as a candle tensor with the Swin encoder's graph.
     x_graph: Option<Tensor>,
+    /// The fused CNN encoder's weights, pass (with a tape) and each input row's frame.
+    encoded: Option<(Vec<f32>, EncoderForward, Vec<u32>)>,
     q: Var,
 }
 
 impl FusedUnroll {
-    fn run(nets: &Nets, batch: &Batch, tape: bool) -> Result<FusedUnroll, Error> {
+    /// `scratch`: buffers for the fused encoder's pass (see [`EncoderForward`]).
+    fn run(nets: &Nets, batch: &Batch, tape: bool, mut scratch: EncoderForward) -> Result<FusedUnroll, Error> {
         let layout = nets.agent.layout();
-        let x = nets.unroll_inputs(batch)?;
-        let (t1, rows, _) = x.dims3()?;
-        let x_graph = (nets.encoder.is_some() && tape).then(|| x.clone());
-        let xv: Vec<f32> = x.flatten_all()?.to_vec1()?;
+        let (t1, rows, _) = batch.inputs.dims3()?;
+        let (xv, x_graph, encoded) = match (&nets.encoder, nets.encoder.as_ref().and_then(|e| e.kernel()), &batch.frames) {
+            (Some(e), Some(k), Some(fb)) => {
+                let theta = nets.encoder_weights()?;
+                k.forward_into(&theta, &fb.frames.pixels(), tape, &mut scratch)?;
+                let row_frame = nets.unroll_frames(batch)?;
+                let x = e.fuse_flat(&scratch.out, &row_frame, &batch.inputs.flatten_all()?.to_vec1()?);
+                (x, None, tape.then_some((theta, scratch, row_frame)))
+            }
+            _ => {
+                let x = nets.unroll_inputs(batch)?;
+                let x_graph = (nets.encoder.is_some() && tape).then(|| x.clone());
+                (x.flatten_all()?.to_vec1()?, x_graph, None)
+            }
+        };
         let theta = nets.agent_params.flat(nets.agent.var_count())?;
         let h0 = vec![0f32; rows * layout.hidden];
         // Rows past an episode's closing row are padding: skipped when the batch is sorted
@@ -232,24 +272,37 @@ impl FusedUnroll {
         let sorted = lens.windows(2).all(|w| w[0] >= w[1]);
         let fwd = layout.forward(&theta, &xv, &h0, None, sorted.then_some(&lens[..]), t1, rows, tape);
         let q = Var::from_slice(&fwd.out, (t1, rows, layout.out), &Device::Cpu)?;
-        Ok(FusedUnroll { theta, fwd, x_graph, q })
+        Ok(FusedUnroll { theta, fwd, x_graph, encoded, q })
     }
 
     /// Replaces the gradient with respect to Q in `grads` by the agent network's parameters'
     /// (and the encoder's).
-    fn backward(&self, nets: &Nets, grads: &mut GradStore) -> Result<(), Error> {
+    fn backward(&mut self, nets: &Nets, batch: &Batch, grads: &mut GradStore) -> Result<(), Error> {
         let layout = nets.agent.layout();
         let Some(dq) = grads.remove(self.q.as_tensor()) else { return Ok(()) };
         let dq: Vec<f32> = dq.flatten_all()?.to_vec1()?;
         let mut g = vec![0f32; layout.len()];
-        let dx = layout.backward(&self.theta, &self.fwd, &dq, None, &mut g, self.x_graph.is_some());
+        let want_dx = self.x_graph.is_some() || self.encoded.is_some();
+        let dx = layout.backward(&self.theta, &self.fwd, &dq, None, &mut g, want_dx);
         let mut at = 0;
         for v in nets.agent_params.vars().take(nets.agent.var_count()) {
             let n = v.elem_count();
             grads.insert(v, Tensor::from_slice(&g[at..at + n], v.shape(), &Device::Cpu)?);
             at += n;
         }
-        if let (Some(x), Some(dx)) = (&self.x_graph, dx) {
+        if let (Some((theta, pass, row_frame)), Some(e), Some(k), Some(fb), Some(dx)) =
+            (self.encoded.as_mut(), &nets.encoder, nets.encoder.as_ref().and_then(|e| e.kernel()), &batch.frames, dx.as_deref())
+        {
+            let d_feats = e.feature_grads(dx, row_frame, pass.n);
+            let mut ge = vec![0f32; k.len()];
+            k.backward(theta, pass, &fb.frames.pixels(), &d_feats, &mut ge);
+            let mut at = 0;
+            for v in nets.agent_params.vars_after(nets.agent.var_count()) {
+                let n = v.elem_count();
+                grads.insert(v, Tensor::from_slice(&ge[at..at + n], v.shape(), &Device::Cpu)?);
+                at += n;
+            }
+        } else if let (Some(x), Some(dx)) = (&self.x_graph, dx) {
             let d = Tensor::from_vec(dx, x.dims(), &Device::Cpu)?;
             let enc = (x * d)?.sum_all()?.backward()?;
             for v in nets.agent_params.vars_after(nets.agent.var_count()) {

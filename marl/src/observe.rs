@@ -7,8 +7,10 @@
 //! One view per team (the renderer has no per-unit view): the agents of an environment
 //! share its frames and tell themselves apart by their agent id. Frames are kept as the
 //! renderer's u8 pixels (HWC) in the replay buffer, one per environment step rather than
-//! per agent, and turned into floats only for a batch: at 80x60 plus 32x32 that is 17.5 kB
-//! a step (a 60-step episode about 1 MB; mind `buffer_size`, 5,000 episodes by default).
+//! per agent, and read as bytes by the fused CNN encoder ([`crate::kernels::conv`]); only
+//! the candle encoders (Swin, the references) turn them into float tensors. At 80x60 plus
+//! 32x32 that is 17.5 kB a step (a 60-step episode about 1 MB; mind `buffer_size`, 5,000
+//! episodes by default).
 
 use crate::buffer::Episode;
 use crate::encoders::layers::pixels_to_tensor;
@@ -90,7 +92,7 @@ fn check_sizes(screen: &[u8], minimap: &[u8], text: &[f32], n: usize, (s, m): Si
 
 /// The frames of `steps` (each of the same `n` environments) as one batch of
 /// `steps.len() x n` observations, step-major.
-pub fn concat_steps(steps: &[StepFrames]) -> Result<FrameTensors, Error> {
+pub fn concat_steps(steps: &[StepFrames]) -> Result<StepFrames, Error> {
     let Some(first) = steps.first() else {
         return Err(Error::Observation { message: "no frames to batch".into() });
     };
@@ -103,7 +105,7 @@ pub fn concat_steps(steps: &[StepFrames]) -> Result<FrameTensors, Error> {
         minimap.extend_from_slice(&s.minimap);
         text.extend_from_slice(&s.text);
     }
-    frame_tensors(&screen, &minimap, &text, steps.len() * first.n, first.sizes)
+    Ok(StepFrames { n: steps.len() * first.n, screen, minimap, text, sizes: first.sizes })
 }
 
 /// An episode's stored observations, one per step (the `len + 1`-th row of the episode,
@@ -137,7 +139,7 @@ impl Frames {
 /// The frames of a batch of episodes: every real step's, episode after episode.
 #[derive(Debug, Clone)]
 pub struct FrameBatch {
-    pub frames: FrameTensors,
+    pub frames: StepFrames,
     /// Steps with frames per episode.
     pub lens: Vec<usize>,
 }
@@ -156,7 +158,8 @@ impl FrameBatch {
             minimap.extend_from_slice(&e.frames.minimap);
             text.extend_from_slice(&e.frames.text);
         }
-        let frames = frame_tensors(&screen, &minimap, &text, n, sizes(cfg))?;
+        let frames = StepFrames { n, screen, minimap, text, sizes: sizes(cfg) };
+        frames.check()?;
         Ok(FrameBatch { frames, lens: episodes.iter().map(|e| e.frames.len).collect() })
     }
 }

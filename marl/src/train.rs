@@ -105,7 +105,7 @@ impl Actor {
             (rows, width),
             &Device::Cpu,
         )?;
-        let x = nets.step_inputs(x, frames.map(StepFrames::tensors).transpose()?.as_ref())?;
+        let x = nets.step_inputs_pixels(x, frames)?;
         let (q, h) = nets.agent.step(&x, &self.h)?;
         // Detached: the acting graph must not grow across steps.
         self.h = h.detach();
