@@ -15,9 +15,10 @@
 //!   rustc. candle has neither RMSprop nor clipping, so [`optim`] adds both (a few lines over
 //!   its gradient store).
 //!
-//! Training runs the agent networks (and PPO's loss and optimiser) through hand-written
-//! kernels ([`kernels`]) checked against candle's autograd, which the networks here keep as
-//! the reference: see `marl/README.md` for where the time went and why.
+//! Training runs the agent networks, the CNN image encoder (and PPO's loss and optimiser)
+//! through hand-written kernels ([`kernels`]) checked against candle's autograd, which the
+//! networks here keep as the reference: see `marl/README.md` for where the time went and
+//! why.
 //!
 //! Four observation modes (the paper's, config key `obs`): SMAC's feature vectors, or an
 //! image encoder ([`encoders`]: a two-stream CNN or Swin Transformer over the renderer's

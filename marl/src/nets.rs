@@ -90,6 +90,25 @@ impl Params {
         Ok(())
     }
 
+    /// The values of the variables after the first `k` (an agent network's encoder),
+    /// flattened and concatenated.
+    pub fn flat_after(&self, k: usize) -> Result<Vec<f32>, Error> {
+        let mut out = Vec::new();
+        for (_, v) in self.vars.iter().skip(k) {
+            out.extend(v.as_tensor().flatten_all()?.to_vec1::<f32>()?);
+        }
+        Ok(out)
+    }
+
+    /// The number of variables.
+    pub fn len(&self) -> usize {
+        self.vars.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.vars.is_empty()
+    }
+
     /// The variables after the first `k` (an agent network's encoder).
     pub fn vars_after(&self, k: usize) -> impl Iterator<Item = &Var> {
         self.vars.iter().skip(k).map(|(_, v)| v)

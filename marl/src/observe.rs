@@ -7,20 +7,27 @@
 //! One view per team (the renderer has no per-unit view): the agents of an environment
 //! share its frames and tell themselves apart by their agent id. Frames are kept as the
 //! renderer's u8 pixels (HWC) in the replay buffer, one per environment step rather than
-//! per agent, and turned into floats only for a batch: at 80x60 plus 32x32 that is 17.5 kB
-//! a step (a 60-step episode about 1 MB; mind `buffer_size`, 5,000 episodes by default).
+//! per agent, and read as bytes by the fused CNN encoder ([`crate::kernels::conv`]); only
+//! the candle encoders (Swin, the references) turn them into float tensors. At 80x60 plus
+//! 32x32 that is 17.5 kB a step (a 60-step episode about 1 MB; mind `buffer_size`, 5,000
+//! episodes by default).
 
 use crate::buffer::Episode;
 use crate::encoders::layers::pixels_to_tensor;
 use crate::encoders::text::{MiniLm, TEXT_DIM, TextCache};
 use crate::encoders::{FrameTensors, ObsKind};
+use crate::kernels::Pixels;
 use crate::{Config, Error};
-use avacraft_engine::{Env, Team, describe};
-use avacraft_render::{ObsMode, Observer, RenderConfig};
+use avacraft_engine::{Env, Team, World, describe};
+use avacraft_render::{CpuBackend, FrameBuilder, RgbImage};
 use candle_core::{Device, Tensor};
+use rayon::prelude::*;
+
+/// How many parts [`ObsSource::observe`] draws the environments in, in parallel.
+const RENDER_PARTS: usize = 2;
 
 /// Frame sizes `(width, height)` of the screen and the minimap.
-type Sizes = ((usize, usize), (usize, usize));
+pub type Sizes = ((usize, usize), (usize, usize));
 
 fn sizes(cfg: &Config) -> Sizes {
     let [sw, sh] = cfg.screen_size;
@@ -28,7 +35,7 @@ fn sizes(cfg: &Config) -> Sizes {
     ((sw as usize, sh as usize), (mw as usize, mh as usize))
 }
 
-/// One step's observations of `n` environments.
+/// The observations of `n` environments at one step, or of a batch's `n` steps.
 #[derive(Clone, Debug, Default)]
 pub struct StepFrames {
     pub n: usize,
@@ -42,19 +49,36 @@ pub struct StepFrames {
 }
 
 impl StepFrames {
-    /// Frames of `n` environments from raw pixels (HWC) of the given `(width, height)` sizes.
-    #[cfg(test)]
-    pub(crate) fn from_pixels(n: usize, sizes: Sizes, screen: Vec<u8>, minimap: Vec<u8>) -> StepFrames {
+    /// Frames of `n` environments from raw pixels (HWC) of the given `(width, height)`
+    /// sizes, `((screen), (minimap))` (tests and benchmarks; [`StepFrames::check`] them).
+    pub fn from_pixels(n: usize, sizes: Sizes, screen: Vec<u8>, minimap: Vec<u8>) -> StepFrames {
         StepFrames { n, screen, minimap, text: Vec::new(), sizes }
     }
 
-    /// As float tensors for the encoder.
+    /// As float tensors for the candle encoders.
     pub fn tensors(&self) -> Result<FrameTensors, Error> {
         frame_tensors(&self.screen, &self.minimap, &self.text, self.n, self.sizes)
     }
+
+    /// Checks the pixel and embedding counts against `n` and the sizes.
+    pub fn check(&self) -> Result<(), Error> {
+        check_sizes(&self.screen, &self.minimap, &self.text, self.n, self.sizes)
+    }
+
+    /// As the fused encoder reads them: every frame, in order.
+    pub fn pixels(&self) -> Pixels<'_> {
+        Pixels { stored: self.n, screen: &self.screen, minimap: &self.minimap, text: &self.text, pick: None }
+    }
 }
 
-fn frame_tensors(screen: &[u8], minimap: &[u8], text: &[f32], n: usize, (s, m): Sizes) -> Result<FrameTensors, Error> {
+fn frame_tensors(screen: &[u8], minimap: &[u8], text: &[f32], n: usize, sizes: Sizes) -> Result<FrameTensors, Error> {
+    check_sizes(screen, minimap, text, n, sizes)?;
+    let (s, m) = sizes;
+    let text = if text.is_empty() { None } else { Some(Tensor::from_slice(text, (n, TEXT_DIM), &Device::Cpu)?) };
+    Ok(FrameTensors { screen: pixels_to_tensor(screen, n, s)?, minimap: pixels_to_tensor(minimap, n, m)?, text })
+}
+
+fn check_sizes(screen: &[u8], minimap: &[u8], text: &[f32], n: usize, (s, m): Sizes) -> Result<(), Error> {
     let check = |what: &str, got: usize, want: usize| {
         if got == want {
             Ok(())
@@ -64,18 +88,15 @@ fn frame_tensors(screen: &[u8], minimap: &[u8], text: &[f32], n: usize, (s, m): 
     };
     check("screen", screen.len(), n * s.0 * s.1 * 3)?;
     check("minimap", minimap.len(), n * m.0 * m.1 * 3)?;
-    let text = if text.is_empty() {
-        None
-    } else {
+    if !text.is_empty() {
         check("text", text.len(), n * TEXT_DIM)?;
-        Some(Tensor::from_slice(text, (n, TEXT_DIM), &Device::Cpu)?)
-    };
-    Ok(FrameTensors { screen: pixels_to_tensor(screen, n, s)?, minimap: pixels_to_tensor(minimap, n, m)?, text })
+    }
+    Ok(())
 }
 
 /// The frames of `steps` (each of the same `n` environments) as one batch of
 /// `steps.len() x n` observations, step-major.
-pub fn concat_steps(steps: &[StepFrames]) -> Result<FrameTensors, Error> {
+pub fn concat_steps(steps: &[StepFrames]) -> Result<StepFrames, Error> {
     let Some(first) = steps.first() else {
         return Err(Error::Observation { message: "no frames to batch".into() });
     };
@@ -88,7 +109,7 @@ pub fn concat_steps(steps: &[StepFrames]) -> Result<FrameTensors, Error> {
         minimap.extend_from_slice(&s.minimap);
         text.extend_from_slice(&s.text);
     }
-    frame_tensors(&screen, &minimap, &text, steps.len() * first.n, first.sizes)
+    Ok(StepFrames { n: steps.len() * first.n, screen, minimap, text, sizes: first.sizes })
 }
 
 /// An episode's stored observations, one per step (the `len + 1`-th row of the episode,
@@ -122,7 +143,7 @@ impl Frames {
 /// The frames of a batch of episodes: every real step's, episode after episode.
 #[derive(Debug, Clone)]
 pub struct FrameBatch {
-    pub frames: FrameTensors,
+    pub frames: StepFrames,
     /// Steps with frames per episode.
     pub lens: Vec<usize>,
 }
@@ -141,16 +162,31 @@ impl FrameBatch {
             minimap.extend_from_slice(&e.frames.minimap);
             text.extend_from_slice(&e.frames.text);
         }
-        let frames = frame_tensors(&screen, &minimap, &text, n, sizes(cfg))?;
+        let frames = StepFrames { n, screen, minimap, text, sizes: sizes(cfg) };
+        frames.check()?;
         Ok(FrameBatch { frames, lens: episodes.iter().map(|e| e.frames.len).collect() })
     }
 }
 
+/// One part's renderer: the scene builder's caches, the CPU back end and its image.
+#[derive(Debug, Default)]
+struct Painter {
+    frames: FrameBuilder,
+    cpu: CpuBackend,
+    image: RgbImage,
+}
+
 /// Renders (and describes) environments for an image mode.
+///
+/// The environments are drawn in [`RENDER_PARTS`] contiguous parts in parallel, each by a
+/// painter of its own (the renderer's CPU back end, as its `Observer` draws the `rgb` mode,
+/// which keeps caches across steps): drawing the frames took about as long as the fused
+/// encoder's updates on them. Each frame depends on its environment only, so the frames are
+/// the same whatever the threads.
 #[derive(Debug)]
 pub struct ObsSource {
     kind: ObsKind,
-    observer: Observer,
+    painters: Vec<Painter>,
     text: Option<TextCache>,
     sizes: Sizes,
 }
@@ -173,10 +209,8 @@ impl ObsSource {
 
     /// A source with a given text cache (tests share one model).
     pub fn with_text(cfg: &Config, text: Option<TextCache>) -> ObsSource {
-        let [sw, sh] = cfg.screen_size;
-        let [mw, mh] = cfg.minimap_size;
-        let render = RenderConfig::default().with_screen(sw, sh).with_minimap(mw, mh);
-        ObsSource { kind: cfg.obs, observer: Observer::new(ObsMode::Rgb, render), text, sizes: sizes(cfg) }
+        let painters = (0..RENDER_PARTS).map(|_| Painter::default()).collect();
+        ObsSource { kind: cfg.obs, painters, text, sizes: sizes(cfg) }
     }
 
     /// The text cache, if this mode embeds texts.
@@ -187,11 +221,32 @@ impl ObsSource {
     /// Team 1's observation of each environment as it is now.
     pub fn observe(&mut self, envs: &[Env]) -> Result<StepFrames, Error> {
         let mut out = StepFrames { n: envs.len(), sizes: self.sizes, ..StepFrames::default() };
+        let parts = self.painters.len().max(1);
+        // An environment is not `Sync` (its scripted opponent); its world is.
+        let worlds: Vec<&World> = envs.iter().map(Env::world).collect();
+        let ((sw, sh), (mw, mh)) = self.sizes;
+        let drawn: Vec<(Vec<u8>, Vec<u8>)> = self
+            .painters
+            .par_iter_mut()
+            .enumerate()
+            .map(|(p, painter)| {
+                let (mut screen, mut minimap) = (Vec::new(), Vec::new());
+                for world in &worlds[p * worlds.len() / parts..(p + 1) * worlds.len() / parts] {
+                    let scene = painter.frames.screen(world, Team::One, sw as u32, sh as u32);
+                    painter.cpu.render_into(&scene, &mut painter.image);
+                    screen.extend_from_slice(painter.image.as_raw());
+                    let scene = painter.frames.minimap(world, Team::One, mw as u32, mh as u32);
+                    painter.cpu.render_into(&scene, &mut painter.image);
+                    minimap.extend_from_slice(painter.image.as_raw());
+                }
+                (screen, minimap)
+            })
+            .collect();
+        for (s, m) in drawn {
+            out.screen.extend(s);
+            out.minimap.extend(m);
+        }
         for env in envs {
-            let s = self.observer.screen(env, Team::One);
-            let m = self.observer.minimap(env, Team::One);
-            out.screen.extend_from_slice(s.as_raw());
-            out.minimap.extend_from_slice(m.as_raw());
             if self.kind.text() {
                 let Some(cache) = self.text.as_mut() else {
                     return Err(Error::Observation { message: "vision-text needs the text model".into() });

@@ -108,7 +108,7 @@ impl Actor {
         if nets.encoder.is_some() {
             let width = shape.input(cfg.obs_agent_id, cfg.obs_last_action);
             let t = Tensor::from_vec(x, (rows, width), &Device::Cpu)?;
-            x = nets.step_inputs(t, frames.map(StepFrames::tensors).transpose()?.as_ref())?.flatten_all()?.to_vec1()?;
+            x = nets.step_inputs_pixels(t, frames)?.flatten_all()?.to_vec1()?;
         }
         let f = nets.agent.layout().forward(theta, &x, &self.h, None, None, 1, rows, false);
         if nets.agent.is_recurrent() {

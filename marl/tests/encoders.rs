@@ -154,6 +154,32 @@ fn a_seed_fixes_every_weight() -> R {
     Ok(())
 }
 
+/// The source draws its environments in parallel parts: the frames are the renderer's
+/// `Observer`'s, environment by environment, in order.
+#[test]
+fn parallel_frames_are_the_observers() -> R {
+    use avacraft_engine::{Team, VecEnv};
+    use avacraft_render::{ObsMode, Observer, RenderConfig};
+    let c = cfg(&["obs=rgb", "screen_size=[40, 30]", "minimap_size=[16, 12]"])?;
+    let scenario = Arc::new(Scenario::load("3m")?);
+    let mut env = VecEnv::new(scenario, c.env_config(), &[1, 2, 3, 4, 5], 1)?;
+    let mut source = avacraft_marl::ObsSource::with_text(&c, None);
+    let mut observer = Observer::new(ObsMode::Rgb, RenderConfig::default().with_screen(40, 30).with_minimap(16, 12));
+    for _ in 0..3 {
+        let f = source.observe(env.envs())?;
+        let (mut screen, mut minimap) = (Vec::new(), Vec::new());
+        for e in env.envs() {
+            screen.extend_from_slice(observer.screen(e, Team::One).as_raw());
+            minimap.extend_from_slice(observer.minimap(e, Team::One).as_raw());
+        }
+        assert!(f.screen == screen && f.minimap == minimap, "the parallel parts drew other frames");
+        let na = env.shape().3.max(1);
+        let actions: Vec<i64> = env.buffers.avail.chunks(na).map(|m| m.iter().rposition(|&a| a == 1).map_or(0, |i| i as i64)).collect();
+        env.step(&actions)?;
+    }
+    Ok(())
+}
+
 /// The text model, loaded once for the tests that need it; a missing model fails with the
 /// pip command.
 fn minilm() -> Result<Arc<Mutex<TextCache>>, String> {

@@ -88,6 +88,53 @@ fn fused_gradients_match_the_candle_reference() -> R {
     Ok(())
 }
 
+/// In the image modes the fused CNN encoder (what training runs, reading the replay
+/// buffer's bytes) gives candle's gradients for every weight, the encoder's included.
+#[test]
+fn fused_image_gradients_match_the_candle_reference() -> R {
+    use avacraft_marl::observe::{FrameBatch, StepFrames};
+    let (screen, minimap) = ((19, 13), (8, 9));
+    for (algo, obs) in [("qmix", "rgb"), ("vdn", "hybrid"), ("iql", "\"vision-text\"")] {
+        let c = cfg(algo, &[&format!("obs={obs}"), "screen_size=[19, 13]", "minimap_size=[8, 9]", "text_dim=5"])?;
+        let mut rng = ChaCha8Rng::seed_from_u64(10);
+        let mut eps = random_episodes(&SMALL, 12, &mut rng);
+        for ep in &mut eps {
+            for _ in 0..ep.len {
+                let mut bytes = |len: usize| (0..len).map(|_| rng.random_range(0..=255u8)).collect::<Vec<u8>>();
+                let (s, m) = (bytes(screen.0 * screen.1 * 3), bytes(minimap.0 * minimap.1 * 3));
+                let mut f = StepFrames::from_pixels(1, (screen, minimap), s, m);
+                if c.obs.text() {
+                    f.text = (0..384).map(|_| rng.random_range(-0.1f32..0.1)).collect();
+                }
+                ep.frames.push(&f, 0);
+            }
+        }
+        let mut refs: Vec<&Episode> = eps.iter().collect();
+        refs.sort_by_key(|e| std::cmp::Reverse(e.len));
+        let mut batch = Batch::new(&refs, &SMALL, true, true)?;
+        batch.frames = Some(FrameBatch::new(&refs, &c)?);
+        let l = Learner::new(&c, SMALL, 2)?;
+        let fused = l.gradients(&batch, true)?;
+        let reference = l.gradients(&batch, false)?;
+        let (a, b) = (fused.loss, reference.loss);
+        assert!((a - b).abs() <= 1e-5 * b.abs().max(1.0), "{algo} {obs}: loss {a} vs {b}");
+        let mut compared = 0;
+        let mut at = 0;
+        for v in l.nets.agent_params.vars().chain(l.nets.mixer_params.vars()) {
+            let k = v.elem_count();
+            let (g, w) = (&fused.grad[at..at + k], &reference.grad[at..at + k]);
+            at += k;
+            let scale = w.iter().fold(0f32, |m, x| m.max(x.abs())).max(1e-6);
+            for (x, y) in g.iter().zip(w) {
+                assert!((x - y).abs() <= 1e-4 * scale, "{algo} {obs} {:?}: fused {x}, candle {y} (scale {scale})", v.dims());
+            }
+            compared += 1;
+        }
+        assert!(compared >= 8 + 8, "{algo} {obs}: {compared} variables");
+    }
+    Ok(())
+}
+
 #[test]
 fn an_update_on_a_fixed_batch_lowers_the_loss() -> R {
     for (algo, extra) in [
@@ -362,11 +409,12 @@ fn runs_do_not_depend_on_the_thread_count() -> R {
         let c = Config::for_algo(algo, &o)?;
         let run = |threads: usize| -> Result<(Vec<f32>, avacraft_marl::Summary), Box<dyn std::error::Error>> {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
-            pool.install(|| {
+            let out = pool.install(|| -> Result<_, avacraft_marl::Error> {
                 let opts = RunOptions { scenario: Arc::clone(&scenario), seed: 3, threads, out: None };
                 let (trained, summary) = train(&c, &opts, &mut |_| {})?;
                 Ok((trained.nets().flat()?, summary))
-            })
+            })?;
+            Ok(out)
         };
         let (w1, s1) = run(1)?;
         assert!(s1.updates > 0, "{algo}: no update");

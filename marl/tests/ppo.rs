@@ -240,6 +240,89 @@ fn fused_gradients_match_the_candle_reference() -> R {
     Ok(())
 }
 
+/// In `rgb` mode the fused path (the CNN encoder's kernels feeding the agent network's)
+/// gives candle's loss and gradients for every actor weight, the encoder's included; one
+/// update (one global-norm clip over agent network and encoder, Adam) lands on the weights
+/// candle's clip and `AdamW` give; and acting gives the reference network's logits.
+#[test]
+fn a_fused_rgb_update_matches_the_candle_reference() -> R {
+    use avacraft_marl::observe::StepFrames;
+    use candle_nn::Optimizer as _;
+    let (screen, minimap) = ((20, 12), (9, 8));
+    // A small clip, so that the clipped update is the one compared.
+    let c = ppo_cfg("mappo", &["obs=rgb", "screen_size=[20, 12]", "minimap_size=[9, 8]", "grad_norm_clip=0.05"])?;
+    let mut rng = ChaCha8Rng::seed_from_u64(12);
+    let envs = 2;
+    let mut r = random_rollout(&c, envs, 8, &mut rng);
+    let mut bytes = |len: usize| (0..len).map(|_| rng.random_range(0..=255u8)).collect::<Vec<u8>>();
+    for _ in 0..r.t {
+        let (s, m) = (bytes(envs * screen.0 * screen.1 * 3), bytes(envs * minimap.0 * minimap.1 * 3));
+        r.frames.push(StepFrames::from_pixels(envs, (screen, minimap), s, m));
+    }
+    let adv: Vec<f32> = (0..r.t * r.rows).map(|_| rng.random_range(-1f32..1.0)).collect();
+    let targets: Vec<f32> = (0..r.t * r.rows).map(|_| rng.random_range(-2f32..2.0)).collect();
+    let flat = FlatBatch::new(&r, &adv, &targets, c.data_chunk_length)?;
+    let batch = flat.tensors(c.rnn_hidden_dim)?;
+
+    // Loss and gradients.
+    let l = PpoLearner::new(&c, SMALL, 3)?;
+    let reference = l.loss(&batch)?;
+    let grads = reference.total.backward()?;
+    let g = l.gradients(&flat)?;
+    let want = f64::from(reference.total.to_scalar::<f32>()?);
+    assert!((g.loss.total - want).abs() < 1e-4 * want.abs().max(1.0), "loss {} vs {want}", g.loss.total);
+    let vars: Vec<_> = l.actor.agent_params.vars().cloned().collect();
+    assert!(vars.len() > 8, "the encoder's weights follow the agent network's");
+    let mut at = 0;
+    let mut sq = 0f64;
+    for v in &vars {
+        let want = grads.get(v).map_or(Ok(vec![0.0; v.elem_count()]), |t| t.flatten_all()?.to_vec1::<f32>())?;
+        sq += want.iter().map(|&x| f64::from(x) * f64::from(x)).sum::<f64>();
+        let got = &g.actor[at..at + want.len()];
+        let scale = want.iter().fold(0f32, |m, x| m.max(x.abs())).max(1e-6);
+        for (i, (a, b)) in got.iter().zip(&want).enumerate() {
+            assert!((a - b).abs() <= 2e-4 * scale, "actor gradient of {:?} [{i}]: fused {a}, candle {b}", v.dims());
+        }
+        at += want.len();
+    }
+    assert_eq!(at, g.actor.len());
+    assert!(sq.sqrt() > c.grad_norm_clip, "the case must clip");
+
+    // One update: candle's clip over all actor weights and AdamW, against the fused step.
+    let mut fused = PpoLearner::new(&c, SMALL, 3)?;
+    fused.step(&flat)?;
+    fused.store_weights()?;
+    let mut grads = grads;
+    let s = c.grad_norm_clip / (sq.sqrt() + 1e-6);
+    for v in &vars {
+        if let Some(t) = grads.remove(v) {
+            grads.insert(v, (t * s)?);
+        }
+    }
+    let params = candle_nn::ParamsAdamW { lr: c.lr, eps: c.optim_eps, weight_decay: 0.0, ..candle_nn::ParamsAdamW::default() };
+    candle_nn::AdamW::new(vars.clone(), params)?.step(&grads)?;
+    for (v, w) in vars.iter().zip(fused.actor.agent_params.vars()) {
+        let (a, b) = (w.as_tensor().flatten_all()?.to_vec1::<f32>()?, v.as_tensor().flatten_all()?.to_vec1::<f32>()?);
+        for (i, (x, y)) in a.iter().zip(&b).enumerate() {
+            assert!((x - y).abs() <= 1e-2 * c.lr as f32, "weight of {:?} [{i}] after one update: fused {x}, candle {y}", v.dims());
+        }
+    }
+
+    // Acting on one step's frames.
+    let rows = envs * SMALL.n_agents;
+    let h: Vec<f32> = (0..rows * c.rnn_hidden_dim).map(|i| (i as f32 * 0.1).sin() * 0.5).collect();
+    let xa: Vec<f32> = (0..rows * SMALL.input(true, true)).map(|i| (i as f32 * 0.3).cos()).collect();
+    let xc = vec![0.5f32; rows * CriticInput::of(&c).width(&SMALL)];
+    let out = fused.act_with(&xa, &h, &xc, &h, Some(&r.frames[3]))?;
+    let x = Tensor::from_vec(xa, (rows, SMALL.input(true, true)), &Device::Cpu)?;
+    let x = fused.actor.step_inputs(x, Some(&r.frames[3].tensors()?))?;
+    let (q, _) = fused.actor.agent.step(&x, &Tensor::from_vec(h, (rows, c.rnn_hidden_dim), &Device::Cpu)?)?;
+    for (a, b) in out.logits.iter().zip(q.flatten_all()?.to_vec1::<f32>()?) {
+        assert!((a - b).abs() < 1e-5, "acting: fused {a}, reference {b}");
+    }
+    Ok(())
+}
+
 /// Acting (one fused step) gives the reference network's logits and hidden states.
 #[test]
 fn acting_matches_the_reference_network() -> R {

@@ -14,6 +14,12 @@ use crate::nets::Params;
 use candle_core::Tensor;
 use rand_chacha::ChaCha8Rng;
 
+/// Kernel size, stride and padding of convolution `i` of a stream (shared with the fused
+/// encoder, [`crate::kernels::conv`], so the two cannot drift apart).
+pub(crate) fn geometry(i: usize) -> (usize, usize, usize) {
+    if i == 0 { (4, 4, 0) } else { (3, 2, 1) }
+}
+
 #[derive(Debug, Clone)]
 pub struct CnnStream {
     convs: Vec<Conv2d>,
@@ -27,7 +33,7 @@ impl CnnStream {
         let mut convs = Vec::with_capacity(channels.len());
         let mut inp = 3;
         for (i, &c) in channels.iter().enumerate() {
-            let (k, stride, pad) = if i == 0 { (4, 4, 0) } else { (3, 2, 1) };
+            let (k, stride, pad) = geometry(i);
             convs.push(Conv2d::new(p, &format!("{name}.conv{i}"), (inp, c, k), stride, pad, rng)?);
             inp = c;
         }

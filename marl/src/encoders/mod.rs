@@ -31,8 +31,10 @@ pub mod text;
 pub use settings::{Backbone, ObsKind, SwinSizes};
 
 use crate::buffer::{Batch, Shape};
+use crate::kernels::EncoderLayout;
 use crate::learner::Nets;
 use crate::nets::{Linear, Params};
+use crate::observe::StepFrames;
 use crate::{Config, Error};
 use candle_core::Tensor;
 use cnn::CnnStream;
@@ -105,7 +107,12 @@ pub struct ObsEncoder {
     obs: usize,
     /// Output width ([`encoder_width`]).
     pub out: usize,
+    /// The CNN backbone's fused kernels ([`crate::kernels::conv`]); Swin has none.
+    kernel: Option<EncoderLayout>,
 }
+
+/// A row of [`ObsEncoder::fuse_flat`]'s that sees no frame (a padded step): zero features.
+pub const NO_FRAME: u32 = u32::MAX;
 
 impl ObsEncoder {
     /// The encoder `cfg` asks for (`None` in `features` mode), its weights appended to `p`
@@ -120,6 +127,15 @@ impl ObsEncoder {
         let minimap = Stream::new(p, "encoder.minimap", cfg, rng)?;
         let head = Linear::new(p, "encoder.head", screen.out() + minimap.out(), cfg.encoder_dim, rng)?;
         let text = if cfg.obs.text() { Some(Linear::new(p, "encoder.text", text::TEXT_DIM, cfg.text_dim, rng)?) } else { None };
+        let kernel = match cfg.encoder {
+            Backbone::Cnn => {
+                let [sw, sh] = cfg.screen_size.map(|v| v as usize);
+                let [mw, mh] = cfg.minimap_size.map(|v| v as usize);
+                let text_dim = cfg.obs.text().then_some(cfg.text_dim);
+                Some(EncoderLayout::new(&cfg.cnn_channels, cfg.cnn_pool, (sw, sh), (mw, mh), cfg.encoder_dim, text_dim)?)
+            }
+            Backbone::Swin | Backbone::SwinTiny => None,
+        };
         Ok(Some(ObsEncoder {
             kind: cfg.obs,
             screen,
@@ -129,7 +145,57 @@ impl ObsEncoder {
             n_agents: shape.n_agents,
             obs: shape.obs,
             out: encoder_width(cfg),
+            kernel,
         }))
+    }
+
+    /// The fused kernels of this encoder (the CNN backbone's), reading the encoder's
+    /// variables as one flat vector in their [`Params`] order.
+    pub fn kernel(&self) -> Option<&EncoderLayout> {
+        self.kernel.as_ref()
+    }
+
+    /// The agent network's input rows `(M, F + rest)` from the features `feats` `(N, F)` of
+    /// `N` frames and SMAC's rows `base` `(M, width)`: row `r` is frame `frame[r]`'s features
+    /// (zeros for [`NO_FRAME`]) then `base`'s row without the SMAC features unless in
+    /// `hybrid`, as [`ObsEncoder::fuse_rows`] builds them in candle.
+    pub fn fuse_flat(&self, feats: &[f32], frame: &[u32], base: &[f32]) -> Vec<f32> {
+        let (m, f) = (frame.len(), self.out);
+        let width = base.len() / m.max(1);
+        let skip = if self.kind.features() { 0 } else { self.obs.min(width) };
+        let mut out = Vec::with_capacity(m * (f + width - skip));
+        for (&i, row) in frame.iter().zip(base.chunks_exact(width.max(1))) {
+            if i == NO_FRAME {
+                out.extend(std::iter::repeat_n(0.0, f));
+            } else {
+                out.extend_from_slice(&feats[i as usize * f..(i as usize + 1) * f]);
+            }
+            out.extend_from_slice(&row[skip..]);
+        }
+        out
+    }
+
+    /// The features' gradient `(n, F)` from the input rows' `dx` (the inverse of
+    /// [`ObsEncoder::fuse_flat`]: a frame's rows' gradients summed, in row order).
+    pub fn feature_grads(&self, dx: &[f32], frame: &[u32], n: usize) -> Vec<f32> {
+        let f = self.out;
+        let width = dx.len() / frame.len().max(1);
+        let mut d = vec![0f32; n * f];
+        for (&i, row) in frame.iter().zip(dx.chunks_exact(width.max(1))) {
+            if i != NO_FRAME {
+                d[i as usize * f..(i as usize + 1) * f].iter_mut().zip(&row[..f]).for_each(|(a, b)| *a += b);
+            }
+        }
+        d
+    }
+
+    /// Features `(N, out)` of `N` observations by the fused kernels when this encoder has
+    /// them (`theta`: the encoder's flat weights), else by candle. Used for acting.
+    pub fn encode_pixels(&self, theta: Option<&[f32]>, frames: &StepFrames) -> Result<Vec<f32>, Error> {
+        match (&self.kernel, theta) {
+            (Some(k), Some(theta)) => Ok(k.forward(theta, &frames.pixels(), false)?.out),
+            _ => Ok(self.forward(&frames.tensors()?)?.flatten_all()?.to_vec1()?),
+        }
     }
 
     /// Features `(N, out)` of `N` observations.
@@ -180,6 +246,51 @@ impl Nets {
         }
     }
 
+    /// [`Nets::step_inputs`] from the renderer's pixels, through the fused encoder when
+    /// the backbone has one (what acting runs).
+    pub fn step_inputs_pixels(&self, x: Tensor, frames: Option<&StepFrames>) -> Result<Tensor, Error> {
+        match (&self.encoder, frames) {
+            (None, _) => Ok(x),
+            (Some(e), Some(f)) if e.kernel.is_some() => {
+                let theta = self.encoder_weights()?;
+                let feats = e.encode_pixels(Some(&theta), f)?;
+                let feats = Tensor::from_vec(feats, (f.n, e.out), x.device())?;
+                e.fuse(&feats, &x)
+            }
+            (Some(_), Some(f)) => self.step_inputs(x, Some(&f.tensors()?)),
+            (Some(_), None) => Err(Error::Observation { message: "an image encoder was given no frames".into() }),
+        }
+    }
+
+    /// The encoder's weights as one flat vector (its variables follow the agent network's).
+    pub fn encoder_weights(&self) -> Result<Vec<f32>, Error> {
+        self.agent_params.flat_after(self.agent.var_count())
+    }
+
+    /// Each row of a batch's agent-network input `(T+1, B*A)`: the index of the frame it
+    /// sees among the batch's frames (episode after episode), or [`NO_FRAME`] on the rows
+    /// after an episode's last step.
+    pub fn unroll_frames(&self, batch: &Batch) -> Result<Vec<u32>, Error> {
+        let Some(fb) = &batch.frames else {
+            return Err(Error::Observation { message: "an image encoder was given a batch without frames".into() });
+        };
+        let (t1, a) = (batch.t + 1, batch.n_agents);
+        let mut starts = Vec::with_capacity(fb.lens.len());
+        let mut off = 0u32;
+        for &len in &fb.lens {
+            starts.push((off, len));
+            off += len as u32;
+        }
+        let mut idx = Vec::with_capacity(t1 * starts.len() * a);
+        for ti in 0..t1 {
+            for &(start, len) in &starts {
+                let i = if ti < len.min(t1) { start + ti as u32 } else { NO_FRAME };
+                idx.extend(std::iter::repeat_n(i, a));
+            }
+        }
+        Ok(idx)
+    }
+
     /// The agent network's inputs `(T+1, B*A, input)` for a batch: the encoder runs on the
     /// batch's real frames only; padded steps get zero features (they are masked out).
     pub fn unroll_inputs(&self, batch: &Batch) -> Result<Tensor, Error> {
@@ -189,7 +300,7 @@ impl Nets {
             return Err(Error::Observation { message: "an image encoder was given a batch without frames".into() });
         };
         let (t1, rows, width) = inputs.dims3()?;
-        let feats = e.forward(&fb.frames)?;
+        let feats = e.forward(&fb.frames.tensors()?)?;
         let f = feats.dim(1)?;
         let mut per_episode = Vec::with_capacity(fb.lens.len());
         let mut off = 0;

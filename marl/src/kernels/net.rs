@@ -412,7 +412,7 @@ fn relu(x: &mut [f32]) {
 /// Runs `f` compiled for the best instruction set this processor has (AVX-512, AVX2+FMA,
 /// else baseline), so the elementwise loops inlined into it are vectorised for it.
 #[inline(always)]
-fn simd<R>(f: impl FnOnce() -> R) -> R {
+pub(super) fn simd<R>(f: impl FnOnce() -> R) -> R {
     pulp::Arch::new().dispatch(f)
 }
 
@@ -512,12 +512,12 @@ impl pulp::WithSimd for GatesBackward<'_> {
 }
 
 /// `d *= [y > 0]` for `y = relu(·)`.
-fn relu_grad(d: &mut [f32], y: &[f32]) {
+pub(super) fn relu_grad(d: &mut [f32], y: &[f32]) {
     simd(|| d.iter_mut().zip(y).for_each(|(d, &y)| *d = if y > 0.0 { *d } else { 0.0 }));
 }
 
 /// Adds the column sums of a row-major `(·, w)` matrix to `out`.
-fn col_sums(m: &[f32], w: usize, out: &mut [f32]) {
+pub(super) fn col_sums(m: &[f32], w: usize, out: &mut [f32]) {
     simd(|| {
         for row in m.chunks_exact(w) {
             out.iter_mut().zip(row).for_each(|(o, &v)| *o += v);

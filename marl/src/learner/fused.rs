@@ -12,11 +12,12 @@
 
 use super::{Learner, MASKED, Nets, QGrads, td_targets_flat};
 use crate::buffer::{Batch, Shape};
-use crate::kernels::{Adam, MixerLayout, NetLayout, RmsProp};
+use crate::kernels::{Adam, EncoderForward, MixerLayout, NetLayout, RmsProp};
 use crate::nets::Mixer;
 use crate::optim::OptimizerKind;
 use crate::{Config, Error};
 use candle_core::{Device, Tensor};
+use std::sync::Mutex;
 
 /// How the agents' values combine.
 #[derive(Clone, Copy, Debug)]
@@ -44,6 +45,20 @@ pub(super) struct FlatState {
     mixer: MixKind,
     opt: FlatOpt,
     clip: f64,
+    /// The fused CNN encoder's buffers, kept across updates (see [`crate::kernels::conv`]).
+    scratch: Mutex<EncoderForward>,
+}
+
+/// How the agent network's input rows came from an image encoder, for the backward pass.
+enum Encoded {
+    None,
+    /// Through candle (the Swin backbone): the rows with their graph.
+    Candle(Tensor),
+    /// Through the fused CNN encoder: its pass (with a tape) and each row's frame.
+    Fused {
+        pass: EncoderForward,
+        row_frame: Vec<u32>,
+    },
 }
 
 impl FlatState {
@@ -79,7 +94,16 @@ impl FlatState {
             OptimizerKind::Rmsprop => FlatOpt::Rms(RmsProp::new(theta.len(), cfg.lr, cfg.optim_alpha, cfg.optim_eps)),
             OptimizerKind::Adam => FlatOpt::Adam(Adam::new(theta.len(), cfg.lr, cfg.optim_eps)),
         };
-        Ok(FlatState { target: theta.clone(), theta, agent, enc_len, mixer, opt, clip: cfg.grad_norm_clip })
+        Ok(FlatState {
+            target: theta.clone(),
+            theta,
+            agent,
+            enc_len,
+            mixer,
+            opt,
+            clip: cfg.grad_norm_clip,
+            scratch: Mutex::new(EncoderForward::default()),
+        })
     }
 
     fn mixer_range(&self) -> std::ops::Range<usize> {
@@ -92,10 +116,12 @@ impl FlatState {
         let (t, b, a, na) = (batch.t, batch.b, l.shape.n_agents, l.shape.n_actions);
         let (t1, rows) = (t + 1, b * a);
         let an = self.agent.len();
-        let (x, x_graph) = inputs(&l.nets, batch, true)?;
+        let poisoned = || Error::Observation { message: "a thread panicked while it held the encoder's buffers".into() };
+        let scratch = std::mem::take(&mut *self.scratch.lock().map_err(|_| poisoned())?);
+        let (x, encoded) = self.inputs(&l.nets, &self.theta, batch, true, scratch)?;
         let xt_own;
         let xt = if l.nets.encoder.is_some() {
-            xt_own = inputs(&l.target, batch, false)?.0;
+            xt_own = self.inputs(&l.target, &self.target, batch, false, EncoderForward::default())?.0;
             &xt_own
         } else {
             &x
@@ -158,18 +184,29 @@ impl FlatState {
         for (i, &d) in d_chosen.iter().enumerate() {
             dq[i * na + batch.actions[i] as usize] = d;
         }
-        let dx = self.agent.backward(&self.theta[..an], &fo, &dq, None, &mut grad[..an], x_graph.is_some());
-        if let (Some(xg), Some(dx)) = (x_graph, dx) {
-            let d = Tensor::from_vec(dx, xg.dims(), &Device::Cpu)?;
-            let enc = (xg * d)?.sum_all()?.backward()?;
-            let mut at = an;
-            for v in l.nets.agent_params.vars_after(l.nets.agent.var_count()) {
-                let k = v.elem_count();
-                if let Some(g) = enc.get(v) {
-                    grad[at..at + k].copy_from_slice(&g.flatten_all()?.to_vec1::<f32>()?);
+        let dx = self.agent.backward(&self.theta[..an], &fo, &dq, None, &mut grad[..an], !matches!(encoded, Encoded::None));
+        match (encoded, dx) {
+            (Encoded::Candle(xg), Some(dx)) => {
+                let d = Tensor::from_vec(dx, xg.dims(), &Device::Cpu)?;
+                let enc = (xg * d)?.sum_all()?.backward()?;
+                let mut at = an;
+                for v in l.nets.agent_params.vars_after(l.nets.agent.var_count()) {
+                    let k = v.elem_count();
+                    if let Some(g) = enc.get(v) {
+                        grad[at..at + k].copy_from_slice(&g.flatten_all()?.to_vec1::<f32>()?);
+                    }
+                    at += k;
                 }
-                at += k;
             }
+            (Encoded::Fused { mut pass, row_frame }, Some(dx)) => {
+                let (Some(e), Some(fb)) = (&l.nets.encoder, &batch.frames) else { return Err(no_frames()) };
+                let Some(k) = e.kernel() else { return Err(no_frames()) };
+                let d_feats = e.feature_grads(&dx, &row_frame, pass.n);
+                let enc = an..an + self.enc_len;
+                k.backward(&self.theta[enc.clone()], &mut pass, &fb.frames.pixels(), &d_feats, &mut grad[enc]);
+                *self.scratch.lock().map_err(|_| poisoned())? = pass;
+            }
+            _ => {}
         }
         let filled_rows = filled.max(1.0);
         let q_taken = chosen
@@ -200,15 +237,39 @@ impl FlatState {
     }
 }
 
-/// The agent network's input rows `(T+1, B*A, input)` of a batch, flat: as stored in
-/// `features` mode, else through the encoder (candle), whose graph is returned with `tape`.
-fn inputs(nets: &Nets, batch: &Batch, tape: bool) -> Result<(Vec<f32>, Option<Tensor>), Error> {
-    if nets.encoder.is_none() {
-        return Ok((batch.inputs.clone(), None));
+impl FlatState {
+    /// The agent network's input rows `(T+1, B*A, input)` of a batch, flat: as stored in
+    /// `features` mode, else through the encoder whose weights are in `theta` (a flat vector
+    /// of [`Nets::flat`]'s layout): the fused CNN encoder, or candle's (Swin) with its graph.
+    fn inputs(
+        &self,
+        nets: &Nets,
+        theta: &[f32],
+        batch: &Batch,
+        tape: bool,
+        mut pass: EncoderForward,
+    ) -> Result<(Vec<f32>, Encoded), Error> {
+        let Some(e) = &nets.encoder else { return Ok((batch.inputs.clone(), Encoded::None)) };
+        match (e.kernel(), &batch.frames) {
+            (Some(k), Some(fb)) => {
+                let an = self.agent.len();
+                k.forward_into(&theta[an..an + self.enc_len], &fb.frames.pixels(), tape, &mut pass)?;
+                let row_frame = nets.unroll_frames(batch)?;
+                let x = e.fuse_flat(&pass.out, &row_frame, &batch.inputs);
+                Ok((x, if tape { Encoded::Fused { pass, row_frame } } else { Encoded::None }))
+            }
+            (Some(_), None) => Err(no_frames()),
+            (None, _) => {
+                let x = nets.unroll_inputs(batch)?;
+                let flat = x.flatten_all()?.to_vec1::<f32>()?;
+                Ok((flat, if tape { Encoded::Candle(x) } else { Encoded::None }))
+            }
+        }
     }
-    let x = nets.unroll_inputs(batch)?;
-    let flat = x.flatten_all()?.to_vec1::<f32>()?;
-    Ok((flat, tape.then_some(x)))
+}
+
+fn no_frames() -> Error {
+    Error::Observation { message: "an image encoder was given a batch without frames".into() }
 }
 
 /// The index of the greatest available value (the first on ties; with none available, the

@@ -7,9 +7,10 @@ use super::rollout::{FlatBatch, MASKED, PpoBatch, Rollout, gae};
 use super::value_norm::ValueNorm;
 use crate::buffer::Shape;
 use crate::kernels::ppo_loss::{LossGrads, LossRows, LossSettings, ppo_loss};
-use crate::kernels::{Adam, NetLayout, clip_global_norm};
+use crate::kernels::{Adam, EncoderForward, EncoderLayout, NetLayout, Pixels, clip_global_norm};
 use crate::learner::Nets;
 use crate::nets::{AgentNet, Linear, Params};
+use crate::observe::StepFrames;
 use crate::{Config, Error};
 use candle_core::backprop::GradStore;
 use candle_core::{D, Device, Tensor, Var};
@@ -17,6 +18,7 @@ use candle_nn::{AdamW, Optimizer, ParamsAdamW};
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use std::sync::Mutex;
 
 /// What the critic sees besides the agent id one-hot.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -142,6 +144,12 @@ fn adam(vars: Vec<Var>, lr: f64, eps: f64) -> Result<AdamW, Error> {
 /// The PPO learner. Its networks train as flat parameter vectors through the fused kernels
 /// ([`crate::kernels`]); the candle networks (`actor`, `critic`) hold the same weights after
 /// every update, for checkpoints, tests and the reference loss ([`PpoLearner::loss`]).
+///
+/// With the CNN encoder (image modes), the actor's flat vector is the agent network's
+/// weights followed by the encoder's (the order of their variables in `agent_params`), so
+/// one gradient, one global-norm clip and one Adam cover both, as they did when the encoder
+/// trained in candle (Adam is elementwise: one over the concatenation is the two). The Swin
+/// encoder still trains in candle, with its own `AdamW`.
 #[derive(Debug)]
 pub struct PpoLearner {
     pub cfg: Config,
@@ -156,11 +164,17 @@ pub struct PpoLearner {
     actor_layout: NetLayout,
     /// `None` with a shared trunk.
     critic_layout: Option<NetLayout>,
+    /// The agent network's weights (with a shared trunk's value row), then the fused
+    /// encoder's (if any).
     actor_theta: Vec<f32>,
+    /// The fused encoder and the buffers of its passes (kept across updates: they are an
+    /// update's largest allocation).
+    encoder_kernel: Option<EncoderLayout>,
+    encoder_pass: Mutex<EncoderForward>,
     critic_theta: Vec<f32>,
     actor_adam: Adam,
     critic_adam: Adam,
-    /// Image modes: the encoder's variables and their Adam (candle's, on candle gradients).
+    /// The Swin encoder's variables and their Adam (candle's, on candle gradients).
     encoder_vars: Vec<Var>,
     encoder_opt: Option<AdamW>,
     /// Updates done (one per rollout).
@@ -172,10 +186,11 @@ pub struct PpoLearner {
 pub struct Gradients {
     /// The loss, its parts and its gradients with respect to the logits and values.
     pub loss: LossGrads,
-    /// The agent network's flat parameter gradient ([`crate::kernels::NetLayout`]'s order).
+    /// The agent network's flat parameter gradient ([`crate::kernels::NetLayout`]'s order),
+    /// then the fused encoder's (CNN image modes).
     pub actor: Vec<f32>,
     pub critic: Vec<f32>,
-    /// Image modes: the encoder's gradients (candle's).
+    /// The Swin encoder's gradients (candle's).
     pub encoder: Option<GradStore>,
 }
 
@@ -209,8 +224,11 @@ impl PpoLearner {
         if cfg.shared_trunk {
             actor_layout.out += 1;
         }
-        let encoder_vars: Vec<Var> = actor.agent_params.vars_after(actor.agent.var_count()).cloned().collect();
+        let encoder_kernel = actor.encoder.as_ref().and_then(|e| e.kernel()).cloned();
+        let encoder_vars: Vec<Var> =
+            if encoder_kernel.is_some() { Vec::new() } else { actor.agent_params.vars_after(actor.agent.var_count()).cloned().collect() };
         let encoder_opt = if encoder_vars.is_empty() { None } else { Some(adam(encoder_vars.clone(), cfg.lr, cfg.optim_eps)?) };
+        let actor_len = actor_layout.len() + encoder_kernel.as_ref().map_or(0, EncoderLayout::len);
         let mut l = PpoLearner {
             cfg: cfg.clone(),
             shape,
@@ -219,11 +237,13 @@ impl PpoLearner {
             critic_params,
             critic_input,
             value_norm: ValueNorm::default(),
-            actor_adam: Adam::new(actor_layout.len(), cfg.lr, cfg.optim_eps),
+            actor_adam: Adam::new(actor_len, cfg.lr, cfg.optim_eps),
             critic_adam: Adam::new(critic_layout.map_or(0, |l| l.len()), cfg.critic_lr, cfg.optim_eps),
             actor_layout,
             critic_layout,
             actor_theta: Vec::new(),
+            encoder_kernel,
+            encoder_pass: Mutex::new(EncoderForward::default()),
             critic_theta: Vec::new(),
             encoder_vars,
             encoder_opt,
@@ -233,14 +253,21 @@ impl PpoLearner {
         Ok(l)
     }
 
+    /// How many of `agent_params`' variables the actor's flat vector holds.
+    fn actor_vars(&self) -> usize {
+        if self.encoder_kernel.is_some() { self.actor.agent_params.len() } else { self.actor.agent.var_count() }
+    }
+
     /// Reads the candle networks' weights into the flat vectors (after a restore).
     pub fn load_weights(&mut self) -> Result<(), Error> {
-        let actor = self.actor.agent_params.flat(self.actor.agent.var_count())?;
+        let actor = self.actor.agent_params.flat(self.actor_vars())?;
         match &self.critic {
             Critic::Own(net) => {
                 self.actor_theta = actor;
                 self.critic_theta = self.critic_params.flat(net.var_count())?;
             }
+            // Features only (the config refuses an encoder with a shared trunk): the output
+            // layer ends the vector.
             Critic::Head(_) => {
                 let head = self.critic_params.flat(2)?;
                 self.actor_theta = with_value_row(&actor, &head, self.actor_layout.out - 1);
@@ -252,15 +279,14 @@ impl PpoLearner {
 
     /// Writes the flat vectors into the candle networks (done after every update).
     pub fn store_weights(&self) -> Result<(), Error> {
-        let k = self.actor.agent.var_count();
         match &self.critic {
             Critic::Own(net) => {
-                self.actor.agent_params.set_flat(k, &self.actor_theta)?;
+                self.actor.agent_params.set_flat(self.actor_vars(), &self.actor_theta)?;
                 self.critic_params.set_flat(net.var_count(), &self.critic_theta)
             }
             Critic::Head(_) => {
                 let (actor, head) = without_value_row(&self.actor_theta, self.actor_layout.out - 1, self.actor_layout.hidden);
-                self.actor.agent_params.set_flat(k, &actor)?;
+                self.actor.agent_params.set_flat(self.actor.agent.var_count(), &actor)?;
                 self.critic_params.set_flat(2, &head)
             }
         }
@@ -279,7 +305,7 @@ impl PpoLearner {
             }
             Ok(out)
         };
-        let actor = flat(&mut self.actor.agent_params.vars().take(self.actor.agent.var_count()))?;
+        let actor = flat(&mut self.actor.agent_params.vars().take(self.actor_vars()))?;
         let critic = flat(&mut self.critic_params.vars())?;
         Ok(match self.critic {
             Critic::Own(_) => (actor, critic),
@@ -290,6 +316,11 @@ impl PpoLearner {
     /// Whether the critic is a head on the actor's trunk.
     pub fn shared(&self) -> bool {
         self.critic_layout.is_none()
+    }
+
+    /// The agent network's part of the actor's flat vector, and the encoder's.
+    fn actor_parts(&self) -> (&[f32], &[f32]) {
+        self.actor_theta.split_at(self.actor_layout.len())
     }
 
     /// The network of `net` unrolled over a batch's chunks from their first hidden states
@@ -371,8 +402,8 @@ impl PpoLearner {
     }
 
     /// The actor's input rows `(L * N, input)` of a batch: as they are in `features` mode,
-    /// else fused with the encoder's features (a candle tensor with its graph, returned too:
-    /// the encoder learns through it).
+    /// else fused with the candle encoder's features (a candle tensor with its graph,
+    /// returned too: the encoder learns through it).
     fn actor_rows(&self, b: &FlatBatch) -> Result<(Vec<f32>, Option<Tensor>), Error> {
         let Some(e) = &self.actor.encoder else { return Ok((b.actor_in.clone(), None)) };
         let Some((frames, idx)) = &b.frames else {
@@ -380,7 +411,7 @@ impl PpoLearner {
         };
         let rows = b.l * b.n;
         let idx = Tensor::from_slice(idx, idx.len(), &Device::Cpu)?;
-        let feats = e.forward(frames)?.index_select(&idx, 0)?;
+        let feats = e.forward(&frames.tensors()?)?.index_select(&idx, 0)?;
         let base = Tensor::from_slice(&b.actor_in, (rows, b.actor_in.len() / rows.max(1)), &Device::Cpu)?;
         let x = e.fuse_rows(feats, &base)?;
         Ok((x.flatten_all()?.to_vec1()?, Some(x)))
@@ -391,8 +422,26 @@ impl PpoLearner {
     pub fn gradients(&self, b: &FlatBatch) -> Result<Gradients, Error> {
         let cfg = &self.cfg;
         let (l, n) = (b.l, b.n);
-        let (x, x_graph) = self.actor_rows(b)?;
-        let fa = self.actor_layout.forward(&self.actor_theta, &x, &b.h_actor, Some(&b.keep), None, l, n, true);
+        let (theta, theta_enc) = self.actor_parts();
+        // The fused encoder's pass over the frames the batch's rows see (each once), and
+        // each row's frame among them.
+        let mut encoded = None;
+        let (x, x_graph) = match (&self.actor.encoder, &self.encoder_kernel) {
+            (Some(e), Some(k)) => {
+                let Some((frames, idx)) = &b.frames else {
+                    return Err(Error::Observation { message: "an image encoder was given a batch without frames".into() });
+                };
+                let (pick, row_frame) = frames_seen(idx, frames.n);
+                let px = Pixels { pick: pick.as_deref(), ..frames.pixels() };
+                let mut f = std::mem::take(&mut *self.encoder_pass.lock().map_err(|_| poisoned())?);
+                k.forward_into(theta_enc, &px, true, &mut f)?;
+                let x = e.fuse_flat(&f.out, &row_frame, &b.actor_in);
+                encoded = Some((f, pick, row_frame));
+                (x, None)
+            }
+            _ => self.actor_rows(b)?,
+        };
+        let fa = self.actor_layout.forward(theta, &x, &b.h_actor, Some(&b.keep), None, l, n, true);
         let fc = self.critic_layout.map(|cl| cl.forward(&self.critic_theta, &b.critic_in, &b.h_critic, Some(&b.keep), None, l, n, true));
         let na = self.shape.n_actions;
         // A shared trunk's outputs are the logits and then the value, per row.
@@ -425,12 +474,14 @@ impl PpoLearner {
         if !lg.total.is_finite() || lg.total.abs() > 1e8 {
             return Err(Error::Diverged { update: self.updates, loss: lg.total });
         }
-        let mut ga = vec![0f32; self.actor_layout.len()];
+        let mut ga = vec![0f32; self.actor_theta.len()];
+        let (ga_net, ga_enc) = ga.split_at_mut(self.actor_layout.len());
+        let want_dx = x_graph.is_some() || encoded.is_some();
         let mut gc = vec![0f32; self.critic_theta.len()];
         let dx = match (&fc, self.critic_layout) {
             (Some(fc), Some(cl)) => {
                 cl.backward(&self.critic_theta, fc, &lg.d_values, None, &mut gc, false);
-                self.actor_layout.backward(&self.actor_theta, &fa, &lg.d_logits, None, &mut ga, x_graph.is_some())
+                self.actor_layout.backward(theta, &fa, &lg.d_logits, None, ga_net, want_dx)
             }
             _ => {
                 let d_out: Vec<f32> = lg
@@ -439,9 +490,17 @@ impl PpoLearner {
                     .zip(&lg.d_values)
                     .flat_map(|(d, &v)| d.iter().copied().chain(std::iter::once(v)))
                     .collect();
-                self.actor_layout.backward(&self.actor_theta, &fa, &d_out, None, &mut ga, x_graph.is_some())
+                self.actor_layout.backward(theta, &fa, &d_out, None, ga_net, want_dx)
             }
         };
+        if let (Some((mut f, pick, row_frame)), Some(e), Some(k), Some((frames, _)), Some(dx)) =
+            (encoded, &self.actor.encoder, &self.encoder_kernel, &b.frames, dx.as_deref())
+        {
+            let d_feats = e.feature_grads(dx, &row_frame, f.n);
+            let px = Pixels { pick: pick.as_deref(), ..frames.pixels() };
+            k.backward(theta_enc, &mut f, &px, &d_feats, ga_enc);
+            *self.encoder_pass.lock().map_err(|_| poisoned())? = f;
+        }
         let enc = match (x_graph, dx) {
             (Some(xg), Some(dx)) => {
                 let d = Tensor::from_vec(dx, xg.dims(), &Device::Cpu)?;
@@ -574,16 +633,25 @@ impl PpoLearner {
         h_actor: &[f32],
         x_critic: &[f32],
         h_critic: &[f32],
-        frames: Option<&crate::encoders::FrameTensors>,
+        frames: Option<&StepFrames>,
     ) -> Result<ActOut, Error> {
         let rows = h_actor.len() / self.actor_layout.hidden.max(1);
-        let xa = if self.actor.encoder.is_some() {
-            let xa = Tensor::from_slice(x_actor, (rows, x_actor.len() / rows.max(1)), &Device::Cpu)?;
-            self.actor.step_inputs(xa, frames)?.flatten_all()?.to_vec1()?
-        } else {
-            x_actor.to_vec()
+        let (theta, theta_enc) = self.actor_parts();
+        let xa = match (&self.actor.encoder, &self.encoder_kernel, frames) {
+            (None, ..) => x_actor.to_vec(),
+            (Some(e), Some(k), Some(f)) => {
+                let feats = k.forward(theta_enc, &f.pixels(), false)?.out;
+                let a = self.shape.n_agents.max(1);
+                let row_frame: Vec<u32> = (0..rows).map(|r| (r / a) as u32).collect();
+                e.fuse_flat(&feats, &row_frame, x_actor)
+            }
+            (Some(_), ..) => {
+                let xa = Tensor::from_slice(x_actor, (rows, x_actor.len() / rows.max(1)), &Device::Cpu)?;
+                let tensors = frames.map(StepFrames::tensors).transpose()?;
+                self.actor.step_inputs(xa, tensors.as_ref())?.flatten_all()?.to_vec1()?
+            }
         };
-        let fa = self.actor_layout.forward(&self.actor_theta, &xa, h_actor, None, None, 1, rows, false);
+        let fa = self.actor_layout.forward(theta, &xa, h_actor, None, None, 1, rows, false);
         match self.critic_layout {
             Some(cl) => {
                 let fc = cl.forward(&self.critic_theta, x_critic, h_critic, None, None, 1, rows, false);
@@ -606,7 +674,7 @@ impl PpoLearner {
             }
             None => {
                 let rows = h_actor.len() / self.actor_layout.hidden.max(1);
-                let fa = self.actor_layout.forward(&self.actor_theta, x_actor, h_actor, None, None, 1, rows, false);
+                let fa = self.actor_layout.forward(self.actor_parts().0, x_actor, h_actor, None, None, 1, rows, false);
                 split_value(&fa.out, self.shape.n_actions).1
             }
         }
@@ -657,6 +725,32 @@ fn without_value_row(theta: &[f32], na: usize, h: usize) -> (Vec<f32>, Vec<f32>)
     let mut head = theta[base + na * h..base + (na + 1) * h].to_vec();
     head.push(theta[theta.len() - 1]);
     (actor, head)
+}
+
+/// The frames a batch's rows see (`idx`, of `stored`): `None` if every stored frame is
+/// seen, else the seen ones in order; and each row's frame among those encoded.
+fn frames_seen(idx: &[u32], stored: usize) -> (Option<Vec<u32>>, Vec<u32>) {
+    let mut at = vec![u32::MAX; stored];
+    for &i in idx {
+        if let Some(a) = at.get_mut(i as usize) {
+            *a = 0;
+        }
+    }
+    if at.iter().all(|&a| a == 0) {
+        return (None, idx.to_vec());
+    }
+    let mut pick = Vec::new();
+    for (i, a) in at.iter_mut().enumerate() {
+        if *a == 0 {
+            *a = pick.len() as u32;
+            pick.push(i as u32);
+        }
+    }
+    (Some(pick), idx.iter().map(|&i| at.get(i as usize).copied().unwrap_or(u32::MAX)).collect())
+}
+
+fn poisoned() -> Error {
+    Error::Observation { message: "a thread panicked while it held the encoder's buffers".into() }
 }
 
 /// The additive logit masks (`0` or [`MASKED`]) of 0/1 availability masks.

@@ -18,6 +18,7 @@ use crate::Error;
 use crate::encoders::FrameTensors;
 use crate::observe::{StepFrames, concat_steps};
 use candle_core::{Device, Tensor};
+use std::sync::Arc;
 
 /// The additive logit mask of an unavailable action: finite, so masked rows stay finite,
 /// and so large that its probability underflows to exactly 0 in f32.
@@ -138,9 +139,9 @@ pub struct FlatBatch {
     /// `(N, hidden)`.
     pub h_actor: Vec<f32>,
     pub h_critic: Vec<f32>,
-    /// Image modes: the rollout's `T x envs` observations, and `(L, N)` the one each chunk
-    /// step's row sees.
-    pub frames: Option<(FrameTensors, Vec<u32>)>,
+    /// Image modes: the rollout's `T x envs` observations (u8, shared by the mini-batches),
+    /// and `(L, N)` the one each chunk step's row sees.
+    pub frames: Option<(Arc<StepFrames>, Vec<u32>)>,
 }
 
 impl FlatBatch {
@@ -168,7 +169,7 @@ impl FlatBatch {
                     idx.extend((0..rows).map(|row| ((c * l + li) * envs + row / a) as u32));
                 }
             }
-            Some((concat_steps(&r.frames)?, idx))
+            Some((Arc::new(concat_steps(&r.frames)?), idx))
         };
         let actions: Vec<f32> = r.actions.iter().map(|&a| a as f32).collect();
         Ok(FlatBatch {
@@ -227,7 +228,7 @@ impl FlatBatch {
             keep: pick(&self.keep, l, n, idx),
             h_actor: pick(&self.h_actor, 1, n, idx),
             h_critic: pick(&self.h_critic, 1, n, idx),
-            frames: self.frames.as_ref().map(|(f, i)| (f.clone(), pick(i, l, n, idx))),
+            frames: self.frames.as_ref().map(|(f, i)| (Arc::clone(f), pick(i, l, n, idx))),
         }
     }
 
@@ -253,11 +254,7 @@ impl FlatBatch {
             h_actor: Tensor::from_slice(&self.h_actor, (n, hidden), &dev)?,
             // Empty when the critic is a head on the actor's trunk.
             h_critic: Tensor::from_slice(&self.h_critic, (n, if self.h_critic.is_empty() { 0 } else { hidden }), &dev)?,
-            frames: self
-                .frames
-                .as_ref()
-                .map(|(f, i)| Ok::<_, candle_core::Error>((f.clone(), Tensor::from_slice(i, (l, n), &dev)?)))
-                .transpose()?,
+            frames: self.frames.as_ref().map(|(f, i)| Ok::<_, Error>((f.tensors()?, Tensor::from_slice(i, (l, n), &dev)?))).transpose()?,
         })
     }
 }

@@ -79,8 +79,7 @@ pub fn train_from(
             roll.h_critic.extend_from_slice(&h_critic);
         }
         let frames = source.as_mut().map(|s| s.observe(env.envs())).transpose()?;
-        let tensors = frames.as_ref().map(crate::observe::StepFrames::tensors).transpose()?;
-        let out = learner.act_with(&x_actor, &h_actor, &x_critic, &h_critic, tensors.as_ref())?;
+        let out = learner.act_with(&x_actor, &h_actor, &x_critic, &h_critic, frames.as_ref())?;
         roll.frames.extend(frames);
         let (acts, logp) = sample_actions(&out.logits, &b.avail, na, &mut act_rng);
         roll.actor_in.extend(x_actor);
