@@ -14,7 +14,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut o: Vec<String> = vec!["obs=rgb".into()];
     o.extend(args.iter().skip(1).cloned());
     let cfg = Config::for_algo("qmix", &o)?;
-    let shape = Shape { n_agents: 3, obs: 30, state: 48, n_actions: 9 };
+    let shape = Shape { n_agents: 3, obs: 30, state: 48, n_actions: 9, n_enemies: 3 };
     let mut p = Params::default();
     let enc = ObsEncoder::for_config(&cfg, &shape, &mut p, 1)?.ok_or("features mode has no encoder")?;
     let [sw, sh] = cfg.screen_size.map(|v| v as usize);

@@ -13,7 +13,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 type R = Result<(), Box<dyn std::error::Error>>;
 
-const SHAPE: Shape = Shape { n_agents: 3, obs: 30, state: 48, n_actions: 9 };
+const SHAPE: Shape = Shape { n_agents: 3, obs: 30, state: 48, n_actions: 9, n_enemies: 3 };
 
 fn cfg(extra: &[&str]) -> Result<Config, avacraft_marl::Error> {
     Config::for_algo("qmix", &extra.iter().map(|s| s.to_string()).collect::<Vec<_>>())
