@@ -22,6 +22,7 @@
 //! fixes them, the optimiser trains them, target copies and checkpoints
 //! (`agent.safetensors`) include them.
 
+pub mod clause_store;
 pub mod clauses;
 pub mod cnn;
 pub mod layers;
