@@ -22,7 +22,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let f = FrameTensors {
         screen: Tensor::rand(0f32, 1f32, (n, 3, sh, sw), &Device::Cpu)?,
         minimap: Tensor::rand(0f32, 1f32, (n, 3, mh, mw), &Device::Cpu)?,
-        text: cfg.obs.text().then(|| Tensor::rand(0f32, 1f32, (n, 384), &Device::Cpu)).transpose()?,
+        text: cfg
+            .obs
+            .text()
+            .then(|| Tensor::rand(0f32, 1f32, (n, avacraft_marl::encoders::text_width(&shape)), &Device::Cpu))
+            .transpose()?,
     };
     println!("{} weights, {n} frames {sw}x{sh} + {mw}x{mh}", p.count());
     for _ in 0..2 {
