@@ -5,7 +5,6 @@
 //! `N` defaults to 3200, a MAPPO rollout's frames). `CANDLE=0` skips candle.
 
 use avacraft_marl::encoders::ObsEncoder;
-use avacraft_marl::encoders::text::TEXT_DIM;
 use avacraft_marl::nets::Params;
 use avacraft_marl::observe::StepFrames;
 use avacraft_marl::{Config, Shape};
@@ -20,7 +19,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut o: Vec<String> = vec!["obs=rgb".into()];
     o.extend(args.iter().skip(1).cloned());
     let cfg = Config::for_algo("qmix", &o)?;
-    let shape = Shape { n_agents: 3, obs: 30, state: 48, n_actions: 9 };
+    let shape = Shape { n_agents: 3, obs: 30, state: 48, n_actions: 9, n_enemies: 3 };
     let mut p = Params::default();
     let enc = ObsEncoder::for_config(&cfg, &shape, &mut p, 1)?.ok_or("features mode has no encoder")?;
     let [sw, sh] = cfg.screen_size.map(|v| v as usize);
@@ -29,7 +28,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut bytes = |len: usize| (0..len).map(|_| rng.random_range(0..=255u8)).collect::<Vec<u8>>();
     let mut frames = StepFrames::from_pixels(n, ((sw, sh), (mw, mh)), bytes(n * sw * sh * 3), bytes(n * mw * mh * 3));
     if cfg.obs.text() {
-        frames.text = (0..n * TEXT_DIM).map(|i| ((i % 97) as f32 / 97.0) - 0.5).collect();
+        frames.text = (0..n * avacraft_marl::encoders::text_width(&shape)).map(|i| ((i % 97) as f32 / 97.0) - 0.5).collect();
     }
     frames.check()?;
     println!("{} weights, {n} frames {sw}x{sh} + {mw}x{mh}, {} threads", p.count(), rayon::current_num_threads());

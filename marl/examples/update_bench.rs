@@ -11,7 +11,7 @@ use rand_chacha::ChaCha8Rng;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let cfg = Config::for_algo("qmix", &args)?;
-    let shape = Shape { n_agents: 3, obs: 30, state: 48, n_actions: 9 };
+    let shape = Shape { n_agents: 3, obs: 30, state: 48, n_actions: 9, n_enemies: 3 };
     let mut rng = ChaCha8Rng::seed_from_u64(1);
     let eps: Vec<Episode> = (0..cfg.batch_size)
         .map(|_| {

@@ -8,16 +8,27 @@ use candle_core::{Device, Tensor};
 use rand::seq::index::sample;
 use rand_chacha::ChaCha8Rng;
 
-/// Sizes of one team: agents, observation, state and action counts.
+/// Sizes of one team: agents, observation, state and action counts, and enemies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Shape {
     pub n_agents: usize,
     pub obs: usize,
     pub state: usize,
     pub n_actions: usize,
+    /// The other team's units in the scenario (the vision-text slots; 0 in checkpoints
+    /// older than the field).
+    #[serde(default)]
+    pub n_enemies: usize,
 }
 
 impl Shape {
+    /// Team 1's sizes in `env`.
+    pub fn of(env: &avacraft_engine::VecEnv) -> Shape {
+        let (n_agents, obs, state, n_actions) = env.shape();
+        let n_enemies = env.envs().first().map_or(0, |e| e.scenario().count(avacraft_engine::Team::Two));
+        Shape { n_agents, obs, state, n_actions, n_enemies }
+    }
+
     /// The agent network's input width.
     pub fn input(&self, agent_id: bool, last_action: bool) -> usize {
         self.obs + if agent_id { self.n_agents } else { 0 } + if last_action { self.n_actions } else { 0 }

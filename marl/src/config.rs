@@ -161,6 +161,8 @@ pub struct Config {
     pub text_cache: usize,
     #[serde(default = "obs::text_max_tokens")]
     pub text_max_tokens: usize,
+    #[serde(default = "yes")]
+    pub text_disk_cache: bool,
 }
 
 fn yes() -> bool {

@@ -23,8 +23,9 @@
 //! Four observation modes (the paper's, config key `obs`): SMAC's feature vectors, or an
 //! image encoder ([`encoders`]: a two-stream CNN or Swin Transformer over the renderer's
 //! screen and minimap, trained from scratch) in front of the agent network, with the
-//! SMAC features (`hybrid`) or a frozen all-MiniLM-L6-v2 embedding of the team's text
-//! (`vision-text`); [`observe`] renders the frames while training.
+//! SMAC features (`hybrid`) or per-unit slot embeddings of the team's text, built from its
+//! clauses embedded once each by a frozen all-MiniLM-L6-v2 (`vision-text`); [`observe`]
+//! renders the frames while training.
 //!
 //! The weights are initialised from a seeded ChaCha stream and every random choice (actions,
 //! replay samples) draws from seeded streams, so a run is a function of its config and seed.

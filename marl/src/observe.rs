@@ -2,7 +2,8 @@
 //! screen and minimap of each of the vector environment's environments, drawn by the
 //! renderer's CPU back end from the environment's current state (after an automatic reset,
 //! the new episode's first state, as the feature buffers hold), and in `vision-text` the
-//! embedding of the team's text description (the Python package's `vlm` text).
+//! slot embeddings of the team's text description (the Python package's `vlm` text, cut
+//! into clauses: [`crate::encoders::clauses`], [`crate::encoders::clause_cache`]).
 //!
 //! One view per team (the renderer has no per-unit view): the agents of an environment
 //! share its frames and tell themselves apart by their agent id. Frames are kept as the
@@ -10,11 +11,14 @@
 //! per agent, and read as bytes by the fused CNN encoder ([`crate::kernels::conv`]); only
 //! the candle encoders (Swin, the references) turn them into float tensors. At 80x60 plus
 //! 32x32 that is 17.5 kB a step (a 60-step episode about 1 MB; mind `buffer_size`, 5,000
-//! episodes by default).
+//! episodes by default). The text features add `slots x 384` floats a step: 12 kB on 3m
+//! (8 slots), 18 kB on 2s3z (12).
 
 use crate::buffer::Episode;
+use crate::encoders::clause_cache::{TextEmbedder, TextStats};
+use crate::encoders::clauses::{SlotLayout, clauses};
 use crate::encoders::layers::pixels_to_tensor;
-use crate::encoders::text::{MiniLm, TEXT_DIM, TextCache};
+use crate::encoders::text::TEXT_DIM;
 use crate::encoders::{FrameTensors, ObsKind};
 use crate::kernels::Pixels;
 use crate::{Config, Error};
@@ -22,6 +26,8 @@ use avacraft_engine::{Env, Team, World, describe};
 use avacraft_render::{CpuBackend, FrameBuilder, RgbImage};
 use candle_core::{Device, Tensor};
 use rayon::prelude::*;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
 
 /// How many parts [`ObsSource::observe`] draws the environments in, in parallel.
 const RENDER_PARTS: usize = 2;
@@ -43,7 +49,7 @@ pub struct StepFrames {
     pub screen: Vec<u8>,
     /// `n x h x w x 3`.
     pub minimap: Vec<u8>,
-    /// `n x 384` (`vision-text` only, else empty).
+    /// `n x slots x 384` (`vision-text` only, else empty).
     pub text: Vec<f32>,
     sizes: Sizes,
 }
@@ -74,7 +80,7 @@ impl StepFrames {
 fn frame_tensors(screen: &[u8], minimap: &[u8], text: &[f32], n: usize, sizes: Sizes) -> Result<FrameTensors, Error> {
     check_sizes(screen, minimap, text, n, sizes)?;
     let (s, m) = sizes;
-    let text = if text.is_empty() { None } else { Some(Tensor::from_slice(text, (n, TEXT_DIM), &Device::Cpu)?) };
+    let text = if text.is_empty() { None } else { Some(Tensor::from_slice(text, (n, text.len() / n.max(1)), &Device::Cpu)?) };
     Ok(FrameTensors { screen: pixels_to_tensor(screen, n, s)?, minimap: pixels_to_tensor(minimap, n, m)?, text })
 }
 
@@ -89,7 +95,11 @@ fn check_sizes(screen: &[u8], minimap: &[u8], text: &[f32], n: usize, (s, m): Si
     check("screen", screen.len(), n * s.0 * s.1 * 3)?;
     check("minimap", minimap.len(), n * m.0 * m.1 * 3)?;
     if !text.is_empty() {
-        check("text", text.len(), n * TEXT_DIM)?;
+        let width = text.len() / n.max(1);
+        if !width.is_multiple_of(TEXT_DIM) {
+            return Err(Error::Observation { message: format!("text: {} values for {n} frames, not slots of {TEXT_DIM}", text.len()) });
+        }
+        check("text", text.len(), n * width)?;
     }
     Ok(())
 }
@@ -130,7 +140,8 @@ impl Frames {
         self.screen.extend_from_slice(&step.screen[env * s..(env + 1) * s]);
         self.minimap.extend_from_slice(&step.minimap[env * m..(env + 1) * m]);
         if !step.text.is_empty() {
-            self.text.extend_from_slice(&step.text[env * TEXT_DIM..(env + 1) * TEXT_DIM]);
+            let width = step.text.len() / step.n.max(1);
+            self.text.extend_from_slice(&step.text[env * width..(env + 1) * width]);
         }
         self.len += 1;
     }
@@ -187,35 +198,49 @@ struct Painter {
 pub struct ObsSource {
     kind: ObsKind,
     painters: Vec<Painter>,
-    text: Option<TextCache>,
+    text: Option<Arc<Mutex<TextEmbedder>>>,
     sizes: Sizes,
+}
+
+/// Where clause embeddings are kept between runs (`text_disk_cache`): `$AVACRAFT_TEXT_CACHE`,
+/// else `$XDG_CACHE_HOME/avacraft`, else `~/.cache/avacraft`; `None` when off or when there
+/// is no home.
+pub fn disk_cache_dir(cfg: &Config) -> Option<PathBuf> {
+    if !cfg.text_disk_cache {
+        return None;
+    }
+    let var = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);
+    var("AVACRAFT_TEXT_CACHE")
+        .or_else(|| var("XDG_CACHE_HOME").map(|d| d.join("avacraft")))
+        .or_else(|| var("HOME").map(|d| d.join(".cache").join("avacraft")))
 }
 
 impl ObsSource {
     /// The source `cfg` needs (`None` in `features` mode); `vision-text` loads the text
-    /// model (an error naming the pip command when it is not installed).
+    /// model (an error naming the pip command when it is not installed), or shares the one
+    /// another live source loaded ([`crate::encoders::clause_cache::shared`]).
     pub fn new(cfg: &Config) -> Result<Option<ObsSource>, Error> {
         if !cfg.obs.images() {
             return Ok(None);
         }
         let text = if cfg.obs.text() {
-            let model = MiniLm::load_from(&crate::encoders::text::locate()?, cfg.text_max_tokens)?;
-            Some(TextCache::new(model, cfg.text_cache))
+            let model = crate::encoders::text::locate()?;
+            Some(crate::encoders::clause_cache::shared(model, cfg.text_max_tokens, cfg.text_cache, disk_cache_dir(cfg))?)
         } else {
             None
         };
         Ok(Some(ObsSource::with_text(cfg, text)))
     }
 
-    /// A source with a given text cache (tests share one model).
-    pub fn with_text(cfg: &Config, text: Option<TextCache>) -> ObsSource {
+    /// A source with a given text embedder (tests share one model).
+    pub fn with_text(cfg: &Config, text: Option<Arc<Mutex<TextEmbedder>>>) -> ObsSource {
         let painters = (0..RENDER_PARTS).map(|_| Painter::default()).collect();
         ObsSource { kind: cfg.obs, painters, text, sizes: sizes(cfg) }
     }
 
-    /// The text cache, if this mode embeds texts.
-    pub fn text_cache(&self) -> Option<&TextCache> {
-        self.text.as_ref()
+    /// The text embedder's counters, if this mode embeds texts.
+    pub fn text_stats(&self) -> Option<TextStats> {
+        self.text.as_ref().and_then(|t| t.lock().ok().map(|t| t.stats()))
     }
 
     /// Team 1's observation of each environment as it is now.
@@ -246,13 +271,11 @@ impl ObsSource {
             out.screen.extend(s);
             out.minimap.extend(m);
         }
-        for env in envs {
-            if self.kind.text() {
-                let Some(cache) = self.text.as_mut() else {
-                    return Err(Error::Observation { message: "vision-text needs the text model".into() });
-                };
-                out.text.extend(cache.embed(&describe(env, Team::One))?.to_vec1::<f32>()?);
-            }
+        if self.kind.text() {
+            let Some(text) = self.text.as_ref() else {
+                return Err(Error::Observation { message: "vision-text needs the text model".into() });
+            };
+            text_features(text, envs, &mut out.text)?;
         }
         // Validates the renderer's sizes against the config once per step.
         let ((sw, sh), (mw, mh)) = self.sizes;
@@ -261,4 +284,15 @@ impl ObsSource {
         }
         Ok(out)
     }
+}
+
+/// Team 1's text features of each environment, `slots x 384` each, appended to `out`.
+pub fn text_features(text: &Mutex<TextEmbedder>, envs: &[Env], out: &mut Vec<f32>) -> Result<(), Error> {
+    let Some(first) = envs.first() else { return Ok(()) };
+    // Every environment plays the same scenario: one layout.
+    let layout = SlotLayout::of(first, Team::One);
+    let texts: Vec<String> = envs.iter().map(|e| describe(e, Team::One)).collect();
+    let docs: Vec<_> = texts.iter().map(|t| clauses(t, &layout)).collect();
+    let mut text = text.lock().map_err(|_| Error::Observation { message: "a thread panicked holding the text embedder".into() })?;
+    text.features(&docs, layout.slots(), out)
 }

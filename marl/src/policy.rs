@@ -70,6 +70,13 @@ impl Policy {
         if meta.format != FORMAT {
             return Err(Error::Checkpoint { message: format!("{}: format {} (this build reads {FORMAT})", path.display(), meta.format) });
         }
+        if meta.config.obs.text() && meta.shape.n_enemies == 0 {
+            // Before the clause features, vision-text read one 384-d embedding of the whole
+            // text: the projection's weights have no place in today's network.
+            return Err(Error::Checkpoint {
+                message: format!("{}: a vision-text checkpoint from before the per-unit text features; train it again", path.display()),
+            });
+        }
         let nets = Nets::new(&meta.config, &meta.shape, 0)?;
         let load = |name: &str| -> Result<_, Error> {
             let p = dir.join(name);

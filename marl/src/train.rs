@@ -139,8 +139,7 @@ fn vec_env(cfg: &Config, scenario: &Arc<Scenario>, seeds: &[u64], threads: usize
 
 /// The team's sizes in `scenario` under `cfg`.
 pub fn shape_of(cfg: &Config, scenario: &Arc<Scenario>) -> Result<Shape, Error> {
-    let (n_agents, obs, state, n_actions) = vec_env(cfg, scenario, &[0], 1)?.shape();
-    Ok(Shape { n_agents, obs, state, n_actions })
+    Ok(Shape::of(&vec_env(cfg, scenario, &[0], 1)?))
 }
 
 /// Greedy episodes, one per seed, all run together.
@@ -159,10 +158,7 @@ pub fn test_with(
 ) -> Result<TestResult, Error> {
     let mut env = vec_env(cfg, scenario, seeds, threads)?;
     let (a, ..) = env.shape();
-    let shape = {
-        let (n_agents, obs, state, n_actions) = env.shape();
-        Shape { n_agents, obs, state, n_actions }
-    };
+    let shape = Shape::of(&env);
     let mut actor = Actor::new(nets, seeds.len(), a);
     let theta = nets.agent_params.flat(nets.agent.var_count())?;
     let mut rng = ChaCha8Rng::seed_from_u64(0);
@@ -385,7 +381,7 @@ fn train_q(
     let mut monitor = Monitor::resuming(cfg, opts, start.as_ref())?;
     let mut env = monitor.env()?;
     let (a, o, s, na) = env.shape();
-    let shape = Shape { n_agents: a, obs: o, state: s, n_actions: na };
+    let shape = Shape::of(&env);
     let mut learner = Learner::new(cfg, shape, opts.seed)?;
     let mut act_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x5eed_0001);
     let mut sample_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x5eed_0002);

@@ -39,7 +39,7 @@ fn random_episodes(shape: &Shape, n: usize, rng: &mut ChaCha8Rng) -> Vec<Episode
         .collect()
 }
 
-const SMALL: Shape = Shape { n_agents: 3, obs: 6, state: 7, n_actions: 4 };
+const SMALL: Shape = Shape { n_agents: 3, obs: 6, state: 7, n_actions: 4, n_enemies: 3 };
 
 /// The fused agent networks (what training runs) give the gradients candle's autograd gives
 /// through the reference networks, for every mixer and both agent networks.
@@ -104,7 +104,7 @@ fn fused_image_gradients_match_the_candle_reference() -> R {
                 let (s, m) = (bytes(screen.0 * screen.1 * 3), bytes(minimap.0 * minimap.1 * 3));
                 let mut f = StepFrames::from_pixels(1, (screen, minimap), s, m);
                 if c.obs.text() {
-                    f.text = (0..384).map(|_| rng.random_range(-0.1f32..0.1)).collect();
+                    f.text = (0..avacraft_marl::encoders::text_width(&SMALL)).map(|_| rng.random_range(-0.1f32..0.1)).collect();
                 }
                 ep.frames.push(&f, 0);
             }
@@ -249,7 +249,7 @@ fn a_bad_checkpoint_is_a_clear_error() {
 #[test]
 fn vdn_and_qmix_learn_the_joint_optimum_of_a_matrix_game() -> R {
     const PAYOFF: [[f32; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 8.0]];
-    let shape = Shape { n_agents: 2, obs: 1, state: 1, n_actions: 3 };
+    let shape = Shape { n_agents: 2, obs: 1, state: 1, n_actions: 3, n_enemies: 1 };
     for algo in ["vdn", "qmix", "qtran"] {
         let c = cfg(algo, &["lr=0.005", "batch_size=64"])?;
         let mut rng = ChaCha8Rng::seed_from_u64(11);
@@ -281,7 +281,7 @@ fn vdn_and_qmix_learn_the_joint_optimum_of_a_matrix_game() -> R {
 /// states from a constant target network, the last step a time-out (bootstrapped).
 #[test]
 fn td_lambda_targets_match_a_hand_computation() -> R {
-    let shape = Shape { n_agents: 1, obs: 1, state: 1, n_actions: 2 };
+    let shape = Shape { n_agents: 1, obs: 1, state: 1, n_actions: 2, n_enemies: 1 };
     let mut ep = Episode::default();
     for r in [1.0, 2.0, 3.0] {
         ep.push_step(&[0.0], &[0.0], &[1, 1], &[0]);

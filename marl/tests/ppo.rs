@@ -13,7 +13,7 @@ use std::sync::Arc;
 
 type R = Result<(), Box<dyn std::error::Error>>;
 
-const SMALL: Shape = Shape { n_agents: 3, obs: 6, state: 7, n_actions: 4 };
+const SMALL: Shape = Shape { n_agents: 3, obs: 6, state: 7, n_actions: 4, n_enemies: 3 };
 
 /// A rollout of random data over `SMALL` (`envs` environments, `t` steps, chunks of `l`):
 /// random masks with at least one action available, actions among the available ones,

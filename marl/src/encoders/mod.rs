@@ -9,8 +9,15 @@
 //!   sizes selectable), trained from scratch on the TD loss with the agent network: no
 //!   pretrained Swin weights can be had here;
 //! - `vision-text` appends a learned linear projection (`text_dim` wide) of the team
-//!   text's 384-d all-MiniLM-L6-v2 embedding ([`text`]; the paper used GTE-Base, 768-d,
-//!   which cannot be had here), computed by the frozen model once per distinct text.
+//!   text's slot embeddings: the description cut into clauses ([`clauses`]), each embedded
+//!   once by the frozen all-MiniLM-L6-v2 ([`text`]; the paper used GTE-Base, 768-d, which
+//!   cannot be had here), averaged into one 384-d embedding per slot ([`clause_cache`]):
+//!   the header, each agent in agent order, each enemy in tag order, the rest.
+//!   The projection is one linear layer over the slots' concatenation rather than one
+//!   shared by every slot: a slot's place is what says whose line it is (a clause such as
+//!   `HP 12/45` reads the same in every unit's line), and a shared projection would need
+//!   slot embeddings or a second layer to keep it; at 3m's 8 slots it is 3,072 x 32 weights,
+//!   small next to the image streams.
 //!
 //! The renderer draws one view per team (the whole playable area, as the Python package's
 //! `rgb` mode does); it has no per-unit view, so every agent of a team reads the same
@@ -22,6 +29,9 @@
 //! fixes them, the optimiser trains them, target copies and checkpoints
 //! (`agent.safetensors`) include them.
 
+pub mod clause_cache;
+pub mod clause_store;
+pub mod clauses;
 pub mod cnn;
 pub mod layers;
 pub mod settings;
@@ -49,7 +59,7 @@ pub struct FrameTensors {
     pub screen: Tensor,
     /// `(N, 3, h, w)`.
     pub minimap: Tensor,
-    /// `(N, 384)`.
+    /// `(N, slots x 384)`: [`clause_cache`]'s slot embeddings.
     pub text: Option<Tensor>,
 }
 
@@ -88,6 +98,11 @@ pub fn encoder_width(cfg: &Config) -> usize {
     cfg.encoder_dim + if cfg.obs.text() { cfg.text_dim } else { 0 }
 }
 
+/// The width of a step's text features for `shape`'s team: one 384-d embedding per slot.
+pub fn text_width(shape: &Shape) -> usize {
+    clauses::slot_count(shape.n_agents, shape.n_enemies) * text::TEXT_DIM
+}
+
 /// The agent network's input width under `cfg`: SMAC's (features, id, last action) or the
 /// encoder's output with the id and last action (and the features in `hybrid`).
 pub fn agent_input_width(cfg: &Config, shape: &Shape) -> usize {
@@ -103,6 +118,8 @@ pub struct ObsEncoder {
     minimap: Stream,
     head: Linear,
     text: Option<Linear>,
+    /// Width of the text features the projection reads.
+    text_in: usize,
     n_agents: usize,
     obs: usize,
     /// Output width ([`encoder_width`]).
@@ -126,13 +143,13 @@ impl ObsEncoder {
         let screen = Stream::new(p, "encoder.screen", cfg, rng)?;
         let minimap = Stream::new(p, "encoder.minimap", cfg, rng)?;
         let head = Linear::new(p, "encoder.head", screen.out() + minimap.out(), cfg.encoder_dim, rng)?;
-        let text = if cfg.obs.text() { Some(Linear::new(p, "encoder.text", text::TEXT_DIM, cfg.text_dim, rng)?) } else { None };
+        let text = if cfg.obs.text() { Some(Linear::new(p, "encoder.text", text_width(shape), cfg.text_dim, rng)?) } else { None };
         let kernel = match cfg.encoder {
             Backbone::Cnn => {
                 let [sw, sh] = cfg.screen_size.map(|v| v as usize);
                 let [mw, mh] = cfg.minimap_size.map(|v| v as usize);
-                let text_dim = cfg.obs.text().then_some(cfg.text_dim);
-                Some(EncoderLayout::new(&cfg.cnn_channels, cfg.cnn_pool, (sw, sh), (mw, mh), cfg.encoder_dim, text_dim)?)
+                let text = cfg.obs.text().then(|| (text_width(shape), cfg.text_dim));
+                Some(EncoderLayout::new(&cfg.cnn_channels, cfg.cnn_pool, (sw, sh), (mw, mh), cfg.encoder_dim, text)?)
             }
             Backbone::Swin | Backbone::SwinTiny => None,
         };
@@ -142,6 +159,7 @@ impl ObsEncoder {
             minimap,
             head,
             text,
+            text_in: text_width(shape),
             n_agents: shape.n_agents,
             obs: shape.obs,
             out: encoder_width(cfg),
@@ -203,7 +221,14 @@ impl ObsEncoder {
         let image = Tensor::cat(&[self.screen.forward(&f.screen)?, self.minimap.forward(&f.minimap)?], 1)?;
         let image = self.head.forward(&image)?.relu()?;
         match (&self.text, &f.text) {
-            (Some(proj), Some(t)) => Ok(Tensor::cat(&[image, proj.forward(t)?], 1)?),
+            (Some(proj), Some(t)) => {
+                if t.dim(1)? != self.text_in {
+                    return Err(Error::Observation {
+                        message: format!("text features {} wide; the encoder was built for {}", t.dim(1)?, self.text_in),
+                    });
+                }
+                Ok(Tensor::cat(&[image, proj.forward(t)?], 1)?)
+            }
             (Some(_), None) => Err(Error::Observation { message: "the vision-text encoder was given no text embeddings".into() }),
             (None, _) => Ok(image),
         }

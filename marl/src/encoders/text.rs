@@ -10,15 +10,20 @@
 //! package is installed. Texts are cut at `max_tokens` (the config's `text_max_tokens`;
 //! 256 is the model's `max_seq_length`, where sentence-transformers cuts).
 //!
-//! Embeddings are cached per distinct text ([`TextCache`]): a map used for lookups only
-//! (never iterated), dropping the oldest entry past its capacity, so what a text embeds to
-//! never depends on the cache.
+//! What is embedded are clauses of the description ([`super::clauses`]), each once
+//! ([`super::clause_cache`]). A step's new clauses are embedded each on its own, several at
+//! a time on rayon's threads ([`MiniLm::embed_many`]), not padded into one batch: padding
+//! changes the float rounding of the real tokens' outputs a little (the attention and
+//! product kernels sum in other groupings), so a clause's embedding would depend on which
+//! other clauses shared its batch, and a run on which clauses happened to be cached, on
+//! disk or not. On its own a clause embeds to the same bits every time, whatever the
+//! thread count. [`MiniLm::embed_batch`] is the padded form, kept to check that both agree.
 
 use crate::Error;
 use candle_core::{DType, Device, Tensor};
 use candle_nn::VarBuilder;
 use candle_transformers::models::bert::{BertModel, Config as BertConfig};
-use std::collections::{HashMap, VecDeque};
+use rayon::prelude::*;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use tokenizers::Tokenizer;
@@ -94,15 +99,27 @@ fn read_files(path: &Path) -> Result<[Vec<u8>; 3], Error> {
 pub struct MiniLm {
     model: BertModel,
     tokenizer: Tokenizer,
+    hash: u64,
     /// Where it was loaded from.
     pub path: PathBuf,
 }
 
 impl std::fmt::Debug for MiniLm {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("MiniLm").field("path", &self.path).finish_non_exhaustive()
+        f.debug_struct("MiniLm").field("path", &self.path).field("hash", &self.hash).finish_non_exhaustive()
     }
 }
+
+/// A text's embedding and how many tokens it has (without `[CLS]` and `[SEP]`): its weight
+/// when clauses are averaged into a line.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Embedding {
+    pub vec: Vec<f32>,
+    pub tokens: u32,
+}
+
+/// Names the pooling in the model's hash: files embedded another way must not be reused.
+const POOLING: &[u8] = b"mean over all tokens incl. [CLS] and [SEP], then L2; one text per forward";
 
 impl MiniLm {
     /// Loads the model from where [`locate`] finds it, cutting texts at [`MAX_TOKENS`].
@@ -114,73 +131,97 @@ impl MiniLm {
     /// `max_tokens` (at most 512).
     pub fn load_from(path: &Path, max_tokens: usize) -> Result<MiniLm, Error> {
         let [weights, tokenizer, config] = read_files(path)?;
+        let max_tokens = max_tokens.clamp(2, 512);
+        let mut h = avacraft_engine::Fnv::default();
+        for part in [&weights[..], &tokenizer, &config, POOLING, &(max_tokens as u64).to_le_bytes()] {
+            h.u64(part.len() as u64);
+            h.bytes(part);
+        }
         let config: BertConfig =
             serde_json::from_slice(&config).map_err(|source| Error::Json { path: path.join("config.json"), source })?;
         let mut tokenizer = Tokenizer::from_bytes(&tokenizer).map_err(Error::Tokenizer)?;
-        // One text at a time, never padded; cut at sentence-transformers' length.
+        // Padding is done by hand in embed_batch; cut at sentence-transformers' length.
         tokenizer.with_padding(None);
         tokenizer
-            .with_truncation(Some(tokenizers::TruncationParams { max_length: max_tokens.clamp(2, 512), ..Default::default() }))
+            .with_truncation(Some(tokenizers::TruncationParams { max_length: max_tokens, ..Default::default() }))
             .map_err(Error::Tokenizer)?;
         let vb = VarBuilder::from_buffered_safetensors(weights, DType::F32, &Device::Cpu)?;
         let model = BertModel::load(vb, &config)?;
-        Ok(MiniLm { model, tokenizer, path: path.to_path_buf() })
+        Ok(MiniLm { model, tokenizer, hash: h.finish(), path: path.to_path_buf() })
     }
 
-    /// The unit-norm `(384,)` embedding of `text`: BERT's last hidden states averaged over
-    /// the tokens (none is padding: texts are embedded one at a time), L2-normalised.
+    /// A hash of the model's files, the token limit and the pooling: what an embedding
+    /// computed elsewhere must match to be reused.
+    pub fn hash(&self) -> u64 {
+        self.hash
+    }
+
+    fn tokens(&self, text: &str) -> Result<Vec<u32>, Error> {
+        Ok(self.tokenizer.encode(text, true).map_err(Error::Tokenizer)?.get_ids().to_vec())
+    }
+
+    /// The unit-norm embedding of `text`: BERT's last hidden states averaged over the tokens
+    /// (none is padding), L2-normalised.
+    pub fn embedding(&self, text: &str) -> Result<Embedding, Error> {
+        let ids = self.tokens(text)?;
+        let n = ids.len();
+        let ids = Tensor::new(ids, &Device::Cpu)?.unsqueeze(0)?;
+        let hidden = self.model.forward(&ids, &ids.zeros_like()?, Some(&ids.ones_like()?))?; // (1, n, 384)
+        let mean = hidden.mean(1)?.squeeze(0)?.to_vec1::<f32>()?;
+        Ok(Embedding { vec: unit(mean), tokens: weight(n) })
+    }
+
+    /// [`MiniLm::embedding`] as a `(384,)` tensor.
     pub fn embed(&self, text: &str) -> Result<Tensor, Error> {
-        let enc = self.tokenizer.encode(text, true).map_err(Error::Tokenizer)?;
-        let ids = Tensor::new(enc.get_ids(), &Device::Cpu)?.unsqueeze(0)?;
-        let types = ids.zeros_like()?;
-        let mask = ids.ones_like()?;
-        let hidden = self.model.forward(&ids, &types, Some(&mask))?; // (1, tokens, 384)
-        let mean = hidden.mean(1)?.squeeze(0)?;
-        let norm = mean.sqr()?.sum_all()?.sqrt()?.to_scalar::<f32>()?.max(1e-12);
-        Ok((mean / f64::from(norm))?)
+        Ok(Tensor::from_vec(self.embedding(text)?.vec, TEXT_DIM, &Device::Cpu)?)
+    }
+
+    /// [`MiniLm::embedding`] of each text, several at a time on rayon's threads; in order.
+    pub fn embed_many(&self, texts: &[&str]) -> Result<Vec<Embedding>, Error> {
+        texts.par_iter().map(|t| self.embedding(t)).collect()
+    }
+
+    /// The texts embedded in one padded forward (an attention mask hides the padding, and
+    /// the mean runs over each text's own tokens): equal to [`MiniLm::embedding`] up to float
+    /// rounding.
+    pub fn embed_batch(&self, texts: &[&str]) -> Result<Vec<Embedding>, Error> {
+        let ids: Vec<Vec<u32>> = texts.iter().map(|t| self.tokens(t)).collect::<Result<_, _>>()?;
+        let len = ids.iter().map(Vec::len).max().unwrap_or(0);
+        if len == 0 {
+            return Ok(Vec::new());
+        }
+        let mut flat = Vec::with_capacity(ids.len() * len);
+        let mut mask = Vec::with_capacity(ids.len() * len);
+        for t in &ids {
+            flat.extend(t.iter().copied().chain(std::iter::repeat_n(0, len - t.len())));
+            mask.extend((0..len).map(|i| u32::from(i < t.len())));
+        }
+        let ids_t = Tensor::from_vec(flat, (ids.len(), len), &Device::Cpu)?;
+        let mask_t = Tensor::from_vec(mask, (ids.len(), len), &Device::Cpu)?;
+        let hidden = self.model.forward(&ids_t, &ids_t.zeros_like()?, Some(&mask_t))?; // (B, len, 384)
+        let hidden: Vec<Vec<Vec<f32>>> = hidden.to_vec3()?;
+        Ok(ids
+            .iter()
+            .zip(hidden)
+            .map(|(t, h)| {
+                let mut mean = vec![0f32; TEXT_DIM];
+                for row in &h[..t.len()] {
+                    mean.iter_mut().zip(row).for_each(|(m, x)| *m += x);
+                }
+                mean.iter_mut().for_each(|m| *m /= t.len() as f32);
+                Embedding { vec: unit(mean), tokens: weight(t.len()) }
+            })
+            .collect())
     }
 }
 
-/// Embeddings of distinct texts, each computed once while it stays cached.
-#[derive(Debug)]
-pub struct TextCache {
-    model: MiniLm,
-    map: HashMap<String, Tensor>,
-    order: VecDeque<String>,
-    capacity: usize,
-    computed: u64,
+/// Tokens without `[CLS]` and `[SEP]`, at least 1.
+fn weight(with_specials: usize) -> u32 {
+    with_specials.saturating_sub(2).max(1) as u32
 }
 
-impl TextCache {
-    pub fn new(model: MiniLm, capacity: usize) -> TextCache {
-        TextCache { model, map: HashMap::new(), order: VecDeque::new(), capacity: capacity.max(1), computed: 0 }
-    }
-
-    /// The embedding of `text` (the same tensor while it stays cached).
-    pub fn embed(&mut self, text: &str) -> Result<Tensor, Error> {
-        if let Some(t) = self.map.get(text) {
-            return Ok(t.clone());
-        }
-        let t = self.model.embed(text)?;
-        self.computed += 1;
-        if self.order.len() >= self.capacity
-            && let Some(old) = self.order.pop_front()
-        {
-            self.map.remove(&old);
-        }
-        self.order.push_back(text.to_owned());
-        self.map.insert(text.to_owned(), t.clone());
-        Ok(t)
-    }
-
-    /// How many embeddings were computed (cache misses).
-    pub fn computed(&self) -> u64 {
-        self.computed
-    }
-    pub fn len(&self) -> usize {
-        self.map.len()
-    }
-    pub fn is_empty(&self) -> bool {
-        self.map.is_empty()
-    }
+fn unit(mut v: Vec<f32>) -> Vec<f32> {
+    let norm = v.iter().map(|x| x * x).sum::<f32>().sqrt().max(1e-12);
+    v.iter_mut().for_each(|x| *x /= norm);
+    v
 }

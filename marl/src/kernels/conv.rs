@@ -40,7 +40,6 @@ use super::gemm::{Mat, matmul};
 use super::net::{col_sums, relu_grad, simd};
 use crate::Error;
 use crate::encoders::cnn::geometry;
-use crate::encoders::text::TEXT_DIM;
 use rayon::prelude::*;
 
 /// One convolution of a stream, its input and output maps `(h, w, channels)`, and where
@@ -99,6 +98,8 @@ pub struct EncoderLayout {
     dim: usize,
     /// `text_dim`, 0 without the text projection.
     text: usize,
+    /// The text embedding's width (the vision-text mode's slots x 384).
+    text_in: usize,
     head_w: usize,
     head_b: usize,
     text_w: usize,
@@ -126,17 +127,28 @@ const BLOCK_FLOATS: usize = 1 << 17;
 impl EncoderLayout {
     /// The encoder of `channels` convolutions per stream (the config's `cnn_channels`),
     /// pooled to `pool x pool`, over `screen` and `minimap` frames (`(width, height)`),
-    /// projected to `dim`, with a `text_dim` projection of the text embedding if given.
+    /// projected to `dim`, with a projection of the text features (`(input width, output
+    /// width)`) if given.
     pub fn new(
         channels: &[usize],
         pool: usize,
         screen: (usize, usize),
         minimap: (usize, usize),
         dim: usize,
-        text_dim: Option<usize>,
+        text: Option<(usize, usize)>,
     ) -> Result<EncoderLayout, Error> {
+        let (text_in, text_dim) = match text {
+            Some((i, o)) => (i, Some(o)),
+            None => (0, None),
+        };
         let bad = |message: String| Err(Error::Observation { message });
-        if channels.is_empty() || channels.contains(&0) || pool == 0 || dim == 0 || text_dim == Some(0) {
+        if channels.is_empty()
+            || channels.contains(&0)
+            || pool == 0
+            || dim == 0
+            || text_dim == Some(0)
+            || (text_dim.is_some() && text_in == 0)
+        {
             return bad(format!("no CNN encoder of channels {channels:?}, pool {pool}, width {dim}, text width {text_dim:?}"));
         }
         let mut at = 0;
@@ -165,12 +177,12 @@ impl EncoderLayout {
         let head_in = feat;
         let (head_w, head_b) = (at, at + dim * head_in);
         let text = text_dim.unwrap_or(0);
-        let (text_w, text_b) = (head_b + dim, head_b + dim + text * TEXT_DIM);
+        let (text_w, text_b) = (head_b + dim, head_b + dim + text * text_in);
         let len = text_b + text;
         let widest = streams.iter().flat_map(|s| &s.convs).map(|c| c.positions() * c.patch()).max().unwrap_or(1);
         let block = (BLOCK_FLOATS / widest.max(1)).clamp(1, 64);
         let [screen, minimap]: [Stream; 2] = streams.try_into().map_err(|_| Error::Observation { message: "two streams".into() })?;
-        Ok(EncoderLayout { streams: [screen, minimap], head_in, dim, text, head_w, head_b, text_w, text_b, len, block })
+        Ok(EncoderLayout { streams: [screen, minimap], head_in, dim, text, text_in, head_w, head_b, text_w, text_b, len, block })
     }
 
     /// The number of parameters.
@@ -211,8 +223,8 @@ impl EncoderLayout {
                 return bad(format!("{what}: {got} bytes for {n} frames of {frame}"));
             }
         }
-        if self.text > 0 && px.text.len() != n * TEXT_DIM {
-            return bad(format!("text: {} values for {n} embeddings of {TEXT_DIM}", px.text.len()));
+        if self.text > 0 && px.text.len() != px.stored * self.text_in {
+            return bad(format!("text: {} values for {} embeddings of {}", px.text.len(), px.stored, self.text_in));
         }
         if let Some(p) = px.pick
             && let Some(&i) = p.iter().find(|&&i| i as usize >= n)
@@ -335,10 +347,10 @@ impl EncoderLayout {
             c.text.clear();
             for i in c0..c1 {
                 let fr = px.frame(i);
-                c.text.extend_from_slice(&px.text[fr * TEXT_DIM..(fr + 1) * TEXT_DIM]);
+                c.text.extend_from_slice(&px.text[fr * self.text_in..(fr + 1) * self.text_in]);
             }
             let tw = &theta[self.text_w..self.text_b];
-            matmul(&mut out[self.dim..], w, Mat::rows(&c.text, nc, TEXT_DIM), Mat::t(tw, TEXT_DIM, self.text), false);
+            matmul(&mut out[self.dim..], w, Mat::rows(&c.text, nc, self.text_in), Mat::t(tw, self.text_in, self.text), false);
             let tb = &theta[self.text_b..self.text_b + self.text];
             for row in out.chunks_exact_mut(w) {
                 row[self.dim..].iter_mut().zip(tb).for_each(|(v, b)| *v += b);
@@ -392,7 +404,7 @@ impl EncoderLayout {
         );
         if self.text > 0 {
             let d_text = Mat::strided(&d_out[dim..], self.text, nc, 1, w);
-            matmul(&mut g[self.text_w..self.text_b], TEXT_DIM, d_text, Mat::rows(&c.text, nc, TEXT_DIM), false);
+            matmul(&mut g[self.text_w..self.text_b], self.text_in, d_text, Mat::rows(&c.text, nc, self.text_in), false);
             for d in d_out.chunks_exact(w) {
                 g[self.text_b..self.text_b + self.text].iter_mut().zip(&d[dim..]).for_each(|(a, b)| *a += b);
             }

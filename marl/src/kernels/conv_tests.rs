@@ -4,7 +4,6 @@
 
 use super::{EncoderLayout, Pixels};
 use crate::encoders::ObsEncoder;
-use crate::encoders::text::TEXT_DIM;
 use crate::nets::Params;
 use crate::observe::StepFrames;
 use crate::{Config, Error, Shape};
@@ -12,7 +11,7 @@ use candle_core::Tensor;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-const SHAPE: Shape = Shape { n_agents: 3, obs: 30, state: 48, n_actions: 9 };
+const SHAPE: Shape = Shape { n_agents: 3, obs: 30, state: 48, n_actions: 9, n_enemies: 3 };
 
 /// An encoder of `cfg` overrides, its layout and weights, and `n` random frames (with text
 /// embeddings in `vision-text`).
@@ -30,7 +29,7 @@ fn case(extra: &[&str], n: usize, rng: &mut ChaCha8Rng) -> Result<Case, Error> {
     let bytes = |len: usize, rng: &mut ChaCha8Rng| (0..len).map(|_| rng.random_range(0..=255u8)).collect::<Vec<u8>>();
     let mut frames = StepFrames::from_pixels(n, ((sw, sh), (mw, mh)), bytes(n * sw * sh * 3, rng), bytes(n * mw * mh * 3, rng));
     if cfg.obs.text() {
-        frames.text = (0..n * TEXT_DIM).map(|_| rng.random_range(-0.2f32..0.2)).collect();
+        frames.text = (0..n * crate::encoders::text_width(&SHAPE)).map(|_| rng.random_range(-0.2f32..0.2)).collect();
     }
     Ok((enc, p, layout, theta, frames))
 }

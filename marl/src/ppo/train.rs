@@ -39,8 +39,8 @@ pub fn train_from(
     let e = cfg.envs;
     let mut monitor = Monitor::resuming(cfg, opts, start.as_ref())?;
     let mut env = monitor.env()?;
-    let (a, o, s, na) = env.shape();
-    let shape = Shape { n_agents: a, obs: o, state: s, n_actions: na };
+    let (a, _, _, na) = env.shape();
+    let shape = Shape::of(&env);
     let mut learner = PpoLearner::new(cfg, shape, opts.seed)?;
     let mut act_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x5eed_0001);
     let mut update_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x5eed_0002);
