@@ -158,7 +158,9 @@ pub fn agent_node(a: &AgentNodeArgs) -> Result<()> {
             PolicySpec::ava(spec).context("agent-node: --ava-spec")?
         }
         (_, Some(_)) => bail!("agent-node: --ava-spec goes with --policy ava"),
-        (p, None) => PolicySpec::parse(p, None).with_context(|| format!("agent-node: --policy {}", a.policy))?,
+        (p, None) => {
+            PolicySpec::parse(p, None).and_then(|p| p.on(&scenario)).with_context(|| format!("agent-node: --policy {}", a.policy))?
+        }
     };
     policy.check(&scenario, team.team()).with_context(|| format!("agent-node: --policy {}", a.policy))?;
     let topics = Topics::new(&a.node.namespace)?;

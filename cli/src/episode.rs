@@ -208,10 +208,11 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
     Ok(Setup { scenario, cfg, controllers, seeds, agent: a.agent.clone(), agent2: pvp.then_some(agent2), opponent, ava, nodes: Vec::new() })
 }
 
-/// `team` played by one agent of the policy `name` (a scripted agent or `marl:DIR`), checked
+/// `team` played by one agent of the policy `name` (a scripted agent, `marl:DIR` or
+/// `baseline:NAME`), checked
 /// against the scenario.
 fn team_agent(scenario: &Scenario, team: Team, name: &str, flag: &str) -> Result<AgentTeam> {
-    let spec = PolicySpec::parse(name, None).with_context(|| format!("{flag} {name}"))?;
+    let spec = PolicySpec::parse(name, None).and_then(|p| p.on(scenario)).with_context(|| format!("{flag} {name}"))?;
     spec.check(scenario, team).with_context(|| format!("{flag} {name}"))?;
     Ok(AgentTeam::new(team, Grouping::Team, spec.factory().with_context(|| format!("{flag} {name}"))?))
 }

@@ -91,7 +91,7 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
     let Some(path) = &a.plan else { bail!("eval: name a plan file (or `eval merge`, `eval report`)") };
     let plan = avacraft_eval::load(path)?;
     let dir = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("eval-{}", plan.name)));
-    avacraft_eval::write_meta(&dir, &Meta::of(&plan))?;
+    avacraft_eval::write_meta(&dir, &Meta { shard: a.shard, ..Meta::of(&plan) })?;
     let shown = std::io::stderr().is_terminal();
     let multi = MultiProgress::new();
     let (bar, cell) = if shown {
@@ -141,17 +141,17 @@ fn report(dir: &Path, out: &mut dyn Write, print: bool) -> Result<()> {
 }
 
 fn merge(dir: &Path, shards: &[PathBuf], out: &mut dyn Write) -> Result<()> {
-    let mut meta: Option<Meta> = None;
+    let mut metas = Vec::new();
     for s in shards {
-        let m = avacraft_eval::read_meta(s)?;
-        if let Some(first) = &meta
-            && (first.cells != m.cells || first.seeds != m.seeds)
-        {
-            bail!("eval merge: {} holds another plan's results than {}", s.display(), shards[0].display());
-        }
-        meta.get_or_insert(m);
+        // The same folder under two spellings is the same shard.
+        let canon = std::fs::canonicalize(s).with_context(|| format!("eval merge: {}", s.display()))?;
+        metas.push((canon, avacraft_eval::read_meta(s)?));
     }
-    let Some(meta) = meta else { bail!("eval merge: name the shards' folders") };
+    let (meta, missing) = avacraft_eval::check_shards(&metas)?;
+    if !missing.is_empty() {
+        let names: Vec<String> = missing.iter().map(ToString::to_string).collect();
+        writeln!(out, "note: shards {} are missing; the merged report covers only the shards given", names.join(", "))?;
+    }
     avacraft_eval::write_meta(dir, &meta)?;
     let parts: Vec<PathBuf> = shards.iter().map(|s| s.join(avacraft_eval::RESULTS_FILE)).collect();
     let merged = avacraft_eval::merge(&parts, &dir.join(avacraft_eval::RESULTS_FILE))?;

@@ -19,8 +19,23 @@ pub struct TrainArgs {
     pub algo: String,
     /// Built-in scenario name or path to a scenario file (with --resume: the run's own, kept
     /// in its directory, unless given).
-    #[arg(long, required_unless_present = "resume")]
+    #[arg(long, required_unless_present_any = ["resume", "plan"])]
     pub scenario: Option<String>,
+    /// Instead: every run of a training plan (TOML: scenarios x algorithms x seeds x
+    /// observation mode x budget; see eval/plans/baselines.toml), each in its folder under the
+    /// plan's `out`. Runs already done are skipped and interrupted ones resume, so the plan
+    /// can be started again after a kill.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["scenario", "resume", "config", "out", "obs", "steps", "seed", "envs", "set"])]
+    pub plan: Option<PathBuf>,
+    /// With --plan: only the runs of shard i of n (run k goes to shard k mod n + 1), for a
+    /// cluster's array jobs.
+    #[arg(long, value_name = "i/n", requires = "plan")]
+    pub shard: Option<avacraft_eval::Shard>,
+    /// With --plan: train nothing; copy the plan's finished runs' policies into
+    /// DIR/<scenario>/<run> (seed 1; other seeds <run>-s<seed>): each one's best checkpoint's
+    /// agent network, config, log and curves, at most 300 kB each without the curves.
+    #[arg(long, value_name = "DIR", requires = "plan")]
+    pub ship: Option<PathBuf>,
     /// Observation mode: features (SMAC's vectors), rgb (screen and minimap images), hybrid
     /// (both) or vision-text (images and the text description's MiniLM embedding); the
     /// config's `obs` key, `features` unless the config says otherwise. Encoder keys
@@ -47,7 +62,7 @@ pub struct TrainArgs {
     pub set: Vec<String>,
     /// Directory for log.csv, curves.png and the checkpoint (agent.safetensors,
     /// mixer.safetensors for QMIX and QTRAN, critic.safetensors for PPO, config.json), which `avacraft episode --agent marl:DIR` plays.
-    #[arg(long, required_unless_present = "resume", conflicts_with = "resume")]
+    #[arg(long, required_unless_present_any = ["resume", "plan"], conflicts_with = "resume")]
     pub out: Option<PathBuf>,
     /// Go on with the run in DIR from its last test round, with its config (`--steps` and
     /// `--set` still apply, e.g. to train longer). The replay buffer and the optimiser's
@@ -57,6 +72,12 @@ pub struct TrainArgs {
 }
 
 pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
+    if let (Some(plan), Some(to)) = (&a.plan, &a.ship) {
+        return ship_plan(plan, a.shard, to, out);
+    }
+    if let Some(plan) = &a.plan {
+        return run_plan(plan, a.shard, a.threads, out);
+    }
     let mut overrides = a.set.clone();
     if let Some(obs) = &a.obs {
         if !avacraft_marl::ObsKind::NAMES.contains(&obs.as_str()) {
@@ -92,13 +113,29 @@ pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
         (None, s) => s.unwrap_or(1),
     };
     let threads = a.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from));
-    let opts = RunOptions { scenario: Arc::clone(&scenario), seed, threads, out: Some(out_dir.clone()) };
+    execute(&cfg, scenario, seed, threads, out_dir, start, "", out).map(|_| ())
+}
+
+/// Trains `cfg` on `scenario` into `out_dir` (going on from `start` when resuming), with a
+/// progress bar (`label` before the run's name) and a report to `out`.
+#[allow(clippy::too_many_arguments)]
+fn execute(
+    cfg: &Config,
+    scenario: Arc<Scenario>,
+    seed: u64,
+    threads: usize,
+    out_dir: &std::path::Path,
+    start: Option<avacraft_marl::resume::RunState>,
+    label: &str,
+    out: &mut dyn Write,
+) -> Result<avacraft_marl::Summary> {
+    let opts = RunOptions { scenario: Arc::clone(&scenario), seed, threads, out: Some(out_dir.to_path_buf()) };
     let bar = if std::io::stderr().is_terminal() { ProgressBar::new(cfg.t_max) } else { ProgressBar::hidden() };
     bar.set_style(ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} steps, {per_sec} ({eta})")?.progress_chars("=> "));
-    let name = format!("{} ({}) on {}", cfg.algo, cfg.obs.name(), scenario.name);
+    let name = format!("{label}{} ({}) on {}", cfg.algo, cfg.obs.name(), scenario.name);
     bar.set_message(name.clone());
     let started = std::time::Instant::now();
-    let (_, summary) = avacraft_marl::train_from(&cfg, &opts, start, &mut |p| {
+    let (_, summary) = avacraft_marl::train_from(cfg, &opts, start, &mut |p| {
         bar.set_position(p.t_env);
         let test = p.last_test.map_or_else(|| "-".to_owned(), |t| format!("{:.0}%", 100.0 * t.win_rate));
         bar.set_message(format!("{name}: test win {test}, eps {:.2}, loss {:.3}, updates {}", p.epsilon, p.loss, p.updates));
@@ -128,6 +165,133 @@ pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
         )?;
     }
     writeln!(out, "log, curves and checkpoint in {}", out_dir.display())?;
+    Ok(summary)
+}
+
+/// The file a finished run of a plan leaves in its folder (its summary): the plan skips it.
+pub const DONE_FILE: &str = "done.json";
+
+#[derive(serde::Serialize, serde::Deserialize)]
+struct Done {
+    t_env: u64,
+    episodes: u64,
+    updates: u64,
+    final_test_win_rate: Option<f64>,
+}
+
+/// A shipped run's size budget without its curves, and all shipped runs' together.
+const SHIP_RUN_BYTES: u64 = 300 * 1024;
+const SHIP_TOTAL_BYTES: u64 = 25 * 1024 * 1024;
+
+/// `train --plan FILE --ship DIR`: the plan's finished runs' policies into `DIR`.
+fn ship_plan(path: &std::path::Path, shard: Option<avacraft_eval::Shard>, to: &std::path::Path, out: &mut dyn Write) -> Result<()> {
+    let plan = avacraft_eval::load_train_plan(path)?;
+    let mut t = comfy_table::Table::new();
+    t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header(["run", "shipped to", "kB without curves", "weights"]);
+    let (mut shipped, mut waiting) = (0, Vec::new());
+    for job in plan.shard(shard) {
+        if !job.dir.join(DONE_FILE).is_file() {
+            waiting.push(job.id.clone());
+            continue;
+        }
+        let name = if job.seed == 1 { job.run.clone() } else { format!("{}-s{}", job.run, job.seed) };
+        let dest = to.join(&job.scenario).join(&name);
+        let r = avacraft_marl::policy::ship(&job.dir, &dest, SHIP_RUN_BYTES).with_context(|| format!("shipping {}", job.id))?;
+        t.add_row([
+            job.id.clone(),
+            dest.display().to_string(),
+            format!("{:.0}", r.bytes as f64 / 1024.0),
+            if r.half { "f16" } else { "f32" }.into(),
+        ]);
+        shipped += 1;
+    }
+    writeln!(out, "{t}")?;
+    let total = dir_bytes(to)?;
+    writeln!(
+        out,
+        "{shipped} runs shipped into {} ({:.1} MB in all); not finished yet: {}",
+        to.display(),
+        total as f64 / 1e6,
+        if waiting.is_empty() { "none".to_owned() } else { waiting.join(", ") }
+    )?;
+    if total > SHIP_TOTAL_BYTES {
+        bail!("{} holds {total} bytes, over the {SHIP_TOTAL_BYTES} allowed for shipped baselines", to.display());
+    }
+    Ok(())
+}
+
+/// Bytes of the files under `dir` (0 if it does not exist).
+fn dir_bytes(dir: &std::path::Path) -> Result<u64> {
+    if !dir.exists() {
+        return Ok(0);
+    }
+    let mut total = 0;
+    for e in std::fs::read_dir(dir).with_context(|| format!("reading {}", dir.display()))? {
+        let e = e?;
+        let ty = e.file_type()?;
+        total += if ty.is_dir() { dir_bytes(&e.path())? } else { e.metadata()?.len() };
+    }
+    Ok(total)
+}
+
+/// `train --plan`: the plan's runs (of one shard) one after another, each using every core.
+fn run_plan(path: &std::path::Path, shard: Option<avacraft_eval::Shard>, threads: Option<usize>, out: &mut dyn Write) -> Result<()> {
+    let plan = avacraft_eval::load_train_plan(path)?;
+    let jobs = plan.shard(shard);
+    let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from));
+    writeln!(
+        out,
+        "plan {} ({}): {} runs{}, into {}",
+        plan.name,
+        plan.file,
+        jobs.len(),
+        shard.map_or_else(String::new, |s| format!(" of shard {}/{}", s.index, s.count)),
+        plan.out.display()
+    )?;
+    let mut rows = Vec::new();
+    for (k, job) in jobs.iter().enumerate() {
+        let done_path = job.dir.join(DONE_FILE);
+        if done_path.is_file() {
+            let text = std::fs::read_to_string(&done_path).with_context(|| format!("reading {}", done_path.display()))?;
+            let d: Done = serde_json::from_str(&text)
+                .with_context(|| format!("{}: not a finished run's summary (remove it to run again)", done_path.display()))?;
+            rows.push((job.id.clone(), "done before".to_owned(), d.t_env, d.final_test_win_rate));
+            continue;
+        }
+        let cfg = Config::for_algo(&job.algo, &job.overrides).with_context(|| format!("run {}", job.id))?;
+        let start = if job.dir.join("resume").join("state.json").is_file() {
+            let (saved, state) = avacraft_marl::resume::load(&job.dir).with_context(|| format!("resuming run {}", job.id))?;
+            if saved != cfg {
+                bail!(
+                    "run {}: {} holds a run of another config than the plan's (move it away to start afresh, or restore the plan)",
+                    job.id,
+                    job.dir.display()
+                );
+            }
+            Some(state)
+        } else {
+            None
+        };
+        let status = if start.is_some() { "resumed" } else { "ran" };
+        let scenario = Arc::new(Scenario::load(&job.scenario)?);
+        let label = format!("[{}/{}] {} ", k + 1, jobs.len(), job.id);
+        let summary =
+            execute(&cfg, scenario, job.seed, threads, &job.dir, start, &label, out).with_context(|| format!("run {}", job.id))?;
+        let done = Done {
+            t_env: summary.t_env,
+            episodes: summary.episodes,
+            updates: summary.updates,
+            final_test_win_rate: summary.tests.last().map(|t| t.win_rate),
+        };
+        std::fs::write(&done_path, serde_json::to_string_pretty(&done)?).with_context(|| format!("writing {}", done_path.display()))?;
+        rows.push((job.id.clone(), status.to_owned(), summary.t_env, done.final_test_win_rate));
+    }
+    let mut t = comfy_table::Table::new();
+    t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header(["run", "status", "steps", "last greedy win rate"]);
+    for (id, status, steps, wr) in rows {
+        t.add_row([id, status, steps.to_string(), wr.map_or_else(|| "-".to_owned(), |w| format!("{w:.2}"))]);
+    }
+    writeln!(out, "{t}")?;
     Ok(())
 }
 

@@ -30,6 +30,13 @@ struct RawPlan {
     /// MARL training runs whose learning curves go into the report.
     #[serde(default)]
     curves: Vec<RawCurve>,
+    /// A Markdown file (relative to the plan's folder) that also gets the report, its plots
+    /// in a `<stem>/` folder beside it: e.g. `../../docs/results.md`.
+    #[serde(default)]
+    document: Option<String>,
+    /// Markdown put at the head of the report: the protocol (budget, seeds, opponents).
+    #[serde(default)]
+    protocol: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -47,6 +54,9 @@ struct RawAgent {
     /// What the agent is in the tables: scripted, marl or vlm (default: from the policy).
     #[serde(default)]
     kind: Option<AgentKind>,
+    /// Only the first `seeds` of the plan's seeds (an expensive agent, e.g. a local model).
+    #[serde(default)]
+    seeds: Option<usize>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -55,6 +65,10 @@ struct RawHeadToHead {
     scenarios: Vec<String>,
     /// Every ordered pair of these agents plays (the first named on team 1), itself included.
     agents: Vec<String>,
+    /// Instead of the pairs among `agents`: each of `agents` on team 1 against each of these
+    /// on team 2 (e.g. trained policies against the scripted opponent they trained on).
+    #[serde(default)]
+    against: Option<Vec<String>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -92,6 +106,8 @@ pub struct AgentDef {
     pub kind: AgentKind,
     /// The plan's scenarios it plays (`None`: all).
     pub scenarios: Option<Vec<String>>,
+    /// How many of the plan's seeds (the first ones) its cells play (`None`: all).
+    pub seeds: Option<usize>,
 }
 
 /// A training run's learning curve.
@@ -146,6 +162,16 @@ pub struct Plan {
     pub cells: Vec<Cell>,
     pub seeds: Vec<u64>,
     pub curves: Vec<CurveDef>,
+    /// `(agent, scenario)` pairs a `baseline:NAME` agent skips: no policy is shipped there.
+    pub unshipped: Vec<(String, String)>,
+    /// Where the report is also written (resolved against the plan's folder).
+    pub document: Option<PathBuf>,
+    pub protocol: String,
+}
+
+/// A shipped baseline with nothing for this scenario: its cell is left out and reported.
+fn unshipped(e: &PolicyError) -> bool {
+    matches!(e, PolicyError::Baseline(avacraft_marl::baselines::BaselineError::Missing { .. }))
 }
 
 /// Why a plan was refused; every error names the file, the field and the value.
@@ -173,7 +199,13 @@ pub enum PlanError {
 
 impl Plan {
     pub fn jobs(&self) -> Vec<Job> {
-        self.cells.iter().enumerate().flat_map(|(cell, _)| self.seeds.iter().map(move |&seed| Job { cell, seed })).collect()
+        self.cells.iter().enumerate().flat_map(|(cell, c)| self.seeds_of(c).iter().map(move |&seed| Job { cell, seed })).collect()
+    }
+
+    /// The seeds a cell plays: the plan's, or the first ones its team-1 agent is limited to.
+    pub fn seeds_of(&self, cell: &Cell) -> &[u64] {
+        let n = self.agents[cell.agent].seeds.unwrap_or(self.seeds.len());
+        &self.seeds[..n.min(self.seeds.len())]
     }
 }
 
@@ -276,7 +308,7 @@ fn validate(file: &str, raw: RawPlan, base: Option<&Path>) -> Result<Plan, PlanE
             return Err(err(f("policy"), format!("{:?}", a.policy), "an evaluation plays in-process; DDS agents cannot".into()));
         }
         let kind = a.kind.unwrap_or(match &policy {
-            PolicySpec::Marl(_) => AgentKind::Marl,
+            PolicySpec::Marl(_) | PolicySpec::Baseline(_) => AgentKind::Marl,
             PolicySpec::Ava(_) => AgentKind::Vlm,
             _ => AgentKind::Scripted,
         });
@@ -287,12 +319,24 @@ fn validate(file: &str, raw: RawPlan, base: Option<&Path>) -> Result<Plan, PlanE
                 }
             }
         }
-        agents.push(AgentDef { name: a.name.clone(), policy, kind, scenarios: a.scenarios.clone() });
+        if let Some(n) = a.seeds
+            && (n == 0 || n > raw.seeds.len())
+        {
+            return Err(err(f("seeds"), n.to_string(), format!("the number of the plan's seeds it plays: 1 to {}", raw.seeds.len())));
+        }
+        agents.push(AgentDef { name: a.name.clone(), policy, kind, scenarios: a.scenarios.clone(), seeds: a.seeds });
     }
     let mut cells = Vec::new();
+    let mut skipped: Vec<(String, String)> = Vec::new();
     for sc in &scenarios {
         for (ai, a) in agents.iter().enumerate() {
             if a.scenarios.as_ref().is_some_and(|only| !only.contains(&sc.name)) {
+                continue;
+            }
+            if let Err(e) = a.policy.check(sc, Team::One)
+                && unshipped(&e)
+            {
+                skipped.push((a.name.clone(), sc.name.clone()));
                 continue;
             }
             a.policy.check(sc, Team::One).map_err(|source| PlanError::Policy {
@@ -314,26 +358,42 @@ fn validate(file: &str, raw: RawPlan, base: Option<&Path>) -> Result<Plan, PlanE
         }
     }
     for (h, t) in raw.headtohead.iter().enumerate() {
-        let mut idx = Vec::new();
-        for (j, n) in t.agents.iter().enumerate() {
-            let Some(k) = agents.iter().position(|a| &a.name == n) else {
-                return Err(err(format!("headtohead[{h}].agents[{j}]"), format!("{n:?}"), "not one of the plan's agents".into()));
-            };
-            if idx.contains(&k) {
-                return Err(err(format!("headtohead[{h}].agents[{j}]"), format!("{n:?}"), "named twice".into()));
+        let indices = |field: &str, names: &[String]| -> Result<Vec<usize>, PlanError> {
+            let mut idx = Vec::new();
+            for (j, n) in names.iter().enumerate() {
+                let Some(k) = agents.iter().position(|a| &a.name == n) else {
+                    return Err(err(format!("headtohead[{h}].{field}[{j}]"), format!("{n:?}"), "not one of the plan's agents".into()));
+                };
+                if idx.contains(&k) {
+                    return Err(err(format!("headtohead[{h}].{field}[{j}]"), format!("{n:?}"), "named twice".into()));
+                }
+                idx.push(k);
             }
-            idx.push(k);
-        }
-        if idx.is_empty() {
-            return Err(err(format!("headtohead[{h}].agents"), "[]".into(), "at least one agent is needed".into()));
-        }
+            if idx.is_empty() {
+                return Err(err(format!("headtohead[{h}].{field}"), "[]".into(), "at least one agent is needed".into()));
+            }
+            Ok(idx)
+        };
+        let idx = indices("agents", &t.agents)?;
+        let idx2 = match &t.against {
+            Some(names) => indices("against", names)?,
+            None => idx.clone(),
+        };
         for (j, s) in t.scenarios.iter().enumerate() {
             let sc = load_scenario(format!("headtohead[{h}].scenarios[{j}]"), s)?;
             if sc.mode != Mode::Pvp {
                 return Err(err(format!("headtohead[{h}].scenarios[{j}]"), format!("{s:?}"), "a PvE scenario goes in `scenarios`".into()));
             }
             for &a in &idx {
-                for &b in &idx {
+                for &b in &idx2 {
+                    let missing = [a, b].into_iter().find(|&k| agents[k].policy.check(&sc, Team::One).is_err_and(|e| unshipped(&e)));
+                    if let Some(k) = missing {
+                        let pair = (agents[k].name.clone(), sc.name.clone());
+                        if !skipped.contains(&pair) {
+                            skipped.push(pair);
+                        }
+                        continue;
+                    }
                     for (k, team) in [(a, Team::One), (b, Team::Two)] {
                         agents[k].policy.check(&sc, team).map_err(|source| PlanError::Policy {
                             file: file.to_owned(),
@@ -375,11 +435,28 @@ fn validate(file: &str, raw: RawPlan, base: Option<&Path>) -> Result<Plan, PlanE
     }
     let name =
         raw.name.unwrap_or_else(|| Path::new(file).file_stem().map_or_else(|| "plan".to_owned(), |s| s.to_string_lossy().into_owned()));
-    Ok(Plan { file: file.to_owned(), name, agents, cells, seeds: raw.seeds, curves })
+    let document = match raw.document {
+        Some(d) if d.trim().is_empty() || !d.ends_with(".md") => {
+            return Err(err("document".into(), format!("{d:?}"), "a Markdown file (`.md`), e.g. \"../../docs/results.md\"".into()));
+        }
+        Some(d) => Some(base.map_or_else(|| PathBuf::from(&d), |b| b.join(&d))),
+        None => None,
+    };
+    Ok(Plan {
+        file: file.to_owned(),
+        name,
+        agents,
+        cells,
+        seeds: raw.seeds,
+        curves,
+        unshipped: skipped,
+        document,
+        protocol: raw.protocol.unwrap_or_default(),
+    })
 }
 
 /// `i/n` of `--shard`: this machine plays the jobs whose index is `i - 1` modulo `n`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
 pub struct Shard {
     pub index: usize,
     pub count: usize,
@@ -394,6 +471,12 @@ impl std::str::FromStr for Shard {
             (Ok(index), Ok(count)) if count >= 1 && (1..=count).contains(&index) => Ok(Shard { index, count }),
             _ => Err(format!("`{s}`: a shard is i/n with 1 <= i <= n, e.g. 2/8")),
         }
+    }
+}
+
+impl std::fmt::Display for Shard {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{}", self.index, self.count)
     }
 }
 

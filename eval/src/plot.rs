@@ -88,19 +88,19 @@ fn win_rates(report: &Report, path: &Path) -> Result<(), EvalError> {
     let mut chart = ChartBuilder::on(&root)
         .caption(format!("Win rate per scenario: {}", report.meta.name), ("sans-serif", 22))
         .margin(12)
-        .x_label_area_size(120)
+        .x_label_area_size(210)
         .y_label_area_size(50)
         .build_cartesian_2d(0.0..groups.len().max(1) as f64, 0.0..1.05)
         .map_err(err)?;
-    chart
-        .configure_mesh()
-        .disable_x_mesh()
-        .x_labels(groups.len().max(1))
-        .x_label_formatter(&|x| label(x.floor() as usize))
-        .x_label_style(("sans-serif", 13).into_text_style(&root).transform(FontTransform::Rotate90))
-        .y_desc("win rate")
-        .draw()
-        .map_err(err)?;
+    // The mesh's own x labels go at "nice" numbers of the float axis, so with many groups
+    // some are skipped and the rest sit off the groups' centres: each group's name is drawn
+    // under its centre instead.
+    chart.configure_mesh().disable_x_mesh().x_labels(0).x_label_formatter(&|_| String::new()).y_desc("win rate").draw().map_err(err)?;
+    let style = ("sans-serif", 13).into_text_style(&root).transform(FontTransform::Rotate90);
+    for gi in 0..groups.len() {
+        let (px, py) = chart.backend_coord(&(gi as f64 + 0.5, 0.0));
+        root.draw(&Text::new(label(gi), (px + 6, py + 6), style.clone())).map_err(err)?;
+    }
     let n = agents.len().max(1) as f64;
     for (ai, a) in agents.iter().enumerate() {
         let color = PALETTE[ai % PALETTE.len()];

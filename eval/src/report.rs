@@ -21,6 +21,17 @@ pub struct Meta {
     pub curves: Vec<(String, PathBuf)>,
     /// Every cell the plan has, in plan order.
     pub cells: Vec<CellKey>,
+    /// The shard of the plan this folder played (`None`: all of it, or a merge of all).
+    #[serde(default)]
+    pub shard: Option<crate::Shard>,
+    /// `(agent, scenario)`: shipped baselines missing, so left out.
+    #[serde(default)]
+    pub unshipped: Vec<(String, String)>,
+    /// Also written to this Markdown file, with its plots beside it.
+    #[serde(default)]
+    pub document: Option<PathBuf>,
+    #[serde(default)]
+    pub protocol: String,
 }
 
 pub const META_FILE: &str = "plan.json";
@@ -33,6 +44,10 @@ impl Meta {
             seeds: plan.seeds.clone(),
             curves: plan.curves.iter().map(|c| (c.name.clone(), c.dir.clone())).collect(),
             cells: plan.cells.iter().map(|c| c.key.clone()).collect(),
+            shard: None,
+            unshipped: plan.unshipped.clone(),
+            document: plan.document.clone(),
+            protocol: plan.protocol.clone(),
         }
     }
 
@@ -108,10 +123,13 @@ impl Report {
         let mut s = String::new();
         let m = &self.meta;
         let _ = writeln!(s, "# Evaluation `{}`\n", m.name);
+        if !m.protocol.trim().is_empty() {
+            let _ = writeln!(s, "{}\n", m.protocol.trim());
+        }
         let episodes: usize = self.cells.iter().map(|c| c.episodes).sum();
         let _ = writeln!(
             s,
-            "{} cells, {} episodes finished ({} seeds per cell); win rates are mean ± standard deviation over seeds, [95% Wilson interval].\n",
+            "{} cells, {} episodes finished (up to {} seeds per cell); win rates are mean ± standard deviation over seeds, [95% Wilson interval].\n",
             self.cells.len(),
             episodes,
             m.seeds.len()
@@ -242,6 +260,10 @@ impl Report {
             ];
             table_row(&mut s, &c.key.scenario, &row);
         }
+        if !m.unshipped.is_empty() {
+            let pairs: Vec<String> = m.unshipped.iter().map(|(a, sc)| format!("{a} on {sc}")).collect();
+            let _ = writeln!(s, "\nNo shipped baseline, so not played: {}.", pairs.join("; "));
+        }
         if !self.missing.is_empty() {
             let _ = writeln!(s, "\nNot played yet: {}.", self.missing.iter().map(|k| k.to_string()).collect::<Vec<_>>().join("; "));
         }
@@ -303,7 +325,45 @@ impl Report {
         let json = serde_json::to_string_pretty(self)
             .map_err(|e| crate::EvalError::Io { path: dir.join("report.json"), source: std::io::Error::other(e) })?;
         put("report.json", &json)?;
-        files.extend(crate::plot::all(self, dir)?);
+        let plots = crate::plot::all(self, dir)?;
+        files.extend(plots.iter().cloned());
+        if let Some(doc) = &self.meta.document {
+            files.extend(self.write_document(doc, &plots)?);
+        }
+        Ok(files)
+    }
+
+    /// The report as a document (e.g. `docs/results.md`): its plots copied into a folder
+    /// named after it, beside it, and shown under the tables.
+    fn write_document(&self, doc: &Path, plots: &[PathBuf]) -> Result<Vec<PathBuf>, crate::EvalError> {
+        let io = |path: &Path| {
+            let path = path.to_path_buf();
+            move |source| crate::EvalError::Io { path, source }
+        };
+        let stem = doc.file_stem().map_or_else(|| "results".to_owned(), |s| s.to_string_lossy().into_owned());
+        let img_dir = doc.with_file_name(&stem);
+        std::fs::create_dir_all(&img_dir).map_err(io(&img_dir))?;
+        let mut text = self.markdown();
+        let mut files = Vec::new();
+        if !plots.is_empty() {
+            text.push_str("\n## Plots\n\n");
+        }
+        for p in plots {
+            let Some(name) = p.file_name() else { continue };
+            let to = img_dir.join(name);
+            std::fs::copy(p, &to).map_err(io(&to))?;
+            let _ = writeln!(text, "![{}]({stem}/{})\n", name.to_string_lossy(), name.to_string_lossy());
+            files.push(to);
+        }
+        // The numbers behind the tables, for scripts and the tests that check them.
+        for (name, body) in [("report.csv", self.csv()), ("report.json", serde_json::to_string_pretty(self).unwrap_or_default())] {
+            let to = img_dir.join(name);
+            std::fs::write(&to, body).map_err(io(&to))?;
+            files.push(to);
+        }
+        let _ = writeln!(text, "The numbers: [{stem}/report.csv]({stem}/report.csv), [{stem}/report.json]({stem}/report.json).");
+        std::fs::write(doc, text).map_err(io(doc))?;
+        files.push(doc.to_path_buf());
         Ok(files)
     }
 }

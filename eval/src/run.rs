@@ -154,7 +154,10 @@ fn side(
             let run = Arc::clone(&setup.run);
             Ok((AgentTeam::new(team, Grouping::Team, move || Box::new(avacraft_ava::AvaAgent::new(setup.clone()))), Some(run)))
         }
-        p => Ok((AgentTeam::new(team, Grouping::Team, p.factory().map_err(|e| format!("{}: {e}", agent.name))?), None)),
+        p => {
+            let p = p.on(&cell.scenario).map_err(|e| format!("{}: {e}", agent.name))?;
+            Ok((AgentTeam::new(team, Grouping::Team, p.factory().map_err(|e| format!("{}: {e}", agent.name))?), None))
+        }
     }
 }
 

@@ -427,7 +427,9 @@ fn validate(file: &str, raw: RawLaunch, base: Option<&Path>) -> Result<Plan, Lau
             if a.ava.is_some() {
                 return Err(cx.err(f("ava"), "{..}", "AVA settings go with `policy: ava`"));
             }
-            PolicySpec::parse(&a.policy, base).map_err(|e| cx.policy_err(f("policy"), &a.policy, e))?
+            // A shipped baseline becomes this scenario's checkpoint here, so every child
+            // process is handed the checkpoint itself.
+            PolicySpec::parse(&a.policy, base).and_then(|p| p.on(&scenario)).map_err(|e| cx.policy_err(f("policy"), &a.policy, e))?
         };
         let first_new = agents.len();
         let host = a.host.clone().unwrap_or_else(|| hosts[0].clone());

@@ -2,7 +2,8 @@
 //! a launch file's `policy:` (hence `launch` and `episode --launch`) and `agent-node --policy`
 //! accept the same values and build the same agents. A policy is a scripted engine agent
 //! (`focus-fire`, ...), a trained MARL checkpoint (`marl:DIR`, written by `avacraft train`),
-//! or `dds` (an agent outside, driven over the bridge).
+//! a shipped baseline (`baseline:qmix`: the scenario's policy under `baselines/`), or `dds`
+//! (an agent outside, driven over the bridge).
 //!
 //! Parsing `marl:DIR` loads the checkpoint, so a missing or corrupt one is refused where it
 //! is named instead of surfacing as a silent no-op agent once episodes run (an engine agent
@@ -13,9 +14,11 @@
 use avacraft_ava::{AvaAgent, AvaRun, AvaSetup, AvaSpec, CallObserver};
 use avacraft_engine::agent::{AGENTS, Agent, factory};
 use avacraft_engine::{Scenario, SmacLayout, Team};
+use avacraft_marl::baselines::{self, BASELINE_PREFIX, BaselineError};
 use avacraft_marl::{MarlAgent, Policy};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 /// The prefix of a trained policy's checkpoint directory.
 pub const MARL_PREFIX: &str = "marl:";
@@ -34,6 +37,8 @@ pub enum PolicySpec {
     Scripted(&'static str),
     /// A trained MARL policy.
     Marl(MarlCheckpoint),
+    /// A shipped baseline by run name: each scenario's own checkpoint ([`PolicySpec::on`]).
+    Baseline(BaselineSet),
     /// The AVA agent with its settings.
     Ava(Arc<AvaSpec>),
     /// An agent outside, over DDS through the bridge: no agent node of ours runs it.
@@ -48,10 +53,43 @@ pub struct MarlCheckpoint {
     policy: Arc<Policy>,
 }
 
+/// `baseline:NAME`: the shipped checkpoints of one run name, loaded per scenario on first use.
+#[derive(Clone)]
+pub struct BaselineSet {
+    name: String,
+    root: PathBuf,
+    loaded: Arc<Mutex<BTreeMap<String, MarlCheckpoint>>>,
+}
+
+impl std::fmt::Debug for BaselineSet {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("BaselineSet").field("name", &self.name).field("root", &self.root).finish_non_exhaustive()
+    }
+}
+
+impl BaselineSet {
+    /// The run name (`qmix` of `baseline:qmix`).
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The checkpoint shipped for `scenario`, loaded once.
+    pub fn for_scenario(&self, scenario: &str) -> Result<MarlCheckpoint, PolicyError> {
+        let mut loaded = self.loaded.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some(m) = loaded.get(scenario) {
+            return Ok(m.clone());
+        }
+        let dir = baselines::dir(&self.root, scenario, &self.name).map_err(PolicyError::Baseline)?;
+        let m = MarlCheckpoint::load(&dir)?;
+        loaded.insert(scenario.to_owned(), m.clone());
+        Ok(m)
+    }
+}
+
 /// Why a policy was refused.
 #[derive(Debug, thiserror::Error)]
 pub enum PolicyError {
-    #[error("unknown policy `{name}` (known: {known}, {MARL_PREFIX}DIR, {DDS_POLICY})")]
+    #[error("unknown policy `{name}` (known: {known}, {MARL_PREFIX}DIR, {BASELINE_PREFIX}NAME, {DDS_POLICY})")]
     Unknown { name: String, known: String },
     #[error("`{MARL_PREFIX}` needs the directory of a checkpoint written by `avacraft train`, e.g. {MARL_PREFIX}runs/qmix-3m")]
     NoDir,
@@ -82,6 +120,10 @@ pub enum PolicyError {
         dir.display(), trained.0, trained.1, trained.2, here.0, here.1, here.2
     )]
     OtherShape { dir: PathBuf, trained: (usize, usize, usize), team: Team, scenario: String, here: (usize, usize, usize) },
+    #[error("shipped baseline")]
+    Baseline(#[source] BaselineError),
+    #[error("policy `{BASELINE_PREFIX}{name}` names each scenario's shipped policy: it is resolved for a scenario first")]
+    BaselineUnresolved { name: String },
     #[error("policy `{DDS_POLICY}` is an agent outside, driven over DDS through the bridge: it cannot run here")]
     Dds,
     #[error("policy `{AVA_POLICY}` needs its settings: an `ava:` block (with at least `model:`) in the launch file or on the agent entry")]
@@ -161,6 +203,14 @@ impl PolicySpec {
         if text == AVA_POLICY {
             return Err(PolicyError::AvaWithoutSpec);
         }
+        if let Some(name) = text.strip_prefix(BASELINE_PREFIX) {
+            baselines::check_name(name).map_err(PolicyError::Baseline)?;
+            return Ok(PolicySpec::Baseline(BaselineSet {
+                name: name.to_owned(),
+                root: baselines::root(),
+                loaded: Arc::new(Mutex::new(BTreeMap::new())),
+            }));
+        }
         if let Some(dir) = text.strip_prefix(MARL_PREFIX) {
             if dir.trim().is_empty() {
                 return Err(PolicyError::NoDir);
@@ -177,6 +227,15 @@ impl PolicySpec {
             None => {
                 Err(PolicyError::Unknown { name: text.to_owned(), known: AGENTS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ") })
             }
+        }
+    }
+
+    /// The policy as it plays `scenario`: a shipped baseline becomes that scenario's
+    /// checkpoint (refused if none is shipped); any other policy is itself.
+    pub fn on(&self, scenario: &Scenario) -> Result<PolicySpec, PolicyError> {
+        match self {
+            PolicySpec::Baseline(b) => b.for_scenario(&scenario.name).map(PolicySpec::Marl),
+            other => Ok(other.clone()),
         }
     }
 
@@ -220,6 +279,7 @@ impl PolicySpec {
     pub fn check(&self, scenario: &Scenario, team: Team) -> Result<(), PolicyError> {
         match self {
             PolicySpec::Marl(m) => m.check(scenario, team),
+            PolicySpec::Baseline(b) => b.for_scenario(&scenario.name)?.check(scenario, team),
             PolicySpec::Scripted(_) | PolicySpec::Dds | PolicySpec::Ava(_) => Ok(()),
         }
     }
@@ -240,6 +300,7 @@ impl PolicySpec {
                 let setup = spec.setup(None).map_err(|e| PolicyError::Ava(Arc::new(e)))?;
                 Ok(Box::new(move || Box::new(AvaAgent::new(setup.clone()))))
             }
+            PolicySpec::Baseline(b) => Err(PolicyError::BaselineUnresolved { name: b.name.clone() }),
             PolicySpec::Dds => Err(PolicyError::Dds),
         }
     }
@@ -267,6 +328,7 @@ impl std::fmt::Display for PolicySpec {
         match self {
             PolicySpec::Scripted(name) => f.write_str(name),
             PolicySpec::Marl(m) => f.write_str(&m.name()),
+            PolicySpec::Baseline(b) => write!(f, "{BASELINE_PREFIX}{}", b.name),
             PolicySpec::Ava(_) => f.write_str(AVA_POLICY),
             PolicySpec::Dds => f.write_str(DDS_POLICY),
         }
@@ -278,6 +340,7 @@ impl std::fmt::Debug for PolicySpec {
         match self {
             PolicySpec::Scripted(name) => f.debug_tuple("Scripted").field(name).finish(),
             PolicySpec::Marl(m) => f.debug_tuple("Marl").field(m).finish(),
+            PolicySpec::Baseline(b) => f.debug_tuple("Baseline").field(&b.name).finish(),
             PolicySpec::Ava(s) => f.debug_tuple("Ava").field(&s.model.label()).finish(),
             PolicySpec::Dds => f.write_str("Dds"),
         }
@@ -290,6 +353,7 @@ impl PartialEq for PolicySpec {
         match (self, other) {
             (PolicySpec::Scripted(a), PolicySpec::Scripted(b)) => a == b,
             (PolicySpec::Marl(a), PolicySpec::Marl(b)) => a.dir == b.dir,
+            (PolicySpec::Baseline(a), PolicySpec::Baseline(b)) => a.name == b.name && a.root == b.root,
             (PolicySpec::Dds, PolicySpec::Dds) => true,
             (PolicySpec::Ava(a), PolicySpec::Ava(b)) => a == b,
             _ => false,

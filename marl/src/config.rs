@@ -90,6 +90,9 @@ pub struct Config {
     pub test_nepisode: usize,
     pub reward: RewardMode,
     pub passive_agents: bool,
+    /// PvP: team 2's agent while team 1 learns (see the config files); empty: none.
+    #[serde(default)]
+    pub opponent: String,
     /// QTRAN's weights of its optimal-action and non-optimal-action losses.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub opt_loss: Option<f64>,
@@ -222,6 +225,16 @@ impl Config {
         let def = |f: fn(&Config) -> f64, fallback: f64| default.as_ref().map_or(fallback, f);
         unit("gamma", self.gamma)?;
         positive("lr", self.lr, def(|c| c.lr, 5e-4))?;
+        let o = self.opponent.trim();
+        if !o.is_empty() && !o.starts_with("marl:") && avacraft_engine::agent::factory(o).is_err() {
+            let known: Vec<&str> = avacraft_engine::agent::AGENTS.iter().map(|(n, _)| *n).collect();
+            return Err(bad(
+                "opponent",
+                format!("{o:?}"),
+                &format!("a scripted agent ({}) or marl:DIR", known.join(", ")),
+                "\"focus-fire\"",
+            ));
+        }
         at_least("envs", self.envs, 1)?;
         at_least("rnn_hidden_dim", self.rnn_hidden_dim, 1)?;
         if self.is_ppo() {

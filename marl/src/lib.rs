@@ -36,6 +36,7 @@
 // by pointer, can allow it behind a bounds-checked safe function.
 #![deny(unsafe_code)]
 
+pub mod baselines;
 pub mod buffer;
 pub mod config;
 pub mod encoders;

@@ -48,6 +48,86 @@ pub fn save(dir: &Path, nets: &Nets, cfg: &Config, shape: &Shape, scenario: &str
     std::fs::write(&path, text).map_err(|source| Error::Io { path, source })
 }
 
+/// What [`ship`] wrote.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Shipped {
+    /// Bytes of everything but the curves (the checkpoint, its config and the log).
+    pub bytes: u64,
+    /// Whether the weights were stored as 16-bit floats to fit the budget.
+    pub half: bool,
+}
+
+/// Copies what plays a trained run in `run` (its `best/` checkpoint if it has one, else the
+/// last) into `to`: the agent network's weights (the mixer and critic are not needed to act),
+/// `config.json`, and the run's `log.csv` and `curves.png`. Past `max_bytes` (curves aside)
+/// the weights are stored as 16-bit floats; still past it, nothing is left half-written and
+/// the error names the run.
+/// The shipped curves' width and height: the training run's 900x900 PNG took about 450 kB, so
+/// 42 runs' curves alone would have come near the 25 MB all baselines may take.
+const SHIPPED_CURVES_SIZE: u32 = 600;
+
+/// `from` scaled to at most `size` pixels a side and written with the PNG encoder's best
+/// compression.
+fn small_png(from: &Path, to: &Path, size: u32) -> Result<(), Error> {
+    let bad = |e: image::ImageError| Error::Plot { message: format!("{}: {e}", from.display()) };
+    let img = image::open(from).map_err(bad)?.into_rgb8();
+    let (w, h) = img.dimensions();
+    let scale = (size as f32 / w.max(h) as f32).min(1.0);
+    let (nw, nh) = (((w as f32 * scale).round() as u32).max(1), ((h as f32 * scale).round() as u32).max(1));
+    let img = image::imageops::resize(&img, nw, nh, image::imageops::FilterType::Triangle);
+    let file = std::fs::File::create(to).map_err(|source| Error::Io { path: to.to_path_buf(), source })?;
+    let enc = image::codecs::png::PngEncoder::new_with_quality(
+        std::io::BufWriter::new(file),
+        image::codecs::png::CompressionType::Best,
+        image::codecs::png::FilterType::Adaptive,
+    );
+    img.write_with_encoder(enc).map_err(bad)
+}
+
+pub fn ship(run: &Path, to: &Path, max_bytes: u64) -> Result<Shipped, Error> {
+    let ckpt = if run.join("best").join("config.json").is_file() { run.join("best") } else { run.to_path_buf() };
+    // Loads as a check: a checkpoint that does not load is not shipped.
+    let policy = Policy::load(&ckpt)?;
+    let io = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| Error::Io { path, source }
+    };
+    let tmp = to.with_extension("partial");
+    let _ = std::fs::remove_dir_all(&tmp);
+    std::fs::create_dir_all(&tmp).map_err(io(&tmp))?;
+    std::fs::copy(ckpt.join("config.json"), tmp.join("config.json")).map_err(io(&ckpt.join("config.json")))?;
+    if run.join("log.csv").is_file() {
+        std::fs::copy(run.join("log.csv"), tmp.join("log.csv")).map_err(io(&run.join("log.csv")))?;
+    }
+    if run.join("curves.png").is_file() {
+        small_png(&run.join("curves.png"), &tmp.join("curves.png"), SHIPPED_CURVES_SIZE)?;
+    }
+    let weights = policy.nets.agent_params.to_map();
+    let size_without_curves = |dir: &Path| -> u64 {
+        ["agent.safetensors", "config.json", "log.csv"].iter().filter_map(|f| std::fs::metadata(dir.join(f)).ok()).map(|m| m.len()).sum()
+    };
+    candle_core::safetensors::save(&weights, tmp.join("agent.safetensors"))?;
+    let mut half = false;
+    if size_without_curves(&tmp) > max_bytes {
+        let halved: Result<std::collections::HashMap<String, candle_core::Tensor>, candle_core::Error> =
+            weights.iter().map(|(k, t)| Ok((k.clone(), t.to_dtype(candle_core::DType::F16)?))).collect();
+        candle_core::safetensors::save(&halved?, tmp.join("agent.safetensors"))?;
+        half = true;
+    }
+    let bytes = size_without_curves(&tmp);
+    if bytes > max_bytes {
+        let _ = std::fs::remove_dir_all(&tmp);
+        return Err(Error::Checkpoint {
+            message: format!("{}: {bytes} bytes without the curves even in 16-bit floats, over the {max_bytes} allowed", run.display()),
+        });
+    }
+    // The loaded copy must play: a shipped checkpoint is read back before it replaces one.
+    Policy::load(&tmp)?;
+    let _ = std::fs::remove_dir_all(to);
+    std::fs::rename(&tmp, to).map_err(io(to))?;
+    Ok(Shipped { bytes, half })
+}
+
 /// A trained policy loaded from a checkpoint directory.
 #[derive(Debug)]
 pub struct Policy {
@@ -86,7 +166,9 @@ impl Policy {
             Ok(candle_core::safetensors::load(&p, &Device::Cpu)?)
         };
         nets.agent_params.load_map(&load("agent.safetensors")?, "agent.safetensors")?;
-        if nets.mixer_params.vars().next().is_some() {
+        // A shipped policy ([`ship`]) has no mixer: acting never reads it (resuming a run
+        // reads the run's own folder, which has it).
+        if nets.mixer_params.vars().next().is_some() && dir.join("mixer.safetensors").is_file() {
             nets.mixer_params.load_map(&load("mixer.safetensors")?, "mixer.safetensors")?;
         }
         let theta = nets.agent_params.flat(nets.agent.var_count())?;

@@ -142,6 +142,11 @@ pub(crate) fn restore_ppo(dir: &Path, learner: &mut PpoLearner, state: &RunState
 /// Loads the checkpoint's and the saved targets' weights into `learner`.
 pub(crate) fn restore(dir: &Path, learner: &mut Learner, state: &RunState) -> Result<(), Error> {
     let policy = crate::Policy::load(dir)?;
+    if learner.nets.mixer_params.vars().next().is_some() && !dir.join("mixer.safetensors").is_file() {
+        return Err(Error::Checkpoint {
+            message: format!("{}: no mixer.safetensors to resume from (a shipped policy only acts)", dir.display()),
+        });
+    }
     learner.nets.agent_params.copy_from(&policy.nets.agent_params)?;
     learner.nets.mixer_params.copy_from(&policy.nets.mixer_params)?;
     let d = dir.join("resume");

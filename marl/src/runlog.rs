@@ -123,7 +123,16 @@ pub fn compare(path: &Path, title: &str, groups: &[Group]) -> Result<(), Error> 
             .y_label_area_size(56)
             .build_cartesian_2d(0.0..x_max, 0.0..1.02)
             .map_err(err)?;
-        chart.configure_mesh().x_desc(x_label).y_desc(y_label).label_style(("sans-serif", 14)).draw().map_err(err)?;
+        let steps = x_label.starts_with("env");
+        let fmt_x = move |v: &f64| if steps { format!("{:.0}k", v / 1000.0) } else { format!("{v:.0}") };
+        chart
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc(y_label)
+            .x_label_formatter(&fmt_x)
+            .label_style(("sans-serif", 14))
+            .draw()
+            .map_err(err)?;
         for (gi, g) in groups.iter().enumerate() {
             let color = COLORS[gi % COLORS.len()];
             for (_, rows) in &g.runs {

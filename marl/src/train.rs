@@ -134,7 +134,39 @@ impl Actor {
 }
 
 fn vec_env(cfg: &Config, scenario: &Arc<Scenario>, seeds: &[u64], threads: usize) -> Result<VecEnv, Error> {
-    Ok(VecEnv::new(Arc::clone(scenario), cfg.env_config(), seeds, threads.clamp(1, seeds.len()))?)
+    let env = VecEnv::new(Arc::clone(scenario), cfg.env_config(), seeds, threads.clamp(1, seeds.len()))?;
+    match opponent_factory(cfg)? {
+        Some(make) => {
+            env.with_opponent(make).map_err(|e| crate::config::bad("opponent", format!("{:?}", cfg.opponent), &e.to_string(), "\"\""))
+        }
+        None => Ok(env),
+    }
+}
+
+/// What makes team 2's agents under `cfg.opponent`: a scripted agent by name, or a trained
+/// policy (`marl:DIR`, loaded once and shared); `None` for "".
+pub fn opponent_factory(cfg: &Config) -> Result<Option<avacraft_engine::OpponentFactory>, Error> {
+    let name = cfg.opponent.trim();
+    if name.is_empty() {
+        return Ok(None);
+    }
+    if let Some(dir) = name.strip_prefix("marl:") {
+        let policy = Arc::new(crate::Policy::load(std::path::Path::new(dir))?);
+        let label = name.to_owned();
+        return Ok(Some(Arc::new(move || Box::new(crate::MarlAgent::new(Arc::clone(&policy), label.clone())))));
+    }
+    match avacraft_engine::agent::factory(name) {
+        Ok(make) => Ok(Some(Arc::new(make))),
+        Err(_) => Err(crate::config::bad(
+            "opponent",
+            format!("{name:?}"),
+            &format!(
+                "a scripted agent ({}) or marl:DIR",
+                avacraft_engine::agent::AGENTS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
+            ),
+            "\"focus-fire\"",
+        )),
+    }
 }
 
 /// The team's sizes in `scenario` under `cfg`.

@@ -15,6 +15,10 @@ class AvacraftError(ValueError):
 _Indices = Union[Sequence[int], npt.NDArray[np.integer[Any]]]
 
 def scenario_names() -> list[str]: ...
+def baseline_dir(scenario: str, name: str = "qmix") -> str:
+    """The folder of the shipped baseline `name` of `scenario` (what `baseline:NAME` names).
+    Raises `AvacraftError` naming the shipped runs when there is none."""
+
 def scenario_info(scenario: str) -> dict[str, Any]:
     """{"name", "mode": "pve" | "pvp", "units": (team 1, team 2), "time_limit_loops"}."""
 

@@ -23,6 +23,7 @@ import numpy as np
 
 from ._avacraft import AvacraftError
 from ._avacraft import MarlPolicy as _MarlPolicy
+from ._avacraft import baseline_dir
 
 _NAME = re.compile(r"^(?:team(\d+)_)?agent_(\d+)$")
 
@@ -34,6 +35,13 @@ class MarlPolicy(_MarlPolicy):
     Call `reset()` when an episode starts. `play(env, seed)` plays an episode of an `Env`
     with the Rust agent (`avacraft_marl::MarlAgent`) instead: the reference for a Python loop.
     """
+
+    @classmethod
+    def baseline(cls, scenario: str, name: str = "qmix") -> "MarlPolicy":
+        """The shipped baseline `name` (`qmix`, `mappo`, ...) of `scenario`: the policy
+        `--agent baseline:NAME` plays (from `$AVACRAFT_BASELINES`, else the repository's
+        `baselines/`). Raises `AvacraftError` naming what is shipped when it is not."""
+        return cls(baseline_dir(scenario, name))
 
     def act(self, obs: Any, avail: Any) -> np.ndarray:
         """Greedy actions (int64, one per agent) from every agent's SMAC observation (a list

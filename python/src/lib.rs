@@ -47,6 +47,18 @@ pub(crate) enum Error {
     Video(#[from] avacraft_render::VideoError),
     #[error(transparent)]
     Policy(#[from] marl::PolicyError),
+    #[error(transparent)]
+    Baseline(#[from] avacraft_marl::baselines::BaselineError),
+}
+
+/// The folder of the shipped baseline `name` (`qmix`, `mappo`, ...) of `scenario`: what
+/// `baseline:NAME` names in `avacraft episode --agent` and the eval and launch files.
+#[pyfunction]
+#[pyo3(signature = (scenario, name="qmix"))]
+fn baseline_dir(scenario: &str, name: &str) -> PyResult<String> {
+    let scenario = load_scenario(scenario)?;
+    let dir = avacraft_marl::baselines::dir(&avacraft_marl::baselines::root(), &scenario.name, name).map_err(Error::from)?;
+    Ok(dir.to_string_lossy().into_owned())
 }
 
 impl From<Error> for PyErr {
@@ -156,6 +168,7 @@ fn _avacraft(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<ava::PyAva>()?;
     m.add_function(wrap_pyfunction!(scenario_names, m)?)?;
     m.add_function(wrap_pyfunction!(scenario_info, m)?)?;
+    m.add_function(wrap_pyfunction!(baseline_dir, m)?)?;
     m.add_function(wrap_pyfunction!(vec::rust_loop_steps_per_s, m)?)?;
     Ok(())
 }

@@ -1,7 +1,7 @@
 //! The learning API: batched accessors, terminated versus truncated, SMAC's info, checked
 //! indices, and the vector environment's independence from its thread count.
 
-use avacraft_engine::{Env, EnvConfig, LearnError, Team, VecEnv, VecEnvError, builtin};
+use avacraft_engine::{Env, EnvConfig, LearnError, OpponentFactory, Team, VecEnv, VecEnvError, agent_by_name, builtin};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::num::NonZeroU32;
@@ -227,4 +227,45 @@ fn a_snapshot_goes_on_exactly_as_the_original() {
             assert!(snap.steps() == 12 && !snap.done(), "playing the original and the fork left the snapshot alone");
         }
     }
+}
+
+/// Plays a PvP vector environment for `steps` steps with random team-1 actions; returns the
+/// per-step digests and team 1's deaths.
+fn play_pvp(opponent: Option<&str>, threads: usize, steps: usize) -> (Vec<u64>, u32) {
+    let scenario = Arc::new(builtin("8m3mr1mv1st_mirror_pvp").expect("scenario"));
+    let mut v = VecEnv::new(scenario, EnvConfig::default(), &[3, 4, 5], threads).expect("vec env");
+    if let Some(name) = opponent {
+        let name = name.to_owned();
+        let make: OpponentFactory = Arc::new(move || agent_by_name(&name).expect("a scripted agent"));
+        v = v.with_opponent(make).expect("a PvP scenario takes an opponent");
+        assert!(v.opponent().is_some());
+    }
+    let (_, _, _, n_actions) = v.shape();
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let (mut digest, mut deaths) = (Vec::new(), 0);
+    for _ in 0..steps {
+        let actions = random_actions(&v.buffers.avail, n_actions, &mut rng);
+        v.step(&actions).expect("valid actions");
+        digest.push(v.envs().iter().fold(0u64, |h, e| h.rotate_left(7) ^ e.state_hash()));
+        for (i, info) in v.buffers.info.iter().enumerate() {
+            if v.buffers.terminated[i] || v.buffers.truncated[i] {
+                deaths += info.dead_allies;
+            }
+        }
+    }
+    (digest, deaths)
+}
+
+#[test]
+fn a_pvp_vector_env_plays_a_named_opponent_whatever_the_thread_count() {
+    let (idle, idle_deaths) = play_pvp(None, 1, 120);
+    let (one, deaths) = play_pvp(Some("focus-fire"), 1, 120);
+    let (two, deaths2) = play_pvp(Some("focus-fire"), 2, 120);
+    assert_eq!(one, two, "the opponent's play does not depend on the thread count");
+    assert_eq!(deaths, deaths2);
+    assert_ne!(one, idle, "team 2 acts when an opponent is installed");
+    assert!(deaths > idle_deaths, "a focus-firing team 2 kills more of random team 1 ({deaths}) than an idle one ({idle_deaths})");
+    let pve = VecEnv::new(Arc::new(builtin("3m").expect("scenario")), EnvConfig::default(), &[1], 1).expect("vec env");
+    let make: OpponentFactory = Arc::new(|| agent_by_name("focus-fire").expect("a scripted agent"));
+    assert!(matches!(pve.with_opponent(make), Err(VecEnvError::OpponentInPve { scenario }) if scenario == "3m"));
 }

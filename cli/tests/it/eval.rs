@@ -12,6 +12,11 @@ fn eval(args: &[&str]) -> Output {
     Command::new(exe()).arg("eval").args(args).stderr(Stdio::inherit()).output().expect("run avacraft eval")
 }
 
+/// `avacraft eval` with its standard error kept, for the messages of refusals.
+fn eval_captured(args: &[&str]) -> Output {
+    Command::new(exe()).arg("eval").args(args).output().expect("run avacraft eval")
+}
+
 fn text(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
 }
@@ -139,6 +144,76 @@ fn a_plan_plays_reports_resumes_and_shards_into_the_same_results() {
     // Merging into a folder with results is refused (nothing is overwritten).
     let o = eval(&["merge", "--out", merged.to_str().expect("utf-8"), s1.to_str().expect("utf-8")]);
     assert!(!o.status.success());
+    // The same shard twice is refused, naming it; one shard alone merges and says so.
+    let twice = tmp("eval-merged-twice");
+    let o = eval_captured(&["merge", "--out", twice.to_str().expect("utf-8"), s1.to_str().expect("utf-8"), s1.to_str().expect("utf-8")]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("shard 1/2") && err.contains("named twice"), "{err}");
+    assert!(!twice.join("results.jsonl").exists(), "nothing merged");
+    let part = tmp("eval-merged-part");
+    let o = eval(&["merge", "--out", part.to_str().expect("utf-8"), s2.to_str().expect("utf-8")]);
+    assert!(o.status.success() && text(&o).contains("shards 1/2 are missing"), "{}", text(&o));
+    // A shard's folder does not take the whole plan's results (or another shard's).
+    let o = eval_captured(&[p.to_str().expect("utf-8"), "--out", s1.to_str().expect("utf-8")]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("shard 1/2's results"), "{err}");
+}
+
+/// `baseline:NAME` plays each scenario's shipped policy and leaves out, by name, the
+/// scenarios where none is shipped.
+#[test]
+fn baseline_agents_play_the_shipped_policy_of_each_scenario() {
+    let root = tmp("eval-baselines-root");
+    let qmix = root.join("3m").join("qmix");
+    std::fs::create_dir_all(&qmix).expect("dir");
+    for f in ["agent.safetensors", "config.json"] {
+        std::fs::copy(marl_checkpoint().join(f), qmix.join(f)).expect("copy");
+    }
+    let dir = tmp("eval-baselines");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let p = dir.join("plan.toml");
+    std::fs::write(
+        &p,
+        "name = \"b\"\nscenarios = [\"3m\", \"2m_vs_1z\"]\nseeds = [7, 8]\n\n[[agents]]\nname = \"qmix\"\npolicy = \"baseline:qmix\"\n",
+    )
+    .expect("plan");
+    let out = tmp("eval-baselines-out");
+    let o = Command::new(exe())
+        .env("AVACRAFT_BASELINES", &root)
+        .args(["eval", p.to_str().expect("utf-8"), "--out", out.to_str().expect("utf-8"), "--print"])
+        .output()
+        .expect("eval");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(text(&o).contains("No shipped baseline, so not played: qmix on 2m_vs_1z"), "{}", text(&o));
+    let all = episodes(&out);
+    assert_eq!(all.len(), 2, "3m only: {:?}", all.keys().collect::<Vec<_>>());
+    // The same games as the checkpoint named by its folder.
+    for seed in ["7", "8"] {
+        let ep = |agent: &str| {
+            let o = Command::new(exe())
+                .env("AVACRAFT_BASELINES", &root)
+                .args(["episode", "--scenario", "3m", "--agent", agent, "--seed", seed, "--json"])
+                .output()
+                .expect("episode");
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
+            v["episodes"][0]["trajectory_hash"].as_str().expect("hash").to_owned()
+        };
+        let by_name = ep("baseline:qmix");
+        assert_eq!(by_name, ep(&format!("marl:{}", qmix.display())));
+        assert_eq!(all[&("3m / qmix vs opponent:default".to_owned(), seed.parse().expect("seed"))].1, by_name);
+    }
+    // A scenario without one is refused where it is named, with what is shipped.
+    let o = Command::new(exe())
+        .env("AVACRAFT_BASELINES", &root)
+        .args(["episode", "--scenario", "3m", "--agent", "baseline:mappo"])
+        .output()
+        .expect("episode");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("no shipped `mappo` baseline for scenario `3m`") && err.contains("shipped there: qmix"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -239,4 +314,28 @@ fn plan_mistakes_name_the_field() {
         assert!(msg.contains(field), "{body}: {msg}");
         assert!(msg.starts_with(&p.display().to_string()), "{msg}");
     }
+}
+
+/// The paper's plan parses: every scenario with the four scripted agents, 100 evaluation
+/// seeds apart from the training seeds, AVA on its three scenarios and five seeds, and the
+/// report going to docs/results.md.
+#[test]
+fn the_paper_plan_is_valid() {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../eval/plans/paper.toml");
+    let plan = avacraft_eval::load(&p).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(plan.seeds, (1001..=1100).collect::<Vec<u64>>());
+    for name in avacraft_engine::builtin_names() {
+        for agent in ["focus-fire", "kite", "attack-move", "random"] {
+            assert!(plan.cells.iter().any(|c| c.key.scenario == name && c.key.agent == agent), "{agent} on {name}");
+        }
+        for agent in ["qmix", "mappo"] {
+            let played = plan.cells.iter().any(|c| c.key.scenario == name && c.key.agent == agent);
+            let skipped = plan.unshipped.contains(&(agent.to_owned(), name.to_owned()));
+            assert!(played != skipped, "{agent} on {name}: played or said to be unshipped");
+        }
+    }
+    let ava: Vec<_> = plan.cells.iter().filter(|c| c.key.agent == "ava-smollm2-text").collect();
+    assert_eq!(ava.len(), 3);
+    assert!(ava.iter().all(|c| plan.seeds_of(c).len() == 5));
+    assert!(plan.document.as_ref().is_some_and(|d| d.ends_with("docs/results.md")));
 }

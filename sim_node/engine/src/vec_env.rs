@@ -3,10 +3,11 @@
 //! the outcome depends on the seed list only, never on the number of threads: each
 //! environment is stepped by exactly one thread and draws from its own seeded streams.
 
+use crate::agent::{Agent, AgentTeam, Grouping};
 use crate::env::{Env, EnvConfig};
 use crate::ids::Team;
 use crate::learn::{LearnError, StepInfo, check_against_masks};
-use crate::scenario::Scenario;
+use crate::scenario::{Mode, Scenario};
 use std::sync::Arc;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -22,6 +23,8 @@ pub enum VecEnvError {
     Pool(#[from] rayon::ThreadPoolBuildError),
     #[error("{given} actions given: {envs} environments x {agents} agents = {needed} needed")]
     Count { given: usize, envs: usize, agents: usize, needed: usize },
+    #[error("scenario `{scenario}` is PvE: its own opponent policy plays team 2, which takes no agent")]
+    OpponentInPve { scenario: String },
     #[error("environment {env}: {source}")]
     Action {
         env: usize,
@@ -57,8 +60,14 @@ pub struct VecBuffers {
     pub final_avail: Vec<u8>,
 }
 
+/// What makes a fresh team-2 agent (one per environment, per episode).
+pub type OpponentFactory = Arc<dyn Fn() -> Box<dyn Agent> + Send + Sync>;
+
 pub struct VecEnv {
     envs: Vec<Env>,
+    /// PvP: the agent playing team 2 in each environment (empty when team 2 gets no orders).
+    opponents: Vec<AgentTeam>,
+    opponent_name: Option<String>,
     /// Episodes started per environment; environment `i`'s episode `k` uses seed
     /// `seeds[i] + k * E`, so distinct base seeds give distinct episodes.
     started: Vec<u64>,
@@ -106,8 +115,20 @@ impl VecEnv {
             final_state: vec![0.0; e * state_size],
             final_avail: vec![0; e * n_agents * n_actions],
         };
-        let mut v =
-            VecEnv { envs, started: vec![1; e], seeds: seeds.to_vec(), pool, threads, buffers, n_agents, obs_size, state_size, n_actions };
+        let mut v = VecEnv {
+            envs,
+            opponents: Vec::new(),
+            opponent_name: None,
+            started: vec![1; e],
+            seeds: seeds.to_vec(),
+            pool,
+            threads,
+            buffers,
+            n_agents,
+            obs_size,
+            state_size,
+            n_actions,
+        };
         v.fill_all();
         Ok(v)
     }
@@ -129,11 +150,41 @@ impl VecEnv {
         &self.envs
     }
 
+    /// In a PvP scenario, `make`'s agents play team 2 (one per environment, fresh each
+    /// episode, seeded from the episode's seed as every in-process agent is), acting on the
+    /// same observation team 1's actions were chosen on. Without one, team 2 gets no orders.
+    pub fn with_opponent(mut self, make: OpponentFactory) -> Result<VecEnv, VecEnvError> {
+        let scenario = self.envs[0].scenario();
+        if scenario.mode != Mode::Pvp {
+            return Err(VecEnvError::OpponentInPve { scenario: scenario.name.clone() });
+        }
+        self.opponents = self
+            .envs
+            .iter()
+            .map(|env| {
+                let make = Arc::clone(&make);
+                let mut t = AgentTeam::new(Team::Two, Grouping::Team, move || make());
+                t.reset(env);
+                t
+            })
+            .collect();
+        self.opponent_name = self.opponents.first().map(AgentTeam::name);
+        Ok(self)
+    }
+
+    /// The name of team 2's agent, if one plays it ([`VecEnv::with_opponent`]).
+    pub fn opponent(&self) -> Option<&str> {
+        self.opponent_name.as_deref()
+    }
+
     /// Restarts every environment from its base seed (episode counts start again).
     pub fn reset(&mut self) {
         let seeds = self.seeds.clone();
-        for (env, &s) in self.envs.iter_mut().zip(&seeds) {
+        for (i, (env, &s)) in self.envs.iter_mut().zip(&seeds).enumerate() {
             env.reset(s);
+            if let Some(o) = self.opponents.get_mut(i) {
+                o.reset(env);
+            }
         }
         self.started.iter_mut().for_each(|k| *k = 1);
         self.buffers.seed.clone_from(&seeds);
@@ -168,6 +219,8 @@ impl VecEnv {
         let b = &mut self.buffers;
         let stride = e as u64;
         let seeds = &self.seeds;
+        let mut opponents: Vec<Option<&mut AgentTeam>> = self.opponents.iter_mut().map(Some).collect();
+        opponents.resize_with(e, || None);
         // One lane per environment: its own slices of every buffer, so lanes step on any
         // thread without sharing anything.
         let lanes: Vec<Lane<'_>> = self
@@ -184,14 +237,22 @@ impl VecEnv {
             .zip(b.info.iter_mut())
             .zip(b.seed.iter_mut())
             .zip(b.final_obs.chunks_mut(oa).zip(b.final_state.chunks_mut(sa)).zip(b.final_avail.chunks_mut(aa)))
+            .zip(opponents)
             .enumerate()
             .map(
                 |(
                     i,
-                    (((((((((((env, started), acts), obs), state), avail), reward), terminated), truncated), info), seed), ((fo, fs), fa)),
+                    (
+                        (
+                            ((((((((((env, started), acts), obs), state), avail), reward), terminated), truncated), info), seed),
+                            ((fo, fs), fa),
+                        ),
+                        opponent,
+                    ),
                 )| Lane {
                     base_seed: seeds[i],
                     env,
+                    opponent,
                     started,
                     acts,
                     obs,
@@ -241,6 +302,7 @@ impl VecEnv {
 struct Lane<'a> {
     base_seed: u64,
     env: &'a mut Env,
+    opponent: Option<&'a mut AgentTeam>,
     started: &'a mut u64,
     acts: &'a [i64],
     obs: &'a mut [f32],
@@ -257,7 +319,12 @@ struct Lane<'a> {
 }
 
 impl Lane<'_> {
-    fn step(self, stride: u64) {
+    fn step(mut self, stride: u64) {
+        // Team 2 chooses on the observation team 1 chose on, then both are submitted.
+        if let Some(o) = self.opponent.as_deref_mut() {
+            let orders = o.act(self.env, *self.started - 1);
+            self.env.submit(Team::Two, &orders);
+        }
         let idx: Vec<usize> = self.acts.iter().map(|&x| x as usize).collect();
         self.env.submit_indices(Team::One, &idx);
         let r = self.env.step();
@@ -270,6 +337,9 @@ impl Lane<'_> {
             let s = self.base_seed.wrapping_add(*self.started * stride);
             *self.started += 1;
             self.env.reset(s);
+            if let Some(o) = self.opponent.as_deref_mut() {
+                o.reset(self.env);
+            }
             *self.seed = s;
         }
         fill(self.env, self.obs, self.state, self.avail);

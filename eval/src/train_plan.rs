@@ -1,0 +1,348 @@
+//! Training plans (`avacraft train --plan FILE`): scenarios x algorithms x seeds x
+//! observation mode x budget, expanded into jobs in a fixed order so a plan resumes after a
+//! kill (each run goes on from its last test round) and splits into shards (`--shard i/n`,
+//! as evaluations do) for a cluster's array jobs. Each job is one ordinary training run in
+//! its own folder, `<out>/<scenario>/<run>-s<seed>`.
+//!
+//! ```toml
+//! name = "baselines"
+//! out = "../../runs/baselines"   # relative to this file
+//! steps = 1000000                # each run's budget (the config's t_max)
+//! seeds = [1]
+//!
+//! [[runs]]
+//! name = "qmix"                  # the run's folder prefix
+//! algo = "qmix"
+//! scenarios = ["all"]            # names, or "all", "pve", "pvp"
+//! set = ["use_rnn=false"]        # config overrides, as `train --set`
+//! opponent = "focus-fire"        # who plays team 2 of the PvP scenarios
+//! ```
+//!
+//! Jobs run in the order of the `[[runs]]` tables, then scenarios, then seeds; with
+//! `order = "scenarios"` at the top, scenario by scenario instead (every run of the first
+//! scenario, then of the next), so a plan cut short leaves complete scenarios.
+
+use crate::plan::Shard;
+use avacraft_engine::{Mode, Scenario, builtin_names};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// Why a training plan was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum TrainPlanError {
+    #[error("{file}: cannot read")]
+    Io {
+        file: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{file}: {message}")]
+    Syntax { file: String, message: String },
+    #[error("{file}: field `{field}` = {value}: {reason}")]
+    Invalid { file: String, field: String, value: String, reason: String },
+    #[error("{file}: field `{field}`")]
+    Config {
+        file: String,
+        field: String,
+        #[source]
+        source: Box<avacraft_marl::Error>,
+    },
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPlan {
+    name: Option<String>,
+    out: String,
+    steps: Option<u64>,
+    #[serde(default)]
+    seeds: Vec<u64>,
+    order: Option<String>,
+    #[serde(default)]
+    runs: Vec<RawRun>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawRun {
+    name: String,
+    algo: String,
+    obs: Option<String>,
+    scenarios: Vec<String>,
+    seeds: Option<Vec<u64>>,
+    steps: Option<u64>,
+    #[serde(default)]
+    set: Vec<String>,
+    opponent: Option<String>,
+}
+
+/// One training run of a plan.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrainJob {
+    /// `<scenario>/<run>-s<seed>`: unique in the plan, and the folder under `out`.
+    pub id: String,
+    pub run: String,
+    pub scenario: String,
+    pub algo: String,
+    pub seed: u64,
+    /// The config overrides, budget (`t_max`), observation mode and opponent included.
+    pub overrides: Vec<String>,
+    pub dir: PathBuf,
+}
+
+/// A validated training plan.
+#[derive(Clone, Debug)]
+pub struct TrainPlan {
+    pub file: String,
+    pub name: String,
+    pub out: PathBuf,
+    pub jobs: Vec<TrainJob>,
+}
+
+impl TrainPlan {
+    /// The jobs `shard` takes (all without one), in the plan's order.
+    pub fn shard(&self, shard: Option<Shard>) -> Vec<&TrainJob> {
+        self.jobs.iter().enumerate().filter(|(i, _)| shard.is_none_or(|s| s.takes(*i))).map(|(_, j)| j).collect()
+    }
+}
+
+/// Reads and validates a training plan; `out` is resolved against the plan's folder.
+pub fn load_train_plan(path: &Path) -> Result<TrainPlan, TrainPlanError> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|source| TrainPlanError::Io { file: file.clone(), source })?;
+    parse_train_plan(&file, &text, path.parent())
+}
+
+/// [`load_train_plan`] on text (`base`: the folder `out` is relative to).
+pub fn parse_train_plan(file: &str, text: &str, base: Option<&Path>) -> Result<TrainPlan, TrainPlanError> {
+    let raw: RawPlan = toml::from_str(text).map_err(|e| TrainPlanError::Syntax { file: file.to_owned(), message: e.to_string() })?;
+    let err = |field: String, value: String, reason: &str| TrainPlanError::Invalid {
+        file: file.to_owned(),
+        field,
+        value,
+        reason: reason.to_owned(),
+    };
+    if raw.out.trim().is_empty() {
+        return Err(err("out".into(), "\"\"".into(), "the folder the runs go in"));
+    }
+    let out = match base {
+        Some(b) if Path::new(&raw.out).is_relative() => b.join(&raw.out),
+        _ => PathBuf::from(&raw.out),
+    };
+    if raw.runs.is_empty() {
+        return Err(err("runs".into(), "[]".into(), "at least one [[runs]] table is needed"));
+    }
+    check_seeds("seeds", &raw.seeds, &err)?;
+    let mut jobs: Vec<TrainJob> = Vec::new();
+    for (i, r) in raw.runs.iter().enumerate() {
+        let f = |name: &str| format!("runs[{i}].{name}");
+        if r.name.is_empty() || !r.name.chars().all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c)) {
+            return Err(err(f("name"), format!("{:?}", r.name), "1 or more letters, digits or -_."));
+        }
+        let steps = r.steps.or(raw.steps).ok_or_else(|| err(f("steps"), "none".into(), "a budget is needed here or at the top"))?;
+        if steps == 0 {
+            return Err(err(f("steps"), "0".into(), "must be at least 1"));
+        }
+        let seeds = r.seeds.clone().unwrap_or_else(|| raw.seeds.clone());
+        if seeds.is_empty() {
+            return Err(err(f("seeds"), "[]".into(), "at least one seed is needed, here or at the top"));
+        }
+        check_seeds(&f("seeds"), &seeds, &err)?;
+        let scenarios = expand_scenarios(&r.scenarios, &f("scenarios"), &err)?;
+        let mut base: Vec<String> = r.set.clone();
+        base.push(format!("t_max={steps}"));
+        if let Some(obs) = &r.obs {
+            base.push(format!("obs=\"{obs}\""));
+        }
+        // The config with every override, checked now so a typo stops the plan at once.
+        let check = |overrides: &[String]| {
+            avacraft_marl::Config::for_algo(&r.algo, overrides).map_err(|e| TrainPlanError::Config {
+                file: file.to_owned(),
+                field: f("set"),
+                source: Box::new(e),
+            })
+        };
+        check(&base)?;
+        for sc in &scenarios {
+            let mut overrides = base.clone();
+            if sc.mode == Mode::Pvp {
+                let Some(o) = &r.opponent else {
+                    return Err(err(f("opponent"), "none".into(), &format!("PvP scenario `{}` needs who plays team 2", sc.name)));
+                };
+                overrides.push(format!("opponent={o:?}"));
+                check(&overrides)?;
+            }
+            for &seed in &seeds {
+                let id = format!("{}/{}-s{seed}", sc.name, r.name);
+                if jobs.iter().any(|j| j.id == id) {
+                    return Err(err(f("name"), format!("{:?}", r.name), &format!("run `{id}` is planned twice")));
+                }
+                jobs.push(TrainJob {
+                    dir: out.join(&id),
+                    id,
+                    run: r.name.clone(),
+                    scenario: sc.name.clone(),
+                    algo: r.algo.clone(),
+                    seed,
+                    overrides: overrides.clone(),
+                });
+            }
+        }
+    }
+    match raw.order.as_deref() {
+        None | Some("runs") => {}
+        Some("scenarios") => {
+            let mut firsts: Vec<String> = Vec::new();
+            for j in &jobs {
+                if !firsts.contains(&j.scenario) {
+                    firsts.push(j.scenario.clone());
+                }
+            }
+            // Stable: within a scenario, the runs' order stays.
+            jobs.sort_by_key(|j| firsts.iter().position(|s| *s == j.scenario));
+        }
+        Some(other) => return Err(err("order".into(), format!("{other:?}"), "\"runs\" or \"scenarios\"")),
+    }
+    let name = raw.name.unwrap_or_else(|| Path::new(file).file_stem().map_or_else(|| "plan".into(), |s| s.to_string_lossy().into()));
+    Ok(TrainPlan { file: file.to_owned(), name, out, jobs })
+}
+
+fn check_seeds(field: &str, seeds: &[u64], err: &dyn Fn(String, String, &str) -> TrainPlanError) -> Result<(), TrainPlanError> {
+    for (i, s) in seeds.iter().enumerate() {
+        if seeds[..i].contains(s) {
+            return Err(err(format!("{field}[{i}]"), s.to_string(), "named twice"));
+        }
+    }
+    Ok(())
+}
+
+/// The scenarios of a list: names, or `all`, `pve`, `pvp` (the built-in ones of that kind),
+/// each once, in the order given.
+fn expand_scenarios(
+    names: &[String],
+    field: &str,
+    err: &dyn Fn(String, String, &str) -> TrainPlanError,
+) -> Result<Vec<Scenario>, TrainPlanError> {
+    if names.is_empty() {
+        return Err(err(field.to_owned(), "[]".into(), "at least one scenario is needed"));
+    }
+    let mut out: Vec<Scenario> = Vec::new();
+    for (i, n) in names.iter().enumerate() {
+        let group = match n.as_str() {
+            "all" => Some(None),
+            "pve" => Some(Some(Mode::Pve)),
+            "pvp" => Some(Some(Mode::Pvp)),
+            _ => None,
+        };
+        let found: Vec<Scenario> = match group {
+            Some(mode) => builtin_names().filter_map(|b| Scenario::load(b).ok()).filter(|s| mode.is_none_or(|m| s.mode == m)).collect(),
+            None => vec![Scenario::load(n).map_err(|e| err(format!("{field}[{i}]"), format!("{n:?}"), &e.to_string()))?],
+        };
+        for s in found {
+            if out.iter().any(|x| x.name == s.name) {
+                if group.is_none() {
+                    return Err(err(format!("{field}[{i}]"), format!("{n:?}"), "named twice"));
+                }
+                continue;
+            }
+            out.push(s);
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const PLAN: &str = r#"
+name = "t"
+out = "runs"
+steps = 1000
+seeds = [1]
+
+[[runs]]
+name = "qmix"
+algo = "qmix"
+scenarios = ["3m", "2s3z"]
+seeds = [1, 2]
+set = ["use_rnn=false"]
+
+[[runs]]
+name = "mappo"
+algo = "mappo"
+scenarios = ["pvp"]
+opponent = "focus-fire"
+"#;
+
+    #[test]
+    fn plans_expand_in_a_fixed_order_and_shard_every_job_once() {
+        let p = parse_train_plan("t.toml", PLAN, Some(Path::new("/plans"))).unwrap_or_else(|e| panic!("{e}"));
+        let ids: Vec<&str> = p.jobs.iter().map(|j| j.id.as_str()).collect();
+        assert_eq!(&ids[..4], ["3m/qmix-s1", "3m/qmix-s2", "2s3z/qmix-s1", "2s3z/qmix-s2"]);
+        let pvp = builtin_names().filter_map(|b| Scenario::load(b).ok()).filter(|s| s.mode == Mode::Pvp).count();
+        assert_eq!(p.jobs.len(), 4 + pvp);
+        assert!(p.jobs[4..].iter().all(|j| j.overrides.contains(&"opponent=\"focus-fire\"".to_owned())));
+        assert_eq!(p.jobs[0].dir, Path::new("/plans/runs/3m/qmix-s1"));
+        assert!(p.jobs[0].overrides.contains(&"t_max=1000".to_owned()));
+        let shards: Vec<Shard> = ["1/3", "2/3", "3/3"].iter().filter_map(|s| s.parse().ok()).collect();
+        let mut seen: Vec<&str> = shards.iter().flat_map(|s| p.shard(Some(*s))).map(|j| j.id.as_str()).collect();
+        seen.sort_unstable();
+        let mut all = ids.clone();
+        all.sort_unstable();
+        assert_eq!(seen, all);
+    }
+
+    /// The shipped baseline plans parse: every scenario has QMIX and MAPPO, the PvP ones an
+    /// opponent, and the two parts plan no run twice.
+    #[test]
+    fn the_shipped_baseline_plans_are_valid() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("plans");
+        let one = load_train_plan(&dir.join("baselines.toml")).unwrap_or_else(|e| panic!("{e}"));
+        let two = load_train_plan(&dir.join("baselines_seeds_rgb.toml")).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(one.out, two.out);
+        let n = builtin_names().count();
+        assert_eq!(one.jobs.len(), 2 * n);
+        for name in builtin_names() {
+            for run in ["qmix", "mappo"] {
+                assert!(one.jobs.iter().any(|j| j.id == format!("{name}/{run}-s1")), "{name} {run}");
+            }
+        }
+        let ids: Vec<&str> = one.jobs.iter().chain(&two.jobs).map(|j| j.id.as_str()).collect();
+        let mut unique = ids.clone();
+        unique.sort_unstable();
+        unique.dedup();
+        assert_eq!(unique.len(), ids.len(), "a run planned twice");
+        // Scenario by scenario: QMIX then MAPPO of each.
+        assert_eq!(one.jobs[0].scenario, one.jobs[1].scenario);
+    }
+
+    #[test]
+    fn mistakes_name_the_field() {
+        let e = |t: &str| {
+            parse_train_plan("t.toml", t, None)
+                .err()
+                .map(|e| format!("{e}: {:?}", std::error::Error::source(&e).map(|s| s.to_string())))
+                .unwrap_or_default()
+        };
+        let with = |from: &str, to: &str| e(&PLAN.replacen(from, to, 1));
+        assert!(with("scenarios = [\"3m\", \"2s3z\"]", "scenarios = [\"3m\", \"nowhere\"]").contains("runs[0].scenarios[1]"));
+        assert!(with("opponent = \"focus-fire\"\n", "").contains("runs[1].opponent"));
+        assert!(with("opponent = \"focus-fire\"", "opponent = \"nobody\"").contains("opponent"));
+        assert!(with("set = [\"use_rnn=false\"]", "set = [\"lr=-1\"]").contains("runs[0].set"));
+        assert!(with("set = [\"use_rnn=false\"]", "set = [\"lr=-1\"]").contains("lr = -1"));
+        assert!(with("seeds = [1, 2]", "seeds = [1, 1]").contains("runs[0].seeds[1]"));
+        // The same run name on other scenarios is fine; on the same scenario and seed it is not.
+        assert!(with("name = \"mappo\"", "name = \"qmix\"").is_empty());
+        let twice = format!("{PLAN}\n[[runs]]\nname = \"qmix\"\nalgo = \"vdn\"\nscenarios = [\"2s3z\"]\n");
+        assert!(e(&twice).contains("runs[2].name") && e(&twice).contains("2s3z/qmix-s1"));
+        assert!(with("steps = 1000", "steps = 0").contains("steps"));
+        assert!(e("out = \"x\"\n").contains("runs"));
+        assert!(with("seeds = [1]\n", "seeds = [1]\norder = \"random\"\n").contains("order"));
+        let by_scenario = parse_train_plan("t.toml", &PLAN.replacen("seeds = [1]\n", "seeds = [1]\norder = \"scenarios\"\n", 1), None)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let first: Vec<&str> = by_scenario.jobs.iter().take(2).map(|j| j.id.as_str()).collect();
+        assert_eq!(first, ["3m/qmix-s1", "3m/qmix-s2"]);
+        assert!(e("out = \"x\"\nbogus = 1\n").contains("bogus"));
+    }
+}

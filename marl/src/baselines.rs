@@ -1,0 +1,93 @@
+//! The shipped baselines by name: `baseline:qmix` on 3m is the policy under
+//! `baselines/3m/qmix/`, written by `avacraft train --plan ... --ship baselines`.
+//!
+//! The folder is `$AVACRAFT_BASELINES` when set (an installed binary or wheel pointed at a
+//! checkout or a copy), else the repository's own `baselines/` this crate was built from.
+
+use std::path::{Path, PathBuf};
+
+/// The environment variable naming the baselines folder.
+pub const BASELINES_ENV: &str = "AVACRAFT_BASELINES";
+/// The policy-name prefix of a shipped baseline: `baseline:qmix`.
+pub const BASELINE_PREFIX: &str = "baseline:";
+
+/// Why a shipped baseline cannot be found.
+#[derive(Debug, thiserror::Error)]
+pub enum BaselineError {
+    #[error("`{BASELINE_PREFIX}` needs a run name, e.g. {BASELINE_PREFIX}qmix or {BASELINE_PREFIX}mappo")]
+    NoName,
+    #[error("baseline name `{name}`: only letters, digits, `-` and `_` (e.g. qmix, mappo-rgb)")]
+    BadName { name: String },
+    #[error("no shipped `{name}` baseline for scenario `{scenario}`: {} is missing (shipped there: {shipped}; the folder is ${BASELINES_ENV} or the repository's baselines/)", dir.display())]
+    Missing { name: String, scenario: String, dir: PathBuf, shipped: String },
+}
+
+/// The baselines folder: `$AVACRAFT_BASELINES`, else the repository's `baselines/`.
+pub fn root() -> PathBuf {
+    match std::env::var_os(BASELINES_ENV) {
+        Some(d) if !d.is_empty() => PathBuf::from(d),
+        _ => Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("baselines"),
+    }
+}
+
+/// Checks a baseline's run name (the part after `baseline:`).
+pub fn check_name(name: &str) -> Result<(), BaselineError> {
+    if name.is_empty() {
+        return Err(BaselineError::NoName);
+    }
+    if !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
+        return Err(BaselineError::BadName { name: name.to_owned() });
+    }
+    Ok(())
+}
+
+/// The shipped runs of `scenario` under `root`, sorted (names of folders holding a config).
+pub fn shipped(root: &Path, scenario: &str) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(root.join(scenario))
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter(|e| e.path().join("config.json").is_file())
+        .filter_map(|e| e.file_name().to_str().map(str::to_owned))
+        .collect();
+    names.sort();
+    names
+}
+
+/// The folder of the shipped `name` baseline of `scenario` under `root`.
+pub fn dir(root: &Path, scenario: &str, name: &str) -> Result<PathBuf, BaselineError> {
+    check_name(name)?;
+    let d = root.join(scenario).join(name);
+    if d.join("config.json").is_file() {
+        return Ok(d);
+    }
+    let shipped = shipped(root, scenario);
+    Err(BaselineError::Missing {
+        name: name.to_owned(),
+        scenario: scenario.to_owned(),
+        dir: d,
+        shipped: if shipped.is_empty() { "none".to_owned() } else { shipped.join(", ") },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_are_checked_and_a_missing_baseline_names_what_is_shipped() {
+        assert!(matches!(check_name(""), Err(BaselineError::NoName)));
+        assert!(matches!(check_name("../x"), Err(BaselineError::BadName { .. })));
+        assert!(check_name("mappo-rgb").is_ok());
+        let root = std::env::temp_dir().join(format!("avacraft-baselines-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        std::fs::create_dir_all(root.join("3m/qmix")).expect("dir");
+        std::fs::write(root.join("3m/qmix/config.json"), "{}").expect("write");
+        assert_eq!(dir(&root, "3m", "qmix").expect("shipped"), root.join("3m/qmix"));
+        let e = dir(&root, "3m", "mappo").expect_err("not shipped").to_string();
+        assert!(e.contains("`mappo`") && e.contains("shipped there: qmix"), "{e}");
+        let e = dir(&root, "2s3z", "qmix").expect_err("no scenario").to_string();
+        assert!(e.contains("shipped there: none"), "{e}");
+        let _ = std::fs::remove_dir_all(&root);
+    }
+}
