@@ -94,3 +94,19 @@ def test_bad_checkpoints_and_inputs_raise(tmp_path):
         env = avacraft.parallel_env("3m", obs_mode="rgb")
         obs, _ = env.reset(seed=1)
         policy.act_parallel(obs)
+
+
+def test_a_shipped_baseline_by_name_plays_as_its_checkpoint(tmp_path, monkeypatch):
+    shipped = tmp_path / "3m" / "qmix"
+    shipped.mkdir(parents=True)
+    for f in ("agent.safetensors", "config.json"):
+        (shipped / f).write_bytes((POLICY / f).read_bytes())
+    monkeypatch.setenv("AVACRAFT_BASELINES", str(tmp_path))
+    by_name = avacraft.MarlPolicy.baseline("3m", "qmix")
+    assert (by_name.scenario, by_name.algo) == ("3m", avacraft.MarlPolicy(POLICY).algo)
+    ref, _ = reference(avacraft.MarlPolicy(POLICY), 3)
+    assert by_name.play(avacraft.Env("3m", reward="sparse", passive_allies=False), 3)["actions"] == ref["actions"]
+    with pytest.raises(avacraft.AvacraftError, match=r"no shipped `mappo` baseline for scenario `3m`.*shipped there: qmix"):
+        avacraft.MarlPolicy.baseline("3m", "mappo")
+    with pytest.raises(avacraft.AvacraftError, match="only letters"):
+        avacraft.MarlPolicy.baseline("3m", "../qmix")
