@@ -118,6 +118,74 @@ impl Report {
         self.cells.iter().find(|c| c.key.scenario == scenario && c.key.agent == agent && c.key.against == against)
     }
 
+    /// An agent's win rate on a scenario, for comparing kinds: PvE against the scenario's
+    /// own opponent, PvP averaged over the scripted agents it met on team 2.
+    fn versus_scripted(&self, scenario: &str, agent: &str) -> Option<f64> {
+        let m = &self.meta;
+        let rates: Vec<f64> = self
+            .cells
+            .iter()
+            .filter(|c| c.key.scenario == scenario && c.key.agent == agent)
+            .filter(|c| c.key.against == "opponent:default" || m.kind(&c.key.against) == Some(AgentKind::Scripted))
+            .map(|c| c.win_rate.mean)
+            .collect();
+        (!rates.is_empty()).then(|| rates.iter().sum::<f64>() / rates.len() as f64)
+    }
+
+    /// The best agent of `kind` on `scenario` by [`Report::versus_scripted`] (the first named
+    /// on a tie).
+    fn best_of(&self, scenario: &str, kind: AgentKind) -> Option<(f64, &str)> {
+        let mut best: Option<(f64, &str)> = None;
+        for (a, k, _) in &self.meta.agents {
+            if *k != kind {
+                continue;
+            }
+            if let Some(w) = self.versus_scripted(scenario, a)
+                && best.is_none_or(|(b, _)| w > b)
+            {
+                best = Some((w, a));
+            }
+        }
+        best
+    }
+
+    /// Per scenario, the best MARL agent against the best scripted one, and the means over
+    /// the scenarios both played.
+    fn marl_against_scripted(&self, s: &mut String) {
+        let mut all: Vec<&str> = self.scenarios(false);
+        all.extend(self.scenarios(true));
+        type Best<'a> = Option<(f64, &'a str)>;
+        let rows: Vec<(&str, Best<'_>, Best<'_>)> =
+            all.iter().map(|sc| (*sc, self.best_of(sc, AgentKind::Marl), self.best_of(sc, AgentKind::Scripted))).collect();
+        if !rows.iter().any(|(_, m, k)| m.is_some() && k.is_some()) {
+            return;
+        }
+        let _ = writeln!(
+            s,
+            "## MARL against scripted agents\n\nPer scenario, the best MARL agent's and the best scripted agent's win rate (PvE: against the scenario's own opponent; PvP: the mean over the scripted agents on team 2).\n"
+        );
+        table_header(s, "scenario", &["best MARL", "best scripted", "MARL - scripted"]);
+        let (mut sum_m, mut sum_k, mut n) = (0.0, 0.0, 0usize);
+        let show = |b: Option<(f64, &str)>| b.map_or("–".to_owned(), |(w, a)| format!("{w:.2} ({a})"));
+        for (sc, mb, kb) in &rows {
+            let diff = match (mb, kb) {
+                (Some((a, _)), Some((b, _))) => {
+                    sum_m += a;
+                    sum_k += b;
+                    n += 1;
+                    format!("{:+.2}{}", a - b, if a < b { " (MARL behind)" } else { "" })
+                }
+                _ => "–".to_owned(),
+            };
+            table_row(s, sc, &[show(*mb), show(*kb), diff]);
+        }
+        if n > 0 {
+            let (am, ak) = (sum_m / n as f64, sum_k / n as f64);
+            table_row(s, &format!("**mean over {n} scenarios**"), &[format!("{am:.3}"), format!("{ak:.3}"), format!("{:+.3}", am - ak)]);
+        }
+        s.push('\n');
+    }
+
     /// The paper's tables as Markdown.
     pub fn markdown(&self) -> String {
         let mut s = String::new();
@@ -177,6 +245,7 @@ impl Report {
                 s.push('\n');
             }
         }
+        self.marl_against_scripted(&mut s);
         let vlm: Vec<&str> = agents.iter().copied().filter(|a| m.kind(a) == Some(AgentKind::Vlm)).collect();
         if vlm.len() > 1 {
             let _ = writeln!(s, "## Ablations (VLM agents, win rate per scenario)\n");

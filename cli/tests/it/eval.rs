@@ -174,7 +174,7 @@ fn baseline_agents_play_the_shipped_policy_of_each_scenario() {
     let p = dir.join("plan.toml");
     std::fs::write(
         &p,
-        "name = \"b\"\nscenarios = [\"3m\", \"2m_vs_1z\"]\nseeds = [7, 8]\n\n[[agents]]\nname = \"qmix\"\npolicy = \"baseline:qmix\"\n",
+        "name = \"b\"\nscenarios = [\"3m\", \"2m_vs_1z\"]\nseeds = [7, 8]\n\n[[agents]]\nname = \"qmix\"\npolicy = \"baseline:qmix\"\n\n[[agents]]\nname = \"focus-fire\"\npolicy = \"focus-fire\"\n",
     )
     .expect("plan");
     let out = tmp("eval-baselines-out");
@@ -185,8 +185,11 @@ fn baseline_agents_play_the_shipped_policy_of_each_scenario() {
         .expect("eval");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(text(&o).contains("No shipped baseline, so not played: qmix on 2m_vs_1z"), "{}", text(&o));
+    let md = text(&o);
+    assert!(md.contains("## MARL against scripted agents") && md.contains("**mean over 1 scenarios**"), "{md}");
     let all = episodes(&out);
-    assert_eq!(all.len(), 2, "3m only: {:?}", all.keys().collect::<Vec<_>>());
+    // qmix on 3m only; focus-fire on both.
+    assert_eq!(all.len(), 2 + 2 * 2, "{:?}", all.keys().collect::<Vec<_>>());
     // The same games as the checkpoint named by its folder.
     for seed in ["7", "8"] {
         let ep = |agent: &str| {
