@@ -2,7 +2,7 @@
 """Builds the project's scenario files (TOML) from the reference map data.
 
 Usage: python3 tools/gen_scenarios.py [REFERENCE_DIR] [OUT_DIR]
-Defaults: ../shared/reference/scenarios and sim_node/engine/scenarios.
+Defaults: ../shared/reference/scenarios and engine/scenarios.
 
 The two places where the paper and the source maps disagree follow the paper:
 6r_vs_8z keeps the first 8 of the map's 10 Zealots, pvz_ht the first 3 of its 4 Queens.
@@ -14,7 +14,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 REF = Path(sys.argv[1]) if len(sys.argv) > 1 else ROOT.parent / "shared" / "reference" / "scenarios"
-OUT = Path(sys.argv[2]) if len(sys.argv) > 2 else ROOT / "sim_node" / "engine" / "scenarios"
+OUT = Path(sys.argv[2]) if len(sys.argv) > 2 else ROOT / "engine" / "scenarios"
 
 # Paper, appendix "Map Details": what each scenario tests, and where it comes from.
 DESCRIPTIONS = {

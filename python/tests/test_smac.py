@@ -192,7 +192,7 @@ def test_scenario_file_by_path(tmp_path):
     import glob
     import os
 
-    files = glob.glob(os.path.join(os.path.dirname(__file__), "..", "..", "sim_node", "engine", "scenarios", "3m.toml"))
+    files = glob.glob(os.path.join(os.path.dirname(__file__), "..", "..", "engine", "scenarios", "3m.toml"))
     if not files:
         pytest.skip("scenario files are not next to the tests")
     env = StarCraft2Env(map_name=files[0], seed=1)

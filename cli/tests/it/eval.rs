@@ -342,3 +342,36 @@ fn the_paper_plan_is_valid() {
     assert!(ava.iter().all(|c| plan.seeds_of(c).len() == 5));
     assert!(plan.document.as_ref().is_some_and(|d| d.ends_with("docs/results.md")));
 }
+
+/// The shipped baselines, played on seeds outside the paper plan's (5001-5040), win about
+/// as often as docs/results.md says: inside the table's 95% interval for the scenarios
+/// most papers report.
+#[test]
+fn shipped_baselines_win_as_often_as_the_results_table_says() {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let json = std::fs::read_to_string(repo.join("docs/results/report.json")).expect("docs/results/report.json (avacraft eval eval/plans/paper.toml)");
+    let report: avacraft_eval::Report = serde_json::from_str(&json).expect("the report");
+    let mut checked = 0;
+    for (scenario, agent) in [("3m", "qmix"), ("3m", "mappo"), ("2s3z", "qmix"), ("2s3z", "mappo")] {
+        let cell = report
+            .cells
+            .iter()
+            .find(|c| c.key.scenario == scenario && c.key.agent == agent && c.key.against == "opponent:default")
+            .unwrap_or_else(|| panic!("docs/results has no {agent} on {scenario}"));
+        let o = Command::new(exe())
+            .env("AVACRAFT_BASELINES", repo.join("baselines"))
+            .args(["episode", "--scenario", scenario, "--agent", &format!("baseline:{agent}"), "--seed", "5001", "--episodes", "40", "--json"])
+            .output()
+            .expect("episode");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
+        let eps = v["episodes"].as_array().expect("episodes");
+        assert_eq!(eps.len(), 40);
+        let wins = eps.iter().filter(|e| e["result"] == "win").count();
+        let rate = wins as f64 / 40.0;
+        let (lo, hi) = cell.win_ci95;
+        assert!(lo <= rate && rate <= hi, "{agent} on {scenario}: {wins}/40 on seeds 5001-5040, the table's interval [{lo:.2}, {hi:.2}]");
+        checked += 1;
+    }
+    assert_eq!(checked, 4);
+}

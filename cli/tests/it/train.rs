@@ -13,7 +13,7 @@ fn a_short_run_resumes_from_its_directory_alone() {
     let dir = tmp("train-resume");
     let _ = std::fs::remove_dir_all(&dir);
     let d = dir.to_str().expect("utf-8 temp path");
-    let file = concat!(env!("CARGO_MANIFEST_DIR"), "/../sim_node/engine/scenarios/3m.toml");
+    let file = concat!(env!("CARGO_MANIFEST_DIR"), "/../engine/scenarios/3m.toml");
     let small = ["--set", "batch_size=4", "--set", "test_interval=200", "--set", "test_nepisode=2", "--set", "episode_limit=60"];
     let mut first = vec!["--algo", "vdn", "--scenario", file, "--steps", "400", "--envs", "2", "--seed", "3", "--out", d];
     first.extend(small);
