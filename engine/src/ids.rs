@@ -21,6 +21,20 @@ impl UnitId {
     }
 }
 
+/// A number that is not a unit's tag: tags start at 1 and fit a unit index (16 bits).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unit tag {0} is not a tag (tags run from 1 to 65536)")]
+pub struct BadTag(pub u32);
+
+/// The one conversion from a unit's tag (1-based, as on screen, in text and on the wire) to
+/// its id: every place that reads a tag from outside goes through it.
+impl TryFrom<u32> for UnitId {
+    type Error = BadTag;
+    fn try_from(tag: u32) -> Result<UnitId, BadTag> {
+        tag.checked_sub(1).and_then(|i| u16::try_from(i).ok()).map(UnitId::new).ok_or(BadTag(tag))
+    }
+}
+
 impl fmt::Display for UnitId {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "#{}", self.tag())
@@ -78,5 +92,21 @@ pub struct Tick(pub u32);
 impl fmt::Display for Tick {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "loop {}", self.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tags_convert_to_ids_in_one_place_and_zero_is_refused() {
+        assert_eq!(UnitId::try_from(1), Ok(UnitId::new(0)));
+        assert_eq!(UnitId::try_from(65_536), Ok(UnitId::new(u16::MAX)));
+        assert_eq!(UnitId::try_from(0), Err(BadTag(0)));
+        assert_eq!(UnitId::try_from(65_537), Err(BadTag(65_537)));
+        for tag in [1u32, 2, 300, 65_536] {
+            assert_eq!(UnitId::try_from(tag).map(UnitId::tag), Ok(tag), "round trip");
+        }
     }
 }

@@ -63,7 +63,7 @@ pub use damage::{Dealt, apply_hits, hit_damage};
 pub use env::{Env, EnvConfig, Outcome, RewardMode, StepResult};
 pub use geom::Vec2;
 pub use hash::Fnv;
-pub use ids::{Team, Tick, UnitId};
+pub use ids::{BadTag, Team, Tick, UnitId};
 pub use learn::{LearnError, StepInfo};
 pub use obs::{AbilitySlots, slot_abilities};
 pub use obs::{

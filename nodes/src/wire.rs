@@ -20,7 +20,7 @@ pub enum WireError {
     Bits(#[from] UnknownBits),
     #[error("UnitObservation: unit_tag {tag} is not the tag of its `own` state ({own})")]
     OwnTag { tag: u32, own: u32 },
-    #[error("UnitAction: unit_tag 0 (tags start at 1)")]
+    #[error("UnitAction: unit_tag is 0 or past 65536 (tags start at 1)")]
     ZeroTag,
     #[error("UnitAction: point ({0}, {1}) is not finite")]
     Point(f32, f32),
@@ -228,7 +228,7 @@ fn tag_of(id: UnitId) -> u32 {
 }
 
 fn unit_of(tag: u32) -> Result<UnitId, WireError> {
-    tag.checked_sub(1).and_then(|i| u16::try_from(i).ok()).map(UnitId::new).ok_or(WireError::ZeroTag)
+    UnitId::try_from(tag).map_err(|_| WireError::ZeroTag)
 }
 
 /// An engine action as an agent node sends it.

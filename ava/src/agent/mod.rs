@@ -116,8 +116,10 @@ impl AvaAgent {
     }
 }
 
-fn action(tag: u32, c: Command) -> Action {
-    Action::new(UnitId::new((tag - 1) as u16), c)
+/// The tags here are the alive units' own (the decision's schema allows no other), so a tag
+/// that is not one is dropped rather than wrapped round to another unit.
+fn action(tag: u32, c: Command) -> Option<Action> {
+    UnitId::try_from(tag).ok().map(|id| Action::new(id, c))
 }
 
 impl Agent for AvaAgent {
@@ -153,7 +155,7 @@ impl Agent for AvaAgent {
                 return Vec::new();
             }
             let (_, cmds) = ep.pending.take().unwrap_or_default();
-            return cmds.into_iter().filter(|(t, _)| alive.contains(t)).map(|(t, c)| action(t, c)).collect();
+            return cmds.into_iter().filter(|(t, _)| alive.contains(t)).filter_map(|(t, c)| action(t, c)).collect();
         }
         let first = *ep.first_step.get_or_insert(obs.step);
         let cfg = Arc::clone(&self.setup.config);
@@ -169,6 +171,6 @@ impl Agent for AvaAgent {
                 return Vec::new();
             }
         }
-        cmds.into_iter().map(|(t, c)| action(t, c)).collect()
+        cmds.into_iter().filter_map(|(t, c)| action(t, c)).collect()
     }
 }

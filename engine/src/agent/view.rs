@@ -129,5 +129,5 @@ pub fn id(u: &UnitInfo) -> UnitId {
 }
 
 pub fn id_of(tag: u32) -> UnitId {
-    UnitId::new(tag.checked_sub(1).and_then(|i| u16::try_from(i).ok()).unwrap_or(u16::MAX))
+    UnitId::try_from(tag).unwrap_or(UnitId::new(u16::MAX))
 }
