@@ -349,7 +349,8 @@ fn the_paper_plan_is_valid() {
 #[test]
 fn shipped_baselines_win_as_often_as_the_results_table_says() {
     let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let json = std::fs::read_to_string(repo.join("docs/results/report.json")).expect("docs/results/report.json (avacraft eval eval/plans/paper.toml)");
+    let json = std::fs::read_to_string(repo.join("docs/results/report.json"))
+        .expect("docs/results/report.json (avacraft eval eval/plans/paper.toml)");
     let report: avacraft_eval::Report = serde_json::from_str(&json).expect("the report");
     let mut checked = 0;
     for (scenario, agent) in [("3m", "qmix"), ("3m", "mappo"), ("2s3z", "qmix"), ("2s3z", "mappo")] {
@@ -360,7 +361,18 @@ fn shipped_baselines_win_as_often_as_the_results_table_says() {
             .unwrap_or_else(|| panic!("docs/results has no {agent} on {scenario}"));
         let o = Command::new(exe())
             .env("AVACRAFT_BASELINES", repo.join("baselines"))
-            .args(["episode", "--scenario", scenario, "--agent", &format!("baseline:{agent}"), "--seed", "5001", "--episodes", "40", "--json"])
+            .args([
+                "episode",
+                "--scenario",
+                scenario,
+                "--agent",
+                &format!("baseline:{agent}"),
+                "--seed",
+                "5001",
+                "--episodes",
+                "40",
+                "--json",
+            ])
             .output()
             .expect("episode");
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
