@@ -333,18 +333,21 @@ fn validate(file: &str, raw: RawPlan, base: Option<&Path>) -> Result<Plan, PlanE
             if a.scenarios.as_ref().is_some_and(|only| !only.contains(&sc.name)) {
                 continue;
             }
-            if let Err(e) = a.policy.check(sc, Team::One)
-                && unshipped(&e)
-            {
-                skipped.push((a.name.clone(), sc.name.clone()));
-                continue;
+            match a.policy.check(sc, Team::One) {
+                Ok(()) => {}
+                Err(e) if unshipped(&e) => {
+                    skipped.push((a.name.clone(), sc.name.clone()));
+                    continue;
+                }
+                Err(source) => {
+                    return Err(PlanError::Policy {
+                        file: file.to_owned(),
+                        field: format!("agents[{ai}].policy"),
+                        value: format!("{} on {}", a.policy, sc.name),
+                        source: Box::new(source),
+                    });
+                }
             }
-            a.policy.check(sc, Team::One).map_err(|source| PlanError::Policy {
-                file: file.to_owned(),
-                field: format!("agents[{ai}].policy"),
-                value: format!("{} on {}", a.policy, sc.name),
-                source: Box::new(source),
-            })?;
             for o in &opponents {
                 let against = format!("opponent:{}", o.map_or("default", |k| k.name()));
                 cells.push(Cell {
