@@ -54,10 +54,8 @@ impl Inputs {
         let reliable = Qos::Reliable { depth: 10 };
         let order: Vec<u32> = cfg.scenario.agent_order(cfg.team.team()).iter().map(|id| id.tag()).collect();
         let mut subs = Vec::new();
-        for &t in &order {
-            let tag =
-                UnitTag::new(t).map_err(|e| NodeError::Declare { what: "a unit topic", key: e.to_string(), message: String::new() })?;
-            subs.push(node.subscriber::<UnitObservation>(&topics.unit_obs(cfg.team, tag), reliable)?);
+        for id in cfg.scenario.agent_order(cfg.team.team()) {
+            subs.push(node.subscriber::<UnitObservation>(&topics.unit_obs(cfg.team, UnitTag::from(id)), reliable)?);
         }
         let roles = node.subscriber::<RoleAssignment>(&topics.team_roles(cfg.team), reliable)?;
         Ok(Inputs { subs, roles, steps: BTreeMap::new(), last_done: None, order })

@@ -4,13 +4,12 @@
 use anyhow::{Context, Result, bail};
 use avacraft_ava::cost::EpisodeCost;
 use avacraft_ava::llm::{ChatModel, ChatReply, ChatRequest, LlmError, Part, SchemaMode};
-use avacraft_ava::{AvaConfig, AvaRun, AvaSetup, AvaSpec, ModelSpec, Timing};
+use avacraft_ava::{AvaConfig, AvaRun, AvaSpec, ModelSpec, Timing};
+use avacraft_policy::{AVA_POLICY, AgentFactory, Calls, Made, PolicySpec, Resolve};
 use clap::Args;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-
-/// The policy name that selects AVA.
-pub const AVA: &str = "ava";
+use std::sync::Arc;
 
 #[derive(Args, Debug, Clone, Default)]
 pub struct AvaArgs {
@@ -184,8 +183,9 @@ impl AvaArgs {
         Ok(AvaSpec { model, config: self.config()?, record, prices: self.llm_prices.clone(), prompts: self.prompts.clone() })
     }
 
-    /// Everything AVA agents of this run share. Returns the setup and the recording folder.
-    pub fn setup(&self, scenario: &str, seed: u64) -> Result<(AvaSetup, Option<PathBuf>)> {
+    /// The AVA policy of these flags, made once: both teams of a PvP episode share its model,
+    /// recording and accounting. Returns it and the recording folder.
+    pub fn made(&self, scenario: &str, seed: u64) -> Result<(Made<AgentFactory>, Option<PathBuf>)> {
         let spec = self.spec(scenario, seed)?;
         let flag = match &spec.model {
             ModelSpec::Openai { .. } => "--llm-url, --llm-model, --llm-timeout",
@@ -194,18 +194,24 @@ impl AvaArgs {
             ModelSpec::Local { .. } => "--llm-local",
             ModelSpec::Synthetic => "AVA settings",
         };
-        spec.validate().context(flag)?;
-        let setup = if self.dry_run {
-            let out = spec.record.clone().unwrap_or_default();
-            spec.setup_with(Box::new(DryRun { out, shown: 0 }), None)
-        } else {
-            spec.setup(None)
-        };
-        let setup = setup.with_context(|| match &spec.record {
+        let context = || match &spec.record {
             Some(d) => format!("{flag} (recording AVA's calls in {})", d.display()),
             None => flag.to_owned(),
-        })?;
-        Ok((setup, spec.record.clone()))
+        };
+        let record = spec.record.clone();
+        let made = if self.dry_run {
+            // The one use that swaps the model: the dry run shows each request instead.
+            spec.validate().context(flag)?;
+            let out = spec.record.clone().unwrap_or_default();
+            let setup = spec.setup_with(Box::new(DryRun { out, shown: 0 }), None).with_context(context)?;
+            let run = Arc::clone(&setup.run);
+            let factory: AgentFactory = Arc::new(move || Box::new(avacraft_ava::AvaAgent::new(setup.clone())));
+            Made { factory, run: Some(run) }
+        } else {
+            let policy = PolicySpec::resolve(AVA_POLICY, Some(spec.clone()), Resolve::default()).context(flag)?;
+            policy.make(&Calls::Own, None).with_context(context)?
+        };
+        Ok((made, record))
     }
 
     /// The `--llm-local` model, sampling with the episode's seed.

@@ -383,6 +383,8 @@ fn scenario_names(a: &BenchArgs) -> Vec<String> {
     if a.scenario.iter().any(|s| s == "all") { builtin_names().map(str::to_owned).collect() } else { a.scenario.clone() }
 }
 
+// Long on purpose: the benchmark's table, row by row, each measured against its baseline in
+// the same run; the rows' own work lives in the bench_* modules.
 pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc<System>>) -> Result<()> {
     if !(a.seconds.is_finite() && a.seconds > 0.0 && a.seconds <= 3600.0) {
         anyhow::bail!("--seconds {}: must be a number of seconds in (0, 3600]", a.seconds);

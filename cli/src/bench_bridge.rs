@@ -195,7 +195,7 @@ pub fn run(out: &mut dyn Write) -> Result<()> {
     let _router = Node::open(
         &NodeArgs { mode: SessionMode::Router, connect: vec![], listen: vec![endpoint.clone()], ..NodeArgs::default() },
         topics.namespace(),
-        "router",
+        &avacraft_nodes::NodeName::tool("router")?,
     )?;
     let args = NodeArgs { mode: SessionMode::Client, connect: vec![endpoint], ..NodeArgs::default() };
     let (team, unit) = (TeamNo::new(1)?, UnitTag::new(1)?);
@@ -210,13 +210,13 @@ pub fn run(out: &mut dyn Write) -> Result<()> {
         ..BridgeConfig::default()
     };
     let shutdown = Shutdown::default();
-    let bridge_node = Arc::new(Node::open(&args, topics.namespace(), "bridge")?);
+    let bridge_node = Arc::new(Node::open(&args, topics.namespace(), &avacraft_nodes::NodeName::bridge())?);
     let bridge = {
         let (node, topics, shutdown) = (Arc::clone(&bridge_node), topics.clone(), shutdown.clone());
         std::thread::spawn(move || avacraft_bridge::run(&node, &topics, &cfg, &shutdown))
     };
-    let node = Node::open(&args, topics.namespace(), "bench")?;
-    let viewer = Node::open(&args, topics.namespace(), "viewer")?;
+    let node = Node::open(&args, topics.namespace(), &avacraft_nodes::NodeName::tool("bench")?)?;
+    let viewer = Node::open(&args, topics.namespace(), &avacraft_nodes::NodeName::tool("viewer")?)?;
     let mut dds = DdsReader::open(domain)?;
 
     // A real 3m unit observation, as the simulator publishes it.

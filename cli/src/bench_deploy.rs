@@ -47,10 +47,13 @@ fn frame_latency(w: u32, h: u32, n: usize) -> Result<[u64; 2]> {
     let _router = Node::open(
         &NodeArgs { mode: SessionMode::Router, connect: vec![], listen: vec![endpoint.clone()], ..NodeArgs::default() },
         "/bench",
-        "router",
+        &avacraft_nodes::NodeName::tool("router")?,
     )?;
     let args = NodeArgs { connect: vec![endpoint], ..NodeArgs::default() };
-    let (a, b) = (Node::open(&args, "/bench", "camera")?, Node::open(&args, "/bench", "viewer")?);
+    let (a, b) = (
+        Node::open(&args, "/bench", &avacraft_nodes::NodeName::tool("camera")?)?,
+        Node::open(&args, "/bench", &avacraft_nodes::NodeName::tool("viewer")?)?,
+    );
     let topic = Topic::parse("/bench/frames")?;
     let sub = b.subscriber::<Image>(&topic, Qos::Reliable { depth: 10 })?;
     let mut p = a.publisher::<Image>(&topic, Qos::Reliable { depth: 10 })?;

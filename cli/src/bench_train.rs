@@ -290,6 +290,7 @@ fn measure(
     })
 }
 
+// Long on purpose: the training benchmark's table and its goal rows, printed as measured.
 pub fn run(b: &TrainBench<'_>, out: &mut dyn Write) -> Result<()> {
     if b.steps == 0 {
         bail!("--steps must be at least 1 for --train");

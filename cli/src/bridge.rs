@@ -25,7 +25,8 @@ pub struct BridgeArgs {
 pub fn run(a: &BridgeArgs) -> Result<()> {
     avacraft_nodes::init_logging();
     let shutdown = Shutdown::install();
-    let plan = avacraft_launch::load(&a.launch)?;
+    // The bridge never acts: it names the policies without reading their weights.
+    let plan = avacraft_launch::load_with(&a.launch, avacraft_policy::Weights::Later)?;
     let Some(b) = &plan.bridge else { bail!("{}: no `bridge:` section", plan.file) };
     if !(a.dds_timeout.is_finite() && a.dds_timeout > 0.0) {
         bail!("--dds-timeout {}: must be a positive number of seconds", a.dds_timeout);
@@ -50,7 +51,7 @@ pub fn run(a: &BridgeArgs) -> Result<()> {
         }
         if has(BridgeTopic::UnitObs) {
             for id in env.agents(team_of(team)) {
-                cfg.unit_obs.push((team, UnitTag::new(id.tag())?));
+                cfg.unit_obs.push((team, UnitTag::from(*id)));
             }
         }
         if has(BridgeTopic::Frames)
@@ -60,7 +61,7 @@ pub fn run(a: &BridgeArgs) -> Result<()> {
         }
     }
     let topics = Topics::new(&a.node.namespace)?;
-    let node = Node::open(&a.node, &a.node.namespace, "bridge").context("bridge: opening the Zenoh session")?;
+    let node = Node::open(&a.node, &a.node.namespace, &avacraft_nodes::NodeName::bridge()).context("bridge: opening the Zenoh session")?;
     let stats = avacraft_bridge::run(&node, &topics, &cfg, &shutdown)?;
     tracing::info!(to_dds = ?stats.to_dds, thinned = stats.frames_thinned, actions = stats.actions_to_zenoh, malformed = stats.malformed, refused_by_dds = stats.dds_refused, "bridge stops");
     Ok(())

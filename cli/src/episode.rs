@@ -1,12 +1,12 @@
 //! `episode`: run episodes in-process with scripted or trained policies and summarise the results.
 
-use crate::info::team_of;
+use crate::flags::team_of;
 use anyhow::{Context, Result, bail};
 use avacraft_engine::agent::{AgentTeam, Grouping};
 use avacraft_engine::{
     Ability, Controllers, Env, EnvConfig, Mode, OpponentKind, Outcome, RewardMode, Rules, Scenario, Team, loops_to_seconds,
 };
-use avacraft_launch::PolicySpec;
+use avacraft_policy::{AVA_POLICY, PolicySpec};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
@@ -139,7 +139,7 @@ struct Setup {
     agent2: Option<String>,
     opponent: Option<OpponentKind>,
     /// AVA's shared run and its recording folder, when AVA plays a side.
-    ava: Option<(avacraft_ava::AvaSetup, Option<std::path::PathBuf>)>,
+    ava: Option<(Arc<avacraft_ava::AvaRun>, Option<std::path::PathBuf>)>,
     /// With `--launch`: each AVA node's run, in the file's order.
     nodes: Vec<(String, Arc<avacraft_ava::AvaRun>)>,
 }
@@ -173,16 +173,16 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
     let agent2 = a.agent2.clone().unwrap_or_else(|| a.agent.clone());
     let pvp = scenario.mode == Mode::Pvp;
     // AVA's sides share one model, recording and accounting (each call records its team).
-    let uses_ava = a.agent == crate::ava::AVA || (pvp && agent2 == crate::ava::AVA);
-    let ava = if uses_ava { Some(a.ava.setup(&scenario.name, a.seed)?) } else { None };
+    let uses_ava = a.agent == AVA_POLICY || (pvp && agent2 == AVA_POLICY);
+    let ava = if uses_ava { Some(a.ava.made(&scenario.name, a.seed)?) } else { None };
     if a.ava.dry_run && !uses_ava {
         bail!("--dry-run shows what AVA's model would see; it needs --agent ava");
     }
     let side = |team: Team, name: &str, flag: &str| -> Result<AgentTeam> {
-        match (&ava, name == crate::ava::AVA) {
-            (Some((s, _)), true) => {
-                let s = s.clone();
-                Ok(AgentTeam::new(team, Grouping::Team, move || Box::new(avacraft_ava::AvaAgent::new(s.clone()))))
+        match (&ava, name == AVA_POLICY) {
+            (Some((made, _)), true) => {
+                let make = Arc::clone(&made.factory);
+                Ok(AgentTeam::new(team, Grouping::Team, move || make()))
             }
             _ => team_agent(&scenario, team, name, flag),
         }
@@ -205,6 +205,7 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
         ..EnvConfig::default()
     };
     let seeds = (0..a.episodes as u64).map(|k| a.seed.wrapping_add(k)).collect();
+    let ava = ava.map(|(made, dir)| (made.run.unwrap_or_else(|| unreachable!("an AVA policy is made with its run")), dir));
     Ok(Setup { scenario, cfg, controllers, seeds, agent: a.agent.clone(), agent2: pvp.then_some(agent2), opponent, ava, nodes: Vec::new() })
 }
 
@@ -214,9 +215,12 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
 fn team_agent(scenario: &Scenario, team: Team, name: &str, flag: &str) -> Result<AgentTeam> {
     let spec = PolicySpec::parse(name, None).and_then(|p| p.on(scenario)).with_context(|| format!("{flag} {name}"))?;
     spec.check(scenario, team).with_context(|| format!("{flag} {name}"))?;
-    Ok(AgentTeam::new(team, Grouping::Team, spec.factory().with_context(|| format!("{flag} {name}"))?))
+    let make = spec.factory().with_context(|| format!("{flag} {name}"))?;
+    Ok(AgentTeam::new(team, Grouping::Team, move || make()))
 }
 
+// Long on purpose: the episode loop, then the report in its three forms (table, JSON,
+// AVA's costs), which share the loop's tallies.
 pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
     let Setup { scenario, cfg, mut controllers, seeds, agent, agent2, opponent, ava, nodes } = setup(a)?;
     let bar = if a.json || !std::io::stderr().is_terminal() { ProgressBar::hidden() } else { ProgressBar::new(seeds.len() as u64) };
@@ -258,7 +262,7 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
             }
             env.step();
         }
-        if let Some(why) = ava.as_ref().and_then(|(s, _)| s.run.fatal()) {
+        if let Some(why) = ava.as_ref().and_then(|(run, _)| run.fatal()) {
             bail!("AVA stopped at episode seed {seed}: {why}");
         }
         if k == 0
@@ -301,7 +305,7 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
         game_seconds: rate(records.iter().map(|r| r.game_seconds as f64)),
     };
     let ava_costs = match &ava {
-        Some((s, dir)) => crate::ava::report(&s.run, dir.as_deref(), &mut std::io::sink(), true)?,
+        Some((run, dir)) => crate::ava::report(run, dir.as_deref(), &mut std::io::sink(), true)?,
         None => Vec::new(),
     };
     if a.json {
@@ -338,8 +342,8 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
         }
         writeln!(out, "{t}")?;
     }
-    if let Some((s, dir)) = &ava {
-        crate::ava::report(&s.run, dir.as_deref(), out, false)?;
+    if let Some((run, dir)) = &ava {
+        crate::ava::report(run, dir.as_deref(), out, false)?;
     }
     // Each node's costs.json is written by the node's run itself when it records.
     for (id, run) in &nodes {

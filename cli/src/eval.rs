@@ -70,7 +70,7 @@ impl Progress for Bars {
         let mut t = self.tally.lock().unwrap_or_else(|p| p.into_inner());
         let e = t.entry(r.cell.clone()).or_default();
         e.0 += 1;
-        if r.result.as_deref() == Some("win") {
+        if r.result == Some(avacraft_engine::Outcome::Win) {
             e.1 += 1;
         }
         if let Some(why) = &r.error {

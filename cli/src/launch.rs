@@ -35,12 +35,6 @@ pub struct LaunchArgs {
     pub startup_timeout: f64,
 }
 
-#[derive(Args, Debug, Clone)]
-pub struct CertsArgs {
-    /// The launch file whose `security.certs` directory and hosts to use.
-    pub file: PathBuf,
-}
-
 /// A child process with its name, its log lines prefixed on our stderr.
 struct Proc {
     name: String,
@@ -136,56 +130,15 @@ fn child_flags(args: &NodeArgs) -> Vec<String> {
 /// Starts the agent nodes (and the bridge) that `host` runs.
 fn spawn_host_nodes(a: &LaunchArgs, plan: &Plan, host: &str, common: &[String], procs: &mut Procs) -> Result<usize> {
     let mut n = 0;
-    for ag in plan.agents.iter().filter(|ag| ag.host == host && !ag.is_dds()) {
-        let units: Vec<String> = ag.units.iter().map(|u| u.get().to_string()).collect();
-        let mut args = vec![
-            "agent-node".to_owned(),
-            "--id".into(),
-            ag.id.to_string(),
-            "--team".into(),
-            ag.team.get().to_string(),
-            "--units".into(),
-            units.join(","),
-            "--policy".into(),
-            // A checkpoint by its absolute path: the node finds it from any directory.
-            ag.policy.to_string(),
-            "--scenario".into(),
-            plan.scenario_arg.clone(),
-        ];
-        if let avacraft_launch::PolicySpec::Ava(spec) = &ag.policy {
-            args.push("--ava-spec".into());
-            args.push(serde_json::to_string(spec.as_ref())?);
-        }
-        if let Some(role) = ag.role {
-            args.push("--role".into());
-            args.push(role.name().into());
-        }
+    // Each node reads its own entry of the launch file (by absolute path: the node may run
+    // from elsewhere), and only the nodes that act read weights.
+    let file = std::fs::canonicalize(&a.file).with_context(|| format!("launch: {}", a.file.display()))?;
+    let agents = plan.agents.iter().filter(|ag| ag.host == host && !ag.is_dds()).map(|ag| (format!("agent {}", ag.id), &ag.id));
+    let commanders = plan.commanders.iter().filter(|c| c.host == host).map(|c| (format!("commander {}", c.id), &c.id));
+    for (what, id) in agents.chain(commanders) {
+        let mut args = vec!["agent-node".to_owned(), "--launch".into(), file.display().to_string(), "--node-id".into(), id.to_string()];
         args.extend(common.iter().cloned());
-        procs.0.push(spawn(&format!("agent {}", ag.id), &args)?);
-        n += 1;
-    }
-    for c in plan.commanders.iter().filter(|c| c.host == host) {
-        let groups: Vec<&str> = c.groups.iter().map(|(_, r)| r.name()).collect();
-        let mut args = vec![
-            "agent-node".to_owned(),
-            "--id".into(),
-            c.id.to_string(),
-            "--team".into(),
-            c.team.get().to_string(),
-            "--commander".into(),
-            "--groups".into(),
-            groups.join(","),
-            "--policy".into(),
-            c.policy.to_string(),
-            "--scenario".into(),
-            plan.scenario_arg.clone(),
-        ];
-        if let avacraft_launch::CommanderPolicy::Ava(spec) = &c.policy {
-            args.push("--ava-spec".into());
-            args.push(serde_json::to_string(spec.as_ref())?);
-        }
-        args.extend(common.iter().cloned());
-        procs.0.push(spawn(&format!("commander {}", c.id), &args)?);
+        procs.0.push(spawn(&what, &args)?);
         n += 1;
     }
     if plan.bridge.as_ref().is_some_and(|b| b.host == host) {
@@ -222,7 +175,7 @@ pub fn launch(a: &LaunchArgs, out: &mut dyn Write) -> Result<()> {
         let topics = Topics::new(&router_args.namespace)?;
         router_args.access_control = Some(avacraft_launch::access_control(&plan, &topics, router_args.domain).to_string());
     }
-    let _router = Node::open(&router_args, &router_args.namespace, "launch")
+    let _router = Node::open(&router_args, &router_args.namespace, &avacraft_nodes::NodeName::launch())
         .with_context(|| format!("launch: hosting the router on {}", plan.router))?;
     let mut procs = Procs(Vec::new());
     if let Some(path) = &plan.record {
@@ -281,7 +234,7 @@ fn remote_host(
     shutdown: &Shutdown,
     out: &mut dyn Write,
 ) -> Result<()> {
-    let watch = Node::open(args, &args.namespace, &format!("launch_{host}"))
+    let watch = Node::open(args, &args.namespace, &avacraft_nodes::NodeName::launch_on(host))
         .with_context(|| format!("launch --host {host}: connecting to the router {}", plan.router))?;
     let mut procs = Procs(Vec::new());
     let n = spawn_host_nodes(a, plan, host, common, &mut procs)?;
@@ -348,19 +301,5 @@ fn report(plan: &Plan, summaries: &[EpisodeSummary], out: &mut dyn Write) -> Res
     if let Some(p) = &plan.record {
         writeln!(out, "recorded to {}", p.display())?;
     }
-    Ok(())
-}
-
-pub fn certs(a: &CertsArgs, out: &mut dyn Write) -> Result<()> {
-    let plan = avacraft_launch::load(&a.file)?;
-    let files = avacraft_launch::write_certs(&plan).with_context(|| format!("certs: {}", plan.file))?;
-    writeln!(out, "{}: an authority and a key pair for each of the hosts {:?}", plan.file, plan.hosts)?;
-    for f in &files {
-        writeln!(out, "  {}", f.display())?;
-    }
-    writeln!(
-        out,
-        "Copy ca.pem and each host's .pem and .key to that host. The authority's own key is not kept: run this again to re-issue every pair."
-    )?;
     Ok(())
 }

@@ -2,6 +2,7 @@
 //! argument parsing and output of the binary.
 #![forbid(unsafe_code)]
 
+mod agent_node;
 mod ava;
 mod bench;
 mod bench_ava;
@@ -10,17 +11,20 @@ mod bench_deploy;
 mod bench_train;
 mod bench_vec;
 mod bridge;
+mod certs;
 mod curves;
-mod deploy;
+mod env_info;
 mod episode;
 mod eval;
+mod flags;
 mod human;
-mod info;
 mod launch;
 mod probe;
 mod record;
 mod render;
 mod replay;
+mod scenarios;
+mod sim_node;
 mod train;
 
 pub use bench::{BenchRow, RenderRow, ScalingRow};
@@ -45,9 +49,9 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 enum Cmd {
     /// List the built-in scenarios with unit counts and mode.
-    Scenarios(info::ScenariosArgs),
+    Scenarios(scenarios::ScenariosArgs),
     /// Print SMAC's get_env_info() for a scenario.
-    EnvInfo(info::EnvInfoArgs),
+    EnvInfo(env_info::EnvInfoArgs),
     /// Run episodes in-process (scripted agents or a trained policy, `--agent marl:DIR`) and
     /// report win/draw/loss rates.
     Episode(episode::EpisodeArgs),
@@ -59,14 +63,14 @@ enum Cmd {
     /// (agent policies: scripted agents, `marl:DIR` checkpoints, or `dds`).
     Launch(launch::LaunchArgs),
     /// Make a secured launch file's certificates: an authority and one key pair per host.
-    Certs(launch::CertsArgs),
+    Certs(certs::CertsArgs),
     /// Join a deployment as this host and report which topics get through, and whether
     /// marked action batches sent as an agent node arrive (an access-control check).
     Probe(probe::ProbeArgs),
     /// Run the simulator node (publishes observations, takes actions) of a launch file.
-    SimNode(deploy::SimNodeArgs),
+    SimNode(sim_node::SimNodeArgs),
     /// Run one agent node: a policy for one unit or a role group.
-    AgentNode(deploy::AgentNodeArgs),
+    AgentNode(agent_node::AgentNodeArgs),
     /// Republish the deployment's topics onto ROS 2 DDS and carry DDS agents' actions back.
     Bridge(bridge::BridgeArgs),
     /// Record every topic to MCAP (ros2 profile).
@@ -101,17 +105,17 @@ impl Cli {
 /// allocator, when it has one (the binary does), for `bench`'s bytes per environment.
 pub fn run(cli: Cli, out: &mut dyn Write, alloc: Option<&'static StatsAlloc<System>>) -> anyhow::Result<()> {
     match cli.command {
-        Cmd::Scenarios(a) => info::scenarios(&a, out),
-        Cmd::EnvInfo(a) => info::env_info(&a, out),
+        Cmd::Scenarios(a) => scenarios::scenarios(&a, out),
+        Cmd::EnvInfo(a) => env_info::env_info(&a, out),
         Cmd::Episode(a) => episode::run(&a, out),
         Cmd::Bench(a) => bench::run(&a, out, alloc),
         Cmd::Render(a) => render::run(&a, out),
         Cmd::Launch(a) => launch::launch(&a, out),
-        Cmd::Certs(a) => launch::certs(&a, out),
+        Cmd::Certs(a) => certs::certs(&a, out),
         Cmd::Probe(a) => probe::run(&a, out),
-        Cmd::SimNode(a) => deploy::sim_node(&a, out),
-        Cmd::AgentNode(a) => deploy::agent_node(&a),
-        Cmd::Record(a) => deploy::record(&a),
+        Cmd::SimNode(a) => sim_node::sim_node(&a, out),
+        Cmd::AgentNode(a) => agent_node::agent_node(&a),
+        Cmd::Record(a) => record::command(&a),
         Cmd::Bridge(a) => bridge::run(&a),
         Cmd::Replay(a) => replay::run(&a, out),
         Cmd::Train(a) => train::run(&a, out),
@@ -129,4 +133,15 @@ where
 {
     let cli = Cli::try_parse_from(args)?;
     run(cli, out, None)
+}
+
+#[cfg(test)]
+mod tests {
+    /// clap checks its own definitions (flag names that `requires` and `conflicts_with`
+    /// refer to, ...) only when a command is parsed in a debug build: check every verb here,
+    /// not in a child process of a deployment test.
+    #[test]
+    fn every_command_line_definition_is_consistent() {
+        <super::Cli as clap::CommandFactory>::command().debug_assert();
+    }
 }

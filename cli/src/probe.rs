@@ -72,10 +72,9 @@ pub fn run(a: &ProbeArgs, out: &mut dyn Write) -> Result<()> {
     }
     let target = a.send_as.as_deref().map(AgentId::parse).transpose()?;
     // Named after its mark, so a listener can tell which probe's node it sees.
-    let name = format!(
-        "probe_{}",
-        AgentId::parse(&a.mark).map_err(|_| anyhow::anyhow!("--mark {}: must be like an agent id (lowercase, digits, '_')", a.mark))?
-    );
+    let mark =
+        AgentId::parse(&a.mark).map_err(|_| anyhow::anyhow!("--mark {}: must be like an agent id (lowercase, digits, '_')", a.mark))?;
+    let name = avacraft_nodes::NodeName::probe(&mark);
     let node = Node::open(&a.node, &a.node.namespace, &name).context("probe: opening the Zenoh session")?;
     let subs = keys
         .iter()

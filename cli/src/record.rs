@@ -72,7 +72,8 @@ fn split_key<'a>(types: &'a [TypeInfo], key: &str) -> Option<(Topic, &'a TypeInf
 }
 
 pub fn run(a: &RecordArgs, shutdown: &Shutdown) -> Result<RecordStats> {
-    let node = Node::open(&a.node, &a.node.namespace, "recorder").context("recorder: opening the Zenoh session")?;
+    let node =
+        Node::open(&a.node, &a.node.namespace, &avacraft_nodes::NodeName::recorder()).context("recorder: opening the Zenoh session")?;
     let file = std::fs::File::create(&a.out).with_context(|| format!("recorder: creating {}", a.out.display()))?;
     let opts = mcap::WriteOptions::new().profile("ros2").compression(Some(mcap::Compression::Zstd)).chunk_size(Some(64 * 1024));
     let mut w = opts.create(BufWriter::new(file)).with_context(|| format!("recorder: starting {}", a.out.display()))?;
@@ -161,6 +162,14 @@ pub fn run(a: &RecordArgs, shutdown: &Shutdown) -> Result<RecordStats> {
     w.finish().with_context(|| format!("recorder: finishing {}", a.out.display()))?;
     tracing::info!(messages = stats.messages, channels = stats.channels, "recording closed");
     Ok(stats)
+}
+
+/// `avacraft record`: records until stopped (SIGINT, SIGTERM).
+pub fn command(a: &RecordArgs) -> Result<()> {
+    avacraft_nodes::init_logging();
+    let shutdown = Shutdown::install();
+    run(a, &shutdown)?;
+    Ok(())
 }
 
 #[cfg(test)]

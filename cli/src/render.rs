@@ -1,6 +1,6 @@
 //! `render`: play a scenario up to a game loop and save what a team sees as a PNG.
 
-use crate::info::team_of;
+use crate::flags::team_of;
 use anyhow::{Context, Result, bail};
 use avacraft_engine::{Controllers, Env, EnvConfig, Mode, OpponentKind, Scenario, UnitId};
 use avacraft_render::{CpuBackend, FrameBuilder, VlmOptions};

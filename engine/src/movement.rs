@@ -3,8 +3,7 @@
 
 use crate::geom::Vec2;
 use crate::orca::{Agent, Neighbour};
-use crate::sim::{Intent, Snap};
-use crate::world::{Activity, Body, Order, World};
+use crate::world::{Activity, Body, Intent, Order, Snap, World};
 
 /// ORCA's time horizon in loops.
 const TAU: f32 = 6.0;
@@ -21,6 +20,8 @@ impl World {
     /// Moves every unit with a goal. Velocities are chosen from one snapshot of where
     /// everyone is and how they move at the start of the loop (as RVO2 does), then applied,
     /// so the result does not depend on the order units are processed in.
+    // Long on purpose: the movement phase's steps (snapshot, preferred velocities, ORCA,
+    // collisions, terrain) share one snapshot and run in this order; the steps are commented.
     pub(crate) fn move_units(&mut self, intents: &[Intent]) {
         let mut neighbours = std::mem::take(&mut self.scratch.neighbours);
         let mut snaps = std::mem::take(&mut self.scratch.snaps);

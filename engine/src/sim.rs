@@ -4,9 +4,8 @@
 use crate::combat::{LEASH, PendingHit, acquire_range, edge_dist, in_heal_range, weapon_for};
 use crate::geom::Vec2;
 use crate::ids::UnitId;
-use crate::orca::Neighbour;
 use crate::units::{Attrs, Race};
-use crate::world::{Activity, Order, Unit, World};
+use crate::world::{Activity, Intent, Order, Unit, World};
 use rand::Rng;
 
 /// Shields regenerate after this many loops without damage (10 Normal seconds).
@@ -21,45 +20,6 @@ pub const ENERGY_REGEN: f32 = 0.5625 / 16.0;
 const ARRIVE: f32 = 0.05;
 /// Loops of being blocked near its goal after which a move order ends.
 const BLOCKED_GIVE_UP: u16 = 16;
-
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct Intent {
-    /// Where to go and how close (centre to centre) is close enough.
-    pub goal: Option<(Vec2, f32)>,
-    pub fire: Option<(UnitId, usize)>,
-    pub heal: Option<UnitId>,
-    /// Unit to ignore in collision avoidance (the one it is closing on).
-    pub closing_on: Option<UnitId>,
-}
-
-/// A unit as movement sees it at the start of a loop: compact, so neighbour scans stay cheap.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Snap {
-    pub pos: Vec2,
-    pub vel: Vec2,
-    pub radius: f32,
-    pub body: crate::world::Body,
-    pub alive: bool,
-    /// Has a goal this loop (ORCA shares the avoidance with it).
-    pub moving: bool,
-    /// Share of an overlap push it takes (0: immobile).
-    pub weight: f32,
-    pub cliff_walk: bool,
-}
-
-impl Snap {
-    pub fn collides_with(&self, o: &Snap) -> bool {
-        crate::world::Body::collide(self.body, o.body)
-    }
-}
-
-#[derive(Clone, Debug, Default)]
-pub(crate) struct Scratch {
-    pub intents: Vec<Intent>,
-    pub neighbours: Vec<Neighbour>,
-    pub snaps: Vec<Snap>,
-    pub moves: Vec<(usize, Vec2)>,
-}
 
 impl World {
     /// Advances the world by one game loop.

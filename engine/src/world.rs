@@ -4,7 +4,7 @@
 use crate::ability::{AreaEffect, PendingCast, Status};
 use crate::geom::Vec2;
 use crate::ids::{Team, UnitId};
-use crate::orca::Orca;
+use crate::orca::{Neighbour, Orca};
 use crate::pathing::PathCache;
 use crate::scenario::{Scenario, Upgrade};
 use crate::spatial::SpatialGrid;
@@ -196,6 +196,47 @@ pub struct Shot {
     pub impact: Vec2,
 }
 
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Intent {
+    /// Where to go and how close (centre to centre) is close enough.
+    pub goal: Option<(Vec2, f32)>,
+    pub fire: Option<(UnitId, usize)>,
+    pub heal: Option<UnitId>,
+    /// Unit to ignore in collision avoidance (the one it is closing on).
+    pub closing_on: Option<UnitId>,
+}
+
+/// A unit as movement sees it at the start of a loop: compact, so neighbour scans stay cheap.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Snap {
+    pub pos: Vec2,
+    pub vel: Vec2,
+    pub radius: f32,
+    pub body: Body,
+    pub alive: bool,
+    /// Has a goal this loop (ORCA shares the avoidance with it).
+    pub moving: bool,
+    /// Share of an overlap push it takes (0: immobile).
+    pub weight: f32,
+    pub cliff_walk: bool,
+}
+
+impl Snap {
+    pub fn collides_with(&self, o: &Snap) -> bool {
+        Body::collide(self.body, o.body)
+    }
+}
+
+/// A loop's reusable buffers (filled by `sim` and `movement`), held by the world so that
+/// stepping allocates nothing.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Scratch {
+    pub intents: Vec<Intent>,
+    pub neighbours: Vec<Neighbour>,
+    pub snaps: Vec<Snap>,
+    pub moves: Vec<(usize, Vec2)>,
+}
+
 /// The simulated world.
 #[derive(Clone, Debug)]
 pub struct World {
@@ -227,7 +268,7 @@ pub struct World {
     pub(crate) orca: Orca,
     pub(crate) stats: [TeamStats; 2],
     pub(crate) shots: Vec<Shot>,
-    pub(crate) scratch: crate::sim::Scratch,
+    pub(crate) scratch: Scratch,
     /// Area effects on the ground (storms, force fields, shields, charges).
     pub(crate) effects: Vec<AreaEffect>,
     /// Casts accepted since the last loop.

@@ -5,7 +5,7 @@
 
 use avacraft_ava::AvaSpec;
 use avacraft_engine::{Mode, OpponentKind, Scenario, Team, builtin_names};
-use avacraft_launch::{AVA_POLICY, PolicyError, PolicySpec};
+use avacraft_policy::{PolicyError, PolicySpec, Resolve};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -223,6 +223,8 @@ pub fn parse(file: &str, text: &str, base: Option<&Path>) -> Result<Plan, PlanEr
     validate(file, raw, base)
 }
 
+// Long: one check per section of the plan in the file's order (scenarios, agents,
+// head-to-head, curves), each refusal naming its field.
 fn validate(file: &str, raw: RawPlan, base: Option<&Path>) -> Result<Plan, PlanError> {
     let err = |field: String, value: String, reason: String| PlanError::Invalid { file: file.to_owned(), field, value, reason };
     if raw.seeds.is_empty() {
@@ -290,20 +292,10 @@ fn validate(file: &str, raw: RawPlan, base: Option<&Path>) -> Result<Plan, PlanE
             value: format!("{:?}", a.policy),
             source: Box::new(source),
         };
-        let policy = if a.policy == AVA_POLICY {
-            let Some(mut spec) = a.ava.clone() else {
-                return Err(policy_err(f("policy"), PolicyError::AvaWithoutSpec));
-            };
-            if let Some(b) = base {
-                spec.resolve(b);
-            }
-            PolicySpec::ava(spec).map_err(|e| policy_err(f("ava"), e))?
-        } else {
-            if a.ava.is_some() {
-                return Err(err(f("ava"), "{..}".into(), "AVA settings go with `policy = \"ava\"`".into()));
-            }
-            PolicySpec::parse(&a.policy, base).map_err(|e| policy_err(f("policy"), e))?
-        };
+        let policy = PolicySpec::resolve(&a.policy, a.ava.clone(), Resolve::against(base)).map_err(|e| {
+            let field = if matches!(e, PolicyError::Ava(_) | PolicyError::SpecWithoutAva { .. }) { f("ava") } else { f("policy") };
+            policy_err(field, e)
+        })?;
         if policy.is_dds() {
             return Err(err(f("policy"), format!("{:?}", a.policy), "an evaluation plays in-process; DDS agents cannot".into()));
         }

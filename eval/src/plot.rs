@@ -3,7 +3,8 @@
 //! heatmap per PvP scenario, and the MARL learning curves of the plan's training runs.
 
 use crate::EvalError;
-use crate::report::Report;
+use crate::meta::Meta;
+use crate::stats::CellStats;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -33,27 +34,26 @@ const PALETTE: [RGBColor; 8] = [
     RGBColor(127, 127, 127),
 ];
 
-/// Every plot the report has; returns the files written.
-pub fn all(report: &Report, dir: &Path) -> Result<Vec<PathBuf>, EvalError> {
+/// Every plot the report of `cells` has; returns the files written.
+pub fn all(meta: &Meta, cells: &[CellStats], dir: &Path) -> Result<Vec<PathBuf>, EvalError> {
     font()?;
     let mut files = Vec::new();
-    let pve: Vec<_> = report.cells.iter().filter(|c| c.key.against.starts_with("opponent:")).collect();
+    let pve: Vec<_> = cells.iter().filter(|c| c.key.against.starts_with("opponent:")).collect();
     if !pve.is_empty() {
         let p = dir.join("winrate.png");
-        win_rates(report, &p)?;
+        win_rates(meta, cells, &p)?;
         files.push(p);
     }
-    let mut pvp: Vec<&str> =
-        report.cells.iter().filter(|c| !c.key.against.starts_with("opponent:")).map(|c| c.key.scenario.as_str()).collect();
+    let mut pvp: Vec<&str> = cells.iter().filter(|c| !c.key.against.starts_with("opponent:")).map(|c| c.key.scenario.as_str()).collect();
     pvp.dedup();
     for sc in pvp {
         let p = dir.join(format!("headtohead-{sc}.png"));
-        heatmap(report, sc, &p)?;
+        heatmap(meta, cells, sc, &p)?;
         files.push(p);
     }
-    if !report.meta.curves.is_empty() {
+    if !meta.curves.is_empty() {
         let p = dir.join("curves.png");
-        curves(report, &p)?;
+        curves(meta, &p)?;
         files.push(p);
     }
     Ok(files)
@@ -61,8 +61,8 @@ pub fn all(report: &Report, dir: &Path) -> Result<Vec<PathBuf>, EvalError> {
 
 /// Grouped bars: one group per (scenario, opponent), one bar per agent, whiskers at the 95%
 /// interval.
-fn win_rates(report: &Report, path: &Path) -> Result<(), EvalError> {
-    let cells: Vec<_> = report.cells.iter().filter(|c| c.key.against.starts_with("opponent:")).collect();
+fn win_rates(meta: &Meta, cells: &[CellStats], path: &Path) -> Result<(), EvalError> {
+    let cells: Vec<_> = cells.iter().filter(|c| c.key.against.starts_with("opponent:")).collect();
     let mut groups: Vec<(String, String)> = Vec::new();
     for c in &cells {
         let g = (c.key.scenario.clone(), c.key.against.clone());
@@ -70,8 +70,7 @@ fn win_rates(report: &Report, path: &Path) -> Result<(), EvalError> {
             groups.push(g);
         }
     }
-    let agents: Vec<&str> =
-        report.meta.agents.iter().map(|(n, _, _)| n.as_str()).filter(|a| cells.iter().any(|c| c.key.agent == *a)).collect();
+    let agents: Vec<&str> = meta.agents.iter().map(|(n, _, _)| n.as_str()).filter(|a| cells.iter().any(|c| c.key.agent == *a)).collect();
     let width = (160 + groups.len() * (agents.len() * 18 + 24)).clamp(700, 4000) as u32;
     let root = BitMapBackend::new(path, (width, 560)).into_drawing_area();
     root.fill(&WHITE).map_err(err)?;
@@ -86,7 +85,7 @@ fn win_rates(report: &Report, path: &Path) -> Result<(), EvalError> {
         })
     };
     let mut chart = ChartBuilder::on(&root)
-        .caption(format!("Win rate per scenario: {}", report.meta.name), ("sans-serif", 22))
+        .caption(format!("Win rate per scenario: {}", meta.name), ("sans-serif", 22))
         .margin(12)
         .x_label_area_size(210)
         .y_label_area_size(50)
@@ -138,15 +137,10 @@ fn win_rates(report: &Report, path: &Path) -> Result<(), EvalError> {
 }
 
 /// Row agent's win rate as team 1 against the column agent.
-fn heatmap(report: &Report, scenario: &str, path: &Path) -> Result<(), EvalError> {
-    let cells: Vec<_> = report.cells.iter().filter(|c| c.key.scenario == scenario && !c.key.against.starts_with("opponent:")).collect();
-    let names: Vec<&str> = report
-        .meta
-        .agents
-        .iter()
-        .map(|(n, _, _)| n.as_str())
-        .filter(|a| cells.iter().any(|c| c.key.agent == *a || c.key.against == *a))
-        .collect();
+fn heatmap(meta: &Meta, cells: &[CellStats], scenario: &str, path: &Path) -> Result<(), EvalError> {
+    let cells: Vec<_> = cells.iter().filter(|c| c.key.scenario == scenario && !c.key.against.starts_with("opponent:")).collect();
+    let names: Vec<&str> =
+        meta.agents.iter().map(|(n, _, _)| n.as_str()).filter(|a| cells.iter().any(|c| c.key.agent == *a || c.key.against == *a)).collect();
     let k = names.len().max(1);
     let side = (200 + k * 90).min(2000) as u32;
     let root = BitMapBackend::new(path, (side + 60, side)).into_drawing_area();
@@ -185,9 +179,9 @@ fn heatmap(report: &Report, scenario: &str, path: &Path) -> Result<(), EvalError
 }
 
 /// The greedy test win rate of each training run against environment steps.
-fn curves(report: &Report, path: &Path) -> Result<(), EvalError> {
+fn curves(meta: &Meta, path: &Path) -> Result<(), EvalError> {
     let mut runs = Vec::new();
-    for (name, dir) in &report.meta.curves {
+    for (name, dir) in &meta.curves {
         runs.push((name.as_str(), read_log(&dir.join("log.csv"))?));
     }
     let x_max = runs.iter().flat_map(|(_, p)| p.iter().map(|(t, _)| *t)).fold(1.0f64, f64::max);

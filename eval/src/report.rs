@@ -2,59 +2,14 @@
 //! JSON, and the plots. It reads only the folder (`plan.json` and `results.jsonl`), so merged
 //! shards report like one run.
 
-use crate::plan::{AgentKind, CellKey, Plan};
+use crate::meta::Meta;
+use crate::plan::{AgentKind, CellKey};
 use crate::results::{EpisodeResult, Loaded};
 use crate::stats::CellStats;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-
-/// What the report needs of the plan, written next to the results.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Meta {
-    pub name: String,
-    /// Name, kind and policy of each agent, in plan order.
-    pub agents: Vec<(String, AgentKind, String)>,
-    pub seeds: Vec<u64>,
-    /// Learning curves: name and training folder.
-    pub curves: Vec<(String, PathBuf)>,
-    /// Every cell the plan has, in plan order.
-    pub cells: Vec<CellKey>,
-    /// The shard of the plan this folder played (`None`: all of it, or a merge of all).
-    #[serde(default)]
-    pub shard: Option<crate::Shard>,
-    /// `(agent, scenario)`: shipped baselines missing, so left out.
-    #[serde(default)]
-    pub unshipped: Vec<(String, String)>,
-    /// Also written to this Markdown file, with its plots beside it.
-    #[serde(default)]
-    pub document: Option<PathBuf>,
-    #[serde(default)]
-    pub protocol: String,
-}
-
-pub const META_FILE: &str = "plan.json";
-
-impl Meta {
-    pub fn of(plan: &Plan) -> Meta {
-        Meta {
-            name: plan.name.clone(),
-            agents: plan.agents.iter().map(|a| (a.name.clone(), a.kind, a.policy.to_string())).collect(),
-            seeds: plan.seeds.clone(),
-            curves: plan.curves.iter().map(|c| (c.name.clone(), c.dir.clone())).collect(),
-            cells: plan.cells.iter().map(|c| c.key.clone()).collect(),
-            shard: None,
-            unshipped: plan.unshipped.clone(),
-            document: plan.document.clone(),
-            protocol: plan.protocol.clone(),
-        }
-    }
-
-    fn kind(&self, agent: &str) -> Option<AgentKind> {
-        self.agents.iter().find(|(n, _, _)| n == agent).map(|(_, k, _)| *k)
-    }
-}
 
 /// The whole report.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -187,6 +142,7 @@ impl Report {
     }
 
     /// The paper's tables as Markdown.
+    // Long: the document's sections in their printed order, sharing the column layout.
     pub fn markdown(&self) -> String {
         let mut s = String::new();
         let m = &self.meta;
@@ -394,7 +350,7 @@ impl Report {
         let json = serde_json::to_string_pretty(self)
             .map_err(|e| crate::EvalError::Io { path: dir.join("report.json"), source: std::io::Error::other(e) })?;
         put("report.json", &json)?;
-        let plots = crate::plot::all(self, dir)?;
+        let plots = crate::plot::all(&self.meta, &self.cells, dir)?;
         files.extend(plots.iter().cloned());
         if let Some(doc) = &self.meta.document {
             files.extend(self.write_document(doc, &plots)?);

@@ -4,6 +4,7 @@
 //! and skipped, never silently dropped from a merge.
 
 use crate::plan::CellKey;
+use avacraft_engine::Outcome;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::io::{BufRead, Write};
@@ -33,7 +34,7 @@ pub struct EpisodeResult {
     pub cell: CellKey,
     pub seed: u64,
     /// `win`, `draw` or `loss` for team 1; `None` when the episode failed.
-    pub result: Option<String>,
+    pub result: Option<Outcome>,
     /// Why the episode could not be played (an endpoint down, a replay that diverged).
     #[serde(default)]
     pub error: Option<String>,

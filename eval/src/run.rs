@@ -7,7 +7,7 @@ use crate::plan::{AgentDef, Cell, Job, Plan, Shard};
 use crate::results::{Appender, EpisodeResult, ModelUse, ResultsError};
 use avacraft_engine::agent::{AgentTeam, Grouping};
 use avacraft_engine::{Controllers, Env, EnvConfig, LOOPS_PER_SECOND, Outcome, RewardMode, Team};
-use avacraft_launch::PolicySpec;
+use avacraft_policy::Calls;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -84,6 +84,27 @@ pub fn run(plan: &Plan, opts: &RunOptions, progress: &dyn Progress) -> Result<Ru
     }
 }
 
+/// Why an episode could not be played (recorded in its result, with its sources, as text).
+#[derive(Debug, thiserror::Error)]
+pub enum EpisodeError {
+    #[error("{agent}: no recording of this episode under {}", dir.display())]
+    NoRecording { agent: String, dir: PathBuf },
+    #[error("{agent}: AVA ran without `record`, so its episodes cannot be replayed")]
+    NotRecorded { agent: String },
+    #[error("{agent}: 99 tries of this episode are recorded already")]
+    TooManyTries { agent: String },
+    #[error("{agent}")]
+    Policy {
+        agent: String,
+        #[source]
+        source: Box<avacraft_policy::PolicyError>,
+    },
+    #[error("AVA stopped: {0}")]
+    Ava(String),
+    #[error("the plan has no cell {0}")]
+    NoCell(usize),
+}
+
 /// Plays one job; never panics (a panicking agent becomes a failed result).
 pub fn play_job(plan: &Plan, job: Job, out: &Path) -> EpisodeResult {
     let cell = &plan.cells[job.cell];
@@ -104,7 +125,7 @@ pub fn play_job(plan: &Plan, job: Job, out: &Path) -> EpisodeResult {
     };
     match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| play(plan, cell, job.seed, out, None))) {
         Ok(Ok(r)) => r,
-        Ok(Err(why)) => failed(why),
+        Ok(Err(e)) => failed(chain(&e)),
         Err(p) => {
             let msg = p.downcast_ref::<String>().cloned().or_else(|| p.downcast_ref::<&str>().map(|s| (*s).to_owned())).unwrap_or_default();
             failed(format!("an agent panicked: {msg}"))
@@ -128,37 +149,46 @@ fn side(
     seed: u64,
     out: &Path,
     replay: bool,
-) -> Result<(AgentTeam, Option<Arc<avacraft_ava::AvaRun>>), String> {
-    match &agent.policy {
-        PolicySpec::Ava(spec) => {
-            let setup = if replay {
-                let mut spec = spec.as_ref().clone();
-                if spec.record.is_some() {
-                    let Some(dir) = ava_dirs(out, &agent.name, cell, seed, team).take_while(|p| p.exists()).last() else {
-                        return Err(format!("{}: no recording of this episode under {}", agent.name, out.join("ava").display()));
-                    };
-                    spec.model = avacraft_ava::ModelSpec::Replay { dir };
-                    // A replay records nothing (the spec's own folder holds the first run).
-                    spec.record = None;
-                } else if spec.model != avacraft_ava::ModelSpec::Synthetic {
-                    return Err(format!("{}: AVA ran without `record`, so its episodes cannot be replayed", agent.name));
-                }
-                spec.setup(None)
-            } else {
-                // Each episode records in its own folder (a failed one's is kept: a retry
-                // takes the next free name).
-                let dir = spec.record.as_ref().and_then(|_| ava_dirs(out, &agent.name, cell, seed, team).find(|p| !p.exists()));
-                spec.setup(dir.as_deref())
-            }
-            .map_err(|e| format!("{}: {e}", agent.name))?;
-            let run = Arc::clone(&setup.run);
-            Ok((AgentTeam::new(team, Grouping::Team, move || Box::new(avacraft_ava::AvaAgent::new(setup.clone()))), Some(run)))
+) -> Result<(AgentTeam, Option<Arc<avacraft_ava::AvaRun>>), EpisodeError> {
+    let calls = match agent.policy.ava_spec() {
+        // Replaying, AVA answers from the recording of the try that finished.
+        Some(spec) if replay && spec.record.is_some() => {
+            let Some(dir) = ava_dirs(out, &agent.name, cell, seed, team).take_while(|p| p.exists()).last() else {
+                return Err(EpisodeError::NoRecording { agent: agent.name.clone(), dir: out.join("ava") });
+            };
+            Calls::Replay(dir)
         }
-        p => {
-            let p = p.on(&cell.scenario).map_err(|e| format!("{}: {e}", agent.name))?;
-            Ok((AgentTeam::new(team, Grouping::Team, p.factory().map_err(|e| format!("{}: {e}", agent.name))?), None))
+        Some(spec) if replay && spec.model != avacraft_ava::ModelSpec::Synthetic => {
+            return Err(EpisodeError::NotRecorded { agent: agent.name.clone() });
         }
+        // Each episode records in its own folder (a failed one's is kept: a retry takes the
+        // next free name).
+        Some(spec) if !replay && spec.record.is_some() => match ava_dirs(out, &agent.name, cell, seed, team).find(|p| !p.exists()) {
+            Some(dir) => Calls::In(dir),
+            None => return Err(EpisodeError::TooManyTries { agent: agent.name.clone() }),
+        },
+        _ => Calls::Own,
+    };
+    let made = agent
+        .policy
+        .on(&cell.scenario)
+        .and_then(|p| p.make(&calls, None))
+        .map_err(|e| EpisodeError::Policy { agent: agent.name.clone(), source: Box::new(e) })?;
+    let make = made.factory;
+    Ok((AgentTeam::new(team, Grouping::Team, move || make()), made.run))
+}
+
+/// An error and its sources on one line (what `anyhow` prints with `{:#}`), for the
+/// episode's record.
+pub(crate) fn chain(e: &dyn std::error::Error) -> String {
+    let mut s = e.to_string();
+    let mut src = e.source();
+    while let Some(x) = src {
+        s.push_str(": ");
+        s.push_str(&x.to_string());
+        src = x.source();
     }
+    s
 }
 
 fn slug(s: &str) -> String {
@@ -184,12 +214,12 @@ fn model_use(run: &avacraft_ava::AvaRun) -> ModelUse {
 /// Plays a finished episode again, calling `on_step` with the environment before each step
 /// and once after the last (to draw it); AVA answers from the episode's recording, so no
 /// model is asked. The result's trajectory hash is the recorded one when all went well.
-pub fn replay_job(plan: &Plan, job: Job, out: &Path, on_step: &mut dyn FnMut(&Env)) -> Result<EpisodeResult, String> {
-    let cell = plan.cells.get(job.cell).ok_or_else(|| format!("no cell {}", job.cell))?;
+pub fn replay_job(plan: &Plan, job: Job, out: &Path, on_step: &mut dyn FnMut(&Env)) -> Result<EpisodeResult, EpisodeError> {
+    let cell = plan.cells.get(job.cell).ok_or(EpisodeError::NoCell(job.cell))?;
     play(plan, cell, job.seed, out, Some(on_step))
 }
 
-fn play(plan: &Plan, cell: &Cell, seed: u64, out: &Path, mut on_step: Option<&mut dyn FnMut(&Env)>) -> Result<EpisodeResult, String> {
+fn play(plan: &Plan, cell: &Cell, seed: u64, out: &Path, mut on_step: Option<&mut dyn FnMut(&Env)>) -> Result<EpisodeResult, EpisodeError> {
     let replay = on_step.is_some();
     let (one, run1) = side(&plan.agents[cell.agent], cell, Team::One, seed, out, replay)?;
     let mut teams = vec![one];
@@ -215,23 +245,19 @@ fn play(plan: &Plan, cell: &Cell, seed: u64, out: &Path, mut on_step: Option<&mu
     }
     for r in [&run1, &run2].into_iter().flatten() {
         if let Some(why) = r.fatal() {
-            return Err(why);
+            return Err(EpisodeError::Ava(why));
         }
     }
     let w = env.world();
     let per = |f: &dyn Fn(Team) -> f64| [f(Team::One), f(Team::Two)];
-    let result = match env.outcome().unwrap_or(Outcome::Draw) {
-        Outcome::Win => "win",
-        Outcome::Draw => "draw",
-        Outcome::Loss => "loss",
-    };
+    let result = env.outcome().unwrap_or(Outcome::Draw);
     let damage = per(&|t| f64::from(w.stats(t).damage_dealt));
     let kills = per(&|t| f64::from(w.stats(t).kills));
     let left = per(&|t| w.alive(t).count() as f64);
     Ok(EpisodeResult {
         cell: cell.key.clone(),
         seed,
-        result: Some(result.to_owned()),
+        result: Some(result),
         error: None,
         steps: env.steps(),
         game_seconds: f64::from(w.tick()) / f64::from(LOOPS_PER_SECOND),

@@ -5,6 +5,7 @@
 
 use crate::plan::CellKey;
 use crate::results::EpisodeResult;
+use avacraft_engine::Outcome;
 use serde::{Deserialize, Serialize};
 use statrs::distribution::{ContinuousCDF, Normal};
 
@@ -83,9 +84,9 @@ impl CellStats {
     /// The statistics of `results` (all of one cell); failed ones are counted apart.
     pub fn of(key: CellKey, results: &[&EpisodeResult], failed: usize) -> CellStats {
         let ok: Vec<&&EpisodeResult> = results.iter().filter(|r| r.ok()).collect();
-        let is = |r: &EpisodeResult, what: &str| r.result.as_deref() == Some(what);
-        let wins = ok.iter().filter(|r| is(r, "win")).count();
-        let draws = ok.iter().filter(|r| is(r, "draw")).count();
+        let is = |r: &EpisodeResult, what: Outcome| r.result == Some(what);
+        let wins = ok.iter().filter(|r| is(r, Outcome::Win)).count();
+        let draws = ok.iter().filter(|r| is(r, Outcome::Draw)).count();
         let n = ok.len();
         let rate = |k: usize| if n == 0 { 0.0 } else { k as f64 / n as f64 };
         let f = |g: &dyn Fn(&EpisodeResult) -> f64| MeanStd::of(ok.iter().map(|r| g(r)));
@@ -111,7 +112,7 @@ impl CellStats {
             wins,
             draws,
             losses: n - wins - draws,
-            win_rate: MeanStd::of(ok.iter().map(|r| f64::from(u8::from(is(r, "win"))))),
+            win_rate: MeanStd::of(ok.iter().map(|r| f64::from(u8::from(is(r, Outcome::Win))))),
             win_ci95: wilson95(wins, n),
             draw_rate: rate(draws),
             loss_rate: rate(n - wins - draws),

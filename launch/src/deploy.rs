@@ -10,101 +10,12 @@
 //! topics of the teams those nodes play for. A host named nowhere has no rule, and the
 //! default is deny.
 
-use crate::{LaunchError, Plan};
-use avacraft_nodes::{TeamNo, Topics};
-use serde::Deserialize;
+use crate::error::LaunchError;
+use crate::plan::{BridgePlan, BridgeTopic, Plan, RawBridge, RawSecurity, Security};
+use avacraft_nodes::{NodeName, TeamNo, Topics};
 use serde_json::json;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
-
-/// `security:` in a launch file.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RawSecurity {
-    /// Directory (relative to the launch file) with `ca.pem` and `<host>.pem` / `<host>.key`,
-    /// as `avacraft certs` writes them.
-    pub certs: PathBuf,
-}
-
-/// `bridge:` in a launch file.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RawBridge {
-    /// The host that runs it (default: the first).
-    #[serde(default)]
-    pub host: Option<String>,
-    /// DDS domain id on the ROS 2 side.
-    #[serde(default)]
-    pub dds_domain: u16,
-    /// Which topics go to DDS: any of `status`, `team_obs`, `unit_obs`, `frames`, `roles`.
-    #[serde(default = "bridge_topics")]
-    pub topics: Vec<String>,
-    /// Teams whose topics it carries (default: every agent team).
-    #[serde(default)]
-    pub teams: Vec<u8>,
-    /// Frames are scaled to this size (width, height) before they go to DDS: RustDDS is slow
-    /// for samples over 64 KB, and a 160x120 RGB frame is 57,600 bytes.
-    #[serde(default = "bridge_frame_size")]
-    pub frame_size: [u32; 2],
-    /// Only every this many frames goes to DDS.
-    #[serde(default = "one")]
-    pub frame_every: u32,
-    /// Local addresses DDS may use. Default `[127.0.0.1]`: DDS has no access control here, so
-    /// the bridged topics stay on this machine unless addresses are listed (`[]`: every
-    /// interface).
-    #[serde(default)]
-    pub dds_networks: Option<Vec<String>>,
-}
-
-fn bridge_topics() -> Vec<String> {
-    ["status", "team_obs", "unit_obs", "frames"].map(String::from).to_vec()
-}
-fn bridge_frame_size() -> [u32; 2] {
-    [160, 120]
-}
-fn one() -> u32 {
-    1
-}
-
-/// The deployment's certificates.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Security {
-    pub certs: PathBuf,
-}
-
-impl Security {
-    pub fn ca(&self) -> PathBuf {
-        self.certs.join("ca.pem")
-    }
-    pub fn cert(&self, host: &str) -> PathBuf {
-        self.certs.join(format!("{host}.pem"))
-    }
-    pub fn key(&self, host: &str) -> PathBuf {
-        self.certs.join(format!("{host}.key"))
-    }
-}
-
-/// What the bridge republishes onto DDS.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-pub enum BridgeTopic {
-    Status,
-    TeamObs,
-    UnitObs,
-    Frames,
-    Roles,
-}
-
-/// A validated `bridge:` section.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct BridgePlan {
-    pub host: String,
-    pub dds_domain: u16,
-    pub topics: BTreeSet<BridgeTopic>,
-    pub teams: Vec<TeamNo>,
-    pub frame_size: (u32, u32),
-    pub frame_every: u32,
-    pub dds_networks: Vec<std::net::IpAddr>,
-}
 
 /// A host or bridge name: lowercase letters, digits and '_' (it is a certificate's common
 /// name and a file name).
@@ -330,9 +241,14 @@ pub fn access_control(plan: &Plan, topics: &Topics, domain: u32) -> serde_json::
         teams.extend(commanders.iter().map(|c| c.team));
         let mut sends: Vec<String> = agents.iter().map(|a| key(&topics.actions(&a.id))).collect();
         // AVA nodes publish their model calls for the recording.
-        sends.extend(agents.iter().filter(|a| matches!(a.policy, crate::PolicySpec::Ava(_))).map(|a| key(&topics.model_calls(&a.id))));
         sends.extend(
-            commanders.iter().filter(|c| matches!(c.policy, crate::CommanderPolicy::Ava(_))).map(|c| key(&topics.model_calls(&c.id))),
+            agents.iter().filter(|a| matches!(a.policy, avacraft_policy::PolicySpec::Ava(_))).map(|a| key(&topics.model_calls(&a.id))),
+        );
+        sends.extend(
+            commanders
+                .iter()
+                .filter(|c| matches!(c.policy, avacraft_policy::CommanderPolicy::Ava(_)))
+                .map(|c| key(&topics.model_calls(&c.id))),
         );
         // A commander sends its team's orders (the simulator checks them).
         sends.extend(commanders.iter().map(|c| key(&topics.orders(c.team))));
@@ -361,18 +277,18 @@ pub fn access_control(plan: &Plan, topics: &Topics, domain: u32) -> serde_json::
         // The ROS graph: a host announces only its own nodes (so it cannot forge another's
         // agent or the simulator), may ask, and learns only whether the simulator is up.
         let mut own: Vec<String> = Vec::new();
-        let mut names_on_host: Vec<String> = agents.iter().map(|a| format!("agent_{}", a.id)).collect();
-        names_on_host.extend(commanders.iter().map(|c| format!("agent_{}", c.id)));
-        names_on_host.push(format!("launch_{host}"));
+        let mut names_on_host: Vec<NodeName> = agents.iter().map(|a| NodeName::agent(&a.id)).collect();
+        names_on_host.extend(commanders.iter().map(|c| NodeName::agent(&c.id)));
+        names_on_host.push(NodeName::launch_on(host));
         if bridged.is_some() {
-            names_on_host.push("bridge".into());
+            names_on_host.push(NodeName::bridge());
         }
         for n in &names_on_host {
             own.extend(avacraft_nodes::ros::node_token_space(domain, ns, n));
         }
         rule(format!("{host}_announce"), &["liveliness_token"], &["ingress"], &own);
         rule(format!("{host}_ask"), &["liveliness_query"], &["ingress"], std::slice::from_ref(&graph));
-        let [sim, _] = avacraft_nodes::ros::node_token_space(domain, ns, "sim");
+        let [sim, _] = avacraft_nodes::ros::node_token_space(domain, ns, &NodeName::sim());
         rule(format!("{host}_sim_up"), &["liveliness_token"], &["egress"], &[sim]);
         subjects.push(json!({ "id": format!("host_{host}"), "cert_common_names": [host] }));
         policies.push(json!({ "rules": names, "subjects": [format!("host_{host}")] }));

@@ -3,7 +3,8 @@
 //! `filled` mask. Inputs are built here once per batch (observation, agent id one-hot, last
 //! action one-hot), shared by the online and target networks.
 
-use crate::Error;
+use crate::frames::{Frames, StepFrames, sizes};
+use crate::{Config, Error};
 use candle_core::{Device, Tensor};
 use rand::seq::index::sample;
 use rand_chacha::ChaCha8Rng;
@@ -47,7 +48,7 @@ pub struct Episode {
     pub reward: Vec<f32>,
     pub terminated: Vec<f32>,
     /// Image modes: the step's frames (empty in `features` mode).
-    pub frames: crate::observe::Frames,
+    pub frames: Frames,
 }
 
 impl Episode {
@@ -154,7 +155,30 @@ pub struct Batch {
     /// `(T, B)`: 1.0 on real steps, 0.0 on padding.
     pub filled: Vec<f32>,
     /// Image modes: the episodes' frames (set by the caller; `None` from [`Batch::new`]).
-    pub frames: Option<crate::observe::FrameBatch>,
+    pub frames: Option<FrameBatch>,
+}
+
+/// The frames of a batch of episodes: every real step's, episode after episode. Beside the
+/// episodes it is built from, so that [`crate::frames`] needs nothing of the buffer.
+#[derive(Debug, Clone)]
+pub struct FrameBatch {
+    pub frames: StepFrames,
+    /// Steps with frames per episode.
+    pub lens: Vec<usize>,
+}
+
+impl FrameBatch {
+    pub fn new(episodes: &[&Episode], cfg: &Config) -> Result<FrameBatch, Error> {
+        for e in episodes {
+            if e.frames.len != e.len {
+                return Err(Error::Observation { message: format!("an episode of {} steps holds {} frames", e.len, e.frames.len) });
+            }
+        }
+        let stored: Vec<&Frames> = episodes.iter().map(|e| &e.frames).collect();
+        let frames = StepFrames::concat_stored(&stored, sizes(cfg));
+        frames.check()?;
+        Ok(FrameBatch { frames, lens: episodes.iter().map(|e| e.frames.len).collect() })
+    }
 }
 
 /// A [`Batch`] as candle tensors (the reference loss's and QTRAN's input).

@@ -8,7 +8,7 @@
 //! uses, and an override of a key the file lacks is refused like a typo.
 
 use crate::Error;
-use crate::encoders::settings::{self as obs, Backbone, ObsKind};
+use crate::encoders::settings::{self as obs, Backbone, ObsKind, SwinSizes};
 use avacraft_engine::{EnvConfig, RewardMode, Rules};
 use serde::{Deserialize, Serialize};
 
@@ -260,7 +260,7 @@ impl Config {
             ));
         }
         at_least("target_update_interval", self.target_update_interval, 1)?;
-        obs::validate(self)?;
+        validate_obs(self)?;
         Ok(())
     }
 
@@ -321,7 +321,7 @@ impl Config {
                 return Err(bad(key, v, "must not be negative", 0.0));
             }
         }
-        obs::validate(self)?;
+        validate_obs(self)?;
         Ok(())
     }
 
@@ -344,6 +344,93 @@ impl Config {
         let time_limit_loops = std::num::NonZeroU32::new(self.episode_limit.saturating_mul(base.step_mul.get()));
         EnvConfig { reward: self.reward, time_limit_loops, ..base }
     }
+}
+
+// Beside the config rather than the type: `encoders::settings` holds the types of the
+// config's observation keys, so it cannot read the config itself.
+impl SwinSizes {
+    /// The sizes `cfg` selects.
+    pub fn of(cfg: &Config) -> SwinSizes {
+        match cfg.encoder {
+            Backbone::SwinTiny => SwinSizes::tiny(),
+            _ => SwinSizes {
+                patch: cfg.swin_patch,
+                embed_dim: cfg.swin_embed_dim,
+                depths: cfg.swin_depths.clone(),
+                heads: cfg.swin_heads.clone(),
+                window: cfg.swin_window,
+            },
+        }
+    }
+}
+
+/// Checks the observation keys of `cfg`.
+fn validate_obs(cfg: &Config) -> Result<(), Error> {
+    let refuse = |key: &str, value: String, why: &str, nearest: String| Err(bad(key, value, why, nearest));
+    for (key, size) in [("screen_size", cfg.screen_size), ("minimap_size", cfg.minimap_size)] {
+        if size.iter().any(|&s| !(8..=4096).contains(&s)) {
+            let near = size.map(|s| s.clamp(8, 4096));
+            return refuse(key, format!("{size:?}"), "frame sides must lie in 8..=4096 pixels", format!("{near:?}"));
+        }
+    }
+    if !(2..=512).contains(&cfg.text_max_tokens) {
+        return refuse(
+            "text_max_tokens",
+            cfg.text_max_tokens.to_string(),
+            "must lie in 2..=512 (BERT's positions)",
+            cfg.text_max_tokens.clamp(2, 512).to_string(),
+        );
+    }
+    for (key, v) in [("encoder_dim", cfg.encoder_dim), ("text_dim", cfg.text_dim), ("cnn_pool", cfg.cnn_pool)] {
+        if v == 0 {
+            return refuse(key, "0".into(), "must be at least 1", "1".into());
+        }
+    }
+    if cfg.cnn_channels.is_empty() || cfg.cnn_channels.contains(&0) {
+        let near: Vec<usize> = if cfg.cnn_channels.is_empty() { vec![16] } else { cfg.cnn_channels.iter().map(|&c| c.max(1)).collect() };
+        return refuse(
+            "cnn_channels",
+            format!("{:?}", cfg.cnn_channels),
+            "needs at least one convolution, every width at least 1",
+            format!("{near:?}"),
+        );
+    }
+    let s = SwinSizes::of(cfg);
+    if s.depths.is_empty() || s.depths.len() != s.heads.len() {
+        let near: Vec<usize> = s.depths.iter().map(|_| 2).collect();
+        return refuse(
+            "swin_heads",
+            format!("{:?}", s.heads),
+            &format!("one head count per stage ({} stages in swin_depths)", s.depths.len()),
+            format!("{near:?}"),
+        );
+    }
+    for (key, v) in [("swin_patch", s.patch), ("swin_window", s.window), ("swin_embed_dim", s.embed_dim)] {
+        if v == 0 {
+            return refuse(key, "0".into(), "Swin sizes must be at least 1", "1".into());
+        }
+    }
+    if s.depths.contains(&0) {
+        return refuse(
+            "swin_depths",
+            format!("{:?}", s.depths),
+            "every stage needs at least 1 block",
+            format!("{:?}", s.depths.iter().map(|&d| d.max(1)).collect::<Vec<_>>()),
+        );
+    }
+    for (i, &h) in s.heads.iter().enumerate() {
+        let width = s.embed_dim << i;
+        if h == 0 || !width.is_multiple_of(h) {
+            let near = (1..=width).filter(|d| width.is_multiple_of(*d)).min_by_key(|d| d.abs_diff(h)).unwrap_or(1);
+            return refuse(
+                "swin_heads",
+                format!("{:?}", s.heads),
+                &format!("stage {} is {width} wide: its {h} heads must divide it", i + 1),
+                format!("{near} heads at stage {}", i + 1),
+            );
+        }
+    }
+    Ok(())
 }
 
 /// The error of a refused value: the key, the value, the rule, the nearest valid value.
@@ -449,5 +536,30 @@ mod tests {
         let e = Config::for_algo("qmix", &["buffer_size=3".into()]).err().map(|e| e.to_string()).unwrap_or_default();
         assert!(e.contains("buffer_size = 3") && e.contains("nearest valid value: 32"), "{e}");
         assert!(Config::for_algo("coma", &[]).is_err());
+    }
+
+    #[test]
+    fn obs_toml_matches_the_serde_defaults() -> Result<(), Error> {
+        // A config without the keys (as old checkpoints are) and one with obs.toml merged.
+        let with = Config::for_algo("qmix", &[])?;
+        let mut json = serde_json::to_value(&with).map_err(|source| Error::Json { path: "config".into(), source })?;
+        let keys: toml::Table =
+            toml::from_str(obs::OBS_DEFAULTS).map_err(|e| Error::ConfigParse { what: "obs.toml".into(), message: e.to_string() })?;
+        if let Some(o) = json.as_object_mut() {
+            for k in keys.keys() {
+                assert!(o.remove(k).is_some(), "{k} is not a Config field");
+            }
+        }
+        let without: Config = serde_json::from_value(json).map_err(|source| Error::Json { path: "config".into(), source })?;
+        assert_eq!(with, without);
+        Ok(())
+    }
+
+    #[test]
+    fn bad_swin_heads_are_named() {
+        let e = Config::for_algo("qmix", &["swin_heads=[5, 4]".into()]).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("swin_heads"), "{e}");
+        assert!(Config::for_algo("qmix", &["obs=\"vision-text\"".into(), "encoder=\"swin-tiny\"".into()]).is_ok());
+        assert!(Config::for_algo("qmix", &["obs=pixels".into()]).is_err());
     }
 }

@@ -1,8 +1,8 @@
-//! PyMARL's `QLearner` for IQL, VDN and QMIX (and its `QTranLearner`, in [`crate::qtran`]):
-//! the agent network unrolled over a batch of episodes, chosen-action Q-values mixed (or
-//! not), double-Q targets from the target networks (one-step, or PyMARL2's TD(lambda)),
-//! masked squared TD error, RMSprop or Adam with global-norm clipping, and target copies
-//! every `target_update_interval` episodes.
+//! PyMARL's `QLearner` for IQL, VDN and QMIX (and its `QTranLearner`, whose loss is in
+//! [`crate::qtran`]): the agent network unrolled over a batch of episodes, chosen-action
+//! Q-values mixed (or not), double-Q targets from the target networks (one-step, or
+//! PyMARL2's TD(lambda)), masked squared TD error, RMSprop or Adam with global-norm clipping,
+//! and target copies every `target_update_interval` episodes.
 //!
 //! IQL, VDN and QMIX train on flat parameter vectors through the fused kernels (agent
 //! network, mixer, loss and optimiser by hand: [`crate::kernels`], and [`fused`] here); the
@@ -13,118 +13,22 @@
 mod fused;
 
 use crate::buffer::{Batch, BatchTensors, Shape};
-use crate::nets::{AgentNet, Mixer, Params, QmixMixer};
 use crate::optim::{Optimizer, OptimizerKind};
-use crate::qtran::QtranMixer;
-use crate::{Config, Error, MixerKind};
+use crate::td::MASKED;
+use crate::{Config, Error};
 use candle_core::{D, Tensor};
 use fused::FlatState;
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 
-/// Masked-out Q-values (PyMARL's -9999999): finite, so padded rows stay finite too.
-pub(crate) const MASKED: f64 = -1e7;
-
-/// An agent network and, for VDN and QMIX, a mixer, with their parameters.
-#[derive(Debug)]
-pub struct Nets {
-    pub agent: AgentNet,
-    pub agent_params: Params,
-    pub mixer: Option<Mixer>,
-    pub mixer_params: Params,
-    /// QTRAN's joint action-value and state-value networks (in `mixer_params`).
-    pub qtran: Option<QtranMixer>,
-    /// Image modes: the observation encoder (its weights are in `agent_params`).
-    pub encoder: Option<crate::ObsEncoder>,
-}
-
-impl Nets {
-    /// Fresh networks for `cfg` and `shape`, every weight drawn from `seed`.
-    pub fn new(cfg: &Config, shape: &Shape, seed: u64) -> Result<Nets, Error> {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let mut agent_params = Params::default();
-        let input = crate::encoders::agent_input_width(cfg, shape);
-        let agent = if cfg.use_rnn {
-            AgentNet::new(&mut agent_params, input, cfg.rnn_hidden_dim, shape.n_actions, &mut rng)?
-        } else {
-            AgentNet::feed_forward(&mut agent_params, input, cfg.rnn_hidden_dim, shape.n_actions, &mut rng)?
-        };
-        let mut mixer_params = Params::default();
-        let (mut mixer, mut qtran) = (None, None);
-        match cfg.mixer {
-            MixerKind::None => {}
-            MixerKind::Vdn => mixer = Some(Mixer::Vdn),
-            MixerKind::Qmix => mixer = Some(Mixer::Qmix(QmixMixer::new(&mut mixer_params, shape.n_agents, shape.state, cfg, &mut rng)?)),
-            MixerKind::Qtran => qtran = Some(QtranMixer::new(&mut mixer_params, shape, cfg, &mut rng)?),
-        }
-        let encoder = crate::ObsEncoder::for_config(cfg, shape, &mut agent_params, seed)?;
-        Ok(Nets { agent, agent_params, mixer, mixer_params, qtran, encoder })
-    }
-
-    pub(crate) fn copy_from(&self, other: &Nets) -> Result<(), Error> {
-        self.agent_params.copy_from(&other.agent_params)?;
-        self.mixer_params.copy_from(&other.mixer_params)
-    }
-
-    /// Every weight as one flat vector: the agent network's, its encoder's, the mixer's.
-    pub fn flat(&self) -> Result<Vec<f32>, Error> {
-        let mut v = self.agent_params.flat(self.agent_params.vars().count())?;
-        v.extend(self.mixer_params.flat(self.mixer_params.vars().count())?);
-        Ok(v)
-    }
-
-    /// Sets every weight from a vector in [`Nets::flat`]'s layout.
-    pub fn set_flat(&self, flat: &[f32]) -> Result<(), Error> {
-        let n = self.agent_params.count();
-        let (agent, mixer) = flat.split_at(n.min(flat.len()));
-        self.agent_params.set_flat(self.agent_params.vars().count(), agent)?;
-        self.mixer_params.set_flat(self.mixer_params.vars().count(), mixer)
-    }
-
-    /// Q-values `(T+1, B*A, n_actions)` of the agent network unrolled over a batch: the
-    /// input layers and the output layer run on all steps at once, only the GRU step by step.
-    pub fn unroll(&self, batch: &Batch) -> Result<Tensor, Error> {
-        Ok(self.unroll_hidden(batch)?.0)
-    }
-
-    /// [`Nets::unroll`] and the GRU's hidden states `(T+1, B*A, hidden)` (QTRAN reads them).
-    pub fn unroll_hidden(&self, batch: &Batch) -> Result<(Tensor, Tensor), Error> {
-        let inputs = self.unroll_inputs(batch)?;
-        let (t1, rows, width) = inputs.dims3()?;
-        let gi = self.agent.project(&inputs.reshape((t1 * rows, width))?)?;
-        if !self.agent.is_recurrent() {
-            let q = self.agent.head(&gi)?.reshape((t1, rows, ()))?;
-            return Ok((q, gi.reshape((t1, rows, ()))?));
-        }
-        let gi = gi.reshape((t1, rows, ()))?;
-        let mut h = self.agent.zero_hidden(rows)?;
-        let mut hs = Vec::with_capacity(t1);
-        for ti in 0..t1 {
-            h = self.agent.recur(&gi.get(ti)?, &h)?;
-            hs.push(h.clone());
-        }
-        let hs = Tensor::stack(&hs, 0)?;
-        let q = self.agent.head(&hs.reshape((t1 * rows, self.agent.hidden))?)?.reshape((t1, rows, ()))?;
-        Ok((q, hs))
-    }
-}
+// These were defined here; their old paths stay valid.
+pub use crate::nets::Nets;
+pub use crate::policy::select_actions;
+pub use crate::td::{QGrads, td_targets, td_targets_flat};
 
 /// Statistics of one update.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct UpdateStats {
     pub loss: f64,
     pub grad_norm: f64,
-    pub td_abs: f64,
-    pub q_taken: f64,
-}
-
-/// A batch's loss and gradients ([`Learner::gradients`]).
-#[derive(Debug, Clone)]
-pub struct QGrads {
-    pub loss: f64,
-    /// Every parameter's gradient in [`Nets::flat`]'s layout.
-    pub grad: Vec<f32>,
-    /// The mean absolute TD error and the mean chosen Q-value over real steps.
     pub td_abs: f64,
     pub q_taken: f64,
 }
@@ -174,7 +78,7 @@ impl Learner {
     /// autograd all through: the reference for the fused update.
     pub fn loss(&self, batch: &Batch) -> Result<(Tensor, Tensor, Tensor), Error> {
         if self.nets.qtran.is_some() {
-            return crate::qtran::loss(self, batch);
+            return crate::qtran::loss(&self.cfg, self.shape.n_agents, (&self.nets, &self.target), batch);
         }
         let bt = batch.tensors()?;
         self.loss_of(batch, &bt, &self.nets.unroll(batch)?, &self.target.unroll(batch)?)
@@ -220,7 +124,7 @@ impl Learner {
     /// candle's autograd through the reference networks.
     pub fn gradients(&self, batch: &Batch, fused: bool) -> Result<QGrads, Error> {
         if fused && let Some(f) = &self.flat {
-            return f.gradients(self, batch);
+            return f.gradients(&self.cfg, &self.shape, (&self.nets, &self.target), batch);
         }
         let (loss, td, chosen) = self.loss(batch)?;
         let grads = loss.backward()?;
@@ -297,66 +201,4 @@ fn check_loss(loss: f64, update: u64) -> Result<(), Error> {
 /// A learner has either a flat state or candle's optimiser (QTRAN); never neither.
 fn unreachable_flat<T>() -> Result<T, Error> {
     Err(Error::Checkpoint { message: "a learner without an optimiser".into() })
-}
-
-/// The targets (time-major rows `t * B + b`, `C` columns) of a batch from the target
-/// networks' values of the next steps `next` `(T*B, C)`: `G_t = r_t + gamma (1 - d_t)
-/// ((1 - lambda) V_{t+1} + lambda G_{t+1})`, with `G` of an episode's last step bootstrapped
-/// from `V` alone (its time-out row, or nothing after a terminal step). `lambda = 0` gives
-/// one-step targets. Plain loops: the recursion runs backwards in time, which tensors would
-/// do one small op per step.
-pub fn td_targets_flat(batch: &Batch, next: &[f32], c: usize, gamma: f64, lambda: f64) -> Vec<f32> {
-    let (t, b) = (batch.t, batch.b);
-    let (r, d, f) = (&batch.reward, &batch.terminated, &batch.filled);
-    let (g32, l32) = (gamma as f32, lambda as f32);
-    let mut out = vec![0f32; t * b * c];
-    for bi in 0..b {
-        for ti in (0..t).rev() {
-            let row = ti * b + bi;
-            if f[row] == 0.0 {
-                continue;
-            }
-            let next_real = ti + 1 < t && f[row + b] != 0.0;
-            for k in 0..c {
-                let boot = if next_real { (1.0 - l32) * next[row * c + k] + l32 * out[(row + b) * c + k] } else { next[row * c + k] };
-                out[row * c + k] = r[row] + g32 * (1.0 - d[row]) * boot;
-            }
-        }
-    }
-    out
-}
-
-/// [`td_targets_flat`] on tensors.
-pub fn td_targets(batch: &Batch, next: &Tensor, gamma: f64, lambda: f64) -> Result<Tensor, Error> {
-    let c = next.dim(1)?;
-    let v: Vec<f32> = next.detach().flatten_all()?.to_vec1()?;
-    let out = td_targets_flat(batch, &v, c, gamma, lambda);
-    Ok(Tensor::from_vec(out, (batch.t * batch.b, c), next.device())?)
-}
-
-/// Epsilon-greedy over the available actions of each row of `q` (`rows x n_actions`): with
-/// probability `epsilon` a uniformly random available action, else the best available one
-/// (the first on ties). An unavailable action is never chosen; a row with no available
-/// action gets 0 (SMAC's no-op).
-pub fn select_actions(q: &[f32], avail: &[u8], n_actions: usize, epsilon: f64, rng: &mut ChaCha8Rng) -> Vec<u32> {
-    q.chunks_exact(n_actions.max(1))
-        .zip(avail.chunks_exact(n_actions.max(1)))
-        .map(|(qr, ar)| {
-            let n_avail = ar.iter().filter(|&&m| m != 0).count();
-            if n_avail == 0 {
-                return 0;
-            }
-            if epsilon > 0.0 && rng.random::<f64>() < epsilon {
-                let k = rng.random_range(0..n_avail);
-                return ar.iter().enumerate().filter(|(_, m)| **m != 0).nth(k).map_or(0, |(i, _)| i as u32);
-            }
-            let mut best: Option<(usize, f32)> = None;
-            for (i, (&v, &m)) in qr.iter().zip(ar).enumerate() {
-                if m != 0 && best.is_none_or(|(_, bv)| v > bv) {
-                    best = Some((i, v));
-                }
-            }
-            best.map_or(0, |(i, _)| i as u32)
-        })
-        .collect()
 }

@@ -40,28 +40,35 @@ pub mod baselines;
 pub mod buffer;
 pub mod config;
 pub mod encoders;
+pub mod frames;
 pub mod kernels;
 pub mod learner;
+pub mod monitor;
 pub mod nets;
 pub mod observe;
 pub mod optim;
+pub mod params;
 pub mod plot;
 pub mod policy;
 pub mod ppo;
 pub mod qtran;
 pub mod resume;
 pub mod runlog;
+pub mod td;
 pub mod train;
 
 pub use buffer::{Batch, Episode, ReplayBuffer, Shape};
 pub use config::{ALGOS, Config, MixerKind};
 pub use encoders::{Backbone, ObsEncoder, ObsKind};
-pub use learner::{Learner, Nets, QGrads, UpdateStats, select_actions};
+pub use learner::{Learner, UpdateStats};
+pub use monitor::{Progress, RunOptions, Summary};
+pub use nets::Nets;
 pub use observe::ObsSource;
 pub use optim::{Optimizer, OptimizerKind};
-pub use policy::{MarlAgent, Policy};
+pub use policy::{MarlAgent, Policy, TestResult, select_actions};
 pub use ppo::PpoLearner;
-pub use train::{Progress, RunOptions, Summary, TestResult, Trained, train, train_from};
+pub use td::QGrads;
+pub use train::{Trained, train, train_from};
 
 /// A config value refused: its key, the value, the rule it breaks and the nearest valid value
 /// (boxed in [`Error`] to keep the error small).

@@ -1,160 +1,22 @@
-//! The networks: PyMARL's RNN agent (fc -> GRU cell -> fc, one network shared by all agents)
-//! and the mixers (VDN's sum, QMIX's monotonic hypernetwork mixer). Parameters live in a
-//! [`Params`] list kept in creation order, initialised from a seeded ChaCha stream as
-//! PyTorch does (uniform in +-1/sqrt(fan_in)), so a seed fixes every weight: candle's own
-//! initialisers draw from an unseeded thread RNG on the CPU, and its `VarMap` is a `HashMap`.
+//! The networks: PyMARL's RNN agent (fc -> GRU cell -> fc, one network shared by all agents),
+//! the mixers (VDN's sum, QMIX's monotonic hypernetwork mixer, QTRAN-base's joint networks),
+//! and [`Nets`], the set a learner trains, an actor acts with and a checkpoint holds. Their
+//! weights are [`Params`] ([`crate::params`]).
+//!
+//! [`Nets`] includes an image mode's encoder, so this module sits above [`crate::encoders`]
+//! (whose layers come from [`crate::params`], not from here); the Q-learners, PPO, the
+//! checkpoints and the test episodes all build on it.
 
-use crate::Error;
-use candle_core::{D, DType, Device, Tensor, Var};
-use rand::Rng;
+use crate::buffer::{Batch, Shape};
+use crate::encoders::{NO_FRAME, ObsEncoder, agent_input_width};
+use crate::frames::{FrameTensors, StepFrames};
+use crate::{Config, Error, MixerKind};
+use candle_core::{D, DType, Device, Tensor};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use std::collections::HashMap;
 
-/// Named trainable variables in creation order.
-#[derive(Debug, Default)]
-pub struct Params {
-    vars: Vec<(String, Var)>,
-}
-
-impl Params {
-    /// A new variable of `shape`, uniform in `+-1/sqrt(fan_in)`.
-    pub(crate) fn uniform(&mut self, name: String, shape: &[usize], fan_in: usize, rng: &mut ChaCha8Rng) -> Result<Tensor, Error> {
-        let bound = 1.0 / (fan_in.max(1) as f32).sqrt();
-        let n: usize = shape.iter().product();
-        let data: Vec<f32> = (0..n).map(|_| rng.random_range(-bound..=bound)).collect();
-        let var = Var::from_vec(data, shape, &Device::Cpu)?;
-        let t = var.as_tensor().clone();
-        self.vars.push((name, var));
-        Ok(t)
-    }
-
-    /// A new variable of `shape` filled with `value` (layer norms' scales and shifts).
-    pub(crate) fn constant(&mut self, name: String, shape: &[usize], value: f32) -> Result<Tensor, Error> {
-        let n: usize = shape.iter().product();
-        let var = Var::from_vec(vec![value; n], shape, &Device::Cpu)?;
-        let t = var.as_tensor().clone();
-        self.vars.push((name, var));
-        Ok(t)
-    }
-
-    /// The number of trainable scalars.
-    pub fn count(&self) -> usize {
-        self.vars.iter().map(|(_, v)| v.elem_count()).sum()
-    }
-
-    pub fn vars(&self) -> impl Iterator<Item = &Var> {
-        self.vars.iter().map(|(_, v)| v)
-    }
-
-    /// Copies `other`'s values (a network of the same shape) into these variables.
-    pub fn copy_from(&self, other: &Params) -> Result<(), Error> {
-        for ((n, v), (m, w)) in self.vars.iter().zip(&other.vars) {
-            if n != m {
-                return Err(Error::Checkpoint { message: format!("parameter `{n}` copied from `{m}`") });
-            }
-            v.set(&w.as_tensor().detach().copy()?)?;
-        }
-        Ok(())
-    }
-
-    /// Multiplies the variables whose name starts with `prefix` by `factor` (PPO starts its
-    /// policy's output layer small, so the first policy is near uniform).
-    pub fn scale(&self, prefix: &str, factor: f64) -> Result<(), Error> {
-        for (_, v) in self.vars.iter().filter(|(n, _)| n.starts_with(prefix)) {
-            v.set(&(v.as_tensor().detach() * factor)?)?;
-        }
-        Ok(())
-    }
-
-    /// The first `k` variables' values, flattened and concatenated (the fused networks'
-    /// parameter vector, [`crate::kernels::NetLayout`]).
-    pub fn flat(&self, k: usize) -> Result<Vec<f32>, Error> {
-        let mut out = Vec::new();
-        for (_, v) in self.vars.iter().take(k) {
-            out.extend(v.as_tensor().flatten_all()?.to_vec1::<f32>()?);
-        }
-        Ok(out)
-    }
-
-    /// Sets the first `k` variables from a flat vector ([`Params::flat`]'s layout).
-    pub fn set_flat(&self, k: usize, flat: &[f32]) -> Result<(), Error> {
-        let mut at = 0;
-        for (n, v) in self.vars.iter().take(k) {
-            let len = v.elem_count();
-            let Some(part) = flat.get(at..at + len) else {
-                return Err(Error::Checkpoint { message: format!("a flat vector of {} values ends inside `{n}`", flat.len()) });
-            };
-            v.set(&Tensor::from_slice(part, v.shape(), &Device::Cpu)?)?;
-            at += len;
-        }
-        Ok(())
-    }
-
-    /// The values of the variables after the first `k` (an agent network's encoder),
-    /// flattened and concatenated.
-    pub fn flat_after(&self, k: usize) -> Result<Vec<f32>, Error> {
-        let mut out = Vec::new();
-        for (_, v) in self.vars.iter().skip(k) {
-            out.extend(v.as_tensor().flatten_all()?.to_vec1::<f32>()?);
-        }
-        Ok(out)
-    }
-
-    /// The number of variables.
-    pub fn len(&self) -> usize {
-        self.vars.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.vars.is_empty()
-    }
-
-    /// The variables after the first `k` (an agent network's encoder).
-    pub fn vars_after(&self, k: usize) -> impl Iterator<Item = &Var> {
-        self.vars.iter().skip(k).map(|(_, v)| v)
-    }
-
-    /// The values by name (what a safetensors file holds).
-    pub fn to_map(&self) -> HashMap<String, Tensor> {
-        self.vars.iter().map(|(n, v)| (n.clone(), v.as_tensor().detach())).collect()
-    }
-
-    /// Sets every variable from `map`, which must hold each name with the same shape.
-    pub fn load_map(&self, map: &HashMap<String, Tensor>, what: &str) -> Result<(), Error> {
-        for (n, v) in &self.vars {
-            let Some(t) = map.get(n) else {
-                return Err(Error::Checkpoint { message: format!("{what}: no tensor `{n}`") });
-            };
-            if t.dims() != v.dims() {
-                return Err(Error::Checkpoint {
-                    message: format!("{what}: `{n}` has shape {:?}, the network needs {:?}", t.dims(), v.dims()),
-                });
-            }
-            v.set(&t.to_dtype(DType::F32)?)?;
-        }
-        Ok(())
-    }
-}
-
-/// `y = x W^T + b`.
-#[derive(Debug, Clone)]
-pub struct Linear {
-    w: Tensor,
-    b: Tensor,
-}
-
-impl Linear {
-    pub(crate) fn new(p: &mut Params, name: &str, inp: usize, out: usize, rng: &mut ChaCha8Rng) -> Result<Linear, Error> {
-        Ok(Linear {
-            w: p.uniform(format!("{name}.weight"), &[out, inp], inp, rng)?,
-            b: p.uniform(format!("{name}.bias"), &[out], inp, rng)?,
-        })
-    }
-    /// `x` of shape `(N, inp)`.
-    pub(crate) fn forward(&self, x: &Tensor) -> Result<Tensor, Error> {
-        Ok(x.matmul(&self.w.t()?)?.broadcast_add(&self.b)?)
-    }
-}
+// `Params` and `Linear` were defined here; their old paths stay valid.
+pub use crate::params::{Linear, Params};
 
 /// PyMARL's `RNNAgent`: `fc1 -> ReLU -> GRUCell -> fc2`, one step at a time so the hidden
 /// state can be carried across environment steps while acting; or EPyMARL's `use_rnn: False`
@@ -199,8 +61,8 @@ impl AgentNet {
 
     /// The fused kernels' view of this network.
     pub fn layout(&self) -> crate::kernels::NetLayout {
-        let (out, _) = self.fc2.w.dims2().unwrap_or((0, 0));
-        let (_, input) = self.fc1.w.dims2().unwrap_or((0, 0));
+        let (out, _) = self.fc2.weight().dims2().unwrap_or((0, 0));
+        let (_, input) = self.fc1.weight().dims2().unwrap_or((0, 0));
         crate::kernels::NetLayout { input, hidden: self.hidden, out, recurrent: self.is_recurrent() }
     }
 
@@ -295,7 +157,7 @@ pub struct QmixMixer {
 }
 
 impl QmixMixer {
-    pub fn new(p: &mut Params, n_agents: usize, state: usize, cfg: &crate::Config, rng: &mut ChaCha8Rng) -> Result<QmixMixer, Error> {
+    pub fn new(p: &mut Params, n_agents: usize, state: usize, cfg: &Config, rng: &mut ChaCha8Rng) -> Result<QmixMixer, Error> {
         let (e, l, h) = (cfg.mixing_embed_dim, cfg.hypernet_layers, cfg.hypernet_embed);
         Ok(QmixMixer {
             w1: Hyper::new(p, "hyper_w_1", l, state, h, e * n_agents, rng)?,
@@ -335,5 +197,239 @@ impl Mixer {
             Mixer::Vdn => Ok(qs.sum_keepdim(D::Minus1)?),
             Mixer::Qmix(m) => m.forward(qs, states),
         }
+    }
+}
+
+/// Three layers with ReLUs between (PyMARL's `network_size: small`).
+#[derive(Debug, Clone)]
+struct Mlp3(Linear, Linear, Linear);
+
+impl Mlp3 {
+    fn new(p: &mut Params, name: &str, inp: usize, hidden: usize, rng: &mut ChaCha8Rng) -> Result<Mlp3, Error> {
+        Ok(Mlp3(
+            Linear::new(p, &format!("{name}.0"), inp, hidden, rng)?,
+            Linear::new(p, &format!("{name}.2"), hidden, hidden, rng)?,
+            Linear::new(p, &format!("{name}.4"), hidden, 1, rng)?,
+        ))
+    }
+    fn forward(&self, x: &Tensor) -> Result<Tensor, Error> {
+        self.2.forward(&self.1.forward(&self.0.forward(x)?.relu()?)?.relu()?)
+    }
+}
+
+/// QTRAN-base's joint networks (how they train: [`crate::qtran`]).
+#[derive(Debug, Clone)]
+pub struct QtranMixer {
+    q: Mlp3,
+    v: Mlp3,
+    enc0: Linear,
+    enc1: Linear,
+    n_agents: usize,
+    n_actions: usize,
+}
+
+impl QtranMixer {
+    pub fn new(p: &mut Params, shape: &Shape, cfg: &Config, rng: &mut ChaCha8Rng) -> Result<QtranMixer, Error> {
+        let ae = cfg.rnn_hidden_dim + shape.n_actions;
+        let e = cfg.mixing_embed_dim;
+        Ok(QtranMixer {
+            q: Mlp3::new(p, "Q", shape.state + ae, e, rng)?,
+            v: Mlp3::new(p, "V", shape.state, e, rng)?,
+            enc0: Linear::new(p, "action_encoding.0", ae, ae, rng)?,
+            enc1: Linear::new(p, "action_encoding.2", ae, ae, rng)?,
+            n_agents: shape.n_agents,
+            n_actions: shape.n_actions,
+        })
+    }
+
+    /// `Q_jt` `(N, 1)` of states `(N, S)`, the agents' hidden states `(N*A, H)` and their
+    /// actions as one-hot rows `(N*A, n_actions)`.
+    pub fn joint_q(&self, states: &Tensor, hidden: &Tensor, actions: &Tensor) -> Result<Tensor, Error> {
+        let n = states.dim(0)?;
+        let x = Tensor::cat(&[hidden, actions], 1)?;
+        let enc = self.enc1.forward(&self.enc0.forward(&x)?.relu()?)?;
+        let summed = enc.reshape((n, self.n_agents, ()))?.sum(1)?;
+        self.q.forward(&Tensor::cat(&[states, &summed], 1)?)
+    }
+
+    /// `V_jt` `(N, 1)` of states `(N, S)`.
+    pub fn value(&self, states: &Tensor) -> Result<Tensor, Error> {
+        self.v.forward(states)
+    }
+
+    /// One-hot rows `(M, n_actions)` of action indices `(M, 1)` (u32).
+    pub(crate) fn one_hot(&self, idx: &Tensor) -> Result<Tensor, Error> {
+        let m = idx.dim(0)?;
+        let zeros = Tensor::zeros((m, self.n_actions), DType::F32, idx.device())?;
+        let ones = Tensor::ones((m, 1), DType::F32, idx.device())?;
+        Ok(zeros.scatter_add(&idx.contiguous()?, &ones, 1)?)
+    }
+}
+
+/// An agent network and, for VDN and QMIX, a mixer, with their parameters.
+#[derive(Debug)]
+pub struct Nets {
+    pub agent: AgentNet,
+    pub agent_params: Params,
+    pub mixer: Option<Mixer>,
+    pub mixer_params: Params,
+    /// QTRAN's joint action-value and state-value networks (in `mixer_params`).
+    pub qtran: Option<QtranMixer>,
+    /// Image modes: the observation encoder (its weights are in `agent_params`).
+    pub encoder: Option<ObsEncoder>,
+}
+
+impl Nets {
+    /// Fresh networks for `cfg` and `shape`, every weight drawn from `seed`.
+    pub fn new(cfg: &Config, shape: &Shape, seed: u64) -> Result<Nets, Error> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut agent_params = Params::default();
+        let input = agent_input_width(cfg, shape);
+        let agent = if cfg.use_rnn {
+            AgentNet::new(&mut agent_params, input, cfg.rnn_hidden_dim, shape.n_actions, &mut rng)?
+        } else {
+            AgentNet::feed_forward(&mut agent_params, input, cfg.rnn_hidden_dim, shape.n_actions, &mut rng)?
+        };
+        let mut mixer_params = Params::default();
+        let (mut mixer, mut qtran) = (None, None);
+        match cfg.mixer {
+            MixerKind::None => {}
+            MixerKind::Vdn => mixer = Some(Mixer::Vdn),
+            MixerKind::Qmix => mixer = Some(Mixer::Qmix(QmixMixer::new(&mut mixer_params, shape.n_agents, shape.state, cfg, &mut rng)?)),
+            MixerKind::Qtran => qtran = Some(QtranMixer::new(&mut mixer_params, shape, cfg, &mut rng)?),
+        }
+        let encoder = ObsEncoder::for_config(cfg, shape, &mut agent_params, seed)?;
+        Ok(Nets { agent, agent_params, mixer, mixer_params, qtran, encoder })
+    }
+
+    pub(crate) fn copy_from(&self, other: &Nets) -> Result<(), Error> {
+        self.agent_params.copy_from(&other.agent_params)?;
+        self.mixer_params.copy_from(&other.mixer_params)
+    }
+
+    /// Every weight as one flat vector: the agent network's, its encoder's, the mixer's.
+    pub fn flat(&self) -> Result<Vec<f32>, Error> {
+        let mut v = self.agent_params.flat(self.agent_params.vars().count())?;
+        v.extend(self.mixer_params.flat(self.mixer_params.vars().count())?);
+        Ok(v)
+    }
+
+    /// Sets every weight from a vector in [`Nets::flat`]'s layout.
+    pub fn set_flat(&self, flat: &[f32]) -> Result<(), Error> {
+        let n = self.agent_params.count();
+        let (agent, mixer) = flat.split_at(n.min(flat.len()));
+        self.agent_params.set_flat(self.agent_params.vars().count(), agent)?;
+        self.mixer_params.set_flat(self.mixer_params.vars().count(), mixer)
+    }
+
+    /// Q-values `(T+1, B*A, n_actions)` of the agent network unrolled over a batch: the
+    /// input layers and the output layer run on all steps at once, only the GRU step by step.
+    pub fn unroll(&self, batch: &Batch) -> Result<Tensor, Error> {
+        Ok(self.unroll_hidden(batch)?.0)
+    }
+
+    /// [`Nets::unroll`] and the GRU's hidden states `(T+1, B*A, hidden)` (QTRAN reads them).
+    pub fn unroll_hidden(&self, batch: &Batch) -> Result<(Tensor, Tensor), Error> {
+        let inputs = self.unroll_inputs(batch)?;
+        let (t1, rows, width) = inputs.dims3()?;
+        let gi = self.agent.project(&inputs.reshape((t1 * rows, width))?)?;
+        if !self.agent.is_recurrent() {
+            let q = self.agent.head(&gi)?.reshape((t1, rows, ()))?;
+            return Ok((q, gi.reshape((t1, rows, ()))?));
+        }
+        let gi = gi.reshape((t1, rows, ()))?;
+        let mut h = self.agent.zero_hidden(rows)?;
+        let mut hs = Vec::with_capacity(t1);
+        for ti in 0..t1 {
+            h = self.agent.recur(&gi.get(ti)?, &h)?;
+            hs.push(h.clone());
+        }
+        let hs = Tensor::stack(&hs, 0)?;
+        let q = self.agent.head(&hs.reshape((t1 * rows, self.agent.hidden))?)?.reshape((t1, rows, ()))?;
+        Ok((q, hs))
+    }
+
+    /// The agent network's input rows for one step: `x` (SMAC's rows, `E * A`) as is in
+    /// `features` mode, else fused with the encoder's features of the `E` frames.
+    pub fn step_inputs(&self, x: Tensor, frames: Option<&FrameTensors>) -> Result<Tensor, Error> {
+        match (&self.encoder, frames) {
+            (None, _) => Ok(x),
+            (Some(e), Some(f)) => e.fuse(&e.forward(f)?, &x),
+            (Some(_), None) => Err(Error::Observation { message: "an image encoder was given no frames".into() }),
+        }
+    }
+
+    /// [`Nets::step_inputs`] from the renderer's pixels, through the fused encoder when
+    /// the backbone has one (what acting runs).
+    pub fn step_inputs_pixels(&self, x: Tensor, frames: Option<&StepFrames>) -> Result<Tensor, Error> {
+        match (&self.encoder, frames) {
+            (None, _) => Ok(x),
+            (Some(e), Some(f)) if e.kernel().is_some() => {
+                let theta = self.encoder_weights()?;
+                let feats = e.encode_pixels(Some(&theta), f)?;
+                let feats = Tensor::from_vec(feats, (f.n, e.out), x.device())?;
+                e.fuse(&feats, &x)
+            }
+            (Some(_), Some(f)) => self.step_inputs(x, Some(&f.tensors()?)),
+            (Some(_), None) => Err(Error::Observation { message: "an image encoder was given no frames".into() }),
+        }
+    }
+
+    /// The encoder's weights as one flat vector (its variables follow the agent network's).
+    pub fn encoder_weights(&self) -> Result<Vec<f32>, Error> {
+        self.agent_params.flat_after(self.agent.var_count())
+    }
+
+    /// Each row of a batch's agent-network input `(T+1, B*A)`: the index of the frame it
+    /// sees among the batch's frames (episode after episode), or [`NO_FRAME`] on the rows
+    /// after an episode's last step.
+    pub fn unroll_frames(&self, batch: &Batch) -> Result<Vec<u32>, Error> {
+        let Some(fb) = &batch.frames else {
+            return Err(Error::Observation { message: "an image encoder was given a batch without frames".into() });
+        };
+        let (t1, a) = (batch.t + 1, batch.n_agents);
+        let mut starts = Vec::with_capacity(fb.lens.len());
+        let mut off = 0u32;
+        for &len in &fb.lens {
+            starts.push((off, len));
+            off += len as u32;
+        }
+        let mut idx = Vec::with_capacity(t1 * starts.len() * a);
+        for ti in 0..t1 {
+            for &(start, len) in &starts {
+                let i = if ti < len.min(t1) { start + ti as u32 } else { NO_FRAME };
+                idx.extend(std::iter::repeat_n(i, a));
+            }
+        }
+        Ok(idx)
+    }
+
+    /// The agent network's inputs `(T+1, B*A, input)` for a batch: the encoder runs on the
+    /// batch's real frames only; padded steps get zero features (they are masked out).
+    pub fn unroll_inputs(&self, batch: &Batch) -> Result<Tensor, Error> {
+        let inputs = Tensor::from_slice(&batch.inputs, (batch.t + 1, batch.b * batch.n_agents, batch.width), &Device::Cpu)?;
+        let Some(e) = &self.encoder else { return Ok(inputs) };
+        let Some(fb) = &batch.frames else {
+            return Err(Error::Observation { message: "an image encoder was given a batch without frames".into() });
+        };
+        let (t1, rows, width) = inputs.dims3()?;
+        let feats = e.forward(&fb.frames.tensors()?)?;
+        let f = feats.dim(1)?;
+        let mut per_episode = Vec::with_capacity(fb.lens.len());
+        let mut off = 0;
+        for &len in &fb.lens {
+            let len = len.min(t1);
+            let ep = if len == 0 {
+                Tensor::zeros((t1, f), feats.dtype(), feats.device())?
+            } else {
+                feats.narrow(0, off, len)?.pad_with_zeros(0, 0, t1 - len)?
+            };
+            off += len;
+            per_episode.push(ep);
+        }
+        let b = per_episode.len();
+        let feats = Tensor::stack(&per_episode, 1)?.reshape((t1 * b, f))?; // (t, b) row order
+        let fused = e.fuse(&feats, &inputs.reshape((t1 * rows, width))?)?;
+        Ok(fused.reshape((t1, rows, ()))?)
     }
 }

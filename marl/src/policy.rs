@@ -11,14 +11,21 @@
 //! `agent.safetensors` too. An engine [`Agent`] is handed units, effects and text, not the
 //! world the renderer draws from, so [`MarlAgent`] refuses them; [`Policy::evaluate`] plays
 //! them greedily from rendered frames, exactly as training's test episodes do.
+//!
+//! Those test episodes are here too ([`test`]), with the environments they play in
+//! ([`opponent_factory`]) and the acting side they share with training's loop: a policy's
+//! evaluation plays them, and their opponent may itself be a checkpoint (`marl:DIR`), so in
+//! modules of their own they would import each other.
 
 use crate::buffer::{Shape, act_inputs};
-use crate::learner::{Nets, select_actions};
+use crate::frames::StepFrames;
+use crate::nets::Nets;
+use crate::observe::ObsSource;
 use crate::{Config, Error};
 use avacraft_engine::agent::view::id_of;
-use avacraft_engine::{Action, Agent, AgentCtx, GroupObs, Reads, Scenario, SmacLayout, Team};
-use candle_core::Device;
-use rand::SeedableRng;
+use avacraft_engine::{Action, Agent, AgentCtx, GroupObs, Reads, Scenario, SmacLayout, Team, VecBuffers, VecEnv};
+use candle_core::{Device, Tensor};
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -109,7 +116,7 @@ pub fn ship(run: &Path, to: &Path, max_bytes: u64) -> Result<Shipped, Error> {
     candle_core::safetensors::save(&weights, tmp.join("agent.safetensors"))?;
     let mut half = false;
     if size_without_curves(&tmp) > max_bytes {
-        let halved: Result<std::collections::HashMap<String, candle_core::Tensor>, candle_core::Error> =
+        let halved: Result<std::collections::HashMap<String, Tensor>, candle_core::Error> =
             weights.iter().map(|(k, t)| Ok((k.clone(), t.to_dtype(candle_core::DType::F16)?))).collect();
         candle_core::safetensors::save(&halved?, tmp.join("agent.safetensors"))?;
         half = true;
@@ -190,9 +197,9 @@ impl Policy {
 
     /// Greedy episodes (one per seed) on `scenario`, in any observation mode: frames are
     /// rendered from the environments as in training's test episodes.
-    pub fn evaluate(&self, scenario: &Arc<Scenario>, seeds: &[u64], threads: usize) -> Result<crate::TestResult, Error> {
+    pub fn evaluate(&self, scenario: &Arc<Scenario>, seeds: &[u64], threads: usize) -> Result<TestResult, Error> {
         self.check_scenario(scenario, Team::One)?;
-        crate::train::test(&self.nets, &self.cfg, scenario, seeds, threads)
+        test(&self.nets, &self.cfg, scenario, seeds, threads)
     }
 
     /// Why an engine agent cannot play this policy (`None`: it can).
@@ -309,4 +316,184 @@ impl Agent for MarlAgent {
         }
         out
     }
+}
+
+/// One round of greedy test episodes.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TestResult {
+    pub t_env: u64,
+    pub episodes: usize,
+    pub win_rate: f64,
+    pub mean_return: f64,
+}
+
+/// The acting side of a set of rows (environments x agents): GRU hidden states and last
+/// actions, reset per environment when its episode restarts. It acts through the fused
+/// network ([`crate::kernels::NetLayout`]) on the flat weights it is handed.
+pub(crate) struct Actor {
+    h: Vec<f32>,
+    last: Vec<Option<u32>>,
+    agents: Vec<usize>,
+    hidden: usize,
+}
+
+impl Actor {
+    pub(crate) fn new(nets: &Nets, envs: usize, n_agents: usize) -> Actor {
+        let rows = envs * n_agents;
+        let hidden = nets.agent.hidden;
+        Actor { h: vec![0.0; rows * hidden], last: vec![None; rows], agents: (0..rows).map(|r| r % n_agents.max(1)).collect(), hidden }
+    }
+
+    /// Actions for every row, epsilon-greedy over the masks (`frames`: the image modes'),
+    /// with the agent network's flat weights `theta`.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn act(
+        &mut self,
+        theta: &[f32],
+        nets: &Nets,
+        cfg: &Config,
+        shape: &Shape,
+        b: &VecBuffers,
+        frames: Option<&StepFrames>,
+        eps: f64,
+        rng: &mut ChaCha8Rng,
+    ) -> Result<Vec<u32>, Error> {
+        let rows = self.agents.len();
+        let mut x = act_inputs(&b.obs, &self.agents, &self.last, shape, cfg.obs_agent_id, cfg.obs_last_action);
+        if nets.encoder.is_some() {
+            let width = shape.input(cfg.obs_agent_id, cfg.obs_last_action);
+            let t = Tensor::from_vec(x, (rows, width), &Device::Cpu)?;
+            x = nets.step_inputs_pixels(t, frames)?.flatten_all()?.to_vec1()?;
+        }
+        let f = nets.agent.layout().forward(theta, &x, &self.h, None, None, 1, rows, false);
+        if nets.agent.is_recurrent() {
+            self.h = f.hidden;
+        }
+        let acts = select_actions(&f.out, &b.avail, shape.n_actions, eps, rng);
+        for (l, &a) in self.last.iter_mut().zip(&acts) {
+            *l = Some(a);
+        }
+        Ok(acts)
+    }
+
+    /// Clears the rows of the environments whose episode just ended.
+    pub(crate) fn reset_envs(&mut self, done: &[bool], n_agents: usize) {
+        for (e, &d) in done.iter().enumerate() {
+            if d {
+                let rows = e * n_agents..(e + 1) * n_agents;
+                self.h[rows.start * self.hidden..rows.end * self.hidden].fill(0.0);
+                self.last[rows].iter_mut().for_each(|l| *l = None);
+            }
+        }
+    }
+}
+
+pub(crate) fn vec_env(cfg: &Config, scenario: &Arc<Scenario>, seeds: &[u64], threads: usize) -> Result<VecEnv, Error> {
+    let env = VecEnv::new(Arc::clone(scenario), cfg.env_config(), seeds, threads.clamp(1, seeds.len()))?;
+    match opponent_factory(cfg)? {
+        Some(make) => {
+            env.with_opponent(make).map_err(|e| crate::config::bad("opponent", format!("{:?}", cfg.opponent), &e.to_string(), "\"\""))
+        }
+        None => Ok(env),
+    }
+}
+
+/// What makes team 2's agents under `cfg.opponent`: a scripted agent by name, or a trained
+/// policy (`marl:DIR`, loaded once and shared); `None` for "".
+pub fn opponent_factory(cfg: &Config) -> Result<Option<avacraft_engine::OpponentFactory>, Error> {
+    let name = cfg.opponent.trim();
+    if name.is_empty() {
+        return Ok(None);
+    }
+    if let Some(dir) = name.strip_prefix("marl:") {
+        let policy = Arc::new(Policy::load(Path::new(dir))?);
+        let label = name.to_owned();
+        return Ok(Some(Arc::new(move || Box::new(MarlAgent::new(Arc::clone(&policy), label.clone())))));
+    }
+    match avacraft_engine::agent::factory(name) {
+        Ok(make) => Ok(Some(Arc::new(make))),
+        Err(_) => Err(crate::config::bad(
+            "opponent",
+            format!("{name:?}"),
+            &format!(
+                "a scripted agent ({}) or marl:DIR",
+                avacraft_engine::agent::AGENTS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
+            ),
+            "\"focus-fire\"",
+        )),
+    }
+}
+
+/// The team's sizes in `scenario` under `cfg`.
+pub fn shape_of(cfg: &Config, scenario: &Arc<Scenario>) -> Result<Shape, Error> {
+    Ok(Shape::of(&vec_env(cfg, scenario, &[0], 1)?))
+}
+
+/// Greedy episodes, one per seed, all run together.
+pub fn test(nets: &Nets, cfg: &Config, scenario: &Arc<Scenario>, seeds: &[u64], threads: usize) -> Result<TestResult, Error> {
+    test_with(nets, cfg, scenario, seeds, threads, ObsSource::new(cfg)?.as_mut())
+}
+
+/// [`test`] with the image modes' observation source (`None` in `features` mode).
+pub fn test_with(
+    nets: &Nets,
+    cfg: &Config,
+    scenario: &Arc<Scenario>,
+    seeds: &[u64],
+    threads: usize,
+    mut source: Option<&mut ObsSource>,
+) -> Result<TestResult, Error> {
+    let mut env = vec_env(cfg, scenario, seeds, threads)?;
+    let (a, ..) = env.shape();
+    let shape = Shape::of(&env);
+    let mut actor = Actor::new(nets, seeds.len(), a);
+    let theta = nets.agent_params.flat(nets.agent.var_count())?;
+    let mut rng = ChaCha8Rng::seed_from_u64(0);
+    let (mut finished, mut won, mut returns) = (vec![false; seeds.len()], 0usize, vec![0f64; seeds.len()]);
+    while finished.iter().any(|f| !f) {
+        let frames = source.as_mut().map(|s| s.observe(env.envs())).transpose()?;
+        let acts = actor.act(&theta, nets, cfg, &shape, &env.buffers, frames.as_ref(), 0.0, &mut rng)?;
+        env.step(&acts.iter().map(|&x| i64::from(x)).collect::<Vec<_>>())?;
+        let b = &env.buffers;
+        let done: Vec<bool> = b.terminated.iter().zip(&b.truncated).map(|(t, u)| *t || *u).collect();
+        for e in 0..seeds.len() {
+            if !finished[e] {
+                returns[e] += f64::from(b.reward[e]);
+                if done[e] {
+                    finished[e] = true;
+                    won += usize::from(b.info[e].battle_won);
+                }
+            }
+        }
+        actor.reset_envs(&done, a);
+    }
+    let n = seeds.len().max(1) as f64;
+    Ok(TestResult { t_env: 0, episodes: seeds.len(), win_rate: won as f64 / n, mean_return: returns.iter().sum::<f64>() / n })
+}
+
+/// Epsilon-greedy over the available actions of each row of `q` (`rows x n_actions`): with
+/// probability `epsilon` a uniformly random available action, else the best available one
+/// (the first on ties). An unavailable action is never chosen; a row with no available
+/// action gets 0 (SMAC's no-op).
+pub fn select_actions(q: &[f32], avail: &[u8], n_actions: usize, epsilon: f64, rng: &mut ChaCha8Rng) -> Vec<u32> {
+    q.chunks_exact(n_actions.max(1))
+        .zip(avail.chunks_exact(n_actions.max(1)))
+        .map(|(qr, ar)| {
+            let n_avail = ar.iter().filter(|&&m| m != 0).count();
+            if n_avail == 0 {
+                return 0;
+            }
+            if epsilon > 0.0 && rng.random::<f64>() < epsilon {
+                let k = rng.random_range(0..n_avail);
+                return ar.iter().enumerate().filter(|(_, m)| **m != 0).nth(k).map_or(0, |(i, _)| i as u32);
+            }
+            let mut best: Option<(usize, f32)> = None;
+            for (i, (&v, &m)) in qr.iter().zip(ar).enumerate() {
+                if m != 0 && best.is_none_or(|(_, bv)| v > bv) {
+                    best = Some((i, v));
+                }
+            }
+            best.map_or(0, |(i, _)| i as u32)
+        })
+        .collect()
 }

@@ -4,91 +4,36 @@
 //! are tied to them by two extra losses instead of a structural constraint: at the greedy
 //! joint action `sum_i max q_i - Q_jt + V_jt = 0` (`opt`), and elsewhere it must not fall
 //! below zero (`nopt`). `Q_jt` itself learns by TD on the team reward.
+//!
+//! The networks ([`QtranMixer`]) are in [`crate::nets`] with the other mixers, as a learner's
+//! [`Nets`] hold them; this module is their loss.
 
-use crate::buffer::{Batch, Shape};
-use crate::learner::{Learner, MASKED, td_targets};
-use crate::nets::{Linear, Params};
+use crate::buffer::Batch;
+use crate::nets::Nets;
+use crate::td::{MASKED, td_targets};
 use crate::{Config, Error};
-use candle_core::{D, DType, Tensor};
-use rand_chacha::ChaCha8Rng;
+use candle_core::{D, Tensor};
 
-/// Three layers with ReLUs between (PyMARL's `network_size: small`).
-#[derive(Debug, Clone)]
-struct Mlp3(Linear, Linear, Linear);
-
-impl Mlp3 {
-    fn new(p: &mut Params, name: &str, inp: usize, hidden: usize, rng: &mut ChaCha8Rng) -> Result<Mlp3, Error> {
-        Ok(Mlp3(
-            Linear::new(p, &format!("{name}.0"), inp, hidden, rng)?,
-            Linear::new(p, &format!("{name}.2"), hidden, hidden, rng)?,
-            Linear::new(p, &format!("{name}.4"), hidden, 1, rng)?,
-        ))
-    }
-    fn forward(&self, x: &Tensor) -> Result<Tensor, Error> {
-        self.2.forward(&self.1.forward(&self.0.forward(x)?.relu()?)?.relu()?)
-    }
-}
-
-/// QTRAN-base's joint networks.
-#[derive(Debug, Clone)]
-pub struct QtranMixer {
-    q: Mlp3,
-    v: Mlp3,
-    enc0: Linear,
-    enc1: Linear,
-    n_agents: usize,
-    n_actions: usize,
-}
-
-impl QtranMixer {
-    pub fn new(p: &mut Params, shape: &Shape, cfg: &Config, rng: &mut ChaCha8Rng) -> Result<QtranMixer, Error> {
-        let ae = cfg.rnn_hidden_dim + shape.n_actions;
-        let e = cfg.mixing_embed_dim;
-        Ok(QtranMixer {
-            q: Mlp3::new(p, "Q", shape.state + ae, e, rng)?,
-            v: Mlp3::new(p, "V", shape.state, e, rng)?,
-            enc0: Linear::new(p, "action_encoding.0", ae, ae, rng)?,
-            enc1: Linear::new(p, "action_encoding.2", ae, ae, rng)?,
-            n_agents: shape.n_agents,
-            n_actions: shape.n_actions,
-        })
-    }
-
-    /// `Q_jt` `(N, 1)` of states `(N, S)`, the agents' hidden states `(N*A, H)` and their
-    /// actions as one-hot rows `(N*A, n_actions)`.
-    pub fn joint_q(&self, states: &Tensor, hidden: &Tensor, actions: &Tensor) -> Result<Tensor, Error> {
-        let n = states.dim(0)?;
-        let x = Tensor::cat(&[hidden, actions], 1)?;
-        let enc = self.enc1.forward(&self.enc0.forward(&x)?.relu()?)?;
-        let summed = enc.reshape((n, self.n_agents, ()))?.sum(1)?;
-        self.q.forward(&Tensor::cat(&[states, &summed], 1)?)
-    }
-
-    /// `V_jt` `(N, 1)` of states `(N, S)`.
-    pub fn value(&self, states: &Tensor) -> Result<Tensor, Error> {
-        self.v.forward(states)
-    }
-
-    /// One-hot rows `(M, n_actions)` of action indices `(M, 1)` (u32).
-    fn one_hot(&self, idx: &Tensor) -> Result<Tensor, Error> {
-        let m = idx.dim(0)?;
-        let zeros = Tensor::zeros((m, self.n_actions), DType::F32, idx.device())?;
-        let ones = Tensor::ones((m, 1), DType::F32, idx.device())?;
-        Ok(zeros.scatter_add(&idx.contiguous()?, &ones, 1)?)
-    }
-}
+// `QtranMixer` was defined here; its old path stays valid.
+pub use crate::nets::QtranMixer;
 
 /// PyMARL's QTRAN loss: `td + opt_loss * opt + nopt_min_loss * nopt`; returns the loss, the
-/// masked TD error and the chosen agents' Q-values (as [`Learner::loss`]).
-pub(crate) fn loss(l: &Learner, batch: &Batch) -> Result<(Tensor, Tensor, Tensor), Error> {
-    let (Some(mix), Some(tmix)) = (&l.nets.qtran, &l.target.qtran) else {
+/// masked TD error and the chosen agents' Q-values (as [`crate::Learner::loss`]), under a
+/// learner's networks and their targets: handed in rather than the learner, which calls
+/// this, so that this module need not import the learner.
+pub(crate) fn loss(
+    cfg: &Config,
+    n_agents: usize,
+    (nets, target): (&Nets, &Nets),
+    batch: &Batch,
+) -> Result<(Tensor, Tensor, Tensor), Error> {
+    let (Some(mix), Some(tmix)) = (&nets.qtran, &target.qtran) else {
         return Err(Error::Checkpoint { message: "QTRAN loss without QTRAN networks".into() });
     };
-    let (t, b, a) = (batch.t, batch.b, l.shape.n_agents);
-    let cfg = &l.cfg;
+    let (t, b, a) = (batch.t, batch.b, n_agents);
     let bt = batch.tensors()?;
-    let (q, hs) = l.nets.unroll_hidden(batch)?;
-    let (_, ths) = l.target.unroll_hidden(batch)?;
+    let (q, hs) = nets.unroll_hidden(batch)?;
+    let (_, ths) = target.unroll_hidden(batch)?;
     let hdim = hs.dim(2)?;
     let rows = t * b * a;
     let fill = Tensor::full(MASKED as f32, q.dims(), q.device())?;
@@ -107,7 +52,7 @@ pub(crate) fn loss(l: &Learner, batch: &Batch) -> Result<(Tensor, Tensor, Tensor
     let next_actions = if cfg.double_q {
         best.narrow(0, 1, t)?
     } else {
-        let tq = l.target.unroll(batch)?.narrow(0, 1, t)?;
+        let tq = target.unroll(batch)?.narrow(0, 1, t)?;
         let tfill = Tensor::full(MASKED as f32, tq.dims(), tq.device())?;
         bt.avail.narrow(0, 1, t)?.gt(0.0)?.where_cond(&tq, &tfill)?.argmax_keepdim(D::Minus1)?
     };

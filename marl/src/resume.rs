@@ -11,10 +11,11 @@
 //! estimates, the episodes that were running at the checkpoint and, for PPO, the unfinished
 //! rollout.
 
-use crate::learner::{Learner, Nets};
+use crate::learner::Learner;
+use crate::nets::Nets;
 use crate::plot::CurvePoint;
+use crate::policy::TestResult;
 use crate::ppo::{PpoLearner, ValueNorm};
-use crate::train::TestResult;
 use crate::{Config, Error};
 use candle_core::Device;
 use serde::{Deserialize, Serialize};

@@ -3,7 +3,7 @@
 
 use crate::cli::NodeArgs;
 use crate::ros::{self, EntityKind, NodeIdentity, Qos};
-use crate::topics::{Topic, TopicPattern};
+use crate::topics::{NodeName, Topic, TopicPattern};
 use avacraft_msgs::{DecodeError, RosMessage, decode, encode};
 use std::marker::PhantomData;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -17,20 +17,40 @@ use zenoh::sample::Sample;
 /// What can go wrong in the middleware layer.
 #[derive(Debug, thiserror::Error)]
 pub enum NodeError {
-    #[error("zenoh configuration `{key}` = {value}: {message}")]
-    Config { key: String, value: String, message: String },
-    #[error("cannot open the Zenoh session ({mode} mode, connect {connect:?}, listen {listen:?}): {message}")]
-    Open { mode: String, connect: Vec<String>, listen: Vec<String>, message: String },
-    #[error("cannot declare {what} on `{key}`: {message}")]
-    Declare { what: &'static str, key: String, message: String },
-    #[error("cannot publish on `{key}`: {message}")]
-    Put { key: String, message: String },
+    #[error("zenoh configuration `{key}` = {value}")]
+    Config {
+        key: String,
+        value: String,
+        #[source]
+        source: zenoh::Error,
+    },
+    #[error("cannot open the Zenoh session ({mode} mode, connect {connect:?}, listen {listen:?})")]
+    Open {
+        mode: String,
+        connect: Vec<String>,
+        listen: Vec<String>,
+        #[source]
+        source: zenoh::Error,
+    },
+    #[error("cannot declare {what} on `{key}`")]
+    Declare {
+        what: &'static str,
+        key: String,
+        #[source]
+        source: zenoh::Error,
+    },
+    #[error("cannot publish on `{key}`")]
+    Put {
+        key: String,
+        #[source]
+        source: zenoh::Error,
+    },
     #[error("the subscription on `{key}` was closed")]
     Closed { key: String },
 }
 
-fn cfg_err(key: &str, value: &str, e: impl std::fmt::Display) -> NodeError {
-    NodeError::Config { key: key.to_owned(), value: value.to_owned(), message: e.to_string() }
+fn cfg_err(key: &str, value: &str, e: impl Into<zenoh::Error>) -> NodeError {
+    NodeError::Config { key: key.to_owned(), value: value.to_owned(), source: e.into() }
 }
 
 /// An open node.
@@ -93,26 +113,26 @@ pub fn zenoh_config(args: &NodeArgs) -> Result<zenoh::Config, NodeError> {
 
 impl Node {
     /// Opens a session and announces the node `name` under the ROS namespace `namespace`.
-    pub fn open(args: &NodeArgs, namespace: &str, name: &str) -> Result<Node, NodeError> {
+    pub fn open(args: &NodeArgs, namespace: &str, name: &NodeName) -> Result<Node, NodeError> {
         let config = zenoh_config(args)?;
         let session = zenoh::open(config).wait().map_err(|e| NodeError::Open {
             mode: args.mode.name().to_owned(),
             connect: args.connect.clone(),
             listen: args.listen.clone(),
-            message: e.to_string(),
+            source: e,
         })?;
         let id = NodeIdentity {
             domain: args.domain,
             zid: session.zid().to_string(),
             node_id: 0,
             namespace: namespace.to_owned(),
-            name: name.to_owned(),
+            name: name.as_str().to_owned(),
         };
         let key = id.node_token();
         let token = session.liveliness().declare_token(key.clone()).wait().map_err(|e| NodeError::Declare {
             what: "a node liveliness token",
             key,
-            message: e.to_string(),
+            source: e,
         })?;
         Ok(Node { session, id, next_entity: AtomicU32::new(1), _token: token })
     }
@@ -130,7 +150,7 @@ impl Node {
         let token = self.session.liveliness().declare_token(key.clone()).wait().map_err(|e| NodeError::Declare {
             what: "an endpoint liveliness token",
             key: key.clone(),
-            message: e.to_string(),
+            source: e,
         })?;
         Ok((key, token))
     }
@@ -141,7 +161,7 @@ impl Node {
         let replies = self.session.liveliness().get(key.clone()).timeout(timeout).wait().map_err(|e| NodeError::Declare {
             what: "a liveliness query",
             key,
-            message: e.to_string(),
+            source: e,
         })?;
         let mut out = Vec::new();
         while let Ok(r) = replies.recv() {
@@ -184,7 +204,7 @@ impl Node {
         let inner = self.session.declare_publisher(key.clone()).congestion_control(cc).wait().map_err(|e| NodeError::Declare {
             what: "a publisher",
             key: key.clone(),
-            message: e.to_string(),
+            source: e,
         })?;
         Ok(Publisher { inner, key, topic: topic.clone(), seq: 0, gid: ros::gid(&token_key), _token: token, _t: PhantomData })
     }
@@ -197,7 +217,7 @@ impl Node {
         let key = ros::pattern_key(self.id.domain, &topic, dds, hash);
         // A pattern is announced under its name with '*' shown as `any`, a valid ROS name.
         let (_, token) = self.token(EntityKind::Subscription, &topic.shown(), dds, hash, qos)?;
-        let err = |e: zenoh::Error| NodeError::Declare { what: "a subscriber", key: key.clone(), message: e.to_string() };
+        let err = |e: zenoh::Error| NodeError::Declare { what: "a subscriber", key: key.clone(), source: e };
         // Reliable: a deep queue that holds the sender back when full. Best effort (frames):
         // a ring of `depth` that drops the oldest, so a slow reader never queues stale frames
         // or pushes back on the router.
@@ -248,11 +268,7 @@ impl<T: RosMessage> Publisher<T> {
     pub fn put_bytes(&mut self, payload: Vec<u8>) -> Result<(), NodeError> {
         self.seq += 1;
         let att = ros::attachment(self.seq, now_ns(), &self.gid);
-        self.inner
-            .put(payload)
-            .attachment(att.to_vec())
-            .wait()
-            .map_err(|e| NodeError::Put { key: self.key.clone(), message: e.to_string() })
+        self.inner.put(payload).attachment(att.to_vec()).wait().map_err(|e| NodeError::Put { key: self.key.clone(), source: e })
     }
     pub fn key(&self) -> &str {
         &self.key

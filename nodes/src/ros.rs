@@ -70,7 +70,7 @@ pub fn liveliness_space(domain: u32) -> String {
 }
 
 /// The liveliness tokens of one node: its node token and its endpoints' tokens.
-pub fn node_token_space(domain: u32, namespace: &str, name: &str) -> [String; 2] {
+pub fn node_token_space(domain: u32, namespace: &str, name: &crate::NodeName) -> [String; 2] {
     let node = format!("@ros2_lv/{domain}/*/*/*/*/*/{}/{name}", mangle(namespace));
     [node.clone(), format!("{node}/**")]
 }

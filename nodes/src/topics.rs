@@ -1,6 +1,7 @@
 //! Every topic name in the deployment comes from here: a validated ROS 2 name type and one
 //! builder per topic, so no raw topic string exists anywhere else.
 
+use avacraft_engine::{Team, UnitId};
 use std::fmt;
 
 /// Why a name was refused.
@@ -10,7 +11,7 @@ pub enum NameError {
     Topic(String),
     #[error("agent id `{0}`: must be 1 to 64 lowercase letters, digits or '_', starting with a letter")]
     Agent(String),
-    #[error("unit tag {0}: tags start at 1")]
+    #[error("unit tag {0}: tags run from 1 to 65536")]
     Unit(u32),
     #[error("team {0}: must be 1 or 2")]
     Team(u8),
@@ -77,11 +78,39 @@ impl fmt::Display for AgentId {
 pub struct UnitTag(u32);
 
 impl UnitTag {
+    /// A tag read from outside: refused unless it names a unit id ([`UnitId`]'s rule).
     pub fn new(tag: u32) -> Result<UnitTag, NameError> {
-        if tag >= 1 { Ok(UnitTag(tag)) } else { Err(NameError::Unit(tag)) }
+        UnitId::try_from(tag).map(UnitTag::from).map_err(|_| NameError::Unit(tag))
     }
     pub fn get(self) -> u32 {
         self.0
+    }
+}
+
+/// Every unit id has a tag.
+impl From<UnitId> for UnitTag {
+    fn from(id: UnitId) -> UnitTag {
+        UnitTag(id.tag())
+    }
+}
+
+/// Every tag names a unit id ([`UnitTag::new`] checked it).
+impl From<UnitTag> for UnitId {
+    fn from(tag: UnitTag) -> UnitId {
+        UnitId::new((tag.0 - 1) as u16)
+    }
+}
+
+/// Every side has a number.
+impl From<Team> for TeamNo {
+    fn from(team: Team) -> TeamNo {
+        TeamNo(team.player())
+    }
+}
+
+impl From<TeamNo> for Team {
+    fn from(no: TeamNo) -> Team {
+        no.team()
     }
 }
 
@@ -97,8 +126,8 @@ impl TeamNo {
         self.0
     }
     /// The engine's side of this number.
-    pub fn team(self) -> avacraft_engine::Team {
-        if self.0 == 1 { avacraft_engine::Team::One } else { avacraft_engine::Team::Two }
+    pub fn team(self) -> Team {
+        if self.0 == 1 { Team::One } else { Team::Two }
     }
 }
 
@@ -118,6 +147,52 @@ impl FrameKind {
             FrameKind::Minimap => "minimap",
             FrameKind::Vlm => "vlm",
         }
+    }
+}
+
+/// A node's ROS 2 name: what `ros2 node list` shows, what the simulator waits for and what
+/// access control grants. Built here only, so the launcher, the simulator and the ACL agree.
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct NodeName(String);
+
+impl NodeName {
+    pub fn sim() -> NodeName {
+        NodeName("sim".into())
+    }
+    pub fn recorder() -> NodeName {
+        NodeName("recorder".into())
+    }
+    pub fn bridge() -> NodeName {
+        NodeName("bridge".into())
+    }
+    /// The launcher's own node (it hosts the router).
+    pub fn launch() -> NodeName {
+        NodeName("launch".into())
+    }
+    /// The launcher of one host of a deployment across hosts.
+    pub fn launch_on(host: &str) -> NodeName {
+        NodeName(format!("launch_{host}"))
+    }
+    /// An agent node or commander.
+    pub fn agent(id: &AgentId) -> NodeName {
+        NodeName(format!("agent_{id}"))
+    }
+    /// A probe, named after its mark.
+    pub fn probe(mark: &AgentId) -> NodeName {
+        NodeName(format!("probe_{mark}"))
+    }
+    /// A tool's node (benchmarks): a name in the agent id alphabet.
+    pub fn tool(name: &str) -> Result<NodeName, NameError> {
+        AgentId::parse(name).map(|a| NodeName(a.0))
+    }
+    pub fn as_str(&self) -> &str {
+        &self.0
+    }
+}
+
+impl fmt::Display for NodeName {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
     }
 }
 

@@ -3,21 +3,30 @@
 //! so a Python run asks the model exactly what the command line asks and records the same
 //! calls (replayable with `model={"kind": "replay", ...}`).
 
-use crate::AvacraftError;
 use crate::env::PyEnv;
-use avacraft_ava::{AvaAgent, AvaSetup, AvaSpec};
+use crate::error::AvacraftError;
+use avacraft_ava::{AvaRun, AvaSpec};
 use avacraft_engine::agent::{AgentTeam, Grouping};
 use avacraft_engine::{Mode, Team};
+use avacraft_policy::{AVA_POLICY, AgentFactory, Calls, PolicySpec, Resolve};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
+use std::sync::Arc;
 
 /// The AVA agent with its settings and its run (model, recording, accounting).
 #[pyclass(module = "avacraft._avacraft", name = "Ava", subclass)]
-#[derive(Debug)]
 pub struct PyAva {
     spec: AvaSpec,
-    setup: AvaSetup,
+    /// Made by the policy registry, as `--agent ava` and launch files make it.
+    make: AgentFactory,
+    run: Arc<AvaRun>,
+}
+
+impl std::fmt::Debug for PyAva {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PyAva").field("model", &self.spec.model.label()).finish_non_exhaustive()
+    }
 }
 
 fn err(e: impl std::fmt::Display) -> PyErr {
@@ -35,16 +44,19 @@ impl PyAva {
         if record.is_some() {
             spec.record = record;
         }
-        let setup = spec.setup(None).map_err(|e| {
-            let mut msg = e.to_string();
-            let mut src = std::error::Error::source(&e);
-            while let Some(s) = src {
-                msg.push_str(&format!(": {s}"));
-                src = s.source();
-            }
-            err(msg)
-        })?;
-        Ok(Self { spec, setup })
+        let made = PolicySpec::resolve(AVA_POLICY, Some(spec.clone()), Resolve::default())
+            .and_then(|p| p.make(&Calls::Own, None))
+            .map_err(|e| {
+                let mut msg = e.to_string();
+                let mut src = std::error::Error::source(&e);
+                while let Some(s) = src {
+                    msg.push_str(&format!(": {s}"));
+                    src = s.source();
+                }
+                err(msg)
+            })?;
+        let run = made.run.ok_or_else(|| err("an AVA policy is made with its run"))?;
+        Ok(Self { spec, make: made.factory, run })
     }
 
     /// The settings as JSON (the key is never part of them).
@@ -65,13 +77,13 @@ impl PyAva {
         if env.scenario().mode == Mode::Pve && team == Team::Two {
             return Err(err("team 2 of a PvE scenario is the opponent's"));
         }
-        let s = self.setup.clone();
-        let mut side = AgentTeam::new(team, Grouping::Team, move || Box::new(AvaAgent::new(s.clone())));
+        let make = Arc::clone(&self.make);
+        let mut side = AgentTeam::new(team, Grouping::Team, move || make());
         // The agent opens its episode's accounting at reset.
-        let before = self.setup.run.episodes().len();
+        let before = self.run.episodes().len();
         env.reset(seed);
         side.reset(env);
-        let run = &self.setup.run;
+        let run = &self.run;
         // Without the GIL while the model thinks: other Python threads (a server answering
         // on loopback, a progress display) keep running.
         let fatal = py.detach(|| {
@@ -89,14 +101,14 @@ impl PyAva {
             return Err(err(format!("AVA stopped: {why}")));
         }
         let d = crate::marl::episode_result(py, env, team)?;
-        let cost = self.setup.run.episodes().get(before).cloned().unwrap_or_default();
+        let cost = self.run.episodes().get(before).cloned().unwrap_or_default();
         d.set_item("cost", serde_json::to_string(&cost).map_err(err)?)?;
         Ok(d)
     }
 
     /// Every episode's accounting so far, as JSON.
     fn costs_json(&self) -> PyResult<String> {
-        serde_json::to_string(&self.setup.run.episodes()).map_err(err)
+        serde_json::to_string(&self.run.episodes()).map_err(err)
     }
 
     fn __repr__(&self) -> String {

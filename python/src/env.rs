@@ -2,7 +2,8 @@
 //! frames and an episode recording.
 
 use crate::convert::{image, indices, matrix, to_py};
-use crate::{Error, Options, load_scenario};
+use crate::error::{AvacraftError, Error};
+use crate::options::{Options, load_scenario};
 use avacraft_engine::{Action, Env, LearnError, Mode, Team, UnitId, describe, unit_list};
 use avacraft_render::{ObsMode, Observer, RenderConfig, RgbImage, VideoWriter, VlmOptions};
 use numpy::PyArray1;
@@ -323,7 +324,7 @@ impl PyEnv {
     ) -> PyResult<Bound<'py, PyAny>> {
         let s = self.inner();
         if s.env.done() {
-            return Err(crate::AvacraftError::new_err("the episode is over: call reset() first"));
+            return Err(AvacraftError::new_err("the episode is over: call reset() first"));
         }
         let n1 = s.env.smac_layout(Team::One).n_agents;
         let a1 = indices(actions, "actions", &[n1])?;
@@ -344,7 +345,7 @@ impl PyEnv {
             (LearnError::Count { .. } | LearnError::OutOfRange { .. } | LearnError::Unavailable { .. }, true) => {
                 // Name the team where both give actions.
                 let team = if s.env.check_indices(Team::One, &a1).is_err() { 1 } else { 2 };
-                crate::AvacraftError::new_err(format!("team {team}: {e}"))
+                AvacraftError::new_err(format!("team {team}: {e}"))
             }
             _ => Error::from(e).into(),
         })?;
@@ -357,7 +358,7 @@ impl PyEnv {
     fn step_smac<'py>(&mut self, py: Python<'py>, actions: &Bound<'py, PyAny>) -> PyResult<(f32, bool, bool, Bound<'py, PyDict>)> {
         let s = self.inner();
         if s.env.done() {
-            return Err(crate::AvacraftError::new_err("the episode is over: call reset() first"));
+            return Err(AvacraftError::new_err("the episode is over: call reset() first"));
         }
         if s.env.scenario().mode == Mode::Pvp {
             return Err(PyValueError::new_err(format!("{} is PvP: use step(actions, actions2)", s.env.scenario().name)));
@@ -385,7 +386,7 @@ impl PyEnv {
             .map_err(|e| PyTypeError::new_err(format!("actions: a list of action dicts is needed ({e})")))?;
         let mut actions = Vec::with_capacity(vals.len());
         for (i, v) in vals.into_iter().enumerate() {
-            actions.push(parse_action(v).map_err(|e| crate::AvacraftError::new_err(format!("action {i}: {e}")))?);
+            actions.push(parse_action(v).map_err(|e| AvacraftError::new_err(format!("action {i}: {e}")))?);
         }
         Ok(s.env.submit(t, &actions).into_iter().map(|r| r.err().map(|e| e.to_string())).collect())
     }
@@ -395,7 +396,7 @@ impl PyEnv {
     fn advance<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let s = self.inner();
         if s.env.done() {
-            return Err(crate::AvacraftError::new_err("the episode is over: call reset() first"));
+            return Err(AvacraftError::new_err("the episode is over: call reset() first"));
         }
         let r = s.env.step();
         s.after_step();
@@ -485,7 +486,7 @@ impl PyEnv {
         let r = &s.recording;
         let frames = if r.current.is_empty() { &r.last } else { &r.current };
         if frames.is_empty() {
-            return Err(crate::AvacraftError::new_err("no frames recorded: recording is off or no episode was played"));
+            return Err(AvacraftError::new_err("no frames recorded: recording is off or no episode was played"));
         }
         let mut v = VideoWriter::create(&path, delay_ms).map_err(Error::from)?;
         for f in frames {
@@ -514,7 +515,7 @@ impl Inner {
         usize::try_from(agent)
             .ok()
             .filter(|&a| a < n)
-            .ok_or_else(|| crate::AvacraftError::new_err(format!("agent {agent} is out of range: team {} has agents 0..{n}", t.player())))
+            .ok_or_else(|| AvacraftError::new_err(format!("agent {agent} is out of range: team {} has agents 0..{n}", t.player())))
     }
 }
 

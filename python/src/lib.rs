@@ -13,43 +13,15 @@
 mod ava;
 mod convert;
 mod env;
+mod error;
 mod marl;
+mod options;
 mod vec;
 
-use avacraft_engine::{EnvConfig, OpponentKind, RewardMode, Scenario, ScenarioError, builtin_names};
-use pyo3::create_exception;
-use pyo3::exceptions::PyValueError;
+use avacraft_engine::builtin_names;
+use error::{AvacraftError, Error, PolicyError};
+use options::load_scenario;
 use pyo3::prelude::*;
-use std::num::NonZeroU32;
-use std::sync::Arc;
-
-create_exception!(
-    _avacraft,
-    AvacraftError,
-    PyValueError,
-    "Bad input to an AVACraft environment (an unknown scenario or option, an action that cannot be taken, an array of the wrong shape). A subclass of ValueError."
-);
-
-/// An error of this crate; every one becomes an [`AvacraftError`] with its message.
-#[derive(Debug, thiserror::Error)]
-pub(crate) enum Error {
-    #[error("unknown scenario `{name}`: not a scenario file, and not one of the built-in scenarios: {known}")]
-    UnknownScenario { name: String, known: String },
-    #[error(transparent)]
-    Scenario(#[from] ScenarioError),
-    #[error(transparent)]
-    Learn(#[from] avacraft_engine::LearnError),
-    #[error(transparent)]
-    Vec(#[from] avacraft_engine::VecEnvError),
-    #[error("{option} = {value:?}: {supported}")]
-    Option { option: &'static str, value: String, supported: String },
-    #[error(transparent)]
-    Video(#[from] avacraft_render::VideoError),
-    #[error(transparent)]
-    Policy(#[from] marl::PolicyError),
-    #[error(transparent)]
-    Baseline(#[from] avacraft_marl::baselines::BaselineError),
-}
 
 /// The folder of the shipped baseline `name` (`qmix`, `mappo`, ...) of `scenario`: what
 /// `baseline:NAME` names in `avacraft episode --agent` and the eval and launch files.
@@ -57,86 +29,11 @@ pub(crate) enum Error {
 #[pyo3(signature = (scenario, name="qmix"))]
 fn baseline_dir(scenario: &str, name: &str) -> PyResult<String> {
     let scenario = load_scenario(scenario)?;
-    let dir = avacraft_marl::baselines::dir(&avacraft_marl::baselines::root(), &scenario.name, name).map_err(Error::from)?;
-    Ok(dir.to_string_lossy().into_owned())
-}
-
-impl From<Error> for PyErr {
-    fn from(e: Error) -> PyErr {
-        // The whole chain of sources, so nothing said by an inner error is lost.
-        let mut msg = e.to_string();
-        let mut src = std::error::Error::source(&e);
-        while let Some(s) = src {
-            let s_msg = s.to_string();
-            if !msg.contains(&s_msg) {
-                msg.push_str(": ");
-                msg.push_str(&s_msg);
-            }
-            src = s.source();
-        }
-        AvacraftError::new_err(msg)
-    }
-}
-
-/// A built-in scenario by name or a scenario TOML file by path.
-pub(crate) fn load_scenario(name: &str) -> Result<Arc<Scenario>, Error> {
-    match Scenario::load(name) {
-        Ok(s) => Ok(Arc::new(s)),
-        Err(ScenarioError::Unknown(name)) => Err(Error::UnknownScenario { name, known: builtin_names().collect::<Vec<_>>().join(", ") }),
-        Err(e) => Err(e.into()),
-    }
-}
-
-/// The engine options Python passes (already named and checked by the wrapper; checked
-/// again here, since `_avacraft` can be used directly).
-#[derive(Clone, Debug)]
-pub(crate) struct Options {
-    pub step_mul: u32,
-    pub reward: String,
-    pub opponent: Option<String>,
-    pub full_vision: bool,
-    pub passive_allies: bool,
-    pub cooldown_jitter: bool,
-    pub abilities: bool,
-    pub ability_actions: bool,
-    pub time_limit_loops: Option<u32>,
-}
-
-impl Options {
-    pub fn config(&self) -> Result<EnvConfig, Error> {
-        let mut cfg = if self.passive_allies { EnvConfig::smac() } else { EnvConfig::default() };
-        cfg.step_mul = NonZeroU32::new(self.step_mul).ok_or_else(|| Error::Option {
-            option: "step_mul",
-            value: self.step_mul.to_string(),
-            supported: "game loops per step: 1 or more".into(),
-        })?;
-        cfg.reward = match self.reward.as_str() {
-            "dense" => RewardMode::Dense,
-            "sparse" => RewardMode::Sparse,
-            other => {
-                return Err(Error::Option { option: "reward", value: other.into(), supported: "one of: dense, sparse".into() });
-            }
-        };
-        cfg.opponent = match self.opponent.as_deref() {
-            None => None,
-            Some(o) => {
-                Some(o.parse::<OpponentKind>().map_err(|why| Error::Option { option: "opponent", value: o.into(), supported: why })?)
-            }
-        };
-        cfg.rules.full_vision = self.full_vision;
-        cfg.rules.cooldown_jitter = self.cooldown_jitter;
-        cfg.rules.abilities = self.abilities;
-        cfg.ability_actions = self.ability_actions;
-        cfg.time_limit_loops = match self.time_limit_loops {
-            None => None,
-            Some(t) => Some(NonZeroU32::new(t).ok_or_else(|| Error::Option {
-                option: "time_limit_loops",
-                value: t.to_string(),
-                supported: "a time limit of 1 game loop or more".into(),
-            })?),
-        };
-        Ok(cfg)
-    }
+    let name = format!("{}{name}", avacraft_marl::baselines::BASELINE_PREFIX);
+    let policy =
+        avacraft_policy::PolicySpec::parse(&name, None).and_then(|p| p.on(&scenario)).map_err(PolicyError::from).map_err(Error::from)?;
+    let avacraft_policy::PolicySpec::Marl(m) = policy else { unreachable!("a baseline resolves to its checkpoint") };
+    Ok(m.dir().to_string_lossy().into_owned())
 }
 
 /// The built-in scenarios' names.

@@ -9,10 +9,11 @@
 //! agent, to check it.
 
 use crate::env::PyEnv;
-use crate::{AvacraftError, Error};
+use crate::error::{AvacraftError, PolicyError};
 use avacraft_engine::agent::{AgentTeam, Grouping};
 use avacraft_engine::{Mode, Outcome, Team};
 use avacraft_marl::{MarlAgent, Policy, select_actions};
+use avacraft_policy::MarlCheckpoint;
 use numpy::{PyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -21,45 +22,12 @@ use rand_chacha::ChaCha8Rng;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-/// Why a checkpoint cannot act here (the trainer's errors boxed: they are large).
-#[derive(Debug, thiserror::Error)]
-pub(crate) enum PolicyError {
-    #[error("cannot load the checkpoint in {}", dir.display())]
-    Load {
-        dir: PathBuf,
-        #[source]
-        source: Box<avacraft_marl::Error>,
-    },
-    #[error("checkpoint {} was trained on scenario `{trained}`, not `{scenario}`", dir.display())]
-    OtherScenario { dir: PathBuf, trained: String, scenario: String },
-    #[error("checkpoint {} does not fit team {team} of {scenario}", dir.display())]
-    OtherShape {
-        dir: PathBuf,
-        team: u8,
-        scenario: String,
-        #[source]
-        source: Box<avacraft_marl::Error>,
-    },
-    #[error("{what}: shape {given:?} given, {needed:?} needed (n_agents x {what_size})")]
-    Shape { what: &'static str, given: Vec<usize>, needed: [usize; 2], what_size: &'static str },
-    #[error("avail[{agent}]: no action is available (a dead agent has the no-op, 0)")]
-    NoAction { agent: usize },
-    #[error("the network")]
-    Network(#[source] Box<avacraft_marl::Error>),
-}
-
-impl From<PolicyError> for PyErr {
-    fn from(e: PolicyError) -> PyErr {
-        Error::Policy(e).into()
-    }
-}
-
 /// A trained policy acting greedily for a team's agents, with their GRU states.
 #[pyclass(module = "avacraft._avacraft", name = "MarlPolicy", subclass)]
 #[derive(Debug)]
 pub struct PyMarlPolicy {
     policy: Arc<Policy>,
-    dir: PathBuf,
+    checkpoint: MarlCheckpoint,
     /// n_agents x hidden, and each agent's last action (none before the first step).
     hidden: Vec<f32>,
     last: Vec<Option<u32>>,
@@ -67,20 +35,15 @@ pub struct PyMarlPolicy {
 
 impl PyMarlPolicy {
     fn check(&self, env: &avacraft_engine::Env, team: Team) -> Result<(), PolicyError> {
-        let scenario = &env.scenario().name;
-        if &self.policy.scenario != scenario {
-            return Err(PolicyError::OtherScenario {
-                dir: self.dir.clone(),
-                trained: self.policy.scenario.clone(),
-                scenario: scenario.clone(),
-            });
-        }
-        self.policy.check_scenario(env.scenario(), team).map_err(|source| PolicyError::OtherShape {
-            dir: self.dir.clone(),
-            team: team.player(),
-            scenario: scenario.clone(),
-            source: Box::new(source),
-        })
+        Ok(self.checkpoint.check(env.scenario(), team)?)
+    }
+
+    /// The policy of a checkpoint the registry opened.
+    pub(crate) fn from_checkpoint(checkpoint: MarlCheckpoint) -> Result<Self, PolicyError> {
+        let policy = Arc::clone(checkpoint.policy()?);
+        let n = policy.shape.n_agents;
+        let width = policy.nets.agent.hidden;
+        Ok(Self { policy, checkpoint, hidden: vec![0.0; n * width], last: vec![None; n] })
     }
 }
 
@@ -89,10 +52,7 @@ impl PyMarlPolicy {
     /// Loads the checkpoint in `path` (`agent.safetensors`, `config.json`).
     #[new]
     fn new(path: PathBuf) -> PyResult<Self> {
-        let policy = Policy::load(&path).map_err(|source| PolicyError::Load { dir: path.clone(), source: Box::new(source) })?;
-        let n = policy.shape.n_agents;
-        let width = policy.nets.agent.hidden;
-        Ok(Self { policy: Arc::new(policy), dir: path, hidden: vec![0.0; n * width], last: vec![None; n] })
+        Ok(Self::from_checkpoint(MarlCheckpoint::load(&path).map_err(PolicyError::from)?)?)
     }
 
     /// The scenario it was trained on.
@@ -182,7 +142,7 @@ impl PyMarlPolicy {
         }
         self.check(env, Team::One)?;
         let policy = Arc::clone(&self.policy);
-        let name = format!("marl:{}", self.dir.display());
+        let name = format!("marl:{}", self.checkpoint.dir().display());
         // One agent for the team, as `Controllers` runs it for `episode --agent`.
         let mut team = AgentTeam::new(Team::One, Grouping::Team, move || Box::new(MarlAgent::new(Arc::clone(&policy), name.clone())));
         env.reset(seed);
@@ -210,7 +170,7 @@ impl PyMarlPolicy {
     fn __repr__(&self) -> String {
         format!(
             "MarlPolicy({:?}, scenario={:?}, algo={:?}, n_agents={})",
-            self.dir.display().to_string(),
+            self.checkpoint.dir().display().to_string(),
             self.policy.scenario,
             self.policy.cfg.algo,
             self.policy.shape.n_agents
@@ -222,11 +182,7 @@ impl PyMarlPolicy {
 /// "loss" | "draw", "steps", "trajectory_hash"}` (shared by `MarlPolicy` and `Ava`).
 pub(crate) fn episode_result<'py>(py: Python<'py>, env: &avacraft_engine::Env, team: Team) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    let result = match env.outcome().map(|o| o.for_team(team)).unwrap_or(Outcome::Draw) {
-        Outcome::Win => "win",
-        Outcome::Loss => "loss",
-        Outcome::Draw => "draw",
-    };
+    let result = env.outcome().map(|o| o.for_team(team)).unwrap_or(Outcome::Draw).name();
     d.set_item("result", result)?;
     d.set_item("steps", env.steps())?;
     d.set_item("trajectory_hash", env.trajectory_hash())?;

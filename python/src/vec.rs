@@ -1,7 +1,8 @@
 //! The threaded vector environment, and the Rust loop the Python benchmark compares against.
 
 use crate::convert::indices;
-use crate::{Error, Options, load_scenario};
+use crate::error::Error;
+use crate::options::{Options, load_scenario};
 use avacraft_engine::{Env, EnvConfig, RewardMode, Team, VecEnv};
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;

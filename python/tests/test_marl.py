@@ -75,7 +75,7 @@ def test_a_fresh_reset_replays_the_episode_and_state_carries_across_steps():
 
 
 def test_bad_checkpoints_and_inputs_raise(tmp_path):
-    with pytest.raises(avacraft.AvacraftError, match="config.json"):
+    with pytest.raises(avacraft.AvacraftError, match="missing does not exist"):
         avacraft.MarlPolicy(tmp_path / "missing")
     (tmp_path / "config.json").write_text("{ not json")
     with pytest.raises(avacraft.AvacraftError, match="cannot load the checkpoint"):

@@ -1,24 +1,11 @@
 //! One interface over the back ends, and the choice between them.
 
 use crate::cpu::CpuBackend;
+use crate::error::GpuError;
 #[cfg(feature = "gpu")]
 use crate::gpu::WgpuBackend;
 use crate::scene::Scene;
 use image::RgbImage;
-
-/// Why a GPU frame could not be drawn. Defined here rather than with the wgpu back end so the
-/// [`Backend`] trait keeps one signature with or without the `gpu` feature.
-#[derive(Debug, thiserror::Error)]
-pub enum GpuError {
-    #[error("no GPU adapter (on Debian, `apt-get install mesa-vulkan-drivers` gives a CPU one): {0}")]
-    NoAdapter(String),
-    #[error("the GPU device could not be created: {0}")]
-    Device(String),
-    #[error("reading the frame back failed: {0}")]
-    Readback(String),
-    #[error("a {w}x{h} frame is outside what this device can render (1..={max} per side, {bytes} bytes to read back at most)")]
-    Size { w: u32, h: u32, max: u32, bytes: u64 },
-}
 
 /// Something that draws a [`Scene`].
 pub trait Backend: std::fmt::Debug {

@@ -4,7 +4,7 @@
 //! labels, effects, the grid and the legend exactly alike.
 
 use crate::font::text_width;
-use crate::frame::MapView;
+use crate::map_view::MapView;
 use crate::scene::{Prim, Rgba, Scene};
 use crate::style::{self, Shape};
 use avacraft_engine::{EffectKind, GRID, Rect, Team, UnitKind, Vec2, grid_cell_center, loops_to_seconds};

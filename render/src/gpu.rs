@@ -3,7 +3,7 @@
 //! CPU Vulkan device. Circles are exact (a signed-distance test per pixel centre), so both
 //! back ends cover the same pixels; blending may differ by one level of rounding.
 
-use crate::backend::GpuError;
+use crate::error::GpuError;
 use crate::scene::{Prim, Rgba, Scene};
 use image::RgbImage;
 

@@ -13,24 +13,28 @@ mod backend;
 mod camera;
 mod cpu;
 mod draw;
+mod error;
 mod font;
 mod frame;
 // wgpu is heavy to compile; the `gpu` feature (on by default) brings it in, and builds
 // that only need CPU frames (the Python extension) leave it out.
 #[cfg(feature = "gpu")]
 mod gpu;
+mod map_view;
 mod modes;
 mod obs_frame;
 mod scene;
 mod style;
 mod video;
 
-pub use backend::{Backend, BackendChoice, GpuError};
+pub use backend::{Backend, BackendChoice};
 pub use camera::Camera;
 pub use cpu::CpuBackend;
-pub use frame::{FrameBuilder, MapView, VlmOptions, vlm_layout};
+pub use error::GpuError;
+pub use frame::{FrameBuilder, VlmOptions, vlm_layout};
 #[cfg(feature = "gpu")]
 pub use gpu::WgpuBackend;
+pub use map_view::MapView;
 pub use modes::{ObsMode, Observation, Observer, RenderConfig};
 pub use obs_frame::{ObsLayout, vlm_obs_layout};
 pub use scene::{Prim, Rgba, Scene};

@@ -13,7 +13,8 @@
 
 use crate::camera::Camera;
 use crate::draw::{self, Labels};
-use crate::frame::{FrameBuilder, MapView, VlmOptions, vlm_frame};
+use crate::frame::{FrameBuilder, VlmOptions, vlm_frame};
+use crate::map_view::MapView;
 use crate::scene::{Prim, Rgba, Scene};
 use crate::style;
 use avacraft_engine::agent::{GroupObs, view};

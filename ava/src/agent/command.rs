@@ -4,7 +4,7 @@
 //! become the groups' briefing. Its calls are recorded and costed like an agent's.
 
 use super::decide::{self, Mode};
-use super::{AvaSetup, Episode};
+use super::state::{AvaSetup, Episode};
 use crate::cost::EpisodeCost;
 use avacraft_engine::agent::{AgentCtx, Assignment, Briefing, Commander, GroupObs, GroupRole, Orders};
 use avacraft_render::{CpuBackend, FrameBuilder};

@@ -3,7 +3,7 @@
 use super::run::CallMeta;
 use super::situation::{self, Tally};
 use super::stages::{self, Plan, Priority};
-use super::{AvaSetup, Episode, HistoryItem};
+use super::state::{AvaSetup, Episode, HistoryItem};
 use crate::config::{AvaConfig, Fallback};
 use crate::decision::{self, Item, Refused, Situation};
 use crate::llm::{ChatReply, ChatRequest, Message, Part, Png, Role, Stage};
@@ -122,6 +122,136 @@ impl Turn<'_> {
         }
         vec![Message::text(Role::System, system), Message { role: Role::User, parts }]
     }
+
+    /// The planner stage: a new plan when the model gives one. Returns whether it did.
+    fn planner(&mut self, situation: &str, image: Option<&Png>) -> bool {
+        let text = self.render("planner", &serde_json::json!({"situation": situation}));
+        let msgs = self.user(text, image);
+        let mut replanned = false;
+        if let Some(r) = self.ask(Stage::Planner, msgs, Plan::schema(), 0) {
+            match decision::extract_json(&r.text).ok().and_then(|v| serde_json::from_value::<Plan>(v).ok()) {
+                Some(p) => {
+                    self.ep.plan = Some(p);
+                    replanned = true;
+                }
+                None => self.ep.cost.refused_items += 1,
+            }
+        }
+        self.ep.plan_at = self.ep.decisions;
+        replanned
+    }
+
+    /// The roles stage: the living units' roles, kept when the model names none.
+    fn roles(&mut self, situation: &str, plan: Option<&str>, image: Option<&Png>, alive: &[u32]) {
+        let text = self.render("roles", &serde_json::json!({"situation": situation, "plan": plan}));
+        let msgs = self.user(text, image);
+        if let Some(r) = self.ask(Stage::Roles, msgs, stages::roles_schema(), 0) {
+            let v = decision::extract_json(&r.text).unwrap_or(Value::Null);
+            let (roles, dropped) = stages::read_roles(&v, alive);
+            self.ep.cost.refused_items += dropped as u64;
+            if !roles.is_empty() {
+                self.ep.roles = roles;
+            }
+        }
+    }
+
+    /// The priority stage: the enemies to kill first, as the model names them.
+    fn priorities(&mut self, situation: &str, image: Option<&Png>) -> Vec<Priority> {
+        let text = self.render("priority", &serde_json::json!({"situation": situation}));
+        let msgs = self.user(text, image);
+        let Some(r) = self.ask(Stage::Priority, msgs, stages::priority_schema(), 0) else { return Vec::new() };
+        let v = decision::extract_json(&r.text).unwrap_or(Value::Null);
+        let (p, dropped) = stages::read_priorities(&v, self.obs);
+        self.ep.cost.refused_items += dropped as u64;
+        p
+    }
+
+    /// Retrieval: passages on the unit types on the field and the plan's skill.
+    fn knowledge(&self, skill: Option<&str>) -> Vec<Knowledge> {
+        let mut kinds: Vec<&str> = self.obs.units.iter().map(|u| u.kind.base().name()).collect();
+        kinds.sort_unstable();
+        kinds.dedup();
+        let mut query = kinds.join(" ");
+        if let Some(skill) = skill {
+            query.push(' ');
+            query.push_str(skill);
+        }
+        self.setup
+            .retriever
+            .search(&query, self.cfg.top_k)
+            .into_iter()
+            .map(|h| Knowledge { title: h.passage.title.clone(), text: h.passage.text.clone() })
+            .collect()
+    }
+
+    /// The decision stage with its repair rounds: each round's checked commands are kept,
+    /// and a repair asks only for the units still without one.
+    fn decision(&mut self, mut msgs: Vec<Message>, schema: &Value, sit: &Situation<'_>, alive: &[u32]) -> Vec<(u32, Command)> {
+        let mut commands: Vec<(u32, Command)> = Vec::new();
+        for attempt in 0..=self.cfg.max_repairs {
+            let Some(reply) = self.ask(Stage::Decision, msgs.clone(), schema.clone(), attempt) else {
+                self.ep.cost.transport_failures += 1;
+                break;
+            };
+            let pending: Vec<u32> = alive.iter().copied().filter(|t| !commands.iter().any(|(c, _)| c == t)).collect();
+            let refused = match decision::extract_json(&reply.text).and_then(|v| decision::parse_items(&v, "actions")) {
+                Ok((items, refused)) => {
+                    // A repair may only give actions to the units still waiting.
+                    let mut refused = refused;
+                    let items: Vec<(usize, Item)> = items
+                        .into_iter()
+                        .filter(|(i, it)| {
+                            let done = attempt > 0 && !pending.contains(&it.unit) && alive.contains(&it.unit);
+                            if done {
+                                refused.push(Refused {
+                                    item: *i,
+                                    unit: Some(it.unit),
+                                    reason: format!("unit {} already has an accepted action", it.unit),
+                                });
+                            }
+                            !done
+                        })
+                        .collect();
+                    let checked = decision::check(sit, &items, refused);
+                    for (t, c) in checked.commands {
+                        if !commands.iter().any(|(u, _)| *u == t) {
+                            commands.push((t, c));
+                        }
+                    }
+                    checked.refused
+                }
+                Err(e) => vec![Refused { item: 0, unit: None, reason: e.to_string() }],
+            };
+            self.ep.cost.refused_items += refused.len() as u64;
+            let pending: Vec<u32> = alive.iter().copied().filter(|t| !commands.iter().any(|(c, _)| c == t)).collect();
+            if refused.is_empty() || pending.is_empty() || attempt == self.cfg.max_repairs {
+                break;
+            }
+            self.ep.cost.repairs += 1;
+            let accepted: Vec<String> = commands.iter().map(|(t, c)| situation::command_text(*t, c, sit.camera)).collect();
+            let repair = self.render("repair", &RepairCtx { refused: &refused, accepted: accepted.join(", "), pending: list(&pending) });
+            msgs.push(Message::text(Role::Assistant, reply.text));
+            msgs.push(Message::text(Role::User, repair));
+        }
+        commands
+    }
+}
+
+/// What happened since the last decision (written into the last history item), the
+/// enemies in sight, and whether the plan is stale: a unit lost, or an enemy never seen.
+fn since_last(ep: &mut Episode, obs: &GroupObs) -> (Vec<u32>, bool, bool) {
+    let tally = Tally::of(obs);
+    if let (Some(prev), Some(last)) = (ep.tally, ep.history.back_mut())
+        && last.outcome.is_empty()
+    {
+        last.outcome = prev.outcome(&tally);
+    }
+    let lost = ep.tally.is_some_and(|p| tally.own_units < p.own_units);
+    let enemies: Vec<u32> = obs.units.iter().filter(|u| !u.own).map(|u| u.tag).collect();
+    let new_enemies = enemies.iter().any(|t| !ep.seen_enemies.contains(t));
+    ep.seen_enemies.extend(enemies.iter().copied());
+    ep.tally = Some(tally);
+    (enemies, lost, new_enemies)
 }
 
 fn screenshot(
@@ -176,18 +306,7 @@ pub(super) fn decide(
     // The camera fills the screenshot's map area, so its grid is the one drawn.
     let camera = avacraft_render::vlm_obs_layout(w, h).camera(own, cfg.camera_width, playable);
 
-    // What happened since the last decision, and whether the plan is stale.
-    let tally = Tally::of(obs);
-    if let (Some(prev), Some(last)) = (ep.tally, ep.history.back_mut())
-        && last.outcome.is_empty()
-    {
-        last.outcome = prev.outcome(&tally);
-    }
-    let lost = ep.tally.is_some_and(|p| tally.own_units < p.own_units);
-    let enemies: Vec<u32> = obs.units.iter().filter(|u| !u.own).map(|u| u.tag).collect();
-    let new_enemies = enemies.iter().any(|t| !ep.seen_enemies.contains(t));
-    ep.seen_enemies.extend(enemies.iter().copied());
-    ep.tally = Some(tally);
+    let (enemies, lost, new_enemies) = since_last(ep, obs);
 
     let situation = if cfg.text {
         situation::describe(obs, &camera, alive)
@@ -199,39 +318,17 @@ pub(super) fn decide(
     let staged = briefing.is_none();
     let mut turn = Turn { setup, cfg: &cfg, ep, obs, model_ms: 0.0, call_ms: 0.0 };
 
-    // Planner.
-    let mut replanned = false;
-    if staged && cfg.planner && (turn.ep.plan.is_none() || turn.ep.decisions - turn.ep.plan_at >= cfg.plan_every || lost || new_enemies) {
-        let text = turn.render("planner", &serde_json::json!({"situation": situation}));
-        let msgs = turn.user(text, image.as_ref());
-        if let Some(r) = turn.ask(Stage::Planner, msgs, Plan::schema(), 0) {
-            match decision::extract_json(&r.text).ok().and_then(|v| serde_json::from_value::<Plan>(v).ok()) {
-                Some(p) => {
-                    turn.ep.plan = Some(p);
-                    replanned = true;
-                }
-                None => turn.ep.cost.refused_items += 1,
-            }
-        }
-        turn.ep.plan_at = turn.ep.decisions;
-    }
+    let replanned = staged
+        && cfg.planner
+        && (turn.ep.plan.is_none() || turn.ep.decisions - turn.ep.plan_at >= cfg.plan_every || lost || new_enemies)
+        && turn.planner(&situation, image.as_ref());
     let plan = match &briefing {
         Some(b) => Some(b.plan.clone()).filter(|p| !p.is_empty()),
         None => turn.ep.plan.as_ref().filter(|_| cfg.planner).map(Plan::summary),
     };
 
-    // Roles.
     if staged && (cfg.roles || mode == Mode::Command) && (turn.ep.roles.is_empty() || replanned || lost) {
-        let text = turn.render("roles", &serde_json::json!({"situation": situation, "plan": plan}));
-        let msgs = turn.user(text, image.as_ref());
-        if let Some(r) = turn.ask(Stage::Roles, msgs, stages::roles_schema(), 0) {
-            let v = decision::extract_json(&r.text).unwrap_or(Value::Null);
-            let (roles, dropped) = stages::read_roles(&v, alive);
-            turn.ep.cost.refused_items += dropped as u64;
-            if !roles.is_empty() {
-                turn.ep.roles = roles;
-            }
-        }
+        turn.roles(&situation, plan.as_deref(), image.as_ref(), alive);
     }
     turn.ep.roles.retain(|r| alive.contains(&r.unit));
     if let Some(b) = &briefing {
@@ -250,14 +347,7 @@ pub(super) fn decide(
             .map(|&unit| Priority { unit, reason: "named by the commander".into() })
             .collect();
     } else if cfg.priority && !enemies.is_empty() {
-        let text = turn.render("priority", &serde_json::json!({"situation": situation}));
-        let msgs = turn.user(text, image.as_ref());
-        if let Some(r) = turn.ask(Stage::Priority, msgs, stages::priority_schema(), 0) {
-            let v = decision::extract_json(&r.text).unwrap_or(Value::Null);
-            let (p, dropped) = stages::read_priorities(&v, obs);
-            turn.ep.cost.refused_items += dropped as u64;
-            priorities = p;
-        }
+        priorities = turn.priorities(&situation, image.as_ref());
         if cfg.image && !priorities.is_empty() {
             let hl: Vec<u32> = priorities.iter().map(|p| p.unit).collect();
             image2 = screenshot(setup, frames, cpu, turn.ep, obs, &camera, &hl);
@@ -272,24 +362,8 @@ pub(super) fn decide(
         return (Vec::new(), close(turn, t0));
     }
 
-    // Retrieval: the unit types on the field and the plan's skill.
-    let mut knowledge = Vec::new();
-    if cfg.retrieval {
-        let mut kinds: Vec<&str> = obs.units.iter().map(|u| u.kind.base().name()).collect();
-        kinds.sort_unstable();
-        kinds.dedup();
-        let mut query = kinds.join(" ");
-        if let Some(p) = turn.ep.plan.as_ref().filter(|_| cfg.planner && staged) {
-            query.push(' ');
-            query.push_str(&p.primary_skill.name);
-        }
-        knowledge = setup
-            .retriever
-            .search(&query, cfg.top_k)
-            .into_iter()
-            .map(|h| Knowledge { title: h.passage.title.clone(), text: h.passage.text.clone() })
-            .collect();
-    }
+    let skill = turn.ep.plan.as_ref().filter(|_| cfg.planner && staged).map(|p| p.primary_skill.name.clone());
+    let knowledge = if cfg.retrieval { turn.knowledge(skill.as_deref()) } else { Vec::new() };
 
     // The decision, with repair rounds. The schema offers only abilities some unit can cast
     // now: a small model held to the schema otherwise fills in one it cannot use.
@@ -313,54 +387,9 @@ pub(super) fn decide(
         schema: cfg.schema_in_prompt.then(|| schema.to_string()),
     };
     let text = turn.render("decision", &ctx);
-    let mut msgs = turn.user(text, image2.as_ref().or(image.as_ref()));
+    let msgs = turn.user(text, image2.as_ref().or(image.as_ref()));
     let sit = Situation { obs, camera: &camera, terrain: &scenario.terrain };
-    let mut commands: Vec<(u32, Command)> = Vec::new();
-    for attempt in 0..=cfg.max_repairs {
-        let Some(reply) = turn.ask(Stage::Decision, msgs.clone(), schema.clone(), attempt) else {
-            turn.ep.cost.transport_failures += 1;
-            break;
-        };
-        let pending: Vec<u32> = alive.iter().copied().filter(|t| !commands.iter().any(|(c, _)| c == t)).collect();
-        let refused = match decision::extract_json(&reply.text).and_then(|v| decision::parse_items(&v, "actions")) {
-            Ok((items, refused)) => {
-                // A repair may only give actions to the units still waiting.
-                let mut refused = refused;
-                let items: Vec<(usize, Item)> = items
-                    .into_iter()
-                    .filter(|(i, it)| {
-                        let done = attempt > 0 && !pending.contains(&it.unit) && alive.contains(&it.unit);
-                        if done {
-                            refused.push(Refused {
-                                item: *i,
-                                unit: Some(it.unit),
-                                reason: format!("unit {} already has an accepted action", it.unit),
-                            });
-                        }
-                        !done
-                    })
-                    .collect();
-                let checked = decision::check(&sit, &items, refused);
-                for (t, c) in checked.commands {
-                    if !commands.iter().any(|(u, _)| *u == t) {
-                        commands.push((t, c));
-                    }
-                }
-                checked.refused
-            }
-            Err(e) => vec![Refused { item: 0, unit: None, reason: e.to_string() }],
-        };
-        turn.ep.cost.refused_items += refused.len() as u64;
-        let pending: Vec<u32> = alive.iter().copied().filter(|t| !commands.iter().any(|(c, _)| c == t)).collect();
-        if refused.is_empty() || pending.is_empty() || attempt == cfg.max_repairs {
-            break;
-        }
-        turn.ep.cost.repairs += 1;
-        let accepted: Vec<String> = commands.iter().map(|(t, c)| situation::command_text(*t, c, &camera)).collect();
-        let repair = turn.render("repair", &RepairCtx { refused: &refused, accepted: accepted.join(", "), pending: list(&pending) });
-        msgs.push(Message::text(Role::Assistant, reply.text));
-        msgs.push(Message::text(Role::User, repair));
-    }
+    let mut commands = turn.decision(msgs, &schema, &sit, alive);
     if commands.is_empty() {
         turn.ep.cost.fallbacks += 1;
         if cfg.fallback == Fallback::AttackNearest {

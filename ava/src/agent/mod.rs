@@ -14,90 +14,21 @@ mod decide;
 mod run;
 mod situation;
 mod stages;
+mod state;
 
 pub use command::AvaCommander;
 pub use run::{AvaRun, CallObserver};
 pub use situation::{Tally, describe, place};
 pub use stages::{Plan, Priority, ROLES, RoleOf, Skill};
+pub use state::AvaSetup;
 
-use crate::config::{AvaConfig, Timing};
+use crate::config::Timing;
 use crate::cost::EpisodeCost;
-use crate::kb::SharedRetriever;
-use crate::prompt::Prompts;
 use avacraft_engine::agent::{Agent, AgentCtx, Briefing, GroupObs};
-use avacraft_engine::{Action, Command, DEFAULT_STEP_MUL, LOOPS_PER_SECOND, Scenario, Team, UnitId};
+use avacraft_engine::{Action, Command, LOOPS_PER_SECOND, UnitId};
 use avacraft_render::{CpuBackend, FrameBuilder};
-use std::collections::{BTreeSet, VecDeque};
+use state::Episode;
 use std::sync::Arc;
-
-/// A past decision, for the prompt.
-#[derive(Clone, Debug, serde::Serialize)]
-struct HistoryItem {
-    step: u32,
-    actions: String,
-    outcome: String,
-}
-
-/// What an agent keeps within an episode.
-#[derive(Debug)]
-struct Episode {
-    scenario: Arc<Scenario>,
-    team: Team,
-    seed: u64,
-    first_step: Option<u32>,
-    decisions: u32,
-    plan: Option<Plan>,
-    plan_at: u32,
-    roles: Vec<RoleOf>,
-    /// The last priority stage's answer (a commander passes it on).
-    priorities: Vec<Priority>,
-    /// A commander's briefing for this step (role groups under dynamic roles).
-    briefing: Option<Briefing>,
-    history: VecDeque<HistoryItem>,
-    tally: Option<Tally>,
-    seen_enemies: BTreeSet<u32>,
-    /// Realtime: actions waiting for their step.
-    pending: Option<(u32, Vec<(u32, Command)>)>,
-    /// Game loops per environment step, as observed (for realtime delays).
-    loops_per_step: u32,
-    last_seen: Option<(u32, u32)>,
-    cost_idx: usize,
-    cost: EpisodeCost,
-}
-
-impl Episode {
-    fn new(ctx: &AgentCtx, cost_idx: usize, cost: EpisodeCost) -> Episode {
-        Episode {
-            scenario: Arc::clone(&ctx.scenario),
-            team: ctx.team,
-            seed: ctx.seed,
-            first_step: None,
-            decisions: 0,
-            plan: None,
-            plan_at: 0,
-            roles: Vec::new(),
-            priorities: Vec::new(),
-            briefing: None,
-            history: VecDeque::new(),
-            tally: None,
-            seen_enemies: BTreeSet::new(),
-            pending: None,
-            loops_per_step: DEFAULT_STEP_MUL.get(),
-            last_seen: None,
-            cost_idx,
-            cost,
-        }
-    }
-}
-
-/// Everything an AVA agent is made from; cheap to clone (one per group).
-#[derive(Clone, Debug)]
-pub struct AvaSetup {
-    pub config: Arc<AvaConfig>,
-    pub run: Arc<AvaRun>,
-    pub prompts: Arc<Prompts>,
-    pub retriever: SharedRetriever,
-}
 
 /// The agent.
 #[derive(Debug)]

@@ -1,7 +1,7 @@
 //! Checking items against the observation with the engine's own rules, so that what is
 //! accepted is executed, and what is refused says why in words a model can act on.
 
-use super::{Item, Verb};
+use super::item::{Item, Verb};
 use avacraft_engine::agent::GroupObs;
 use avacraft_engine::agent::view;
 use avacraft_engine::{

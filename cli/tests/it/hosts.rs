@@ -82,6 +82,7 @@ fn report(name: &str, s: Spawned) -> avacraft_cli::ProbeReport {
     serde_json::from_str(&out).unwrap_or_else(|e| panic!("probe {name}: {e}: {out}"))
 }
 
+// Long on purpose: one deployment across hosts, its machines, and what each may see and send.
 #[test]
 fn a_secured_pvp_deployment_across_hosts_keeps_each_team_and_intruders_out() {
     let net = Net::new(&["server", "blue", "red", "mallory"]);

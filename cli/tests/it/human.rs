@@ -177,6 +177,7 @@ fn rate(b: &mut Browser, url: &str, rater: &str, key: &BTreeMap<String, String>,
     }
 }
 
+// Long on purpose: one scenario a rater goes through, end to end, read top to bottom.
 #[test]
 fn human_eval_in_headless_chromium() {
     let t0 = Instant::now();

@@ -5,6 +5,7 @@
 mod bridge;
 mod common;
 mod deploy;
+mod docs;
 mod eval;
 mod hosts;
 mod human;

@@ -7,15 +7,6 @@ use crate::ids::Team;
 use crate::units::Attrs;
 use crate::world::{Order, Unit, World};
 
-/// A cast accepted at submission, carried out at the start of the next loop.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct PendingCast {
-    pub team: Team,
-    pub unit: UnitId,
-    pub ability: Ability,
-    pub target: AbilityTarget,
-}
-
 fn invalid(why: impl Into<String>) -> Refusal {
     Refusal::InvalidTarget { why: why.into() }
 }

@@ -12,7 +12,7 @@ mod cast;
 mod status;
 mod tick;
 
-pub(crate) use cast::PendingCast;
+pub(crate) use status::PendingCast;
 pub use status::{AreaEffect, Channel, EffectKind, Status};
 
 use crate::geom::Vec2;

@@ -1,8 +1,9 @@
 //! What abilities leave behind: per-unit buffs and timers, and area effects on the ground.
 //! Everything is a loop number ("until"), so nothing needs counting down and a state is
-//! exactly reproducible from the loop it was saved at.
+//! exactly reproducible from the loop it was saved at. Casts accepted for the next loop are
+//! kept here too: the world holds them, and its file must not depend on casting's.
 
-use super::{Ability, SLOW_FACTOR, STIM_FACTOR};
+use super::{Ability, AbilityTarget, SLOW_FACTOR, STIM_FACTOR};
 use crate::geom::Vec2;
 use crate::ids::{Team, UnitId};
 use crate::obs::Buffs;
@@ -201,4 +202,13 @@ impl AreaEffect {
     pub fn touches(&self, p: Vec2, r: f32) -> bool {
         p.dist_sq(self.pos) < (self.radius + r) * (self.radius + r)
     }
+}
+
+/// A cast accepted at submission, carried out at the start of the next loop.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct PendingCast {
+    pub team: Team,
+    pub unit: UnitId,
+    pub ability: Ability,
+    pub target: AbilityTarget,
 }

@@ -9,64 +9,12 @@
 //! [`validate`] is the one check of orders, used in-process and by the simulator node: every
 //! living unit exactly once, known groups only. Refused orders leave ownership as it was.
 
-use super::{Agent, AgentCtx, GroupObs, Reads, agent_seed, complete};
+use super::contract::{Agent, AgentCtx, Reads, agent_seed, complete};
+use super::obs::GroupObs;
+use super::role::{Briefing, GroupRole};
 use crate::action::Action;
 use crate::env::Env;
 use crate::ids::Team;
-
-/// A role group's role. The codes are `RoleGroup.msg`'s `ROLE_*` constants.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum GroupRole {
-    /// Fixed ownership (no commander).
-    #[default]
-    None,
-    Attacker,
-    Defender,
-    Scout,
-    Support,
-}
-
-impl GroupRole {
-    pub const ALL: [GroupRole; 5] = [GroupRole::None, GroupRole::Attacker, GroupRole::Defender, GroupRole::Scout, GroupRole::Support];
-    /// The roles a commander hands out.
-    pub const ASSIGNABLE: [GroupRole; 4] = [GroupRole::Attacker, GroupRole::Defender, GroupRole::Scout, GroupRole::Support];
-
-    pub fn code(self) -> u8 {
-        self as u8
-    }
-    pub fn from_code(code: u8) -> Option<GroupRole> {
-        GroupRole::ALL.get(code as usize).copied()
-    }
-    pub fn name(self) -> &'static str {
-        match self {
-            GroupRole::None => "none",
-            GroupRole::Attacker => "attacker",
-            GroupRole::Defender => "defender",
-            GroupRole::Scout => "scout",
-            GroupRole::Support => "support",
-        }
-    }
-    pub fn from_name(name: &str) -> Option<GroupRole> {
-        GroupRole::ALL.into_iter().find(|r| r.name().eq_ignore_ascii_case(name))
-    }
-}
-
-impl std::fmt::Display for GroupRole {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-/// What a commander tells its groups besides who owns what.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct Briefing {
-    /// The role of the group being briefed.
-    pub role: GroupRole,
-    /// The plan in words (empty: none).
-    pub plan: String,
-    /// Enemy units that matter most, by tag, most important first.
-    pub priorities: Vec<u32>,
-}
 
 /// A commander's answer for one step: each living unit's group (an index into the team's
 /// groups) from the next step on, and the briefing.
@@ -355,14 +303,5 @@ mod tests {
                 }
             }
         }
-    }
-
-    #[test]
-    fn role_codes_round_trip() {
-        for r in GroupRole::ALL {
-            assert_eq!(GroupRole::from_code(r.code()), Some(r));
-            assert_eq!(GroupRole::from_name(r.name()), Some(r));
-        }
-        assert_eq!(GroupRole::from_code(5), None);
     }
 }

@@ -22,6 +22,8 @@ use crate::units::UnitKind;
 /// Ability actions for the units the group controls this step, and the tags of the units
 /// they leave alone otherwise (casting, channelling, morphing, or running at a clump): the
 /// caller gives those no other order.
+// Long: one branch per ability the scripted micro uses, all sharing the step's storm list
+// and claimed targets; splitting it by ability would pass that state through each piece.
 pub(crate) fn ability_actions(g: &GroupObs, terrain: &Terrain) -> (Vec<Action>, Vec<u32>) {
     let mut out = Vec::new();
     let mut handled = Vec::new();

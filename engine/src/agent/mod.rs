@@ -4,105 +4,25 @@
 //! role group, or a whole team) and sees what its units' observations say, nothing more.
 
 mod command;
+mod contract;
 mod controllers;
 pub(crate) mod micro;
 mod obs;
+mod observe;
+mod role;
 mod runner;
 mod scripted;
 pub mod view;
 
 pub use command::{
-    Assignment, Briefing, CommandedTeam, Commander, GroupRole, MakeAgent, MakeCommander, Orders, OrdersError, RoleGroupSpec, Rotate,
-    commander_seed, validate as validate_orders,
+    Assignment, CommandedTeam, Commander, MakeAgent, MakeCommander, Orders, OrdersError, RoleGroupSpec, Rotate, commander_seed,
+    validate as validate_orders,
 };
+pub use contract::{Agent, AgentCtx, ForkAgent, Reads, agent_seed, complete};
 pub use controllers::Controllers;
-pub use obs::{AgentObs, Controlled, EffectInfo, GroupObs, effects};
+pub use obs::{AgentObs, Controlled, EffectInfo, GroupObs};
+pub use observe::effects;
+pub use role::{Briefing, GroupRole};
 pub use runner::{AgentTeam, Grouping};
 pub(crate) use scripted::opponent;
 pub use scripted::{AGENTS, AttackMove, Defensive, FocusFire, Hold, NoOp, RandomActions, UnknownAgent, by_name, factory};
-
-use crate::action::Action;
-use crate::ids::Team;
-use crate::scenario::Scenario;
-use std::sync::Arc;
-
-/// What an agent knows when an episode starts: the map (a player knows it), its side, the
-/// units it controls, and a seed for its own random choices.
-#[derive(Clone, Debug)]
-pub struct AgentCtx {
-    pub scenario: Arc<Scenario>,
-    pub team: Team,
-    /// Tags of the units it controls.
-    pub units: Vec<u32>,
-    pub seed: u64,
-}
-
-pub trait Agent: Send {
-    fn name(&self) -> &str;
-    /// Called at the start of every episode.
-    fn reset(&mut self, ctx: &AgentCtx);
-    /// Actions for the group's units this step; units without one keep their orders.
-    fn act(&mut self, obs: &GroupObs) -> Vec<Action>;
-    /// What the agent reads of its observation besides the units and effects. In-process
-    /// runs build only that; a deployment's messages carry everything whatever it says.
-    fn reads(&self) -> Reads {
-        Reads::ALL
-    }
-    /// A commander's briefing for this step (a role group under dynamic roles gets one before
-    /// each `act`); agents that take no orders ignore it.
-    fn brief(&mut self, _briefing: &Briefing) {}
-}
-
-/// Parts of an observation an agent may not need: SMAC's features and masks, and the text.
-/// They cost more to build than the rest (the text most), and scripted agents read neither.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Reads {
-    /// The controlled units' SMAC masks and features.
-    pub smac: bool,
-    /// The team's text description.
-    pub text: bool,
-}
-
-impl Reads {
-    pub const ALL: Reads = Reads { smac: true, text: true };
-    /// The units and effects only.
-    pub const UNITS: Reads = Reads { smac: false, text: false };
-}
-
-/// An agent whose whole state can be copied mid-episode: what an environment needs of its
-/// built-in opponent to fork (look-ahead search, evaluations branching from one state). Every
-/// `Clone` agent is one.
-pub trait ForkAgent: Agent {
-    fn fork(&self) -> Box<dyn ForkAgent>;
-}
-
-impl<T: Agent + Clone + 'static> ForkAgent for T {
-    fn fork(&self) -> Box<dyn ForkAgent> {
-        Box::new(self.clone())
-    }
-}
-
-/// What a group sends for a step: its policy's actions for the units it controls (others
-/// dropped), then a no-op for each of its living units the policy left alone. A deployed
-/// node must answer for every unit it owns (the simulator waits for each), and an in-process
-/// run submits the same, so both leave the same last actions in the state.
-pub fn complete(actions: Vec<Action>, g: &GroupObs) -> Vec<Action> {
-    let mut out: Vec<Action> = actions.into_iter().filter(|a| g.controlled.iter().any(|c| c.unit == a.unit.tag())).collect();
-    for c in g.controlled.iter().filter(|c| c.alive) {
-        if !out.iter().any(|a| a.unit.tag() == c.unit) {
-            out.push(Action::new(crate::ids::UnitId::new((c.unit - 1) as u16), crate::action::Command::NoOp));
-        }
-    }
-    out
-}
-
-/// The seed of one agent's random choices in an episode: a function of the episode's seed,
-/// the side and the group's first unit only, so an agent node and an in-process run of the
-/// same grouping draw the same numbers.
-pub fn agent_seed(episode_seed: u64, team: Team, first_unit: u32) -> u64 {
-    // SplitMix64 over the three, so nearby seeds give unrelated streams.
-    let mut z = episode_seed ^ ((team.player() as u64) << 56) ^ ((first_unit as u64) << 24) ^ 0x9e37_79b9_7f4a_7c15;
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}

@@ -2,13 +2,14 @@
 //! natural-language battlefield description. All of them obey the team's fog of war.
 
 mod flags;
+mod slots;
 pub(crate) mod smac;
 mod smac_ext;
 mod text;
 mod units;
 
 pub use flags::{Buffs, UnitFlags, UnknownBits};
+pub use slots::{AbilitySlots, slot_abilities};
 pub use smac::{EnvInfo, IndexError, N_ACTIONS_NO_ATTACK, SHOOT_RANGE, SIGHT_RANGE, SmacLayout};
-pub use smac_ext::{AbilitySlots, slot_abilities};
 pub use text::describe;
 pub use units::{OrderInfo, UnitInfo, ability_infos, unit_list};

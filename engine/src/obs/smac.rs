@@ -4,10 +4,9 @@
 //! of SMAC's own sight rule; the state is SMAC's privileged global state for centralised
 //! training and does not.
 
-use super::smac_ext::AbilitySlots;
-use crate::action::{Action, ActionError, Command, Direction};
+use super::slots::AbilitySlots;
+use crate::action::{ActionError, Command, Direction};
 use crate::agent::GroupObs;
-use crate::env::Env;
 use crate::geom::Vec2;
 use crate::ids::{Team, UnitId};
 use crate::scenario::Scenario;
@@ -361,10 +360,6 @@ impl SmacLayout {
     }
 }
 
-pub(crate) fn command_index(env: &Env, team: Team, agent: usize, c: &Command) -> Option<usize> {
-    env.smac_layout(team).index_for(env.world(), agent, c)
-}
-
 /// Why a SMAC action index was refused.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum IndexError {
@@ -376,77 +371,6 @@ pub enum IndexError {
     WrongCount(usize, usize),
     #[error(transparent)]
     Action(#[from] ActionError),
-}
-
-impl Env {
-    pub fn smac_layout(&self, team: Team) -> &SmacLayout {
-        &self.layouts()[team.index()]
-    }
-
-    /// SMAC's `get_env_info()` for a team's agents.
-    pub fn env_info(&self, team: Team) -> EnvInfo {
-        let l = self.smac_layout(team);
-        EnvInfo {
-            n_agents: l.n_agents,
-            n_actions: l.n_actions,
-            obs_shape: l.obs_size,
-            state_shape: l.state_size,
-            episode_limit: self.time_limit_loops().div_ceil(self.config().step_mul.get()) as usize,
-        }
-    }
-
-    pub fn obs_agent(&self, team: Team, agent: usize, out: &mut [f32]) {
-        self.smac_layout(team).obs(self.world(), agent, out)
-    }
-
-    pub fn state(&self, team: Team, out: &mut [f32]) {
-        self.smac_layout(team).state(self.world(), self.last_actions(team), out)
-    }
-
-    pub fn avail_agent(&self, team: Team, agent: usize, out: &mut [u8]) {
-        self.smac_layout(team).avail_actions(self.world(), agent, out)
-    }
-
-    /// Submits one SMAC action index per agent of `team`; unavailable indices are refused
-    /// and counted like any invalid action.
-    pub fn submit_indices(&mut self, team: Team, indices: &[usize]) -> Vec<Result<(), IndexError>> {
-        let (n_agents, n_actions) = (self.smac_layout(team).n_agents, self.smac_layout(team).n_actions);
-        if indices.len() != n_agents {
-            self.count_refused(team, 1);
-            return vec![Err(IndexError::WrongCount(indices.len(), n_agents))];
-        }
-        let mut out = Vec::with_capacity(indices.len());
-        for (agent, &index) in indices.iter().enumerate() {
-            let checked = {
-                let l = self.smac_layout(team);
-                if index >= n_actions {
-                    Err(IndexError::OutOfRange { agent, index, n_actions })
-                } else if !l.is_available(self.world(), agent, index) {
-                    Err(IndexError::Unavailable { agent, index })
-                } else {
-                    l.command_for(self.world(), agent, index).map(|c| (l.agents[agent], c)).ok_or(IndexError::OutOfRange {
-                        agent,
-                        index,
-                        n_actions,
-                    })
-                }
-            };
-            match checked {
-                Err(e) => {
-                    self.count_refused(team, 1);
-                    out.push(Err(e));
-                }
-                Ok((_, Command::NoOp)) => {
-                    self.set_last_action(team, agent, Some(0));
-                    out.push(Ok(()));
-                }
-                Ok((unit, command)) => {
-                    out.push(self.submit_one(team, &Action::new(unit, command), Some(index)).map_err(IndexError::from));
-                }
-            }
-        }
-        out
-    }
 }
 
 /// SMAC's first six actions, the same for every unit: no-op, stop, move north, south, east, west.

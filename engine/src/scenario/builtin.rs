@@ -2,7 +2,8 @@
 //! directory. The files are generated from the reference map data by
 //! `tools/gen_scenarios.py` and are meant to be read and copied by users.
 
-use super::{Scenario, ScenarioError};
+use super::types::{Scenario, ScenarioError};
+use std::path::Path;
 
 macro_rules! scenarios {
     ($($name:literal),* $(,)?) => {
@@ -43,4 +44,17 @@ pub fn builtin_names() -> impl Iterator<Item = &'static str> {
 pub fn builtin(name: &str) -> Result<Scenario, ScenarioError> {
     let (_, text) = BUILTIN.iter().find(|(n, _)| *n == name).ok_or_else(|| ScenarioError::Unknown(name.to_owned()))?;
     Scenario::from_toml(&format!("<built-in>/{name}.toml"), text)
+}
+
+impl Scenario {
+    /// Loads a scenario file, or a built-in scenario by name when no such file exists.
+    pub fn load(name_or_path: &str) -> Result<Scenario, ScenarioError> {
+        let p = Path::new(name_or_path);
+        if p.extension().is_some_and(|e| e == "toml") || p.exists() {
+            let text =
+                std::fs::read_to_string(p).map_err(|e| ScenarioError::Io { file: name_or_path.to_owned(), message: e.to_string() })?;
+            return Scenario::from_toml(name_or_path, &text);
+        }
+        builtin(name_or_path)
+    }
 }

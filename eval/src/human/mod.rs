@@ -153,8 +153,12 @@ pub enum HumanError {
     OneKind { found: String },
     #[error("{kind}: {have} finished episodes, {want} asked for (--per-kind)")]
     TooFew { kind: String, have: usize, want: usize },
-    #[error("{episode}: cannot be re-played: {why}")]
-    Replay { episode: String, why: String },
+    #[error("{episode}: cannot be re-played")]
+    Replay {
+        episode: String,
+        #[source]
+        source: Box<crate::EpisodeError>,
+    },
     #[error("{episode}: the re-play diverged (trajectory {replayed}, the result says {recorded}); refusing to show it")]
     Diverged { episode: String, recorded: String, replayed: String },
     #[error("{}: cannot write a frame", path.display())]

@@ -106,7 +106,7 @@ pub fn pack(plan: &Plan, opts: &PackOptions, progress: &mut dyn FnMut(usize, usi
                 scenario: result.cell.scenario.clone(),
                 against: result.cell.against.clone(),
                 seed: result.seed,
-                result: result.result.clone().unwrap_or_default(),
+                result: result.result.map(avacraft_engine::Outcome::name).unwrap_or_default().to_owned(),
                 trajectory_hash: result.trajectory_hash.clone(),
             },
         );
@@ -146,7 +146,7 @@ fn draw(plan: &Plan, job: Job, result: &EpisodeResult, id: &str, dir: &Path, opt
     if let Some(e) = failure {
         return Err(e);
     }
-    let replayed = replayed.map_err(|why| HumanError::Replay { episode: episode.clone(), why })?;
+    let replayed = replayed.map_err(|source| HumanError::Replay { episode: episode.clone(), source: Box::new(source) })?;
     if replayed.trajectory_hash != result.trajectory_hash {
         // Remove what was drawn: these frames show another game than the one rated.
         let _ = std::fs::remove_dir_all(dir);

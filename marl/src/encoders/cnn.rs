@@ -10,7 +10,7 @@
 
 use super::layers::{Conv2d, adaptive_avg_pool2d};
 use crate::Error;
-use crate::nets::Params;
+use crate::params::Params;
 use candle_core::Tensor;
 use rand_chacha::ChaCha8Rng;
 

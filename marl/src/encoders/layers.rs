@@ -5,7 +5,7 @@
 //! last-dimension softmax kernels have none, so they are not used.
 
 use crate::Error;
-use crate::nets::{Linear, Params};
+use crate::params::{Linear, Params};
 use candle_core::{D, DType, Device, Tensor};
 use rand_chacha::ChaCha8Rng;
 

@@ -40,28 +40,19 @@ pub mod text;
 
 pub use settings::{Backbone, ObsKind, SwinSizes};
 
-use crate::buffer::{Batch, Shape};
+// `FrameTensors` was defined here; its old path stays valid.
+pub use crate::frames::FrameTensors;
+
+use crate::buffer::Shape;
+use crate::frames::StepFrames;
 use crate::kernels::EncoderLayout;
-use crate::learner::Nets;
-use crate::nets::{Linear, Params};
-use crate::observe::StepFrames;
+use crate::params::{Linear, Params};
 use crate::{Config, Error};
 use candle_core::Tensor;
 use cnn::CnnStream;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use swin::SwinStream;
-
-/// Float tensors of `N` observations: images in [0, 1] and, in `vision-text`, embeddings.
-#[derive(Debug, Clone)]
-pub struct FrameTensors {
-    /// `(N, 3, H, W)`.
-    pub screen: Tensor,
-    /// `(N, 3, h, w)`.
-    pub minimap: Tensor,
-    /// `(N, slots x 384)`: [`clause_cache`]'s slot embeddings.
-    pub text: Option<Tensor>,
-}
 
 #[derive(Debug, Clone)]
 enum Stream {
@@ -237,7 +228,7 @@ impl ObsEncoder {
     /// Agent rows: `feats` `(N, F)` of `N` team observations repeated for each agent, then
     /// each row of `base` `(N * A, width)` (SMAC's input rows: features, id, last action)
     /// without the features unless in `hybrid`.
-    fn fuse(&self, feats: &Tensor, base: &Tensor) -> Result<Tensor, Error> {
+    pub(crate) fn fuse(&self, feats: &Tensor, base: &Tensor) -> Result<Tensor, Error> {
         let (n, f) = feats.dims2()?;
         let a = self.n_agents;
         let rows = feats.unsqueeze(1)?.broadcast_as((n, a, f))?.reshape((n * a, f))?;
@@ -257,91 +248,5 @@ impl ObsEncoder {
             return Ok(rows);
         };
         Ok(Tensor::cat(&[rows, rest], 1)?)
-    }
-}
-
-impl Nets {
-    /// The agent network's input rows for one step: `x` (SMAC's rows, `E * A`) as is in
-    /// `features` mode, else fused with the encoder's features of the `E` frames.
-    pub fn step_inputs(&self, x: Tensor, frames: Option<&FrameTensors>) -> Result<Tensor, Error> {
-        match (&self.encoder, frames) {
-            (None, _) => Ok(x),
-            (Some(e), Some(f)) => e.fuse(&e.forward(f)?, &x),
-            (Some(_), None) => Err(Error::Observation { message: "an image encoder was given no frames".into() }),
-        }
-    }
-
-    /// [`Nets::step_inputs`] from the renderer's pixels, through the fused encoder when
-    /// the backbone has one (what acting runs).
-    pub fn step_inputs_pixels(&self, x: Tensor, frames: Option<&StepFrames>) -> Result<Tensor, Error> {
-        match (&self.encoder, frames) {
-            (None, _) => Ok(x),
-            (Some(e), Some(f)) if e.kernel.is_some() => {
-                let theta = self.encoder_weights()?;
-                let feats = e.encode_pixels(Some(&theta), f)?;
-                let feats = Tensor::from_vec(feats, (f.n, e.out), x.device())?;
-                e.fuse(&feats, &x)
-            }
-            (Some(_), Some(f)) => self.step_inputs(x, Some(&f.tensors()?)),
-            (Some(_), None) => Err(Error::Observation { message: "an image encoder was given no frames".into() }),
-        }
-    }
-
-    /// The encoder's weights as one flat vector (its variables follow the agent network's).
-    pub fn encoder_weights(&self) -> Result<Vec<f32>, Error> {
-        self.agent_params.flat_after(self.agent.var_count())
-    }
-
-    /// Each row of a batch's agent-network input `(T+1, B*A)`: the index of the frame it
-    /// sees among the batch's frames (episode after episode), or [`NO_FRAME`] on the rows
-    /// after an episode's last step.
-    pub fn unroll_frames(&self, batch: &Batch) -> Result<Vec<u32>, Error> {
-        let Some(fb) = &batch.frames else {
-            return Err(Error::Observation { message: "an image encoder was given a batch without frames".into() });
-        };
-        let (t1, a) = (batch.t + 1, batch.n_agents);
-        let mut starts = Vec::with_capacity(fb.lens.len());
-        let mut off = 0u32;
-        for &len in &fb.lens {
-            starts.push((off, len));
-            off += len as u32;
-        }
-        let mut idx = Vec::with_capacity(t1 * starts.len() * a);
-        for ti in 0..t1 {
-            for &(start, len) in &starts {
-                let i = if ti < len.min(t1) { start + ti as u32 } else { NO_FRAME };
-                idx.extend(std::iter::repeat_n(i, a));
-            }
-        }
-        Ok(idx)
-    }
-
-    /// The agent network's inputs `(T+1, B*A, input)` for a batch: the encoder runs on the
-    /// batch's real frames only; padded steps get zero features (they are masked out).
-    pub fn unroll_inputs(&self, batch: &Batch) -> Result<Tensor, Error> {
-        let inputs = Tensor::from_slice(&batch.inputs, (batch.t + 1, batch.b * batch.n_agents, batch.width), &candle_core::Device::Cpu)?;
-        let Some(e) = &self.encoder else { return Ok(inputs) };
-        let Some(fb) = &batch.frames else {
-            return Err(Error::Observation { message: "an image encoder was given a batch without frames".into() });
-        };
-        let (t1, rows, width) = inputs.dims3()?;
-        let feats = e.forward(&fb.frames.tensors()?)?;
-        let f = feats.dim(1)?;
-        let mut per_episode = Vec::with_capacity(fb.lens.len());
-        let mut off = 0;
-        for &len in &fb.lens {
-            let len = len.min(t1);
-            let ep = if len == 0 {
-                Tensor::zeros((t1, f), feats.dtype(), feats.device())?
-            } else {
-                feats.narrow(0, off, len)?.pad_with_zeros(0, 0, t1 - len)?
-            };
-            off += len;
-            per_episode.push(ep);
-        }
-        let b = per_episode.len();
-        let feats = Tensor::stack(&per_episode, 1)?.reshape((t1 * b, f))?; // (t, b) row order
-        let fused = e.fuse(&feats, &inputs.reshape((t1 * rows, width))?)?;
-        Ok(fused.reshape((t1, rows, ()))?)
     }
 }

@@ -19,7 +19,7 @@
 use super::layers::{LayerNorm, linear_nd, matmul_nd, softmax_last};
 use super::settings::SwinSizes;
 use crate::Error;
-use crate::nets::{Linear, Params};
+use crate::params::{Linear, Params};
 use candle_core::{D, DType, Device, Tensor};
 use rand_chacha::ChaCha8Rng;
 

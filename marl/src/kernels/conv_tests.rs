@@ -4,8 +4,8 @@
 
 use super::{EncoderLayout, Pixels};
 use crate::encoders::ObsEncoder;
-use crate::nets::Params;
-use crate::observe::StepFrames;
+use crate::frames::StepFrames;
+use crate::params::Params;
 use crate::{Config, Error, Shape};
 use candle_core::Tensor;
 use rand::{Rng, SeedableRng};

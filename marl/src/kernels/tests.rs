@@ -3,7 +3,8 @@
 
 use super::NetLayout;
 use crate::Error;
-use crate::nets::{AgentNet, Params};
+use crate::nets::AgentNet;
+use crate::params::Params;
 use candle_core::{Device, Tensor, Var};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

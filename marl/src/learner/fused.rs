@@ -6,15 +6,15 @@
 //!
 //! The image encoders (candle) stay in candle: the agent network's input gradient goes back
 //! through their graph, and their gradients join the flat vector for the one clip and step.
-//! Every rule here follows the candle reference ([`Learner::loss`]) exactly, ties included
-//! (the first of equal Q-values is the greedy action, as candle's `argmax`), so the two give
-//! the same gradients (`tests/learn.rs`).
+//! Every rule here follows the candle reference ([`crate::Learner::loss`]) exactly, ties
+//! included (the first of equal Q-values is the greedy action, as candle's `argmax`), so the
+//! two give the same gradients (`tests/it/learn.rs`).
 
-use super::{Learner, MASKED, Nets, QGrads, td_targets_flat};
 use crate::buffer::{Batch, Shape};
 use crate::kernels::{Adam, EncoderForward, MixerLayout, NetLayout, RmsProp};
-use crate::nets::Mixer;
+use crate::nets::{Mixer, Nets};
 use crate::optim::OptimizerKind;
+use crate::td::{MASKED, QGrads, td_targets_flat};
 use crate::{Config, Error};
 use candle_core::{Device, Tensor};
 use std::sync::Mutex;
@@ -110,18 +110,19 @@ impl FlatState {
         self.agent.len() + self.enc_len..self.theta.len()
     }
 
-    /// The loss of `batch` and its gradient (see the module docs).
-    pub(super) fn gradients(&self, l: &Learner, batch: &Batch) -> Result<QGrads, Error> {
-        let cfg = &l.cfg;
-        let (t, b, a, na) = (batch.t, batch.b, l.shape.n_agents, l.shape.n_actions);
+    /// The loss of `batch` and its gradient (see the module docs) under the learner's
+    /// networks and their targets: handed in rather than the learner that owns this state,
+    /// so that this module imports nothing of its parent.
+    pub(super) fn gradients(&self, cfg: &Config, shape: &Shape, (nets, target): (&Nets, &Nets), batch: &Batch) -> Result<QGrads, Error> {
+        let (t, b, a, na) = (batch.t, batch.b, shape.n_agents, shape.n_actions);
         let (t1, rows) = (t + 1, b * a);
         let an = self.agent.len();
         let poisoned = || Error::Observation { message: "a thread panicked while it held the encoder's buffers".into() };
         let scratch = std::mem::take(&mut *self.scratch.lock().map_err(|_| poisoned())?);
-        let (x, encoded) = self.inputs(&l.nets, &self.theta, batch, true, scratch)?;
+        let (x, encoded) = self.inputs(nets, &self.theta, batch, true, scratch)?;
         let xt_own;
-        let xt = if l.nets.encoder.is_some() {
-            xt_own = self.inputs(&l.target, &self.target, batch, false, EncoderForward::default())?.0;
+        let xt = if nets.encoder.is_some() {
+            xt_own = self.inputs(target, &self.target, batch, false, EncoderForward::default())?.0;
             &xt_own
         } else {
             &x
@@ -190,7 +191,7 @@ impl FlatState {
                 let d = Tensor::from_vec(dx, xg.dims(), &Device::Cpu)?;
                 let enc = (xg * d)?.sum_all()?.backward()?;
                 let mut at = an;
-                for v in l.nets.agent_params.vars_after(l.nets.agent.var_count()) {
+                for v in nets.agent_params.vars_after(nets.agent.var_count()) {
                     let k = v.elem_count();
                     if let Some(g) = enc.get(v) {
                         grad[at..at + k].copy_from_slice(&g.flatten_all()?.to_vec1::<f32>()?);
@@ -199,7 +200,7 @@ impl FlatState {
                 }
             }
             (Encoded::Fused { mut pass, row_frame }, Some(dx)) => {
-                let (Some(e), Some(fb)) = (&l.nets.encoder, &batch.frames) else { return Err(no_frames()) };
+                let (Some(e), Some(fb)) = (&nets.encoder, &batch.frames) else { return Err(no_frames()) };
                 let Some(k) = e.kernel() else { return Err(no_frames()) };
                 let d_feats = e.feature_grads(&dx, &row_frame, pass.n);
                 let enc = an..an + self.enc_len;

@@ -6,11 +6,11 @@
 use super::rollout::{FlatBatch, MASKED, PpoBatch, Rollout, gae};
 use super::value_norm::ValueNorm;
 use crate::buffer::Shape;
+use crate::frames::StepFrames;
 use crate::kernels::ppo_loss::{LossGrads, LossRows, LossSettings, ppo_loss};
 use crate::kernels::{Adam, EncoderForward, EncoderLayout, NetLayout, Pixels, clip_global_norm};
-use crate::learner::Nets;
-use crate::nets::{AgentNet, Linear, Params};
-use crate::observe::StepFrames;
+use crate::nets::{AgentNet, Nets};
+use crate::params::{Linear, Params};
 use crate::{Config, Error};
 use candle_core::backprop::GradStore;
 use candle_core::{D, Device, Tensor, Var};

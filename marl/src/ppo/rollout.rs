@@ -15,8 +15,7 @@
 //! reports final observations, GAE can bootstrap truncations from them.
 
 use crate::Error;
-use crate::encoders::FrameTensors;
-use crate::observe::{StepFrames, concat_steps};
+use crate::frames::{FrameTensors, StepFrames, concat_steps};
 use candle_core::{Device, Tensor};
 use std::sync::Arc;
 

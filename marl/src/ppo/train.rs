@@ -1,7 +1,7 @@
 //! PPO's loop: all environments step together with one batched forward pass of actor and
 //! critic for every environment and agent, actions drawn from the masked policy, and an
 //! update after every `rollout_len` steps (`envs x rollout_len` environment steps). Tests,
-//! the CSV log and checkpoints are the Q-learners' (see [`crate::train`]); the CSV's
+//! the CSV log and checkpoints are the Q-learners' (see [`crate::monitor`]); the CSV's
 //! `epsilon` is 0 (PPO explores by sampling), `loss` is the PPO loss (mean over the update's
 //! epochs), `grad_norm` the actor's gradient norm before clipping, `q_taken` the rollout's
 //! mean value estimate, and `updates` counts rollouts.
@@ -16,8 +16,8 @@
 use super::learner::{PpoLearner, additive_mask, sample_actions};
 use super::rollout::Rollout;
 use crate::buffer::{Shape, act_inputs};
+use crate::monitor::{Monitor, Progress, RunOptions, Summary};
 use crate::resume::RunState;
-use crate::train::{Monitor, Progress, RunOptions, Summary};
 use crate::{Config, Error, UpdateStats, policy};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -30,6 +30,8 @@ pub fn train(cfg: &Config, opts: &RunOptions, on_progress: &mut dyn FnMut(&Progr
 
 /// [`train`], going on from `start` (see [`crate::resume`]): the checkpoint and state in
 /// `opts.out`. The resumed run starts a fresh rollout.
+// Long on purpose: the PPO loop (rollout, update, test round, checkpoint, resume state) in
+// the order it runs; each phase calls into its own module.
 pub fn train_from(
     cfg: &Config,
     opts: &RunOptions,

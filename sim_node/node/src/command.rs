@@ -6,22 +6,13 @@
 //! by two nodes or by none. Each step it publishes the groups in force with the commander's
 //! briefing on `team_<n>/roles`, which the team's role-group nodes act on.
 
-use crate::{SimConfig, header};
+use crate::config::{SimConfig, TeamCommand};
+use crate::convert::{header, unit_of};
 use avacraft_engine::Env;
-use avacraft_engine::agent::{Assignment, GroupRole, validate_orders};
+use avacraft_engine::agent::{Assignment, validate_orders};
 use avacraft_msgs::{RoleAssignment, RoleGroup};
-use avacraft_nodes::{AgentId, Node, NodeError, Publisher, Qos, Subscriber, TeamNo, TopicKind, Topics, UnitTag};
+use avacraft_nodes::{AgentId, Node, NodeError, Publisher, Qos, Subscriber, TopicKind, Topics, UnitTag};
 use std::collections::BTreeMap;
-
-/// A team under a commander.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct TeamCommand {
-    pub team: TeamNo,
-    /// The commander node's id (its node is `agent_<id>`).
-    pub commander: AgentId,
-    /// The role groups' agent nodes, in order, with their roles.
-    pub groups: Vec<(AgentId, GroupRole)>,
-}
 
 /// Counters of one episode, per team.
 #[derive(Clone, Copy, Debug, Default)]
@@ -80,7 +71,7 @@ impl Command {
     /// Publishes each commanded team's groups in force (living units only) and briefing.
     pub(crate) fn publish(&mut self, env: &Env, owners: &BTreeMap<UnitTag, AgentId>, episode: u64) -> Result<(), NodeError> {
         for t in &mut self.teams {
-            let alive = |tag: &UnitTag| crate::unit_of(env, tag.get()).is_some_and(|u| u.alive);
+            let alive = |tag: &UnitTag| unit_of(env, tag.get()).is_some_and(|u| u.alive);
             let groups = t
                 .spec
                 .groups

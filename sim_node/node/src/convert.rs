@@ -1,7 +1,7 @@
 //! The engine's structures to messages and back. Every action off the wire passes
 //! `action_from_msg`, which names what is wrong instead of guessing.
 
-use avacraft_engine::{AbilityTarget, Action, Command, World};
+use avacraft_engine::{AbilityTarget, Action, Command, Env, UnitId, World};
 use avacraft_msgs::{Header, Time, UnitAction};
 use avacraft_nodes::wire;
 
@@ -39,4 +39,10 @@ pub fn action_from_msg(w: &World, a: &UnitAction) -> Result<Action, BadAction> {
         return Err(BadAction::UnknownTarget(a.target_tag));
     }
     Ok(action)
+}
+
+/// The unit with wire tag `tag`, if it exists.
+pub(crate) fn unit_of(env: &Env, tag: u32) -> Option<&avacraft_engine::Unit> {
+    let i = u16::try_from(tag.checked_sub(1)?).ok()?;
+    env.world().unit(UnitId::new(i))
 }

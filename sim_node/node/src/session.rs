@@ -2,7 +2,7 @@
 //! simulator's configuration, and read back into a scenario and an `EnvConfig` by replays,
 //! so a recording replays with no file and no flag besides itself.
 
-use crate::{Clock, SimConfig};
+use crate::config::{Clock, SimConfig};
 use avacraft_engine::{EnvConfig, OpponentKind, RewardMode, Rules, Scenario, ScenarioError};
 use avacraft_msgs::{Header, SessionInfo};
 use std::num::NonZeroU32;

@@ -1,7 +1,7 @@
 //! How a call runs on llama.cpp: a fresh context, the prompt read in batches, then tokens
 //! sampled one by one until an end-of-generation token or `max_tokens`.
 
-use super::{backend, local};
+use super::llama::{backend, local};
 use crate::llm::LlmError;
 use llama_cpp_2::context::LlamaContext;
 use llama_cpp_2::context::params::LlamaContextParams;

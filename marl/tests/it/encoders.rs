@@ -1,6 +1,6 @@
 //! The image and text encoders of the rgb, hybrid and vision-text modes: shapes, adaptive
 //! pooling, gradients, seeding, and short end-to-end runs on 3m (the text features
-//! themselves: `tests/text.rs`).
+//! themselves: `tests/it/text.rs`).
 
 use avacraft_engine::Scenario;
 use avacraft_marl::encoders::layers::adaptive_avg_pool2d;

@@ -1,7 +1,7 @@
 //! The learners on small hand-made data, the checkpoint format, action masking, and a short
 //! end-to-end run on 3m.
 
-mod common;
+use crate::common;
 
 use avacraft_engine::Scenario;
 use avacraft_marl::{Batch, Config, Episode, Learner, MarlAgent, Nets, Policy, RunOptions, Shape, select_actions, train};

@@ -1,12 +1,13 @@
-//! Episodes: a world plus the opponent, the step of `step_mul` loops, rewards and the end
-//! of the episode. The same `Env` serves MARL training loops, the CLI and the nodes.
+//! An episode's state and everything read or changed without stepping it: configuration,
+//! reset, actions, hashes and the SMAC interface. Below the observations (which read an
+//! `Env`) and the step (which builds them for the opponent).
 
-use crate::action::{Action, ActionError};
-use crate::agent::{self, AgentCtx, GroupObs, agent_seed};
+use crate::action::{Action, ActionError, Command};
+use crate::agent::{self, AgentCtx, agent_seed};
 use crate::builtin_ai::BuiltinAi;
 use crate::hash::Fnv;
 use crate::ids::{Team, UnitId};
-use crate::obs::SmacLayout;
+use crate::obs::{EnvInfo, IndexError, SmacLayout};
 use crate::scenario::{Mode, OpponentKind, Scenario};
 use crate::time::DEFAULT_STEP_MUL;
 use crate::world::{Rules, World};
@@ -72,6 +73,15 @@ pub enum Outcome {
 }
 
 impl Outcome {
+    /// Its name in results files, reports and Python (`win`, `loss`, `draw`: serde's too).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Outcome::Win => "win",
+            Outcome::Loss => "loss",
+            Outcome::Draw => "draw",
+        }
+    }
+
     /// The same end seen from `team`.
     pub fn for_team(self, team: Team) -> Outcome {
         match (self, team) {
@@ -105,33 +115,33 @@ pub struct StepResult {
 
 /// Per-team SMAC reward bookkeeping.
 #[derive(Clone, Debug, Default)]
-struct DenseTracker {
-    prev: Vec<f32>,
-    dead: Vec<bool>,
+pub(super) struct DenseTracker {
+    pub(super) prev: Vec<f32>,
+    pub(super) dead: Vec<bool>,
 }
 
 pub struct Env {
-    scenario: Arc<Scenario>,
-    cfg: EnvConfig,
-    world: World,
-    seed: u64,
-    agents: [Vec<UnitId>; 2],
-    opponent: Option<Box<dyn agent::ForkAgent>>,
-    opponent_kind: Option<OpponentKind>,
-    policy_rng: ChaCha8Rng,
-    builtin: Option<BuiltinAi>,
-    outcome: Option<Outcome>,
-    steps: u32,
-    refused: [u32; 2],
+    pub(super) scenario: Arc<Scenario>,
+    pub(super) cfg: EnvConfig,
+    pub(super) world: World,
+    pub(super) seed: u64,
+    pub(super) agents: [Vec<UnitId>; 2],
+    pub(super) opponent: Option<Box<dyn agent::ForkAgent>>,
+    pub(super) opponent_kind: Option<OpponentKind>,
+    pub(super) policy_rng: ChaCha8Rng,
+    pub(super) builtin: Option<BuiltinAi>,
+    pub(super) outcome: Option<Outcome>,
+    pub(super) steps: u32,
+    pub(super) refused: [u32; 2],
     /// SMAC index of each agent's action in the last step (None: no action given).
-    last_actions: [Vec<Option<usize>>; 2],
+    pub(super) last_actions: [Vec<Option<usize>>; 2],
     /// Actions given for the step being prepared; they become `last_actions` at `step`.
-    pending_actions: [Vec<Option<usize>>; 2],
-    dense: DenseTracker,
+    pub(super) pending_actions: [Vec<Option<usize>>; 2],
+    pub(super) dense: DenseTracker,
     /// SMAC's max_reward per team: 10 per enemy, its full HP and shields, plus 200.
-    max_reward: [f32; 2],
-    trajectory: Fnv,
-    layouts: [SmacLayout; 2],
+    pub(super) max_reward: [f32; 2],
+    pub(super) trajectory: Fnv,
+    pub(super) layouts: [SmacLayout; 2],
 }
 
 impl std::fmt::Debug for Env {
@@ -397,7 +407,7 @@ impl Env {
             Err(_) => self.refused[team.index()] += 1,
             Ok(()) => {
                 if let Some(agent) = self.agents[team.index()].iter().position(|&u| u == a.unit) {
-                    let idx = known_index.or_else(|| crate::obs::smac::command_index(self, team, agent, &a.command));
+                    let idx = known_index.or_else(|| command_index(self, team, agent, &a.command));
                     self.set_last_action(team, agent, idx);
                 }
             }
@@ -405,75 +415,9 @@ impl Env {
         r
     }
 
-    /// Runs the opponent (PvE), then `step_mul` game loops, and scores the step. Stepping a
-    /// finished episode does nothing and returns its outcome again.
-    pub fn step(&mut self) -> StepResult {
-        if let Some(o) = self.outcome {
-            let truncated = self.truncated();
-            return StepResult { reward: [0.0, 0.0], done: true, terminated: !truncated, truncated, outcome: Some(o) };
-        }
-        // The opponent sees what team 2's units observe, as any agent does.
-        let mut actions = Vec::new();
-        if let Some(mut p) = self.opponent.take() {
-            actions = p.act(&GroupObs::team(self, Team::Two, 0, p.reads()));
-            self.opponent = Some(p);
-        }
-        if self.builtin.as_ref().is_some_and(|ai| ai.started(self.world.tick())) && self.builtin_may_cast() {
-            // The built-in AI's abilities, as the scripted agents use them.
-            actions = agent::micro::ability_actions(&GroupObs::team(self, Team::Two, 0, agent::Reads::UNITS), &self.scenario.terrain).0;
-        }
-        for a in &actions {
-            // A scripted opponent's invalid action is its own bug, not the agent's: it is
-            // dropped without counting against anyone.
-            let _ = self.world.apply(Team::Two, a);
-        }
-        if let Some(ai) = self.builtin.as_mut() {
-            ai.before_step(&mut self.world, &self.agents[Team::Two.index()], Team::Two);
-        }
-        let limit = self.time_limit_loops();
-        for _ in 0..self.cfg.step_mul.get() {
-            if let Some(ai) = self.builtin.as_mut() {
-                ai.before_loop(&mut self.world, &self.agents[Team::Two.index()]);
-            }
-            self.world.step_loop();
-            if self.terminal().is_some() || self.world.tick() >= limit {
-                break;
-            }
-        }
-        for team in Team::BOTH {
-            let t = team.index();
-            std::mem::swap(&mut self.last_actions[t], &mut self.pending_actions[t]);
-            self.pending_actions[t].iter_mut().for_each(|a| *a = None);
-        }
-        self.steps += 1;
-        let outcome = self.terminal().or_else(|| (self.world.tick() >= limit).then_some(Outcome::Draw));
-        self.outcome = outcome;
-        self.trajectory.u64(self.state_hash());
-        let reward = match self.cfg.reward {
-            RewardMode::Sparse => outcome.map_or([0.0, 0.0], |o| [o.sparse_reward(), o.for_team(Team::Two).sparse_reward()]),
-            RewardMode::Dense => self.dense_reward(outcome),
-        };
-        let truncated = self.truncated();
-        StepResult { reward, done: outcome.is_some(), terminated: outcome.is_some() && !truncated, truncated, outcome }
-    }
-
-    /// Whether some unit of the built-in AI could cast now. Its ability use never acts
-    /// otherwise, so the team's observation is built only when this holds: most steps of
-    /// most scenarios, where no unit has a castable ability, stay as cheap as without it.
-    fn builtin_may_cast(&self) -> bool {
-        let w = &self.world;
-        w.rules().abilities && w.alive(Team::Two).any(|u| u.kind.mode_abilities().any(|a| w.can_cast(u, a).is_ok()))
-    }
-
-    /// Submits team 1's actions and steps: the single-team convenience for PvE loops.
-    pub fn step_with(&mut self, actions: &[Action]) -> (StepResult, Vec<Result<(), ActionError>>) {
-        let r = self.submit(Team::One, actions);
-        (self.step(), r)
-    }
-
     /// Win when the other side can no longer fight, loss when this side cannot, draw when
     /// neither can (SMAC's rule, with "only Medivacs left" generalised to units without weapons).
-    fn terminal(&self) -> Option<Outcome> {
+    pub(super) fn terminal(&self) -> Option<Outcome> {
         match (self.world.can_fight(Team::One), self.world.can_fight(Team::Two)) {
             (true, true) => None,
             (true, false) => Some(Outcome::Win),
@@ -481,32 +425,79 @@ impl Env {
             (false, false) => Some(Outcome::Draw),
         }
     }
+}
 
-    fn dense_reward(&mut self, outcome: Option<Outcome>) -> [f32; 2] {
-        // SMAC's reward_battle with reward_only_positive: |damage + shield dealt + 10 per kill|.
-        let mut delta = [0.0f32; 2];
-        for (i, u) in self.world.units().iter().enumerate() {
-            if self.dense.dead[i] {
-                continue;
-            }
-            let scorer = u.team.other().index();
-            let now = u.hp.max(0.0) + u.shield.max(0.0);
-            if !u.alive {
-                self.dense.dead[i] = true;
-                delta[scorer] += self.dense.prev[i] + 10.0;
-            } else {
-                delta[scorer] += self.dense.prev[i] - now;
-            }
-            self.dense.prev[i] = now;
+impl Env {
+    pub fn smac_layout(&self, team: Team) -> &SmacLayout {
+        &self.layouts()[team.index()]
+    }
+
+    /// SMAC's `get_env_info()` for a team's agents.
+    pub fn env_info(&self, team: Team) -> EnvInfo {
+        let l = self.smac_layout(team);
+        EnvInfo {
+            n_agents: l.n_agents,
+            n_actions: l.n_actions,
+            obs_shape: l.obs_size,
+            state_shape: l.state_size,
+            episode_limit: self.time_limit_loops().div_ceil(self.config().step_mul.get()) as usize,
         }
-        let mut out = [0.0; 2];
-        for team in Team::BOTH {
-            let mut r = delta[team.index()].abs();
-            if outcome.map(|o| o.for_team(team)) == Some(Outcome::Win) {
-                r += 200.0;
+    }
+
+    pub fn obs_agent(&self, team: Team, agent: usize, out: &mut [f32]) {
+        self.smac_layout(team).obs(self.world(), agent, out)
+    }
+
+    pub fn state(&self, team: Team, out: &mut [f32]) {
+        self.smac_layout(team).state(self.world(), self.last_actions(team), out)
+    }
+
+    pub fn avail_agent(&self, team: Team, agent: usize, out: &mut [u8]) {
+        self.smac_layout(team).avail_actions(self.world(), agent, out)
+    }
+
+    /// Submits one SMAC action index per agent of `team`; unavailable indices are refused
+    /// and counted like any invalid action.
+    pub fn submit_indices(&mut self, team: Team, indices: &[usize]) -> Vec<Result<(), IndexError>> {
+        let (n_agents, n_actions) = (self.smac_layout(team).n_agents, self.smac_layout(team).n_actions);
+        if indices.len() != n_agents {
+            self.count_refused(team, 1);
+            return vec![Err(IndexError::WrongCount(indices.len(), n_agents))];
+        }
+        let mut out = Vec::with_capacity(indices.len());
+        for (agent, &index) in indices.iter().enumerate() {
+            let checked = {
+                let l = self.smac_layout(team);
+                if index >= n_actions {
+                    Err(IndexError::OutOfRange { agent, index, n_actions })
+                } else if !l.is_available(self.world(), agent, index) {
+                    Err(IndexError::Unavailable { agent, index })
+                } else {
+                    l.command_for(self.world(), agent, index).map(|c| (l.agents[agent], c)).ok_or(IndexError::OutOfRange {
+                        agent,
+                        index,
+                        n_actions,
+                    })
+                }
+            };
+            match checked {
+                Err(e) => {
+                    self.count_refused(team, 1);
+                    out.push(Err(e));
+                }
+                Ok((_, Command::NoOp)) => {
+                    self.set_last_action(team, agent, Some(0));
+                    out.push(Ok(()));
+                }
+                Ok((unit, command)) => {
+                    out.push(self.submit_one(team, &Action::new(unit, command), Some(index)).map_err(IndexError::from));
+                }
             }
-            out[team.index()] = r / (self.max_reward[team.index()] / 20.0);
         }
         out
     }
+}
+
+pub(crate) fn command_index(env: &Env, team: Team, agent: usize, c: &Command) -> Option<usize> {
+    env.smac_layout(team).index_for(env.world(), agent, c)
 }

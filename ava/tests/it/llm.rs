@@ -1,12 +1,10 @@
 //! AVA against a fake OpenAI-compatible server on loopback: the request's shape, whole
 //! episodes through every kind of failure, and record-then-replay.
 
-mod common;
-
+use crate::common::{FakeServer, Fault, play, setup};
 use avacraft_ava::AvaConfig;
 use avacraft_ava::llm::{ChatModel, ChatRequest, LlmError, Message, Part, Png, Replay, Role, Sampling, Stage};
 use avacraft_engine::Team;
-use common::{FakeServer, Fault, play, setup};
 
 fn tmp(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("ava-test-{}-{name}", std::process::id()));

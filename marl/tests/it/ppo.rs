@@ -1,7 +1,7 @@
 //! IPPO and MAPPO: the update on a fixed batch, masking and sampling, GAE, value
 //! normalisation, checkpoints, reproducibility and short end-to-end runs on 3m.
 
-mod common;
+use crate::common;
 
 use avacraft_engine::Scenario;
 use avacraft_marl::ppo::{CriticInput, FlatBatch, MASKED, PpoLearner, Rollout, ValueNorm, gae, masked_log_softmax, sample_actions};

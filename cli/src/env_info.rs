@@ -1,20 +1,11 @@
-//! `scenarios` and `env-info`.
+//! `avacraft env-info`: SMAC's `get_env_info()` for a scenario and team.
 
-use anyhow::{Context, Result};
-use avacraft_engine::{Env, EnvConfig, Scenario, Team, builtin, builtin_names, loops_to_seconds};
+use crate::flags::team_of;
+use anyhow::Result;
+use avacraft_engine::{Env, EnvConfig, Scenario};
 use clap::Args;
-use comfy_table::{Table, presets::UTF8_FULL_CONDENSED};
-use serde::Serialize;
-use std::collections::BTreeMap;
 use std::io::Write;
 use std::sync::Arc;
-
-#[derive(Args, Debug)]
-pub struct ScenariosArgs {
-    /// Print JSON instead of a table.
-    #[arg(long)]
-    json: bool,
-}
 
 #[derive(Args, Debug)]
 pub struct EnvInfoArgs {
@@ -31,58 +22,6 @@ pub struct EnvInfoArgs {
     /// type, their masks, and energy and slot features in the observations).
     #[arg(long)]
     ability_actions: bool,
-}
-
-#[derive(Serialize)]
-struct Row {
-    name: String,
-    mode: String,
-    team1: usize,
-    team2: usize,
-    team1_units: String,
-    team2_units: String,
-    map: String,
-    time_limit_s: f32,
-}
-
-pub(crate) fn team_of(n: u8) -> Team {
-    if n == 2 { Team::Two } else { Team::One }
-}
-
-fn composition(s: &Scenario, team: Team) -> String {
-    let mut m: BTreeMap<&str, usize> = BTreeMap::new();
-    for (_, u) in s.team_units(team) {
-        *m.entry(u.kind.name()).or_default() += 1;
-    }
-    m.into_iter().map(|(k, n)| format!("{n} {k}")).collect::<Vec<_>>().join(", ")
-}
-
-pub fn scenarios(a: &ScenariosArgs, out: &mut dyn Write) -> Result<()> {
-    let mut rows = Vec::new();
-    for name in builtin_names() {
-        let s = builtin(name).with_context(|| format!("built-in scenario {name}"))?;
-        rows.push(Row {
-            name: s.name.clone(),
-            mode: s.mode.to_string(),
-            team1: s.count(Team::One),
-            team2: s.count(Team::Two),
-            team1_units: composition(&s, Team::One),
-            team2_units: composition(&s, Team::Two),
-            map: format!("{}x{}", s.terrain.width(), s.terrain.height()),
-            time_limit_s: loops_to_seconds(s.time_limit_loops),
-        });
-    }
-    if a.json {
-        writeln!(out, "{}", serde_json::to_string_pretty(&rows)?)?;
-        return Ok(());
-    }
-    let mut t = Table::new();
-    t.load_preset(UTF8_FULL_CONDENSED).set_header(["scenario", "mode", "team 1", "team 2", "team 1 units", "team 2 units", "map"]);
-    for r in rows {
-        t.add_row([r.name, r.mode, r.team1.to_string(), r.team2.to_string(), r.team1_units, r.team2_units, r.map]);
-    }
-    writeln!(out, "{t}")?;
-    Ok(())
 }
 
 pub fn env_info(a: &EnvInfoArgs, out: &mut dyn Write) -> Result<()> {

@@ -1,0 +1,74 @@
+//! `avacraft sim-node`: the simulator node of a launch file (`launch` starts it as a process).
+
+use anyhow::{Context, Result, bail};
+use avacraft_launch::{ClockMode, Plan};
+use avacraft_nodes::{Node, NodeArgs, NodeName, Shutdown, Topics};
+use avacraft_policy::Weights;
+use avacraft_sim_node::{Clock, SimConfig};
+use clap::Args;
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Duration;
+
+#[derive(Args, Debug, Clone)]
+pub struct SimNodeArgs {
+    #[command(flatten)]
+    pub node: NodeArgs,
+    /// The launch file whose scenario, clock, seeds and unit owners to use.
+    #[arg(long)]
+    pub launch: PathBuf,
+    /// Write the episode summaries as JSON here.
+    #[arg(long)]
+    pub result_file: Option<PathBuf>,
+    /// Seconds to wait for every agent node to appear.
+    #[arg(long, default_value_t = 30.0)]
+    pub startup_timeout: f64,
+}
+
+fn sim_config(plan: &Plan, startup: Duration) -> SimConfig {
+    SimConfig {
+        scenario: plan.scenario.clone(),
+        env: plan.env_config(),
+        clock: match plan.clock {
+            ClockMode::Lockstep => Clock::Lockstep { deadline: plan.deadline },
+            ClockMode::RealTime => Clock::RealTime,
+        },
+        seeds: plan.seeds.clone(),
+        owners: plan.owners(),
+        startup_timeout: startup,
+        wait_for_recorder: plan.record.is_some(),
+        dds_agents: plan.agents.iter().filter(|a| a.is_dds()).map(|a| a.id.clone()).collect(),
+        launch_file: plan.file.clone(),
+        commands: plan
+            .commanders
+            .iter()
+            .map(|c| avacraft_sim_node::TeamCommand { team: c.team, commander: c.id.clone(), groups: c.groups.clone() })
+            .collect(),
+        frames: plan.frames.as_ref().map(|f| avacraft_sim_node::FrameSpec {
+            kinds: f.kinds.clone(),
+            screen: f.screen,
+            minimap: f.minimap,
+            vlm: f.vlm,
+            every: f.every,
+        }),
+    }
+}
+
+pub fn sim_node(a: &SimNodeArgs, out: &mut dyn Write) -> Result<()> {
+    avacraft_nodes::init_logging();
+    let shutdown = Shutdown::install();
+    // The simulator never acts: it names the policies without reading their weights.
+    let plan = avacraft_launch::load_with(&a.launch, Weights::Later)?;
+    if !(a.startup_timeout.is_finite() && a.startup_timeout > 0.0) {
+        bail!("--startup-timeout {}: must be a positive number of seconds", a.startup_timeout);
+    }
+    let topics = Topics::new(&a.node.namespace)?;
+    let node = Node::open(&a.node, &a.node.namespace, &NodeName::sim()).context("sim-node: opening the Zenoh session")?;
+    let summaries = avacraft_sim_node::run(&node, &topics, &sim_config(&plan, Duration::from_secs_f64(a.startup_timeout)), &shutdown)?;
+    let json = serde_json::to_string(&summaries)?;
+    if let Some(p) = &a.result_file {
+        std::fs::write(p, &json).with_context(|| format!("sim-node: writing {}", p.display()))?;
+    }
+    writeln!(out, "{json}")?;
+    Ok(())
+}

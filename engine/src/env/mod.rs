@@ -1,0 +1,7 @@
+//! Episodes: a world plus the opponent, the step of `step_mul` loops, rewards and the end
+//! of the episode. The same `Env` serves MARL training loops, the CLI and the nodes.
+
+mod episode;
+mod step;
+
+pub use episode::{Env, EnvConfig, Outcome, RewardMode, StepResult};

@@ -1,0 +1,185 @@
+//! The validated scenario and its parts. A leaf: validation builds these, the built-in
+//! scenarios load through them, and the rest of the engine reads them.
+
+use crate::geom::Vec2;
+use crate::ids::Team;
+use crate::terrain::Terrain;
+use crate::units::UnitKind;
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+use std::sync::Arc;
+
+/// Who drives team 2.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Mode {
+    Pve,
+    Pvp,
+}
+
+impl fmt::Display for Mode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Mode::Pve => "PvE",
+            Mode::Pvp => "PvP",
+        })
+    }
+}
+
+/// Upgrades a scenario can grant at the start. Names of the source maps are aliases.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum Upgrade {
+    Stimpack,
+    CombatShield,
+    ConcussiveShells,
+    Blink,
+    PsionicStorm,
+    MetabolicBoost,
+    /// Ghost cloak.
+    PersonalCloaking,
+    /// Banshee cloak.
+    CloakingField,
+}
+
+impl FromStr for Upgrade {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Ok(match s {
+            "Stimpack" => Upgrade::Stimpack,
+            "CombatShield" | "ShieldWall" => Upgrade::CombatShield,
+            "ConcussiveShells" | "PunisherGrenades" => Upgrade::ConcussiveShells,
+            "Blink" | "BlinkTech" => Upgrade::Blink,
+            "PsionicStorm" | "PsiStormTech" => Upgrade::PsionicStorm,
+            "MetabolicBoost" | "zerglingmovementspeed" => Upgrade::MetabolicBoost,
+            "PersonalCloaking" => Upgrade::PersonalCloaking,
+            "CloakingField" | "BansheeCloak" => Upgrade::CloakingField,
+            _ => {
+                return Err("unknown upgrade (known: Stimpack, CombatShield, ConcussiveShells, Blink, PsionicStorm, MetabolicBoost, PersonalCloaking, CloakingField)".into());
+            }
+        })
+    }
+}
+
+/// The built-in AI's opening order.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum StartOrder {
+    None,
+    AttackMove { to: Vec2, delay_loops: u32 },
+    AttackMoveRandom { from: Vec2, to: Vec2, delay_loops: u32 },
+}
+
+/// Opponent policies for team 2 in PvE.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum OpponentKind {
+    Builtin,
+    Aggressive,
+    Defensive,
+    Focus,
+    Random,
+}
+
+impl OpponentKind {
+    pub const ALL: [OpponentKind; 5] =
+        [OpponentKind::Builtin, OpponentKind::Aggressive, OpponentKind::Defensive, OpponentKind::Focus, OpponentKind::Random];
+    pub fn name(self) -> &'static str {
+        match self {
+            OpponentKind::Builtin => "builtin",
+            OpponentKind::Aggressive => "aggressive",
+            OpponentKind::Defensive => "defensive",
+            OpponentKind::Focus => "focus",
+            OpponentKind::Random => "random",
+        }
+    }
+}
+
+impl FromStr for OpponentKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        OpponentKind::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| "unknown opponent (known: builtin, aggressive, defensive, focus, random)".to_owned())
+    }
+}
+
+impl fmt::Display for OpponentKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScenarioUnit {
+    pub kind: UnitKind,
+    pub team: Team,
+    pub pos: Vec2,
+    pub facing: f32,
+    /// Energy at the start (the type's default unless the file sets it).
+    pub energy: f32,
+}
+
+/// A validated scenario.
+#[derive(Clone, Debug)]
+pub struct Scenario {
+    pub name: String,
+    pub mode: Mode,
+    pub description: String,
+    pub objective: String,
+    pub source: String,
+    pub terrain: Arc<Terrain>,
+    pub units: Vec<ScenarioUnit>,
+    pub upgrades: [Vec<Upgrade>; 2],
+    pub opponent: OpponentKind,
+    pub start: StartOrder,
+    pub time_limit_loops: u32,
+    /// The TOML text it was parsed from, verbatim: a recording carries it, so a replay needs
+    /// neither the file nor the same built-in scenarios.
+    pub text: Arc<str>,
+}
+
+impl Scenario {
+    pub fn count(&self, team: Team) -> usize {
+        self.units.iter().filter(|u| u.team == team).count()
+    }
+
+    /// Units of a team, in scenario order.
+    pub fn team_units(&self, team: Team) -> impl Iterator<Item = (usize, &ScenarioUnit)> {
+        self.units.iter().enumerate().filter(move |(_, u)| u.team == team)
+    }
+
+    /// A team's units in agent order: SMAC sorts agents by unit type, then x, then y (its
+    /// `init_units`); agent `i` of a team controls the `i`-th of these.
+    pub fn agent_order(&self, team: Team) -> Vec<crate::ids::UnitId> {
+        let mut v: Vec<(usize, &ScenarioUnit)> = self.team_units(team).collect();
+        v.sort_by(|(_, a), (_, b)| {
+            a.kind.base().name().cmp(b.kind.base().name()).then(a.pos.x.total_cmp(&b.pos.x)).then(a.pos.y.total_cmp(&b.pos.y))
+        });
+        v.into_iter().map(|(i, _)| crate::ids::UnitId::new(i as u16)).collect()
+    }
+
+    /// Centroid of a team's starting positions (its spawn).
+    pub fn spawn(&self, team: Team) -> Vec2 {
+        let (mut s, mut n) = (Vec2::ZERO, 0.0);
+        for (_, u) in self.team_units(team) {
+            s += u.pos;
+            n += 1.0;
+        }
+        if n > 0.0 { s * (1.0 / n) } else { self.terrain.playable().center() }
+    }
+}
+
+/// Why a scenario could not be loaded. Every variant names the file.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ScenarioError {
+    #[error("{file}: cannot read: {message}")]
+    Io { file: String, message: String },
+    #[error("{file}: {message}")]
+    Syntax { file: String, message: String },
+    #[error("{file}: field `{field}` = {value}: {reason}")]
+    Invalid { file: String, field: String, value: String, reason: String },
+    #[error("unknown scenario `{0}`: not a file, and not a built-in scenario (see `avacraft scenarios`)")]
+    Unknown(String),
+}

@@ -1,0 +1,138 @@
+//! An evaluation folder's `plan.json`: what the report needs of the plan, and the checks that
+//! keep one folder to one plan and a merge to the shards of one split. Kept out of the report:
+//! the plots read it, and the report draws the plots.
+
+use crate::EvalError;
+use crate::plan::{AgentKind, CellKey, Plan, Shard};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// What the report needs of the plan, written next to the results.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Meta {
+    pub name: String,
+    /// Name, kind and policy of each agent, in plan order.
+    pub agents: Vec<(String, AgentKind, String)>,
+    pub seeds: Vec<u64>,
+    /// Learning curves: name and training folder.
+    pub curves: Vec<(String, PathBuf)>,
+    /// Every cell the plan has, in plan order.
+    pub cells: Vec<CellKey>,
+    /// The shard of the plan this folder played (`None`: all of it, or a merge of all).
+    #[serde(default)]
+    pub shard: Option<Shard>,
+    /// `(agent, scenario)`: shipped baselines missing, so left out.
+    #[serde(default)]
+    pub unshipped: Vec<(String, String)>,
+    /// Also written to this Markdown file, with its plots beside it.
+    #[serde(default)]
+    pub document: Option<PathBuf>,
+    #[serde(default)]
+    pub protocol: String,
+}
+
+pub const META_FILE: &str = "plan.json";
+
+impl Meta {
+    pub fn of(plan: &Plan) -> Meta {
+        Meta {
+            name: plan.name.clone(),
+            agents: plan.agents.iter().map(|a| (a.name.clone(), a.kind, a.policy.to_string())).collect(),
+            seeds: plan.seeds.clone(),
+            curves: plan.curves.iter().map(|c| (c.name.clone(), c.dir.clone())).collect(),
+            cells: plan.cells.iter().map(|c| c.key.clone()).collect(),
+            shard: None,
+            unshipped: plan.unshipped.clone(),
+            document: plan.document.clone(),
+            protocol: plan.protocol.clone(),
+        }
+    }
+
+    pub(crate) fn kind(&self, agent: &str) -> Option<AgentKind> {
+        self.agents.iter().find(|(n, _, _)| n == agent).map(|(_, k, _)| *k)
+    }
+}
+
+/// Checks the shards' folders of a merge (each with its `plan.json`): one plan, each shard
+/// once, all of the same split. Returns the plan's metadata for the merged folder and the
+/// shards that are missing (a merge of part of a plan is allowed, and said).
+pub fn check_shards(shards: &[(PathBuf, Meta)]) -> Result<(Meta, Vec<Shard>), EvalError> {
+    let Some((first_dir, first)) = shards.first() else {
+        return Err(EvalError::Shards { dir: PathBuf::from("."), what: "no shard: name the shards' folders".into() });
+    };
+    let mut seen: Vec<(Shard, &PathBuf)> = Vec::new();
+    let mut whole = false;
+    for (dir, m) in shards {
+        if m.cells != first.cells || m.seeds != first.seeds || m.name != first.name {
+            return Err(EvalError::Shards {
+                dir: dir.clone(),
+                what: format!("the results of another plan (`{}`) than {} (`{}`)", m.name, first_dir.display(), first.name),
+            });
+        }
+        match m.shard {
+            None => {
+                whole = true;
+            }
+            Some(s) => {
+                if let Some((_, other)) = seen.iter().find(|(t, _)| *t == s) {
+                    let how = if *other == dir { "is named twice".to_owned() } else { format!("as {} does", other.display()) };
+                    return Err(EvalError::Shards { dir: dir.clone(), what: format!("shard {s}, {how}: each shard is merged once") });
+                }
+                if let Some((t, other)) = seen.iter().find(|(t, _)| t.count != s.count) {
+                    return Err(EvalError::Shards {
+                        dir: dir.clone(),
+                        what: format!("shard {s}, but {} holds shard {t}: shards of one split have the same n", other.display()),
+                    });
+                }
+                seen.push((s, dir));
+            }
+        }
+    }
+    if whole && shards.len() > 1 {
+        let (dir, _) = shards.iter().find(|(_, m)| m.shard.is_none()).unwrap_or(&shards[0]);
+        return Err(EvalError::Shards { dir: dir.clone(), what: "the whole plan's results: there is nothing to merge it with".into() });
+    }
+    let missing = match seen.first() {
+        Some((s, _)) => (1..=s.count).map(|index| Shard { index, count: s.count }).filter(|s| !seen.iter().any(|(t, _)| t == s)).collect(),
+        None => Vec::new(),
+    };
+    let mut meta = first.clone();
+    meta.shard = None;
+    Ok((meta, missing))
+}
+
+/// Reads an evaluation folder's `plan.json`.
+pub fn read_meta(dir: &Path) -> Result<Meta, EvalError> {
+    let path = dir.join(META_FILE);
+    let text = std::fs::read_to_string(&path).map_err(|source| EvalError::Io { path: path.clone(), source })?;
+    serde_json::from_str(&text).map_err(|source| EvalError::Meta { path, source })
+}
+
+/// Writes an evaluation folder's `plan.json` (the same plan may be written again; another
+/// plan's results folder is refused, so results of two plans never mix).
+pub fn write_meta(dir: &Path, meta: &Meta) -> Result<(), EvalError> {
+    std::fs::create_dir_all(dir).map_err(|source| EvalError::Io { path: dir.to_path_buf(), source })?;
+    let path = dir.join(META_FILE);
+    if path.exists() {
+        let old = read_meta(dir)?;
+        if old.cells != meta.cells || old.seeds != meta.seeds {
+            return Err(EvalError::Io {
+                path,
+                source: std::io::Error::other("this folder holds another plan's results; pick another --out (nothing is overwritten)"),
+            });
+        }
+        if old.shard != meta.shard {
+            let name = |s: Option<Shard>| s.map_or_else(|| "the whole plan".to_owned(), |s| format!("shard {s}"));
+            return Err(EvalError::Io {
+                path,
+                source: std::io::Error::other(format!(
+                    "this folder holds {}'s results, not {}'s; pick another --out (nothing is overwritten)",
+                    name(old.shard),
+                    name(meta.shard)
+                )),
+            });
+        }
+    }
+    let text = serde_json::to_string_pretty(meta).map_err(|e| EvalError::Io { path: path.clone(), source: std::io::Error::other(e) })?;
+    std::fs::write(&path, text).map_err(|source| EvalError::Io { path, source })
+}

@@ -1,0 +1,115 @@
+//! Policies as launch files name them: resolved against the file, one network per entry.
+
+use crate::{LaunchError, chain, parse};
+use avacraft_engine::{Env, Mode};
+use avacraft_marl::Policy;
+use avacraft_policy::PolicySpec;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// The committed 3m checkpoint (launch/policies/3m), whichever run wrote it.
+fn shipped() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("policies/3m")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("avacraft-launch-policy-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("temp dir");
+    d
+}
+
+/// A copy of the shipped checkpoint with `edit` applied to its config.json.
+fn edited(name: &str, edit: impl Fn(&mut serde_json::Value)) -> PathBuf {
+    let d = tmp(name);
+    for f in ["agent.safetensors", "mixer.safetensors", "config.json"] {
+        if shipped().join(f).exists() {
+            std::fs::copy(shipped().join(f), d.join(f)).expect("copy");
+        }
+    }
+    let mut v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.join("config.json")).expect("read")).expect("json");
+    edit(&mut v);
+    std::fs::write(d.join("config.json"), v.to_string()).expect("write");
+    d
+}
+
+fn launch(scenario: &str, policy: &str) -> String {
+    format!("scenario: {scenario}\nagents:\n  - per_unit: true\n    team: 1\n    policy: {policy}\n")
+}
+
+#[test]
+fn marl_policies_resolve_against_the_launch_file_and_share_one_network() {
+    let base = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let plan = parse("m.yaml", &launch("3m", "marl:policies/3m"), Some(base)).unwrap_or_else(|e| panic!("{}", chain(&e)));
+    assert_eq!(plan.agents.len(), 3);
+    let nets: Vec<&Arc<Policy>> = plan
+        .agents
+        .iter()
+        .map(|a| match &a.policy {
+            PolicySpec::Marl(m) => m.policy().expect("weights"),
+            other => panic!("{other:?}"),
+        })
+        .collect();
+    assert!(nets.iter().all(|p| Arc::ptr_eq(p, nets[0])), "one load for the entry's nodes");
+    // What `launch` hands the agent nodes parses back to the same checkpoint, from anywhere.
+    let text = plan.agents[0].policy.to_string();
+    assert!(text.starts_with("marl:/"), "{text}");
+    assert_eq!(PolicySpec::parse(&text, None).expect("reparse"), plan.agents[0].policy);
+    // An absolute directory, and a role group of two units, are fine too.
+    let abs = format!("marl:{}", shipped().display());
+    let groups = "scenario: 3m\nagents:\n  - {id: pair, units: [1, 2], policy: POLICY}\n  - {id: solo, units: [3], policy: focus-fire}\n";
+    parse("g.yaml", &groups.replace("POLICY", &abs), None).unwrap_or_else(|e| panic!("{}", chain(&e)));
+}
+
+#[test]
+fn a_marl_plan_plays_in_process_with_one_network_per_unit() {
+    let plan = parse("m.yaml", &launch("3m", &format!("marl:{}", shipped().display())), None).expect("plan");
+    let noop = parse("n.yaml", &launch("3m", "noop"), None).expect("plan");
+    let play = |p: &crate::Plan| {
+        let mut c = p.controllers().expect("controllers");
+        let mut env = Env::new(Arc::clone(&p.scenario), p.env_config(), 3);
+        c.reset(&env);
+        while !env.done() {
+            c.act(&mut env);
+            env.step();
+        }
+        env.trajectory_hash()
+    };
+    assert_eq!(plan.scenario.mode, Mode::Pve);
+    assert_ne!(play(&plan), play(&noop), "the network gives orders");
+}
+
+#[test]
+fn bad_marl_policies_name_the_field_and_why() {
+    let garbage = tmp("garbage");
+    std::fs::write(garbage.join("config.json"), "{ not json").expect("write");
+    let no_weights = edited("no_weights", |_| {});
+    std::fs::remove_file(no_weights.join("agent.safetensors")).expect("remove");
+    let bad_weights = edited("bad_weights", |_| {});
+    std::fs::write(bad_weights.join("agent.safetensors"), b"\x08\0\0\0\0\0\0\0{}garbage").expect("write");
+    let renamed = edited("renamed", |v| v["scenario"] = "2m_vs_1z".into());
+    let file = tmp("file").join("config.json");
+    std::fs::write(&file, "{}").expect("write");
+    let s = |p: &Path| format!("marl:{}", p.display());
+    let cases: Vec<(String, String, &str)> = vec![
+        (launch("3m", "\"marl:\""), "marl:".into(), "needs the directory of a checkpoint"),
+        (launch("3m", "marl:/nonexistent/ckpt"), "/nonexistent/ckpt".into(), "does not exist"),
+        (launch("3m", &s(&file)), "config.json".into(), "is not a directory"),
+        (launch("3m", &s(&garbage)), "config.json".into(), "cannot load the checkpoint"),
+        (launch("3m", &s(&no_weights)), "agent.safetensors is missing".into(), "cannot load the checkpoint"),
+        (launch("3m", &s(&bad_weights)), "bad_weights: tensor operation failed".into(), "cannot load the checkpoint"),
+        (launch("2m_vs_1z", &s(&shipped())), "trained on scenario `3m`, not `2m_vs_1z`".into(), "trained on"),
+        (launch("2m_vs_1z", &s(&renamed)), "3 agents".into(), "team 1 of 2m_vs_1z has 2 agents"),
+        (launch("3m", "marl-ish"), "unknown policy `marl-ish`".into(), "marl:DIR"),
+    ];
+    for (text, says, why) in cases {
+        let e = parse("bad.yaml", &text, None).expect_err(&text);
+        assert!(matches!(e, LaunchError::Policy { .. }), "{e:?}");
+        let msg = chain(&e);
+        assert!(msg.starts_with("bad.yaml: field `agents[0].policy` = \""), "{msg}");
+        assert!(msg.contains(&says) && msg.contains(why), "{text}: {msg}");
+    }
+    for d in [garbage, no_weights, bad_weights, renamed, file.parent().map(Path::to_path_buf).unwrap_or_default()] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}

@@ -1,0 +1,318 @@
+//! A launch file checked field by field into a [`Plan`]: every refusal names the file, the
+//! field and the value. The checks run in the file's order (the scenario first: the agent
+//! entries are checked against its units and teams), one function per section.
+
+use crate::command;
+use crate::deploy;
+use crate::error::{Cx, LaunchError};
+use crate::plan::{AgentPlan, ClockMode, CommanderPlan, FramePlan, Plan, RawAgent, RawFrames, RawLaunch};
+use avacraft_engine::{Env, EnvConfig, Mode, OpponentKind, Scenario, Team, UnitId};
+use avacraft_nodes::{AgentId, FrameKind, TeamNo, UnitTag};
+use avacraft_policy::{AVA_POLICY, CommanderPolicy, DDS_POLICY, PolicyError, PolicySpec, Resolve, Weights};
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::time::Duration;
+
+pub(crate) fn validate(file: &str, raw: RawLaunch, how: Resolve<'_>) -> Result<Plan, LaunchError> {
+    let cx = Cx(file);
+    let scenario_arg = match how.base.map(|b| b.join(&raw.scenario)) {
+        Some(p) if p.exists() => p.display().to_string(),
+        _ => raw.scenario.clone(),
+    };
+    let scenario = Scenario::load(&scenario_arg).map_err(|e| cx.err("scenario", format!("{:?}", raw.scenario), e.to_string()))?;
+    let clock = match raw.clock.as_str() {
+        "lockstep" => ClockMode::Lockstep,
+        "realtime" => ClockMode::RealTime,
+        other => return Err(cx.err("clock", format!("{other:?}"), "must be `lockstep` or `realtime`")),
+    };
+    if !(1..=600_000).contains(&raw.deadline_ms) {
+        return Err(cx.err("deadline_ms", raw.deadline_ms, "must be 1 to 600000 milliseconds"));
+    }
+    if !(1..=1_000_000).contains(&raw.episodes) {
+        return Err(cx.err("episodes", raw.episodes, "must be 1 to 1000000"));
+    }
+    if raw.seed.checked_add(raw.episodes).is_none() {
+        return Err(cx.err("seed", raw.seed, format!("seed + episodes ({}) overflows", raw.episodes)));
+    }
+    let opponent = match &raw.opponent {
+        None => None,
+        Some(o) if scenario.mode == Mode::Pvp => {
+            return Err(cx.err("opponent", format!("{o:?}"), "a PvP scenario has agent nodes on both teams"));
+        }
+        Some(o) => Some(o.parse::<OpponentKind>().map_err(|e| cx.err("opponent", format!("{o:?}"), e))?),
+    };
+    let hosts = hosts(&cx, &raw.hosts)?;
+    let security = raw.security.as_ref().map(|s| deploy::security(s, how.base));
+    if hosts.len() > 1 && security.is_none() {
+        return Err(cx.err("hosts", format!("{hosts:?}"), "a deployment across hosts needs `security:` (TLS and access control)"));
+    }
+    router(&cx, &raw.router, security.is_some(), hosts.len() > 1)?;
+    let frames = raw.frames.as_ref().map(|f| frames(&cx, f)).transpose()?;
+    let scenario = Arc::new(scenario);
+    if raw.agents.is_empty() {
+        return Err(cx.err("agents", "[]", "at least one agent node is needed"));
+    }
+    let mut nodes = Nodes::new(&cx, &scenario, how, &hosts);
+    for (i, a) in raw.agents.iter().enumerate() {
+        nodes.entry(i, a, raw.ava.as_ref())?;
+    }
+    let Nodes { agents, fields, mut commanders, .. } = nodes;
+    command::link(&cx, &mut commanders, &agents, &fields)?;
+    let bridge = match &raw.bridge {
+        None => {
+            if let Some(a) = agents.iter().position(|a| a.is_dds()) {
+                return Err(cx.err(format!("agents[{a}].policy"), DDS_POLICY, "agents driven from DDS need a `bridge:` section"));
+            }
+            None
+        }
+        Some(b) => {
+            let plan = deploy::bridge_plan(&cx, b, &hosts, &agents)?;
+            if let Some(a) = agents.iter().find(|a| a.is_dds() && a.host != plan.host) {
+                return Err(cx.err(
+                    "bridge.host",
+                    format!("{:?}", plan.host),
+                    format!("agent `{}` (policy dds) is on host `{}`; DDS agents live on the bridge's host", a.id, a.host),
+                ));
+            }
+            Some(plan)
+        }
+    };
+    Ok(Plan {
+        file: file.to_owned(),
+        scenario_arg,
+        scenario,
+        clock,
+        deadline: Duration::from_millis(raw.deadline_ms),
+        seeds: (0..raw.episodes).map(|k| raw.seed + k).collect(),
+        opponent,
+        router: raw.router,
+        record: raw.record,
+        frames,
+        agents,
+        commanders,
+        hosts,
+        security,
+        bridge,
+    })
+}
+
+/// The hosts (`local` when none are named).
+fn hosts(cx: &Cx<'_>, raw: &[String]) -> Result<Vec<String>, LaunchError> {
+    let hosts = if raw.is_empty() { vec!["local".to_owned()] } else { raw.to_vec() };
+    for (i, h) in hosts.iter().enumerate() {
+        if !deploy::valid_host(h) {
+            return Err(cx.err(
+                format!("hosts[{i}]"),
+                format!("{h:?}"),
+                "must be 1 to 32 lowercase letters, digits or '_', starting with a letter",
+            ));
+        }
+        if hosts[..i].contains(h) {
+            return Err(cx.err(format!("hosts[{i}]"), format!("{h:?}"), "named twice"));
+        }
+    }
+    Ok(hosts)
+}
+
+/// The router's endpoint: TLS exactly when the file has `security:`, and an address other
+/// hosts can reach when there are several.
+fn router(cx: &Cx<'_>, router: &str, secure: bool, across_hosts: bool) -> Result<(), LaunchError> {
+    let bad = |why: &str| Err(cx.err("router", format!("{router:?}"), why));
+    match (router.split_once('/').map(|(p, _)| p), secure) {
+        (Some("tcp"), false) | (Some("tls"), true) => {}
+        (Some("tcp"), true) => return bad("with `security:` the router must be a tls/ endpoint"),
+        (Some("tls"), false) => return bad("a tls/ router needs a `security:` section with the certificates"),
+        _ => return bad("must be a Zenoh endpoint such as tcp/127.0.0.1:7447 or tls/10.0.0.1:7447"),
+    }
+    let (addr, port) = router
+        .split_once('/')
+        .and_then(|(_, rest)| rest.rsplit_once(':'))
+        .map(|(a, p)| (a.trim_start_matches('[').trim_end_matches(']'), p.split('#').next().unwrap_or(p)))
+        .unwrap_or(("", ""));
+    if addr.is_empty() || port.parse::<u16>().is_err() {
+        return bad("must be <protocol>/<address>:<port>");
+    }
+    let ip = addr.parse::<std::net::IpAddr>().ok();
+    if across_hosts && (addr == "localhost" || ip.is_some_and(|ip| ip.is_loopback() || ip.is_unspecified())) {
+        return bad("other hosts connect here: it must be the first host's address on their network");
+    }
+    Ok(())
+}
+
+fn frames(cx: &Cx<'_>, f: &RawFrames) -> Result<FramePlan, LaunchError> {
+    let mut kinds = Vec::new();
+    for (i, k) in f.kinds.iter().enumerate() {
+        kinds.push(match k.as_str() {
+            "screen" => FrameKind::Screen,
+            "minimap" => FrameKind::Minimap,
+            "vlm" => FrameKind::Vlm,
+            other => return Err(cx.err(format!("frames.kinds[{i}]"), format!("{other:?}"), "must be screen, minimap or vlm")),
+        });
+    }
+    for (name, [w, h]) in [("screen", f.screen), ("minimap", f.minimap), ("vlm", f.vlm)] {
+        if !(1..=4096).contains(&w) || !(1..=4096).contains(&h) {
+            return Err(cx.err(format!("frames.{name}"), format!("[{w}, {h}]"), "width and height must be 1 to 4096"));
+        }
+    }
+    if f.every == 0 {
+        return Err(cx.err("frames.every", 0, "must be at least 1"));
+    }
+    let p = |s: [u32; 2]| (s[0], s[1]);
+    Ok(FramePlan { kinds, screen: p(f.screen), minimap: p(f.minimap), vlm: p(f.vlm), every: f.every })
+}
+
+/// The agent nodes and commanders of the entries checked so far, and who owns each unit.
+struct Nodes<'a> {
+    cx: &'a Cx<'a>,
+    scenario: &'a Arc<Scenario>,
+    /// A fresh episode, for the scenario's units and which teams agents drive.
+    env: Env,
+    how: Resolve<'a>,
+    hosts: &'a [String],
+    agents: Vec<AgentPlan>,
+    /// Each agent node's entry (`agents[i]`), for the commanders' checks.
+    fields: Vec<String>,
+    commanders: Vec<CommanderPlan>,
+    owner: BTreeMap<u32, String>,
+}
+
+impl<'a> Nodes<'a> {
+    fn new(cx: &'a Cx<'a>, scenario: &'a Arc<Scenario>, how: Resolve<'a>, hosts: &'a [String]) -> Self {
+        let env = Env::new(Arc::clone(scenario), EnvConfig::default(), 0);
+        Nodes { cx, scenario, env, how, hosts, agents: Vec::new(), fields: Vec::new(), commanders: Vec::new(), owner: BTreeMap::new() }
+    }
+
+    /// Entry `i`: a commander, one node per unit of a team, or one node for the units it names.
+    fn entry(&mut self, i: usize, a: &RawAgent, file_ava: Option<&avacraft_ava::AvaSpec>) -> Result<(), LaunchError> {
+        let cx = self.cx;
+        let f = |name: &str| format!("agents[{i}].{name}");
+        // The entry's AVA settings, else the file's for `policy: ava`; a refusal names the
+        // block its settings came from.
+        let ava = a.ava.clone().or_else(|| if a.policy == AVA_POLICY { file_ava.cloned() } else { None });
+        let refused = |e: PolicyError| {
+            let field = match e {
+                PolicyError::Ava(_) | PolicyError::SpecWithoutAva { .. } if a.ava.is_none() => "ava".to_owned(),
+                PolicyError::Ava(_) | PolicyError::SpecWithoutAva { .. } => f("ava"),
+                _ => f("policy"),
+            };
+            cx.policy_err(field, &a.policy, e)
+        };
+        let host = a.host.clone().unwrap_or_else(|| self.hosts[0].clone());
+        if !self.hosts.contains(&host) {
+            return Err(cx.err(f("host"), format!("{host:?}"), format!("not one of the hosts {:?}", self.hosts)));
+        }
+        if a.commander {
+            let policy = CommanderPolicy::resolve(&a.policy, ava, self.how).map_err(refused)?;
+            return self.commander(i, a, policy, host);
+        }
+        // A shipped baseline becomes this scenario's checkpoint here, so every node is handed
+        // the checkpoint itself (read once for all the entry's nodes).
+        let policy = PolicySpec::resolve(&a.policy, ava, self.how).and_then(|p| p.on(self.scenario)).map_err(refused)?;
+        let role = a.role.as_deref().map(|r| command::role(cx, f("role"), r)).transpose()?;
+        if role.is_some() && a.per_unit {
+            return Err(cx.err(
+                f("role"),
+                a.role.as_deref().unwrap_or_default(),
+                "a role group names its `id` and `units`, not `per_unit`",
+            ));
+        }
+        let first_new = self.agents.len();
+        if a.per_unit {
+            if a.id.is_some() || !a.units.is_empty() {
+                return Err(cx.err(f("per_unit"), "true", "takes a `team`, not an `id` or `units`"));
+            }
+            let team = team(cx, i, a.team)?;
+            let tags: Vec<u32> = self.env.agents(team).iter().map(|id| id.tag()).collect();
+            for tag in tags {
+                self.add(i, format!("unit_{tag}"), &[tag], f("team"), &policy, &host)?;
+            }
+        } else {
+            let Some(id) = a.id.clone() else { return Err(cx.err(f("id"), "none", "an agent node needs an `id` (or `per_unit: true`)")) };
+            if let Some(t) = a.team {
+                return Err(cx.err(f("team"), t, "a role group names its `units`; `team` goes with `per_unit: true`"));
+            }
+            if a.units.is_empty() {
+                return Err(cx.err(f("units"), "[]", "an agent node needs at least one unit"));
+            }
+            self.add(i, id, &a.units, f("id"), &policy, &host)?;
+        }
+        for ag in &mut self.agents[first_new..] {
+            // A process that does not act reads no weights, so it cannot check them either:
+            // the agent node checks its own when it starts.
+            if self.how.weights == Weights::Load {
+                policy.check(self.scenario, ag.team.team()).map_err(|e| cx.policy_err(f("policy"), &a.policy, e))?;
+            }
+            ag.role = role;
+            self.fields.push(format!("agents[{i}]"));
+        }
+        Ok(())
+    }
+
+    fn commander(&mut self, i: usize, a: &RawAgent, policy: CommanderPolicy, host: String) -> Result<(), LaunchError> {
+        let cx = self.cx;
+        let f = |name: &str| format!("agents[{i}].{name}");
+        if a.per_unit || !a.units.is_empty() || a.role.is_some() {
+            return Err(cx.err(f("commander"), "true", "a commander takes an `id` and a `team`, not `units`, `per_unit` or `role`"));
+        }
+        let Some(id) = a.id.clone() else { return Err(cx.err(f("id"), "none", "a commander needs an `id`")) };
+        let id = AgentId::parse(&id).map_err(|e| cx.err(f("id"), format!("{id:?}"), e.to_string()))?;
+        let team = team(cx, i, a.team)?;
+        if !self.env.is_agent_team(team) {
+            return Err(cx.err(f("team"), team.player(), "the opponent policy drives this team"));
+        }
+        let team = TeamNo::from(team);
+        if self.commanders.iter().any(|c| c.team == team) {
+            return Err(cx.err(f("team"), team.get(), "the team has a commander already"));
+        }
+        if self.commanders.iter().any(|c| c.id == id) || self.agents.iter().any(|x| x.id == id) {
+            return Err(cx.err(f("id"), &id, "two agent nodes share this id"));
+        }
+        self.commanders.push(CommanderPlan { id, team, policy, host, groups: Vec::new() });
+        Ok(())
+    }
+
+    /// One agent node `id` of entry `i`, owning the units `tags` (all of one agent team,
+    /// owned by no other node).
+    fn add(&mut self, i: usize, id: String, tags: &[u32], field: String, policy: &PolicySpec, host: &str) -> Result<(), LaunchError> {
+        let cx = self.cx;
+        let units_field = format!("agents[{i}].units");
+        let agent = AgentId::parse(&id).map_err(|e| cx.err(field.clone(), format!("{id:?}"), e.to_string()))?;
+        let mut units = Vec::new();
+        let mut team: Option<Team> = None;
+        for &t in tags {
+            let Some(u) = UnitId::try_from(t).ok().and_then(|uid| self.env.world().unit(uid)) else {
+                return Err(cx.err(
+                    &units_field,
+                    t,
+                    format!("no unit has this tag ({} has tags 1 to {})", self.scenario.name, self.scenario.units.len()),
+                ));
+            };
+            if !self.env.is_agent_team(u.team) {
+                return Err(cx.err(&units_field, t, format!("{} belongs to {}, which the opponent policy drives", u.name(), u.team)));
+            }
+            if team.is_some_and(|x| x != u.team) {
+                return Err(cx.err(&units_field, t, format!("{} belongs to {}; one agent node plays for one team", u.name(), u.team)));
+            }
+            team = Some(u.team);
+            if let Some(prev) = self.owner.insert(t, id.clone()) {
+                return Err(cx.err(&units_field, t, format!("already owned by agent node `{prev}`")));
+            }
+            units.push(UnitTag::from(u.id));
+        }
+        if self.agents.iter().any(|x| x.id == agent) || self.commanders.iter().any(|c| c.id == agent) {
+            return Err(cx.err(field, format!("{id:?}"), "two agent nodes share this id"));
+        }
+        let team = team.map(TeamNo::from).ok_or_else(|| cx.err(&units_field, "[]", "an agent node needs at least one unit"))?;
+        self.agents.push(AgentPlan { id: agent, team, units, policy: policy.clone(), host: host.to_owned(), role: None });
+        Ok(())
+    }
+}
+
+/// An entry's `team`: 1 or 2.
+fn team(cx: &Cx<'_>, i: usize, team: Option<u8>) -> Result<Team, LaunchError> {
+    match team {
+        Some(1) => Ok(Team::One),
+        Some(2) => Ok(Team::Two),
+        other => Err(cx.err(format!("agents[{i}].team"), format!("{other:?}"), "must be 1 or 2")),
+    }
+}

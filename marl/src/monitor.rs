@@ -1,0 +1,185 @@
+//! What both training loops share (the Q-learners' in [`crate::train`], PPO's in
+//! [`crate::ppo`]): a run's options, its progress and summary, and the [`Monitor`] that
+//! seeds the environments, runs the greedy tests, writes the CSV log and the curves and
+//! checkpoints. Apart from [`crate::train`], which hands PPO runs to PPO's loop, so that
+//! PPO's loop need not import it.
+
+use crate::nets::Nets;
+use crate::plot::CurvePoint;
+use crate::policy::{TestResult, test, vec_env};
+use crate::resume::RunState;
+use crate::{Config, Error};
+use avacraft_engine::{Scenario, VecEnv};
+use std::io::Write;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// What a run needs besides its config.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    pub scenario: Arc<Scenario>,
+    pub seed: u64,
+    /// Threads stepping the environments (the results do not depend on it).
+    pub threads: usize,
+    /// Where the log and checkpoints go (`None`: nowhere).
+    pub out: Option<PathBuf>,
+}
+
+/// Where a run is, for progress displays.
+#[derive(Clone, Debug)]
+pub struct Progress {
+    pub t_env: u64,
+    pub t_max: u64,
+    pub episodes: u64,
+    pub updates: u64,
+    pub epsilon: f64,
+    pub loss: f64,
+    pub last_test: Option<TestResult>,
+}
+
+/// How a run went.
+#[derive(Clone, Debug)]
+pub struct Summary {
+    pub t_env: u64,
+    pub episodes: u64,
+    pub updates: u64,
+    pub last_loss: f64,
+    pub tests: Vec<TestResult>,
+    /// Wall-clock seconds per phase of the loop (PPO's: act, env, record, update, test),
+    /// for profiles; empty where not measured.
+    pub phases: Vec<(String, f64)>,
+}
+
+const CSV_HEADER: &str = "t_env,episodes,updates,epsilon,loss,grad_norm,q_taken,train_win_rate,test_win_rate,test_return,elapsed_s";
+
+/// What both training loops share: the environments' seeds, counts of won training
+/// episodes, greedy tests every `test_interval` steps and at the end, the CSV log, and the
+/// checkpoints (the latest, and in `best/` the one with the highest greedy win rate so far).
+pub(crate) struct Monitor<'a> {
+    cfg: &'a Config,
+    opts: &'a RunOptions,
+    started: std::time::Instant,
+    base: u64,
+    csv: Option<(std::fs::File, PathBuf)>,
+    pub tests: Vec<TestResult>,
+    pub curve: Vec<CurvePoint>,
+    pub test_round: u64,
+    last_test_t: u64,
+    wins_since: u64,
+    eps_since: u64,
+    /// Seconds run before a resume.
+    elapsed_before: f64,
+    /// Episodes already played before a resume: the environments start past them.
+    seed_offset: u64,
+}
+
+impl<'a> Monitor<'a> {
+    /// A monitor that goes on from `start`: the log is appended to, the test history kept.
+    pub fn resuming(cfg: &'a Config, opts: &'a RunOptions, start: Option<&RunState>) -> Result<Monitor<'a>, Error> {
+        let csv = match &opts.out {
+            Some(dir) => {
+                std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.clone(), source })?;
+                let path = dir.join("log.csv");
+                let f = if start.is_some() {
+                    std::fs::OpenOptions::new().append(true).open(&path).map_err(|source| Error::Io { path: path.clone(), source })?
+                } else {
+                    let mut f = std::fs::File::create(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
+                    writeln!(f, "{CSV_HEADER}").map_err(|source| Error::Io { path: path.clone(), source })?;
+                    f
+                };
+                Some((f, path))
+            }
+            None => None,
+        };
+        let started = std::time::Instant::now();
+        let base = opts.seed.wrapping_mul(1 << 20);
+        let mut m = Monitor {
+            cfg,
+            opts,
+            started,
+            base,
+            csv,
+            tests: Vec::new(),
+            curve: Vec::new(),
+            test_round: 0,
+            last_test_t: 0,
+            wins_since: 0,
+            eps_since: 0,
+            elapsed_before: 0.0,
+            seed_offset: 0,
+        };
+        if let Some(st) = start {
+            m.tests.clone_from(&st.tests);
+            m.curve.clone_from(&st.curve);
+            (m.test_round, m.last_test_t, m.elapsed_before) = (st.test_round, st.t_env, st.elapsed_s);
+            m.seed_offset = st.episodes + cfg.envs as u64;
+        }
+        Ok(m)
+    }
+
+    /// Seconds of training so far (across resumes).
+    pub fn elapsed(&self) -> f64 {
+        self.elapsed_before + self.started.elapsed().as_secs_f64()
+    }
+
+    /// The training environments, seeded from the run's seed.
+    pub fn env(&self) -> Result<VecEnv, Error> {
+        let seeds: Vec<u64> = (0..self.cfg.envs as u64).map(|i| self.base.wrapping_add(self.seed_offset).wrapping_add(i)).collect();
+        vec_env(self.cfg, &self.opts.scenario, &seeds, self.opts.threads)
+    }
+
+    pub fn episode_end(&mut self, won: bool) {
+        self.eps_since += 1;
+        self.wins_since += u64::from(won);
+    }
+
+    /// Called after every vector step: when a test is due (every `test_interval` steps, and
+    /// at `t_max`), plays greedy test episodes with `nets`, logs a CSV row and checkpoints
+    /// through `save(dir)`; returns whether it did.
+    pub fn after_step(
+        &mut self,
+        t_env: u64,
+        counts: (u64, u64),
+        eps: f64,
+        last: &crate::UpdateStats,
+        nets: &Nets,
+        save: &mut dyn FnMut(&std::path::Path) -> Result<(), Error>,
+    ) -> Result<bool, Error> {
+        let (episodes, updates) = counts;
+        let cfg = self.cfg;
+        if t_env - self.last_test_t < cfg.test_interval && t_env < cfg.t_max {
+            return Ok(false);
+        }
+        self.last_test_t = t_env;
+        let n = cfg.test_nepisode.max(1) as u64;
+        let test_seeds: Vec<u64> = (0..n).map(|i| self.base.wrapping_add(1 << 19).wrapping_add(self.test_round * n + i)).collect();
+        self.test_round += 1;
+        let mut r = test(nets, cfg, &self.opts.scenario, &test_seeds, self.opts.threads)?;
+        r.t_env = t_env;
+        self.tests.push(r);
+        let elapsed = self.elapsed();
+        if let Some((f, path)) = self.csv.as_mut() {
+            let train_wr = if self.eps_since > 0 { self.wins_since as f64 / self.eps_since as f64 } else { f64::NAN };
+            writeln!(
+                f,
+                "{t_env},{episodes},{updates},{eps:.4},{:.6},{:.4},{:.4},{train_wr:.4},{:.4},{:.4},{:.1}",
+                last.loss, last.grad_norm, last.q_taken, r.win_rate, r.mean_return, elapsed
+            )
+            .and_then(|()| f.flush())
+            .map_err(|source| Error::Io { path: path.clone(), source })?;
+        }
+        let train_win_rate = (self.eps_since > 0).then(|| self.wins_since as f64 / self.eps_since as f64);
+        self.curve.push(CurvePoint { t_env, test_win_rate: r.win_rate, train_win_rate, test_return: r.mean_return, loss: last.loss });
+        (self.wins_since, self.eps_since) = (0, 0);
+        if let Some(dir) = &self.opts.out {
+            let title = format!("{} on {} (seed {})", cfg.algo, self.opts.scenario.name, self.opts.seed);
+            crate::plot::curves(&dir.join("curves.png"), &title, &self.curve)?;
+            save(dir)?;
+            // Greedy win rates swing while the policy explores: keep the best one's weights too.
+            if self.tests.iter().all(|t| t.win_rate <= r.win_rate) {
+                save(&dir.join("best"))?;
+            }
+        }
+        Ok(true)
+    }
+}

@@ -1,0 +1,8 @@
+//! The learners' integration tests in one binary: each test binary links the whole stack
+//! (the engine, the renderer, candle), so one link instead of four.
+
+mod common;
+mod encoders;
+mod learn;
+mod ppo;
+mod text;

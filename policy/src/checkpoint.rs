@@ -1,0 +1,143 @@
+//! Trained checkpoints, loaded when first needed: a process that only routes or simulates
+//! (the simulator node, the bridge) names them without reading their weights.
+
+use crate::PolicyError;
+use avacraft_engine::{Scenario, SmacLayout, Team};
+use avacraft_marl::Policy;
+use avacraft_marl::baselines;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, OnceLock, PoisonError};
+
+/// When a checkpoint's weights are read.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Weights {
+    /// Where the policy is named, so a missing or corrupt checkpoint is refused there.
+    #[default]
+    Load,
+    /// On first use (a process that never acts never reads them); only the folder is checked.
+    Later,
+}
+
+/// A trained policy's checkpoint directory and, once read, its network.
+#[derive(Clone)]
+pub struct MarlCheckpoint {
+    /// As resolved (absolute), so another process started from elsewhere finds it.
+    dir: PathBuf,
+    policy: Arc<OnceLock<Arc<Policy>>>,
+}
+
+impl MarlCheckpoint {
+    /// The checkpoint in `dir` (resolved to an absolute path first), read now or later.
+    pub fn open(dir: &Path, weights: Weights) -> Result<MarlCheckpoint, PolicyError> {
+        let abs = std::fs::canonicalize(dir).map_err(|source| match source.kind() {
+            std::io::ErrorKind::NotFound => PolicyError::MissingDir { dir: dir.to_path_buf(), source },
+            _ => PolicyError::Unreadable { dir: dir.to_path_buf(), source },
+        })?;
+        if !abs.is_dir() {
+            return Err(PolicyError::NotADir { dir: abs });
+        }
+        let m = MarlCheckpoint { dir: abs, policy: Arc::new(OnceLock::new()) };
+        if weights == Weights::Load {
+            m.policy()?;
+        }
+        Ok(m)
+    }
+
+    /// Loads the checkpoint in `dir` now.
+    pub fn load(dir: &Path) -> Result<MarlCheckpoint, PolicyError> {
+        Self::open(dir, Weights::Load)
+    }
+
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// The network, read on first call and shared by every agent made from it (the per-unit
+    /// agents of one launch entry read the file once).
+    pub fn policy(&self) -> Result<&Arc<Policy>, PolicyError> {
+        if let Some(p) = self.policy.get() {
+            return Ok(p);
+        }
+        let p = Policy::load(&self.dir).map_err(|source| PolicyError::Checkpoint { dir: self.dir.clone(), source })?;
+        // A racing first use read the same file: either copy is the network.
+        Ok(self.policy.get_or_init(|| Arc::new(p)))
+    }
+
+    /// Refuses a checkpoint trained on another scenario, or whose network does not fit
+    /// `team`'s agents there (team size, feature and action counts): it would read other
+    /// features, and the MARL agent gives no orders at all then.
+    pub fn check(&self, scenario: &Scenario, team: Team) -> Result<(), PolicyError> {
+        let policy = self.policy()?;
+        if policy.scenario != scenario.name {
+            return Err(PolicyError::OtherScenario {
+                dir: self.dir.clone(),
+                trained: policy.scenario.clone(),
+                scenario: scenario.name.clone(),
+            });
+        }
+        let l = SmacLayout::new(scenario, team);
+        let s = policy.shape;
+        let (trained, here) = ((s.n_agents, s.obs, s.n_actions), (l.n_agents, l.obs_size, l.n_actions));
+        if trained != here || policy.check_scenario(scenario, team).is_err() {
+            return Err(PolicyError::OtherShape { dir: self.dir.clone(), trained, team, scenario: scenario.name.clone(), here });
+        }
+        Ok(())
+    }
+
+    /// The agent's name: `marl:DIR`.
+    pub fn name(&self) -> String {
+        format!("{}{}", crate::names::MARL_PREFIX, self.dir.display())
+    }
+}
+
+impl std::fmt::Debug for MarlCheckpoint {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        // Not the weights.
+        let mut d = f.debug_struct("MarlCheckpoint");
+        d.field("dir", &self.dir);
+        if let Some(p) = self.policy.get() {
+            d.field("scenario", &p.scenario).field("algo", &p.cfg.algo).field("shape", &p.shape);
+        }
+        d.finish()
+    }
+}
+
+/// `baseline:NAME`: the shipped checkpoints of one run name, opened per scenario on first use.
+#[derive(Clone)]
+pub struct BaselineSet {
+    pub(crate) name: String,
+    pub(crate) root: PathBuf,
+    pub(crate) weights: Weights,
+    loaded: Arc<Mutex<BTreeMap<String, MarlCheckpoint>>>,
+}
+
+impl std::fmt::Debug for BaselineSet {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("BaselineSet").field("name", &self.name).field("root", &self.root).finish_non_exhaustive()
+    }
+}
+
+impl BaselineSet {
+    pub(crate) fn new(name: &str, weights: Weights) -> Result<BaselineSet, PolicyError> {
+        baselines::check_name(name).map_err(PolicyError::Baseline)?;
+        Ok(BaselineSet { name: name.to_owned(), root: baselines::root(), weights, loaded: Arc::default() })
+    }
+
+    /// The run name (`qmix` of `baseline:qmix`).
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The checkpoint shipped for `scenario`, opened once.
+    pub fn for_scenario(&self, scenario: &str) -> Result<MarlCheckpoint, PolicyError> {
+        let mut loaded = self.loaded.lock().unwrap_or_else(PoisonError::into_inner);
+        if let Some(m) = loaded.get(scenario) {
+            return Ok(m.clone());
+        }
+        let dir = baselines::dir(&self.root, scenario, &self.name).map_err(PolicyError::Baseline)?;
+        let m = MarlCheckpoint::open(&dir, self.weights)?;
+        loaded.insert(scenario.to_owned(), m.clone());
+        Ok(m)
+    }
+}

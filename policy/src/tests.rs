@@ -1,0 +1,98 @@
+use crate::*;
+use avacraft_ava::{AvaSpec, ModelSpec};
+use avacraft_engine::{Scenario, Team};
+use std::path::{Path, PathBuf};
+
+/// The committed 3m checkpoint of the launch examples.
+fn shipped() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../launch/policies/3m")
+}
+
+fn synthetic() -> AvaSpec {
+    AvaSpec { model: ModelSpec::Synthetic, config: Default::default(), record: None, prices: None, prompts: None }
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("avacraft-policy-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("temp dir");
+    d
+}
+
+#[test]
+fn every_policy_reads_back_from_its_name_and_settings() {
+    let specs = [
+        PolicySpec::parse("focus-fire", None).expect("scripted"),
+        PolicySpec::parse(&format!("marl:{}", shipped().display()), None).expect("marl"),
+        PolicySpec::parse("baseline:qmix", None).expect("baseline"),
+        PolicySpec::resolve(AVA_POLICY, Some(synthetic()), Resolve::default()).expect("ava"),
+        PolicySpec::parse(DDS_POLICY, None).expect("dds"),
+    ];
+    for p in specs {
+        let again = PolicySpec::resolve(&p.to_string(), p.ava_spec().cloned(), Resolve::default()).expect("reads back");
+        assert_eq!(again, p, "{p}");
+    }
+}
+
+#[test]
+fn ava_and_its_settings_go_together() {
+    assert!(matches!(PolicySpec::parse(AVA_POLICY, None), Err(PolicyError::AvaWithoutSpec)));
+    let e = PolicySpec::resolve("focus-fire", Some(synthetic()), Resolve::default()).expect_err("settings without ava");
+    assert!(e.to_string().contains("not `focus-fire`"), "{e}");
+    let mut bad = synthetic();
+    bad.config.decide_every = 0;
+    assert!(matches!(PolicySpec::resolve(AVA_POLICY, Some(bad), Resolve::default()), Err(PolicyError::Ava(_))));
+    // AVA's files are resolved against the naming file's folder.
+    let mut rec = synthetic();
+    rec.record = Some(PathBuf::from("calls"));
+    let p = PolicySpec::resolve(AVA_POLICY, Some(rec), Resolve::against(Some(Path::new("/base")))).expect("ava");
+    assert_eq!(p.ava_spec().and_then(|s| s.record.clone()), Some(PathBuf::from("/base/calls")));
+    let unknown = PolicySpec::parse("marl-ish", None).expect_err("unknown").to_string();
+    assert!(unknown.contains("unknown policy `marl-ish`") && unknown.contains("ava") && unknown.contains("marl:DIR"), "{unknown}");
+}
+
+#[test]
+fn commanders_are_rotate_or_ava() {
+    assert_eq!(CommanderPolicy::resolve(ROTATE_POLICY, None, Resolve::default()).expect("rotate"), CommanderPolicy::Rotate);
+    let ava = CommanderPolicy::resolve(AVA_POLICY, Some(synthetic()), Resolve::default()).expect("ava");
+    assert_eq!(CommanderPolicy::resolve(&ava.to_string(), ava.ava_spec().cloned(), Resolve::default()).expect("again"), ava);
+    let e = CommanderPolicy::resolve("focus-fire", None, Resolve::default()).expect_err("not a commander");
+    assert!(matches!(e, PolicyError::NotACommander { .. }) && e.to_string().contains("`focus-fire`"), "{e}");
+    assert!(CommanderPolicy::Rotate.make(&Calls::Own, None).expect("make").run.is_none());
+    assert!(ava.make(&Calls::Own, None).expect("make").run.is_some());
+}
+
+#[test]
+fn weights_are_read_where_named_or_on_first_use() {
+    let d = tmp("corrupt");
+    for f in ["agent.safetensors", "config.json"] {
+        std::fs::copy(shipped().join(f), d.join(f)).expect("copy");
+    }
+    std::fs::write(d.join("agent.safetensors"), b"\x08\0\0\0\0\0\0\0{}garbage").expect("write");
+    let name = format!("marl:{}", d.display());
+    assert!(matches!(PolicySpec::parse(&name, None), Err(PolicyError::Checkpoint { .. })), "read where named");
+    let later = PolicySpec::resolve(&name, None, Resolve { base: None, weights: Weights::Later }).expect("named, not read");
+    assert!(matches!(later.factory(), Err(PolicyError::Checkpoint { .. })), "read on first use");
+    // A folder that does not exist is refused either way.
+    let missing = Resolve { base: None, weights: Weights::Later };
+    assert!(matches!(PolicySpec::resolve("marl:/nonexistent/ckpt", None, missing), Err(PolicyError::MissingDir { .. })));
+    let _ = std::fs::remove_dir_all(d);
+}
+
+#[test]
+fn made_agents_play_and_checkpoints_check_their_scenario() {
+    let three = Scenario::load("3m").expect("3m");
+    let other = Scenario::load("2m_vs_1z").expect("2m_vs_1z");
+    let marl = PolicySpec::parse(&format!("marl:{}", shipped().display()), None).expect("marl");
+    marl.check(&three, Team::One).expect("fits 3m");
+    assert!(matches!(marl.check(&other, Team::One), Err(PolicyError::OtherScenario { .. })));
+    let made = marl.make(&Calls::Own, None).expect("make");
+    assert!(made.run.is_none() && (made.factory)().name().starts_with("marl:"));
+    let dds = PolicySpec::parse(DDS_POLICY, None).expect("dds");
+    assert!(dds.is_dds() && matches!(dds.factory(), Err(PolicyError::Dds)));
+    let baseline = PolicySpec::parse("baseline:qmix", None).expect("baseline");
+    assert!(matches!(baseline.factory(), Err(PolicyError::BaselineUnresolved { .. })));
+    let ava = PolicySpec::resolve(AVA_POLICY, Some(synthetic()), Resolve::default()).expect("ava");
+    let made = ava.make(&Calls::Own, None).expect("make");
+    assert!(made.run.is_some());
+}

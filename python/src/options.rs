@@ -1,0 +1,68 @@
+//! What an environment is made from: the scenario and the engine options Python passes,
+//! shared by the single and the vector environment.
+
+use crate::error::Error;
+use avacraft_engine::{EnvConfig, OpponentKind, RewardMode, Scenario, ScenarioError, builtin_names};
+use std::num::NonZeroU32;
+use std::sync::Arc;
+
+/// A built-in scenario by name or a scenario TOML file by path.
+pub(crate) fn load_scenario(name: &str) -> Result<Arc<Scenario>, Error> {
+    match Scenario::load(name) {
+        Ok(s) => Ok(Arc::new(s)),
+        Err(ScenarioError::Unknown(name)) => Err(Error::UnknownScenario { name, known: builtin_names().collect::<Vec<_>>().join(", ") }),
+        Err(e) => Err(e.into()),
+    }
+}
+
+/// The engine options Python passes (already named and checked by the wrapper; checked
+/// again here, since `_avacraft` can be used directly).
+#[derive(Clone, Debug)]
+pub(crate) struct Options {
+    pub step_mul: u32,
+    pub reward: String,
+    pub opponent: Option<String>,
+    pub full_vision: bool,
+    pub passive_allies: bool,
+    pub cooldown_jitter: bool,
+    pub abilities: bool,
+    pub ability_actions: bool,
+    pub time_limit_loops: Option<u32>,
+}
+
+impl Options {
+    pub fn config(&self) -> Result<EnvConfig, Error> {
+        let mut cfg = if self.passive_allies { EnvConfig::smac() } else { EnvConfig::default() };
+        cfg.step_mul = NonZeroU32::new(self.step_mul).ok_or_else(|| Error::Option {
+            option: "step_mul",
+            value: self.step_mul.to_string(),
+            supported: "game loops per step: 1 or more".into(),
+        })?;
+        cfg.reward = match self.reward.as_str() {
+            "dense" => RewardMode::Dense,
+            "sparse" => RewardMode::Sparse,
+            other => {
+                return Err(Error::Option { option: "reward", value: other.into(), supported: "one of: dense, sparse".into() });
+            }
+        };
+        cfg.opponent = match self.opponent.as_deref() {
+            None => None,
+            Some(o) => {
+                Some(o.parse::<OpponentKind>().map_err(|why| Error::Option { option: "opponent", value: o.into(), supported: why })?)
+            }
+        };
+        cfg.rules.full_vision = self.full_vision;
+        cfg.rules.cooldown_jitter = self.cooldown_jitter;
+        cfg.rules.abilities = self.abilities;
+        cfg.ability_actions = self.ability_actions;
+        cfg.time_limit_loops = match self.time_limit_loops {
+            None => None,
+            Some(t) => Some(NonZeroU32::new(t).ok_or_else(|| Error::Option {
+                option: "time_limit_loops",
+                value: t.to_string(),
+                supported: "a time limit of 1 game loop or more".into(),
+            })?),
+        };
+        Ok(cfg)
+    }
+}
