@@ -8,6 +8,7 @@
 pub mod human;
 mod meta;
 mod plan;
+mod plan_file;
 mod plot;
 mod report;
 mod results;
@@ -16,7 +17,8 @@ mod stats;
 mod train_plan;
 
 pub use meta::{META_FILE, Meta, check_shards, read_meta, write_meta};
-pub use plan::{AgentDef, AgentKind, Cell, CellKey, CurveDef, Job, Plan, PlanError, Shard, load, parse};
+pub use plan::{AgentDef, AgentKind, Cell, CellKey, CurveDef, Job, Plan, PlanError, Shard};
+pub use plan_file::{load, parse};
 pub use plot::read_log;
 pub use report::Report;
 #[cfg(test)]

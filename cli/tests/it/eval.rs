@@ -313,7 +313,7 @@ fn plan_mistakes_name_the_field() {
         let p = dir.join("bad.toml");
         std::fs::write(&p, body).expect("plan");
         let e = avacraft_eval::load(&p).expect_err(body);
-        let msg = format!("{e}");
+        let msg = format!("{:#}", anyhow::Error::new(e));
         assert!(msg.contains(field), "{body}: {msg}");
         assert!(msg.starts_with(&p.display().to_string()), "{msg}");
     }

@@ -1,0 +1,327 @@
+//! Reading a plan file: the TOML checked section by section into a [`Plan`], every refusal
+//! naming the file, the field and the value. Relative paths (`marl:DIR`, scenario files,
+//! curve folders, the document) are resolved against the plan's folder.
+
+use crate::plan::{AgentDef, AgentKind, Cell, CellKey, CurveDef, Plan, PlanError, RawAgent, RawCurve, RawHeadToHead, RawPlan, unshipped};
+use avacraft_engine::{Mode, OpponentKind, Scenario, Team, builtin_names};
+use avacraft_policy::{PolicyError, PolicySpec, Resolve};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Reads and validates a plan.
+pub fn load(path: &Path) -> Result<Plan, PlanError> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|source| PlanError::Io { file: file.clone(), source })?;
+    parse(&file, &text, path.parent())
+}
+
+/// Parses plan text (`file` names it in errors).
+pub fn parse(file: &str, text: &str, base: Option<&Path>) -> Result<Plan, PlanError> {
+    let raw: RawPlan = toml::from_str(text).map_err(|source| PlanError::Syntax { file: file.to_owned(), source: Box::new(source) })?;
+    let cx = Cx { file, base };
+    let seeds = cx.seeds(&raw.seeds)?;
+    let scenarios = cx.scenarios(&raw.scenarios)?;
+    let opponents = cx.opponents(&raw.opponents)?;
+    let mut agents = Vec::new();
+    for (i, a) in raw.agents.iter().enumerate() {
+        let def = cx.agent(i, a, &agents, &scenarios, seeds.len())?;
+        agents.push(def);
+    }
+    let mut cells = Vec::new();
+    let mut skipped: Vec<(String, String)> = Vec::new();
+    cx.pve_cells(&scenarios, &agents, &opponents, &mut cells, &mut skipped)?;
+    for (h, t) in raw.headtohead.iter().enumerate() {
+        cx.headtohead_cells(h, t, &agents, &mut cells, &mut skipped)?;
+    }
+    if cells.is_empty() {
+        return Err(cx.err(
+            "agents",
+            format!("{} agents", agents.len()),
+            "the plan has nothing to play (agents and scenarios, or [[headtohead]])",
+        ));
+    }
+    let curves = raw.curves.iter().enumerate().map(|(i, c)| cx.curve(i, c)).collect::<Result<Vec<_>, _>>()?;
+    let name =
+        raw.name.unwrap_or_else(|| Path::new(file).file_stem().map_or_else(|| "plan".to_owned(), |s| s.to_string_lossy().into_owned()));
+    let document = match raw.document {
+        Some(d) if d.trim().is_empty() || !d.ends_with(".md") => {
+            return Err(cx.err("document", format!("{d:?}"), "a Markdown file (`.md`), e.g. \"../../docs/results.md\""));
+        }
+        Some(d) => Some(base.map_or_else(|| PathBuf::from(&d), |b| b.join(&d))),
+        None => None,
+    };
+    Ok(Plan {
+        file: file.to_owned(),
+        name,
+        agents,
+        cells,
+        seeds,
+        curves,
+        unshipped: skipped,
+        document,
+        protocol: raw.protocol.unwrap_or_default(),
+    })
+}
+
+/// The plan file being read.
+struct Cx<'a> {
+    file: &'a str,
+    base: Option<&'a Path>,
+}
+
+impl Cx<'_> {
+    fn err(&self, field: impl Into<String>, value: impl Into<String>, reason: impl Into<String>) -> PlanError {
+        PlanError::Invalid { file: self.file.to_owned(), field: field.into(), value: value.into(), reason: reason.into() }
+    }
+
+    fn policy_err(&self, field: String, value: String, source: PolicyError) -> PlanError {
+        PlanError::Policy { file: self.file.to_owned(), field, value, source: Box::new(source) }
+    }
+
+    fn seeds(&self, seeds: &[u64]) -> Result<Vec<u64>, PlanError> {
+        if seeds.is_empty() {
+            return Err(self.err("seeds", "[]", "at least one seed is needed"));
+        }
+        for (i, s) in seeds.iter().enumerate() {
+            if seeds[..i].contains(s) {
+                return Err(self.err(format!("seeds[{i}]"), s.to_string(), "named twice"));
+            }
+        }
+        Ok(seeds.to_vec())
+    }
+
+    /// A built-in scenario by name, or a scenario file relative to the plan.
+    fn scenario(&self, field: String, name: &str) -> Result<Arc<Scenario>, PlanError> {
+        let arg = match self.base.map(|b| b.join(name)) {
+            Some(p) if p.is_file() => p.display().to_string(),
+            _ => name.to_owned(),
+        };
+        Scenario::load(&arg).map(Arc::new).map_err(|e| self.err(field, format!("{name:?}"), e.to_string()))
+    }
+
+    /// The PvE scenarios (`all`: every built-in one).
+    fn scenarios(&self, names: &[String]) -> Result<Vec<Arc<Scenario>>, PlanError> {
+        let mut scenarios: Vec<Arc<Scenario>> = Vec::new();
+        for (i, s) in names.iter().enumerate() {
+            if s == "all" {
+                for n in builtin_names() {
+                    let sc = self.scenario(format!("scenarios[{i}]"), n)?;
+                    if sc.mode == Mode::Pve && !scenarios.iter().any(|x| x.name == sc.name) {
+                        scenarios.push(sc);
+                    }
+                }
+                continue;
+            }
+            let sc = self.scenario(format!("scenarios[{i}]"), s)?;
+            if sc.mode == Mode::Pvp {
+                return Err(self.err(format!("scenarios[{i}]"), format!("{s:?}"), "a PvP scenario goes in a [[headtohead]] table"));
+            }
+            if scenarios.iter().any(|x| x.name == sc.name) {
+                return Err(self.err(format!("scenarios[{i}]"), format!("{s:?}"), "named twice"));
+            }
+            scenarios.push(sc);
+        }
+        Ok(scenarios)
+    }
+
+    /// The PvE opponents (`default`: each scenario's own); none named is the default.
+    fn opponents(&self, names: &[String]) -> Result<Vec<Option<OpponentKind>>, PlanError> {
+        let mut opponents: Vec<Option<OpponentKind>> = Vec::new();
+        for (i, o) in names.iter().enumerate() {
+            let k = if o == "default" {
+                None
+            } else {
+                Some(o.parse::<OpponentKind>().map_err(|e| self.err(format!("opponents[{i}]"), format!("{o:?}"), e))?)
+            };
+            if opponents.contains(&k) {
+                return Err(self.err(format!("opponents[{i}]"), format!("{o:?}"), "named twice"));
+            }
+            opponents.push(k);
+        }
+        if opponents.is_empty() {
+            opponents.push(None);
+        }
+        Ok(opponents)
+    }
+
+    /// Agent `i`, its policy resolved by the registry.
+    fn agent(
+        &self,
+        i: usize,
+        a: &RawAgent,
+        before: &[AgentDef],
+        scenarios: &[Arc<Scenario>],
+        n_seeds: usize,
+    ) -> Result<AgentDef, PlanError> {
+        let f = |name: &str| format!("agents[{i}].{name}");
+        if a.name.is_empty() || a.name.len() > 64 || !a.name.chars().all(|c| c.is_ascii_alphanumeric() || "-_.:+".contains(c)) {
+            return Err(self.err(f("name"), format!("{:?}", a.name), "1 to 64 letters, digits or -_.:+"));
+        }
+        if before.iter().any(|x| x.name == a.name) {
+            return Err(self.err(f("name"), format!("{:?}", a.name), "two agents share this name"));
+        }
+        let policy = PolicySpec::resolve(&a.policy, a.ava.clone(), Resolve::against(self.base)).map_err(|e| {
+            let field = if matches!(e, PolicyError::Ava(_) | PolicyError::SpecWithoutAva { .. }) { f("ava") } else { f("policy") };
+            self.policy_err(field, format!("{:?}", a.policy), e)
+        })?;
+        if policy.is_dds() {
+            return Err(self.err(f("policy"), format!("{:?}", a.policy), "an evaluation plays in-process; DDS agents cannot"));
+        }
+        let kind = a.kind.unwrap_or(match &policy {
+            PolicySpec::Marl(_) | PolicySpec::Baseline(_) => AgentKind::Marl,
+            PolicySpec::Ava(_) => AgentKind::Vlm,
+            _ => AgentKind::Scripted,
+        });
+        if let Some(only) = &a.scenarios {
+            for (j, s) in only.iter().enumerate() {
+                if !scenarios.iter().any(|x| &x.name == s) {
+                    return Err(self.err(format!("agents[{i}].scenarios[{j}]"), format!("{s:?}"), "not one of the plan's scenarios"));
+                }
+            }
+        }
+        if let Some(n) = a.seeds
+            && (n == 0 || n > n_seeds)
+        {
+            return Err(self.err(f("seeds"), n.to_string(), format!("the number of the plan's seeds it plays: 1 to {n_seeds}")));
+        }
+        Ok(AgentDef { name: a.name.clone(), policy, kind, scenarios: a.scenarios.clone(), seeds: a.seeds })
+    }
+
+    /// Every agent on every PvE scenario it plays, against every opponent. A shipped
+    /// baseline missing for a scenario leaves its cells out, listed in `skipped`.
+    fn pve_cells(
+        &self,
+        scenarios: &[Arc<Scenario>],
+        agents: &[AgentDef],
+        opponents: &[Option<OpponentKind>],
+        cells: &mut Vec<Cell>,
+        skipped: &mut Vec<(String, String)>,
+    ) -> Result<(), PlanError> {
+        for sc in scenarios {
+            for (ai, a) in agents.iter().enumerate() {
+                if a.scenarios.as_ref().is_some_and(|only| !only.contains(&sc.name)) {
+                    continue;
+                }
+                match a.policy.check(sc, Team::One) {
+                    Ok(()) => {}
+                    Err(e) if unshipped(&e) => {
+                        skipped.push((a.name.clone(), sc.name.clone()));
+                        continue;
+                    }
+                    Err(source) => {
+                        return Err(self.policy_err(format!("agents[{ai}].policy"), format!("{} on {}", a.policy, sc.name), source));
+                    }
+                }
+                for o in opponents {
+                    let against = format!("opponent:{}", o.map_or("default", |k| k.name()));
+                    cells.push(Cell {
+                        key: CellKey { scenario: sc.name.clone(), agent: a.name.clone(), against },
+                        scenario: Arc::clone(sc),
+                        agent: ai,
+                        opponent: *o,
+                        agent2: None,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The agents of `[[headtohead]]` table `h` by name, each once.
+    fn indices(&self, h: usize, field: &str, names: &[String], agents: &[AgentDef]) -> Result<Vec<usize>, PlanError> {
+        let mut idx = Vec::new();
+        for (j, n) in names.iter().enumerate() {
+            let Some(k) = agents.iter().position(|a| &a.name == n) else {
+                return Err(self.err(format!("headtohead[{h}].{field}[{j}]"), format!("{n:?}"), "not one of the plan's agents"));
+            };
+            if idx.contains(&k) {
+                return Err(self.err(format!("headtohead[{h}].{field}[{j}]"), format!("{n:?}"), "named twice"));
+            }
+            idx.push(k);
+        }
+        if idx.is_empty() {
+            return Err(self.err(format!("headtohead[{h}].{field}"), "[]", "at least one agent is needed"));
+        }
+        Ok(idx)
+    }
+
+    /// The pairings of `[[headtohead]]` table `h` on its PvP scenarios.
+    fn headtohead_cells(
+        &self,
+        h: usize,
+        t: &RawHeadToHead,
+        agents: &[AgentDef],
+        cells: &mut Vec<Cell>,
+        skipped: &mut Vec<(String, String)>,
+    ) -> Result<(), PlanError> {
+        let idx = self.indices(h, "agents", &t.agents, agents)?;
+        let idx2 = match &t.against {
+            Some(names) => self.indices(h, "against", names, agents)?,
+            None => idx.clone(),
+        };
+        for (j, s) in t.scenarios.iter().enumerate() {
+            let sc = self.scenario(format!("headtohead[{h}].scenarios[{j}]"), s)?;
+            if sc.mode != Mode::Pvp {
+                return Err(self.err(format!("headtohead[{h}].scenarios[{j}]"), format!("{s:?}"), "a PvE scenario goes in `scenarios`"));
+            }
+            for &a in &idx {
+                for &b in &idx2 {
+                    let missing = [a, b].into_iter().find(|&k| agents[k].policy.check(&sc, Team::One).is_err_and(|e| unshipped(&e)));
+                    if let Some(k) = missing {
+                        let pair = (agents[k].name.clone(), sc.name.clone());
+                        if !skipped.contains(&pair) {
+                            skipped.push(pair);
+                        }
+                        continue;
+                    }
+                    for (k, team) in [(a, Team::One), (b, Team::Two)] {
+                        agents[k].policy.check(&sc, team).map_err(|source| {
+                            self.policy_err(
+                                format!("headtohead[{h}].agents"),
+                                format!("{} as {team} on {}", agents[k].name, sc.name),
+                                source,
+                            )
+                        })?;
+                    }
+                    let key = CellKey { scenario: sc.name.clone(), agent: agents[a].name.clone(), against: agents[b].name.clone() };
+                    if cells.iter().any(|c| c.key == key) {
+                        return Err(self.err(format!("headtohead[{h}]"), key.to_string(), "this pairing is planned twice"));
+                    }
+                    cells.push(Cell { key, scenario: Arc::clone(&sc), agent: a, opponent: None, agent2: Some(b) });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// A training run whose curves the report plots.
+    fn curve(&self, i: usize, c: &RawCurve) -> Result<CurveDef, PlanError> {
+        let dir = match self.base {
+            Some(b) if c.dir.is_relative() => b.join(&c.dir),
+            _ => c.dir.clone(),
+        };
+        if !dir.join("log.csv").is_file() {
+            return Err(self.err(
+                format!("curves[{i}].dir"),
+                format!("{:?}", c.dir.display().to_string()),
+                "holds no log.csv of `avacraft train`",
+            ));
+        }
+        Ok(CurveDef { name: c.name.clone(), dir })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The plan the README shows parses, with its checkpoint found from the plan's folder.
+    #[test]
+    fn the_shipped_plan_is_valid() {
+        let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("plans/pve_scripted.toml");
+        let plan = load(&p).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(plan.agents.iter().map(|a| a.kind).filter(|k| *k == AgentKind::Marl).count(), 1);
+        assert_eq!(plan.jobs().len(), plan.cells.len() * 5);
+        assert!(plan.cells.iter().any(|c| c.agent2.is_some()), "the head-to-head matrix");
+    }
+}
