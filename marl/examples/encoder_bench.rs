@@ -1,6 +1,6 @@
 //! Times the image encoder's forward and backward passes on a batch of frames, candle's
 //! autograd against the fused kernels (CNN backbone):
-//! `cargo run --profile wheel -p avacraft-marl --example encoder_bench -- N [key=value ...]`
+//! `cargo run --release -p avacraft-marl --example encoder_bench -- N [key=value ...]`
 //! (config keys as for `avacraft train --set`, e.g. `encoder=swin screen_size=[160,120]`;
 //! `N` defaults to 3200, a MAPPO rollout's frames). `CANDLE=0` skips candle.
 

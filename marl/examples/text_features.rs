@@ -1,7 +1,7 @@
 //! Measures the vision-text text features on random play: distinct clauses, cache hit
 //! rates, and the time per step of the warm-up and after it.
 //!
-//! `cargo run --profile wheel -p avacraft-marl --example text_features -- SCENARIO STEPS
+//! `cargo run --release -p avacraft-marl --example text_features -- SCENARIO STEPS
 //! [ENVS] [key=value ...]`: STEPS environment steps (summed over the ENVS environments, 8 by
 //! default) with uniformly random available actions, every environment's features computed
 //! at every step as training does (config keys as for `avacraft train --set`; the on-disk
