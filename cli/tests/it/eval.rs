@@ -353,7 +353,8 @@ fn shipped_baselines_win_as_often_as_the_results_table_says() {
         .expect("docs/results/report.json (avacraft eval eval/plans/paper.toml)");
     let report: avacraft_eval::Report = serde_json::from_str(&json).expect("the report");
     let mut checked = 0;
-    for (scenario, agent) in [("3m", "qmix"), ("3m", "mappo"), ("2s3z", "qmix"), ("2s3z", "mappo")] {
+    let cases = [("3m", "qmix"), ("3m", "mappo"), ("2s3z", "qmix"), ("2s3z", "mappo"), ("2m_vs_1z", "qmix"), ("8m1mv_vs_2st", "mappo")];
+    for (scenario, agent) in cases {
         let cell = report
             .cells
             .iter()
@@ -385,5 +386,5 @@ fn shipped_baselines_win_as_often_as_the_results_table_says() {
         assert!(lo <= rate && rate <= hi, "{agent} on {scenario}: {wins}/40 on seeds 5001-5040, the table's interval [{lo:.2}, {hi:.2}]");
         checked += 1;
     }
-    assert_eq!(checked, 4);
+    assert_eq!(checked, cases.len());
 }
