@@ -24,6 +24,11 @@ fn local_n_ctx() -> u32 {
     crate::llm::LocalConfig::DEFAULT_N_CTX
 }
 
+/// Why a local model cannot run in a build without the offline back end.
+#[cfg(not(feature = "local"))]
+const NO_LOCAL: &str =
+    "a local model (`kind: local`) needs AVACraft built with the `local` feature: cargo build --release -p avacraft-cli --features local";
+
 /// Which model answers.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
@@ -60,6 +65,10 @@ pub enum ModelSpec {
         #[serde(default)]
         seed: u64,
     },
+    /// A local model's settings read by a build without the offline back end: kept so that
+    /// the refusal says what is missing (the `local` feature) instead of "unknown variant".
+    #[cfg(not(feature = "local"))]
+    Local(std::collections::BTreeMap<String, serde_json::Value>),
     /// Answers from a recorded run.
     Replay { dir: PathBuf },
     /// The instant stand-in model (crude focus fire), for pipelines and tests.
@@ -73,6 +82,8 @@ impl ModelSpec {
             ModelSpec::Openai { url, model, .. } => format!("{model} at {url}"),
             #[cfg(feature = "local")]
             ModelSpec::Local { path, .. } => format!("local model {}", path.display()),
+            #[cfg(not(feature = "local"))]
+            ModelSpec::Local(_) => "local model (not in this build)".into(),
             ModelSpec::Replay { dir } => format!("replay of {}", dir.display()),
             ModelSpec::Synthetic => "synthetic".into(),
         }
@@ -164,6 +175,10 @@ impl AvaSpec {
     /// Checks what can be checked without starting anything.
     pub fn validate(&self) -> Result<(), SpecError> {
         self.config.validate()?;
+        #[cfg(not(feature = "local"))]
+        if let ModelSpec::Local(_) = &self.model {
+            return Err(SpecError::Model(NO_LOCAL.into()));
+        }
         if let ModelSpec::Openai { url, model, timeout_s, .. } = &self.model {
             if !(url.starts_with("http://") || url.starts_with("https://")) {
                 return Err(SpecError::Model(format!("url `{url}` must start with http:// or https://")));
@@ -222,6 +237,8 @@ impl AvaSpec {
                 n_threads: *n_threads,
                 seed: *seed,
             })?),
+            #[cfg(not(feature = "local"))]
+            ModelSpec::Local(_) => return Err(SpecError::Model(NO_LOCAL.into())),
             ModelSpec::Replay { dir } => Box::new(Replay::open(dir)?),
             ModelSpec::Synthetic => Box::new(Synthetic),
         })
@@ -261,5 +278,23 @@ impl AvaSpec {
     /// [`AvaSpec::setup_with`] the spec's own model.
     pub fn setup(&self, record: Option<&Path>) -> Result<AvaSetup, SpecError> {
         self.setup_with(self.model()?, record)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A local model named to a build without the offline back end is read, and refused
+    /// with what is missing; with it, the same settings are a local model.
+    #[test]
+    fn a_local_model_is_read_in_every_build_and_refused_by_name_without_the_feature() {
+        let spec: AvaSpec = serde_json::from_str(r#"{"model": {"kind": "local", "path": "smollm2"}}"#).expect("read in every build");
+        if cfg!(feature = "local") {
+            assert!(spec.model.label().starts_with("local model smollm2"), "{}", spec.model.label());
+        } else {
+            let e = spec.validate().expect_err("no offline back end in this build").to_string();
+            assert!(e.contains("`local` feature"), "{e}");
+        }
     }
 }
