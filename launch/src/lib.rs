@@ -15,16 +15,9 @@ mod policy_tests;
 mod validate;
 
 #[cfg(test)]
-/// The error and its sources, as `anyhow` prints them with `{:#}`.
-pub(crate) fn chain(e: &dyn std::error::Error) -> String {
-    let mut s = e.to_string();
-    let mut src = e.source();
-    while let Some(x) = src {
-        s.push_str(": ");
-        s.push_str(&x.to_string());
-        src = x.source();
-    }
-    s
+/// The error and its sources, as the program prints them (`anyhow`'s `{:#}`).
+pub(crate) fn chain(e: &LaunchError) -> String {
+    format!("{:#}", anyhow::Error::new(e.clone()))
 }
 
 pub use deploy::{CertError, access_control, write_certs};
