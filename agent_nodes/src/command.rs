@@ -10,9 +10,7 @@
 //! message, so a deployment and `episode --launch` play the same game.
 
 use crate::{AgentStats, GATHER};
-use avacraft_engine::agent::{
-    Agent, AgentCtx, AgentObs, Assignment, Briefing, Commander, GroupObs, GroupRole, agent_seed, commander_seed, complete,
-};
+use avacraft_engine::agent::{Agent, AgentCtx, AgentObs, Assignment, Briefing, Commander, GroupObs, GroupRole, agent_seed, commander_seed};
 use avacraft_engine::{Scenario, Team};
 use avacraft_msgs::{ActionBatch, RoleAssignment, RoleGroup, UnitObservation};
 use avacraft_nodes::{AgentId, Node, NodeError, Qos, Shutdown, Subscriber, TeamNo, TopicKind, Topics, UnitTag, wire};
@@ -187,7 +185,7 @@ pub fn run_role_group(
         let role =
             roles.groups.iter().find(|g| g.agent_id == cfg.id.as_str()).and_then(|g| GroupRole::from_code(g.role)).unwrap_or_default();
         agent.brief(&Briefing { role, plan: roles.plan.clone(), priorities: roles.priority_tags.clone() });
-        let actions = GroupObs::fold(&obs, inputs.index()).map(|g| complete(agent.act(&g), &g)).unwrap_or_default();
+        let actions = GroupObs::fold(&obs, inputs.index()).map(|g| super::act(agent, &g, &cfg.scenario, &mut stats)).unwrap_or_default();
         let actions = actions.iter().map(wire::unit_action).collect();
         out.put(&ActionBatch { header: Default::default(), episode: key.0, step: key.1, agent_id: cfg.id.to_string(), actions })?;
         stats.batches += 1;

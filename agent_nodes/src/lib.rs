@@ -9,8 +9,8 @@
 mod command;
 pub use command::{CommandedConfig, run_commander, run_role_group};
 
-use avacraft_engine::agent::{Agent, AgentCtx, AgentObs, GroupObs, agent_seed, complete};
-use avacraft_engine::{Scenario, Team};
+use avacraft_engine::agent::{Agent, AgentCtx, AgentObs, GroupObs, agent_seed, check_action, complete};
+use avacraft_engine::{Action, Scenario, Team};
 use avacraft_msgs::{ActionBatch, UnitObservation};
 use avacraft_nodes::{AgentId, Node, NodeError, Qos, Shutdown, TeamNo, TopicKind, Topics, UnitTag, wire};
 use std::collections::BTreeMap;
@@ -34,6 +34,23 @@ pub struct AgentStats {
     pub batches: u64,
     /// Samples refused: undecodable, on the wrong topic, or with fields that name nothing.
     pub malformed: u64,
+    /// Actions sent although the observation's check (the engine's rules,
+    /// [`check_action`]) says the simulator will refuse them: the policy's mistakes. They are
+    /// sent all the same, as an in-process run submits them, so both play the same game.
+    pub doomed: u64,
+}
+
+/// The policy's actions for `g`, completed with no-ops, and counted in `stats.doomed` where
+/// the simulator will refuse them.
+pub(crate) fn act(agent: &mut dyn Agent, g: &GroupObs, scenario: &Scenario, stats: &mut AgentStats) -> Vec<Action> {
+    let actions = complete(agent.act(g), g);
+    for a in &actions {
+        if let Err(e) = check_action(g, &scenario.terrain, a) {
+            stats.doomed += 1;
+            tracing::debug!(unit = a.unit.tag(), error = %e, "the simulator will refuse this action");
+        }
+    }
+    actions
 }
 
 /// How long after the first observation of a step the node acts even if some of its units'
@@ -90,7 +107,7 @@ pub fn run(
             }
             let header = avacraft_msgs::Header::default();
             let index = |tag: u32| order.iter().position(|&t| t == tag).unwrap_or(0);
-            let actions = GroupObs::fold(&obs, index).map(|g| complete(agent.act(&g), &g)).unwrap_or_default();
+            let actions = GroupObs::fold(&obs, index).map(|g| act(agent, &g, &cfg.scenario, &mut stats)).unwrap_or_default();
             let actions = actions.iter().map(wire::unit_action).collect();
             out.put(&ActionBatch { header, episode: key.0, step: key.1, agent_id: cfg.id.to_string(), actions })?;
             stats.batches += 1;

@@ -2,11 +2,10 @@
 //! movement grid that screenshots label.
 
 use crate::ability::{Ability, AbilityTarget, PendingCast, Refusal};
-use crate::combat::weapon_for;
 use crate::geom::Vec2;
 use crate::ids::{Team, UnitId};
+use crate::rules::{Inability, TargetProblem};
 use crate::terrain::Rect;
-use crate::units::Attrs;
 use crate::world::{Order, World};
 use serde::{Deserialize, Serialize};
 
@@ -101,13 +100,13 @@ pub enum ActionError {
     #[error("target {target} is not visible to {team}")]
     TargetNotVisible { target: UnitId, team: Team },
     #[error("unit {unit} cannot attack target {target} ({why})")]
-    InvalidTarget { unit: UnitId, target: UnitId, why: String },
+    InvalidTarget { unit: UnitId, target: UnitId, why: TargetProblem },
     #[error("grid cell ({x}, {y}) is off the 1..=10 grid")]
     OffGrid { x: u8, y: u8 },
     #[error("point ({x}, {y}) is outside the playable area")]
     OffMap { x: f32, y: f32 },
     #[error("unit {unit} cannot do that: {why}")]
-    Unavailable { unit: UnitId, why: String },
+    Unavailable { unit: UnitId, why: Inability },
     #[error("unit {unit} cannot use {ability}: {refusal}")]
     AbilityRefused { unit: UnitId, ability: Ability, refusal: Refusal },
 }
@@ -144,102 +143,9 @@ impl World {
     }
 
     /// The order an action would give, or why it is refused; `None` keeps the current order.
+    /// The rules are `crate::rules`', which observations check actions with too.
     pub fn validate(&self, team: Team, a: &Action) -> Result<Option<Order>, ActionError> {
-        let unit = a.unit;
-        let u = self.unit(unit).ok_or(ActionError::UnknownUnit { unit })?;
-        if u.team != team {
-            return Err(ActionError::NotYourUnit { unit, owner: u.team, team });
-        }
-        if a.command == Command::NoOp {
-            // SMAC's required action for dead agents; for living ones, keep the order.
-            return Ok(None);
-        }
-        if !u.alive {
-            return Err(ActionError::DeadUnit { unit });
-        }
-        if let Command::Ability { ability, target } = a.command {
-            return self.check_cast(team, u, ability, target).map(|_| None).map_err(|refusal| ActionError::AbilityRefused {
-                unit,
-                ability,
-                refusal,
-            });
-        }
-        if let Some((into, _)) = u.status.morph
-            && a.command != Command::Stop
-        {
-            return Err(ActionError::Unavailable { unit, why: format!("morphing into {}", into.display_name()) });
-        }
-        let playable = self.terrain.playable();
-        let mobile = || {
-            if u.speed > 0.0 { Ok(()) } else { Err(ActionError::Unavailable { unit, why: format!("{} cannot move", u.kind) }) }
-        };
-        let in_map = |p: Vec2| {
-            if p.is_finite() && playable.contains(p) { Ok(p) } else { Err(ActionError::OffMap { x: p.x, y: p.y }) }
-        };
-        // Ground units head for the nearest point they can actually reach (a grid cell over
-        // a cliff or outside the arena means "as close as you can get").
-        let reach = |p: Vec2| -> Result<Vec2, ActionError> {
-            if u.flying() {
-                return Ok(p);
-            }
-            self.terrain
-                .reachable_point(u.pos, p, u.spec().cliff_walk)
-                .ok_or_else(|| ActionError::Unavailable { unit, why: "no ground it can reach".into() })
-        };
-        Ok(match a.command {
-            Command::NoOp => None,
-            Command::Stop => Some(Order::Idle),
-            Command::Hold => Some(Order::Hold),
-            Command::Attack { target } => {
-                let t = self.unit(target).ok_or(ActionError::UnknownTarget { target })?;
-                if !t.alive {
-                    return Err(ActionError::TargetDead { target });
-                }
-                if !self.visible_to(team, target) {
-                    return Err(ActionError::TargetNotVisible { target, team });
-                }
-                let invalid = |why: &str| ActionError::InvalidTarget { unit, target, why: why.to_owned() };
-                if u.spec().heal.is_some() {
-                    if t.team != team || t.id == unit {
-                        return Err(invalid("a healer targets other friendly units"));
-                    }
-                    if !t.spec().attrs.has(Attrs::BIOLOGICAL) {
-                        return Err(invalid("heal needs a biological target"));
-                    }
-                } else {
-                    if t.team == team {
-                        return Err(invalid("friendly unit"));
-                    }
-                    if weapon_for(u, t).is_none() {
-                        return Err(invalid(if t.flying() { "no weapon hits air units" } else { "no weapon hits ground units" }));
-                    }
-                    if u.speed <= 0.0 && !crate::combat::in_weapon_range(u, t) {
-                        return Err(invalid("out of range of an immobile unit"));
-                    }
-                }
-                Some(Order::Attack { target })
-            }
-            Command::MoveGrid { x, y } => {
-                if !(1..=GRID).contains(&x) || !(1..=GRID).contains(&y) {
-                    return Err(ActionError::OffGrid { x, y });
-                }
-                mobile()?;
-                Some(Order::Move { to: reach(grid_cell_center(playable, x, y))? })
-            }
-            Command::MoveDir { dir } => {
-                mobile()?;
-                Some(Order::Move { to: reach(playable.clamp(u.pos + dir.vector() * MOVE_AMOUNT, 0.0))? })
-            }
-            Command::MoveTo { to } => {
-                mobile()?;
-                Some(Order::Move { to: reach(in_map(to)?)? })
-            }
-            Command::AttackMoveTo { to } => {
-                mobile()?;
-                Some(Order::AttackMove { to: reach(in_map(to)?)? })
-            }
-            Command::Ability { .. } => None,
-        })
+        crate::rules::check(self, team, a)
     }
 }
 

@@ -26,22 +26,8 @@ pub(crate) struct PendingHit {
     pub dir: Vec2,
 }
 
-pub(crate) fn edge_dist(a: &Unit, b: &Unit) -> f32 {
-    a.pos.dist(b.pos) - a.radius - b.radius
-}
-
-/// The weapon of `a` that can hit `b`'s layer, with its index.
-pub(crate) fn weapon_for(a: &Unit, b: &Unit) -> Option<(usize, &'static Weapon)> {
-    let flying = b.flying();
-    a.spec().weapons.iter().enumerate().find(|(_, w)| w.reach.hits(flying))
-}
-
-pub(crate) fn in_weapon_range(a: &Unit, b: &Unit) -> bool {
-    weapon_for(a, b).is_some_and(|(_, w)| {
-        let d = edge_dist(a, b);
-        d <= w.range && d >= w.min_range
-    })
-}
+// One definition of reach for the simulation and for the checks of actions (`crate::rules`).
+pub(crate) use crate::rules::{edge as edge_dist, in_weapon_range, weapon_for};
 
 /// Acquisition range: the longest weapon or the unit's minimum scan range.
 pub(crate) fn acquire_range(u: &Unit) -> f32 {

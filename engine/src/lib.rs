@@ -42,6 +42,7 @@ mod movement;
 mod obs;
 mod orca;
 mod pathing;
+mod rules;
 mod scenario;
 mod sim;
 mod spatial;
@@ -70,6 +71,7 @@ pub use obs::{
     Buffs, EnvInfo, IndexError, N_ACTIONS_NO_ATTACK, OrderInfo, SHOOT_RANGE, SIGHT_RANGE, SmacLayout, UnitFlags, UnitInfo, UnknownBits,
     ability_infos, describe, unit_list,
 };
+pub use rules::{Inability, TargetProblem};
 pub use scenario::{
     BUILTIN, Mode, OpponentKind, RawOpponent, RawScenario, RawStart, RawTerrain, RawUnit, RawUpgrade, Scenario, ScenarioError,
     ScenarioUnit, StartOrder, Upgrade, builtin, builtin_names,

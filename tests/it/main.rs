@@ -15,6 +15,7 @@ mod movement;
 mod observations;
 mod properties;
 mod render;
+mod rules;
 mod scenarios;
 mod smac;
 mod speed;

@@ -264,7 +264,7 @@ fn screenshot(
     hl: &[u32],
 ) -> Option<Png> {
     let (w, h) = setup.config.draw_size();
-    let opts = VlmOptions { highlights: hl.iter().map(|t| UnitId::new((t - 1) as u16)).collect() };
+    let opts = VlmOptions { highlights: hl.iter().filter_map(|&t| UnitId::try_from(t).ok()).collect() };
     let scene = frames.vlm_obs(&ep.scenario.terrain, obs, camera, w, h, &opts);
     match Png::encode(&cpu.render(&scene)) {
         Ok(p) => Some(p),

@@ -3,7 +3,7 @@
 //! grid while its image showed 10x10), and units off screen say which way they are.
 
 use avacraft_engine::agent::{GroupObs, view};
-use avacraft_engine::{Command, UnitId, UnitInfo, loops_to_seconds};
+use avacraft_engine::{Command, UnitInfo, loops_to_seconds};
 use avacraft_render::Camera;
 use std::fmt::Write as _;
 
@@ -139,7 +139,7 @@ pub fn attack_nearest(obs: &GroupObs, units: &[u32]) -> Vec<(u32, Command)> {
             .filter(|t| !t.own && view::can_attack(u, t))
             .min_by(|a, b| view::edge(u, a).total_cmp(&view::edge(u, b)).then(a.tag.cmp(&b.tag)));
         if let Some(t) = nearest {
-            out.push((u.tag, Command::Attack { target: UnitId::new((t.tag - 1) as u16) }));
+            out.push((u.tag, Command::Attack { target: view::id(t) }));
         }
     }
     out

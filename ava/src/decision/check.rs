@@ -1,11 +1,12 @@
-//! Checking items against the observation with the engine's own rules, so that what is
-//! accepted is executed, and what is refused says why in words a model can act on.
+//! Checking items against the observation with the engine's own rules (its observation-side
+//! check, [`check_action`]), so that what is accepted is executed, and what is refused says
+//! why in words a model can act on.
 
 use super::item::{Item, Verb};
-use avacraft_engine::agent::GroupObs;
-use avacraft_engine::agent::view;
+use avacraft_engine::agent::{GroupObs, check_action, view};
 use avacraft_engine::{
-    Ability, AbilityTarget, Attrs, Buffs, Command, Direction, MOVE_AMOUNT, TargetKind, TargetRule, Terrain, UnitId, UnitInfo, Vec2,
+    Ability, AbilityTarget, Action, ActionError, Command, Direction, Inability, Refusal, TargetKind, TargetProblem, TargetRule, Terrain,
+    UnitId, UnitInfo, Vec2,
 };
 use avacraft_render::Camera;
 use serde::{Deserialize, Serialize};
@@ -103,30 +104,21 @@ fn name(u: &UnitInfo) -> String {
     format!("{} {}", u.kind.base().name(), u.tag)
 }
 
+/// The item as a command, checked by the engine's rules from the observation
+/// ([`check_action`]); a refusal in words that name the units.
 fn command(s: &Situation<'_>, u: &UnitInfo, item: &Item) -> Result<Command, String> {
-    let needs_move = || if view::mobile(u) { Ok(()) } else { Err(format!("{} cannot move now", name(u))) };
-    // Ground units go as near as they can get; with no ground they can reach, the engine
-    // refuses the move.
-    let reach = |to: Vec2| {
-        if view::flying(u) || s.terrain.reachable_point(view::pos(u), to, u.kind.spec().cliff_walk).is_some() {
-            Ok(())
-        } else {
-            Err(format!("{} has no ground path towards that point", name(u)))
-        }
-    };
-    if u.buffs.contains(Buffs::MORPHING) && !matches!(item.action, Verb::Stop | Verb::Ability) {
-        return Err(format!("{} is morphing: only `stop` (which cancels it) is possible now", name(u)));
-    }
-    match item.action {
-        Verb::Hold => Ok(Command::Hold),
-        Verb::Stop => Ok(Command::Stop),
-        Verb::MoveGrid => {
-            let cell = item.cell.ok_or("move_grid needs `cell`: [column, row]")?;
-            needs_move()?;
-            let to = s.point(cell)?;
-            reach(to)?;
-            Ok(Command::MoveTo { to })
-        }
+    let cmd = build(s, u, item)?;
+    check_action(s.obs, s.terrain, &Action::new(view::id(u), cmd)).map_err(|e| words(s, u, item, &cmd, e))?;
+    Ok(cmd)
+}
+
+/// What the item says, as a command: the camera's cells become points, names become types.
+/// Refuses only what does not make a command at all.
+fn build(s: &Situation<'_>, u: &UnitInfo, item: &Item) -> Result<Command, String> {
+    Ok(match item.action {
+        Verb::Hold => Command::Hold,
+        Verb::Stop => Command::Stop,
+        Verb::MoveGrid => Command::MoveTo { to: s.point(item.cell.ok_or("move_grid needs `cell`: [column, row]")?)? },
         Verb::MoveDir => {
             let d = item.direction.as_deref().ok_or("move_dir needs `direction`: north, south, east or west")?;
             let dir = match d.to_ascii_lowercase().as_str() {
@@ -136,88 +128,78 @@ fn command(s: &Situation<'_>, u: &UnitInfo, item: &Item) -> Result<Command, Stri
                 "west" | "left" => Direction::Left,
                 other => return Err(format!("unknown direction `{other}` (north, south, east or west)")),
             };
-            needs_move()?;
-            reach(s.terrain.playable().clamp(view::pos(u) + dir.vector() * MOVE_AMOUNT, 0.0))?;
-            Ok(Command::MoveDir { dir })
+            Command::MoveDir { dir }
         }
-        Verb::Attack => attack(s, u, item.target.ok_or("attack needs `target`: the tag of a unit on screen")?),
-        Verb::Ability => ability(s, u, item),
-    }
+        Verb::Attack => Command::Attack { target: seen_id(s, item.target.ok_or("attack needs `target`: the tag of a unit on screen")?)? },
+        Verb::Ability => ability(s, u, item)?,
+    })
 }
 
-fn attack(s: &Situation<'_>, u: &UnitInfo, tag: u32) -> Result<Command, String> {
-    let t = s.unit(tag).ok_or_else(|| format!("target {tag} is not a unit you can see"))?;
-    let target = UnitId::new((tag - 1) as u16);
-    if u.flags.contains(avacraft_engine::UnitFlags::HEALER) {
-        if !t.own || t.tag == u.tag {
-            return Err(format!("{} heals: its target must be another of your units", name(u)));
-        }
-        if !t.kind.spec().attrs.has(Attrs::BIOLOGICAL) {
-            return Err(format!("{} heals biological units only, and {} is not", name(u), name(t)));
-        }
-        return Ok(Command::Attack { target });
-    }
-    if u.kind.spec().weapons.is_empty() {
-        return Err(format!("{} has no weapon", name(u)));
-    }
-    if t.own {
-        return Err(format!("target {tag} is your own unit"));
-    }
-    if !view::can_attack(u, t) {
-        let layer = if view::flying(t) { "air" } else { "ground" };
-        return Err(format!("{} cannot hit {} units such as {}", name(u), layer, name(t)));
-    }
-    if !view::mobile(u) && view::weapon_against(u, t).is_some_and(|w| view::edge(u, t) > w.range || view::edge(u, t) < w.min_range) {
-        return Err(format!("{} cannot move now, and {} is outside its weapon's range", name(u), name(t)));
-    }
-    Ok(Command::Attack { target })
+/// The id of a unit the group sees.
+fn seen_id(s: &Situation<'_>, tag: u32) -> Result<UnitId, String> {
+    s.unit(tag).map(view::id).ok_or_else(|| format!("target {tag} is not a unit you can see"))
 }
 
 fn ability(s: &Situation<'_>, u: &UnitInfo, item: &Item) -> Result<Command, String> {
     let raw = item.ability.as_deref().ok_or("ability needs `ability`: the ability's name")?;
-    let own: Vec<&str> = u.abilities.iter().map(|a| a.ability.name()).collect();
-    let no_such = || {
-        let list = if own.is_empty() { "none".to_owned() } else { own.join(", ") };
-        format!("{} has no ability `{raw}` (its abilities: {list})", name(u))
-    };
-    let a: Ability = raw.parse().map_err(|_| no_such())?;
-    let info = view::ability(u, a).ok_or_else(no_such)?;
-    if !info.available {
-        let why = info.why_not.map_or("not castable now", |c| c.text());
-        return Err(format!("{} cannot cast {} now: {why}", name(u), a.name()));
-    }
-    let spec = a.spec();
-    let unit_target = |tag: u32| -> Result<AbilityTarget, String> {
-        let t = s.unit(tag).ok_or_else(|| format!("target {tag} is not a unit you can see"))?;
-        match spec.rule {
-            TargetRule::Enemy if t.own => return Err(format!("{} needs an enemy target", a.name())),
-            TargetRule::Ally if !t.own || t.tag == u.tag => return Err(format!("{} needs another of your units as target", a.name())),
-            _ => {}
-        }
-        let d = view::edge(u, t);
-        if d > info.range {
-            return Err(format!("{} is out of range: target {tag} is {d:.1} away, range {:.1}", a.name(), info.range));
-        }
-        Ok(AbilityTarget::Unit { unit: UnitId::new((tag - 1) as u16) })
-    };
-    let point_target = |to: Vec2, what: String| -> Result<AbilityTarget, String> {
-        let d = view::pos(u).dist(to) - view::radius(u);
-        if d > info.range {
-            return Err(format!("{} is out of range: {what} is {d:.1} away, range {:.1}", a.name(), info.range));
-        }
-        Ok(AbilityTarget::Point { to })
-    };
-    let target = match (spec.target, item.target, item.cell) {
+    let a: Ability = raw.parse().ok().filter(|&a| view::ability(u, a).is_some()).ok_or_else(|| no_such(u, raw))?;
+    let target = match (a.spec().target, item.target, item.cell) {
         (TargetKind::None, _, _) => AbilityTarget::None,
-        (TargetKind::Unit | TargetKind::PointOrUnit, Some(t), _) => unit_target(t)?,
-        (TargetKind::Point | TargetKind::PointOrUnit, _, Some(c)) => point_target(s.point(c)?, format!("cell [{}, {}]", c[0], c[1]))?,
+        (TargetKind::Unit | TargetKind::PointOrUnit, Some(t), _) => AbilityTarget::Unit { unit: seen_id(s, t)? },
+        (TargetKind::Point | TargetKind::PointOrUnit, _, Some(c)) => AbilityTarget::Point { to: s.point(c)? },
         (TargetKind::Unit, None, _) => return Err(format!("{} needs `target`: a unit tag", a.name())),
         (TargetKind::Point, Some(t), None) => {
             // A unit named where a point is wanted: its position, as a player would click it.
             let p = s.unit(t).ok_or_else(|| format!("target {t} is not a unit you can see"))?;
-            point_target(view::pos(p), format!("unit {t}"))?
+            AbilityTarget::Point { to: view::pos(p) }
         }
         (_, None, None) => return Err(format!("{} needs `cell` (or `target`)", a.name())),
     };
     Ok(Command::Ability { ability: a, target })
+}
+
+fn no_such(u: &UnitInfo, raw: &str) -> String {
+    let own: Vec<&str> = u.abilities.iter().map(|a| a.ability.name()).collect();
+    let list = if own.is_empty() { "none".to_owned() } else { own.join(", ") };
+    format!("{} has no ability `{raw}` (its abilities: {list})", name(u))
+}
+
+/// The engine's refusal in words a model can act on, naming the units by type and tag.
+fn words(s: &Situation<'_>, u: &UnitInfo, item: &Item, cmd: &Command, e: ActionError) -> String {
+    let other = |id: UnitId| s.unit(id.tag()).map_or_else(|| format!("unit {}", id.tag()), name);
+    match e {
+        ActionError::UnknownTarget { target } | ActionError::TargetDead { target } | ActionError::TargetNotVisible { target, .. } => {
+            format!("target {} is not a unit you can see", target.tag())
+        }
+        ActionError::InvalidTarget { target, why, .. } => match why {
+            TargetProblem::HealerNeedsFriend => format!("{} heals: its target must be another of your units", name(u)),
+            TargetProblem::NotBiological => format!("{} heals biological units only, and {} is not", name(u), other(target)),
+            TargetProblem::Friendly => format!("target {} is your own unit", target.tag()),
+            TargetProblem::NoAirWeapon | TargetProblem::NoGroundWeapon if u.kind.spec().weapons.is_empty() => {
+                format!("{} has no weapon", name(u))
+            }
+            TargetProblem::NoAirWeapon => format!("{} cannot hit air units such as {}", name(u), other(target)),
+            TargetProblem::NoGroundWeapon => format!("{} cannot hit ground units such as {}", name(u), other(target)),
+            TargetProblem::OutOfReach => format!("{} cannot move now, and {} is outside its weapon's range", name(u), other(target)),
+        },
+        ActionError::Unavailable { why: Inability::Morphing, .. } => {
+            format!("{} is morphing: only `stop` (which cancels it) is possible now", name(u))
+        }
+        ActionError::Unavailable { why: Inability::Immobile { .. }, .. } => format!("{} cannot move now", name(u)),
+        ActionError::Unavailable { why: Inability::NoGround, .. } => format!("{} has no ground path towards that point", name(u)),
+        ActionError::AbilityRefused { ability: a, refusal, .. } => match refusal {
+            Refusal::OutOfRange { distance, range } => {
+                let what = match (cmd, item.cell) {
+                    (Command::Ability { target: AbilityTarget::Unit { unit }, .. }, _) => format!("target {}", unit.tag()),
+                    (_, Some(c)) => format!("cell [{}, {}]", c[0], c[1]),
+                    _ => format!("unit {}", item.target.unwrap_or_default()),
+                };
+                format!("{} is out of range: {what} is {distance:.1} away, range {range:.1}", a.name())
+            }
+            Refusal::InvalidTarget { why } => format!("{} cannot be cast on that: {why}", a.name()),
+            Refusal::WrongTargetKind { .. } => format!("{} cannot be cast on that kind of target", a.name()),
+            other => format!("{} cannot cast {} now: {}", name(u), a.name(), other.code().text()),
+        },
+        other => other.to_string(),
+    }
 }

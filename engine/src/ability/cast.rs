@@ -2,14 +2,9 @@
 
 use super::status::{AreaEffect, Channel, EffectKind};
 use super::*;
-use crate::combat::{PendingHit, edge_dist};
+use crate::combat::PendingHit;
 use crate::ids::Team;
-use crate::units::Attrs;
 use crate::world::{Order, Unit, World};
-
-fn invalid(why: impl Into<String>) -> Refusal {
-    Refusal::InvalidTarget { why: why.into() }
-}
 
 /// HP a Stimpack costs this unit type.
 pub(crate) fn stim_cost(kind: UnitKind) -> f32 {
@@ -65,64 +60,10 @@ impl World {
         }
     }
 
-    /// Checks a cast fully and returns the target as it will be used.
+    /// Checks a cast fully (by the rules an observation's check shares, `crate::rules`) and
+    /// returns the target as it will be used.
     pub(crate) fn check_cast(&self, team: Team, u: &Unit, ability: Ability, target: AbilityTarget) -> Result<AbilityTarget, Refusal> {
-        self.can_cast(u, ability)?;
-        let spec = ability.spec();
-        match (spec.target, target) {
-            (TargetKind::None, AbilityTarget::None) => Ok(target),
-            (TargetKind::Point | TargetKind::PointOrUnit, AbilityTarget::Point { to }) => {
-                if !to.is_finite() || !self.terrain.playable().contains(to) {
-                    return Err(invalid(format!("point ({}, {}) is outside the playable area", to.x, to.y)));
-                }
-                let distance = u.pos.dist(to) - u.radius;
-                if distance > spec.range {
-                    return Err(Refusal::OutOfRange { distance, range: spec.range });
-                }
-                if ability == Ability::Blink {
-                    if !self.terrain.walkable(to) {
-                        return Err(invalid("Blink needs ground a unit can stand on"));
-                    }
-                    let here = self.terrain.height_at(u.pos);
-                    if self.terrain.height_at(to) > here + 0.5 && !self.team_sees_point(team, to) {
-                        return Err(invalid("Blink up a cliff needs vision of the higher ground"));
-                    }
-                }
-                Ok(target)
-            }
-            (TargetKind::Unit | TargetKind::PointOrUnit, AbilityTarget::Unit { unit }) => {
-                // Unknown, dead and unseen units get the same answer, so a refusal never
-                // tells whether a hidden enemy lives.
-                let t = self
-                    .unit(unit)
-                    .filter(|t| t.alive && self.visible_to(team, t.id))
-                    .ok_or_else(|| invalid(format!("unit {unit} is not visible")))?;
-                match spec.rule {
-                    TargetRule::Enemy if t.team == team => return Err(invalid("needs an enemy unit")),
-                    TargetRule::Ally if t.team != team || t.id == u.id => return Err(invalid("needs another friendly unit")),
-                    _ => {}
-                }
-                let distance = edge_dist(u, t);
-                if distance > spec.range {
-                    return Err(Refusal::OutOfRange { distance, range: spec.range });
-                }
-                let attrs = t.spec().attrs;
-                let bio = attrs.has(Attrs::BIOLOGICAL);
-                match ability {
-                    Ability::SteadyTargeting if !bio => Err(invalid("Steady Targeting needs a biological target")),
-                    Ability::Feedback if t.energy <= 0.0 => Err(invalid("the target has no energy")),
-                    Ability::GravitonBeam if t.flying() || attrs.has(Attrs::MASSIVE) || attrs.has(Attrs::STRUCTURE) => {
-                        Err(invalid("Graviton Beam lifts non-massive ground units only"))
-                    }
-                    Ability::GravitonBeam if t.status.morph.is_some() => Err(invalid("the target is changing mode")),
-                    Ability::Kd8Charge if t.flying() => Err(invalid("KD8 Charge hits ground units only")),
-                    Ability::Transfusion | Ability::Heal if !bio => Err(invalid("needs a biological target")),
-                    Ability::Transfusion | Ability::Heal if t.hp >= t.max_hp => Err(invalid("the target is at full health")),
-                    _ => Ok(target),
-                }
-            }
-            (expected, _) => Err(Refusal::WrongTargetKind { expected }),
-        }
+        crate::rules::cast(self, team, u, ability, target).map(|()| target)
     }
 
     /// Whether any unit of `team` sees point `p` (the cliff rule included).

@@ -12,6 +12,7 @@ mod cast;
 mod status;
 mod tick;
 
+pub(crate) use cast::stim_cost;
 pub(crate) use status::PendingCast;
 pub use status::{AreaEffect, Channel, EffectKind, Status};
 

@@ -72,8 +72,10 @@ impl<T: Agent + Clone + 'static> ForkAgent for T {
 pub fn complete(actions: Vec<Action>, g: &GroupObs) -> Vec<Action> {
     let mut out: Vec<Action> = actions.into_iter().filter(|a| g.controlled.iter().any(|c| c.unit == a.unit.tag())).collect();
     for c in g.controlled.iter().filter(|c| c.alive) {
-        if !out.iter().any(|a| a.unit.tag() == c.unit) {
-            out.push(Action::new(crate::ids::UnitId::new((c.unit - 1) as u16), crate::action::Command::NoOp));
+        if let Ok(unit) = crate::ids::UnitId::try_from(c.unit)
+            && !out.iter().any(|a| a.unit == unit)
+        {
+            out.push(Action::new(unit, crate::action::Command::NoOp));
         }
     }
     out

@@ -3,6 +3,7 @@
 //! as an agent node with the same results. An agent controls a group of units (one unit, a
 //! role group, or a whole team) and sees what its units' observations say, nothing more.
 
+mod check;
 mod command;
 mod contract;
 mod controllers;
@@ -14,6 +15,7 @@ mod runner;
 mod scripted;
 pub mod view;
 
+pub use check::check_action;
 pub use command::{
     Assignment, CommandedTeam, Commander, MakeAgent, MakeCommander, Orders, OrdersError, RoleGroupSpec, Rotate, commander_seed,
     validate as validate_orders,

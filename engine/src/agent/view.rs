@@ -40,10 +40,9 @@ pub fn support(u: &UnitInfo) -> bool {
     u.flags.contains(UnitFlags::HEALER) || u.kind.spec().weapons.is_empty()
 }
 
-/// The weapon of `u` that reaches `t`'s layer.
+/// The weapon of `u` that reaches `t`'s layer (the simulator's rule, `crate::rules`).
 pub fn weapon_against(u: &UnitInfo, t: &UnitInfo) -> Option<&'static Weapon> {
-    let air = flying(t);
-    u.kind.spec().weapons.iter().find(|w| w.reach.hits(air))
+    crate::rules::weapon_for(u, t).map(|(_, w)| w)
 }
 
 pub fn can_attack(u: &UnitInfo, t: &UnitInfo) -> bool {
@@ -52,7 +51,7 @@ pub fn can_attack(u: &UnitInfo, t: &UnitInfo) -> bool {
 
 /// Edge-to-edge distance.
 pub fn edge(a: &UnitInfo, b: &UnitInfo) -> f32 {
-    pos(a).dist(pos(b)) - radius(a) - radius(b)
+    crate::rules::edge(a, b)
 }
 
 /// How far `t` is outside the range of `u`'s weapon against it (<= 0: in range).

@@ -9,6 +9,7 @@ use crate::action::{ActionError, Command, Direction};
 use crate::agent::GroupObs;
 use crate::geom::Vec2;
 use crate::ids::{Team, UnitId};
+use crate::rules::Facts;
 use crate::scenario::Scenario;
 use crate::terrain::Rect;
 use crate::units::{Race, UnitKind};
@@ -144,8 +145,8 @@ impl SmacLayout {
     }
 
     /// SMAC's attack-action targets for an agent: enemies, or for a healer its allies.
-    fn targets(&self, world: &World, agent: usize) -> &[UnitId] {
-        let healer = world.unit(self.agents[agent]).is_some_and(|u| u.spec().heal.is_some());
+    fn targets(&self, known: &impl Known, agent: usize) -> &[UnitId] {
+        let healer = self.agents.get(agent).and_then(|&id| known.body(id)).is_some_and(|u| u.heals());
         if healer { &self.agents } else { &self.enemies }
     }
 
@@ -310,28 +311,21 @@ impl SmacLayout {
 
     /// The typed action for SMAC index `idx` of `agent`; `None` for an index out of range.
     pub fn command_for(&self, world: &World, agent: usize, idx: usize) -> Option<Command> {
-        Some(match idx {
-            i if i < N_ACTIONS_NO_ATTACK => fixed_command(i),
-            i if i < self.ability_base() => Command::Attack { target: *self.targets(world, agent).get(i - N_ACTIONS_NO_ATTACK)? },
-            i if i < self.n_actions => self.ability_command(world, agent, i - self.ability_base())?,
-            _ => return None,
-        })
+        self.command_from(world, agent, idx)
     }
 
     /// [`SmacLayout::command_for`] from observation data alone (`g` holds `agent`'s unit):
     /// what an agent outside the engine can compute. `None` for an index out of range, or
     /// one naming a position the group does not see (an area spell at an unseen enemy).
     pub fn command_for_obs(&self, g: &GroupObs, agent: usize, idx: usize) -> Option<Command> {
-        let me = g.unit(self.agents.get(agent)?.tag());
+        self.command_from(g, agent, idx)
+    }
+
+    fn command_from(&self, known: &impl Known, agent: usize, idx: usize) -> Option<Command> {
         Some(match idx {
             i if i < N_ACTIONS_NO_ATTACK => fixed_command(i),
-            i if i < self.ability_base() => {
-                // A healer's attack slots name its allies (as in `targets`).
-                let healer = me.is_some_and(|u| u.flags.contains(super::UnitFlags::HEALER));
-                let targets = if healer { &self.agents } else { &self.enemies };
-                Command::Attack { target: *targets.get(i - N_ACTIONS_NO_ATTACK)? }
-            }
-            i if i < self.n_actions => self.ability_command_obs(g, me?, agent, i - self.ability_base())?,
+            i if i < self.ability_base() => Command::Attack { target: *self.targets(known, agent).get(i - N_ACTIONS_NO_ATTACK)? },
+            i if i < self.n_actions => self.ability_command(known, agent, i - self.ability_base())?,
             _ => return None,
         })
     }
@@ -357,6 +351,28 @@ impl SmacLayout {
             Command::Ability { ability, target } => self.ability_index(world, agent, *ability, target)?,
             _ => return None,
         })
+    }
+}
+
+/// What the layout reads of units when it turns an index into a command: the world's units
+/// (training, the simulator) or those an observation lists (an agent behind the wire, which
+/// knows living units it sees only).
+pub(crate) trait Known {
+    type U: Facts;
+    fn body(&self, id: UnitId) -> Option<&Self::U>;
+}
+
+impl Known for World {
+    type U = Unit;
+    fn body(&self, id: UnitId) -> Option<&Unit> {
+        self.unit(id)
+    }
+}
+
+impl Known for GroupObs {
+    type U = super::UnitInfo;
+    fn body(&self, id: UnitId) -> Option<&super::UnitInfo> {
+        self.unit(id.tag())
     }
 }
 

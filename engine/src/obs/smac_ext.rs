@@ -6,13 +6,13 @@
 //! order), or direction `j` (up, down, right, left, as SMAC's moves). Observations gain the
 //! agent's energy fraction and one "some target available" flag per slot.
 
-use super::UnitInfo;
 use super::slots::DIRS;
+use super::smac::Known;
 use super::smac::SmacLayout;
 use crate::ability::{Ability, AbilityTarget, SlotRule};
 use crate::action::Command;
-use crate::agent::{GroupObs, view};
 use crate::geom::Vec2;
+use crate::rules::Facts;
 use crate::world::{Unit, World};
 
 impl SmacLayout {
@@ -21,43 +21,24 @@ impl SmacLayout {
         self.n_actions - self.abilities.n_actions()
     }
 
-    /// The command for ability-block offset `off` of `agent`.
-    pub(crate) fn ability_command(&self, world: &World, agent: usize, off: usize) -> Option<Command> {
+    /// The command for ability-block offset `off` of `agent`; `None` when the target is a
+    /// unit `known` does not hold (an observation's unseen enemy or the agent's own dead unit).
+    pub(crate) fn ability_command(&self, known: &impl Known, agent: usize, off: usize) -> Option<Command> {
         let w = self.abilities.width;
         let (k, j) = (off / w.max(1), off % w.max(1));
         let ability = *self.abilities.per_agent.get(agent)?.get(k)?;
-        let u = world.unit(self.agents[agent])?;
+        let me = known.body(*self.agents.get(agent)?)?;
         let target = match ability.spec().slot {
             SlotRule::NoTarget if j == 0 => AbilityTarget::None,
             SlotRule::NoTarget => return None,
             SlotRule::EnemyUnit => AbilityTarget::Unit { unit: *self.enemies.get(j)? },
-            SlotRule::EnemyPoint => AbilityTarget::Point { to: world.unit(*self.enemies.get(j)?)?.pos },
+            SlotRule::EnemyPoint => AbilityTarget::Point { to: known.body(*self.enemies.get(j)?)?.pos() },
             SlotRule::AllyUnit => AbilityTarget::Unit { unit: *self.agents.get(j)? },
             SlotRule::Direction => {
                 let d = DIRS.get(j)?.vector();
-                let reach = ability.spec().range + u.radius - 0.01;
-                AbilityTarget::Point { to: world.terrain().playable().clamp(u.pos + d * reach, u.radius) }
-            }
-        };
-        Some(Command::Ability { ability, target })
-    }
-
-    /// [`SmacLayout::ability_command`] from observation data: `me` is the agent's unit.
-    pub(crate) fn ability_command_obs(&self, g: &GroupObs, me: &UnitInfo, agent: usize, off: usize) -> Option<Command> {
-        let w = self.abilities.width;
-        let (k, j) = (off / w.max(1), off % w.max(1));
-        let ability = *self.abilities.per_agent.get(agent)?.get(k)?;
-        let target = match ability.spec().slot {
-            SlotRule::NoTarget if j == 0 => AbilityTarget::None,
-            SlotRule::NoTarget => return None,
-            SlotRule::EnemyUnit => AbilityTarget::Unit { unit: *self.enemies.get(j)? },
-            SlotRule::EnemyPoint => AbilityTarget::Point { to: view::pos(g.unit(self.enemies.get(j)?.tag())?) },
-            SlotRule::AllyUnit => AbilityTarget::Unit { unit: *self.agents.get(j)? },
-            SlotRule::Direction => {
-                let d = DIRS.get(j)?.vector();
-                let r = view::radius(me);
+                let r = me.radius();
                 let reach = ability.spec().range + r - 0.01;
-                AbilityTarget::Point { to: self.playable().clamp(view::pos(me) + d * reach, r) }
+                AbilityTarget::Point { to: self.playable().clamp(me.pos() + d * reach, r) }
             }
         };
         Some(Command::Ability { ability, target })
