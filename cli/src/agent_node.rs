@@ -157,7 +157,7 @@ pub fn agent_node(a: &AgentNodeArgs) -> Result<()> {
                     avacraft_agent_nodes::run(&node, &topics, &cfg, agent.as_mut(), &shutdown, None)?
                 }
             };
-            tracing::info!(batches = stats.batches, malformed = stats.malformed, "agent node stops");
+            tracing::info!(batches = stats.batches, malformed = stats.malformed, doomed = stats.doomed, "agent node stops");
         }
     }
     Ok(())

@@ -129,6 +129,54 @@ fn render_row(backend: &str, scenario: &str, pps: f64, ms: f64) -> RenderRow {
     }
 }
 
+/// Runs a closure for at least `budget` seconds and `min` times: (runs, seconds).
+type Timed<'a> = &'a dyn Fn(f64, u64, &mut dyn FnMut()) -> (u64, f64);
+
+/// The wgpu back end's row, where the program has it (`--features gpu`).
+#[cfg(feature = "gpu")]
+fn wgpu_row(
+    rows: &mut Vec<RenderRow>,
+    a: &BenchArgs,
+    scenario: &str,
+    env: &Env,
+    frames: &mut avacraft_render::FrameBuilder,
+    timed: Timed<'_>,
+) -> Result<()> {
+    use avacraft_render::VlmOptions;
+    match avacraft_render::WgpuBackend::new() {
+        Ok(mut gpu) => {
+            let mut ok = true;
+            // Batches of 64, as a vectorised MARL loop would hand them over.
+            const BATCH: usize = 64;
+            let (batches, secs) = timed(a.seconds / 4.0, 1, &mut || {
+                // Scenes are built inside the timing, as for the CPU.
+                let screens: Vec<_> = (0..BATCH).map(|_| frames.screen(env.world(), Team::One, 160, 120)).collect();
+                let minis: Vec<_> = (0..BATCH).map(|_| frames.minimap(env.world(), Team::One, 32, 32)).collect();
+                ok &= gpu.render_batch(&screens).is_ok();
+                ok &= gpu.render_batch(&minis).is_ok();
+            });
+            let pairs = batches * BATCH as u64;
+            let (shots, shot_secs) = timed(a.seconds / 4.0, 3, &mut || {
+                ok &= gpu.render(&frames.vlm(env.world(), Team::One, 1920, 1080, &VlmOptions::default())).is_ok();
+            });
+            if !ok {
+                anyhow::bail!("the wgpu back end failed to render a frame");
+            }
+            rows.push(render_row(&format!("wgpu: {}", gpu.adapter()), scenario, pairs as f64 / secs, shot_secs * 1000.0 / shots as f64));
+        }
+        Err(e) => eprintln!("wgpu back end not measured: {e}"),
+    }
+    Ok(())
+}
+
+#[cfg(not(feature = "gpu"))]
+fn wgpu_row(_: &mut Vec<RenderRow>, _: &BenchArgs, _: &str, _: &Env, _: &mut avacraft_render::FrameBuilder, _: Timed<'_>) -> Result<()> {
+    eprintln!(
+        "wgpu back end not measured: this program was built without its `gpu` feature (cargo run --release -p avacraft-cli --features gpu -- bench --render)"
+    );
+    Ok(())
+}
+
 fn run_render(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
     use avacraft_render::{CpuBackend, FrameBuilder, VlmOptions};
     let mut rows = Vec::new();
@@ -160,34 +208,7 @@ fn run_render(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
         });
         std::hint::black_box((&screen, &mini, &shot));
         rows.push(render_row("cpu", &scenario.name, pairs as f64 / secs, shot_secs * 1000.0 / shots as f64));
-        match avacraft_render::WgpuBackend::new() {
-            Ok(mut gpu) => {
-                let mut ok = true;
-                // Batches of 64, as a vectorised MARL loop would hand them over.
-                const BATCH: usize = 64;
-                let (batches, secs) = timed(a.seconds / 4.0, 1, &mut || {
-                    // Scenes are built inside the timing, as for the CPU.
-                    let screens: Vec<_> = (0..BATCH).map(|_| frames.screen(env.world(), Team::One, 160, 120)).collect();
-                    let minis: Vec<_> = (0..BATCH).map(|_| frames.minimap(env.world(), Team::One, 32, 32)).collect();
-                    ok &= gpu.render_batch(&screens).is_ok();
-                    ok &= gpu.render_batch(&minis).is_ok();
-                });
-                let pairs = batches * BATCH as u64;
-                let (shots, shot_secs) = timed(a.seconds / 4.0, 3, &mut || {
-                    ok &= gpu.render(&frames.vlm(env.world(), Team::One, 1920, 1080, &VlmOptions::default())).is_ok();
-                });
-                if !ok {
-                    anyhow::bail!("the wgpu back end failed to render a frame");
-                }
-                rows.push(render_row(
-                    &format!("wgpu: {}", gpu.adapter()),
-                    &scenario.name,
-                    pairs as f64 / secs,
-                    shot_secs * 1000.0 / shots as f64,
-                ));
-            }
-            Err(e) => eprintln!("wgpu back end not measured: {e}"),
-        }
+        wgpu_row(&mut rows, a, &scenario.name, &env, &mut frames, &timed)?;
     }
     if a.json {
         writeln!(out, "{}", serde_json::to_string_pretty(&rows)?)?;

@@ -117,7 +117,8 @@ pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
     };
     let img = match a.backend {
         BackendKind::Cpu => CpuBackend::new().render(&scene),
-        BackendKind::Wgpu => avacraft_render::WgpuBackend::new()?.render(&scene)?,
+        // An error naming the `gpu` feature where the program was built without it.
+        BackendKind::Wgpu => avacraft_render::BackendChoice::Wgpu.open()?.render(&scene)?,
     };
     img.save(&a.out).with_context(|| format!("{}: cannot write the PNG", a.out.display()))?;
     writeln!(
