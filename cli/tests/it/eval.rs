@@ -353,7 +353,15 @@ fn shipped_baselines_win_as_often_as_the_results_table_says() {
         .expect("docs/results/report.json (avacraft eval eval/plans/paper.toml)");
     let report: avacraft_eval::Report = serde_json::from_str(&json).expect("the report");
     let mut checked = 0;
-    let cases = [("3m", "qmix"), ("3m", "mappo"), ("2s3z", "qmix"), ("2s3z", "mappo"), ("2m_vs_1z", "qmix"), ("8m1mv_vs_2st", "mappo")];
+    let cases = [
+        ("3m", "qmix"),
+        ("3m", "mappo"),
+        ("2s3z", "qmix"),
+        ("2s3z", "mappo"),
+        ("2m_vs_1z", "qmix"),
+        ("8m1mv_vs_2st", "mappo"),
+        ("8m1mv_vs_2st", "qmix"),
+    ];
     for (scenario, agent) in cases {
         let cell = report
             .cells
