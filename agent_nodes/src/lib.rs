@@ -76,7 +76,7 @@ pub fn run(
         .map(|&u| node.subscriber::<UnitObservation>(&topics.unit_obs(cfg.team, u), reliable))
         .collect::<Result<Vec<_>, _>>()?;
     let mut out = node.publisher::<ActionBatch>(&topics.actions(&cfg.id), reliable)?;
-    let team = if cfg.team.get() == 2 { Team::Two } else { Team::One };
+    let team = Team::from(cfg.team);
     let order: Vec<u32> = cfg.scenario.agent_order(team).iter().map(|id| id.tag()).collect();
     let tags: Vec<u32> = cfg.units.iter().map(|u| u.get()).collect();
     let mut stats = AgentStats::default();

@@ -82,7 +82,8 @@ impl GroupObs {
     /// `None` when given none.
     pub fn fold(obs: &[AgentObs], agent_index: impl Fn(u32) -> usize) -> Option<GroupObs> {
         let first = obs.first()?;
-        let team = if first.team == 2 { Team::Two } else { Team::One };
+        // `AgentObs::team` is the player number the simulator wrote (1 or 2).
+        let team = Team::from_player(first.team.into()).unwrap_or(Team::One);
         let mut units: Vec<UnitInfo> = Vec::new();
         // Own units: the controlled ones carry their abilities; allies come without.
         for o in obs {
