@@ -3,7 +3,9 @@
 //! the SMAC layout turns an index into the same command from the world or from an observation.
 
 use avacraft_engine::agent::{GroupObs, Reads, check_action};
-use avacraft_engine::{Ability, AbilityTarget, Action, Command, Controllers, Direction, Env, EnvConfig, Scenario, Team, UnitId, Vec2};
+use avacraft_engine::{
+    Ability, AbilityTarget, Action, ActionError, Command, Controllers, Direction, Env, EnvConfig, Refusal, Scenario, Team, UnitId, Vec2,
+};
 use proptest::prelude::*;
 use std::sync::Arc;
 
@@ -79,6 +81,16 @@ proptest! {
             if by_world.is_ok() && !blink {
                 prop_assert!(by_obs.is_ok(), "{a:?}: the simulator takes it, the observation refuses: {by_obs:?}");
             }
+            // A refused cast is refused for the same reason; energy and cooldown, which the
+            // observation carries, with the same numbers.
+            if let (Err(ActionError::AbilityRefused { refusal: w, .. }), Err(ActionError::AbilityRefused { refusal: o, .. })) = (&by_world, &by_obs)
+                && !blink
+            {
+                prop_assert_eq!(w.code(), o.code(), "{:?}", a);
+                if matches!(w, Refusal::OnCooldown { .. } | Refusal::NotEnoughEnergy { .. }) {
+                    prop_assert_eq!(w, o, "{:?}", a);
+                }
+            }
         }
     }
 }
@@ -87,7 +99,7 @@ proptest! {
 /// error), where the observation has the facts.
 #[test]
 fn refusals_carry_the_simulators_typed_reason() {
-    use avacraft_engine::{ActionError, Inability, TargetProblem};
+    use avacraft_engine::{Inability, TargetProblem};
     let env = state("MMM_vs_MMM", 2, 4);
     let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
     let w = env.world();
