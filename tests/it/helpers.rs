@@ -72,10 +72,15 @@ pub fn uid(i: u16) -> UnitId {
 
 /// Runs an episode with named policies for the agent teams; returns the env at its end.
 pub fn play(scenario: &Arc<Scenario>, cfg: EnvConfig, seed: u64, p1: &str, p2: &str) -> Env {
+    play_steps(scenario, cfg, seed, p1, p2, u32::MAX)
+}
+
+/// [`play`] for at most `steps` steps: the env at that moment of the episode.
+pub fn play_steps(scenario: &Arc<Scenario>, cfg: EnvConfig, seed: u64, p1: &str, p2: &str, steps: u32) -> Env {
     let mut env = Env::new(Arc::clone(scenario), cfg, seed);
     let mut c = Controllers::named(scenario, p1, Some(p2)).expect("policy");
     c.reset(&env);
-    while !env.done() {
+    while env.steps() < steps && !env.done() {
         c.act(&mut env);
         env.step();
     }

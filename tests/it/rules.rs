@@ -4,7 +4,7 @@
 
 use avacraft_engine::agent::{GroupObs, Reads, check_action};
 use avacraft_engine::{
-    Ability, AbilityTarget, Action, ActionError, Command, Controllers, Direction, Env, EnvConfig, Refusal, Scenario, Team, UnitId, Vec2,
+    Ability, AbilityTarget, Action, ActionError, Command, Direction, Env, EnvConfig, Refusal, Scenario, Team, UnitId, Vec2,
 };
 use proptest::prelude::*;
 use std::sync::Arc;
@@ -14,15 +14,7 @@ const SCENARIOS: [&str; 6] = ["3m", "MMM_vs_MMM", "pvz_ht", "8m3mr1mv1st_vs_5s2c
 /// `scenario` after `steps` steps of attack-move for both sides.
 fn state(scenario: &str, seed: u64, steps: u32) -> Env {
     let sc = Arc::new(Scenario::load(scenario).expect("scenario"));
-    let mut env = Env::new(Arc::clone(&sc), EnvConfig::default(), seed);
-    env.reset(seed);
-    let mut c = Controllers::named(&sc, "attack-move", Some("attack-move")).expect("agents");
-    c.reset(&env);
-    while env.steps() < steps && !env.done() {
-        c.act(&mut env);
-        env.step();
-    }
-    env
+    crate::helpers::play_steps(&sc, EnvConfig::default(), seed, "attack-move", "attack-move", steps)
 }
 
 /// One random command for `unit` (abilities drawn from its own type's, to reach the cast rules).
