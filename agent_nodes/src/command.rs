@@ -172,6 +172,8 @@ pub fn run_role_group(
     let initial: Vec<u32> = cfg.initial.iter().map(|u| u.get()).collect();
     let mut stats = AgentStats::default();
     let mut episode: Option<(u64, u64)> = None;
+    // The episode's scenario (a procedural scenario's draw for its seed).
+    let mut scenario = Arc::clone(&cfg.scenario);
     tracing::info!(agent = %cfg.id, units = initial.len(), policy = agent.name(), "role-group node up");
     while !shutdown.requested() && max_batches.is_none_or(|m| stats.batches < m) {
         inputs.poll(cfg, topics, &mut stats)?;
@@ -179,13 +181,14 @@ pub fn run_role_group(
         let Some(first) = obs.first() else { continue };
         if episode != Some((first.episode, first.seed)) {
             let seed = agent_seed(first.seed, team, initial.first().copied().unwrap_or(0));
-            agent.reset(&AgentCtx { scenario: Arc::clone(&cfg.scenario), team, units: initial.clone(), seed });
+            scenario = cfg.scenario.episode(first.seed);
+            agent.reset(&AgentCtx { scenario: Arc::clone(&scenario), team, units: initial.clone(), seed });
             episode = Some((first.episode, first.seed));
         }
         let role =
             roles.groups.iter().find(|g| g.agent_id == cfg.id.as_str()).and_then(|g| GroupRole::from_code(g.role)).unwrap_or_default();
         agent.brief(&Briefing { role, plan: roles.plan.clone(), priorities: roles.priority_tags.clone() });
-        let actions = GroupObs::fold(&obs, inputs.index()).map(|g| super::act(agent, &g, &cfg.scenario, &mut stats)).unwrap_or_default();
+        let actions = GroupObs::fold(&obs, inputs.index()).map(|g| super::act(agent, &g, &scenario, &mut stats)).unwrap_or_default();
         let actions = actions.iter().map(wire::unit_action).collect();
         out.put(&ActionBatch { header: Default::default(), episode: key.0, step: key.1, agent_id: cfg.id.to_string(), actions })?;
         stats.batches += 1;
@@ -214,7 +217,8 @@ pub fn run_commander(
         let Some((key, roles, obs)) = inputs.ready(|_| all.clone()) else { continue };
         let Some(first) = obs.first() else { continue };
         if episode != Some((first.episode, first.seed)) {
-            let ctx = AgentCtx { scenario: Arc::clone(&cfg.scenario), team, units: all.clone(), seed: commander_seed(first.seed, team) };
+            let ctx =
+                AgentCtx { scenario: cfg.scenario.episode(first.seed), team, units: all.clone(), seed: commander_seed(first.seed, team) };
             commander.reset(&ctx, &cfg.groups);
             episode = Some((first.episode, first.seed));
         }

@@ -84,6 +84,8 @@ pub fn run(
     let mut last_done: Option<(u64, u32)> = None;
     // The episode (number, seed) the agent was last reset for.
     let mut episode: Option<(u64, u64)> = None;
+    // The episode's scenario (a procedural scenario's draw for its seed).
+    let mut scenario = Arc::clone(&cfg.scenario);
     tracing::info!(agent = %cfg.id, units = cfg.units.len(), policy = agent.name(), "agent node up");
     while !shutdown.requested() && max_batches.is_none_or(|m| stats.batches < m) {
         let mut got = false;
@@ -102,12 +104,13 @@ pub fn run(
             if episode != Some((first.episode, first.seed)) {
                 let units = tags.clone();
                 let seed = agent_seed(first.seed, team, units[0]);
-                agent.reset(&AgentCtx { scenario: Arc::clone(&cfg.scenario), team, units, seed });
+                scenario = cfg.scenario.episode(first.seed);
+                agent.reset(&AgentCtx { scenario: Arc::clone(&scenario), team, units, seed });
                 episode = Some((first.episode, first.seed));
             }
             let header = avacraft_msgs::Header::default();
             let index = |tag: u32| order.iter().position(|&t| t == tag).unwrap_or(0);
-            let actions = GroupObs::fold(&obs, index).map(|g| act(agent, &g, &cfg.scenario, &mut stats)).unwrap_or_default();
+            let actions = GroupObs::fold(&obs, index).map(|g| act(agent, &g, &scenario, &mut stats)).unwrap_or_default();
             let actions = actions.iter().map(wire::unit_action).collect();
             out.put(&ActionBatch { header, episode: key.0, step: key.1, agent_id: cfg.id.to_string(), actions })?;
             stats.batches += 1;

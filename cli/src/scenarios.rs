@@ -1,7 +1,8 @@
-//! `avacraft scenarios`: the built-in scenarios with their teams, map and time limit.
+//! `avacraft scenarios`: the built-in scenarios (the paper's, then the procedural ones) with
+//! their teams, map and time limit.
 
 use anyhow::{Context, Result};
-use avacraft_engine::{Scenario, Team, builtin, builtin_names, loops_to_seconds};
+use avacraft_engine::{Scenario, Team, builtin, builtin_names, loops_to_seconds, procedural_names};
 use clap::Args;
 use comfy_table::{Table, presets::UTF8_FULL_CONDENSED};
 use serde::Serialize;
@@ -28,6 +29,11 @@ struct Row {
 }
 
 fn composition(s: &Scenario, team: Team) -> String {
+    // Procedural: the types each unit is drawn from, with their weights.
+    if let Some(g) = &s.generator {
+        let w = g.types.iter().map(|(k, w)| format!("{k} {w}")).collect::<Vec<_>>().join(" / ");
+        return format!("drawn: {w}");
+    }
     let mut m: BTreeMap<&str, usize> = BTreeMap::new();
     for (_, u) in s.team_units(team) {
         *m.entry(u.kind.name()).or_default() += 1;
@@ -37,7 +43,7 @@ fn composition(s: &Scenario, team: Team) -> String {
 
 pub fn scenarios(a: &ScenariosArgs, out: &mut dyn Write) -> Result<()> {
     let mut rows = Vec::new();
-    for name in builtin_names() {
+    for name in builtin_names().chain(procedural_names()) {
         let s = builtin(name).with_context(|| format!("built-in scenario {name}"))?;
         rows.push(Row {
             name: s.name.clone(),

@@ -73,8 +73,8 @@ pub use obs::{
 };
 pub use rules::{Inability, TargetProblem};
 pub use scenario::{
-    BUILTIN, Mode, OpponentKind, RawOpponent, RawScenario, RawStart, RawTerrain, RawUnit, RawUpgrade, Scenario, ScenarioError,
-    ScenarioUnit, StartOrder, Upgrade, builtin, builtin_names,
+    BUILTIN, Generator, Mode, OpponentKind, PROCEDURAL, RawGenerate, RawOpponent, RawScenario, RawStart, RawTerrain, RawUnit, RawUpgrade,
+    Scenario, ScenarioError, ScenarioUnit, StartDist, StartOrder, Upgrade, builtin, builtin_names, procedural_names,
 };
 pub use sim::{ENERGY_REGEN, SHIELD_REGEN, SHIELD_REGEN_DELAY, ZERG_REGEN};
 pub use terrain::{MAX_STEP, Rect, Terrain};

@@ -20,6 +20,7 @@ from ._avacraft import AvacraftError, Env, Snapshot, __version__, scenario_info,
 from .ava import Ava
 from .marl import MarlPolicy
 from .smac import StarCraft2Env
+from .smacv2 import StarCraftCapabilityEnvWrapper
 from .types import Action, Command, UnitInfo
 from .vector import VecEnv
 
@@ -32,6 +33,7 @@ __all__ = [
     "MarlPolicy",
     "Snapshot",
     "StarCraft2Env",
+    "StarCraftCapabilityEnvWrapper",
     "UnitInfo",
     "VecEnv",
     "__version__",

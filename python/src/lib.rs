@@ -36,10 +36,10 @@ fn baseline_dir(scenario: &str, name: &str) -> PyResult<String> {
     Ok(m.dir().to_string_lossy().into_owned())
 }
 
-/// The built-in scenarios' names.
+/// The built-in scenarios' names: the paper's 21, then the procedural ones.
 #[pyfunction]
 fn scenario_names() -> Vec<&'static str> {
-    builtin_names().collect()
+    builtin_names().chain(avacraft_engine::procedural_names()).collect()
 }
 
 /// A scenario's summary: name, mode ("pve"/"pvp"), units per team, time limit in loops.
@@ -51,6 +51,9 @@ fn scenario_info(py: Python<'_>, scenario: &str) -> PyResult<Py<PyAny>> {
     d.set_item("mode", if s.mode == avacraft_engine::Mode::Pvp { "pvp" } else { "pve" })?;
     d.set_item("units", (s.count(avacraft_engine::Team::One), s.count(avacraft_engine::Team::Two)))?;
     d.set_item("time_limit_loops", s.time_limit_loops)?;
+    // Procedural scenarios: the unit types each unit is drawn from, in type-bit order.
+    let drawn: Option<Vec<&str>> = s.generator.as_ref().map(|g| g.kinds().map(|k| k.name()).collect());
+    d.set_item("drawn_types", drawn)?;
     Ok(d.into_any().unbind())
 }
 

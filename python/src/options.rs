@@ -6,8 +6,13 @@ use avacraft_engine::{EnvConfig, OpponentKind, RewardMode, Scenario, ScenarioErr
 use std::num::NonZeroU32;
 use std::sync::Arc;
 
-/// A built-in scenario by name or a scenario TOML file by path.
+/// A built-in scenario by name, a scenario TOML file by path, or a scenario's TOML text (what
+/// `StarCraftCapabilityEnvWrapper` builds from SMACv2's config; names and paths have no
+/// line breaks, a file's text always has).
 pub(crate) fn load_scenario(name: &str) -> Result<Arc<Scenario>, Error> {
+    if name.contains('\n') {
+        return Ok(Arc::new(Scenario::from_toml("<scenario text>", name)?));
+    }
     match Scenario::load(name) {
         Ok(s) => Ok(Arc::new(s)),
         Err(ScenarioError::Unknown(name)) => Err(Error::UnknownScenario { name, known: builtin_names().collect::<Vec<_>>().join(", ") }),

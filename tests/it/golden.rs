@@ -10,7 +10,7 @@
 //! AVACRAFT_BLESS=1 cargo test -p avacraft-tests --test it golden::
 //! ```
 
-use avacraft_engine::{Controllers, Env, EnvConfig, Mode, OpponentKind, Outcome, builtin};
+use avacraft_engine::{Controllers, Env, EnvConfig, Mode, OpponentKind, Outcome, Team, builtin};
 use std::fmt::Write;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -31,7 +31,16 @@ const CASES: &[Case] = &[
     Case { scenario: "pvz_ht", seed: 2, policy: "focus-fire", opponent: None },
     // A Medivac (air movement, heal autocast) and sieging tanks.
     Case { scenario: "8m1mv_vs_2st", seed: 5, policy: "focus-fire", opponent: None },
+    // Procedural: the units drawn from the seed (python/tests/test_smacv2.py plays this
+    // case's draw from Python and checks the same pinned hash under the same actions).
+    Case { scenario: "protoss_5_vs_5", seed: 4, policy: "focus-fire", opponent: None },
+    Case { scenario: "zerg_10_vs_11", seed: 2, policy: "kite", opponent: None },
+    // SMAC indices only: each agent takes its highest available action. Python plays it too.
+    Case { scenario: "protoss_5_vs_5", seed: 4, policy: HIGHEST, opponent: None },
 ];
+
+/// The SMAC-index rule any binding can play: each agent's highest available action.
+const HIGHEST: &str = "highest-index";
 
 /// What an episode came to.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -50,13 +59,28 @@ impl Case {
 
     fn play(&self) -> Pinned {
         let s = Arc::new(builtin(self.scenario).expect("built-in scenario"));
-        let second = (s.mode == Mode::Pvp).then_some(self.policy);
-        let mut controllers = Controllers::named(&s, self.policy, second).expect("policy");
         let mut env = Env::new(Arc::clone(&s), EnvConfig { opponent: self.opponent, ..EnvConfig::default() }, self.seed);
-        controllers.reset(&env);
-        while !env.done() {
-            controllers.act(&mut env);
-            env.step();
+        if self.policy == HIGHEST {
+            let info = env.env_info(Team::One);
+            let mut avail = vec![0u8; info.n_actions];
+            while !env.done() {
+                let actions: Vec<usize> = (0..info.n_agents)
+                    .map(|a| {
+                        env.avail_agent(Team::One, a, &mut avail);
+                        avail.iter().rposition(|&x| x == 1).unwrap_or(0)
+                    })
+                    .collect();
+                env.submit_indices(Team::One, &actions);
+                env.step();
+            }
+        } else {
+            let second = (s.mode == Mode::Pvp).then_some(self.policy);
+            let mut controllers = Controllers::named(&s, self.policy, second).expect("policy");
+            controllers.reset(&env);
+            while !env.done() {
+                controllers.act(&mut env);
+                env.step();
+            }
         }
         let result = match env.outcome() {
             Some(Outcome::Win) => "win",

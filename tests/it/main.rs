@@ -13,6 +13,7 @@ mod helpers;
 mod learn;
 mod movement;
 mod observations;
+mod procedural;
 mod properties;
 mod render;
 mod rules;

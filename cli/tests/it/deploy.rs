@@ -353,6 +353,11 @@ fn deployed_and_in_process_runs_of_a_plan_have_equal_trajectory_hashes() {
             "scenario: 3m\nepisodes: 3\nseed: 1\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n".to_owned(),
         ),
         ("roles.yaml", roles.lines().filter(|l| !l.starts_with("router:")).collect::<Vec<_>>().join("\n")),
+        // Procedural: every process draws the episode's units from its seed.
+        (
+            "procedural.yaml",
+            "scenario: protoss_5_vs_5\nepisodes: 3\nseed: 4\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n".to_owned(),
+        ),
     ] {
         let file = write_launch(name, &format!("router: tcp/127.0.0.1:{}\n{body}\n", free_port()));
         let deployed = launch_json(&file);

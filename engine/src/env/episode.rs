@@ -121,6 +121,9 @@ pub(super) struct DenseTracker {
 }
 
 pub struct Env {
+    /// The scenario as loaded; for a procedural one, what every episode is drawn from.
+    pub(super) template: Arc<Scenario>,
+    /// This episode's scenario (the template itself unless it is procedural).
     pub(super) scenario: Arc<Scenario>,
     pub(super) cfg: EnvConfig,
     pub(super) world: World,
@@ -157,6 +160,7 @@ impl std::fmt::Debug for Env {
 impl Clone for Env {
     fn clone(&self) -> Self {
         Env {
+            template: Arc::clone(&self.template),
             scenario: Arc::clone(&self.scenario),
             cfg: self.cfg.clone(),
             world: self.world.clone(),
@@ -198,6 +202,7 @@ impl Env {
         let world = World::new(&scenario, cfg.rules, seed);
         let scenario_ref = Arc::clone(&scenario);
         let mut env = Env {
+            template: Arc::clone(&scenario),
             agents: [Vec::new(), Vec::new()],
             world,
             scenario,
@@ -224,6 +229,11 @@ impl Env {
     /// Starts a new episode; everything random in it follows from `seed`.
     pub fn reset(&mut self, seed: u64) {
         self.seed = seed;
+        if self.template.is_procedural() {
+            self.scenario = self.template.episode(seed);
+            let abilities = self.cfg.ability_actions;
+            self.layouts = Team::BOTH.map(|t| SmacLayout::with_abilities(&self.scenario, t, abilities));
+        }
         self.world = World::new(&self.scenario, self.cfg.rules, seed);
         // Policies draw from their own stream so adding a draw there never shifts the world's.
         self.policy_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x9e37_79b9_7f4a_7c15);
@@ -269,8 +279,13 @@ impl Env {
         }
     }
 
+    /// This episode's scenario: for a procedural scenario, the units drawn from its seed.
     pub fn scenario(&self) -> &Arc<Scenario> {
         &self.scenario
+    }
+    /// The scenario as loaded (for a procedural one, the distribution's).
+    pub fn template(&self) -> &Arc<Scenario> {
+        &self.template
     }
     pub fn config(&self) -> &EnvConfig {
         &self.cfg
@@ -325,6 +340,9 @@ impl Env {
     /// configuration. Equal hashes at a step mean equal futures under equal actions.
     pub fn state_hash(&self) -> u64 {
         let Env {
+            // The drawn scenario is a function of the template and the seed, both hashed (the
+            // template through the world's units).
+            template: _,
             scenario: _,
             cfg,
             world,

@@ -27,9 +27,10 @@ pub fn slot_abilities(kind: UnitKind) -> Vec<Ability> {
 }
 
 impl AbilitySlots {
-    pub(crate) fn new(scenario: &Scenario, agents: &[crate::ids::UnitId], n_enemies: usize) -> Self {
+    /// `floor`: the fewest slots per agent (a procedural scenario's most, whatever it drew).
+    pub(crate) fn new(scenario: &Scenario, agents: &[crate::ids::UnitId], n_enemies: usize, floor: usize) -> Self {
         let per_agent: Vec<Vec<Ability>> = agents.iter().map(|id| slot_abilities(scenario.units[id.index()].kind)).collect();
-        let slots = per_agent.iter().map(Vec::len).max().unwrap_or(0);
+        let slots = per_agent.iter().map(Vec::len).max().unwrap_or(0).max(floor);
         let width = if slots == 0 { 0 } else { n_enemies.max(agents.len()).max(DIRS.len()) };
         Self { per_agent, slots, width }
     }

@@ -23,6 +23,8 @@ pub const SHOOT_RANGE: f32 = 6.0;
 /// Actions before the first attack index: no-op, stop, north, south, east, west.
 pub const N_ACTIONS_NO_ATTACK: usize = 6;
 const MOVE_FEATS: usize = 4;
+/// SMACv2's `min_attack_range`: the shortest shoot range under `use_unit_ranges`.
+pub const MIN_ATTACK_RANGE: f32 = 2.0;
 
 /// SMAC's `get_env_info()`.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
@@ -52,7 +54,12 @@ pub struct SmacLayout {
     pub state_size: usize,
     /// The opt-in ability extension (empty when off).
     pub abilities: AbilitySlots,
+    /// SMACv2's layout (procedural scenarios): type bits always, each unit's own sight and
+    /// shoot ranges (`use_unit_ranges`, at least `min_attack_range` 2), and the agent's
+    /// position in its own features (`obs_own_pos`).
+    pub v2: bool,
     map_center: Vec2,
+    map_size: Vec2,
     playable_w: f32,
     playable_h: f32,
     playable: Rect,
@@ -82,28 +89,41 @@ impl SmacLayout {
         });
         // SMAC sets unit_type_bits only for maps whose agents mix types; the one-hot then
         // covers every type in the map, in alphabetical order (MMM: marauder, marine, medivac).
-        let ally_types = if own.len() > 1 { all.clone() } else { Vec::new() };
+        let generator = scenario.generator.as_deref();
+        let ally_types = match generator {
+            // SMACv2: the race's types in its one-hot order, whatever this episode drew.
+            Some(g) => g.kinds().collect(),
+            None if own.len() > 1 => all.clone(),
+            None => Vec::new(),
+        };
         let mut enemy_types = ally_types.clone();
         // SMAC quirk kept for drop-in compatibility: for stalkers-and-zealots maps the enemy
         // one-hot is zealot, stalker (`get_unit_type_id` with ally=False), the reverse of the allies'.
-        if enemy_types == [UnitKind::Stalker, UnitKind::Zealot] {
+        if generator.is_none() && enemy_types == [UnitKind::Stalker, UnitKind::Zealot] {
             enemy_types.reverse();
         }
-        let shields = |t: Team| scenario.team_units(t).any(|(_, u)| u.kind.spec().race == Race::Protoss) as usize;
+        // A procedural team's sizes are fixed, its types are not: what it could draw decides.
+        let could = |t: Team, f: &dyn Fn(UnitKind) -> bool| match generator {
+            Some(g) => g.kinds().any(f),
+            None => scenario.team_units(t).any(|(_, u)| f(u.kind)),
+        };
+        let shields = |t: Team| could(t, &|k| k.spec().race == Race::Protoss) as usize;
         let (shield_ally, shield_enemy) = (shields(team), shields(team.other()));
         let tb = ally_types.len();
         let (n_agents, n_enemies) = (agents.len(), enemies.len());
         // SMAC's healers target allies through the attack slots; where a team has more agents
         // than enemies, the block widens so a healer can reach every ally (SMAC's own maps
         // never need this: MMM has as many agents as enemies).
-        let healer = scenario.team_units(team).any(|(_, u)| u.kind.spec().heal.is_some());
+        let healer = could(team, &|k| k.spec().heal.is_some());
         let n_targets = if healer { n_enemies.max(n_agents) } else { n_enemies };
-        let slots = if abilities { AbilitySlots::new(scenario, &agents, n_enemies) } else { AbilitySlots::default() };
+        let floor = generator.map_or(0, |g| g.kinds().map(|k| super::slot_abilities(k).len()).max().unwrap_or(0));
+        let slots = if abilities { AbilitySlots::new(scenario, &agents, n_enemies, floor) } else { AbilitySlots::default() };
         let ext_obs = if abilities { 1 + slots.slots } else { 0 };
         let n_actions = N_ACTIONS_NO_ATTACK + n_targets + slots.n_actions();
         let fe = 4 + 1 + shield_enemy + tb;
         let fa = 4 + 1 + shield_ally + tb;
-        let own_feats = 1 + shield_ally + tb;
+        let v2 = generator.is_some();
+        let own_feats = 1 + shield_ally + tb + if v2 { 2 } else { 0 };
         let obs_size = MOVE_FEATS + n_enemies * fe + (n_agents - 1) * fa + own_feats + ext_obs;
         let state_size = n_agents * (4 + shield_ally + tb) + n_enemies * (3 + shield_enemy + tb) + n_agents * n_actions;
         let p = scenario.terrain.playable();
@@ -121,11 +141,29 @@ impl SmacLayout {
             obs_size,
             state_size,
             abilities: slots,
+            v2,
             map_center: Vec2::new(scenario.terrain.width() as f32 / 2.0, scenario.terrain.height() as f32 / 2.0),
+            map_size: Vec2::new(scenario.terrain.width() as f32, scenario.terrain.height() as f32),
             playable_w: p.width(),
             playable_h: p.height(),
             playable: p,
         }
+    }
+
+    /// How far an agent sees for its features: SMAC's 9, or SMACv2's the unit's own sight.
+    fn sight(&self, u: &Unit) -> f32 {
+        if self.v2 { u.spec().sight } else { SIGHT_RANGE }
+    }
+
+    /// How far an agent may attack (or heal) through its attack slots: SMAC's 6, or SMACv2's
+    /// the unit's own range, at least 2.
+    fn shoot(&self, u: &Unit) -> f32 {
+        if !self.v2 {
+            return SHOOT_RANGE;
+        }
+        let s = u.spec();
+        let reach = s.weapons.iter().map(|w| w.range).chain(s.heal.map(|h| h.range)).fold(0.0, f32::max);
+        reach.max(MIN_ATTACK_RANGE)
     }
 
     fn one_hot(types: &[UnitKind], kind: UnitKind, out: &mut [f32]) {
@@ -180,7 +218,7 @@ impl SmacLayout {
         let Some(tu) = world.unit(t) else { return false };
         tu.alive
             && world.visible_to(self.team, t)
-            && u.pos.dist(tu.pos) <= SHOOT_RANGE
+            && u.pos.dist(tu.pos) <= self.shoot(u)
             && if u.spec().heal.is_some() {
                 // SMAC's rule (any ally but Medivacs), narrowed to what heal can target:
                 // biological units (the same on SMAC's own maps, whose allies are all biological).
@@ -215,6 +253,7 @@ impl SmacLayout {
         }
         let tb = self.ally_types.len();
         let fe = 5 + self.shield_enemy + tb;
+        let sight = self.sight(u);
         let mut off = MOVE_FEATS;
         for (j, &e) in self.enemies.iter().enumerate() {
             let f = &mut out[off + j * fe..off + (j + 1) * fe];
@@ -224,13 +263,13 @@ impl SmacLayout {
             {
                 let d = eu.pos - u.pos;
                 let dist = d.len();
-                if dist < SIGHT_RANGE {
+                if dist < sight {
                     // SMAC reads this from the available actions: for a healer that is the
                     // heal slot of ally j, a quirk kept for compatibility.
                     f[0] = self.attack_slot(world, agent, u, j) as u8 as f32;
-                    f[1] = dist / SIGHT_RANGE;
-                    f[2] = d.x / SIGHT_RANGE;
-                    f[3] = d.y / SIGHT_RANGE;
+                    f[1] = dist / sight;
+                    f[2] = d.x / sight;
+                    f[3] = d.y / sight;
                     f[4] = eu.hp / eu.max_hp;
                     if self.shield_enemy > 0 && eu.max_shield > 0.0 {
                         f[5] = eu.shield / eu.max_shield;
@@ -246,11 +285,11 @@ impl SmacLayout {
             if let Some(au) = world.unit(a).filter(|au| au.alive) {
                 let d = au.pos - u.pos;
                 let dist = d.len();
-                if dist < SIGHT_RANGE {
+                if dist < sight {
                     f[0] = 1.0;
-                    f[1] = dist / SIGHT_RANGE;
-                    f[2] = d.x / SIGHT_RANGE;
-                    f[3] = d.y / SIGHT_RANGE;
+                    f[1] = dist / sight;
+                    f[2] = d.x / sight;
+                    f[3] = d.y / sight;
                     f[4] = au.hp / au.max_hp;
                     if self.shield_ally > 0 && au.max_shield > 0.0 {
                         f[5] = au.shield / au.max_shield;
@@ -265,7 +304,14 @@ impl SmacLayout {
         if self.shield_ally > 0 && u.max_shield > 0.0 {
             f[1] = u.shield / u.max_shield;
         }
-        Self::one_hot(&self.ally_types, u.kind, &mut f[1 + self.shield_ally..]);
+        let mut t = 1 + self.shield_ally;
+        if self.v2 {
+            // SMACv2's own features: health, shield, position over the map's size, type.
+            f[t] = u.pos.x / self.map_size.x;
+            f[t + 1] = u.pos.y / self.map_size.y;
+            t += 2;
+        }
+        Self::one_hot(&self.ally_types, u.kind, &mut f[t..]);
         if self.abilities.slots > 0 {
             let ext = self.obs_size - 1 - self.abilities.slots;
             self.ability_obs(world, agent, u, &mut out[ext..]);

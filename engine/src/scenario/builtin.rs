@@ -6,13 +6,15 @@ use super::types::{Scenario, ScenarioError};
 use std::path::Path;
 
 macro_rules! scenarios {
-    ($($name:literal),* $(,)?) => {
-        /// Names and TOML text of the built-in scenarios, in the paper's table order.
-        pub const BUILTIN: &[(&str, &str)] = &[$(($name, include_str!(concat!("../../scenarios/", $name, ".toml")))),*];
+    ($(#[$doc:meta])* $list:ident: $($name:literal),* $(,)?) => {
+        $(#[$doc])*
+        pub const $list: &[(&str, &str)] = &[$(($name, include_str!(concat!("../../scenarios/", $name, ".toml")))),*];
     };
 }
 
 scenarios!(
+    /// Names and TOML text of the paper's 21 scenarios, in its table order.
+    BUILTIN:
     "2c_vs_64zg",
     "2m_vs_1z",
     "2s_vs_1sc",
@@ -36,13 +38,39 @@ scenarios!(
     "8m3mr1mv1st_mirror_pvp",
 );
 
+scenarios!(
+    /// Procedural scenarios with SMACv2's settings (its `sc2_gen_*` configs): teams and start
+    /// positions drawn every episode, named `<race>_<n>_vs_<m>`.
+    PROCEDURAL:
+    "protoss_5_vs_5",
+    "protoss_10_vs_10",
+    "protoss_10_vs_11",
+    "protoss_20_vs_20",
+    "protoss_20_vs_23",
+    "terran_5_vs_5",
+    "terran_10_vs_10",
+    "terran_10_vs_11",
+    "terran_20_vs_20",
+    "terran_20_vs_23",
+    "zerg_5_vs_5",
+    "zerg_10_vs_10",
+    "zerg_10_vs_11",
+    "zerg_20_vs_20",
+    "zerg_20_vs_23",
+);
+
+/// Names of the procedural scenarios ([`PROCEDURAL`]).
+pub fn procedural_names() -> impl Iterator<Item = &'static str> {
+    PROCEDURAL.iter().map(|(n, _)| *n)
+}
+
 pub fn builtin_names() -> impl Iterator<Item = &'static str> {
     BUILTIN.iter().map(|(n, _)| *n)
 }
 
-/// A built-in scenario by name.
+/// A built-in scenario by name: one of the paper's, or a procedural one.
 pub fn builtin(name: &str) -> Result<Scenario, ScenarioError> {
-    let (_, text) = BUILTIN.iter().find(|(n, _)| *n == name).ok_or_else(|| ScenarioError::Unknown(name.to_owned()))?;
+    let (_, text) = BUILTIN.iter().chain(PROCEDURAL).find(|(n, _)| *n == name).ok_or_else(|| ScenarioError::Unknown(name.to_owned()))?;
     Scenario::from_toml(&format!("<built-in>/{name}.toml"), text)
 }
 

@@ -31,6 +31,36 @@ pub struct RawScenario {
     pub opponent: RawOpponent,
     #[serde(default)]
     pub terrain: Option<RawTerrain>,
+    /// Draws the units for every episode instead of listing them (`units` stays empty).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub generate: Option<RawGenerate>,
+}
+
+/// SMACv2's team and start-position distributions (see `generate.rs`).
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawGenerate {
+    /// Team 1's size.
+    pub n_units: usize,
+    /// Team 2's size.
+    pub n_enemies: usize,
+    /// Types each unit is drawn from, in the order of the observation's type bits.
+    pub unit_types: Vec<String>,
+    /// One probability per type, summing to 1.
+    pub weights: Vec<f64>,
+    /// Types a team may not consist of alone.
+    #[serde(default)]
+    pub exception_unit_types: Vec<String>,
+    /// `surrounded_and_reflect` (default), `reflect` or `surrounded`.
+    #[serde(default = "default_start")]
+    pub start_positions: String,
+    /// For `surrounded_and_reflect`: the probability of the reflected layout (SMACv2's `p`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub p: Option<f64>,
+}
+
+fn default_start() -> String {
+    "surrounded_and_reflect".to_owned()
 }
 
 #[derive(Debug, Clone, Deserialize, Serialize)]

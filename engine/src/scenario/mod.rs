@@ -3,9 +3,11 @@
 
 mod builtin;
 mod file;
+mod generate;
 mod types;
 mod validate;
 
-pub use builtin::{BUILTIN, builtin, builtin_names};
-pub use file::{RawOpponent, RawScenario, RawStart, RawTerrain, RawUnit, RawUpgrade};
+pub use builtin::{BUILTIN, PROCEDURAL, builtin, builtin_names, procedural_names};
+pub use file::{RawGenerate, RawOpponent, RawScenario, RawStart, RawTerrain, RawUnit, RawUpgrade};
+pub use generate::{Generator, StartDist};
 pub use types::{Mode, OpponentKind, Scenario, ScenarioError, ScenarioUnit, StartOrder, Upgrade};

@@ -138,9 +138,37 @@ pub struct Scenario {
     /// The TOML text it was parsed from, verbatim: a recording carries it, so a replay needs
     /// neither the file nor the same built-in scenarios.
     pub text: Arc<str>,
+    /// Procedural scenarios: the distribution every episode's units are drawn from. `units`
+    /// then holds one draw (seed 0) so that team sizes and agent order can be read as for any
+    /// scenario; [`Scenario::episode`] gives the draw of an episode.
+    pub generator: Option<Arc<super::Generator>>,
 }
 
 impl Scenario {
+    /// The scenario an episode of `seed` plays: this one, or for a procedural scenario its
+    /// units drawn from `seed` (the same draw wherever the episode runs).
+    pub fn episode(self: &Arc<Self>, seed: u64) -> Arc<Scenario> {
+        match &self.generator {
+            None => Arc::clone(self),
+            Some(g) => Arc::new(self.drawn(g, seed)),
+        }
+    }
+
+    pub(super) fn drawn(&self, g: &super::Generator, seed: u64) -> Scenario {
+        let units = g.draw(seed, &self.terrain);
+        let mut s = Scenario { units, ..self.clone() };
+        // The opponent attack-moves to where team 1 starts (SMAC's opening, whatever the draw).
+        if self.mode == Mode::Pve {
+            s.start = StartOrder::AttackMove { to: s.spawn(Team::One), delay_loops: 0 };
+        }
+        s
+    }
+
+    /// Whether episodes draw their units ([`Scenario::episode`]).
+    pub fn is_procedural(&self) -> bool {
+        self.generator.is_some()
+    }
+
     pub fn count(&self, team: Team) -> usize {
         self.units.iter().filter(|u| u.team == team).count()
     }

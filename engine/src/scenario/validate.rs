@@ -134,6 +134,22 @@ pub(super) fn validate(file: &str, raw: RawScenario, text: &str) -> Result<Scena
         };
         units.push(ScenarioUnit { kind, team, pos, facing: u.facing, energy });
     }
+    let generator = match &raw.generate {
+        None => None,
+        Some(_) if !units.is_empty() => {
+            return Err(cx.err("units", format!("{} units", units.len()), "a scenario with [generate] draws its units: leave units empty"));
+        }
+        Some(g) => Some(Arc::new(super::Generator::from_raw(g, playable).map_err(|p| ScenarioError::Invalid {
+            file: file.to_owned(),
+            field: p.field,
+            value: p.value,
+            reason: p.reason,
+        })?)),
+    };
+    let terrain = Arc::new(terrain);
+    if let Some(g) = &generator {
+        units = g.draw(0, &terrain);
+    }
     for team in Team::BOTH {
         if !units.iter().any(|u| u.team == team) {
             return Err(cx.err("units", format!("{} units", units.len()), format!("{team} has no units")));
@@ -155,19 +171,24 @@ pub(super) fn validate(file: &str, raw: RawScenario, text: &str) -> Result<Scena
             delay_loops: delay(&cx, *delay_s)?,
         },
     };
-    Ok(Scenario {
+    let s = Scenario {
         name: raw.name,
         mode,
         description: raw.description,
         objective: if raw.objective.is_empty() { "Destroy every enemy unit before time runs out.".into() } else { raw.objective },
         source: raw.source,
-        terrain: Arc::new(terrain),
+        terrain,
         units,
         upgrades,
         opponent,
         start,
         time_limit_loops,
         text: Arc::from(text),
+        generator,
+    };
+    Ok(match s.generator.clone() {
+        Some(g) => s.drawn(&g, 0),
+        None => s,
     })
 }
 
