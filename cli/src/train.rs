@@ -25,7 +25,7 @@ pub struct TrainArgs {
     /// observation mode x budget; see eval/plans/baselines.toml), each in its folder under the
     /// plan's `out`. Runs already done are skipped and interrupted ones resume, so the plan
     /// can be started again after a kill.
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["scenario", "resume", "config", "out", "obs", "steps", "seed", "envs", "set"])]
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["scenario", "resume", "config", "out", "obs", "steps", "seed", "envs", "set", "opponent"])]
     pub plan: Option<PathBuf>,
     /// With --plan: only the runs of shard i of n (run k goes to shard k mod n + 1), for a
     /// cluster's array jobs.
@@ -54,6 +54,12 @@ pub struct TrainArgs {
     /// Threads stepping environments (default: all cores; results do not depend on it).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// PvP scenarios: who plays team 2 while team 1 learns: scripted:NAME (or NAME: a
+    /// scripted agent), marl:DIR (a checkpoint), or self (the learner's own snapshots,
+    /// refreshed every `self_play_every` updates, the last `self_play_pool` kept, one drawn
+    /// per episode). The config's `opponent`.
+    #[arg(long, value_name = "SPEC")]
+    pub opponent: Option<String>,
     /// A config file to start from instead of the algorithm's built-in one.
     #[arg(long)]
     pub config: Option<PathBuf>,
@@ -90,6 +96,9 @@ pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     }
     if let Some(e) = a.envs {
         overrides.push(format!("envs={e}"));
+    }
+    if let Some(o) = &a.opponent {
+        overrides.push(format!("opponent={o:?}"));
     }
     let mut start = None;
     let cfg = match (&a.config, &a.resume) {

@@ -93,6 +93,18 @@ pub struct Config {
     /// PvP: team 2's agent while team 1 learns (see the config files); empty: none.
     #[serde(default)]
     pub opponent: String,
+    /// Self-play (`opponent = "self"`): updates between snapshots of the learner joining
+    /// team 2's pool.
+    #[serde(default = "default_self_play_every")]
+    pub self_play_every: u64,
+    /// Self-play: snapshots kept in the pool (team 2 draws one per episode).
+    #[serde(default = "default_self_play_pool")]
+    pub self_play_pool: usize,
+    /// PvP: fixed opponents every test round also plays (greedy), logged as
+    /// `test_win_rate_vs_<name>` and drawn in the curves; under self-play, empty means
+    /// attack-move and focus-fire.
+    #[serde(default)]
+    pub test_opponents: Vec<String>,
     /// QTRAN's weights of its optimal-action and non-optimal-action losses.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub opt_loss: Option<f64>,
@@ -186,6 +198,15 @@ pub fn default_text(algo: &str) -> Result<&'static str, Error> {
 }
 
 impl Config {
+    /// The fixed opponents a test round also plays: `test_opponents`, or under self-play
+    /// attack-move and focus-fire when it is empty.
+    pub fn fixed_test_opponents(&self) -> Vec<String> {
+        if self.test_opponents.is_empty() && self.opponent.trim() == "self" {
+            return vec!["attack-move".into(), "focus-fire".into()];
+        }
+        self.test_opponents.clone()
+    }
+
     /// The built-in config of `algo` with `overrides` (`key=value`, the value in TOML syntax;
     /// a bare word is taken as a string) applied in order.
     pub fn for_algo(algo: &str, overrides: &[String]) -> Result<Config, Error> {
@@ -225,16 +246,24 @@ impl Config {
         let def = |f: fn(&Config) -> f64, fallback: f64| default.as_ref().map_or(fallback, f);
         unit("gamma", self.gamma)?;
         positive("lr", self.lr, def(|c| c.lr, 5e-4))?;
-        let o = self.opponent.trim();
-        if !o.is_empty() && !o.starts_with("marl:") && avacraft_engine::agent::factory(o).is_err() {
-            let known: Vec<&str> = avacraft_engine::agent::AGENTS.iter().map(|(n, _)| *n).collect();
-            return Err(bad(
-                "opponent",
-                format!("{o:?}"),
-                &format!("a scripted agent ({}) or marl:DIR", known.join(", ")),
-                "\"focus-fire\"",
-            ));
+        if let Err(why) = crate::policy::Opponent::parse(&self.opponent) {
+            return Err(bad("opponent", format!("{:?}", self.opponent.trim()), &why, "\"focus-fire\""));
         }
+        for (i, o) in self.test_opponents.iter().enumerate() {
+            if let Err(why) = crate::policy::Opponent::parse(o) {
+                return Err(bad(&format!("test_opponents[{i}]"), format!("{o:?}"), &why, "\"focus-fire\""));
+            }
+            if o.trim() == "self" || o.trim().is_empty() {
+                return Err(bad(
+                    &format!("test_opponents[{i}]"),
+                    format!("{o:?}"),
+                    "a fixed opponent: scripted:NAME or marl:DIR",
+                    "\"focus-fire\"",
+                ));
+            }
+        }
+        at_least("self_play_every", self.self_play_every, 1)?;
+        at_least("self_play_pool", self.self_play_pool, 1)?;
         at_least("envs", self.envs, 1)?;
         at_least("rnn_hidden_dim", self.rnn_hidden_dim, 1)?;
         if self.is_ppo() {
@@ -486,6 +515,14 @@ fn parse_value(text: &str, old: &toml::Value) -> Result<toml::Value, String> {
         return Err(format!("expected a {}, got a {}", old.type_str(), v.type_str()));
     }
     Ok(v)
+}
+
+fn default_self_play_every() -> u64 {
+    20
+}
+
+fn default_self_play_pool() -> usize {
+    5
 }
 
 #[cfg(test)]

@@ -54,6 +54,7 @@ pub mod ppo;
 pub mod qtran;
 pub mod resume;
 pub mod runlog;
+pub mod selfplay;
 pub mod td;
 pub mod train;
 
@@ -65,7 +66,7 @@ pub use monitor::{Progress, RunOptions, Summary};
 pub use nets::Nets;
 pub use observe::ObsSource;
 pub use optim::{Optimizer, OptimizerKind};
-pub use policy::{MarlAgent, Policy, TestResult, select_actions};
+pub use policy::{MarlAgent, Opponent, Policy, TestResult, select_actions};
 pub use ppo::PpoLearner;
 pub use td::QGrads;
 pub use train::{Trained, train, train_from};

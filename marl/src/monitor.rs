@@ -4,10 +4,12 @@
 //! checkpoints. Apart from [`crate::train`], which hands PPO runs to PPO's loop, so that
 //! PPO's loop need not import it.
 
+use crate::buffer::Shape;
 use crate::nets::Nets;
 use crate::plot::CurvePoint;
-use crate::policy::{TestResult, test, vec_env};
+use crate::policy::{Opponent, TestResult, test, vec_env_with};
 use crate::resume::RunState;
+use crate::selfplay::Pool;
 use crate::{Config, Error};
 use avacraft_engine::{Scenario, VecEnv};
 use std::io::Write;
@@ -71,6 +73,10 @@ pub(crate) struct Monitor<'a> {
     elapsed_before: f64,
     /// Episodes already played before a resume: the environments start past them.
     seed_offset: u64,
+    /// Self-play: the learner's snapshots team 2 plays.
+    pool: Option<Arc<Pool>>,
+    /// Fixed opponents each test round also plays ([`Config::fixed_test_opponents`]).
+    fixed: Vec<String>,
 }
 
 impl<'a> Monitor<'a> {
@@ -84,7 +90,8 @@ impl<'a> Monitor<'a> {
                     std::fs::OpenOptions::new().append(true).open(&path).map_err(|source| Error::Io { path: path.clone(), source })?
                 } else {
                     let mut f = std::fs::File::create(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
-                    writeln!(f, "{CSV_HEADER}").map_err(|source| Error::Io { path: path.clone(), source })?;
+                    let vs: String = cfg.fixed_test_opponents().iter().map(|o| format!(",test_win_rate_vs_{}", o.trim())).collect();
+                    writeln!(f, "{CSV_HEADER}{vs}").map_err(|source| Error::Io { path: path.clone(), source })?;
                     f
                 };
                 Some((f, path))
@@ -93,6 +100,13 @@ impl<'a> Monitor<'a> {
         };
         let started = std::time::Instant::now();
         let base = opts.seed.wrapping_mul(1 << 20);
+        let pool = match Opponent::parse(&cfg.opponent) {
+            Ok(Opponent::SelfPlay) => {
+                let probe = VecEnv::new(Arc::clone(&opts.scenario), cfg.env_config(), &[0], 1)?;
+                Some(Arc::new(Pool::new(cfg, Shape::of(&probe), &opts.scenario.name, opts.out.as_deref())))
+            }
+            _ => None,
+        };
         let mut m = Monitor {
             cfg,
             opts,
@@ -107,6 +121,8 @@ impl<'a> Monitor<'a> {
             eps_since: 0,
             elapsed_before: 0.0,
             seed_offset: 0,
+            pool,
+            fixed: cfg.fixed_test_opponents(),
         };
         if let Some(st) = start {
             m.tests.clone_from(&st.tests);
@@ -125,7 +141,22 @@ impl<'a> Monitor<'a> {
     /// The training environments, seeded from the run's seed.
     pub fn env(&self) -> Result<VecEnv, Error> {
         let seeds: Vec<u64> = (0..self.cfg.envs as u64).map(|i| self.base.wrapping_add(self.seed_offset).wrapping_add(i)).collect();
-        vec_env(self.cfg, &self.opts.scenario, &seeds, self.opts.threads)
+        vec_env_with(self.cfg, &self.opts.scenario, &seeds, self.opts.threads, self.pool.as_ref())
+    }
+
+    /// Self-play: fills team 2's pool with the learner as it starts (a resumed run: the
+    /// snapshots it had taken up to `updates`) and restarts the environments, whose team 2
+    /// drew from the empty pool when they were made. Nothing to do otherwise.
+    pub fn start_self_play(&mut self, nets: &Nets, updates: u64, resumed: bool, env: &mut VecEnv) -> Result<(), Error> {
+        let Some(pool) = &self.pool else { return Ok(()) };
+        if resumed {
+            pool.restore(updates)?;
+        }
+        if pool.updates().is_empty() {
+            pool.maybe_snapshot(nets, updates)?;
+        }
+        env.reset();
+        Ok(())
     }
 
     pub fn episode_end(&mut self, won: bool) {
@@ -147,6 +178,9 @@ impl<'a> Monitor<'a> {
     ) -> Result<bool, Error> {
         let (episodes, updates) = counts;
         let cfg = self.cfg;
+        if let Some(pool) = &self.pool {
+            pool.maybe_snapshot(nets, updates)?;
+        }
         if t_env - self.last_test_t < cfg.test_interval && t_env < cfg.t_max {
             return Ok(false);
         }
@@ -157,23 +191,29 @@ impl<'a> Monitor<'a> {
         let mut r = test(nets, cfg, &self.opts.scenario, &test_seeds, self.opts.threads)?;
         r.t_env = t_env;
         self.tests.push(r);
+        let mut vs = Vec::with_capacity(self.fixed.len());
+        for o in &self.fixed {
+            let fixed = Config { opponent: o.clone(), ..cfg.clone() };
+            vs.push(test(nets, &fixed, &self.opts.scenario, &test_seeds, self.opts.threads)?.win_rate);
+        }
         let elapsed = self.elapsed();
         if let Some((f, path)) = self.csv.as_mut() {
             let train_wr = if self.eps_since > 0 { self.wins_since as f64 / self.eps_since as f64 } else { f64::NAN };
+            let vs: String = vs.iter().map(|w| format!(",{w:.4}")).collect();
             writeln!(
                 f,
-                "{t_env},{episodes},{updates},{eps:.4},{:.6},{:.4},{:.4},{train_wr:.4},{:.4},{:.4},{:.1}",
+                "{t_env},{episodes},{updates},{eps:.4},{:.6},{:.4},{:.4},{train_wr:.4},{:.4},{:.4},{:.1}{vs}",
                 last.loss, last.grad_norm, last.q_taken, r.win_rate, r.mean_return, elapsed
             )
             .and_then(|()| f.flush())
             .map_err(|source| Error::Io { path: path.clone(), source })?;
         }
         let train_win_rate = (self.eps_since > 0).then(|| self.wins_since as f64 / self.eps_since as f64);
-        self.curve.push(CurvePoint { t_env, test_win_rate: r.win_rate, train_win_rate, test_return: r.mean_return, loss: last.loss });
+        self.curve.push(CurvePoint { t_env, test_win_rate: r.win_rate, train_win_rate, test_return: r.mean_return, loss: last.loss, vs });
         (self.wins_since, self.eps_since) = (0, 0);
         if let Some(dir) = &self.opts.out {
             let title = format!("{} on {} (seed {})", cfg.algo, self.opts.scenario.name, self.opts.seed);
-            crate::plot::curves(&dir.join("curves.png"), &title, &self.curve)?;
+            crate::plot::curves(&dir.join("curves.png"), &title, &self.curve, &self.fixed)?;
             save(dir)?;
             // Greedy win rates swing while the policy explores: keep the best one's weights too.
             if self.tests.iter().all(|t| t.win_rate <= r.win_rate) {

@@ -9,7 +9,7 @@ use std::path::Path;
 use std::sync::OnceLock;
 
 /// One logged point of a run.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CurvePoint {
     pub t_env: u64,
     pub test_win_rate: f64,
@@ -17,6 +17,9 @@ pub struct CurvePoint {
     pub train_win_rate: Option<f64>,
     pub test_return: f64,
     pub loss: f64,
+    /// Greedy win rates against the run's fixed test opponents, in their order.
+    #[serde(default)]
+    pub vs: Vec<f64>,
 }
 
 pub(crate) fn font() -> Result<(), Error> {
@@ -30,7 +33,7 @@ pub(crate) fn err(e: impl std::fmt::Display) -> Error {
 }
 
 /// Draws `points` of the run `title` into `path` (PNG, 900x900).
-pub fn curves(path: &Path, title: &str, points: &[CurvePoint]) -> Result<(), Error> {
+pub fn curves(path: &Path, title: &str, points: &[CurvePoint], vs: &[String]) -> Result<(), Error> {
     font()?;
     let root = BitMapBackend::new(path, (900, 900)).into_drawing_area();
     root.fill(&WHITE).map_err(err)?;
@@ -48,18 +51,23 @@ pub fn curves(path: &Path, title: &str, points: &[CurvePoint]) -> Result<(), Err
             0.0..1.0
         }
     };
-    type Series<'a> = (&'a str, fn(&CurvePoint) -> f64, RGBColor);
-    let specs: [(&str, std::ops::Range<f64>, Vec<Series<'_>>); 3] = [
-        (
-            "win rate",
-            0.0..1.02,
-            vec![
-                ("greedy test", |p| p.test_win_rate, BLUE),
-                ("training (exploring)", |p| p.train_win_rate.unwrap_or(f64::NAN), RGBColor(230, 120, 0)),
-            ],
-        ),
-        ("test return", range(|p| p.test_return), vec![("greedy test return", |p| p.test_return, RGBColor(0, 140, 60))]),
-        ("loss", range(|p| p.loss), vec![("last update's loss", |p| p.loss, RED)]),
+    let line = |f: &dyn Fn(&CurvePoint) -> f64| -> Vec<(u64, f64)> {
+        points.iter().map(|p| (p.t_env, f(p))).filter(|(_, v)| v.is_finite()).collect()
+    };
+    type Series = (String, Vec<(u64, f64)>, RGBColor);
+    let mut wins: Vec<Series> = vec![
+        ("greedy test".into(), line(&|p| p.test_win_rate), BLUE),
+        ("training (exploring)".into(), line(&|p| p.train_win_rate.unwrap_or(f64::NAN)), RGBColor(230, 120, 0)),
+    ];
+    // Fixed opponents (a self-play run's progress): greens and purples after the two above.
+    let palette = [RGBColor(0, 150, 70), RGBColor(140, 60, 170), RGBColor(120, 120, 120), RGBColor(200, 40, 120)];
+    for (i, name) in vs.iter().enumerate() {
+        wins.push((format!("greedy vs {name}"), line(&|p| p.vs.get(i).copied().unwrap_or(f64::NAN)), palette[i % palette.len()]));
+    }
+    let specs: [(&str, std::ops::Range<f64>, Vec<Series>); 3] = [
+        ("win rate", 0.0..1.02, wins),
+        ("test return", range(|p| p.test_return), vec![("greedy test return".into(), line(&|p| p.test_return), RGBColor(0, 140, 60))]),
+        ("loss", range(|p| p.loss), vec![("last update's loss".into(), line(&|p| p.loss), RED)]),
     ];
     for (area, (label, y, series)) in panels.iter().zip(specs) {
         let mut chart = ChartBuilder::on(area)
@@ -69,8 +77,7 @@ pub fn curves(path: &Path, title: &str, points: &[CurvePoint]) -> Result<(), Err
             .build_cartesian_2d(0u64..x_max, y)
             .map_err(err)?;
         chart.configure_mesh().x_desc("environment steps").y_desc(label).label_style(("sans-serif", 14)).draw().map_err(err)?;
-        for (name, f, color) in series {
-            let pts: Vec<(u64, f64)> = points.iter().map(|p| (p.t_env, f(p))).filter(|(_, v)| v.is_finite()).collect();
+        for (name, pts, color) in series {
             chart
                 .draw_series(LineSeries::new(pts, color.stroke_width(2)))
                 .map_err(err)?

@@ -21,6 +21,7 @@ use crate::buffer::{Shape, act_inputs};
 use crate::frames::StepFrames;
 use crate::nets::Nets;
 use crate::observe::ObsSource;
+use crate::selfplay::Pool;
 use crate::{Config, Error};
 use avacraft_engine::agent::view::id_of;
 use avacraft_engine::{Action, Agent, AgentCtx, GroupObs, Reads, Scenario, SmacLayout, Team, VecBuffers, VecEnv};
@@ -180,6 +181,15 @@ impl Policy {
         }
         let theta = nets.agent_params.flat(nets.agent.var_count())?;
         Ok(Policy { cfg: meta.config, shape: meta.shape, scenario: meta.scenario, nets, theta })
+    }
+
+    /// A copy of `nets`' agent network as a policy (a self-play snapshot): later updates of
+    /// `nets` do not reach it.
+    pub fn of(nets: &Nets, cfg: &Config, shape: Shape, scenario: &str) -> Result<Policy, Error> {
+        let copy = Nets::new(cfg, &shape, 0)?;
+        copy.agent_params.load_map(&nets.agent_params.to_map(), "the learner's agent network")?;
+        let theta = copy.agent_params.flat(copy.agent.var_count())?;
+        Ok(Policy { cfg: cfg.clone(), shape, scenario: scenario.to_owned(), nets: copy, theta })
     }
 
     /// Checks that `team`'s agents in `scenario` have the sizes the network was trained on.
@@ -389,38 +399,86 @@ impl Actor {
 }
 
 pub(crate) fn vec_env(cfg: &Config, scenario: &Arc<Scenario>, seeds: &[u64], threads: usize) -> Result<VecEnv, Error> {
+    vec_env_with(cfg, scenario, seeds, threads, None)
+}
+
+/// [`vec_env`], team 2 drawing from `pool` under self-play (`None`: the opponent is given by
+/// name, or for self-play is `nets`, the policy under test, playing itself).
+pub(crate) fn vec_env_with(
+    cfg: &Config,
+    scenario: &Arc<Scenario>,
+    seeds: &[u64],
+    threads: usize,
+    pool: Option<&Arc<Pool>>,
+) -> Result<VecEnv, Error> {
     let env = VecEnv::new(Arc::clone(scenario), cfg.env_config(), seeds, threads.clamp(1, seeds.len()))?;
-    match opponent_factory(cfg)? {
-        Some(make) => {
-            env.with_opponent(make).map_err(|e| crate::config::bad("opponent", format!("{:?}", cfg.opponent), &e.to_string(), "\"\""))
+    let bad = |e: avacraft_engine::VecEnvError| crate::config::bad("opponent", format!("{:?}", cfg.opponent), &e.to_string(), "\"\"");
+    match Opponent::parse(&cfg.opponent)
+        .map_err(|why| crate::config::bad("opponent", format!("{:?}", cfg.opponent), &why, "\"focus-fire\""))?
+    {
+        Opponent::SelfPlay => match pool {
+            Some(p) => env.with_opponent(p.factory()).map_err(bad),
+            None => Err(Error::Checkpoint { message: "self-play needs the learner's snapshot pool".into() }),
+        },
+        _ => match opponent_factory(cfg)? {
+            Some(make) => env.with_opponent(make).map_err(bad),
+            None => Ok(env),
+        },
+    }
+}
+
+/// Who plays team 2 of a PvP scenario while team 1 learns (the config's `opponent`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Opponent {
+    /// "": team 2 gets no orders.
+    Idle,
+    /// `scripted:NAME` or `NAME`: a scripted agent.
+    Scripted(String),
+    /// `marl:DIR`: a trained checkpoint.
+    Marl(std::path::PathBuf),
+    /// `self`: the learner's own snapshots ([`crate::selfplay`]).
+    SelfPlay,
+}
+
+impl Opponent {
+    pub fn parse(s: &str) -> Result<Opponent, String> {
+        let s = s.trim();
+        if s.is_empty() {
+            return Ok(Opponent::Idle);
         }
-        None => Ok(env),
+        if s == "self" {
+            return Ok(Opponent::SelfPlay);
+        }
+        if let Some(dir) = s.strip_prefix("marl:") {
+            return Ok(Opponent::Marl(dir.into()));
+        }
+        let name = s.strip_prefix("scripted:").unwrap_or(s);
+        if avacraft_engine::agent::factory(name).is_err() {
+            let known: Vec<&str> = avacraft_engine::agent::AGENTS.iter().map(|(n, _)| *n).collect();
+            return Err(format!("scripted:NAME ({}), marl:DIR or self", known.join(", ")));
+        }
+        Ok(Opponent::Scripted(name.to_owned()))
     }
 }
 
 /// What makes team 2's agents under `cfg.opponent`: a scripted agent by name, or a trained
-/// policy (`marl:DIR`, loaded once and shared); `None` for "".
+/// policy (`marl:DIR`, loaded once and shared); `None` for "" (and for `self`, whose agents
+/// come from the training run's pool).
 pub fn opponent_factory(cfg: &Config) -> Result<Option<avacraft_engine::OpponentFactory>, Error> {
-    let name = cfg.opponent.trim();
-    if name.is_empty() {
-        return Ok(None);
-    }
-    if let Some(dir) = name.strip_prefix("marl:") {
-        let policy = Arc::new(Policy::load(Path::new(dir))?);
-        let label = name.to_owned();
-        return Ok(Some(Arc::new(move || Box::new(MarlAgent::new(Arc::clone(&policy), label.clone())))));
-    }
-    match avacraft_engine::agent::factory(name) {
-        Ok(make) => Ok(Some(Arc::new(make))),
-        Err(_) => Err(crate::config::bad(
-            "opponent",
-            format!("{name:?}"),
-            &format!(
-                "a scripted agent ({}) or marl:DIR",
-                avacraft_engine::agent::AGENTS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
-            ),
-            "\"focus-fire\"",
-        )),
+    let spec = Opponent::parse(&cfg.opponent)
+        .map_err(|why| crate::config::bad("opponent", format!("{:?}", cfg.opponent), &why, "\"focus-fire\""))?;
+    match spec {
+        Opponent::Idle | Opponent::SelfPlay => Ok(None),
+        Opponent::Marl(dir) => {
+            let policy = Arc::new(Policy::load(&dir)?);
+            let label = cfg.opponent.trim().to_owned();
+            Ok(Some(Arc::new(move || Box::new(MarlAgent::new(Arc::clone(&policy), label.clone())))))
+        }
+        Opponent::Scripted(name) => {
+            let make = avacraft_engine::agent::factory(&name)
+                .map_err(|e| crate::config::bad("opponent", format!("{name:?}"), &e.to_string(), "\"focus-fire\""))?;
+            Ok(Some(Arc::new(make)))
+        }
     }
 }
 
@@ -443,7 +501,16 @@ pub fn test_with(
     threads: usize,
     mut source: Option<&mut ObsSource>,
 ) -> Result<TestResult, Error> {
-    let mut env = vec_env(cfg, scenario, seeds, threads)?;
+    // Under self-play a test's team 2 is the policy under test itself.
+    let pool = if Opponent::parse(&cfg.opponent) == Ok(Opponent::SelfPlay) {
+        let shape = Shape::of(&VecEnv::new(Arc::clone(scenario), cfg.env_config(), &seeds[..1.min(seeds.len())], 1)?);
+        let pool = Arc::new(Pool::new(cfg, shape, &scenario.name, None));
+        pool.maybe_snapshot(nets, 0)?;
+        Some(pool)
+    } else {
+        None
+    };
+    let mut env = vec_env_with(cfg, scenario, seeds, threads, pool.as_ref())?;
     let (a, ..) = env.shape();
     let shape = Shape::of(&env);
     let mut actor = Actor::new(nets, seeds.len(), a);

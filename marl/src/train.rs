@@ -113,6 +113,7 @@ fn train_q(
         sample_rng.set_word_pos(sp);
         (t_env, episodes) = (st.t_env, st.episodes);
     }
+    monitor.start_self_play(&learner.nets, learner.updates, start.is_some(), &mut env)?;
     while t_env < cfg.t_max {
         let eps = cfg.epsilon(t_env);
         let frames = source.as_mut().map(|s| s.observe(env.envs())).transpose()?;

@@ -58,6 +58,7 @@ pub fn train_from(
         update_rng.set_word_pos(up);
         (t_env, episodes) = (st.t_env, st.episodes);
     }
+    monitor.start_self_play(&learner.actor, learner.updates, start.is_some(), &mut env)?;
     let (rows, hidden) = (e * a, cfg.rnn_hidden_dim);
     let (id, la) = (cfg.obs_agent_id, cfg.obs_last_action);
     let agents: Vec<usize> = (0..rows).map(|r| r % a.max(1)).collect();

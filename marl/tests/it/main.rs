@@ -5,4 +5,5 @@ mod common;
 mod encoders;
 mod learn;
 mod ppo;
+mod selfplay;
 mod text;
