@@ -77,6 +77,9 @@ pub(crate) struct Monitor<'a> {
     pool: Option<Arc<Pool>>,
     /// Fixed opponents each test round also plays ([`Config::fixed_test_opponents`]).
     fixed: Vec<String>,
+    /// Self-play: the pool's oldest snapshot at the previous test round; written snapshots
+    /// older than it are no longer needed to resume.
+    prune_below: Option<u64>,
 }
 
 impl<'a> Monitor<'a> {
@@ -90,7 +93,8 @@ impl<'a> Monitor<'a> {
                     std::fs::OpenOptions::new().append(true).open(&path).map_err(|source| Error::Io { path: path.clone(), source })?
                 } else {
                     let mut f = std::fs::File::create(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
-                    let vs: String = cfg.fixed_test_opponents().iter().map(|o| format!(",test_win_rate_vs_{}", o.trim())).collect();
+                    let vs: String =
+                        cfg.fixed_test_opponents().iter().map(|o| format!(",test_win_rate_vs_{0},test_return_vs_{0}", o.trim())).collect();
                     writeln!(f, "{CSV_HEADER}{vs}").map_err(|source| Error::Io { path: path.clone(), source })?;
                     f
                 };
@@ -123,6 +127,7 @@ impl<'a> Monitor<'a> {
             seed_offset: 0,
             pool,
             fixed: cfg.fixed_test_opponents(),
+            prune_below: None,
         };
         if let Some(st) = start {
             m.tests.clone_from(&st.tests);
@@ -192,14 +197,24 @@ impl<'a> Monitor<'a> {
         r.t_env = t_env;
         self.tests.push(r);
         let mut vs = Vec::with_capacity(self.fixed.len());
+        let mut vs_return = Vec::with_capacity(self.fixed.len());
         for o in &self.fixed {
             let fixed = Config { opponent: o.clone(), ..cfg.clone() };
-            vs.push(test(nets, &fixed, &self.opts.scenario, &test_seeds, self.opts.threads)?.win_rate);
+            let t = test(nets, &fixed, &self.opts.scenario, &test_seeds, self.opts.threads)?;
+            vs.push(t.win_rate);
+            vs_return.push(t.mean_return);
+        }
+        if let Some(pool) = &self.pool {
+            // The previous round's checkpoint is superseded by this one: what only it needed goes.
+            if let Some(below) = self.prune_below {
+                pool.prune_files(below)?;
+            }
+            self.prune_below = pool.updates().first().copied();
         }
         let elapsed = self.elapsed();
         if let Some((f, path)) = self.csv.as_mut() {
             let train_wr = if self.eps_since > 0 { self.wins_since as f64 / self.eps_since as f64 } else { f64::NAN };
-            let vs: String = vs.iter().map(|w| format!(",{w:.4}")).collect();
+            let vs: String = vs.iter().zip(&vs_return).map(|(w, r)| format!(",{w:.4},{r:.4}")).collect();
             writeln!(
                 f,
                 "{t_env},{episodes},{updates},{eps:.4},{:.6},{:.4},{:.4},{train_wr:.4},{:.4},{:.4},{:.1}{vs}",

@@ -6,7 +6,8 @@
 //! and seed, whatever the thread count.
 //!
 //! Snapshots are written to `<run>/selfplay/u<updates>/` as they are taken, so a resumed run
-//! finds the pool it had (those taken up to its last checkpoint).
+//! finds the pool it had (those taken up to its last checkpoint); at each test round those
+//! no checkpoint can need any more are deleted, but the first (the run's start).
 
 use crate::buffer::Shape;
 use crate::nets::Nets;
@@ -75,6 +76,26 @@ impl Pool {
         let excess = s.len().saturating_sub(self.max);
         s.drain(..excess);
         Ok(true)
+    }
+
+    /// Deletes the written snapshots a resume can no longer need: those older than
+    /// `oldest`, the oldest of the pool at a checkpoint already superseded, but the first
+    /// (the run's start, kept to compare against).
+    pub fn prune_files(&self, oldest: u64) -> Result<(), Error> {
+        let Some(dir) = &self.dir else { return Ok(()) };
+        let Ok(entries) = std::fs::read_dir(dir) else { return Ok(()) };
+        let mut found: Vec<(u64, PathBuf)> = entries
+            .filter_map(Result::ok)
+            .filter_map(|e| {
+                let name = e.file_name().to_string_lossy().into_owned();
+                name.strip_prefix('u').and_then(|n| n.parse::<u64>().ok()).map(|u| (u, e.path()))
+            })
+            .collect();
+        found.sort_by_key(|(u, _)| *u);
+        for (_, path) in found.into_iter().skip(1).filter(|(u, _)| *u < oldest) {
+            std::fs::remove_dir_all(&path).map_err(|source| Error::Io { path, source })?;
+        }
+        Ok(())
     }
 
     /// A resumed run's pool: the snapshots written up to `updates`, the newest `max`.

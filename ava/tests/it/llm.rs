@@ -212,3 +212,23 @@ fn realtime_applies_actions_after_the_model_time() {
     assert_eq!(env.refused()[0], 0);
     let _ = Team::One;
 }
+
+/// Procedural scenarios: AVA plays episodes whose teams are drawn from the seed, its orders
+/// are all taken, and what it is told names the unit types this episode drew.
+#[test]
+fn ava_plays_procedural_scenarios() {
+    for (name, seed) in [("protoss_5_vs_5", 2), ("terran_10_vs_11", 3)] {
+        let server = FakeServer::start();
+        let s = setup(Box::new(server.client(5.0)), fast(), None);
+        let env = play(name, seed, &s, 400);
+        assert!(env.done(), "{name}: the episode ends");
+        assert_eq!(env.refused()[0], 0, "{name}: no order AVA gave was refused");
+        let c = &s.run.episodes()[0];
+        assert!(c.decisions > 0 && c.fallbacks == 0, "{name}: {c:?}");
+        let drawn: std::collections::BTreeSet<&str> = env.scenario().team_units(Team::One).map(|(_, u)| u.kind.base().name()).collect();
+        let seen = server.seen();
+        for k in &drawn {
+            assert!(seen.iter().any(|q| q.raw.contains(k)), "{name}: no request names the drawn {k}");
+        }
+    }
+}

@@ -60,16 +60,25 @@ fn self_play_runs_are_a_function_of_config_and_seed() -> R {
     assert!(w1 == w2, "2 threads changed the weights");
     assert_eq!((s1.episodes, s1.updates, &s1.tests), (s2.episodes, s2.updates, &s2.tests));
     // Snapshots were taken as the learner went (the first at update 0), and written.
-    let snaps = std::fs::read_dir(dir1.join("selfplay"))?.count();
-    assert!(snaps >= 3, "{snaps} snapshots");
+    // Written snapshots a resume no longer needs are deleted (the first is kept).
+    let mut snaps: Vec<String> = std::fs::read_dir(dir1.join("selfplay"))?
+        .map(|e| e.map(|e| e.file_name().to_string_lossy().into_owned()))
+        .collect::<Result<_, _>>()?;
+    snaps.sort();
+    assert!(snaps.len() >= 3 && snaps[0] == "u0000000000", "{snaps:?}");
     // The log carries the fixed opponents' win rates, the default pair under self-play.
     let log = std::fs::read_to_string(dir1.join("log.csv"))?;
     let header: Vec<&str> = log.lines().next().unwrap_or_default().split(',').collect();
-    assert_eq!(header[header.len() - 2..], ["test_win_rate_vs_attack-move", "test_win_rate_vs_focus-fire"]);
+    assert_eq!(
+        header[header.len() - 4..],
+        ["test_win_rate_vs_attack-move", "test_return_vs_attack-move", "test_win_rate_vs_focus-fire", "test_return_vs_focus-fire"]
+    );
     for row in log.lines().skip(1) {
         let cols: Vec<f64> = row.split(',').map(|c| c.parse().unwrap_or(f64::NAN)).collect();
         assert_eq!(cols.len(), header.len(), "{row}");
-        assert!(cols[cols.len() - 2..].iter().all(|w| (0.0..=1.0).contains(w)), "{row}");
+        let n = cols.len();
+        assert!([cols[n - 4], cols[n - 2]].iter().all(|w| (0.0..=1.0).contains(w)), "{row}");
+        assert!([cols[n - 3], cols[n - 1]].iter().all(|r| r.is_finite() && *r >= 0.0), "{row}");
     }
     for d in [dir1, dir2] {
         let _ = std::fs::remove_dir_all(d);

@@ -295,3 +295,30 @@ fn tiny_and_odd_sizes_do_not_panic() {
     }
     render(&e, &bad, &camera(&e, &o, 640, 360), 640, 360, &VlmOptions::default());
 }
+
+/// On a procedural scenario the legend lists the unit types this episode drew (those the team
+/// knows of), so a VLM reading the picture is told what each shape is, draw after draw.
+#[test]
+fn the_legend_lists_the_drawn_unit_types() {
+    let mut kinds_seen = std::collections::BTreeSet::new();
+    for seed in 1..9 {
+        let s = Arc::new(Scenario::load("zerg_10_vs_10").unwrap_or_else(|e| panic!("{e}")));
+        let e = Env::new(s, EnvConfig::default(), seed);
+        let o = obs(&e);
+        let cam = camera(&e, &o, 1920, 1080);
+        let (scene, _) = render(&e, &o, &cam, 1920, 1080, &VlmOptions::default());
+        let texts: Vec<String> =
+            scene.prims.iter().filter_map(|p| if let Prim::Text { text, .. } = p { Some(text.clone()) } else { None }).collect();
+        let mut drawn: Vec<&str> = o.units.iter().map(|u| u.kind.base().name()).collect();
+        drawn.sort_unstable();
+        drawn.dedup();
+        for k in &drawn {
+            assert!(texts.iter().any(|t| t.trim_start().ends_with(&format!(" {k}"))), "seed {seed}: {k} not in the legend {texts:?}");
+            kinds_seen.insert(k.to_string());
+        }
+        for k in ["Marine", "Stalker", "Zealot"] {
+            assert!(!texts.iter().any(|t| t.trim_start().ends_with(&format!(" {k}"))), "seed {seed}: {k} was not drawn");
+        }
+    }
+    assert!(kinds_seen.contains("Zergling") && kinds_seen.contains("Hydralisk"), "{kinds_seen:?}");
+}
