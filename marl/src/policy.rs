@@ -249,7 +249,9 @@ impl Policy {
     }
 }
 
-/// A trained policy acting greedily for the units of its group.
+/// A trained policy acting greedily for the units of its group. On team 2 it plays in the
+/// mirror image of the map (policies train as team 1: east and west swap, x is reflected),
+/// which is the same game on the left-right mirrored PvP scenarios.
 #[derive(Debug, Clone)]
 pub struct MarlAgent {
     policy: Arc<Policy>,
@@ -259,11 +261,14 @@ pub struct MarlAgent {
     last: Vec<Option<u32>>,
     layout: Option<SmacLayout>,
     fits: bool,
+    /// Playing team 2: the network, trained as team 1, sees and acts in the mirror image
+    /// (east and west swapped, x reflected), as on a left-right mirrored map team 1 would.
+    mirror: bool,
 }
 
 impl MarlAgent {
     pub fn new(policy: Arc<Policy>, name: impl Into<String>) -> MarlAgent {
-        MarlAgent { policy, name: name.into(), hidden: Vec::new(), last: Vec::new(), layout: None, fits: false }
+        MarlAgent { policy, name: name.into(), hidden: Vec::new(), last: Vec::new(), layout: None, fits: false, mirror: false }
     }
     /// Loads the checkpoint in `dir`; the agent is named `marl:DIR`. Image-mode
     /// checkpoints are refused ([`Policy::agent_refusal`]).
@@ -293,6 +298,7 @@ impl Agent for MarlAgent {
         // A network of other sizes would read other features: it then gives no orders.
         self.fits = self.policy.check_scenario(&ctx.scenario, ctx.team).is_ok() && self.policy.agent_refusal().is_none();
         self.layout = Some(SmacLayout::new(&ctx.scenario, ctx.team));
+        self.mirror = ctx.team == Team::Two;
     }
     fn act(&mut self, g: &GroupObs) -> Vec<Action> {
         let (Some(layout), true) = (&self.layout, self.fits) else { return Vec::new() };
@@ -306,8 +312,12 @@ impl Agent for MarlAgent {
             return Vec::new();
         }
         let agents: Vec<usize> = rows.iter().map(|c| c.agent).collect();
-        let features: Vec<f32> = rows.iter().flat_map(|c| c.features.iter().copied()).collect();
-        let avail: Vec<u8> = rows.iter().flat_map(|c| c.avail_actions.iter().copied()).collect();
+        let mut features: Vec<f32> = rows.iter().flat_map(|c| c.features.iter().copied()).collect();
+        let mut avail: Vec<u8> = rows.iter().flat_map(|c| c.avail_actions.iter().copied()).collect();
+        if self.mirror {
+            features.chunks_exact_mut(sh.obs.max(1)).for_each(|f| layout.mirror_obs(f));
+            avail.chunks_exact_mut(sh.n_actions.max(1)).for_each(SmacLayout::mirror_avail);
+        }
         let last: Vec<Option<u32>> = agents.iter().map(|&a| self.last[a]).collect();
         let hidden: Vec<f32> = agents.iter().flat_map(|&a| self.hidden[a].iter().copied()).collect();
         let Ok((q, h2)) = self.policy.q_values(&features, &agents, &last, &hidden) else { return Vec::new() };
@@ -317,9 +327,11 @@ impl Agent for MarlAgent {
         let mut out = Vec::new();
         for (k, (c, &a)) in rows.iter().zip(&acts).enumerate() {
             self.hidden[c.agent].copy_from_slice(&h2[k * width..(k + 1) * width]);
+            // The network's own action (in its image) is its next last-action input.
             self.last[c.agent] = Some(a);
+            let a = if self.mirror { SmacLayout::mirror_action(a as usize) } else { a as usize };
             if c.alive
-                && let Some(command) = layout.command_for_obs(g, c.agent, a as usize)
+                && let Some(command) = layout.command_for_obs(g, c.agent, a)
             {
                 out.push(Action::new(id_of(c.unit), command));
             }

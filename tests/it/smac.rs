@@ -1,7 +1,7 @@
 //! SMAC-compatible layouts, values and action indices.
 
 use crate::helpers::*;
-use avacraft_engine::{Env, EnvConfig, EnvInfo, Team, builtin};
+use avacraft_engine::{Env, EnvConfig, EnvInfo, SmacLayout, Team, builtin};
 use std::sync::Arc;
 
 fn info(name: &str) -> EnvInfo {
@@ -175,4 +175,45 @@ fn a_medivac_can_heal_every_ally_even_with_few_enemies() {
         let c = l.command_for(env.world(), medivac, 6 + j).expect("command");
         assert_eq!(c, avacraft_engine::Command::Attack { target: l.agents[j] });
     }
+}
+
+/// A left-right mirrored PvP arena: team 2's observations and masks, reflected, are team 1's,
+/// so a policy trained as team 1 plays team 2 in the mirror image (as `MarlAgent` does);
+/// reflecting twice changes nothing.
+#[test]
+fn team_twos_view_reflected_is_team_ones_on_a_mirrored_map() {
+    let units: Vec<String> = [(14.0, 1), (15.0, 1), (17.0, 2)]
+        .iter()
+        .flat_map(|&(y, k)| {
+            let kind = if k == 1 { "Marine" } else { "Marauder" };
+            [
+                format!("{{ type = \"{kind}\", team = 1, x = 12.0, y = {y} }}"),
+                format!("{{ type = \"{kind}\", team = 2, x = 20.0, y = {y} }}"),
+            ]
+        })
+        .collect();
+    let s = load(&format!("name = \"mirror\"\nmode = \"pvp\"\nmap_size = [32, 32]\nunits = [{}]\n", units.join(", ")));
+    let env = Env::new(Arc::clone(&s), EnvConfig::default(), 1);
+    let info = env.env_info(Team::One);
+    let layout = env.smac_layout(Team::Two);
+    let (mut o1, mut o2) = (vec![0.0; info.obs_shape], vec![0.0; info.obs_shape]);
+    let (mut a1, mut a2) = (vec![0u8; info.n_actions], vec![0u8; info.n_actions]);
+    for agent in 0..info.n_agents {
+        env.obs_agent(Team::One, agent, &mut o1);
+        env.obs_agent(Team::Two, agent, &mut o2);
+        env.avail_agent(Team::One, agent, &mut a1);
+        env.avail_agent(Team::Two, agent, &mut a2);
+        let before = o2.clone();
+        layout.mirror_obs(&mut o2);
+        SmacLayout::mirror_avail(&mut a2);
+        assert!(o1.iter().zip(&o2).all(|(x, y)| (x - y).abs() < 1e-5), "agent {agent}: {o1:?} vs {o2:?}");
+        assert!(before.iter().any(|&v| v < -0.5), "agent {agent}: team 2 sees its enemies to the west: {before:?}");
+        assert_eq!(a1, a2, "agent {agent}");
+        layout.mirror_obs(&mut o2);
+        assert_eq!(o2, before);
+    }
+    for i in 0..info.n_actions {
+        assert_eq!(SmacLayout::mirror_action(SmacLayout::mirror_action(i)), i);
+    }
+    assert_eq!(SmacLayout::mirror_action(4), 5);
 }

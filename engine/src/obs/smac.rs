@@ -376,6 +376,51 @@ impl SmacLayout {
         })
     }
 
+    /// Reflects an agent's observation in the map's vertical centre line, in place: east and
+    /// west swap (the move bits), x offsets change sign, an own x position becomes its mirror.
+    /// A policy trained as team 1 plays team 2 of a left-right mirrored scenario in this
+    /// image (with [`SmacLayout::mirror_avail`] and [`SmacLayout::mirror_action`]).
+    pub fn mirror_obs(&self, obs: &mut [f32]) {
+        if obs.len() < MOVE_FEATS {
+            return;
+        }
+        obs.swap(2, 3);
+        let tb = self.ally_types.len();
+        let (fe, fa) = (5 + self.shield_enemy + tb, 5 + self.shield_ally + tb);
+        let enemies = (0..self.n_enemies).map(|j| MOVE_FEATS + j * fe + 2);
+        let allies = (0..self.n_agents.saturating_sub(1)).map(|k| MOVE_FEATS + self.n_enemies * fe + k * fa + 2);
+        for i in enemies.chain(allies) {
+            if let Some(v) = obs.get_mut(i) {
+                *v = -*v;
+            }
+        }
+        if self.v2 {
+            let own = MOVE_FEATS + self.n_enemies * fe + self.n_agents.saturating_sub(1) * fa + 1 + self.shield_ally;
+            // Only a living agent's features are filled: a dead one's stay zero.
+            if obs.iter().any(|&v| v != 0.0)
+                && let Some(x) = obs.get_mut(own)
+            {
+                *x = 1.0 - *x;
+            }
+        }
+    }
+
+    /// [`SmacLayout::mirror_obs`] for a mask: east and west swap.
+    pub fn mirror_avail(avail: &mut [u8]) {
+        if avail.len() > 5 {
+            avail.swap(4, 5);
+        }
+    }
+
+    /// The action of the mirror image: move east and move west swap, the rest are the same.
+    pub fn mirror_action(idx: usize) -> usize {
+        match idx {
+            4 => 5,
+            5 => 4,
+            i => i,
+        }
+    }
+
     /// The playable area of the scenario's map.
     pub(crate) fn playable(&self) -> Rect {
         self.playable
