@@ -20,7 +20,9 @@ def baseline_dir(scenario: str, name: str = "qmix") -> str:
     Raises `AvacraftError` naming the shipped runs when there is none."""
 
 def scenario_info(scenario: str) -> dict[str, Any]:
-    """{"name", "mode": "pve" | "pvp", "units": (team 1, team 2), "time_limit_loops"}."""
+    """{"name", "mode": "pve" | "pvp", "units": (team 1, team 2), "time_limit_loops", "drawn_types": the types a
+    procedural scenario draws each unit from (None for a fixed scenario)}; `scenario` may also be a
+    scenario's TOML text."""
 
 def rust_loop_steps_per_s(scenario: str, steps: int, seed: int = 0) -> float:
     """Steps/s of a Rust loop doing obs + state + masks + random available actions + step."""

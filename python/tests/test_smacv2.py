@@ -203,3 +203,10 @@ def test_pettingzoo_and_vector_envs_play_procedural_scenarios(rng):
         obs, state, avail, reward, term, trunc, info = vec.step(acts)
         ended += int(term.sum() + trunc.sum())
     assert ended > 0, "episodes end and reset to new draws"
+
+
+def test_procedural_scenarios_are_listed_with_their_types():
+    names = avacraft.scenario_names()
+    assert "protoss_5_vs_5" in names and "zerg_20_vs_23" in names and "3m" in names
+    assert avacraft.scenario_info("zerg_5_vs_5")["drawn_types"] == ["Zergling", "Hydralisk", "Baneling"]
+    assert avacraft.scenario_info("3m")["drawn_types"] is None

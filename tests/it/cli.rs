@@ -23,10 +23,13 @@ fn env_info_prints_smac_keys() {
 }
 
 #[test]
-fn scenarios_lists_all_21() {
+fn scenarios_lists_the_papers_21_and_the_15_procedural_ones() {
     let out = run(&["scenarios", "--json"]).expect("runs");
     let v: Vec<serde_json::Value> = serde_json::from_str(&out).expect("json");
-    assert_eq!(v.len(), 21);
+    assert_eq!(v.len(), 21 + 15);
+    let zerg = v.iter().find(|r| r["name"] == "zerg_10_vs_11").expect("zerg_10_vs_11");
+    assert_eq!((zerg["team1"].as_u64(), zerg["team2"].as_u64()), (Some(10), Some(11)));
+    assert_eq!(zerg["team1_units"].as_str(), Some("drawn: Zergling 0.45 / Hydralisk 0.45 / Baneling 0.1"));
     let pvz = v.iter().find(|r| r["name"] == "pvz_ht").expect("pvz_ht");
     assert_eq!((pvz["team1"].as_u64(), pvz["team2"].as_u64(), pvz["mode"].as_str()), (Some(23), Some(102), Some("PvE")));
     let table = run(&["scenarios"]).expect("runs");
