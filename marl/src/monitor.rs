@@ -4,7 +4,6 @@
 //! checkpoints. Apart from [`crate::train`], which hands PPO runs to PPO's loop, so that
 //! PPO's loop need not import it.
 
-use crate::buffer::Shape;
 use crate::nets::Nets;
 use crate::plot::CurvePoint;
 use crate::policy::{Opponent, TestResult, test, vec_env_with};
@@ -106,8 +105,8 @@ impl<'a> Monitor<'a> {
         let base = opts.seed.wrapping_mul(1 << 20);
         let pool = match Opponent::parse(&cfg.opponent) {
             Ok(Opponent::SelfPlay) => {
-                let probe = VecEnv::new(Arc::clone(&opts.scenario), cfg.env_config(), &[0], 1)?;
-                Some(Arc::new(Pool::new(cfg, Shape::of(&probe), &opts.scenario.name, opts.out.as_deref())))
+                let shape = crate::policy::team_shape(cfg, &opts.scenario)?;
+                Some(Arc::new(Pool::new(cfg, shape, &opts.scenario.name, opts.out.as_deref())))
             }
             _ => None,
         };

@@ -494,6 +494,12 @@ pub fn opponent_factory(cfg: &Config) -> Result<Option<avacraft_engine::Opponent
     }
 }
 
+/// Team 1's sizes in `scenario` under `cfg`, whoever plays team 2 (self-play's pool is made
+/// from them before any environment has an opponent).
+pub(crate) fn team_shape(cfg: &Config, scenario: &Arc<Scenario>) -> Result<Shape, Error> {
+    Ok(Shape::of(&VecEnv::new(Arc::clone(scenario), cfg.env_config(), &[0], 1)?))
+}
+
 /// The team's sizes in `scenario` under `cfg`.
 pub fn shape_of(cfg: &Config, scenario: &Arc<Scenario>) -> Result<Shape, Error> {
     Ok(Shape::of(&vec_env(cfg, scenario, &[0], 1)?))
@@ -515,8 +521,7 @@ pub fn test_with(
 ) -> Result<TestResult, Error> {
     // Under self-play a test's team 2 is the policy under test itself.
     let pool = if Opponent::parse(&cfg.opponent) == Ok(Opponent::SelfPlay) {
-        let shape = Shape::of(&VecEnv::new(Arc::clone(scenario), cfg.env_config(), &seeds[..1.min(seeds.len())], 1)?);
-        let pool = Arc::new(Pool::new(cfg, shape, &scenario.name, None));
+        let pool = Arc::new(Pool::new(cfg, team_shape(cfg, scenario)?, &scenario.name, None));
         pool.maybe_snapshot(nets, 0)?;
         Some(pool)
     } else {

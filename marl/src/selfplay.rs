@@ -78,12 +78,10 @@ impl Pool {
         Ok(true)
     }
 
-    /// Deletes the written snapshots a resume can no longer need: those older than
-    /// `oldest`, the oldest of the pool at a checkpoint already superseded, but the first
-    /// (the run's start, kept to compare against).
-    pub fn prune_files(&self, oldest: u64) -> Result<(), Error> {
-        let Some(dir) = &self.dir else { return Ok(()) };
-        let Ok(entries) = std::fs::read_dir(dir) else { return Ok(()) };
+    /// The snapshots written to the run's folder, by update count, oldest first (none
+    /// without a folder).
+    fn written(&self) -> Vec<(u64, PathBuf)> {
+        let Some(entries) = self.dir.as_ref().and_then(|d| std::fs::read_dir(d).ok()) else { return Vec::new() };
         let mut found: Vec<(u64, PathBuf)> = entries
             .filter_map(Result::ok)
             .filter_map(|e| {
@@ -92,7 +90,14 @@ impl Pool {
             })
             .collect();
         found.sort_by_key(|(u, _)| *u);
-        for (_, path) in found.into_iter().skip(1).filter(|(u, _)| *u < oldest) {
+        found
+    }
+
+    /// Deletes the written snapshots a resume can no longer need: those older than
+    /// `oldest`, the oldest of the pool at a checkpoint already superseded, but the first
+    /// (the run's start, kept to compare against).
+    pub fn prune_files(&self, oldest: u64) -> Result<(), Error> {
+        for (_, path) in self.written().into_iter().skip(1).filter(|(u, _)| *u < oldest) {
             std::fs::remove_dir_all(&path).map_err(|source| Error::Io { path, source })?;
         }
         Ok(())
@@ -100,17 +105,7 @@ impl Pool {
 
     /// A resumed run's pool: the snapshots written up to `updates`, the newest `max`.
     pub fn restore(&self, updates: u64) -> Result<(), Error> {
-        let Some(dir) = &self.dir else { return Ok(()) };
-        let Ok(entries) = std::fs::read_dir(dir) else { return Ok(()) };
-        let mut found: Vec<(u64, PathBuf)> = entries
-            .filter_map(Result::ok)
-            .filter_map(|e| {
-                let name = e.file_name().to_string_lossy().into_owned();
-                name.strip_prefix('u').and_then(|n| n.parse::<u64>().ok()).map(|u| (u, e.path()))
-            })
-            .filter(|(u, _)| *u <= updates)
-            .collect();
-        found.sort_by_key(|(u, _)| *u);
+        let mut found: Vec<(u64, PathBuf)> = self.written().into_iter().filter(|(u, _)| *u <= updates).collect();
         let keep = found.split_off(found.len().saturating_sub(self.max));
         let mut s = self.write()?;
         s.clear();
