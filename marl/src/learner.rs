@@ -31,6 +31,11 @@ pub struct UpdateStats {
     pub grad_norm: f64,
     pub td_abs: f64,
     pub q_taken: f64,
+    /// PPO only (the TensorBoard log's): the policy's entropy and surrogate loss, and the
+    /// critic's gradient norm before clipping.
+    pub entropy: Option<f64>,
+    pub policy_loss: Option<f64>,
+    pub critic_grad_norm: Option<f64>,
 }
 
 #[derive(Debug)]
@@ -151,7 +156,7 @@ impl Learner {
                 let Some(f) = &mut self.flat else { unreachable_flat()? };
                 let grad_norm = f.step(g.grad)?;
                 self.nets.set_flat(&f.theta)?;
-                UpdateStats { loss: g.loss, grad_norm, td_abs: g.td_abs, q_taken: g.q_taken }
+                UpdateStats { loss: g.loss, grad_norm, td_abs: g.td_abs, q_taken: g.q_taken, ..UpdateStats::default() }
             }
             (Some(_), false) => {
                 let (loss, td, chosen) = self.loss(batch)?;
@@ -164,7 +169,7 @@ impl Learner {
                 let td_abs = f64::from(td.abs()?.sum_all()?.to_scalar::<f32>()?) / n;
                 let fill = Tensor::from_slice(&batch.filled, (batch.t * batch.b, 1), chosen.device())?;
                 let q_taken = f64::from(chosen.broadcast_mul(&fill)?.sum_all()?.to_scalar::<f32>()?) / (n * self.shape.n_agents as f64);
-                UpdateStats { loss: loss_v, grad_norm, td_abs, q_taken }
+                UpdateStats { loss: loss_v, grad_norm, td_abs, q_taken, ..UpdateStats::default() }
             }
             (None, false) => unreachable_flat()?,
         };

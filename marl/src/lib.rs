@@ -56,6 +56,7 @@ pub mod resume;
 pub mod runlog;
 pub mod selfplay;
 pub mod td;
+pub mod tensorboard;
 pub mod train;
 
 pub use buffer::{Batch, Episode, ReplayBuffer, Shape};

@@ -9,6 +9,7 @@ use crate::plot::CurvePoint;
 use crate::policy::{Opponent, TestResult, test, vec_env_with};
 use crate::resume::RunState;
 use crate::selfplay::Pool;
+use crate::tensorboard::EventWriter;
 use crate::{Config, Error};
 use avacraft_engine::{Scenario, VecEnv};
 use std::io::Write;
@@ -62,12 +63,17 @@ pub(crate) struct Monitor<'a> {
     started: std::time::Instant,
     base: u64,
     csv: Option<(std::fs::File, PathBuf)>,
+    /// TensorBoard's event file, beside the CSV log.
+    tb: Option<EventWriter>,
+    /// The previous test round's step and elapsed seconds (the log's steps per second).
+    last_rate: (u64, f64),
     pub tests: Vec<TestResult>,
     pub curve: Vec<CurvePoint>,
     pub test_round: u64,
     last_test_t: u64,
     wins_since: u64,
     eps_since: u64,
+    return_since: f64,
     /// Seconds run before a resume.
     elapsed_before: f64,
     /// Episodes already played before a resume: the environments start past them.
@@ -101,6 +107,10 @@ impl<'a> Monitor<'a> {
             }
             None => None,
         };
+        let tb = match &opts.out {
+            Some(dir) => Some(EventWriter::create(dir)?),
+            None => None,
+        };
         let started = std::time::Instant::now();
         let base = opts.seed.wrapping_mul(1 << 20);
         let pool = match Opponent::parse(&cfg.opponent) {
@@ -116,12 +126,15 @@ impl<'a> Monitor<'a> {
             started,
             base,
             csv,
+            tb,
+            last_rate: (0, 0.0),
             tests: Vec::new(),
             curve: Vec::new(),
             test_round: 0,
             last_test_t: 0,
             wins_since: 0,
             eps_since: 0,
+            return_since: 0.0,
             elapsed_before: 0.0,
             seed_offset: 0,
             pool,
@@ -132,6 +145,7 @@ impl<'a> Monitor<'a> {
             m.tests.clone_from(&st.tests);
             m.curve.clone_from(&st.curve);
             (m.test_round, m.last_test_t, m.elapsed_before) = (st.test_round, st.t_env, st.elapsed_s);
+            m.last_rate = (st.t_env, st.elapsed_s);
             m.seed_offset = st.episodes + cfg.envs as u64;
         }
         Ok(m)
@@ -163,9 +177,11 @@ impl<'a> Monitor<'a> {
         Ok(())
     }
 
-    pub fn episode_end(&mut self, won: bool) {
+    /// A training episode ended, `won` or not, with this return.
+    pub fn episode_end(&mut self, won: bool, ret: f64) {
         self.eps_since += 1;
         self.wins_since += u64::from(won);
+        self.return_since += ret;
     }
 
     /// Called after every vector step: when a test is due (every `test_interval` steps, and
@@ -223,8 +239,16 @@ impl<'a> Monitor<'a> {
             .map_err(|source| Error::Io { path: path.clone(), source })?;
         }
         let train_win_rate = (self.eps_since > 0).then(|| self.wins_since as f64 / self.eps_since as f64);
+        if let Some(tb) = self.tb.as_mut() {
+            let train_return = if self.eps_since > 0 { self.return_since / self.eps_since as f64 } else { f64::NAN };
+            let (t0, e0) = self.last_rate;
+            let rate = if elapsed > e0 { (t_env - t0) as f64 / (elapsed - e0) } else { f64::NAN };
+            let row = Row { episodes, updates, eps, train_win_rate, train_return, steps_per_s: rate };
+            tb.scalars(t_env, &scalars(cfg, &row, last, &r, &self.fixed, &vs, &vs_return))?;
+        }
+        self.last_rate = (t_env, elapsed);
         self.curve.push(CurvePoint { t_env, test_win_rate: r.win_rate, train_win_rate, test_return: r.mean_return, loss: last.loss, vs });
-        (self.wins_since, self.eps_since) = (0, 0);
+        (self.wins_since, self.eps_since, self.return_since) = (0, 0, 0.0);
         if let Some(dir) = &self.opts.out {
             let title = format!("{} on {} (seed {})", cfg.algo, self.opts.scenario.name, self.opts.seed);
             crate::plot::curves(&dir.join("curves.png"), &title, &self.curve, &self.fixed)?;
@@ -236,4 +260,55 @@ impl<'a> Monitor<'a> {
         }
         Ok(true)
     }
+}
+
+/// A test round's counters, for [`scalars`].
+struct Row {
+    episodes: u64,
+    updates: u64,
+    eps: f64,
+    train_win_rate: Option<f64>,
+    train_return: f64,
+    steps_per_s: f64,
+}
+
+/// The TensorBoard scalars of a test round, grouped by tag prefix as TensorBoard shows them
+/// (`NaN`: not measured this round, left out).
+fn scalars(
+    cfg: &Config,
+    row: &Row,
+    last: &crate::UpdateStats,
+    r: &TestResult,
+    fixed: &[String],
+    vs: &[f64],
+    vs_return: &[f64],
+) -> Vec<(String, f64)> {
+    let ppo = last.entropy.is_some() || matches!(cfg.algo.as_str(), "ippo" | "mappo");
+    let mut out: Vec<(String, f64)> = vec![
+        ("test/win_rate".into(), r.win_rate),
+        ("test/return".into(), r.mean_return),
+        ("train/win_rate".into(), row.train_win_rate.unwrap_or(f64::NAN)),
+        ("train/return".into(), row.train_return),
+        ("train/episodes".into(), row.episodes as f64),
+        ("train/updates".into(), row.updates as f64),
+        ("loss/total".into(), last.loss),
+        ("grad_norm/agent".into(), last.grad_norm),
+        ("perf/steps_per_s".into(), row.steps_per_s),
+    ];
+    if ppo {
+        out.extend([
+            ("loss/policy".into(), last.policy_loss.unwrap_or(f64::NAN)),
+            ("loss/value".into(), last.td_abs),
+            ("train/entropy".into(), last.entropy.unwrap_or(f64::NAN)),
+            ("train/value_mean".into(), last.q_taken),
+            ("grad_norm/critic".into(), last.critic_grad_norm.unwrap_or(f64::NAN)),
+        ]);
+    } else {
+        out.extend([("train/epsilon".into(), row.eps), ("loss/td_abs".into(), last.td_abs), ("train/q_taken".into(), last.q_taken)]);
+    }
+    for ((o, w), ret) in fixed.iter().zip(vs).zip(vs_return) {
+        out.push((format!("test/win_rate_vs_{}", o.trim()), *w));
+        out.push((format!("test/return_vs_{}", o.trim()), *ret));
+    }
+    out
 }

@@ -146,10 +146,10 @@ fn train_q(
                     )
                 });
                 finished.close(&shape, last);
+                monitor.episode_end(b.info[i].battle_won, finished.reward.iter().map(|&r| f64::from(r)).sum());
                 buffer.insert(finished);
                 episodes += 1;
                 pending += 1;
-                monitor.episode_end(b.info[i].battle_won);
             }
         }
         actor.reset_envs(&done, a);

@@ -69,6 +69,8 @@ pub fn train_from(
     let mut keep = vec![0f32; rows];
     let mut roll = Rollout { rows, n_agents: a, ..Rollout::default() };
     let mut last_stats = UpdateStats::default();
+    // Each environment's return so far this episode (the log's training return).
+    let mut returns = vec![0f32; e];
     // Wall-clock per phase, for the summary only: nothing learned depends on it.
     let mut time = [Duration::ZERO; 5];
     while t_env < cfg.t_max {
@@ -101,12 +103,15 @@ pub fn train_from(
         let b = &env.buffers;
         let done: Vec<bool> = b.terminated.iter().zip(&b.truncated).map(|(t, u)| *t || *u).collect();
         roll.reward.extend_from_slice(&b.reward);
+        for (r, x) in returns.iter_mut().zip(&b.reward) {
+            *r += x;
+        }
         roll.done.extend(done.iter().map(|&d| if d { 1.0 } else { 0.0 }));
         roll.t += 1;
         for (i, &d) in done.iter().enumerate() {
             if d {
                 episodes += 1;
-                monitor.episode_end(b.info[i].battle_won);
+                monitor.episode_end(b.info[i].battle_won, f64::from(std::mem::take(&mut returns[i])));
             }
         }
         for (r, k) in keep.iter_mut().enumerate() {
@@ -130,7 +135,15 @@ pub fn train_from(
             let x_actor = if shared { act_inputs(&b.obs, &agents, &last, &shape, id, la) } else { Vec::new() };
             roll.values.extend(learner.values(&x_actor, &h_actor, &x_critic, &h_critic));
             let st = learner.update(&roll, &mut update_rng)?;
-            last_stats = UpdateStats { loss: st.loss, grad_norm: st.actor_grad_norm, td_abs: st.value_loss, q_taken: st.value_mean };
+            last_stats = UpdateStats {
+                loss: st.loss,
+                grad_norm: st.actor_grad_norm,
+                td_abs: st.value_loss,
+                q_taken: st.value_mean,
+                entropy: Some(st.entropy),
+                policy_loss: Some(st.policy_loss),
+                critic_grad_norm: Some(st.critic_grad_norm),
+            };
             roll.clear();
         }
         let t_update = clock.elapsed();

@@ -326,6 +326,10 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
     assert_eq!(log.lines().count(), 1 + summary.tests.len(), "{log}");
     let png = std::fs::read(dir.join("curves.png"))?;
     assert!(png.starts_with(b"\x89PNG") && png.len() > 10_000, "a drawn PNG, {} bytes", png.len());
+    common::check_tensorboard(
+        &dir,
+        &["test/win_rate", "train/epsilon", "loss/total", "loss/td_abs", "grad_norm/agent", "perf/steps_per_s"],
+    );
     // The same seed gives the same run.
     let (_, again) = train(&c, &RunOptions { out: None, ..opts.clone() }, &mut |_| {})?;
     assert_eq!((again.episodes, again.updates, again.last_loss), (summary.episodes, summary.updates, summary.last_loss));

@@ -367,6 +367,8 @@ fn short_ippo_and_mappo_runs_on_3m_train_checkpoint_reproduce_and_play() -> R {
         assert!(summary.last_loss.is_finite() && summary.tests.len() == 2 && summary.episodes > 0, "{algo}: {summary:?}");
         let log = std::fs::read_to_string(dir.join("log.csv"))?;
         assert_eq!(log.lines().count(), 3, "{log}");
+        let tags = ["test/return", "train/return", "train/entropy", "loss/policy", "loss/value", "grad_norm/agent", "grad_norm/critic"];
+        common::check_tensorboard(&dir, &tags);
         for f in ["agent.safetensors", "critic.safetensors", "config.json", "best/agent.safetensors"] {
             assert!(dir.join(f).is_file(), "{algo}: no {f}");
         }
