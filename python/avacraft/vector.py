@@ -5,6 +5,11 @@ the arrays after such a step hold the new episode's first observation, while `re
 `terminated`, `truncated` and the info arrays describe the step that ended the old one.
 The GIL is released while the environments step, and the results depend on the seed list
 only, never on the number of threads.
+
+This is Gymnasium's same-step autoreset (`metadata["autoreset_mode"]`, Gymnasium 1.1+): on a
+step that ended episodes, `info` also holds `final_obs`, `final_state` and `final_avail`
+(what they ended on, valid where `info["_final_obs"]` is true), which a learner bootstraps a
+time-out from.
 """
 
 from __future__ import annotations
@@ -17,11 +22,20 @@ from . import _options as opt
 from ._avacraft import AvacraftError
 from ._avacraft import VecEnv as _RawVecEnv
 
+try:  # Gymnasium 1.1+ names the autoreset modes; without it, the mode's name as a string.
+    from gymnasium.vector import AutoresetMode
+
+    _SAME_STEP: Any = AutoresetMode.SAME_STEP
+except ImportError:  # pragma: no cover - gymnasium is an optional dependency
+    _SAME_STEP = "SameStep"
+
 
 class VecEnv:
     """`VecEnv("3m", num_envs=64)` or `VecEnv("3m", seeds=[...])`; `threads=None` uses every
     core. Options are `StarCraft2Env`'s AVACraft options (dense reward and SMAC's passive
     allies by default, as `StarCraft2Env`)."""
+
+    metadata: dict[str, Any] = {"autoreset_mode": _SAME_STEP}
 
     def __init__(
         self,
@@ -84,10 +98,14 @@ class VecEnv:
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
         """`actions`: `E x A` integer indices. Returns `(obs, state, avail, reward, terminated,
         truncated, info)`, info holding arrays `battle_won`, `dead_allies`, `dead_enemies`,
-        `episode_limit` and `seed` (the episode each environment is in now)."""
+        `episode_limit` and `seed` (the episode each environment is in now), and when an
+        episode ended, `final_obs`, `final_state`, `final_avail` and the mask `_final_obs`."""
         self._raw.step(actions)
         b = self._raw.buffers()
         info = {k: b[k] for k in ("battle_won", "dead_allies", "dead_enemies", "episode_limit", "seed")}
+        if "final_obs" in b:
+            info.update({k: b[k] for k in ("final_obs", "final_state", "final_avail")})
+            info["_final_obs"] = b["terminated"] | b["truncated"]
         return b["obs"], b["state"], b["avail"], b["reward"], b["terminated"], b["truncated"], info
 
     def close(self) -> None:

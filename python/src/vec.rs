@@ -108,6 +108,13 @@ impl PyVecEnv {
         d.set_item("terminated", PyArray1::from_slice(py, &b.terminated))?;
         d.set_item("truncated", PyArray1::from_slice(py, &b.truncated))?;
         d.set_item("seed", PyArray1::from_slice(py, &b.seed))?;
+        // What each finished episode ended on (the automatic reset overwrote obs, state and
+        // avail); copied only on a step that ended one, as Gymnasium's same-step autoreset.
+        if b.terminated.iter().zip(&b.truncated).any(|(t, u)| *t || *u) {
+            d.set_item("final_obs", PyArray1::from_slice(py, &b.final_obs).reshape([e, a, o])?)?;
+            d.set_item("final_state", PyArray1::from_slice(py, &b.final_state).reshape([e, s])?)?;
+            d.set_item("final_avail", PyArray1::from_slice(py, &b.final_avail).reshape([e, a, n])?)?;
+        }
         let info = |f: fn(&avacraft_engine::StepInfo) -> u32| PyArray1::from_iter(py, b.info.iter().map(f));
         d.set_item("battle_won", info(|i| i.battle_won as u32).cast_array::<bool>(false)?)?;
         d.set_item("dead_allies", info(|i| i.dead_allies))?;

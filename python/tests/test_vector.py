@@ -46,16 +46,32 @@ def test_matches_single_environments():
     singles = [Env("3m", seed=s) for s in seeds]
     rng = np.random.default_rng(1)
     obs, state, avail = vec.reset()
-    for step in range(40):
+    ended = 0
+    for step in range(150):
         for i, e in enumerate(singles):
             assert np.array_equal(obs[i], e.obs()) and np.array_equal(state[i], e.state()) and np.array_equal(avail[i], e.avail())
         acts = np.stack([random_actions(a, rng) for a in avail])
         obs, state, avail, reward, term, trunc, info = vec.step(acts)
+        # Gymnasium's same-step autoreset: the final observation only on steps that ended one.
+        assert ("final_obs" in info) == bool((term | trunc).any())
         for i, e in enumerate(singles):
             r, _, t, tr, _ = e.step(acts[i])
             assert np.isclose(reward[i], r) and term[i] == t and trunc[i] == tr
             if t or tr:
+                ended += 1
+                assert info["_final_obs"][i]
+                assert np.array_equal(info["final_obs"][i], e.obs()) and np.array_equal(info["final_state"][i], e.state())
+                assert np.array_equal(info["final_avail"][i], e.avail())
                 e.reset(int(info["seed"][i]))
+            elif "final_obs" in info:
+                assert not info["_final_obs"][i]
+    assert ended > 0, "some episode should have ended"
+
+
+def test_declares_gymnasium_autoreset_mode():
+    from gymnasium.vector import AutoresetMode
+
+    assert VecEnv.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
 
 
 def test_errors():
