@@ -67,6 +67,8 @@ pub struct EpisodeArgs {
     pub json: bool,
     #[command(flatten)]
     pub ava: crate::ava::AvaArgs,
+    #[command(flatten)]
+    pub live: crate::live::LiveArgs,
 }
 
 /// One episode's result.
@@ -227,6 +229,19 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
     bar.set_style(ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} episodes ({eta})")?.progress_chars("=> "));
     bar.set_message(scenario.name.clone());
     let mut env = Env::new(Arc::clone(&scenario), cfg, seeds[0]);
+    let mut live = a.live.start("episode")?;
+    if let (Some(l), Some((run, _))) = (&live, &ava) {
+        // AVA's model calls go to the live log as they happen.
+        let log = l.logger();
+        run.observe(Box::new(move |rec, _| {
+            let name = format!("ava/team{}/{:?}", rec.team, rec.stage);
+            match (&rec.reply, &rec.error) {
+                (Some(r), _) => log.line(avacraft_live::Level::Info, &name, &format!("step {}: {}", rec.step, r.text)),
+                (None, Some(e)) => log.line(avacraft_live::Level::Error, &name, &format!("step {}: {e}", rec.step)),
+                (None, None) => {}
+            }
+        }));
+    }
     let mut records = Vec::new();
     let mut video = match &a.video {
         Some(path) => {
@@ -245,6 +260,9 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
     for (k, &seed) in seeds.iter().enumerate() {
         env.reset(seed);
         controllers.reset(&env);
+        if let Some(l) = live.as_mut() {
+            l.step(&env);
+        }
         while !env.done() {
             if k == 0
                 && let Some((writer, frames, cpu, w, h)) = video.as_mut()
@@ -261,6 +279,9 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
                 return Ok(());
             }
             env.step();
+            if let Some(l) = live.as_mut() {
+                l.step(&env);
+            }
         }
         if let Some(why) = ava.as_ref().and_then(|(run, _)| run.fatal()) {
             bail!("AVA stopped at episode seed {seed}: {why}");
@@ -287,6 +308,9 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
         bar.inc(1);
     }
     bar.finish_and_clear();
+    if let Some(l) = &live {
+        eprintln!("{}", l.summary());
+    }
     if let (Some((writer, ..)), Some(path)) = (video, &a.video) {
         let frames = writer.finish()?;
         eprintln!("{}: {} frames of the first episode", path.display(), frames);

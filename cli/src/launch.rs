@@ -33,6 +33,9 @@ pub struct LaunchArgs {
     /// Seconds to wait for every node to appear (and, on other hosts, for the simulator).
     #[arg(long, default_value_t = 60.0)]
     pub startup_timeout: f64,
+    /// `--foxglove`: the simulator node serves the live view (it holds the one game).
+    #[command(flatten)]
+    pub live: crate::live::LiveArgs,
 }
 
 /// A child process with its name, its log lines prefixed on our stderr.
@@ -195,6 +198,7 @@ pub fn launch(a: &LaunchArgs, out: &mut dyn Write) -> Result<()> {
         a.startup_timeout.to_string(),
     ];
     sim_args.extend(common);
+    sim_args.extend(a.live.args());
     let mut sim = Procs(vec![spawn("sim", &sim_args)?]);
     let status = loop {
         if shutdown.requested() {
@@ -217,6 +221,14 @@ pub fn launch(a: &LaunchArgs, out: &mut dyn Write) -> Result<()> {
     let text = std::fs::read_to_string(&result).with_context(|| format!("launch: reading the results {}", result.display()))?;
     let _ = std::fs::remove_file(&result);
     let summaries: Vec<EpisodeSummary> = serde_json::from_str(&text).context("launch: the simulator node's results")?;
+    if let Some(path) = &plan.record {
+        // The live view's channels beside the ROS 2 topics; the recording as closed stays
+        // if this fails.
+        match crate::live_mcap::add_live_channels(path) {
+            Ok(n) => tracing::info!(episodes = n.episodes, messages = n.messages, "{}: Foxglove channels added", path.display()),
+            Err(e) => tracing::warn!("{}: the Foxglove channels were not added: {e:#}", path.display()),
+        }
+    }
     if a.json {
         writeln!(out, "{}", serde_json::to_string_pretty(&summaries)?)?;
         return Ok(());

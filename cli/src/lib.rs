@@ -19,6 +19,8 @@ mod eval;
 mod flags;
 mod human;
 mod launch;
+mod live;
+mod live_mcap;
 mod probe;
 mod record;
 mod render;
@@ -29,6 +31,7 @@ mod train;
 
 pub use bench::{BenchRow, RenderRow, ScalingRow};
 pub use episode::{EpisodeRecord, Report, Summary};
+pub use live_mcap::{Added, RECORDED_VIEW, add_live_channels};
 pub use probe::ProbeReport;
 pub use replay::{
     FrameSink, Mismatch, RecordedEpisode, Recording, ReplayError, ReplayResult, read_recording, replay_episode, replay_recording,

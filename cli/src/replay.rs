@@ -23,6 +23,10 @@ pub struct ReplayArgs {
     /// Render the first replayed episode (team 1's annotated view) to this GIF.
     #[arg(long)]
     pub video: Option<PathBuf>,
+    /// `--foxglove`: every replayed episode is shown live as it is re-simulated, at
+    /// `--foxglove-speed`.
+    #[command(flatten)]
+    pub live: crate::live::LiveArgs,
 }
 
 /// Why a recording cannot be replayed at all.
@@ -70,6 +74,9 @@ pub struct RecordedEpisode {
     pub seed: u64,
     pub statuses: BTreeMap<u32, EpisodeStatus>,
     pub applied: BTreeMap<u32, ActionBatch>,
+    /// When each step's status was recorded (its MCAP log time, nanoseconds): where the
+    /// live view's channels are put when a recording gets them.
+    pub status_times: BTreeMap<u32, u64>,
 }
 
 /// What a recording holds for replay.
@@ -173,6 +180,7 @@ pub fn read_recording(bytes: &[u8]) -> Result<Recording, ReplayError> {
     let mut sessions: BTreeMap<u64, SessionInfo> = BTreeMap::new();
     let mut statuses: BTreeMap<u64, BTreeMap<u32, EpisodeStatus>> = BTreeMap::new();
     let mut applied: BTreeMap<u64, BTreeMap<u32, ActionBatch>> = BTreeMap::new();
+    let mut times: BTreeMap<u64, BTreeMap<u32, u64>> = BTreeMap::new();
     let (mut read, mut truncated) = (0u64, None);
     for m in stream {
         let m = match m {
@@ -215,6 +223,7 @@ pub fn read_recording(bytes: &[u8]) -> Result<Recording, ReplayError> {
             Some(Kind::Status) => {
                 let s: EpisodeStatus = decoded(&m)?;
                 let (episode, step) = (s.episode, s.step);
+                times.entry(episode).or_default().entry(step).or_insert(m.log_time);
                 match statuses.entry(episode).or_default().entry(step) {
                     std::collections::btree_map::Entry::Vacant(v) => {
                         v.insert(s);
@@ -257,7 +266,8 @@ pub fn read_recording(bytes: &[u8]) -> Result<Recording, ReplayError> {
         };
         let seed = st.values().next().map_or(0, |s| s.seed);
         let applied = applied.remove(&episode).unwrap_or_default();
-        episodes.insert(episode, RecordedEpisode { session, seed, statuses: st, applied });
+        let status_times = times.remove(&episode).unwrap_or_default();
+        episodes.insert(episode, RecordedEpisode { session, seed, statuses: st, applied, status_times });
     }
     if episodes.is_empty() {
         let all: Vec<String> = skipped.iter().map(|(e, why)| format!("episode {e}: {why}")).collect();
@@ -373,15 +383,28 @@ pub fn run(a: &ReplayArgs, out: &mut dyn Write) -> Result<()> {
         }
         None => None,
     };
-    let mut sink = |env: &Env| -> Result<()> {
-        if let Some((w, fb, cpu)) = video.as_mut() {
-            w.push(&cpu.render(&fb.vlm(env.world(), Team::One, 640, 480, &avacraft_render::VlmOptions::default())))?;
-        }
-        Ok(())
-    };
-    let results = replay_recording(&rec, Some(&mut sink)).with_context(|| format!("replay: {file}"))?;
+    let mut live = a.live.start("replay")?;
+    let mut results = Vec::new();
+    for (k, (&episode, ep)) in rec.episodes.iter().enumerate() {
+        let watched = k == 0 || live.is_some();
+        let mut sink = |env: &Env| -> Result<()> {
+            if k == 0
+                && let Some((w, fb, cpu)) = video.as_mut()
+            {
+                w.push(&cpu.render(&fb.vlm(env.world(), Team::One, 640, 480, &avacraft_render::VlmOptions::default())))?;
+            }
+            if let Some(l) = live.as_mut() {
+                l.step(env);
+            }
+            Ok(())
+        };
+        results.push(replay_episode(episode, ep, if watched { Some(&mut sink) } else { None }).with_context(|| format!("replay: {file}"))?);
+    }
     if let Some((w, ..)) = video {
         w.finish()?;
+    }
+    if let Some(l) = &live {
+        eprintln!("{}", l.summary());
     }
     let mut bad = 0;
     for r in &results {

@@ -23,6 +23,8 @@ pub struct SimNodeArgs {
     /// Seconds to wait for every agent node to appear.
     #[arg(long, default_value_t = 30.0)]
     pub startup_timeout: f64,
+    #[command(flatten)]
+    pub live: crate::live::LiveArgs,
 }
 
 fn sim_config(plan: &Plan, startup: Duration) -> SimConfig {
@@ -64,7 +66,17 @@ pub fn sim_node(a: &SimNodeArgs, out: &mut dyn Write) -> Result<()> {
     }
     let topics = Topics::new(&a.node.namespace)?;
     let node = Node::open(&a.node, &a.node.namespace, &NodeName::sim()).context("sim-node: opening the Zenoh session")?;
-    let summaries = avacraft_sim_node::run(&node, &topics, &sim_config(&plan, Duration::from_secs_f64(a.startup_timeout)), &shutdown)?;
+    let mut live = a.live.start("launch")?;
+    let mut watch = |env: &avacraft_engine::Env| {
+        if let Some(l) = live.as_mut() {
+            l.step(env);
+        }
+    };
+    let cfg = sim_config(&plan, Duration::from_secs_f64(a.startup_timeout));
+    let summaries = avacraft_sim_node::run_watched(&node, &topics, &cfg, &shutdown, &mut watch)?;
+    if let Some(l) = &live {
+        eprintln!("{}", l.summary());
+    }
     let json = serde_json::to_string(&summaries)?;
     if let Some(p) = &a.result_file {
         std::fs::write(p, &json).with_context(|| format!("sim-node: writing {}", p.display()))?;

@@ -7,6 +7,7 @@ mod common;
 mod deploy;
 mod docs;
 mod eval;
+mod foxglove;
 mod hosts;
 mod human;
 mod replay;

@@ -83,6 +83,18 @@ pub fn result_code(o: Option<Outcome>) -> u8 {
 
 /// Runs every episode of `cfg`; returns their summaries.
 pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -> Result<Vec<EpisodeSummary>, SimError> {
+    run_watched(node, topics, cfg, shutdown, &mut |_| {})
+}
+
+/// [`run`], showing the environment to `watch` at every step (after the step's
+/// observations are out) and at each episode's end: the live view (`--foxglove`).
+pub fn run_watched(
+    node: &Node,
+    topics: &Topics,
+    cfg: &SimConfig,
+    shutdown: &Shutdown,
+    watch: &mut dyn FnMut(&Env),
+) -> Result<Vec<EpisodeSummary>, SimError> {
     let mut env = Env::new(Arc::clone(&cfg.scenario), cfg.env.clone(), cfg.seeds.first().copied().unwrap_or(1));
     let teams: Vec<Team> = Team::BOTH.into_iter().filter(|t| env.is_agent_team(*t)).collect();
     let reliable = Qos::Reliable { depth: 10 };
@@ -132,6 +144,7 @@ pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -
             publish_step(&env, &teams, episode, &mut unit_pubs, &mut team_pubs)?;
             frames.publish(&env)?;
             status_pub.put(&status(&env, cfg, episode, seed, &counts))?;
+            watch(&env);
             let mut wait = Wait { cfg, topics, owners: &owners, command: &mut command, orders: &mut orders, episode, shutdown, started };
             let applied = collect_actions(&mut env, &teams, &actions, &mut wait, &mut counts)?;
             trips.push(t0.elapsed().as_micros() as u64);
@@ -157,6 +170,7 @@ pub fn run(node: &Node, topics: &Topics, cfg: &SimConfig, shutdown: &Shutdown) -
         // Final observations (units see the end) and the final status.
         publish_step(&env, &teams, episode, &mut unit_pubs, &mut team_pubs)?;
         status_pub.put(&status(&env, cfg, episode, seed, &counts))?;
+        watch(&env);
         let refused = env.refused();
         let s = EpisodeSummary {
             episode,

@@ -1,0 +1,91 @@
+//! The live view's channels in a recording: once a session's MCAP is closed, every
+//! recorded episode is re-simulated from the file (as `replay` does) and the live view's
+//! messages are added beside the ROS 2 topics, each at the log time of the step's recorded
+//! status, so Foxglove or Lichtblick shows a recording with the same layout as a live run.
+//!
+//! The file is rewritten through a temporary file and renamed over the original only when
+//! complete: whatever goes wrong, the recording as the recorder closed it stays.
+
+use crate::replay::{read_recording, replay_episode};
+use anyhow::{Context, Result, bail};
+use avacraft_engine::Env;
+use avacraft_live::{Framer, LiveChannel, ViewSize};
+use std::collections::BTreeMap;
+use std::io::BufWriter;
+use std::path::Path;
+
+/// The images recordings carry: a quarter of the live view's pixels, as every step of
+/// every episode is kept.
+pub const RECORDED_VIEW: ViewSize = ViewSize { screen: (320, 240), minimap: 128 };
+
+/// What was added.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Added {
+    pub episodes: usize,
+    pub messages: u64,
+}
+
+/// Adds the live view's channels to the recording at `path` (see the module's docs).
+pub fn add_live_channels(path: &Path) -> Result<Added> {
+    let shown = path.display();
+    let bytes = std::fs::read(path).with_context(|| format!("reading {shown}"))?;
+    if mcap::MessageStream::new(&bytes)?.filter_map(Result::ok).any(|m| LiveChannel::from_topic(&m.channel.topic).is_some()) {
+        bail!("{shown} already has the live view's channels");
+    }
+    let rec = read_recording(&bytes).with_context(|| format!("{shown}: not a replayable session"))?;
+    let tmp = path.with_extension("mcap.live-tmp");
+    let result = write(&bytes, &rec, &tmp);
+    match result {
+        Ok(added) => {
+            std::fs::rename(&tmp, path).with_context(|| format!("replacing {shown}"))?;
+            Ok(added)
+        }
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            Err(e)
+        }
+    }
+}
+
+fn write(bytes: &[u8], rec: &crate::replay::Recording, out: &Path) -> Result<Added> {
+    let file = std::fs::File::create(out).with_context(|| format!("creating {}", out.display()))?;
+    let opts = mcap::WriteOptions::new().profile("ros2").compression(Some(mcap::Compression::Zstd)).chunk_size(Some(1 << 20));
+    let mut w = opts.create(BufWriter::new(file))?;
+    for m in mcap::MessageStream::new(bytes)? {
+        w.write(&m?)?;
+    }
+    let mut ids = BTreeMap::new();
+    for c in LiveChannel::ALL {
+        let (name, encoding, data) = c.schema();
+        let schema = w.add_schema(&name, &encoding, &data)?;
+        ids.insert(c, w.add_channel(schema, c.topic(), &c.encoding(), &BTreeMap::new())?);
+    }
+    let mut framer = Framer::new(RECORDED_VIEW);
+    let mut added = Added::default();
+    let mut seq = 0u32;
+    for (&episode, ep) in &rec.episodes {
+        let mut last_t = ep.status_times.values().next().copied().unwrap_or(0);
+        let mut failed = None;
+        let mut sink = |env: &Env| -> Result<()> {
+            // A step's frames go where its status was recorded (or just after the last one).
+            let t = ep.status_times.get(&env.steps()).copied().unwrap_or(last_t + 1).max(last_t);
+            last_t = t;
+            for (ch, _, data) in framer.frame(env, &|_| true) {
+                seq = seq.wrapping_add(1);
+                let header = mcap::records::MessageHeader { channel_id: ids[&ch], sequence: seq, log_time: t, publish_time: t };
+                if let Err(e) = w.write_to_known_channel(&header, &data) {
+                    failed.get_or_insert(e);
+                }
+                added.messages += 1;
+            }
+            Ok(())
+        };
+        replay_episode(episode, ep, Some(&mut sink))?;
+        if let Some(e) = failed {
+            return Err(e.into());
+        }
+        added.episodes += 1;
+    }
+    w.finish()?;
+    Ok(added)
+}
