@@ -130,7 +130,12 @@ fn report(dir: &Path, out: &mut dyn Write, print: bool) -> Result<()> {
         writeln!(out, "skipped an unreadable result line: {why}")?;
     }
     let r = Report::build(meta, &loaded);
-    let files = r.write(dir)?;
+    let mut files = r.write(dir)?;
+    // The episodes in marl-eval's raw-data format, for its aggregation and plots.
+    let me = dir.join("marl_eval.json");
+    std::fs::write(&me, serde_json::to_string_pretty(&avacraft_eval::marl_eval_json(&loaded))?)
+        .with_context(|| format!("writing {}", me.display()))?;
+    files.push(me);
     if print {
         writeln!(out, "{}", r.markdown())?;
     }

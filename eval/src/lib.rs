@@ -6,6 +6,7 @@
 #![forbid(unsafe_code)]
 
 pub mod human;
+mod marl_eval;
 mod meta;
 mod plan;
 mod plan_file;
@@ -16,6 +17,7 @@ mod run;
 mod stats;
 mod train_plan;
 
+pub use marl_eval::{MARL_EVAL_METRICS, marl_eval_json};
 pub use meta::{META_FILE, Meta, check_shards, read_meta, write_meta};
 pub use plan::{AgentDef, AgentKind, Cell, CellKey, CurveDef, Job, Plan, PlanError, Shard};
 pub use plan_file::{load, parse};

@@ -26,15 +26,16 @@ impl LiveChannel {
     pub const ALL: [LiveChannel; 6] =
         [LiveChannel::Screen, LiveChannel::Minimap, LiveChannel::Scene, LiveChannel::Annotations, LiveChannel::Log, LiveChannel::Status];
 
-    /// The channel's topic name (also its MCAP topic).
+    /// The channel's topic name (also its MCAP topic). The last parts differ from every ROS 2
+    /// topic's (`avacraft_nodes::Topics`), so no reader of recordings takes one for the other.
     pub fn topic(self) -> &'static str {
         match self {
-            LiveChannel::Screen => "/avacraft/live/screen",
-            LiveChannel::Minimap => "/avacraft/live/minimap",
-            LiveChannel::Scene => "/avacraft/live/scene",
-            LiveChannel::Annotations => "/avacraft/live/annotations",
-            LiveChannel::Log => "/avacraft/live/log",
-            LiveChannel::Status => "/avacraft/live/status",
+            LiveChannel::Screen => "/avacraft/live/screen_image",
+            LiveChannel::Minimap => "/avacraft/live/minimap_image",
+            LiveChannel::Scene => "/avacraft/live/scene_update",
+            LiveChannel::Annotations => "/avacraft/live/screen_annotations",
+            LiveChannel::Log => "/avacraft/live/log_lines",
+            LiveChannel::Status => "/avacraft/live/episode_status",
         }
     }
 

@@ -227,6 +227,8 @@ fn accept_loop(listener: &TcpListener, shared: &Arc<Shared>) {
 
 /// The handshake: the client must offer [`SUBPROTOCOL`].
 fn handshake(stream: TcpStream, addr: SocketAddr) -> Option<WebSocket<TcpStream>> {
+    // The error type is tungstenite's callback signature, not ours to shrink.
+    #[allow(clippy::result_large_err)]
     let pick = |req: &Request, mut resp: Response| {
         let offered = req.headers().get_all("sec-websocket-protocol").iter().filter_map(|h| h.to_str().ok()).flat_map(|h| h.split(','));
         if offered.map(str::trim).any(|p| p == SUBPROTOCOL) {

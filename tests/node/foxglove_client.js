@@ -25,7 +25,7 @@ client.on("serverInfo", (info) => {
 });
 client.on("advertise", (channels) => {
   // Status last: the server starts playing once it is watched.
-  const order = [...channels].sort((a, b) => (a.topic.endsWith("/status") ? 1 : 0) - (b.topic.endsWith("/status") ? 1 : 0));
+  const order = [...channels].sort((a, b) => (a.topic.endsWith("/episode_status") ? 1 : 0) - (b.topic.endsWith("/episode_status") ? 1 : 0));
   for (const ch of order) {
     out.channels.push(ch.topic);
     let type = null;
@@ -41,14 +41,14 @@ client.on("message", ({ subscriptionId, timestamp, data }) => {
   if (!sub) fail(`message for unknown subscription ${subscriptionId}`);
   const bytes = new Uint8Array(data.buffer, data.byteOffset, data.byteLength);
   const topic = sub.ch.topic;
-  if (topic.endsWith("/screen") && !out.image) {
+  if (topic.endsWith("/screen_image") && !out.image) {
     const m = sub.type.decode(bytes);
     out.image = { schema: sub.ch.schemaName, width: m.width, height: m.height, encoding: m.encoding, step: m.step, bytes: m.data.length, timestamp: String(timestamp) };
-  } else if (topic.endsWith("/scene") && !out.scene) {
+  } else if (topic.endsWith("/scene_update") && !out.scene) {
     const m = sub.type.decode(bytes);
     const e = m.entities[0];
     out.scene = { schema: sub.ch.schemaName, entities: m.entities.length, frame: e && e.frameId, id: e && e.id, cylinders: e ? e.cylinders.length : 0, label: e && e.texts[0] && e.texts[0].text };
-  } else if (topic.endsWith("/status") && !out.status) {
+  } else if (topic.endsWith("/episode_status") && !out.status) {
     out.status = JSON.parse(Buffer.from(bytes).toString("utf8"));
   }
   if (out.image && out.scene && out.status) {

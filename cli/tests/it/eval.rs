@@ -107,6 +107,14 @@ fn a_plan_plays_reports_resumes_and_shards_into_the_same_results() {
     assert!(ava.calls_per_decision >= 1.0 && ava.decisions_per_episode > 0.0, "{ava:?}");
     let csv = std::fs::read_to_string(out.join("report.csv")).expect("csv");
     assert_eq!(csv.lines().count(), 1 + report.cells.len());
+    // marl-eval's raw data: the same cells, the wins per episode.
+    let me: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("marl_eval.json")).expect("marl_eval.json")).expect("json");
+    let ff_runs = &me["avacraft"]["3m"]["focus-fire vs opponent:default"]["run_1"];
+    let wins = ff_runs["absolute_metrics"]["win_rate"].as_array().expect("win_rate");
+    assert_eq!(wins.len(), 3);
+    assert_eq!(wins.iter().filter_map(serde_json::Value::as_f64).sum::<f64>() as usize, ff.wins);
+    assert_eq!(ff_runs["step_1"]["step_count"], 0);
     // The episodes equal what `episode` plays in-process for the same agent and seed.
     let one = Command::new(exe())
         .args(["episode", "--scenario", "3m", "--agent", "focus-fire", "--seed", "2", "--json"])

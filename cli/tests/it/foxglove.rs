@@ -51,7 +51,7 @@ fn foxglove_s_own_client_watches_a_live_episode() {
     let seen: serde_json::Value = serde_json::from_slice(&client.stdout).expect("the client's JSON");
     assert_eq!(seen["serverInfo"], "avacraft episode");
     let topics: Vec<&str> = seen["channels"].as_array().expect("channels").iter().filter_map(|t| t.as_str()).collect();
-    for t in ["screen", "minimap", "scene", "annotations", "log", "status"] {
+    for t in ["screen_image", "minimap_image", "scene_update", "screen_annotations", "log_lines", "episode_status"] {
         assert!(topics.contains(&format!("/avacraft/live/{t}").as_str()), "{t} not advertised: {topics:?}");
     }
     let img = &seen["image"];
@@ -84,7 +84,7 @@ fn foxglove_flags_are_checked() {
     let bad = run(&["--foxglove", "localhost"]);
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("--foxglove"), "{}", String::from_utf8_lossy(&bad.stderr));
-    let bad = run(&["--foxglove", "127.0.0.1:0", "--foxglove-speed", "-1"]);
+    let bad = run(&["--foxglove", "127.0.0.1:0", "--foxglove-speed=-1"]);
     assert!(String::from_utf8_lossy(&bad.stderr).contains("--foxglove-speed -1"), "{}", String::from_utf8_lossy(&bad.stderr));
     let bad = run(&["--foxglove-speed", "2"]);
     assert!(!bad.status.success(), "--foxglove-speed needs --foxglove");

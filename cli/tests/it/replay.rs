@@ -147,3 +147,43 @@ pub fn check_recording(mcap: &Path) {
     let (ok, text) = replay_cli(&copy, &[]);
     assert!(!ok && text.contains("not an MCAP file"), "{text}");
 }
+
+/// The live view's channels a launch adds to its recording: each with Foxglove's schema,
+/// one screen, scene and status per re-simulated step, at the log time of that step's
+/// recorded status, and decodable.
+pub fn check_live_channels(bytes: &[u8]) {
+    use avacraft_live::LiveChannel;
+    use foxglove::Decode;
+    let summary = mcap::Summary::read(bytes).expect("summary").expect("summary present");
+    for c in LiveChannel::ALL {
+        let ch = summary.channels.values().find(|ch| ch.topic == c.topic()).unwrap_or_else(|| panic!("{} not recorded", c.topic()));
+        let (name, encoding, _) = c.schema();
+        let s = ch.schema.as_ref().expect("a schema");
+        assert_eq!((s.name.as_str(), s.encoding.as_str(), ch.message_encoding.clone()), (name.as_str(), encoding.as_str(), c.encoding()));
+    }
+    let rec = read_recording(bytes).expect("readable");
+    let steps: usize = replay_recording(&rec, None).expect("replays").iter().map(|r| r.steps as usize).sum();
+    let status_times: std::collections::BTreeSet<u64> = rec.episodes.values().flat_map(|e| e.status_times.values().copied()).collect();
+    let msgs: Vec<_> = mcap::MessageStream::new(bytes).expect("stream").filter_map(Result::ok).collect();
+    let on = |c: LiveChannel| msgs.iter().filter(move |m| m.channel.topic == c.topic());
+    for c in [LiveChannel::Screen, LiveChannel::Scene, LiveChannel::Status] {
+        assert_eq!(on(c).count(), steps, "{}: one message per re-simulated step", c.topic());
+        assert!(on(c).all(|m| status_times.contains(&m.log_time)), "{}: at the recorded steps' times", c.topic());
+    }
+    let img = foxglove::schemas::RawImage::decode(&on(LiveChannel::Screen).next().expect("a screen").data[..]).expect("a RawImage");
+    let (w, h) = avacraft_cli::RECORDED_VIEW.screen;
+    assert_eq!((img.width, img.height, img.encoding.as_str(), img.data.len() as u32), (w, h, "rgb8", w * h * 3));
+    let scene = foxglove::schemas::SceneUpdate::decode(&on(LiveChannel::Scene).next().expect("a scene").data[..]).expect("a SceneUpdate");
+    assert!(!scene.entities.is_empty());
+    // Adding them again is refused, and the file stays as it was.
+    let copy = tmp("live_twice.mcap");
+    std::fs::write(&copy, bytes).expect("copy");
+    let again = avacraft_cli::add_live_channels(&copy).expect_err("refused");
+    assert!(format!("{again:#}").contains("already has the live view's channels"), "{again:#}");
+    assert_eq!(std::fs::read(&copy).expect("still there"), bytes);
+    // So is a file that is not a session, unchanged too.
+    let not = tmp("not_a_session.mcap");
+    std::fs::write(&not, b"not an mcap file").expect("write");
+    assert!(avacraft_cli::add_live_channels(&not).is_err());
+    assert_eq!(std::fs::read(&not).expect("still there"), b"not an mcap file");
+}
