@@ -408,6 +408,18 @@ mod tests {
         Ok(a.channels.iter().map(|c| (c.id, c.topic.to_string())).collect())
     }
 
+    /// Reads until the server's close frame (what it says why).
+    fn close_frame(ws: &mut WebSocket<tungstenite::stream::MaybeTlsStream<TcpStream>>) -> Result<CloseFrame, Box<dyn std::error::Error>> {
+        loop {
+            match ws.read() {
+                Ok(Message::Close(Some(f))) => return Ok(f),
+                Ok(Message::Close(None)) => return Err("a close frame without a reason".into()),
+                Ok(_) => {}
+                Err(e) => return Err(format!("no close frame: {e}").into()),
+            }
+        }
+    }
+
     #[test]
     fn a_client_without_the_subprotocol_is_refused() -> R {
         let s = server(8)?;
@@ -445,27 +457,14 @@ mod tests {
         let mut ws = connect(&s, Some(SUBPROTOCOL))?;
         greeting(&mut ws)?;
         ws.send(Message::text("hello, server"))?;
-        let why = loop {
-            match ws.read() {
-                Ok(Message::Close(Some(f))) => break f,
-                Ok(_) => {}
-                Err(e) => return Err(format!("no close frame: {e}").into()),
-            }
-        };
+        let why = close_frame(&mut ws)?;
         assert_eq!(why.code, CloseCode::Policy);
         assert!(why.reason.contains("invalid message") && why.reason.contains("hello, server"), "{}", why.reason);
         // And a subscription to a channel that does not exist.
         let mut ws = connect(&s, Some(SUBPROTOCOL))?;
         greeting(&mut ws)?;
         ws.send(Message::text(Subscribe::new([Subscription { id: 1, channel_id: 999 }]).to_string()))?;
-        let closed = loop {
-            match ws.read() {
-                Ok(Message::Close(f)) => break f,
-                Ok(_) => {}
-                Err(e) => return Err(format!("no close frame: {e}").into()),
-            }
-        };
-        assert!(closed.is_some_and(|f| f.reason.contains("no channel 999")));
+        assert!(close_frame(&mut ws)?.reason.contains("no channel 999"));
         let end = Instant::now() + Duration::from_secs(10);
         while s.stats().refused < 2 && Instant::now() < end {
             std::thread::sleep(Duration::from_millis(10));

@@ -89,3 +89,62 @@ fn foxglove_flags_are_checked() {
     let bad = run(&["--foxglove-speed", "2"]);
     assert!(!bad.status.success(), "--foxglove-speed needs --foxglove");
 }
+
+/// `launch` with `record:` and `--foxglove`, then `replay --foxglove` of its recording: a
+/// WebSocket client (tungstenite, speaking the protocol by hand) subscribes to the status
+/// channel of each and counts one status per step of the episode.
+#[test]
+fn launch_and_replay_serve_the_live_view() {
+    use tungstenite::Message;
+    use tungstenite::client::IntoClientRequest;
+    let body = format!(
+        "router: tcp/127.0.0.1:{}\nscenario: 3m\nclock: lockstep\nepisodes: 1\nseed: 9\nrecord: fox.mcap\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n",
+        crate::common::free_port()
+    );
+    let file = crate::common::write_launch("fox.yaml", &body);
+    let mcap = file.with_file_name("fox.mcap");
+    // Watches a run started with `--foxglove 127.0.0.1:0 --foxglove-wait 60`: the statuses'
+    // steps until the run closes the connection.
+    let watch = |args: &[&str]| -> (Vec<u64>, std::process::Output) {
+        let mut run = Command::new(exe())
+            .args(args)
+            .args(["--foxglove", "127.0.0.1:0", "--foxglove-wait", "60", "--foxglove-speed", "0"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("starts");
+        let mut lines = BufReader::new(run.stderr.take().expect("stderr")).lines();
+        let url = loop {
+            let line = lines.next().expect("it says where it serves").expect("a line");
+            if let Some(at) = line.find("ws://") {
+                break line[at..].split_whitespace().next().expect("a URL").to_owned();
+            }
+        };
+        let rest = std::thread::spawn(move || lines.map_while(Result::ok).collect::<Vec<_>>());
+        let mut req = url.into_client_request().expect("a request");
+        req.headers_mut().insert("sec-websocket-protocol", avacraft_live::SUBPROTOCOL.parse().expect("a header"));
+        let (mut ws, _) = tungstenite::connect(req).expect("connects");
+        let (_info, _adv) = (ws.read().expect("serverInfo"), ws.read().expect("advertise"));
+        let id = avacraft_live::LiveChannel::Status.id();
+        ws.send(Message::text(format!(r#"{{"op":"subscribe","subscriptions":[{{"id":3,"channelId":{id}}}]}}"#))).expect("subscribe");
+        let mut steps = Vec::new();
+        while let Ok(m) = ws.read() {
+            if let Message::Binary(b) = m {
+                let st: serde_json::Value = serde_json::from_slice(&b[13..]).expect("status JSON");
+                steps.push(st["step"].as_u64().expect("a step"));
+            }
+        }
+        let out = run.wait_with_output().expect("ends");
+        assert!(out.status.success(), "{args:?}: {}", rest.join().unwrap_or_default().join("\n"));
+        (steps, out)
+    };
+    let (live, out) = watch(&["launch", "--json", file.to_str().expect("utf-8")]);
+    let eps: serde_json::Value = serde_json::from_slice(&out.stdout).expect("launch JSON");
+    let n = eps[0]["steps"].as_u64().expect("steps");
+    // The simulator node shows each step before its actions, and the end.
+    assert_eq!(live.first(), Some(&0));
+    assert_eq!(live.last(), Some(&n), "{live:?}");
+    assert!(mcap.is_file());
+    let (replayed, _) = watch(&["replay", mcap.to_str().expect("utf-8")]);
+    assert_eq!(replayed, (1..=n).collect::<Vec<_>>(), "one status per re-simulated step");
+}
