@@ -307,6 +307,21 @@ fn would_block(e: &tungstenite::Error) -> bool {
 fn client_loop(ws: &mut WebSocket<TcpStream>, rx: &Receiver<Vec<u8>>, subs: &Mutex<BTreeMap<u64, u32>>, shared: &Shared) -> End {
     loop {
         if shared.stop.load(Ordering::Relaxed) {
+            // What was published before the stop still goes out (for up to a second).
+            let end = Instant::now() + Duration::from_secs(1);
+            while Instant::now() < end {
+                match ws.flush() {
+                    Ok(()) => {
+                        let Ok(bytes) = rx.try_recv() else { break };
+                        if ws.write(Message::binary(bytes)).is_err_and(|e| !would_block(&e)) {
+                            break;
+                        }
+                        shared.counters.sent.fetch_add(1, Ordering::Relaxed);
+                    }
+                    Err(e) if would_block(&e) => {}
+                    Err(_) => break,
+                }
+            }
             return End::Stopped;
         }
         // Out: only once the socket took everything queued before, so that a slow reader's
@@ -448,6 +463,25 @@ mod tests {
         assert_eq!(u32::from_le_bytes([b[1], b[2], b[3], b[4]]), 7);
         assert_eq!(u64::from_le_bytes(b[5..13].try_into()?), 42);
         assert_eq!(&b[13..], b"{\"step\":1}");
+        Ok(())
+    }
+
+    #[test]
+    fn what_was_published_before_the_server_stops_still_arrives() -> R {
+        let s = server(64)?;
+        let mut ws = connect(&s, Some(SUBPROTOCOL))?;
+        greeting(&mut ws)?;
+        ws.send(Message::text(Subscribe::new([Subscription { id: 2, channel_id: LiveChannel::Status.id() }]).to_string()))?;
+        assert!(s.wait_for(LiveChannel::Status, Duration::from_secs(10)));
+        for t in 0..50 {
+            s.publish(LiveChannel::Status, t, b"{}");
+        }
+        drop(s);
+        let mut got = 0;
+        while let Ok(m) = ws.read() {
+            got += usize::from(m.is_binary());
+        }
+        assert_eq!(got, 50);
         Ok(())
     }
 
