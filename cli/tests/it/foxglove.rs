@@ -97,12 +97,13 @@ fn foxglove_flags_are_checked() {
 fn launch_and_replay_serve_the_live_view() {
     use tungstenite::Message;
     use tungstenite::client::IntoClientRequest;
+    let mcap = crate::common::tmp("fox.mcap");
     let body = format!(
-        "router: tcp/127.0.0.1:{}\nscenario: 3m\nclock: lockstep\nepisodes: 1\nseed: 9\nrecord: fox.mcap\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n",
-        crate::common::free_port()
+        "router: tcp/127.0.0.1:{}\nscenario: 3m\nclock: lockstep\nepisodes: 1\nseed: 9\nrecord: {}\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n",
+        crate::common::free_port(),
+        mcap.display()
     );
     let file = crate::common::write_launch("fox.yaml", &body);
-    let mcap = file.with_file_name("fox.mcap");
     // Watches a run started with `--foxglove 127.0.0.1:0 --foxglove-wait 60`: the statuses'
     // steps until the run closes the connection.
     let watch = |args: &[&str]| -> (Vec<u64>, std::process::Output) {
