@@ -280,18 +280,21 @@ fn serve(stream: TcpStream, addr: SocketAddr, shared: &Arc<Shared>) {
         End::Garbage(reason) => {
             shared.counters.refused.fetch_add(1, Ordering::Relaxed);
             tracing::warn!("Foxglove client {addr}: disconnected: {reason} ({lost} messages dropped for it)");
-            let _ = ws.close(Some(CloseFrame { code: CloseCode::Policy, reason: reason.into() }));
-            let end = Instant::now() + Duration::from_millis(500);
-            while Instant::now() < end && ws.flush().is_err_and(|e| would_block(&e)) {}
+            close(&mut ws, CloseCode::Policy, reason);
         }
         End::Stopped => {
-            let _ = ws.close(Some(CloseFrame { code: CloseCode::Away, reason: "the server stops".into() }));
-            let end = Instant::now() + Duration::from_millis(500);
-            while Instant::now() < end && ws.flush().is_err_and(|e| would_block(&e)) {}
+            close(&mut ws, CloseCode::Away, "the server stops".into());
             tracing::info!("Foxglove client {addr}: closed, the server stops ({lost} messages dropped for it)");
         }
         End::Gone(e) => tracing::info!("Foxglove client {addr} left ({e}; {lost} messages dropped for it)"),
     }
+}
+
+/// Sends a close frame saying why, giving the socket half a second to take it.
+fn close(ws: &mut WebSocket<TcpStream>, code: CloseCode, reason: String) {
+    let _ = ws.close(Some(CloseFrame { code, reason: reason.into() }));
+    let end = Instant::now() + Duration::from_millis(500);
+    while Instant::now() < end && ws.flush().is_err_and(|e| would_block(&e)) {}
 }
 
 enum End {
@@ -304,51 +307,48 @@ fn would_block(e: &tungstenite::Error) -> bool {
     matches!(e, tungstenite::Error::Io(io) if matches!(io.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut))
 }
 
+/// Out: once the socket has taken everything before (so that a slow reader's backlog stays
+/// in its bounded queue, where the publisher drops and counts), up to 64 queued messages go
+/// to it. `None`: the socket is still busy; otherwise how many went (0: the queue is empty).
+fn pump(ws: &mut WebSocket<TcpStream>, rx: &Receiver<Vec<u8>>, sent: &AtomicU64) -> Result<Option<usize>, tungstenite::Error> {
+    match ws.flush() {
+        Ok(()) => {}
+        Err(e) if would_block(&e) => return Ok(None),
+        Err(e) => return Err(e),
+    }
+    let mut n = 0;
+    while n < 64 {
+        let Ok(bytes) = rx.try_recv() else { break };
+        n += 1;
+        // A write that would block has queued the message in tungstenite's buffer.
+        sent.fetch_add(1, Ordering::Relaxed);
+        match ws.write(Message::binary(bytes)) {
+            Ok(()) => {}
+            Err(e) if would_block(&e) => break,
+            Err(e) => return Err(e),
+        }
+    }
+    match ws.flush() {
+        Err(e) if !would_block(&e) => Err(e),
+        _ => Ok(Some(n)),
+    }
+}
+
 fn client_loop(ws: &mut WebSocket<TcpStream>, rx: &Receiver<Vec<u8>>, subs: &Mutex<BTreeMap<u64, u32>>, shared: &Shared) -> End {
     loop {
         if shared.stop.load(Ordering::Relaxed) {
             // What was published before the stop still goes out (for up to a second).
             let end = Instant::now() + Duration::from_secs(1);
             while Instant::now() < end {
-                match ws.flush() {
-                    Ok(()) => {
-                        let Ok(bytes) = rx.try_recv() else { break };
-                        if ws.write(Message::binary(bytes)).is_err_and(|e| !would_block(&e)) {
-                            break;
-                        }
-                        shared.counters.sent.fetch_add(1, Ordering::Relaxed);
-                    }
-                    Err(e) if would_block(&e) => {}
-                    Err(_) => break,
+                match pump(ws, rx, &shared.counters.sent) {
+                    Ok(Some(0)) | Err(_) => break,
+                    Ok(_) => {}
                 }
             }
             return End::Stopped;
         }
-        // Out: only once the socket took everything queued before, so that a slow reader's
-        // backlog stays in its bounded queue, where the publisher drops and counts.
-        match ws.flush() {
-            Ok(()) => {
-                for _ in 0..64 {
-                    let Ok(bytes) = rx.try_recv() else { break };
-                    match ws.write(Message::binary(bytes)) {
-                        Ok(()) => {
-                            shared.counters.sent.fetch_add(1, Ordering::Relaxed);
-                        }
-                        Err(e) if would_block(&e) => {
-                            shared.counters.sent.fetch_add(1, Ordering::Relaxed);
-                            break;
-                        }
-                        Err(e) => return End::Gone(e.to_string()),
-                    }
-                }
-                match ws.flush() {
-                    Ok(()) => {}
-                    Err(e) if would_block(&e) => {}
-                    Err(e) => return End::Gone(e.to_string()),
-                }
-            }
-            Err(e) if would_block(&e) => {}
-            Err(e) => return End::Gone(e.to_string()),
+        if let Err(e) = pump(ws, rx, &shared.counters.sent) {
+            return End::Gone(e.to_string());
         }
         // In: subscriptions; anything that is not the protocol ends the connection.
         let msg = match ws.read() {
@@ -423,6 +423,19 @@ mod tests {
         Ok(a.channels.iter().map(|c| (c.id, c.topic.to_string())).collect())
     }
 
+    /// A client that got the greeting and is subscribed to `ch` (subscription `id`).
+    fn subscribed(
+        s: &LiveServer,
+        id: u32,
+        ch: LiveChannel,
+    ) -> Result<WebSocket<tungstenite::stream::MaybeTlsStream<TcpStream>>, Box<dyn std::error::Error>> {
+        let mut ws = connect(s, Some(SUBPROTOCOL))?;
+        greeting(&mut ws)?;
+        ws.send(Message::text(Subscribe::new([Subscription { id, channel_id: ch.id() }]).to_string()))?;
+        assert!(s.wait_for(ch, Duration::from_secs(10)));
+        Ok(ws)
+    }
+
     /// Reads until the server's close frame (what it says why).
     fn close_frame(ws: &mut WebSocket<tungstenite::stream::MaybeTlsStream<TcpStream>>) -> Result<CloseFrame, Box<dyn std::error::Error>> {
         loop {
@@ -469,10 +482,7 @@ mod tests {
     #[test]
     fn what_was_published_before_the_server_stops_still_arrives() -> R {
         let s = server(64)?;
-        let mut ws = connect(&s, Some(SUBPROTOCOL))?;
-        greeting(&mut ws)?;
-        ws.send(Message::text(Subscribe::new([Subscription { id: 2, channel_id: LiveChannel::Status.id() }]).to_string()))?;
-        assert!(s.wait_for(LiveChannel::Status, Duration::from_secs(10)));
+        let mut ws = subscribed(&s, 2, LiveChannel::Status)?;
         for t in 0..50 {
             s.publish(LiveChannel::Status, t, b"{}");
         }
@@ -510,10 +520,7 @@ mod tests {
     #[test]
     fn a_client_that_does_not_read_loses_messages_and_they_are_counted() -> R {
         let s = server(4)?;
-        let mut ws = connect(&s, Some(SUBPROTOCOL))?;
-        greeting(&mut ws)?;
-        ws.send(Message::text(Subscribe::new([Subscription { id: 1, channel_id: LiveChannel::Screen.id() }]).to_string()))?;
-        assert!(s.wait_for(LiveChannel::Screen, Duration::from_secs(10)));
+        let _ws = subscribed(&s, 1, LiveChannel::Screen)?;
         // The client never reads: the socket buffers fill, then its queue, then messages
         // are dropped, while publish goes on returning.
         let big = vec![7u8; 1 << 20];
@@ -525,10 +532,7 @@ mod tests {
         assert!(st.dropped > 0, "{st:?}");
         assert!(st.dropped + st.sent <= n + 4, "{st:?}");
         // A second, reading client is not held back by the stuck one.
-        let mut other = connect(&s, Some(SUBPROTOCOL))?;
-        greeting(&mut other)?;
-        other.send(Message::text(Subscribe::new([Subscription { id: 3, channel_id: LiveChannel::Log.id() }]).to_string()))?;
-        assert!(s.wait_for(LiveChannel::Log, Duration::from_secs(10)));
+        let mut other = subscribed(&s, 3, LiveChannel::Log)?;
         s.publish(LiveChannel::Log, 1, b"x");
         assert!(matches!(other.read()?, Message::Binary(b) if b.ends_with(b"x")));
         Ok(())
