@@ -310,11 +310,12 @@ fn would_block(e: &tungstenite::Error) -> bool {
 /// Out: once the socket has taken everything before (so that a slow reader's backlog stays
 /// in its bounded queue, where the publisher drops and counts), up to 64 queued messages go
 /// to it. `None`: the socket is still busy; otherwise how many went (0: the queue is empty).
-fn pump(ws: &mut WebSocket<TcpStream>, rx: &Receiver<Vec<u8>>, sent: &AtomicU64) -> Result<Option<usize>, tungstenite::Error> {
+/// The error says why the connection is gone.
+fn pump(ws: &mut WebSocket<TcpStream>, rx: &Receiver<Vec<u8>>, sent: &AtomicU64) -> Result<Option<usize>, String> {
     match ws.flush() {
         Ok(()) => {}
         Err(e) if would_block(&e) => return Ok(None),
-        Err(e) => return Err(e),
+        Err(e) => return Err(e.to_string()),
     }
     let mut n = 0;
     while n < 64 {
@@ -325,11 +326,11 @@ fn pump(ws: &mut WebSocket<TcpStream>, rx: &Receiver<Vec<u8>>, sent: &AtomicU64)
         match ws.write(Message::binary(bytes)) {
             Ok(()) => {}
             Err(e) if would_block(&e) => break,
-            Err(e) => return Err(e),
+            Err(e) => return Err(e.to_string()),
         }
     }
     match ws.flush() {
-        Err(e) if !would_block(&e) => Err(e),
+        Err(e) if !would_block(&e) => Err(e.to_string()),
         _ => Ok(Some(n)),
     }
 }
@@ -348,7 +349,7 @@ fn client_loop(ws: &mut WebSocket<TcpStream>, rx: &Receiver<Vec<u8>>, subs: &Mut
             return End::Stopped;
         }
         if let Err(e) = pump(ws, rx, &shared.counters.sent) {
-            return End::Gone(e.to_string());
+            return End::Gone(e);
         }
         // In: subscriptions; anything that is not the protocol ends the connection.
         let msg = match ws.read() {
