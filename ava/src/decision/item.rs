@@ -61,8 +61,8 @@ pub struct Item {
 ///
 /// Flat items: every field is present and those an action does not use are `null`, as
 /// OpenAI's strict `json_schema` mode requires (every property required, none extra);
-/// the offline back end's constraint (llguidance) and the other servers take the same
-/// schema. What an action needs is checked afterwards, with a reason the model can act on.
+/// llama.cpp's grammar and the other servers take the same schema. What an action needs is
+/// checked afterwards, with a reason the model can act on.
 ///
 /// The schema is as tight as the situation allows, because constrained decoding makes a
 /// small model follow it to the letter: unit and target tags are `enum`s of the tags there

@@ -1,10 +1,8 @@
 //! A GGUF model on the CPU, offline, through llama.cpp (the `llama-cpp-2` bindings, which
-//! vendor and build it): the model's own chat template, and decoding constrained by the
-//! request's JSON schema (llguidance masks, at every token, what could not continue a JSON text
-//! the schema accepts), so even a tiny model answers with JSON that parses against the schema.
-//! The mask keeps every answer a valid beginning of such JSON; only `max_tokens` can cut it
-//! short (the reply's `finish` is then `length`). The JSON is compact: no whitespace between
-//! tokens, so a small model cannot spend its budget on blank lines.
+//! vendor and build it): the model's own chat template, and decoding constrained by a grammar
+//! that llama.cpp derives from the request's JSON schema, so even a tiny model answers with
+//! JSON that parses against the schema. The grammar keeps every answer a valid beginning of
+//! such JSON; only `max_tokens` can cut it short (the reply's `finish` is then `length`).
 //! A schema that leaves a list unbounded lets a small model go on listing until then:
 //! SmolLM2-135M does so with AVA's decision schema more often than not; with `maxItems` on
 //! the list its answers close.
@@ -106,11 +104,8 @@ pub struct Local {
     template: LlamaChatTemplate,
     n_ctx: u32,
     n_threads: i32,
-    /// The schema constraint's parser factory (built on the first schema: it reads the whole
-    /// vocabulary) and a fresh matcher per schema text (AVA asks with a few schemas, over and
-    /// over), cloned for each call.
-    guide: Option<llguidance::ParserFactory>,
-    matchers: HashMap<String, llguidance::Matcher>,
+    /// GBNF grammars by JSON schema text (AVA asks with a few schemas, over and over).
+    grammars: HashMap<String, String>,
     stats: LocalStats,
     #[cfg(feature = "local-vision")]
     vision: Option<vision::Vision>,
@@ -176,8 +171,7 @@ impl Local {
             template,
             n_ctx,
             n_threads,
-            guide: None,
-            matchers: HashMap::new(),
+            grammars: HashMap::new(),
             stats: LocalStats::default(),
             #[cfg(feature = "local-vision")]
             vision,
@@ -239,39 +233,25 @@ impl Local {
         Ok((text, images))
     }
 
-    /// A matcher that holds decoding to a JSON schema, compiled once per schema.
-    fn matcher(&mut self, schema: &serde_json::Value) -> Result<llguidance::Matcher, LlmError> {
-        let key = super::schema_text(schema);
-        if let Some(m) = self.matchers.get(&key) {
-            return Ok(m.clone());
+    /// The GBNF grammar of a JSON schema, converted by llama.cpp once per schema.
+    fn grammar(&mut self, schema: &serde_json::Value) -> Result<String, LlmError> {
+        let key = schema.to_string();
+        if let Some(g) = self.grammars.get(&key) {
+            return Ok(g.clone());
         }
-        let factory = match &mut self.guide {
-            Some(f) => f,
-            None => {
-                let env = LlamaSampler::llguidance_tok_env(&self.model);
-                let mut f = llguidance::ParserFactory::new_simple(&env)
-                    .map_err(|e| local(format!("llguidance cannot read the model's vocabulary: {e}")))?;
-                // Errors are returned, not printed.
-                f.quiet();
-                self.guide.insert(f)
-            }
-        };
-        let mut schema = schema.clone();
-        if let Some(map) = schema.as_object_mut() {
-            map.insert("x-guidance".into(), serde_json::json!({ "whitespace_flexible": false }));
-        }
-        let grammar = llguidance::api::TopLevelGrammar::from_json_schema(schema);
-        let parser = factory.create_parser(grammar).map_err(|e| local(format!("cannot turn the JSON schema into a constraint: {e}")))?;
-        let m = llguidance::Matcher::new(Ok(parser));
-        self.matchers.insert(key, m.clone());
-        Ok(m)
+        let text = super::schema_text(schema);
+        let g =
+            llama_cpp_2::json_schema_to_grammar(&text).map_err(|e| local(format!("cannot turn the JSON schema into a grammar: {e}")))?;
+        self.grammars.insert(key, g.clone());
+        Ok(g)
     }
 
     /// The sampler chain of a call: the schema's grammar, temperature, nucleus, seeded draw.
     fn sampler(&mut self, req: &ChatRequest, seed: u32) -> Result<LlamaSampler, LlmError> {
         let mut chain = Vec::new();
         if let Some((_, schema)) = &req.schema {
-            chain.push(LlamaSampler::from(self.matcher(schema)?));
+            let g = self.grammar(schema)?;
+            chain.push(LlamaSampler::grammar(&self.model, &g, "root").map_err(|e| local(format!("llama.cpp refused the grammar: {e}")))?);
         }
         let s = req.sampling;
         if s.temperature <= 0.0 {

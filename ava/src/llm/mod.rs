@@ -238,20 +238,18 @@ impl ChatModel for Scripted {
 }
 
 /// The schema's text with each object's properties in the order of its `required` list (the
-/// others after them, by name; every other key by name too). Constrained decoders
-/// (llguidance, OpenAI's strict mode) make the model write the properties in the order the
-/// text lists them, and a map's own order says nothing of intent (`json!` writes keys as
-/// typed, a parsed file as read): sorted by name, a decision item would start with
-/// `ability` and end with `unit`, and `actions` would come before `reasoning`. In the
-/// `required` order the model names the unit first and reasons before it acts, as the
-/// schema's author meant; and the text, also a cache key, does not depend on the map's order.
+/// others after them, by name). Constrained decoders (llama.cpp's grammar, OpenAI's strict
+/// mode) make the model write the properties in the order the text lists them, and
+/// serde_json's maps list them by name: a decision item would start with `ability` and end
+/// with `unit`, and `actions` would come before `reasoning`. In the schema's own order the
+/// model names the unit first and reasons before it acts, as the schema's author meant.
 pub(crate) fn schema_text(schema: &Value) -> String {
     fn write(v: &Value, order: Option<&Vec<Value>>, out: &mut String) {
         match v {
             Value::Object(map) => {
                 let rank = |k: &str| order.and_then(|o| o.iter().position(|r| r.as_str() == Some(k))).unwrap_or(usize::MAX);
                 let mut keys: Vec<&String> = map.keys().collect();
-                keys.sort_by(|a, b| rank(a).cmp(&rank(b)).then_with(|| a.cmp(b)));
+                keys.sort_by_key(|k| rank(k)); // stable: the rest stay in name order
                 out.push('{');
                 for (i, k) in keys.into_iter().enumerate() {
                     if i > 0 {

@@ -1,5 +1,5 @@
 //! The offline back end on a real model: SmolLM2-135M-Instruct (Q4_1) on the CPU. Its answers
-//! are held to the request's JSON schema (llguidance's constraint), the same seed gives the same
+//! are held to the request's JSON schema by llama.cpp's grammar, the same seed gives the same
 //! answers, a prompt too long for the context is refused, settings are checked before loading,
 //! and a whole 3m episode is played on it through the AVA pipeline.
 //!
