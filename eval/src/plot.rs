@@ -6,6 +6,7 @@ use crate::EvalError;
 use crate::meta::Meta;
 use crate::stats::CellStats;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -150,29 +151,39 @@ fn heatmap(meta: &Meta, cells: &[CellStats], scenario: &str, path: &Path) -> Res
         .margin(12)
         .x_label_area_size(90)
         .y_label_area_size(120)
-        .build_cartesian_2d(0..k, 0..k)
+        // Segmented axes: a label names the cell it sits under, not the edge between two
+        // (a segmented a..b has a segment for each of a to b, both included).
+        .build_cartesian_2d((0..k - 1).into_segmented(), (0..k - 1).into_segmented())
         .map_err(err)?;
+    let name = |i: usize| names.get(i).map_or(String::new(), |s| (*s).to_owned());
     chart
         .configure_mesh()
         .disable_mesh()
         .x_labels(k)
         .y_labels(k)
-        .x_label_formatter(&|i| names.get(*i).map_or(String::new(), |s| (*s).to_owned()))
-        .y_label_formatter(&|i| (k - 1).checked_sub(*i).and_then(|j| names.get(j)).map_or(String::new(), |s| (*s).to_owned()))
+        .x_label_formatter(&|v| match v {
+            SegmentValue::CenterOf(i) => name(*i),
+            _ => String::new(),
+        })
+        .y_label_formatter(&|v| match v {
+            SegmentValue::CenterOf(i) => (k - 1).checked_sub(*i).map_or(String::new(), name),
+            _ => String::new(),
+        })
         .x_desc("team 2")
         .y_desc("team 1")
         .draw()
         .map_err(err)?;
+    let font = ("sans-serif", 16).into_font().color(&BLACK).pos(Pos::new(HPos::Center, VPos::Center));
     for (ri, a) in names.iter().enumerate() {
         for (ci, b) in names.iter().enumerate() {
             let Some(c) = cells.iter().find(|c| c.key.agent == *a && c.key.against == *b) else { continue };
             let v = c.win_rate.mean.clamp(0.0, 1.0);
             let color = RGBColor((255.0 * (1.0 - v)) as u8, (90.0 + 120.0 * v) as u8, (255.0 * v) as u8);
             let y = k - 1 - ri;
-            chart.draw_series(std::iter::once(Rectangle::new([(ci, y), (ci + 1, y + 1)], color.filled()))).map_err(err)?;
-            chart
-                .draw_series(std::iter::once(Text::new(format!("{v:.2}"), (ci, y + 1), ("sans-serif", 16).into_font().color(&BLACK))))
-                .map_err(err)?;
+            let cell = [(SegmentValue::Exact(ci), SegmentValue::Exact(y)), (SegmentValue::Exact(ci + 1), SegmentValue::Exact(y + 1))];
+            chart.draw_series(std::iter::once(Rectangle::new(cell, color.filled()))).map_err(err)?;
+            let centre = (SegmentValue::CenterOf(ci), SegmentValue::CenterOf(y));
+            chart.draw_series(std::iter::once(Text::new(format!("{v:.2}"), centre, font.clone()))).map_err(err)?;
         }
     }
     root.present().map_err(err)
