@@ -113,6 +113,12 @@ pub struct Config {
     /// Steps before a time-out; 0: the scenario's time limit.
     #[serde(default)]
     pub episode_limit: u32,
+    /// SMACv2's extended partial observability (`EnvConfig::prob_obs_enemy`); 1: off.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub prob_obs_enemy: f64,
+    /// SMAC's range mask on attack actions; false: SMACv2's `action_mask: False`.
+    #[serde(default = "yes", skip_serializing_if = "is_true")]
+    pub action_mask: bool,
     // PPO (ippo, mappo) only; see configs/mappo.toml.
     #[serde(default)]
     pub critic_lr: f64,
@@ -180,6 +186,18 @@ pub struct Config {
     pub text_disk_cache: bool,
 }
 
+fn one() -> f64 {
+    1.0
+}
+
+fn is_one(v: &f64) -> bool {
+    *v == 1.0
+}
+
+fn is_true(v: &bool) -> bool {
+    *v
+}
+
 fn yes() -> bool {
     true
 }
@@ -218,6 +236,9 @@ impl Config {
         let mut table: toml::Table =
             toml::from_str(text).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
         obs::add_defaults(&mut table)?;
+        // The environment's SMACv2 options, off unless set: keys every config has.
+        table.entry("prob_obs_enemy").or_insert(toml::Value::Float(1.0));
+        table.entry("action_mask").or_insert(toml::Value::Boolean(true));
         for o in overrides {
             let Some((key, value)) = o.split_once('=') else {
                 return Err(Error::Override { text: o.clone(), message: "expected key=value".into() });
@@ -245,6 +266,7 @@ impl Config {
         let default = Config::for_algo_unchecked(&self.algo);
         let def = |f: fn(&Config) -> f64, fallback: f64| default.as_ref().map_or(fallback, f);
         unit("gamma", self.gamma)?;
+        unit("prob_obs_enemy", self.prob_obs_enemy)?;
         positive("lr", self.lr, def(|c| c.lr, 5e-4))?;
         if let Err(why) = crate::policy::Opponent::parse(&self.opponent) {
             return Err(bad("opponent", format!("{:?}", self.opponent.trim()), &why, "\"focus-fire\""));
@@ -371,7 +393,13 @@ impl Config {
     pub fn env_config(&self) -> EnvConfig {
         let base = if self.passive_agents { EnvConfig::smac() } else { EnvConfig { rules: Rules::default(), ..EnvConfig::default() } };
         let time_limit_loops = std::num::NonZeroU32::new(self.episode_limit.saturating_mul(base.step_mul.get()));
-        EnvConfig { reward: self.reward, time_limit_loops, ..base }
+        EnvConfig {
+            reward: self.reward,
+            time_limit_loops,
+            prob_obs_enemy: self.prob_obs_enemy as f32,
+            action_mask: self.action_mask,
+            ..base
+        }
     }
 }
 
@@ -540,6 +568,18 @@ mod tests {
         assert_eq!(c.env_config().time_limit_loops, None);
         let c = Config::for_algo("qmix", &["episode_limit=60".into()])?;
         assert_eq!(c.env_config().time_limit_loops.map(|l| l.get()), Some(60 * c.env_config().step_mul.get()));
+        // SMACv2's EPO options: off by default, settable, kept out of the saved config when off.
+        let c = Config::for_algo("mappo", &[])?;
+        assert!(!c.env_config().epo() && c.env_config().action_mask);
+        assert!(
+            !toml::to_string(&c)
+                .map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?
+                .contains("prob_obs_enemy")
+        );
+        let c = Config::for_algo("mappo", &["prob_obs_enemy=0".into(), "action_mask=false".into()])?;
+        assert!(c.env_config().epo() && !c.env_config().action_mask && c.env_config().prob_obs_enemy == 0.0);
+        let text = toml::to_string(&c).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
+        assert_eq!(Config::from_toml(&text, &[])?.env_config(), c.env_config());
         Ok(())
     }
 
@@ -551,6 +591,8 @@ mod tests {
         assert!(e.contains("envs=many") && e.contains("integer"), "{e}");
         let e = Config::for_algo("qmix", &["mixer=sum".into()]).err().map(|e| e.to_string()).unwrap_or_default();
         assert!(e.contains("sum"), "{e}");
+        let e = Config::for_algo("qmix", &["prob_obs_enemy=1.5".into()]).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("prob_obs_enemy = 1.5") && e.contains("[0, 1]"), "{e}");
         let e = Config::for_algo("qmix", &["gamma=2.0".into()]).err().map(|e| e.to_string()).unwrap_or_default();
         assert!(e.contains("gamma = 2") && e.contains("[0, 1]") && e.contains("nearest valid value: 1"), "{e}");
         let e = Config::for_algo("ippo", &["rollout_len=117".into(), "data_chunk_length=10".into()])

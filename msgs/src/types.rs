@@ -308,7 +308,7 @@ pub struct RoleAssignment {
 }
 
 /// `avacraft_msgs/msg/SessionInfo`: what a replay needs besides seeds and applied actions.
-#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct SessionInfo {
     pub header: Header,
     pub scenario_name: String,
@@ -322,6 +322,8 @@ pub struct SessionInfo {
     pub cooldown_jitter: bool,
     pub auto_acquire: [bool; 2],
     pub abilities: bool,
+    pub prob_obs_enemy: f32,
+    pub action_mask: bool,
     pub clock: u8,
     pub deadline_ms: u32,
     pub launch_file: String,

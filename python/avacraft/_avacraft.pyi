@@ -52,6 +52,8 @@ class Env:
         abilities: bool = True,
         ability_actions: bool = False,
         time_limit_loops: Optional[int] = None,
+        prob_obs_enemy: float = 1.0,
+        action_mask: bool = True,
     ) -> None: ...
     def reset(self, seed: int) -> None: ...
     @property
@@ -115,6 +117,8 @@ class VecEnv:
         abilities: bool = True,
         ability_actions: bool = False,
         time_limit_loops: Optional[int] = None,
+        prob_obs_enemy: float = 1.0,
+        action_mask: bool = True,
     ) -> None: ...
     @property
     def num_envs(self) -> int: ...

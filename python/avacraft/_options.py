@@ -41,6 +41,12 @@ def positive_number(option: str, value: Any) -> float:
     return float(value)
 
 
+def probability(option: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value <= 1:
+        raise unsupported(option, value, "a probability in [0, 1]")
+    return float(value)
+
+
 def boolean(option: str, value: Any) -> bool:
     if not isinstance(value, bool):
         raise unsupported(option, value, "True or False")

@@ -72,6 +72,8 @@ class AvacraftParallelEnv(ParallelEnv):
         abilities: bool = True,
         ability_actions: bool = False,
         time_limit_loops: Optional[int] = None,
+        prob_obs_enemy: float = 1.0,
+        action_mask: bool = True,
         screen_size: tuple[int, int] = (160, 120),
         minimap_size: tuple[int, int] = (32, 32),
         vlm_size: tuple[int, int] = (1920, 1080),
@@ -108,6 +110,8 @@ class AvacraftParallelEnv(ParallelEnv):
             abilities=opt.boolean("abilities", abilities),
             ability_actions=opt.boolean("ability_actions", ability_actions),
             time_limit_loops=None if time_limit_loops is None else opt.positive_int("time_limit_loops", time_limit_loops),
+            prob_obs_enemy=opt.probability("prob_obs_enemy", prob_obs_enemy),
+            action_mask=opt.boolean("action_mask", action_mask),
         )
         self.pvp: bool = self._env.pvp
         self.teams = (1, 2) if self.pvp else (1,)

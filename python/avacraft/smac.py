@@ -49,6 +49,10 @@ class StarCraft2Env:
     - `cooldown_jitter`: StarCraft II's random attack delay (on).
     - `episode_limit`: time limit in steps (None: the scenario's); `time_limit_loops` in
       game loops.
+    - `prob_obs_enemy`, `action_mask`: SMACv2's extended partial observability (an enemy
+      first seen by one agent stays in each teammate's observation with this probability;
+      1: off) and its switch for the range mask on attack actions (False: any living enemy
+      the team sees may be attacked). SMACv2's EPO configs use 0.0 and False.
     """
 
     def __init__(
@@ -93,6 +97,8 @@ class StarCraft2Env:
         cooldown_jitter: bool = True,
         episode_limit: Optional[int] = None,
         time_limit_loops: Optional[int] = None,
+        prob_obs_enemy: float = 1.0,
+        action_mask: bool = True,
     ) -> None:
         self.map_name = map_name
         self._step_mul = opt.positive_int("step_mul", step_mul)
@@ -149,6 +155,8 @@ class StarCraft2Env:
             abilities=opt.boolean("abilities", abilities),
             ability_actions=opt.boolean("ability_actions", ability_actions),
             time_limit_loops=time_limit_loops,
+            prob_obs_enemy=opt.probability("prob_obs_enemy", prob_obs_enemy),
+            action_mask=opt.boolean("action_mask", action_mask),
         )
         info = self._env.env_info(1)
         self.n_agents: int = info["n_agents"]

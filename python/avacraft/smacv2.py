@@ -17,9 +17,13 @@ file's `[generate]` table, and the engine draws each episode's teams and start p
 from the episode's seed (SMACv2 draws from unseeded generators): an episode replays from
 its seed, in Python as in Rust and deployed. The config dict is not modified.
 
+Extended partial observability (`prob_obs_enemy`, with `action_mask=False` as SMACv2's
+`sc2_gen_*_epo.yaml`) follows SMACv2's rules with one change: where an agent may not
+observe an enemy, only that enemy's row of its observation is zeroed (SMACv2 zeroes every
+enemy row built before it, oxwhirl/smacv2#50), and its draws come from the episode's seed.
+
 Differences from SMACv2, each refused with a message when asked for: no `conic_fov`, no
-`prob_obs_enemy` below 1 (extended partial observability), no stochastic `attack` or
-`health` capabilities, no `enemy_mask`, and `action_mask` stays on.
+stochastic `attack` or `health` capabilities, and no `enemy_mask`.
 """
 
 from __future__ import annotations
@@ -46,7 +50,6 @@ _POSITIONS = {"surrounded_and_reflect", "reflect_position", "surrounded"}
 _FIXED = {
     "conic_fov": (False, "conic fields of view are not implemented: agents see a full circle"),
     "fully_observable": (False, "observations follow each unit's sight"),
-    "action_mask": (True, "attack actions are masked by range"),
     "use_unit_ranges": (True, "procedural scenarios use each unit's own sight and shoot ranges (SMACv2's setting)"),
     "obs_own_pos": (True, "procedural scenarios' observations carry the agent's position (SMACv2's setting)"),
 }
@@ -147,9 +150,6 @@ class StarCraftCapabilityEnvWrapper:
         for key, (value, why) in _FIXED.items():
             if key in kwargs and kwargs.pop(key) is not value:
                 raise AvacraftError(f"{key} must be {value}: {why}")
-        prob = kwargs.pop("prob_obs_enemy", 1.0)
-        if prob != 1.0:
-            raise AvacraftError(f"prob_obs_enemy = {prob!r}: only 1.0 (extended partial observability is not implemented)")
         kwargs.pop("num_fov_actions", None)  # read by SMACv2 only with conic_fov
         attack_range = kwargs.pop("min_attack_range", 2)
         if attack_range != 2:

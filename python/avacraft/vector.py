@@ -54,6 +54,8 @@ class VecEnv:
         abilities: bool = True,
         ability_actions: bool = False,
         time_limit_loops: Optional[int] = None,
+        prob_obs_enemy: float = 1.0,
+        action_mask: bool = True,
     ) -> None:
         if seeds is None:
             if num_envs is None:
@@ -80,6 +82,8 @@ class VecEnv:
             abilities=opt.boolean("abilities", abilities),
             ability_actions=opt.boolean("ability_actions", ability_actions),
             time_limit_loops=None if time_limit_loops is None else opt.positive_int("time_limit_loops", time_limit_loops),
+            prob_obs_enemy=opt.probability("prob_obs_enemy", prob_obs_enemy),
+            action_mask=opt.boolean("action_mask", action_mask),
         )
         self.seeds = list(seeds)
         self.num_envs: int = self._raw.num_envs

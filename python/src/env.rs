@@ -141,7 +141,7 @@ impl Sized2 for Observer {
 impl PyEnv {
     #[new]
     #[pyo3(signature = (scenario, seed=0, step_mul=8, reward="dense", opponent=None, full_vision=false, passive_allies=true,
-        cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None))]
+        cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None, prob_obs_enemy=1.0, action_mask=true))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         scenario: &str,
@@ -155,6 +155,8 @@ impl PyEnv {
         abilities: bool,
         ability_actions: bool,
         time_limit_loops: Option<u32>,
+        prob_obs_enemy: f64,
+        action_mask: bool,
     ) -> PyResult<Self> {
         let opts = Options {
             step_mul,
@@ -166,6 +168,8 @@ impl PyEnv {
             abilities,
             ability_actions,
             time_limit_loops,
+            prob_obs_enemy,
+            action_mask,
         };
         let cfg = opts.config()?;
         let env = Env::new(load_scenario(scenario)?, cfg, seed);

@@ -33,6 +33,8 @@ pub(crate) struct Options {
     pub abilities: bool,
     pub ability_actions: bool,
     pub time_limit_loops: Option<u32>,
+    pub prob_obs_enemy: f64,
+    pub action_mask: bool,
 }
 
 impl Options {
@@ -68,6 +70,15 @@ impl Options {
                 supported: "a time limit of 1 game loop or more".into(),
             })?),
         };
+        if !(0.0..=1.0).contains(&self.prob_obs_enemy) {
+            return Err(Error::Option {
+                option: "prob_obs_enemy",
+                value: self.prob_obs_enemy.to_string(),
+                supported: "a probability in [0, 1] (1: extended partial observability off)".into(),
+            });
+        }
+        cfg.prob_obs_enemy = self.prob_obs_enemy as f32;
+        cfg.action_mask = self.action_mask;
         Ok(cfg)
     }
 }

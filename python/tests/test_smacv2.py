@@ -176,10 +176,43 @@ def test_bad_configs_name_the_key(change, says):
     assert says in str(e.value), str(e.value)
 
 
-@pytest.mark.parametrize("key,value", [("conic_fov", True), ("prob_obs_enemy", 0.0), ("obs_own_pos", False)])
+@pytest.mark.parametrize("key,value", [("conic_fov", True), ("obs_own_pos", False)])
 def test_unimplemented_options_are_refused(key, value):
     with pytest.raises(avacraft.AvacraftError, match=key):
         avacraft.StarCraftCapabilityEnvWrapper(capability_config=sc2_gen("terran"), map_name="10gen_terran", **{key: value})
+
+
+def test_the_epo_config_plays_with_extended_partial_observability(rng):
+    """SMACv2's sc2_gen_protoss_epo.yaml (prob_obs_enemy 0, action_mask False): each enemy is
+    in one agent's observation at most; and without the range mask, enemies beyond shoot
+    range (the observation's can-attack bit off) may be attacked."""
+
+    def make(**more):
+        args = dict(ENV_ARGS, **more)
+        return avacraft.StarCraftCapabilityEnvWrapper(capability_config=sc2_gen("protoss"), map_name="10gen_protoss", seed=4, **args)
+
+    envs = {"epo": make(prob_obs_enemy=0.0, action_mask=False), "full": make(), "unmasked": make(action_mask=False)}
+    names = envs["full"].get_obs_feature_names()
+    rows = [[i for i, n in enumerate(names) if n.startswith(f"enemy_{e}_")] for e in range(5)]
+    shared = {key: 0 for key in envs}
+    beyond = {key: 0 for key in envs}
+    for key, e in envs.items():
+        for _ in range(3):
+            e.reset()
+            terminated = False
+            while not terminated:
+                obs, avail = e.get_obs(), e.get_avail_actions()
+                for r in rows:
+                    seen = sum(bool(np.any(o[r])) for o in obs)
+                    shared[key] += seen > 1
+                beyond[key] += sum(avail[a][6 + j] == 1 and obs[a][rows[j][0]] == 0 for a in range(5) for j in range(5))
+                _, terminated, _ = e.step(random_actions(avail, rng))
+    assert shared["epo"] == 0 and shared["full"] > 0, shared
+    assert beyond["full"] == 0 and beyond["unmasked"] > 0, beyond
+    with pytest.raises(avacraft.AvacraftError, match="prob_obs_enemy"):
+        make(prob_obs_enemy=1.5)
+    with pytest.raises(avacraft.AvacraftError, match="action_mask"):
+        avacraft.StarCraft2Env("3m", action_mask="no")
 
 
 def test_pettingzoo_and_vector_envs_play_procedural_scenarios(rng):

@@ -8,6 +8,7 @@ mod agents;
 mod cli;
 mod combat;
 mod determinism;
+mod epo;
 mod golden;
 mod helpers;
 mod learn;

@@ -2,6 +2,7 @@
 //! reset, actions, hashes and the SMAC interface. Below the observations (which read an
 //! `Env`) and the step (which builds them for the opponent).
 
+use super::epo::Epo;
 use crate::action::{Action, ActionError, Command};
 use crate::agent::{self, AgentCtx, agent_seed};
 use crate::builtin_ai::BuiltinAi;
@@ -40,6 +41,26 @@ pub struct EnvConfig {
     /// observations); off by default for drop-in SMAC compatibility.
     #[serde(default)]
     pub ability_actions: bool,
+    /// SMACv2's extended partial observability (EPO): when an agent first sees an enemy,
+    /// each of its teammates keeps that enemy in its observation only with this
+    /// probability, until the enemy or the spotter dies. 1 (the default) is off; SMACv2's
+    /// EPO configs use 0. Drawn from its own seeded stream; entry points refuse values
+    /// outside [0, 1].
+    #[serde(default = "one")]
+    pub prob_obs_enemy: f32,
+    /// SMAC's range mask on attack actions (the default). Off (SMACv2's `action_mask:
+    /// False`, used with EPO): any living enemy the team sees may be attacked from any
+    /// distance, so the mask stops telling an agent which enemies are near.
+    #[serde(default = "yes")]
+    pub action_mask: bool,
+}
+
+fn one() -> f32 {
+    1.0
+}
+
+fn yes() -> bool {
+    true
 }
 
 impl EnvConfig {
@@ -59,7 +80,16 @@ impl Default for EnvConfig {
             opponent: None,
             time_limit_loops: None,
             ability_actions: false,
+            prob_obs_enemy: 1.0,
+            action_mask: true,
         }
+    }
+}
+
+impl EnvConfig {
+    /// Whether extended partial observability is on (a probability below 1).
+    pub fn epo(&self) -> bool {
+        self.prob_obs_enemy < 1.0
     }
 }
 
@@ -145,6 +175,8 @@ pub struct Env {
     pub(super) max_reward: [f32; 2],
     pub(super) trajectory: Fnv,
     pub(super) layouts: [SmacLayout; 2],
+    /// Extended partial observability, per team (empty while it is off).
+    pub(super) epo: [Epo; 2],
 }
 
 impl std::fmt::Debug for Env {
@@ -179,6 +211,7 @@ impl Clone for Env {
             max_reward: self.max_reward,
             trajectory: self.trajectory,
             layouts: self.layouts.clone(),
+            epo: self.epo.clone(),
         }
     }
 }
@@ -198,8 +231,8 @@ impl Env {
 
 impl Env {
     pub fn new(scenario: Arc<Scenario>, cfg: EnvConfig, seed: u64) -> Env {
-        let abilities = cfg.ability_actions;
         let world = World::new(&scenario, cfg.rules, seed);
+        let cfg_ref = cfg.clone();
         let scenario_ref = Arc::clone(&scenario);
         let mut env = Env {
             template: Arc::clone(&scenario),
@@ -220,7 +253,8 @@ impl Env {
             dense: DenseTracker::default(),
             max_reward: [0.0, 0.0],
             trajectory: Fnv::default(),
-            layouts: Team::BOTH.map(|t| SmacLayout::with_abilities(&scenario_ref, t, abilities)),
+            layouts: layouts(&scenario_ref, &cfg_ref),
+            epo: [Epo::new(0, 0, 0, 0), Epo::new(0, 1, 0, 0)],
         };
         env.reset(seed);
         env
@@ -231,8 +265,7 @@ impl Env {
         self.seed = seed;
         if self.template.is_procedural() {
             self.scenario = self.template.episode(seed);
-            let abilities = self.cfg.ability_actions;
-            self.layouts = Team::BOTH.map(|t| SmacLayout::with_abilities(&self.scenario, t, abilities));
+            self.layouts = layouts(&self.scenario, &self.cfg);
         }
         self.world = World::new(&self.scenario, self.cfg.rules, seed);
         // Policies draw from their own stream so adding a draw there never shifts the world's.
@@ -277,6 +310,29 @@ impl Env {
         if let Some(ai) = self.builtin.as_mut() {
             ai.before_loop(&mut self.world, &self.agents[Team::Two.index()]);
         }
+        if self.cfg.epo() {
+            self.epo = Team::BOTH.map(|t| {
+                let l = &self.layouts[t.index()];
+                Epo::new(seed, t.index(), l.n_enemies, l.n_agents)
+            });
+            self.update_epo();
+        }
+    }
+
+    /// Extended partial observability after a reset or a step (see `epo`).
+    pub(super) fn update_epo(&mut self) {
+        if !self.cfg.epo() {
+            return;
+        }
+        for t in Team::BOTH {
+            self.epo[t.index()].update(&self.layouts[t.index()], &self.world, self.cfg.prob_obs_enemy);
+        }
+    }
+
+    /// Whether extended partial observability lets `team`'s agent observe enemy `enemy`
+    /// (the index in its observation's enemy rows) now; always true while EPO is off.
+    pub fn epo_allows(&self, team: Team, agent: usize, enemy: usize) -> bool {
+        !self.cfg.epo() || self.epo[team.index()].allowed(agent, enemy)
     }
 
     /// This episode's scenario: for a procedural scenario, the units drawn from its seed.
@@ -364,16 +420,26 @@ impl Env {
             max_reward: _,
             layouts: _,
             trajectory: _,
+            epo,
         } = self;
         let mut h = Fnv::default();
         h.u64(world.state_hash());
         h.u64(*seed);
         // The rules are hashed with the world, which holds a copy.
-        let EnvConfig { step_mul, rules: _, reward, opponent, time_limit_loops, ability_actions } = cfg;
+        let EnvConfig { step_mul, rules: _, reward, opponent, time_limit_loops, ability_actions, prob_obs_enemy, action_mask } = cfg;
         h.u32(step_mul.get());
         h.u32(*reward as u32 | (*ability_actions as u32) << 4);
         h.u32(opponent.map_or(0, |o| o as u32 + 1));
         h.u32(time_limit_loops.map_or(0, NonZeroU32::get));
+        // Hashed only when on, so that every trajectory hash recorded before they existed
+        // still holds.
+        if cfg.epo() {
+            h.f32(*prob_obs_enemy);
+            epo.iter().for_each(|e| e.hash(&mut h));
+        }
+        if !action_mask {
+            h.u32(0x00a1_1a77);
+        }
         h.u32(opponent_kind.map_or(0, |o| o as u32 + 1));
         h.rng(policy_rng);
         match builtin {
@@ -463,7 +529,11 @@ impl Env {
     }
 
     pub fn obs_agent(&self, team: Team, agent: usize, out: &mut [f32]) {
-        self.smac_layout(team).obs(self.world(), agent, out)
+        let l = self.smac_layout(team);
+        l.obs(self.world(), agent, out);
+        if self.cfg.epo() {
+            self.epo[team.index()].mask(l, agent, out);
+        }
     }
 
     pub fn state(&self, team: Team, out: &mut [f32]) {
@@ -514,6 +584,11 @@ impl Env {
         }
         out
     }
+}
+
+/// Both teams' SMAC layouts under `cfg`'s options.
+fn layouts(scenario: &Scenario, cfg: &EnvConfig) -> [SmacLayout; 2] {
+    Team::BOTH.map(|t| SmacLayout::with_abilities(scenario, t, cfg.ability_actions).with_range_mask(cfg.action_mask))
 }
 
 pub(crate) fn command_index(env: &Env, team: Team, agent: usize, c: &Command) -> Option<usize> {

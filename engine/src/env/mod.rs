@@ -2,6 +2,7 @@
 //! of the episode. The same `Env` serves MARL training loops, the CLI and the nodes.
 
 mod episode;
+mod epo;
 mod step;
 
 pub use episode::{Env, EnvConfig, Outcome, RewardMode, StepResult};

@@ -50,6 +50,7 @@ impl Env {
         self.steps += 1;
         let outcome = self.terminal().or_else(|| (self.world.tick() >= limit).then_some(Outcome::Draw));
         self.outcome = outcome;
+        self.update_epo();
         self.trajectory.u64(self.state_hash());
         let reward = match self.cfg.reward {
             RewardMode::Sparse => outcome.map_or([0.0, 0.0], |o| [o.sparse_reward(), o.for_team(Team::Two).sparse_reward()]),

@@ -58,6 +58,10 @@ pub struct SmacLayout {
     /// shoot ranges (`use_unit_ranges`, at least `min_attack_range` 2), and the agent's
     /// position in its own features (`obs_own_pos`).
     pub v2: bool,
+    /// SMAC's range mask on attack actions; off (SMACv2's `action_mask: False`), any living
+    /// enemy the team sees may be attacked. The observation's "can attack" bit keeps the
+    /// range either way, as SMACv2's does.
+    pub range_mask: bool,
     map_center: Vec2,
     map_size: Vec2,
     playable_w: f32,
@@ -142,12 +146,33 @@ impl SmacLayout {
             state_size,
             abilities: slots,
             v2,
+            range_mask: true,
             map_center: Vec2::new(scenario.terrain.width() as f32 / 2.0, scenario.terrain.height() as f32 / 2.0),
             map_size: Vec2::new(scenario.terrain.width() as f32, scenario.terrain.height() as f32),
             playable_w: p.width(),
             playable_h: p.height(),
             playable: p,
         }
+    }
+
+    /// The layout with the range mask on attack actions on or off (see `range_mask`).
+    pub fn with_range_mask(mut self, on: bool) -> Self {
+        self.range_mask = on;
+        self
+    }
+
+    /// Where enemy `j`'s features sit in an agent's observation.
+    pub fn enemy_row(&self, j: usize) -> std::ops::Range<usize> {
+        let fe = 5 + self.shield_enemy + self.ally_types.len();
+        MOVE_FEATS + j * fe..MOVE_FEATS + (j + 1) * fe
+    }
+
+    /// Whether living `agent` has living enemy `j` in its features: the team sees it and it
+    /// is within the agent's sight (strictly, as SMAC).
+    pub fn sees_enemy(&self, world: &World, agent: usize, j: usize) -> bool {
+        let Some(u) = self.agents.get(agent).and_then(|&id| world.unit(id)).filter(|u| u.alive) else { return false };
+        let Some(e) = self.enemies.get(j).and_then(|&id| world.unit(id)).filter(|e| e.alive) else { return false };
+        world.visible_to(self.team, e.id) && u.pos.dist(e.pos) < self.sight(u)
     }
 
     /// How far an agent sees for its features: SMAC's 9, or SMACv2's the unit's own sight.
@@ -204,7 +229,7 @@ impl SmacLayout {
         }
         let busy = u.status.morph.is_some();
         for j in 0..self.ability_base() - N_ACTIONS_NO_ATTACK {
-            out[N_ACTIONS_NO_ATTACK + j] = (!busy && self.attack_slot(world, agent, u, j)) as u8;
+            out[N_ACTIONS_NO_ATTACK + j] = (!busy && self.attack_slot(world, agent, u, j, self.range_mask)) as u8;
         }
         if self.abilities.slots > 0 {
             self.ability_mask(world, agent, u, out);
@@ -212,13 +237,14 @@ impl SmacLayout {
     }
 
     /// Whether attack index `6 + j` is available to living agent `u`: target `j` (an enemy, or
-    /// for a healer an ally) is alive, seen, within SMAC's shoot range and hittable.
-    fn attack_slot(&self, world: &World, agent: usize, u: &Unit, j: usize) -> bool {
+    /// for a healer an ally) is alive, seen, within SMAC's shoot range (if `by_range`) and
+    /// hittable.
+    fn attack_slot(&self, world: &World, agent: usize, u: &Unit, j: usize, by_range: bool) -> bool {
         let Some(&t) = self.targets(world, agent).get(j) else { return false };
         let Some(tu) = world.unit(t) else { return false };
         tu.alive
             && world.visible_to(self.team, t)
-            && u.pos.dist(tu.pos) <= self.shoot(u)
+            && (!by_range || u.pos.dist(tu.pos) <= self.shoot(u))
             && if u.spec().heal.is_some() {
                 // SMAC's rule (any ally but Medivacs), narrowed to what heal can target:
                 // biological units (the same on SMAC's own maps, whose allies are all biological).
@@ -237,7 +263,9 @@ impl SmacLayout {
             0 => u.status.channel.is_some() || u.status.morph.is_some(),
             1 => true,
             2..=5 => Self::can_move(world, u.id, [Direction::Up, Direction::Down, Direction::Right, Direction::Left][idx - 2]),
-            i if i < self.ability_base() => u.status.morph.is_none() && self.attack_slot(world, agent, u, i - N_ACTIONS_NO_ATTACK),
+            i if i < self.ability_base() => {
+                u.status.morph.is_none() && self.attack_slot(world, agent, u, i - N_ACTIONS_NO_ATTACK, self.range_mask)
+            }
             i if i < self.n_actions => self.ability_available(world, agent, u, i - self.ability_base()),
             _ => false,
         }
@@ -266,7 +294,7 @@ impl SmacLayout {
                 if dist < sight {
                     // SMAC reads this from the available actions: for a healer that is the
                     // heal slot of ally j, a quirk kept for compatibility.
-                    f[0] = self.attack_slot(world, agent, u, j) as u8 as f32;
+                    f[0] = self.attack_slot(world, agent, u, j, true) as u8 as f32;
                     f[1] = dist / sight;
                     f[2] = d.x / sight;
                     f[3] = d.y / sight;

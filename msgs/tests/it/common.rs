@@ -215,12 +215,14 @@ pub fn session_info(min_len: usize) -> impl Strategy<Value = SessionInfo> {
         (header(), text(), text(), any::<u32>(), any::<u8>(), any::<u8>(), any::<u32>(), any::<bool>()),
         (any::<bool>(), any::<bool>(), any::<[bool; 2]>(), any::<bool>(), any::<u8>(), any::<u32>(), text(), any::<u64>()),
         vec(any::<u64>(), min_len..5),
+        (any::<f32>(), any::<bool>()),
     )
         .prop_map(
             |(
                 (header, scenario_name, scenario_toml, step_mul, reward, opponent, time_limit_loops, ability_actions),
                 (full_vision, cooldown_jitter, auto_acquire, abilities, clock, deadline_ms, launch_file, episode),
                 seeds,
+                (prob_obs_enemy, action_mask),
             )| SessionInfo {
                 header,
                 scenario_name,
@@ -234,6 +236,8 @@ pub fn session_info(min_len: usize) -> impl Strategy<Value = SessionInfo> {
                 cooldown_jitter,
                 auto_acquire,
                 abilities,
+                prob_obs_enemy,
+                action_mask,
                 clock,
                 deadline_ms,
                 launch_file,

@@ -47,7 +47,7 @@ fn opponent_of(code: u8) -> Result<Option<OpponentKind>, SessionError> {
 pub fn session_info(cfg: &SimConfig, episode: u64, header: Header) -> SessionInfo {
     // Destructured in full, so a new configuration field does not compile until it is
     // carried here (a replay without it would silently use the default).
-    let EnvConfig { step_mul, rules, reward, opponent, time_limit_loops, ability_actions } = &cfg.env;
+    let EnvConfig { step_mul, rules, reward, opponent, time_limit_loops, ability_actions, prob_obs_enemy, action_mask } = &cfg.env;
     let Rules { full_vision, cooldown_jitter, auto_acquire, abilities } = *rules;
     let (clock, deadline_ms) = match cfg.clock {
         Clock::Lockstep { deadline } => (SessionInfo::CLOCK_LOCKSTEP, u32::try_from(deadline.as_millis()).unwrap_or(u32::MAX)),
@@ -69,6 +69,8 @@ pub fn session_info(cfg: &SimConfig, episode: u64, header: Header) -> SessionInf
         cooldown_jitter,
         auto_acquire,
         abilities,
+        prob_obs_enemy: *prob_obs_enemy,
+        action_mask: *action_mask,
         clock,
         deadline_ms,
         launch_file: cfg.launch_file.clone(),
@@ -86,6 +88,13 @@ pub fn env_config(s: &SessionInfo) -> Result<EnvConfig, SessionError> {
         SessionInfo::REWARD_DENSE => RewardMode::Dense,
         c => return Err(SessionError::Field { field: "reward", value: c.to_string(), why: "not one of the REWARD_* constants" }),
     };
+    if !(0.0..=1.0).contains(&s.prob_obs_enemy) {
+        return Err(SessionError::Field {
+            field: "prob_obs_enemy",
+            value: s.prob_obs_enemy.to_string(),
+            why: "must be a probability in [0, 1]",
+        });
+    }
     Ok(EnvConfig {
         step_mul,
         rules: Rules {
@@ -98,6 +107,8 @@ pub fn env_config(s: &SessionInfo) -> Result<EnvConfig, SessionError> {
         opponent: opponent_of(s.opponent)?,
         time_limit_loops: NonZeroU32::new(s.time_limit_loops),
         ability_actions: s.ability_actions,
+        prob_obs_enemy: s.prob_obs_enemy,
+        action_mask: s.action_mask,
     })
 }
 
@@ -138,6 +149,8 @@ mod tests {
             opponent: Some(OpponentKind::Defensive),
             time_limit_loops: NonZeroU32::new(900),
             ability_actions: true,
+            prob_obs_enemy: 0.25,
+            action_mask: false,
         };
         for env in [EnvConfig::default(), EnvConfig::smac(), odd] {
             let cfg = config(env.clone());
@@ -155,6 +168,8 @@ mod tests {
         let good = session_info(&config(EnvConfig::default()), 0, Header::default());
         let e = env_config(&SessionInfo { opponent: 9, ..good.clone() }).expect_err("bad opponent");
         assert!(e.to_string().contains("`opponent` = 9"), "{e}");
+        let e = env_config(&SessionInfo { prob_obs_enemy: f32::NAN, ..good.clone() }).expect_err("not a probability");
+        assert!(e.to_string().contains("prob_obs_enemy"), "{e}");
         let e = env_config(&SessionInfo { step_mul: 0, ..good.clone() }).expect_err("zero step_mul");
         assert!(e.to_string().contains("step_mul"), "{e}");
         let e = scenario(&SessionInfo { scenario_toml: "name = 1".into(), ..good }).expect_err("bad toml");
