@@ -150,11 +150,12 @@ class MarlPolicy:
         """Forgets the GRU states and last actions (an episode starts)."""
     def check_env(self, env: Env, team: int = 1) -> None:
         """Raises `AvacraftError` unless trained on `env`'s scenario with its team's sizes."""
-    def act(self, obs: npt.NDArray[np.float32], avail: npt.NDArray[np.uint8]) -> npt.NDArray[np.int64]:
+    def act(self, obs: npt.NDArray[np.float32], avail: npt.NDArray[np.uint8], team: int = 1) -> npt.NDArray[np.int64]:
         """n_agents x obs_size features and n_agents x n_actions masks in, one greedy action per agent out."""
     def play(self, env: Env, seed: int) -> dict[str, Any]:
-        """One episode of `env` from `seed` with the Rust agent (`avacraft episode --agent marl:DIR`):
-        {"result": "win" | "loss" | "draw", "steps", "trajectory_hash"}."""
+        """One episode of `env` from `seed` with the Rust agent (`avacraft episode --agent marl:DIR`, and in
+        PvP `--agent2 marl:DIR`): {"result": "win" | "loss" | "draw", "steps", "trajectory_hash", "actions"}
+        (and "actions2" in PvP)."""
 
 class Ava:
     """The AVA agent over an `AvaSpec` given as JSON (`avacraft.Ava` builds it from keywords)."""

@@ -43,12 +43,13 @@ class MarlPolicy(_MarlPolicy):
         `baselines/`). Raises `AvacraftError` naming what is shipped when it is not."""
         return cls(baseline_dir(scenario, name))
 
-    def act(self, obs: Any, avail: Any) -> np.ndarray:
+    def act(self, obs: Any, avail: Any, team: int = 1) -> np.ndarray:
         """Greedy actions (int64, one per agent) from every agent's SMAC observation (a list
         of vectors or an `n_agents x obs_size` array, as `StarCraft2Env.get_obs()`) and mask
         (`get_avail_actions()`); dead agents included, in agent order. Advances the agents'
-        GRU states: call once per step."""
-        return super().act(np.ascontiguousarray(obs, dtype=np.float32), np.ascontiguousarray(avail, dtype=np.uint8))
+        GRU states: call once per step. `team=2` plays team 2 of a PvP scenario: the network,
+        trained as team 1, sees and acts in the mirror image (east and west swapped)."""
+        return super().act(np.ascontiguousarray(obs, dtype=np.float32), np.ascontiguousarray(avail, dtype=np.uint8), team)
 
     def act_parallel(self, observations: dict[str, dict[str, Any]], team: int = 1) -> dict[str, int]:
         """Actions for a PettingZoo `parallel_env` step from its observation dict (features or
@@ -79,5 +80,5 @@ class MarlPolicy(_MarlPolicy):
             obs[i] = features
             avail[i] = np.asarray(o["action_mask"])
             names[i] = name
-        actions = self.act(obs, avail)
+        actions = self.act(obs, avail, team)
         return {name: int(actions[i]) for i, name in sorted(names.items())}

@@ -6,12 +6,13 @@
 //! rows through the network at once, in agent order, dead agents included, each with its
 //! own GRU state and last action, then the greedy available action. So a Python loop plays
 //! the Rust agent's episodes, action for action; [`PyMarlPolicy::play`] runs that Rust
-//! agent, to check it.
+//! agent, to check it. Playing team 2, the network sees and acts in the mirror image, as
+//! `MarlAgent` does (it was trained as team 1).
 
 use crate::env::PyEnv;
 use crate::error::{AvacraftError, PolicyError};
 use avacraft_engine::agent::{AgentTeam, Grouping};
-use avacraft_engine::{Mode, Outcome, Team};
+use avacraft_engine::{Mode, Outcome, Scenario, SmacLayout, Team};
 use avacraft_marl::{MarlAgent, Policy, select_actions};
 use avacraft_policy::MarlCheckpoint;
 use numpy::{PyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
@@ -31,6 +32,8 @@ pub struct PyMarlPolicy {
     /// n_agents x hidden, and each agent's last action (none before the first step).
     hidden: Vec<f32>,
     last: Vec<Option<u32>>,
+    /// Team 2's layout on the trained scenario, loaded when team 2 first acts (to mirror).
+    mirror: Option<SmacLayout>,
 }
 
 impl PyMarlPolicy {
@@ -43,7 +46,21 @@ impl PyMarlPolicy {
         let policy = Arc::clone(checkpoint.policy()?);
         let n = policy.shape.n_agents;
         let width = policy.nets.agent.hidden;
-        Ok(Self { policy, checkpoint, hidden: vec![0.0; n * width], last: vec![None; n] })
+        Ok(Self { policy, checkpoint, hidden: vec![0.0; n * width], last: vec![None; n], mirror: None })
+    }
+
+    /// Team 2's layout, for the mirror image.
+    fn mirror_layout(&mut self) -> PyResult<&SmacLayout> {
+        if self.mirror.is_none() {
+            let name = &self.policy.scenario;
+            let s = Scenario::load(name).map_err(|e| {
+                AvacraftError::new_err(format!(
+                    "team=2 mirrors the observations on the trained scenario {name:?}, which does not load: {e}"
+                ))
+            })?;
+            self.mirror = Some(SmacLayout::new(&s, Team::Two));
+        }
+        Ok(self.mirror.get_or_insert_with(|| unreachable!("set above")))
     }
 }
 
@@ -94,13 +111,17 @@ impl PyMarlPolicy {
 
     /// Greedy actions (int64, one per agent) for one step from every agent's SMAC features
     /// (`n_agents x obs_size` float32) and masks (`n_agents x n_actions` uint8), agents in
-    /// SMAC order, dead ones included; advances each agent's GRU state.
+    /// SMAC order, dead ones included; advances each agent's GRU state. `team=2` plays team
+    /// 2 of a PvP scenario in the mirror image, as `MarlAgent` does.
+    #[pyo3(signature = (obs, avail, team=1))]
     fn act<'py>(
         &mut self,
         py: Python<'py>,
         obs: PyReadonlyArray2<'py, f32>,
         avail: PyReadonlyArray2<'py, u8>,
+        team: u8,
     ) -> PyResult<Bound<'py, PyArray1<i64>>> {
+        let team = crate::env::team(team)?;
         let sh = self.policy.shape;
         let n = sh.n_agents;
         for (what, a, cols, what_size) in [("obs", obs.shape(), sh.obs, "obs_size"), ("avail", avail.shape(), sh.n_actions, "n_actions")] {
@@ -108,8 +129,14 @@ impl PyMarlPolicy {
                 return Err(PolicyError::Shape { what, given: a.to_vec(), needed: [n, cols], what_size }.into());
             }
         }
-        let features: Vec<f32> = obs.as_array().iter().copied().collect();
-        let mask: Vec<u8> = avail.as_array().iter().map(|&m| u8::from(m != 0)).collect();
+        let mut features: Vec<f32> = obs.as_array().iter().copied().collect();
+        let mut mask: Vec<u8> = avail.as_array().iter().map(|&m| u8::from(m != 0)).collect();
+        let mirror = team == Team::Two;
+        if mirror {
+            let layout = self.mirror_layout()?;
+            features.chunks_exact_mut(sh.obs.max(1)).for_each(|f| layout.mirror_obs(f));
+            mask.chunks_exact_mut(sh.n_actions.max(1)).for_each(SmacLayout::mirror_avail);
+        }
         if let Some(agent) = mask.chunks(sh.n_actions.max(1)).position(|row| row.iter().all(|&m| m == 0)) {
             return Err(PolicyError::NoAction { agent }.into());
         }
@@ -121,15 +148,18 @@ impl PyMarlPolicy {
         for (l, &a) in self.last.iter_mut().zip(&acts) {
             *l = Some(a);
         }
-        Ok(PyArray1::from_vec(py, acts.into_iter().map(i64::from).collect()))
+        // The network's own action (in its image) stays its next last-action input.
+        let out = acts.into_iter().map(|a| if mirror { SmacLayout::mirror_action(a as usize) as i64 } else { i64::from(a) });
+        Ok(PyArray1::from_vec(py, out.collect()))
     }
 
     /// Plays one episode of `env` from `seed` in Rust with `avacraft_marl::MarlAgent` for
-    /// team 1 (what `avacraft episode --agent marl:DIR` runs), leaving `env` at its end:
-    /// the reference a Python loop with `act` reproduces. Returns `{"result": "win" | "loss"
-    /// | "draw", "steps", "trajectory_hash", "actions"}`, `actions` holding per step the SMAC
-    /// index of each agent's order (-1: none, a dead unit). Frames are not recorded. This
-    /// policy's own GRU states are left alone.
+    /// team 1 (what `avacraft episode --agent marl:DIR` runs), and in PvP for team 2 too
+    /// (`--agent2 marl:DIR`, in the mirror image), leaving `env` at its end: the reference a
+    /// Python loop with `act` reproduces. Returns `{"result": "win" | "loss" | "draw" (team
+    /// 1's), "steps", "trajectory_hash", "actions"}` and in PvP `"actions2"`, holding per
+    /// step the SMAC index of each agent's order (-1: none, a dead unit). Frames are not
+    /// recorded. This policy's own GRU states are left alone.
     ///
     /// The trajectory hash is the typed-action path's: it records no last action for dead
     /// units, where a SMAC loop records their no-op, so it differs from a Python loop's hash
@@ -137,33 +167,41 @@ impl PyMarlPolicy {
     fn play<'py>(&self, py: Python<'py>, env: &Bound<'py, PyEnv>, seed: u64) -> PyResult<Bound<'py, PyDict>> {
         let mut e = env.borrow_mut();
         let env = e.engine();
-        if env.scenario().mode == Mode::Pvp {
-            return Err(AvacraftError::new_err(format!("{} is PvP: play() drives team 1 of a PvE scenario", env.scenario().name)));
+        let teams: &[Team] = if env.scenario().mode == Mode::Pvp { &[Team::One, Team::Two] } else { &[Team::One] };
+        for &t in teams {
+            self.check(env, t)?;
         }
-        self.check(env, Team::One)?;
-        let policy = Arc::clone(&self.policy);
-        let name = format!("marl:{}", self.checkpoint.dir().display());
-        // One agent for the team, as `Controllers` runs it for `episode --agent`.
-        let mut team = AgentTeam::new(Team::One, Grouping::Team, move || Box::new(MarlAgent::new(Arc::clone(&policy), name.clone())));
+        // One agent per team, as `Controllers` runs it for `episode --agent`.
+        let mut players: Vec<AgentTeam> = teams
+            .iter()
+            .map(|&t| {
+                let policy = Arc::clone(&self.policy);
+                let name = format!("marl:{}", self.checkpoint.dir().display());
+                AgentTeam::new(t, Grouping::Team, move || Box::new(MarlAgent::new(Arc::clone(&policy), name.clone())))
+            })
+            .collect();
         env.reset(seed);
-        team.reset(env);
-        let order = env.agents(Team::One).to_vec();
-        let mut chosen: Vec<Vec<i64>> = Vec::new();
+        players.iter_mut().for_each(|p| p.reset(env));
+        let mut chosen: Vec<Vec<Vec<i64>>> = vec![Vec::new(); teams.len()];
         while !env.done() {
-            let actions = team.act(env, 0);
-            let layout = env.smac_layout(Team::One);
-            let mut row = vec![-1i64; order.len()];
-            for a in &actions {
-                if let Some(i) = order.iter().position(|&u| u == a.unit) {
-                    row[i] = layout.index_for(env.world(), i, &a.command).map_or(-1, |x| x as i64);
+            for (k, (p, &t)) in players.iter_mut().zip(teams).enumerate() {
+                let actions = p.act(env, 0);
+                let (order, layout) = (env.agents(t), env.smac_layout(t));
+                let mut row = vec![-1i64; order.len()];
+                for a in &actions {
+                    if let Some(i) = order.iter().position(|&u| u == a.unit) {
+                        row[i] = layout.index_for(env.world(), i, &a.command).map_or(-1, |x| x as i64);
+                    }
                 }
+                chosen[k].push(row);
+                env.submit(t, &actions);
             }
-            chosen.push(row);
-            env.submit(Team::One, &actions);
             env.step();
         }
         let d = episode_result(py, env, Team::One)?;
-        d.set_item("actions", chosen)?;
+        for (k, rows) in chosen.into_iter().enumerate() {
+            d.set_item(if k == 0 { "actions" } else { "actions2" }, rows)?;
+        }
         Ok(d)
     }
 

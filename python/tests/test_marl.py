@@ -110,3 +110,43 @@ def test_a_shipped_baseline_by_name_plays_as_its_checkpoint(tmp_path, monkeypatc
         avacraft.MarlPolicy.baseline("3m", "mappo")
     with pytest.raises(avacraft.AvacraftError, match="only letters"):
         avacraft.MarlPolicy.baseline("3m", "../qmix")
+
+
+
+PVP = pathlib.Path(__file__).resolve().parents[2] / "baselines" / "terran_mirror" / "mappo"
+
+
+def team_arrays(obs, team, n, obs_size, n_actions):
+    """A team's features and masks from parallel_env observations, as act_parallel builds them."""
+    f = np.zeros((n, obs_size), dtype=np.float32)
+    m = np.zeros((n, n_actions), dtype=np.uint8)
+    m[:, 0] = 1
+    for name, o in obs.items():
+        if name.startswith(f"team{team}_agent_"):
+            i = int(name.rsplit("_", 1)[1])
+            f[i], m[i] = o["observation"], o["action_mask"]
+    return f, m
+
+
+def test_team_2_plays_in_the_mirror_image_as_the_rust_agent():
+    """A PvP checkpoint (trained as team 1) on both teams of a parallel_env: team 2's policy
+    sees and acts in the mirror image, and the episodes are those `play` runs with the Rust
+    agent on both teams (`episode --agent marl:DIR --agent2 marl:DIR`)."""
+    env = avacraft.parallel_env("terran_mirror", obs_mode="features")
+    differs = 0
+    for seed in (1, 2):
+        one, two, plain = avacraft.MarlPolicy(PVP), avacraft.MarlPolicy(PVP), avacraft.MarlPolicy(PVP)
+        obs, _ = env.reset(seed=seed)
+        while env.agents:
+            a1, a2 = one.act_parallel(obs, team=1), two.act_parallel(obs, team=2)
+            # The same network reading team 2's features as they are (no mirror).
+            f, m = team_arrays(obs, 2, plain.n_agents, plain.obs_size, plain.n_actions)
+            unmirrored = plain.act(f, m, team=1)
+            differs += any(unmirrored[int(k.rsplit("_", 1)[1])] != v for k, v in a2.items())
+            obs, _, _, _, infos = env.step({**a1, **a2})
+            assert not any("invalid_action" in i for i in infos.values())
+        ref_env = avacraft.Env("terran_mirror", reward="sparse", passive_allies=False)
+        ref = avacraft.MarlPolicy(PVP).play(ref_env, seed)
+        assert len(ref["actions2"]) == ref["steps"] == env.env.steps, f"seed {seed}"
+        assert env.env.units() == ref_env.units(), f"seed {seed}: the same units, positions and health at the end"
+    assert differs > 0, "the mirror changed no action"
