@@ -69,6 +69,11 @@ impl EnvConfig {
     pub fn smac() -> Self {
         Self { rules: Rules { auto_acquire: [false, true], ..Rules::default() }, ..Self::default() }
     }
+
+    /// Whether extended partial observability is on (a probability below 1).
+    pub fn epo(&self) -> bool {
+        self.prob_obs_enemy < 1.0
+    }
 }
 
 impl Default for EnvConfig {
@@ -83,13 +88,6 @@ impl Default for EnvConfig {
             prob_obs_enemy: 1.0,
             action_mask: true,
         }
-    }
-}
-
-impl EnvConfig {
-    /// Whether extended partial observability is on (a probability below 1).
-    pub fn epo(&self) -> bool {
-        self.prob_obs_enemy < 1.0
     }
 }
 
