@@ -230,8 +230,7 @@ impl Env {
 impl Env {
     pub fn new(scenario: Arc<Scenario>, cfg: EnvConfig, seed: u64) -> Env {
         let world = World::new(&scenario, cfg.rules, seed);
-        let cfg_ref = cfg.clone();
-        let scenario_ref = Arc::clone(&scenario);
+        let layouts = layouts(&scenario, &cfg);
         let mut env = Env {
             template: Arc::clone(&scenario),
             agents: [Vec::new(), Vec::new()],
@@ -251,7 +250,7 @@ impl Env {
             dense: DenseTracker::default(),
             max_reward: [0.0, 0.0],
             trajectory: Fnv::default(),
-            layouts: layouts(&scenario_ref, &cfg_ref),
+            layouts,
             epo: [Epo::new(0, 0, 0, 0), Epo::new(0, 1, 0, 0)],
         };
         env.reset(seed);

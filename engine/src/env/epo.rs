@@ -91,7 +91,7 @@ impl Epo {
     /// Zeroes the rows of the enemies `agent` may not observe.
     pub(super) fn mask(&self, layout: &SmacLayout, agent: usize, obs: &mut [f32]) {
         for e in 0..self.tagger.len() {
-            if !self.allowed.get(e * self.n_agents + agent).copied().unwrap_or(false)
+            if !self.allowed(agent, e)
                 && let Some(row) = obs.get_mut(layout.enemy_row(e))
             {
                 row.fill(0.0);
