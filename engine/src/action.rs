@@ -68,6 +68,20 @@ pub enum Command {
         ability: Ability,
         target: AbilityTarget,
     },
+    /// Turn the unit's field of view (SMACv2's `conic_fov`) to sector `sector` of `sectors`,
+    /// counter-clockwise from east: the direction at angle 2π·sector/sectors. The unit keeps
+    /// its order; only what its SMAC features see and may attack changes.
+    Look {
+        sector: u8,
+        sectors: u8,
+    },
+}
+
+impl Command {
+    /// The unit vector of a [`Command::Look`] direction.
+    pub fn look_direction(sector: u8, sectors: u8) -> Vec2 {
+        Vec2::from_angle(std::f32::consts::TAU * f32::from(sector) / f32::from(sectors.max(1)))
+    }
 }
 
 /// A command for one unit.
@@ -109,6 +123,8 @@ pub enum ActionError {
     Unavailable { unit: UnitId, why: Inability },
     #[error("unit {unit} cannot use {ability}: {refusal}")]
     AbilityRefused { unit: UnitId, ability: Ability, refusal: Refusal },
+    #[error("look sector {sector} of {sectors}: the sector must be below the number of sectors, which must be 1 or more")]
+    BadLook { sector: u8, sectors: u8 },
 }
 
 /// Centre of grid cell (x, y) in map coordinates; (1, 1) is the top-left cell.
@@ -132,6 +148,12 @@ impl World {
         let order = self.validate(team, a)?;
         if let Command::Ability { ability, target } = a.command {
             self.pending_casts.push(PendingCast { team, unit: a.unit, ability, target });
+            return Ok(());
+        }
+        if let Command::Look { sector, sectors } = a.command {
+            if let Some(u) = self.units.get_mut(a.unit.index()) {
+                u.look = Command::look_direction(sector, sectors);
+            }
             return Ok(());
         }
         if let Some(o) = order {

@@ -194,6 +194,7 @@ fn hash_unit(h: &mut Fnv, u: &Unit) {
         pos,
         vel,
         heading,
+        look,
         hp,
         max_hp,
         shield,
@@ -222,6 +223,11 @@ fn hash_unit(h: &mut Fnv, u: &Unit) {
     h.vec2(*pos);
     h.vec2(*vel);
     h.vec2(*heading);
+    // Only turned under SMACv2's conic fields of view: hashed when turned, so every other
+    // run's hashes are what they were before the field existed.
+    if *look != crate::world::LOOK_EAST {
+        h.vec2(*look);
+    }
     hash_order(h, *order);
     h.unit(*target);
     h.unit(*last_attacker);

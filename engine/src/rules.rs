@@ -281,6 +281,10 @@ pub(crate) fn check<S: Sight>(s: &S, team: Team, a: &crate::action::Action) -> R
     if let Command::Ability { ability, target } = a.command {
         return cast(s, team, u, ability, target).map(|_| None).map_err(|refusal| ActionError::AbilityRefused { unit, ability, refusal });
     }
+    if let Command::Look { sector, sectors } = a.command {
+        // Turning the field of view keeps the order, whatever the unit is doing.
+        return if sector < sectors { Ok(None) } else { Err(ActionError::BadLook { sector, sectors }) };
+    }
     let cannot = |why| ActionError::Unavailable { unit, why };
     if u.morphing() && a.command != Command::Stop {
         return Err(cannot(Inability::Morphing));
@@ -298,7 +302,7 @@ pub(crate) fn check<S: Sight>(s: &S, team: Team, a: &crate::action::Action) -> R
         terrain.reachable_point(u.pos(), p, u.kind().spec().cliff_walk).ok_or(cannot(Inability::NoGround))
     };
     Ok(match a.command {
-        Command::NoOp | Command::Ability { .. } => None,
+        Command::NoOp | Command::Ability { .. } | Command::Look { .. } => None,
         Command::Stop => Some(Order::Idle),
         Command::Hold => Some(Order::Hold),
         Command::Attack { target } => {

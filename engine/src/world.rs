@@ -91,6 +91,9 @@ pub struct Unit {
     pub vel: Vec2,
     /// Unit vector the unit faces (kept as a vector: the angle is only needed for display).
     pub heading: Vec2,
+    /// Where its field of view points under SMACv2's `conic_fov` ([`crate::Command::Look`]):
+    /// a unit vector, east until told otherwise (SMACv2's start). Other rules ignore it.
+    pub look: Vec2,
     pub hp: f32,
     pub max_hp: f32,
     pub shield: f32,
@@ -116,6 +119,9 @@ pub struct Unit {
     /// Buffs, modes, timers and cooldowns from abilities.
     pub status: Status,
 }
+
+/// A unit's field of view before any [`crate::Command::Look`]: east, as SMACv2 starts.
+pub const LOOK_EAST: Vec2 = Vec2 { x: 1.0, y: 0.0 };
 
 impl Unit {
     pub fn spec(&self) -> &'static UnitSpec {
@@ -320,6 +326,7 @@ impl World {
                 pos: su.pos,
                 vel: Vec2::ZERO,
                 heading: Vec2::from_angle(su.facing),
+                look: LOOK_EAST,
                 hp: max_hp,
                 max_hp,
                 shield: s.shield,

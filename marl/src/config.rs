@@ -119,6 +119,12 @@ pub struct Config {
     /// SMAC's range mask on attack actions; false: SMACv2's `action_mask: False`.
     #[serde(default = "yes", skip_serializing_if = "is_true")]
     pub action_mask: bool,
+    /// SMACv2's conic fields of view (`EnvConfig::fov_actions`), with `num_fov_actions` look
+    /// actions (SMACv2's default 12).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub conic_fov: bool,
+    #[serde(default = "twelve", skip_serializing_if = "is_twelve")]
+    pub num_fov_actions: i64,
     // PPO (ippo, mappo) only; see configs/mappo.toml.
     #[serde(default)]
     pub critic_lr: f64,
@@ -194,6 +200,18 @@ fn is_one(v: &f64) -> bool {
     *v == 1.0
 }
 
+fn is_false(v: &bool) -> bool {
+    !*v
+}
+
+fn twelve() -> i64 {
+    12
+}
+
+fn is_twelve(v: &i64) -> bool {
+    *v == 12
+}
+
 fn is_true(v: &bool) -> bool {
     *v
 }
@@ -239,6 +257,8 @@ impl Config {
         // The environment's SMACv2 options, off unless set: keys every config has.
         table.entry("prob_obs_enemy").or_insert(toml::Value::Float(1.0));
         table.entry("action_mask").or_insert(toml::Value::Boolean(true));
+        table.entry("conic_fov").or_insert(toml::Value::Boolean(false));
+        table.entry("num_fov_actions").or_insert(toml::Value::Integer(12));
         for o in overrides {
             let Some((key, value)) = o.split_once('=') else {
                 return Err(Error::Override { text: o.clone(), message: "expected key=value".into() });
@@ -267,6 +287,11 @@ impl Config {
         let def = |f: fn(&Config) -> f64, fallback: f64| default.as_ref().map_or(fallback, f);
         unit("gamma", self.gamma)?;
         unit("prob_obs_enemy", self.prob_obs_enemy)?;
+        if self.conic_fov && avacraft_engine::check_fov_actions(self.num_fov_actions).is_err() {
+            let n = self.num_fov_actions.clamp(2, i64::from(avacraft_engine::MAX_FOV_ACTIONS));
+            let rule = format!("must be an even number from 2 to {} (the look actions of conic_fov)", avacraft_engine::MAX_FOV_ACTIONS);
+            return Err(bad("num_fov_actions", self.num_fov_actions, &rule, n - n % 2));
+        }
         positive("lr", self.lr, def(|c| c.lr, 5e-4))?;
         if let Err(why) = crate::policy::Opponent::parse(&self.opponent) {
             return Err(bad("opponent", format!("{:?}", self.opponent.trim()), &why, "\"focus-fire\""));
@@ -398,6 +423,7 @@ impl Config {
             time_limit_loops,
             prob_obs_enemy: self.prob_obs_enemy as f32,
             action_mask: self.action_mask,
+            fov_actions: if self.conic_fov { u8::try_from(self.num_fov_actions).unwrap_or(0) } else { 0 },
             ..base
         }
     }
@@ -580,6 +606,12 @@ mod tests {
         assert!(c.env_config().epo() && !c.env_config().action_mask && c.env_config().prob_obs_enemy == 0.0);
         let text = toml::to_string(&c).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
         assert_eq!(Config::from_toml(&text, &[])?.env_config(), c.env_config());
+        // SMACv2's conic fields of view: off by default, 12 look actions when on.
+        assert_eq!(Config::for_algo("qmix", &[])?.env_config().fov_actions, 0);
+        let c = Config::for_algo("qmix", &["conic_fov=true".into()])?;
+        assert_eq!(c.env_config().fov_actions, 12);
+        let text = toml::to_string(&c).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
+        assert_eq!(Config::from_toml(&text, &[])?.env_config().fov_actions, 12);
         Ok(())
     }
 
@@ -591,6 +623,11 @@ mod tests {
         assert!(e.contains("envs=many") && e.contains("integer"), "{e}");
         let e = Config::for_algo("qmix", &["mixer=sum".into()]).err().map(|e| e.to_string()).unwrap_or_default();
         assert!(e.contains("sum"), "{e}");
+        let e = Config::for_algo("qmix", &["conic_fov=true".into(), "num_fov_actions=7".into()])
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(e.contains("num_fov_actions = 7") && e.contains("even") && e.contains("nearest valid value: 6"), "{e}");
         let e = Config::for_algo("qmix", &["prob_obs_enemy=1.5".into()]).err().map(|e| e.to_string()).unwrap_or_default();
         assert!(e.contains("prob_obs_enemy = 1.5") && e.contains("[0, 1]"), "{e}");
         let e = Config::for_algo("qmix", &["gamma=2.0".into()]).err().map(|e| e.to_string()).unwrap_or_default();

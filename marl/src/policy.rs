@@ -194,7 +194,7 @@ impl Policy {
 
     /// Checks that `team`'s agents in `scenario` have the sizes the network was trained on.
     pub fn check_scenario(&self, scenario: &Scenario, team: Team) -> Result<(), Error> {
-        let l = SmacLayout::new(scenario, team);
+        let l = self.layout(scenario, team);
         let got = (l.n_agents, l.obs_size, l.n_actions);
         let want = (self.shape.n_agents, self.shape.obs, self.shape.n_actions);
         if got != want {
@@ -203,6 +203,12 @@ impl Policy {
             });
         }
         Ok(())
+    }
+
+    /// `team`'s SMAC layout on `scenario` under the options this policy was trained with
+    /// (SMACv2's look actions among them): the features and actions its network reads.
+    pub fn layout(&self, scenario: &Scenario, team: Team) -> SmacLayout {
+        SmacLayout::new(scenario, team).with_fov(self.cfg.env_config().fov_actions)
     }
 
     /// Greedy episodes (one per seed) on `scenario`, in any observation mode: frames are
@@ -297,7 +303,7 @@ impl Agent for MarlAgent {
         self.last = vec![None; n];
         // A network of other sizes would read other features: it then gives no orders.
         self.fits = self.policy.check_scenario(&ctx.scenario, ctx.team).is_ok() && self.policy.agent_refusal().is_none();
-        self.layout = Some(SmacLayout::new(&ctx.scenario, ctx.team));
+        self.layout = Some(self.policy.layout(&ctx.scenario, ctx.team));
         self.mirror = ctx.team == Team::Two;
     }
     fn act(&mut self, g: &GroupObs) -> Vec<Action> {
@@ -329,7 +335,7 @@ impl Agent for MarlAgent {
             self.hidden[c.agent].copy_from_slice(&h2[k * width..(k + 1) * width]);
             // The network's own action (in its image) is its next last-action input.
             self.last[c.agent] = Some(a);
-            let a = if self.mirror { SmacLayout::mirror_action(a as usize) } else { a as usize };
+            let a = if self.mirror { layout.mirror_action(a as usize) } else { a as usize };
             if c.alive
                 && let Some(command) = layout.command_for_obs(g, c.agent, a)
             {

@@ -185,6 +185,9 @@ pub struct UnitAction {
     /// `AbilityState`'s `ABILITY_*`.
     pub ability: u8,
     pub ability_target: u8,
+    /// `LOOK`: sector `look_sector` of `look_sectors`, counter-clockwise from east.
+    pub look_sector: u8,
+    pub look_sectors: u8,
 }
 
 /// Constants of `UnitAction.msg`, mirrored here (a test checks they agree).
@@ -198,6 +201,7 @@ impl UnitAction {
     pub const MOVE_TO: u8 = 6;
     pub const ATTACK_MOVE_TO: u8 = 7;
     pub const ABILITY: u8 = 8;
+    pub const LOOK: u8 = 9;
     pub const UP: u8 = 0;
     pub const DOWN: u8 = 1;
     pub const LEFT: u8 = 2;
@@ -217,6 +221,7 @@ impl UnitAction {
         ("MOVE_TO", Self::MOVE_TO),
         ("ATTACK_MOVE_TO", Self::ATTACK_MOVE_TO),
         ("ABILITY", Self::ABILITY),
+        ("LOOK", Self::LOOK),
         ("UP", Self::UP),
         ("DOWN", Self::DOWN),
         ("LEFT", Self::LEFT),
@@ -324,6 +329,7 @@ pub struct SessionInfo {
     pub abilities: bool,
     pub prob_obs_enemy: f32,
     pub action_mask: bool,
+    pub fov_actions: u8,
     pub clock: u8,
     pub deadline_ms: u32,
     pub launch_file: String,

@@ -251,6 +251,7 @@ pub fn unit_action(a: &Action) -> UnitAction {
             ..base
         },
         Command::MoveTo { to } => UnitAction { kind: UnitAction::MOVE_TO, x: to.x, y: to.y, ..base },
+        Command::Look { sector, sectors } => UnitAction { kind: UnitAction::LOOK, look_sector: sector, look_sectors: sectors, ..base },
         Command::AttackMoveTo { to } => UnitAction { kind: UnitAction::ATTACK_MOVE_TO, x: to.x, y: to.y, ..base },
         Command::Ability { ability, target } => {
             let b = UnitAction { kind: UnitAction::ABILITY, ability: ability_code(ability), ..base };
@@ -284,6 +285,8 @@ pub fn action(a: &UnitAction) -> Result<Action, WireError> {
             },
         },
         UnitAction::MOVE_TO => Command::MoveTo { to: point()? },
+        // The engine refuses a sector outside its count, with the unit named.
+        UnitAction::LOOK => Command::Look { sector: a.look_sector, sectors: a.look_sectors },
         UnitAction::ATTACK_MOVE_TO => Command::AttackMoveTo { to: point()? },
         UnitAction::ABILITY => {
             let target = match a.ability_target {
@@ -413,6 +416,7 @@ mod tests {
             Command::AttackMoveTo { to: p },
         ];
         commands.extend(Direction::ALL.map(|dir| Command::MoveDir { dir }));
+        commands.extend((0..12).map(|sector| Command::Look { sector, sectors: 12 }));
         for ability in Ability::ALL {
             for target in [AbilityTarget::None, AbilityTarget::Point { to: p }, AbilityTarget::Unit { unit: t }] {
                 commands.push(Command::Ability { ability, target });

@@ -2,7 +2,7 @@
 //! (the simulator node, the bridge) names them without reading their weights.
 
 use crate::PolicyError;
-use avacraft_engine::{Scenario, SmacLayout, Team};
+use avacraft_engine::{Scenario, Team};
 use avacraft_marl::Policy;
 use avacraft_marl::baselines;
 use std::collections::BTreeMap;
@@ -76,7 +76,7 @@ impl MarlCheckpoint {
                 scenario: scenario.name.clone(),
             });
         }
-        let l = SmacLayout::new(scenario, team);
+        let l = policy.layout(scenario, team);
         let s = policy.shape;
         let (trained, here) = ((s.n_agents, s.obs, s.n_actions), (l.n_agents, l.obs_size, l.n_actions));
         if trained != here || policy.check_scenario(scenario, team).is_err() {

@@ -54,6 +54,7 @@ class Env:
         time_limit_loops: Optional[int] = None,
         prob_obs_enemy: float = 1.0,
         action_mask: bool = True,
+        fov_actions: int = 0,
     ) -> None: ...
     def reset(self, seed: int) -> None: ...
     @property
@@ -119,6 +120,7 @@ class VecEnv:
         time_limit_loops: Optional[int] = None,
         prob_obs_enemy: float = 1.0,
         action_mask: bool = True,
+        fov_actions: int = 0,
     ) -> None: ...
     @property
     def num_envs(self) -> int: ...

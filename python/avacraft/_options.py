@@ -47,6 +47,16 @@ def probability(option: str, value: Any) -> float:
     return float(value)
 
 
+def fov_actions(conic_fov: Any, num_fov_actions: Any) -> int:
+    """SMACv2's `conic_fov` and `num_fov_actions` as the engine's look-action count (0: off)."""
+    if not boolean("conic_fov", conic_fov):
+        return 0
+    n = num_fov_actions
+    if isinstance(n, bool) or not isinstance(n, int) or not 2 <= n <= 64 or n % 2:
+        raise unsupported("num_fov_actions", n, "with conic_fov, an even number of look actions from 2 to 64 (SMACv2's default 12)")
+    return n
+
+
 def boolean(option: str, value: Any) -> bool:
     if not isinstance(value, bool):
         raise unsupported(option, value, "True or False")

@@ -74,6 +74,8 @@ class AvacraftParallelEnv(ParallelEnv):
         time_limit_loops: Optional[int] = None,
         prob_obs_enemy: float = 1.0,
         action_mask: bool = True,
+        conic_fov: bool = False,
+        num_fov_actions: int = 12,
         screen_size: tuple[int, int] = (160, 120),
         minimap_size: tuple[int, int] = (32, 32),
         vlm_size: tuple[int, int] = (1920, 1080),
@@ -112,6 +114,7 @@ class AvacraftParallelEnv(ParallelEnv):
             time_limit_loops=None if time_limit_loops is None else opt.positive_int("time_limit_loops", time_limit_loops),
             prob_obs_enemy=opt.probability("prob_obs_enemy", prob_obs_enemy),
             action_mask=opt.boolean("action_mask", action_mask),
+            fov_actions=opt.fov_actions(conic_fov, num_fov_actions),
         )
         self.pvp: bool = self._env.pvp
         self.teams = (1, 2) if self.pvp else (1,)

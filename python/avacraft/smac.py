@@ -53,6 +53,11 @@ class StarCraft2Env:
       first seen by one agent stays in each teammate's observation with this probability;
       1: off) and its switch for the range mask on attack actions (False: any living enemy
       the team sees may be attacked). SMACv2's EPO configs use 0.0 and False.
+    - `conic_fov`, `num_fov_actions`: SMACv2's conic fields of view: `num_fov_actions` look
+      actions (even, 12 by default) after the moves turn each agent's view, which then sees
+      and attacks only within a cone of 360/num_fov_actions degrees; the look direction
+      joins the agent's own features and each ally's state row. The cone is the geometric
+      one (SMACv2's slope test also admits points behind an agent looking east or west).
     """
 
     def __init__(
@@ -99,6 +104,8 @@ class StarCraft2Env:
         time_limit_loops: Optional[int] = None,
         prob_obs_enemy: float = 1.0,
         action_mask: bool = True,
+        conic_fov: bool = False,
+        num_fov_actions: int = 12,
     ) -> None:
         self.map_name = map_name
         self._step_mul = opt.positive_int("step_mul", step_mul)
@@ -157,6 +164,7 @@ class StarCraft2Env:
             time_limit_loops=time_limit_loops,
             prob_obs_enemy=opt.probability("prob_obs_enemy", prob_obs_enemy),
             action_mask=opt.boolean("action_mask", action_mask),
+            fov_actions=opt.fov_actions(conic_fov, num_fov_actions),
         )
         info = self._env.env_info(1)
         self.n_agents: int = info["n_agents"]

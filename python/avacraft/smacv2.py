@@ -22,8 +22,11 @@ Extended partial observability (`prob_obs_enemy`, with `action_mask=False` as SM
 observe an enemy, only that enemy's row of its observation is zeroed (SMACv2 zeroes every
 enemy row built before it, oxwhirl/smacv2#50), and its draws come from the episode's seed.
 
-Differences from SMACv2, each refused with a message when asked for: no `conic_fov`, no
-stochastic `attack` or `health` capabilities, and no `enemy_mask`.
+Conic fields of view (`conic_fov`, `num_fov_actions`) follow SMACv2's actions and features,
+with the geometric cone (see `avacraft.StarCraft2Env`).
+
+Differences from SMACv2, each refused with a message when asked for: no stochastic
+`attack` or `health` capabilities, and no `enemy_mask`.
 """
 
 from __future__ import annotations
@@ -48,7 +51,6 @@ _CAPITAL = {n: n.capitalize() for race in _RACES.values() for n in race}
 _POSITIONS = {"surrounded_and_reflect", "reflect_position", "surrounded"}
 # SMACv2's keywords with the only value the engine implements, and why.
 _FIXED = {
-    "conic_fov": (False, "conic fields of view are not implemented: agents see a full circle"),
     "fully_observable": (False, "observations follow each unit's sight"),
     "use_unit_ranges": (True, "procedural scenarios use each unit's own sight and shoot ranges (SMACv2's setting)"),
     "obs_own_pos": (True, "procedural scenarios' observations carry the agent's position (SMACv2's setting)"),
@@ -150,7 +152,6 @@ class StarCraftCapabilityEnvWrapper:
         for key, (value, why) in _FIXED.items():
             if key in kwargs and kwargs.pop(key) is not value:
                 raise AvacraftError(f"{key} must be {value}: {why}")
-        kwargs.pop("num_fov_actions", None)  # read by SMACv2 only with conic_fov
         attack_range = kwargs.pop("min_attack_range", 2)
         if attack_range != 2:
             raise AvacraftError(f"min_attack_range = {attack_range!r}: only 2 (SMACv2's default)")
@@ -166,6 +167,7 @@ class StarCraftCapabilityEnvWrapper:
         listed = set(config["team_gen"]["unit_types"])
         self._types: list[str] = [u for u in _RACES[map_name[6:]] if u in listed]
         self._shield = map_name == "10gen_protoss"
+        self._fov = bool(kwargs.get("conic_fov", False))
         self.n_agents = info["n_agents"]
         self.n_enemies = config["n_enemies"]
 
@@ -196,7 +198,8 @@ class StarCraftCapabilityEnvWrapper:
 
     def _ally_features(self) -> list[str]:
         names = ["health", "energy/cooldown", "rel_x", "rel_y"]
-        return names + (["shield"] if self._shield else []) + [f"type_{i}" for i in range(len(self._types))]
+        fov = ["fov_x", "fov_y"] if self._fov else []
+        return names + (["shield"] if self._shield else []) + fov + [f"type_{i}" for i in range(len(self._types))]
 
     def _enemy_features(self) -> list[str]:
         names = ["health", "rel_x", "rel_y"]
@@ -210,7 +213,8 @@ class StarCraftCapabilityEnvWrapper:
             names += [f"enemy_{e}_{f}" for f in ["available_to_attack", "distance", "relative_x", "relative_y", "health", *sh, *tb]]
         for a in range(self.n_agents - 1):
             names += [f"ally_{a}_{f}" for f in ["visible", "distance", "relative_x", "relative_y", "health", *sh, *tb]]
-        names += [f"own_{f}" for f in ["health", *sh, "pos_x", "pos_y", *tb]]
+        fov = ["fov_x", "fov_y"] if self._fov else []
+        names += [f"own_{f}" for f in ["health", *sh, "pos_x", "pos_y", *fov, *tb]]
         return names
 
     def get_state_feature_names(self) -> list[str]:

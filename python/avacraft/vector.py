@@ -56,6 +56,8 @@ class VecEnv:
         time_limit_loops: Optional[int] = None,
         prob_obs_enemy: float = 1.0,
         action_mask: bool = True,
+        conic_fov: bool = False,
+        num_fov_actions: int = 12,
     ) -> None:
         if seeds is None:
             if num_envs is None:
@@ -84,6 +86,7 @@ class VecEnv:
             time_limit_loops=None if time_limit_loops is None else opt.positive_int("time_limit_loops", time_limit_loops),
             prob_obs_enemy=opt.probability("prob_obs_enemy", prob_obs_enemy),
             action_mask=opt.boolean("action_mask", action_mask),
+            fov_actions=opt.fov_actions(conic_fov, num_fov_actions),
         )
         self.seeds = list(seeds)
         self.num_envs: int = self._raw.num_envs

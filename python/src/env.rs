@@ -141,7 +141,7 @@ impl Sized2 for Observer {
 impl PyEnv {
     #[new]
     #[pyo3(signature = (scenario, seed=0, step_mul=8, reward="dense", opponent=None, full_vision=false, passive_allies=true,
-        cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None, prob_obs_enemy=1.0, action_mask=true))]
+        cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None, prob_obs_enemy=1.0, action_mask=true, fov_actions=0))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         scenario: &str,
@@ -157,6 +157,7 @@ impl PyEnv {
         time_limit_loops: Option<u32>,
         prob_obs_enemy: f64,
         action_mask: bool,
+        fov_actions: i64,
     ) -> PyResult<Self> {
         let opts = Options {
             step_mul,
@@ -170,6 +171,7 @@ impl PyEnv {
             time_limit_loops,
             prob_obs_enemy,
             action_mask,
+            fov_actions,
         };
         let cfg = opts.config()?;
         let env = Env::new(load_scenario(scenario)?, cfg, seed);

@@ -58,7 +58,7 @@ impl PyMarlPolicy {
                     "team=2 mirrors the observations on the trained scenario {name:?}, which does not load: {e}"
                 ))
             })?;
-            self.mirror = Some(SmacLayout::new(&s, Team::Two));
+            self.mirror = Some(self.policy.layout(&s, Team::Two));
         }
         Ok(self.mirror.get_or_insert_with(|| unreachable!("set above")))
     }
@@ -137,6 +137,7 @@ impl PyMarlPolicy {
             features.chunks_exact_mut(sh.obs.max(1)).for_each(|f| layout.mirror_obs(f));
             mask.chunks_exact_mut(sh.n_actions.max(1)).for_each(SmacLayout::mirror_avail);
         }
+        let layout = if mirror { Some(self.mirror_layout()?.clone()) } else { None };
         if let Some(agent) = mask.chunks(sh.n_actions.max(1)).position(|row| row.iter().all(|&m| m == 0)) {
             return Err(PolicyError::NoAction { agent }.into());
         }
@@ -149,7 +150,10 @@ impl PyMarlPolicy {
             *l = Some(a);
         }
         // The network's own action (in its image) stays its next last-action input.
-        let out = acts.into_iter().map(|a| if mirror { SmacLayout::mirror_action(a as usize) as i64 } else { i64::from(a) });
+        let out = acts.into_iter().map(|a| match &layout {
+            Some(l) => l.mirror_action(a as usize) as i64,
+            None => i64::from(a),
+        });
         Ok(PyArray1::from_vec(py, out.collect()))
     }
 

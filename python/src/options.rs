@@ -35,6 +35,8 @@ pub(crate) struct Options {
     pub time_limit_loops: Option<u32>,
     pub prob_obs_enemy: f64,
     pub action_mask: bool,
+    /// SMACv2's conic fields of view: the number of look actions (0: off).
+    pub fov_actions: i64,
 }
 
 impl Options {
@@ -79,6 +81,11 @@ impl Options {
         }
         cfg.prob_obs_enemy = self.prob_obs_enemy as f32;
         cfg.action_mask = self.action_mask;
+        cfg.fov_actions = avacraft_engine::check_fov_actions(self.fov_actions).map_err(|why| Error::Option {
+            option: "num_fov_actions",
+            value: self.fov_actions.to_string(),
+            supported: format!("with conic_fov, {why}"),
+        })?;
         Ok(cfg)
     }
 }

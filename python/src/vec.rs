@@ -31,7 +31,7 @@ impl PyVecEnv {
 impl PyVecEnv {
     #[new]
     #[pyo3(signature = (scenario, seeds, threads=None, step_mul=8, reward="dense", opponent=None, full_vision=false,
-        passive_allies=true, cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None, prob_obs_enemy=1.0, action_mask=true))]
+        passive_allies=true, cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None, prob_obs_enemy=1.0, action_mask=true, fov_actions=0))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         scenario: &str,
@@ -48,6 +48,7 @@ impl PyVecEnv {
         time_limit_loops: Option<u32>,
         prob_obs_enemy: f64,
         action_mask: bool,
+        fov_actions: i64,
     ) -> PyResult<Self> {
         let opts = Options {
             step_mul,
@@ -61,6 +62,7 @@ impl PyVecEnv {
             time_limit_loops,
             prob_obs_enemy,
             action_mask,
+            fov_actions,
         };
         let cfg = opts.config()?;
         let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));

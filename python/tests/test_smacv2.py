@@ -176,10 +176,45 @@ def test_bad_configs_name_the_key(change, says):
     assert says in str(e.value), str(e.value)
 
 
-@pytest.mark.parametrize("key,value", [("conic_fov", True), ("obs_own_pos", False)])
+@pytest.mark.parametrize("key,value", [("fully_observable", True), ("obs_own_pos", False)])
 def test_unimplemented_options_are_refused(key, value):
     with pytest.raises(avacraft.AvacraftError, match=key):
         avacraft.StarCraftCapabilityEnvWrapper(capability_config=sc2_gen("terran"), map_name="10gen_terran", **{key: value})
+
+
+def test_conic_fields_of_view_play_with_smacv2_sizes(rng):
+    """SMACv2's conic_fov with its 12 look actions: the sizes grow as SMACv2's (look actions
+    after the moves, the direction in the own features and each ally's state row), a look
+    turns the agent's direction, and odd counts are refused with the key named."""
+    args = dict(ENV_ARGS, conic_fov=True, num_fov_actions=12)
+    env = avacraft.StarCraftCapabilityEnvWrapper(capability_config=sc2_gen("protoss"), map_name="10gen_protoss", seed=5, **args)
+    info = env.get_env_info()
+    assert (info["obs_shape"], info["state_shape"], info["n_actions"]) == (92 + 2, 130 + 5 * 2 + 5 * 12, 11 + 12)
+    assert len(env.get_obs_feature_names()) == info["obs_shape"] and len(env.get_state_feature_names()) == info["state_shape"]
+    names = env.get_obs_feature_names()
+    fx, fy = names.index("own_fov_x"), names.index("own_fov_y")
+    obs, _ = env.reset()
+    assert all((o[fx], o[fy]) == (1.0, 0.0) for o in obs), "agents start looking east"
+    turned = 0
+    for _ in range(2):
+        env.reset()
+        terminated = False
+        while not terminated:
+            avail = np.asarray(env.get_avail_actions())
+            alive = avail[:, 0] == 0
+            assert np.all(avail[alive, 6:18] == 1), "every look action is available to a living agent"
+            actions = random_actions(avail, rng)
+            _, terminated, _ = env.step(actions)
+            if terminated:
+                break
+            for a, (o, act) in enumerate(zip(env.get_obs(), actions)):
+                if 6 <= act < 18 and np.any(o):
+                    angle = 2 * np.pi * (act - 6) / 12
+                    assert np.allclose((o[fx], o[fy]), (np.cos(angle), np.sin(angle)), atol=1e-6), (a, act, o[fx], o[fy])
+                    turned += 1
+    assert turned > 0
+    with pytest.raises(avacraft.AvacraftError, match="num_fov_actions"):
+        avacraft.StarCraftCapabilityEnvWrapper(capability_config=sc2_gen("protoss"), map_name="10gen_protoss", **dict(args, num_fov_actions=7))
 
 
 def test_the_epo_config_plays_with_extended_partial_observability(rng):

@@ -9,6 +9,7 @@ mod cli;
 mod combat;
 mod determinism;
 mod epo;
+mod fov;
 mod golden;
 mod helpers;
 mod learn;

@@ -213,7 +213,7 @@ fn team_twos_view_reflected_is_team_ones_on_a_mirrored_map() {
         assert_eq!(o2, before);
     }
     for i in 0..info.n_actions {
-        assert_eq!(SmacLayout::mirror_action(SmacLayout::mirror_action(i)), i);
+        assert_eq!(layout.mirror_action(layout.mirror_action(i)), i);
     }
-    assert_eq!(SmacLayout::mirror_action(4), 5);
+    assert_eq!(layout.mirror_action(4), 5);
 }

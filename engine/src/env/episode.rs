@@ -53,6 +53,25 @@ pub struct EnvConfig {
     /// distance, so the mask stops telling an agent which enemies are near.
     #[serde(default = "yes")]
     pub action_mask: bool,
+    /// SMACv2's conic fields of view (`conic_fov` with `num_fov_actions`): 0 (the default)
+    /// is off; N adds N look actions after the moves, and each agent's SMAC features see
+    /// and attack only within a cone of 2π/N around where it looks (`Command::Look`).
+    /// Entry points accept even N from 2 to 64 ([`check_fov_actions`]).
+    #[serde(default)]
+    pub fov_actions: u8,
+}
+
+/// The largest number of look actions an entry point accepts.
+pub const MAX_FOV_ACTIONS: u8 = 64;
+
+/// Whether `n` look actions (SMACv2's `num_fov_actions`) are accepted: 0 (off) or an even
+/// number from 2 to [`MAX_FOV_ACTIONS`]. Even, so that a policy trained as team 1 plays team
+/// 2 in the mirror image with every look direction's mirror among its actions.
+pub fn check_fov_actions(n: i64) -> Result<u8, String> {
+    match u8::try_from(n) {
+        Ok(v) if v == 0 || (v % 2 == 0 && v <= MAX_FOV_ACTIONS) => Ok(v),
+        _ => Err(format!("{n} look actions: must be an even number from 2 to {MAX_FOV_ACTIONS} (or 0 for off)")),
+    }
 }
 
 fn one() -> f32 {
@@ -87,6 +106,7 @@ impl Default for EnvConfig {
             ability_actions: false,
             prob_obs_enemy: 1.0,
             action_mask: true,
+            fov_actions: 0,
         }
     }
 }
@@ -423,7 +443,8 @@ impl Env {
         h.u64(world.state_hash());
         h.u64(*seed);
         // The rules are hashed with the world, which holds a copy.
-        let EnvConfig { step_mul, rules: _, reward, opponent, time_limit_loops, ability_actions, prob_obs_enemy, action_mask } = cfg;
+        let EnvConfig { step_mul, rules: _, reward, opponent, time_limit_loops, ability_actions, prob_obs_enemy, action_mask, fov_actions } =
+            cfg;
         h.u32(step_mul.get());
         h.u32(*reward as u32 | (*ability_actions as u32) << 4);
         h.u32(opponent.map_or(0, |o| o as u32 + 1));
@@ -436,6 +457,9 @@ impl Env {
         }
         if !action_mask {
             h.u32(0x00a1_1a77);
+        }
+        if *fov_actions > 0 {
+            h.u32(0x0f0f_0000 | u32::from(*fov_actions));
         }
         h.u32(opponent_kind.map_or(0, |o| o as u32 + 1));
         h.rng(policy_rng);
@@ -585,7 +609,8 @@ impl Env {
 
 /// Both teams' SMAC layouts under `cfg`'s options.
 fn layouts(scenario: &Scenario, cfg: &EnvConfig) -> [SmacLayout; 2] {
-    Team::BOTH.map(|t| SmacLayout::with_abilities(scenario, t, cfg.ability_actions).with_range_mask(cfg.action_mask))
+    Team::BOTH
+        .map(|t| SmacLayout::with_abilities(scenario, t, cfg.ability_actions).with_range_mask(cfg.action_mask).with_fov(cfg.fov_actions))
 }
 
 pub(crate) fn command_index(env: &Env, team: Team, agent: usize, c: &Command) -> Option<usize> {

@@ -62,6 +62,11 @@ pub struct SmacLayout {
     /// enemy the team sees may be attacked. The observation's "can attack" bit keeps the
     /// range either way, as SMACv2's does.
     pub range_mask: bool,
+    /// SMACv2's conic fields of view: the number of look actions (0: off, a full circle).
+    /// They sit after the moves, so the attack block starts at [`SmacLayout::attack_base`];
+    /// the agent's look direction joins its own features (after its position) and each
+    /// ally's state row (after its shield).
+    pub fov: usize,
     map_center: Vec2,
     map_size: Vec2,
     playable_w: f32,
@@ -147,6 +152,7 @@ impl SmacLayout {
             abilities: slots,
             v2,
             range_mask: true,
+            fov: 0,
             map_center: Vec2::new(scenario.terrain.width() as f32 / 2.0, scenario.terrain.height() as f32 / 2.0),
             map_size: Vec2::new(scenario.terrain.width() as f32, scenario.terrain.height() as f32),
             playable_w: p.width(),
@@ -161,6 +167,39 @@ impl SmacLayout {
         self
     }
 
+    /// The layout with `n` look actions (SMACv2's `conic_fov` with `num_fov_actions = n`; 0:
+    /// off). The actions, the observation and the state grow (see `fov`).
+    pub fn with_fov(mut self, n: u8) -> Self {
+        let (old, n) = (self.fov, usize::from(n));
+        self.fov = n;
+        let on = |k: usize| if k > 0 { 2 } else { 0 };
+        self.n_actions = self.n_actions - old + n;
+        self.obs_size = self.obs_size - on(old) + on(n);
+        let na = 4 + self.shield_ally + self.ally_types.len();
+        let ne = 3 + self.shield_enemy + self.enemy_types.len();
+        self.state_size = self.n_agents * (na + on(n)) + self.n_enemies * ne + self.n_agents * self.n_actions;
+        self
+    }
+
+    /// The first attack index: after no-op, stop, the four moves and the look actions.
+    pub fn attack_base(&self) -> usize {
+        N_ACTIONS_NO_ATTACK + self.fov
+    }
+
+    /// Whether a point is in `u`'s view within `range`: a full circle (strictly within, as
+    /// SMAC's sight), or under conic fields of view within `range` and a cone of 2π/fov
+    /// around where it looks. SMACv2 compares arctangents of slopes, which also admits
+    /// points behind a unit looking east or west; here the cone is the geometric one.
+    fn in_view(&self, u: &Unit, p: Vec2, range: f32, strict: bool) -> bool {
+        let d = p - u.pos;
+        let dist = d.len();
+        let within = if strict { dist < range } else { dist <= range };
+        if self.fov == 0 || !within {
+            return within;
+        }
+        dist == 0.0 || d.dot(u.look) > dist * (std::f32::consts::PI / self.fov as f32).cos()
+    }
+
     /// Where enemy `j`'s features sit in an agent's observation.
     pub fn enemy_row(&self, j: usize) -> std::ops::Range<usize> {
         let fe = 5 + self.shield_enemy + self.ally_types.len();
@@ -172,7 +211,13 @@ impl SmacLayout {
     pub fn sees_enemy(&self, world: &World, agent: usize, j: usize) -> bool {
         let Some(u) = self.agents.get(agent).and_then(|&id| world.unit(id)).filter(|u| u.alive) else { return false };
         let Some(e) = self.enemies.get(j).and_then(|&id| world.unit(id)).filter(|e| e.alive) else { return false };
-        world.visible_to(self.team, e.id) && u.pos.dist(e.pos) < self.sight(u)
+        world.visible_to(self.team, e.id) && self.sees(u, e.pos)
+    }
+
+    /// Whether `u`'s features show a unit at `p`: within sight (strictly, as SMAC; SMACv2's
+    /// cone includes its edge of range) and, under conic fields of view, in the cone.
+    fn sees(&self, u: &Unit, p: Vec2) -> bool {
+        self.in_view(u, p, self.sight(u), self.fov == 0)
     }
 
     /// How far an agent sees for its features: SMAC's 9, or SMACv2's the unit's own sight.
@@ -227,24 +272,27 @@ impl SmacLayout {
         for (k, d) in [Direction::Up, Direction::Down, Direction::Right, Direction::Left].into_iter().enumerate() {
             out[2 + k] = Self::can_move(world, id, d) as u8;
         }
+        // Looking around is always possible (SMACv2).
+        out[N_ACTIONS_NO_ATTACK..self.attack_base()].fill(1);
         let busy = u.status.morph.is_some();
-        for j in 0..self.ability_base() - N_ACTIONS_NO_ATTACK {
-            out[N_ACTIONS_NO_ATTACK + j] = (!busy && self.attack_slot(world, agent, u, j, self.range_mask)) as u8;
+        let base = self.attack_base();
+        for j in 0..self.ability_base() - base {
+            out[base + j] = (!busy && self.attack_slot(world, agent, u, j, self.range_mask)) as u8;
         }
         if self.abilities.slots > 0 {
             self.ability_mask(world, agent, u, out);
         }
     }
 
-    /// Whether attack index `6 + j` is available to living agent `u`: target `j` (an enemy, or
-    /// for a healer an ally) is alive, seen, within SMAC's shoot range (if `by_range`) and
-    /// hittable.
+    /// Whether attack index `attack_base() + j` is available to living agent `u`: target `j`
+    /// (an enemy, or for a healer an ally) is alive, seen, within SMAC's shoot range and,
+    /// under conic fields of view, in the cone (if `by_range`), and hittable.
     fn attack_slot(&self, world: &World, agent: usize, u: &Unit, j: usize, by_range: bool) -> bool {
         let Some(&t) = self.targets(world, agent).get(j) else { return false };
         let Some(tu) = world.unit(t) else { return false };
         tu.alive
             && world.visible_to(self.team, t)
-            && (!by_range || u.pos.dist(tu.pos) <= self.shoot(u))
+            && (!by_range || self.in_view(u, tu.pos, self.shoot(u), false))
             && if u.spec().heal.is_some() {
                 // SMAC's rule (any ally but Medivacs), narrowed to what heal can target:
                 // biological units (the same on SMAC's own maps, whose allies are all biological).
@@ -263,8 +311,9 @@ impl SmacLayout {
             0 => u.status.channel.is_some() || u.status.morph.is_some(),
             1 => true,
             2..=5 => Self::can_move(world, u.id, [Direction::Up, Direction::Down, Direction::Right, Direction::Left][idx - 2]),
+            i if i < self.attack_base() => true,
             i if i < self.ability_base() => {
-                u.status.morph.is_none() && self.attack_slot(world, agent, u, i - N_ACTIONS_NO_ATTACK, self.range_mask)
+                u.status.morph.is_none() && self.attack_slot(world, agent, u, i - self.attack_base(), self.range_mask)
             }
             i if i < self.n_actions => self.ability_available(world, agent, u, i - self.ability_base()),
             _ => false,
@@ -291,7 +340,7 @@ impl SmacLayout {
             {
                 let d = eu.pos - u.pos;
                 let dist = d.len();
-                if dist < sight {
+                if self.sees(u, eu.pos) {
                     // SMAC reads this from the available actions: for a healer that is the
                     // heal slot of ally j, a quirk kept for compatibility.
                     f[0] = self.attack_slot(world, agent, u, j, true) as u8 as f32;
@@ -313,7 +362,7 @@ impl SmacLayout {
             if let Some(au) = world.unit(a).filter(|au| au.alive) {
                 let d = au.pos - u.pos;
                 let dist = d.len();
-                if dist < sight {
+                if self.sees(u, au.pos) {
                     f[0] = 1.0;
                     f[1] = dist / sight;
                     f[2] = d.x / sight;
@@ -339,6 +388,12 @@ impl SmacLayout {
             f[t + 1] = u.pos.y / self.map_size.y;
             t += 2;
         }
+        if self.fov > 0 {
+            // SMACv2's own_fov_x, own_fov_y.
+            f[t] = u.look.x;
+            f[t + 1] = u.look.y;
+            t += 2;
+        }
         Self::one_hot(&self.ally_types, u.kind, &mut f[t..]);
         if self.abilities.slots > 0 {
             let ext = self.obs_size - 1 - self.abilities.slots;
@@ -349,7 +404,8 @@ impl SmacLayout {
     pub fn state(&self, world: &World, last_actions: &[Option<usize>], out: &mut [f32]) {
         out.fill(0.0);
         let tb = self.ally_types.len();
-        let na = 4 + self.shield_ally + tb;
+        let look = if self.fov > 0 { 2 } else { 0 };
+        let na = 4 + self.shield_ally + look + tb;
         for (i, &a) in self.agents.iter().enumerate() {
             let f = &mut out[i * na..(i + 1) * na];
             let Some(u) = world.unit(a).filter(|u| u.alive) else { continue };
@@ -360,7 +416,12 @@ impl SmacLayout {
             if self.shield_ally > 0 && u.max_shield > 0.0 {
                 f[4] = u.shield / u.max_shield;
             }
-            Self::one_hot(&self.ally_types, u.kind, &mut f[4 + self.shield_ally..]);
+            if look > 0 {
+                // SMACv2's ally fov_x, fov_y.
+                f[4 + self.shield_ally] = u.look.x;
+                f[5 + self.shield_ally] = u.look.y;
+            }
+            Self::one_hot(&self.ally_types, u.kind, &mut f[4 + self.shield_ally + look..]);
         }
         let base = self.n_agents * na;
         let ne = 3 + self.shield_enemy + tb;
@@ -398,14 +459,16 @@ impl SmacLayout {
     fn command_from(&self, known: &impl Known, agent: usize, idx: usize) -> Option<Command> {
         Some(match idx {
             i if i < N_ACTIONS_NO_ATTACK => fixed_command(i),
-            i if i < self.ability_base() => Command::Attack { target: *self.targets(known, agent).get(i - N_ACTIONS_NO_ATTACK)? },
+            i if i < self.attack_base() => Command::Look { sector: (i - N_ACTIONS_NO_ATTACK) as u8, sectors: self.fov as u8 },
+            i if i < self.ability_base() => Command::Attack { target: *self.targets(known, agent).get(i - self.attack_base())? },
             i if i < self.n_actions => self.ability_command(known, agent, i - self.ability_base())?,
             _ => return None,
         })
     }
 
     /// Reflects an agent's observation in the map's vertical centre line, in place: east and
-    /// west swap (the move bits), x offsets change sign, an own x position becomes its mirror.
+    /// west swap (the move bits), x offsets change sign, an own x position becomes its mirror
+    /// and an own look direction's x changes sign.
     /// A policy trained as team 1 plays team 2 of a left-right mirrored scenario in this
     /// image (with [`SmacLayout::mirror_avail`] and [`SmacLayout::mirror_action`]).
     pub fn mirror_obs(&self, obs: &mut [f32]) {
@@ -422,29 +485,42 @@ impl SmacLayout {
                 *v = -*v;
             }
         }
-        if self.v2 {
-            let own = MOVE_FEATS + self.n_enemies * fe + self.n_agents.saturating_sub(1) * fa + 1 + self.shield_ally;
-            // Only a living agent's features are filled: a dead one's stay zero.
-            if obs.iter().any(|&v| v != 0.0)
-                && let Some(x) = obs.get_mut(own)
-            {
-                *x = 1.0 - *x;
-            }
+        let own = MOVE_FEATS + self.n_enemies * fe + self.n_agents.saturating_sub(1) * fa + 1 + self.shield_ally;
+        // Only a living agent's features are filled: a dead one's stay zero.
+        let alive = obs.iter().any(|&v| v != 0.0);
+        if self.v2
+            && alive
+            && let Some(x) = obs.get_mut(own)
+        {
+            *x = 1.0 - *x;
+        }
+        let look = own + if self.v2 { 2 } else { 0 };
+        if self.fov > 0
+            && alive
+            && let Some(x) = obs.get_mut(look)
+        {
+            *x = -*x;
         }
     }
 
-    /// [`SmacLayout::mirror_obs`] for a mask: east and west swap.
+    /// [`SmacLayout::mirror_obs`] for a mask: east and west swap. (Look actions are all
+    /// available or none, so their mirror needs no swap.)
     pub fn mirror_avail(avail: &mut [u8]) {
         if avail.len() > 5 {
             avail.swap(4, 5);
         }
     }
 
-    /// The action of the mirror image: move east and move west swap, the rest are the same.
-    pub fn mirror_action(idx: usize) -> usize {
+    /// The action of the mirror image: move east and move west swap, look sector `i` (angle
+    /// 2πi/N) becomes the sector at π minus that angle, the rest are the same.
+    pub fn mirror_action(&self, idx: usize) -> usize {
+        let n = self.fov;
         match idx {
             4 => 5,
             5 => 4,
+            i if n > 0 && (N_ACTIONS_NO_ATTACK..self.attack_base()).contains(&i) => {
+                N_ACTIONS_NO_ATTACK + (n + n / 2 - (i - N_ACTIONS_NO_ATTACK)) % n
+            }
             i => i,
         }
     }
@@ -463,9 +539,12 @@ impl SmacLayout {
             Command::MoveDir { dir: Direction::Down } => 3,
             Command::MoveDir { dir: Direction::Right } => 4,
             Command::MoveDir { dir: Direction::Left } => 5,
+            Command::Look { sector, sectors } if usize::from(*sectors) == self.fov && sector < sectors => {
+                N_ACTIONS_NO_ATTACK + usize::from(*sector)
+            }
             Command::Attack { target } => {
-                N_ACTIONS_NO_ATTACK
-                    + self.targets(world, agent).iter().take(self.ability_base() - N_ACTIONS_NO_ATTACK).position(|t| t == target)?
+                self.attack_base()
+                    + self.targets(world, agent).iter().take(self.ability_base() - self.attack_base()).position(|t| t == target)?
             }
             Command::Ability { ability, target } => self.ability_index(world, agent, *ability, target)?,
             _ => return None,

@@ -161,20 +161,38 @@ pub fn team_observation(min_len: usize) -> impl Strategy<Value = TeamObservation
 }
 
 pub fn unit_action() -> impl Strategy<Value = UnitAction> {
-    (any::<u32>(), any::<u8>(), any::<u32>(), float(), float(), any::<u8>(), any::<u8>(), any::<u8>(), any::<u8>(), any::<u8>()).prop_map(
-        |(unit_tag, kind, target_tag, x, y, grid_x, grid_y, direction, ability, ability_target)| UnitAction {
-            unit_tag,
-            kind,
-            target_tag,
-            x,
-            y,
-            grid_x,
-            grid_y,
-            direction,
-            ability,
-            ability_target,
-        },
+    (
+        any::<u32>(),
+        any::<u8>(),
+        any::<u32>(),
+        float(),
+        float(),
+        any::<u8>(),
+        any::<u8>(),
+        any::<u8>(),
+        any::<u8>(),
+        any::<u8>(),
+        any::<u8>(),
+        any::<u8>(),
     )
+        .prop_map(
+            |(unit_tag, kind, target_tag, x, y, grid_x, grid_y, direction, ability, ability_target, look_sector, look_sectors)| {
+                UnitAction {
+                    unit_tag,
+                    kind,
+                    target_tag,
+                    x,
+                    y,
+                    grid_x,
+                    grid_y,
+                    direction,
+                    ability,
+                    ability_target,
+                    look_sector,
+                    look_sectors,
+                }
+            },
+        )
 }
 
 pub fn action_batch(min_len: usize) -> impl Strategy<Value = ActionBatch> {
@@ -215,14 +233,14 @@ pub fn session_info(min_len: usize) -> impl Strategy<Value = SessionInfo> {
         (header(), text(), text(), any::<u32>(), any::<u8>(), any::<u8>(), any::<u32>(), any::<bool>()),
         (any::<bool>(), any::<bool>(), any::<[bool; 2]>(), any::<bool>(), any::<u8>(), any::<u32>(), text(), any::<u64>()),
         vec(any::<u64>(), min_len..5),
-        (any::<f32>(), any::<bool>()),
+        (any::<f32>(), any::<bool>(), any::<u8>()),
     )
         .prop_map(
             |(
                 (header, scenario_name, scenario_toml, step_mul, reward, opponent, time_limit_loops, ability_actions),
                 (full_vision, cooldown_jitter, auto_acquire, abilities, clock, deadline_ms, launch_file, episode),
                 seeds,
-                (prob_obs_enemy, action_mask),
+                (prob_obs_enemy, action_mask, fov_actions),
             )| SessionInfo {
                 header,
                 scenario_name,
@@ -238,6 +256,7 @@ pub fn session_info(min_len: usize) -> impl Strategy<Value = SessionInfo> {
                 abilities,
                 prob_obs_enemy,
                 action_mask,
+                fov_actions,
                 clock,
                 deadline_ms,
                 launch_file,

@@ -47,7 +47,8 @@ fn opponent_of(code: u8) -> Result<Option<OpponentKind>, SessionError> {
 pub fn session_info(cfg: &SimConfig, episode: u64, header: Header) -> SessionInfo {
     // Destructured in full, so a new configuration field does not compile until it is
     // carried here (a replay without it would silently use the default).
-    let EnvConfig { step_mul, rules, reward, opponent, time_limit_loops, ability_actions, prob_obs_enemy, action_mask } = &cfg.env;
+    let EnvConfig { step_mul, rules, reward, opponent, time_limit_loops, ability_actions, prob_obs_enemy, action_mask, fov_actions } =
+        &cfg.env;
     let Rules { full_vision, cooldown_jitter, auto_acquire, abilities } = *rules;
     let (clock, deadline_ms) = match cfg.clock {
         Clock::Lockstep { deadline } => (SessionInfo::CLOCK_LOCKSTEP, u32::try_from(deadline.as_millis()).unwrap_or(u32::MAX)),
@@ -71,6 +72,7 @@ pub fn session_info(cfg: &SimConfig, episode: u64, header: Header) -> SessionInf
         abilities,
         prob_obs_enemy: *prob_obs_enemy,
         action_mask: *action_mask,
+        fov_actions: *fov_actions,
         clock,
         deadline_ms,
         launch_file: cfg.launch_file.clone(),
@@ -95,6 +97,10 @@ pub fn env_config(s: &SessionInfo) -> Result<EnvConfig, SessionError> {
             why: "must be a probability in [0, 1]",
         });
     }
+    if avacraft_engine::check_fov_actions(i64::from(s.fov_actions)).is_err() {
+        let why = "must be 0 (off) or an even number of look actions from 2 to 64";
+        return Err(SessionError::Field { field: "fov_actions", value: s.fov_actions.to_string(), why });
+    }
     Ok(EnvConfig {
         step_mul,
         rules: Rules {
@@ -109,6 +115,7 @@ pub fn env_config(s: &SessionInfo) -> Result<EnvConfig, SessionError> {
         ability_actions: s.ability_actions,
         prob_obs_enemy: s.prob_obs_enemy,
         action_mask: s.action_mask,
+        fov_actions: s.fov_actions,
     })
 }
 
@@ -151,6 +158,7 @@ mod tests {
             ability_actions: true,
             prob_obs_enemy: 0.25,
             action_mask: false,
+            fov_actions: 12,
         };
         for env in [EnvConfig::default(), EnvConfig::smac(), odd] {
             let cfg = config(env.clone());
@@ -170,6 +178,8 @@ mod tests {
         assert!(e.to_string().contains("`opponent` = 9"), "{e}");
         let e = env_config(&SessionInfo { prob_obs_enemy: f32::NAN, ..good.clone() }).expect_err("not a probability");
         assert!(e.to_string().contains("prob_obs_enemy"), "{e}");
+        let e = env_config(&SessionInfo { fov_actions: 7, ..good.clone() }).expect_err("odd look actions");
+        assert!(e.to_string().contains("fov_actions") && e.to_string().contains("even"), "{e}");
         let e = env_config(&SessionInfo { step_mul: 0, ..good.clone() }).expect_err("zero step_mul");
         assert!(e.to_string().contains("step_mul"), "{e}");
         let e = scenario(&SessionInfo { scenario_toml: "name = 1".into(), ..good }).expect_err("bad toml");
