@@ -12,14 +12,15 @@ fn fov(n: u8) -> EnvConfig {
     EnvConfig { fov_actions: n, ..passive() }
 }
 
-/// One team-1 Marine at (10, 16) with an ally 2 west of it; enemy Marines 4 east, 4 west
-/// and 4 north of it (all within SMAC's shoot range 6 and sight 9).
+/// One team-1 Marine at (10, 16) (agent 0: agents are ordered by x) with an ally 2 east of
+/// it; enemy Marines 4 east, 4 west and 4 north of it (all within SMAC's shoot range 6 and
+/// sight 9).
 fn cross() -> Arc<avacraft_engine::Scenario> {
     load(&arena(
         "pve",
         &[
             ("Marine", 1, 10.0, 16.0),
-            ("Marine", 1, 8.0, 16.0),
+            ("Marine", 1, 12.0, 16.0),
             ("Marine", 2, 14.0, 16.0),
             ("Marine", 2, 6.0, 16.0),
             ("Marine", 2, 10.0, 20.0),
@@ -67,8 +68,8 @@ fn the_cone_follows_the_look_actions() {
     assert_eq!((l.fov, l.attack_base(), l.n_actions), (12, 18, 6 + 12 + 3));
     // Every look action is available to a living agent.
     assert!(avail(&env, 0)[6..18].iter().all(|&m| m == 1));
-    // SMACv2 starts looking east: only the enemy to the east, not the one straight behind
-    // (which SMACv2's slope comparison would also admit), nor the ally behind.
+    // SMACv2 starts looking east: only the enemy and the ally to the east, not the enemy
+    // straight behind (which SMACv2's slope comparison would also admit).
     assert_eq!(seen_and_attackable(&env), ([true, false, false], [true, false, false]));
     let own = |env: &Env| {
         let o = obs(env, 0);
@@ -77,13 +78,13 @@ fn the_cone_follows_the_look_actions() {
     };
     assert_eq!(own(&env), (1.0, 0.0));
     let ally = |env: &Env| obs(env, 0)[4 + 3 * 5] == 1.0;
-    assert!(!ally(&env));
+    assert!(ally(&env));
 
     look(&mut env, 6);
     assert_eq!(seen_and_attackable(&env), ([false, true, false], [false, true, false]));
     let (x, y) = own(&env);
     assert!((x + 1.0).abs() < 1e-6 && y.abs() < 1e-6, "looking west: ({x}, {y})");
-    assert!(ally(&env), "the ally to the west is in the cone now");
+    assert!(!ally(&env), "the ally to the east is behind now");
 
     look(&mut env, 3);
     assert_eq!(seen_and_attackable(&env), ([false, false, true], [false, false, true]));
@@ -144,11 +145,16 @@ fn conic_views_replay_and_leave_other_runs_alone() {
             let mut idx = Vec::new();
             for a in 0..l.n_agents {
                 let m = avail(&env, a);
-                // Attack the first available enemy, else look around (or stop).
-                let pick = (l.attack_base()..l.n_actions)
-                    .find(|&i| m[i] == 1)
-                    .or_else(|| (looks && l.fov > 0).then(|| 6 + (k + a) % l.fov))
-                    .unwrap_or(if m[0] == 1 { 0 } else { 1 });
+                // The dead no-op; else attack the first available enemy, else look around
+                // (or stop).
+                let pick = if m[1] == 0 {
+                    0
+                } else {
+                    (l.attack_base()..l.n_actions)
+                        .find(|&i| m[i] == 1)
+                        .or_else(|| (looks && l.fov > 0).then(|| 6 + (k + a) % l.fov))
+                        .unwrap_or(1)
+                };
                 idx.push(pick as i64);
             }
             env.step_indices(&idx, None).expect("available actions");
@@ -160,8 +166,8 @@ fn conic_views_replay_and_leave_other_runs_alone() {
     assert_eq!(a, run(fov(N), true));
     let off = run(passive(), false);
     let on_still = run(fov(N), false);
-    // Nobody looks: the world never sees the option (an agent looking east attacks what
-    // is east, as here the enemies are), but the environment's hash names it.
+    // Nobody looks: the cone still hides what is not east of an agent, and the
+    // environment's hash names the option either way.
     assert_ne!(off.0, on_still.0);
 }
 

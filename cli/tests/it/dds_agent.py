@@ -131,13 +131,13 @@ def main():
                 if enemies:
                     kind, target = 3, min(enemies, key=lambda e: (e.x - u.x) ** 2 + (e.y - u.y) ** 2).tag
                 actions.append(UnitAction(unit_tag=u.tag, kind=kind, target_tag=target, x=0.0, y=0.0, grid_x=0, grid_y=0,
-                                          direction=0, ability=0, ability_target=0))
+                                          direction=0, ability=0, ability_target=0, look_sector=0, look_sectors=0))
             if obs.episode not in report["foreign_sent"]:
                 # Once per episode, also an order for a unit this agent does not own: the
                 # simulator must refuse it, bridge or not.
                 report["foreign_sent"].append(obs.episode)
                 actions.append(UnitAction(unit_tag=max(own) + 1, kind=1, target_tag=0, x=0.0, y=0.0, grid_x=0, grid_y=0,
-                                          direction=0, ability=0, ability_target=0))
+                                          direction=0, ability=0, ability_target=0, look_sector=0, look_sectors=0))
             writer.write(ActionBatch(header=obs.header, episode=obs.episode, step=obs.step, agent_id=agent, actions=actions))
             report["sent"] += 1
         for s in readers["status"].take(N=100):
