@@ -137,7 +137,6 @@ impl PyMarlPolicy {
             features.chunks_exact_mut(sh.obs.max(1)).for_each(|f| layout.mirror_obs(f));
             mask.chunks_exact_mut(sh.n_actions.max(1)).for_each(SmacLayout::mirror_avail);
         }
-        let layout = if mirror { Some(self.mirror_layout()?.clone()) } else { None };
         if let Some(agent) = mask.chunks(sh.n_actions.max(1)).position(|row| row.iter().all(|&m| m == 0)) {
             return Err(PolicyError::NoAction { agent }.into());
         }
@@ -150,10 +149,9 @@ impl PyMarlPolicy {
             *l = Some(a);
         }
         // The network's own action (in its image) stays its next last-action input.
-        let out = acts.into_iter().map(|a| match &layout {
-            Some(l) => l.mirror_action(a as usize) as i64,
-            None => i64::from(a),
-        });
+        // `mirror_layout` above filled `self.mirror` when playing team 2.
+        let layout = self.mirror.as_ref().filter(|_| mirror);
+        let out = acts.into_iter().map(|a| layout.map_or(i64::from(a), |l| l.mirror_action(a as usize) as i64));
         Ok(PyArray1::from_vec(py, out.collect()))
     }
 

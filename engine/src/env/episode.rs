@@ -67,11 +67,18 @@ pub const MAX_FOV_ACTIONS: u8 = 64;
 /// Whether `n` look actions (SMACv2's `num_fov_actions`) are accepted: 0 (off) or an even
 /// number from 2 to [`MAX_FOV_ACTIONS`]. Even, so that a policy trained as team 1 plays team
 /// 2 in the mirror image with every look direction's mirror among its actions.
-pub fn check_fov_actions(n: i64) -> Result<u8, String> {
+pub fn check_fov_actions(n: i64) -> Result<u8, BadFovActions> {
     match u8::try_from(n) {
         Ok(v) if v == 0 || (v % 2 == 0 && v <= MAX_FOV_ACTIONS) => Ok(v),
-        _ => Err(format!("{n} look actions: must be an even number from 2 to {MAX_FOV_ACTIONS} (or 0 for off)")),
+        _ => Err(BadFovActions { n }),
     }
+}
+
+/// A refused number of look actions ([`check_fov_actions`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{n} look actions: must be an even number from 2 to {MAX_FOV_ACTIONS} (or 0 for off)")]
+pub struct BadFovActions {
+    pub n: i64,
 }
 
 fn one() -> f32 {

@@ -5,4 +5,4 @@ mod episode;
 mod epo;
 mod step;
 
-pub use episode::{Env, EnvConfig, MAX_FOV_ACTIONS, Outcome, RewardMode, StepResult, check_fov_actions};
+pub use episode::{BadFovActions, Env, EnvConfig, MAX_FOV_ACTIONS, Outcome, RewardMode, StepResult, check_fov_actions};
