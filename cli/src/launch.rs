@@ -225,7 +225,13 @@ pub fn launch(a: &LaunchArgs, out: &mut dyn Write) -> Result<()> {
         // The live view's channels beside the ROS 2 topics; the recording as closed stays
         // if this fails.
         match crate::live_mcap::add_live_channels(path) {
-            Ok(n) => tracing::info!(episodes = n.episodes, messages = n.messages, "{}: Foxglove channels added", path.display()),
+            Ok(n) => tracing::info!(
+                episodes = n.episodes,
+                messages = n.messages,
+                model_calls = n.calls,
+                "{}: Foxglove channels added",
+                path.display()
+            ),
             Err(e) => tracing::warn!("{}: the Foxglove channels were not added: {e:#}", path.display()),
         }
     }

@@ -29,6 +29,25 @@ pub struct LiveArgs {
     pub foxglove_speed: f64,
 }
 
+/// An AVA agent node's model call (off its `model_calls` topic, live or recorded) as a line
+/// of the live view's log: its level, name and text, as `episode` shows in-process calls.
+/// `None` for a call with neither reply nor error.
+pub fn call_line(agent: &str, c: &avacraft_msgs::ModelCall) -> Option<(avacraft_live::Level, String, String)> {
+    use avacraft_msgs::ModelCall as M;
+    let stage = match c.stage {
+        M::STAGE_PLANNER => "Planner",
+        M::STAGE_PRIORITY => "Priority",
+        M::STAGE_ROLES => "Roles",
+        M::STAGE_DECISION => "Decision",
+        _ => "stage?",
+    };
+    let name = format!("ava/{agent}/{stage}");
+    if !c.error.is_empty() {
+        return Some((avacraft_live::Level::Error, name, format!("step {}: {}", c.step, c.error)));
+    }
+    (!c.response.is_empty()).then(|| (avacraft_live::Level::Info, name, format!("step {}: {}", c.step, c.response)))
+}
+
 /// A running live view and its pacing.
 pub struct Live {
     view: LiveView,

@@ -23,6 +23,8 @@ pub const RECORDED_VIEW: ViewSize = ViewSize { screen: (320, 240), minimap: 128 
 pub struct Added {
     pub episodes: usize,
     pub messages: u64,
+    /// Of the messages: AVA agent nodes' model calls, as log lines.
+    pub calls: u64,
 }
 
 /// Adds the live view's channels to the recording at `path` (see the module's docs).
@@ -51,8 +53,18 @@ fn write(bytes: &[u8], rec: &crate::replay::Recording, out: &Path) -> Result<Add
     let file = std::fs::File::create(out).with_context(|| format!("creating {}", out.display()))?;
     let opts = mcap::WriteOptions::new().profile("ros2").compression(Some(mcap::Compression::Zstd)).chunk_size(Some(1 << 20));
     let mut w = opts.create(BufWriter::new(file))?;
+    let mut calls = Vec::new();
+    let mut agents: BTreeMap<u16, Option<String>> = BTreeMap::new();
     for m in mcap::MessageStream::new(bytes)? {
-        w.write(&m?)?;
+        let m = m?;
+        w.write(&m)?;
+        let agent = agents.entry(m.channel.id).or_insert_with(|| model_calls_agent(&m.channel.topic));
+        if let Some(agent) = agent {
+            // A call that does not decode stays in the recording, only not in the log.
+            if let Ok(c) = avacraft_msgs::decode::<avacraft_msgs::ModelCall>(&m.data) {
+                calls.extend(crate::live::call_line(agent, &c).map(|line| (m.log_time, line)));
+            }
+        }
     }
     let mut ids = BTreeMap::new();
     for c in LiveChannel::ALL {
@@ -86,6 +98,23 @@ fn write(bytes: &[u8], rec: &crate::replay::Recording, out: &Path) -> Result<Add
         }
         added.episodes += 1;
     }
+    // AVA agent nodes' model calls, at the times they were recorded.
+    for (t, (level, name, text)) in calls {
+        seq = seq.wrapping_add(1);
+        let header = mcap::records::MessageHeader { channel_id: ids[&LiveChannel::Log], sequence: seq, log_time: t, publish_time: t };
+        w.write_to_known_channel(&header, &avacraft_live::log_bytes(t, level, &name, &text))?;
+        added.messages += 1;
+        added.calls += 1;
+    }
     w.finish()?;
     Ok(added)
+}
+
+/// The agent whose model calls a recorded topic carries, if it is such a topic.
+fn model_calls_agent(topic: &str) -> Option<String> {
+    let topic = avacraft_nodes::Topic::parse(topic).ok()?;
+    match avacraft_nodes::Topics::find(&topic)?.1 {
+        avacraft_nodes::TopicKind::ModelCalls(agent) => Some(agent.as_str().to_owned()),
+        _ => None,
+    }
 }

@@ -2,12 +2,15 @@
 
 use anyhow::{Context, Result, bail};
 use avacraft_launch::{ClockMode, Plan};
-use avacraft_nodes::{Node, NodeArgs, NodeName, Shutdown, Topics};
+use avacraft_msgs::ModelCall;
+use avacraft_nodes::{Node, NodeArgs, NodeName, Qos, Shutdown, TopicKind, Topics};
 use avacraft_policy::Weights;
 use avacraft_sim_node::{Clock, SimConfig};
 use clap::Args;
 use std::io::Write;
 use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 #[derive(Args, Debug, Clone)]
@@ -67,6 +70,7 @@ pub fn sim_node(a: &SimNodeArgs, out: &mut dyn Write) -> Result<()> {
     let topics = Topics::new(&a.node.namespace)?;
     let node = Node::open(&a.node, &a.node.namespace, &NodeName::sim()).context("sim-node: opening the Zenoh session")?;
     let mut live = a.live.start("launch")?;
+    let forward = live.as_ref().map(|l| forward_calls(&node, &topics, l.logger())).transpose()?;
     let mut watch = |env: &avacraft_engine::Env| {
         if let Some(l) = live.as_mut() {
             l.step(env);
@@ -74,6 +78,9 @@ pub fn sim_node(a: &SimNodeArgs, out: &mut dyn Write) -> Result<()> {
     };
     let cfg = sim_config(&plan, Duration::from_secs_f64(a.startup_timeout));
     let summaries = avacraft_sim_node::run_watched(&node, &topics, &cfg, &shutdown, &mut watch)?;
+    if let Some(f) = forward {
+        f.stop();
+    }
     if let Some(l) = &live {
         eprintln!("{}", l.summary());
     }
@@ -83,4 +90,51 @@ pub fn sim_node(a: &SimNodeArgs, out: &mut dyn Write) -> Result<()> {
     }
     writeln!(out, "{json}")?;
     Ok(())
+}
+
+/// The thread that puts AVA agent nodes' model calls (their `model_calls` topics) into the
+/// live view's log, as `episode` does with in-process calls.
+struct Forward {
+    stop: Arc<AtomicBool>,
+    thread: std::thread::JoinHandle<()>,
+}
+
+impl Forward {
+    fn stop(self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if self.thread.join().is_err() {
+            tracing::warn!("the live view's model-call thread panicked");
+        }
+    }
+}
+
+fn forward_calls(node: &Node, topics: &Topics, log: avacraft_live::LiveLog) -> Result<Forward> {
+    let sub = node
+        .subscriber::<ModelCall>(topics.any_model_calls(), Qos::Reliable { depth: 64 })
+        .context("sim-node: subscribing to the agent nodes' model calls")?;
+    let (stop, topics) = (Arc::new(AtomicBool::new(false)), topics.clone());
+    let flag = Arc::clone(&stop);
+    let thread = std::thread::spawn(move || {
+        while !flag.load(Ordering::Relaxed) {
+            match sub.recv_timeout(Duration::from_millis(100)) {
+                Ok(None) => {}
+                Ok(Some(r)) => {
+                    let Some(TopicKind::ModelCalls(agent)) = topics.classify(&r.topic) else { continue };
+                    match r.msg {
+                        Ok(c) => {
+                            if let Some((level, name, text)) = crate::live::call_line(agent.as_str(), &c) {
+                                log.line(level, &name, &text);
+                            }
+                        }
+                        Err(e) => tracing::warn!(topic = %r.topic, error = %e, "a model call that does not decode; not shown"),
+                    }
+                }
+                Err(e) => {
+                    tracing::warn!(error = %e, "the model-call subscription closed; the live view shows no more calls");
+                    break;
+                }
+            }
+        }
+    });
+    Ok(Forward { stop, thread })
 }

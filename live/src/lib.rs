@@ -16,5 +16,5 @@ mod view;
 
 pub use channels::LiveChannel;
 pub use foxglove::schemas::log::Level;
-pub use server::{DEFAULT_BACKLOG, LiveError, LiveServer, LiveStats, SUBPROTOCOL};
-pub use view::{Frame, Framer, LiveLog, LiveView, ViewSize, log, status};
+pub use server::{DEFAULT_BACKLOG, LEGACY_SUBPROTOCOL, LiveError, LiveServer, LiveStats, SUBPROTOCOL};
+pub use view::{Frame, Framer, LiveLog, LiveView, ViewSize, log, log_bytes, status};

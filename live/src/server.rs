@@ -1,5 +1,6 @@
 //! The Foxglove WebSocket server (subprotocol `foxglove.sdk.v1`, the foxglove crate's
-//! message types), with a thread per client.
+//! message types; `foxglove.websocket.v1` too, the same protocol under the name Lichtblick,
+//! Foxglove Studio 1.x and `@foxglove/ws-protocol` offer), with a thread per client.
 //!
 //! The loop is ours rather than the foxglove crate's server for two guarantees that server
 //! does not give: a slow or stuck client's messages are dropped *and counted* (each client
@@ -28,6 +29,11 @@ use tungstenite::{Message, WebSocket};
 /// The WebSocket subprotocol the server speaks (Foxglove's SDK protocol, version 1: channel
 /// advertisements carry their schemas inline).
 pub const SUBPROTOCOL: &str = "foxglove.sdk.v1";
+
+/// The same protocol under its name before Foxglove's SDK: what Lichtblick (the open-source
+/// fork), Foxglove Studio 1.x and `@foxglove/ws-protocol`'s client offer. Taken when a
+/// client does not offer [`SUBPROTOCOL`].
+pub const LEGACY_SUBPROTOCOL: &str = "foxglove.websocket.v1";
 
 /// Messages a client's queue holds before newer ones are dropped (about two seconds of a
 /// battle's six channels at 22 steps per second).
@@ -225,17 +231,26 @@ fn accept_loop(listener: &TcpListener, shared: &Arc<Shared>) {
     }
 }
 
-/// The handshake: the client must offer [`SUBPROTOCOL`].
+/// The handshake: the client must offer [`SUBPROTOCOL`] (preferred) or [`LEGACY_SUBPROTOCOL`].
 fn handshake(stream: TcpStream, addr: SocketAddr) -> Option<WebSocket<TcpStream>> {
     // The error type is tungstenite's callback signature, not ours to shrink.
     #[allow(clippy::result_large_err)]
     let pick = |req: &Request, mut resp: Response| {
-        let offered = req.headers().get_all("sec-websocket-protocol").iter().filter_map(|h| h.to_str().ok()).flat_map(|h| h.split(','));
-        if offered.map(str::trim).any(|p| p == SUBPROTOCOL) {
-            resp.headers_mut().insert("sec-websocket-protocol", tungstenite::http::HeaderValue::from_static(SUBPROTOCOL));
+        let offered: Vec<&str> = req
+            .headers()
+            .get_all("sec-websocket-protocol")
+            .iter()
+            .filter_map(|h| h.to_str().ok())
+            .flat_map(|h| h.split(','))
+            .map(str::trim)
+            .collect();
+        if let Some(p) = [SUBPROTOCOL, LEGACY_SUBPROTOCOL].into_iter().find(|p| offered.contains(p)) {
+            resp.headers_mut().insert("sec-websocket-protocol", tungstenite::http::HeaderValue::from_static(p));
             Ok(resp)
         } else {
-            let mut r = tungstenite::handshake::server::ErrorResponse::new(Some(format!("offer the WebSocket subprotocol {SUBPROTOCOL}")));
+            let mut r = tungstenite::handshake::server::ErrorResponse::new(Some(format!(
+                "offer the WebSocket subprotocol {SUBPROTOCOL} (or {LEGACY_SUBPROTOCOL})"
+            )));
             *r.status_mut() = tungstenite::http::StatusCode::BAD_REQUEST;
             Err(r)
         }
@@ -454,7 +469,25 @@ mod tests {
         let s = server(8)?;
         assert!(connect(&s, None).is_err());
         assert!(connect(&s, Some("foxglove.websocket.v0")).is_err());
+        assert!(connect(&s, Some("foxglove.sdk.v1.1")).is_err(), "schema tables are not spoken here");
         assert_eq!(s.stats().clients, 0);
+        Ok(())
+    }
+
+    /// Lichtblick and Foxglove Studio 1.x offer the protocol's older name; a client offering
+    /// both gets the SDK's.
+    #[test]
+    fn the_legacy_subprotocol_name_is_accepted_and_the_sdk_s_preferred() -> R {
+        let s = server(8)?;
+        let chosen = |offer: &str| -> Result<Option<String>, Box<dyn std::error::Error>> {
+            let mut req = format!("ws://{}", s.addr()).into_client_request()?;
+            req.headers_mut().insert("sec-websocket-protocol", offer.parse()?);
+            let (mut ws, resp) = tungstenite::connect(req)?;
+            greeting(&mut ws)?;
+            Ok(resp.headers().get("sec-websocket-protocol").and_then(|h| h.to_str().ok()).map(str::to_owned))
+        };
+        assert_eq!(chosen(LEGACY_SUBPROTOCOL)?.as_deref(), Some(LEGACY_SUBPROTOCOL));
+        assert_eq!(chosen(&format!("{LEGACY_SUBPROTOCOL}, {SUBPROTOCOL}"))?.as_deref(), Some(SUBPROTOCOL));
         Ok(())
     }
 

@@ -194,6 +194,11 @@ pub fn log(t: u64, level: Level, name: &str, text: &str) -> Log {
     Log { timestamp: Some(stamp(t)), level: level as i32, message: text.into(), name: name.into(), file: String::new(), line: 0 }
 }
 
+/// A log line as the log channel's bytes, for writers other than the server (recordings).
+pub fn log_bytes(t: u64, level: Level, name: &str, text: &str) -> Vec<u8> {
+    encoded(&log(t, level, name, text))
+}
+
 /// The episode's status as JSON (the status channel's schema).
 pub fn status(env: &Env, episode: u64) -> String {
     let w = env.world();

@@ -250,6 +250,10 @@ impl Topics {
     pub fn any_actions(&self) -> TopicPattern {
         TopicPattern(format!("{}/agents/*/actions", self.ns))
     }
+    /// Every AVA agent node's model calls (a pattern), for the live view's log.
+    pub fn any_model_calls(&self) -> TopicPattern {
+        TopicPattern(format!("{}/agents/*/model_calls", self.ns))
+    }
     /// Episode status (`EpisodeStatus`).
     pub fn status(&self) -> Topic {
         self.make("status")
@@ -283,6 +287,16 @@ impl Topics {
     /// '/': iceoryx2 names are not ROS names).
     pub fn frame_service(&self, team: TeamNo, kind: FrameKind) -> String {
         self.frames(team, kind).as_str().trim_start_matches('/').to_owned()
+    }
+    /// A topic of any deployment, with the namespace it is under (the shortest that makes it
+    /// one of a deployment's topics), for readers of recordings that do not know it.
+    pub fn find(topic: &Topic) -> Option<(Topics, TopicKind)> {
+        let name = topic.as_str();
+        name.match_indices('/').skip(1).find_map(|(i, _)| {
+            let topics = Topics::new(&name[..i]).ok()?;
+            let kind = topics.classify(topic)?;
+            Some((topics, kind))
+        })
     }
     /// What a topic under this namespace is, or `None` for a topic that is not one of the
     /// deployment's (another namespace, a misspelt name). The inverse of the builders above.
@@ -378,6 +392,12 @@ mod tests {
         assert_eq!(t.frames(TeamNo::new(2).expect("team"), FrameKind::Minimap).as_str(), "/avacraft/team_2/minimap");
         assert_eq!(t.classify(&t.actions(&a)), Some(TopicKind::Actions(a.clone())));
         assert_eq!(t.any_actions().as_str(), "/avacraft/agents/*/actions");
+        assert_eq!(t.any_model_calls().as_str(), "/avacraft/agents/*/model_calls");
+        let nested = Topics::new("/lab/match_3").expect("namespace");
+        let found = Topics::find(&nested.model_calls(&a)).expect("a deployment's topic");
+        assert_eq!((found.0.namespace(), found.1), ("/lab/match_3", TopicKind::ModelCalls(a.clone())));
+        assert_eq!(Topics::find(&t.status()).map(|f| f.1), Some(TopicKind::Status));
+        assert_eq!(Topics::find(&Topic::parse("/avacraft/elsewhere").expect("topic")), None);
         assert!(Topics::new("/match_3").is_ok() && Topics::new("match").is_err());
         // Every built topic passes the validator.
         for topic in [t.status(), t.roles(), t.team_obs(TeamNo::new(1).expect("team"))] {

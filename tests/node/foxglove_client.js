@@ -1,7 +1,8 @@
 // An independent Foxglove client for cli/tests/it/foxglove.rs: Foxglove's own WebSocket
 // protocol client (@foxglove/ws-protocol) subscribes to a live AVACraft view and decodes
 // one image and one SceneUpdate with the protobuf schemas the server advertised (as the
-// Foxglove app does), then prints what it decoded as one JSON line.
+// Foxglove app does), then prints what it decoded as one JSON line. With a second argument,
+// it also waits for a log line whose name starts with it (e.g. `ava/`: an AVA model call).
 "use strict";
 const { FoxgloveClient } = require("@foxglove/ws-protocol");
 const WebSocket = require("ws");
@@ -9,10 +10,12 @@ const protobuf = require("protobufjs");
 const { FileDescriptorSet } = require("protobufjs/ext/descriptor");
 
 const url = process.argv[2];
-const ws = new WebSocket(url, ["foxglove.sdk.v1"]);
+const logPrefix = process.argv[3];
+// The subprotocol the client library offers by itself, as Lichtblick does.
+const ws = new WebSocket(url, [FoxgloveClient.SUPPORTED_SUBPROTOCOL]);
 const client = new FoxgloveClient({ ws });
 const subs = new Map();
-const out = { serverInfo: null, channels: [], image: null, scene: null, status: null };
+const out = { serverInfo: null, channels: [], image: null, scene: null, status: null, log: null };
 const fail = (why) => {
   console.error(why);
   process.exit(1);
@@ -50,8 +53,11 @@ client.on("message", ({ subscriptionId, timestamp, data }) => {
     out.scene = { schema: sub.ch.schemaName, entities: m.entities.length, frame: e && e.frameId, id: e && e.id, cylinders: e ? e.cylinders.length : 0, label: e && e.texts[0] && e.texts[0].text };
   } else if (topic.endsWith("/episode_status") && !out.status) {
     out.status = JSON.parse(Buffer.from(bytes).toString("utf8"));
+  } else if (topic.endsWith("/log_lines") && logPrefix && !out.log) {
+    const m = sub.type.decode(bytes);
+    if (m.name.startsWith(logPrefix)) out.log = { schema: sub.ch.schemaName, name: m.name, message: m.message, level: m.level };
   }
-  if (out.image && out.scene && out.status) {
+  if (out.image && out.scene && out.status && (!logPrefix || out.log)) {
     console.log(JSON.stringify(out));
     ws.close();
     process.exit(0);

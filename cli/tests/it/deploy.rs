@@ -587,6 +587,22 @@ fn an_ava_commander_and_its_role_groups_play_the_same_game_deployed_and_in_proce
         assert_eq!(costs.len(), 1, "{id}");
         assert_eq!(costs[0].total.calls, calls(&deployed_calls, id).len() as u64, "{id}: {costs:?}");
     }
+    // The recording's Foxglove log channel shows them too, named after their nodes.
+    let mut shown: std::collections::BTreeMap<String, usize> = Default::default();
+    for m in mcap::MessageStream::new(&bytes).expect("an MCAP file") {
+        let m = m.expect("a message");
+        if m.channel.topic == avacraft_live::LiveChannel::Log.topic() {
+            let line = <foxglove::schemas::Log as foxglove::Decode>::decode(&m.data[..]).expect("a foxglove.Log");
+            if let Some(node) = line.name.strip_prefix("ava/").and_then(|n| n.split('/').next()) {
+                *shown.entry(node.to_owned()).or_default() += 1;
+            }
+        }
+    }
+    for id in ["cmd", "front", "back"] {
+        let answered = calls(&deployed_calls, id).iter().filter(|c| c.reply.is_some() || c.error.is_some()).count();
+        assert!(answered > 0, "{id}");
+        assert_eq!(shown.get(id).copied(), Some(answered), "{id}: every call in the recording's live log: {shown:?}");
+    }
     let first = &recorded["front"][0];
     assert_eq!((first.stage, first.model.as_str()), (avacraft_msgs::ModelCall::STAGE_DECISION, "synthetic"));
     assert!(first.first_image_png.starts_with(b"\x89PNG") && first.images >= 1 && !first.response.is_empty(), "{first:?}");

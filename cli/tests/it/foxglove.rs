@@ -18,20 +18,16 @@ fn node_dir() -> PathBuf {
     dir
 }
 
-#[test]
-fn foxglove_s_own_client_watches_a_live_episode() {
+/// Runs avacraft with `args` (which ask for `--foxglove 127.0.0.1:0`), finds the URL it
+/// serves on, and points Foxglove's own client at it (`log_prefix`: also wait for a log line
+/// so named). The client's JSON, and the run's output and log.
+fn watched_by_foxglove(args: &[&str], log_prefix: Option<&str>) -> (serde_json::Value, std::process::Output, String) {
     let node = node_dir();
-    let mut episode = Command::new(exe())
-        .args(["episode", "--scenario", "3m", "--agent", "focus-fire", "--episodes", "1", "--seed", "4", "--json"])
-        .args(["--foxglove", "127.0.0.1:0", "--foxglove-wait", "60", "--foxglove-speed", "4"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("avacraft episode starts");
-    let stderr = episode.stderr.take().expect("stderr");
+    let mut run = Command::new(exe()).args(args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("avacraft starts");
+    let stderr = run.stderr.take().expect("stderr");
     let mut lines = BufReader::new(stderr).lines();
     let url = loop {
-        let line = lines.next().expect("the episode says where it serves").expect("a line");
+        let line = lines.next().expect("the run says where it serves").expect("a line");
         if let Some(at) = line.find("ws://") {
             break line[at..].split_whitespace().next().expect("a URL").to_owned();
         }
@@ -41,14 +37,41 @@ fn foxglove_s_own_client_watches_a_live_episode() {
     let client = Command::new("node")
         .arg(node.join("foxglove_client.js"))
         .arg(&url)
+        .args(log_prefix)
         .current_dir(&node)
         .output()
         .expect("node runs (Node.js is needed for this test: apt-get install nodejs npm)");
-    assert!(client.status.success(), "the client failed: {}", String::from_utf8_lossy(&client.stderr));
-    let out = episode.wait_with_output().expect("the episode ends");
+    let out = run.wait_with_output().expect("the run ends");
     let log = rest.join().unwrap_or_default().join("\n");
-    assert!(out.status.success(), "episode failed: {log}");
+    assert!(client.status.success(), "the client failed: {}\nthe run's log: {log}", String::from_utf8_lossy(&client.stderr));
+    assert!(out.status.success(), "the run failed: {log}");
     let seen: serde_json::Value = serde_json::from_slice(&client.stdout).expect("the client's JSON");
+    (seen, out, log)
+}
+
+#[test]
+fn foxglove_s_own_client_watches_a_live_episode() {
+    let (seen, out, log) = watched_by_foxglove(
+        &[
+            "episode",
+            "--scenario",
+            "3m",
+            "--agent",
+            "focus-fire",
+            "--episodes",
+            "1",
+            "--seed",
+            "4",
+            "--json",
+            "--foxglove",
+            "127.0.0.1:0",
+            "--foxglove-wait",
+            "60",
+            "--foxglove-speed",
+            "4",
+        ],
+        None,
+    );
     assert_eq!(seen["serverInfo"], "avacraft episode");
     let topics: Vec<&str> = seen["channels"].as_array().expect("channels").iter().filter_map(|t| t.as_str()).collect();
     for t in ["screen_image", "minimap_image", "scene_update", "screen_annotations", "log_lines", "episode_status"] {
@@ -75,6 +98,30 @@ fn foxglove_s_own_client_watches_a_live_episode() {
     let plain: serde_json::Value = serde_json::from_slice(&unwatched.stdout).expect("episode JSON");
     assert_eq!(report["episodes"][0]["trajectory_hash"], plain["episodes"][0]["trajectory_hash"]);
     assert!(log.contains("foxglove: 1 viewer(s)"), "{log}");
+}
+
+/// A launch whose AVA agents are node processes: the simulator node serving the view puts
+/// their model calls (off the nodes' `model_calls` topics) into the live log, where
+/// Foxglove's client reads one.
+#[test]
+fn a_launch_s_live_log_shows_its_ava_nodes_model_calls() {
+    let body = format!(
+        "router: tcp/127.0.0.1:{}\nscenario: 3m\nepisodes: 1\nseed: 4\nava:\n  model: {{kind: synthetic}}\n  record: {}\n  config: {{image_max: 256}}\nagents:\n  - {{id: front, units: [1, 2, 3], policy: ava}}\n",
+        crate::common::free_port(),
+        crate::common::tmp("fox-ava-calls").display()
+    );
+    let file = crate::common::write_launch("fox-ava.yaml", &body);
+    let (seen, _, log) = watched_by_foxglove(
+        &["launch", "--json", file.to_str().expect("utf-8"), "--foxglove", "127.0.0.1:0", "--foxglove-wait", "60", "--foxglove-speed", "0"],
+        Some("ava/"),
+    );
+    assert_eq!(seen["serverInfo"], "avacraft launch");
+    let line = &seen["log"];
+    assert_eq!(line["schema"], "foxglove.Log");
+    // The node's first call: its planner's (the stages are named as in-process runs name them).
+    let stage = line["name"].as_str().and_then(|n| n.strip_prefix("ava/front/"));
+    assert!(stage.is_some_and(|s| ["Planner", "Roles", "Priority", "Decision"].contains(&s)), "{line}\n{log}");
+    assert!(line["message"].as_str().is_some_and(|m| m.starts_with("step ") && m.len() > "step 0: ".len()), "{line}");
 }
 
 #[test]
