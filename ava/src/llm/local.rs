@@ -246,13 +246,16 @@ impl Local {
         Ok(g)
     }
 
-    /// The sampler chain of a call: the schema's grammar, temperature, nucleus, seeded draw.
-    fn sampler(&mut self, req: &ChatRequest, seed: u32) -> Result<LlamaSampler, LlmError> {
+    /// How a call draws: the schema's grammar, and temperature, nucleus, seeded draw.
+    fn sampler(&mut self, req: &ChatRequest, seed: u32) -> Result<decode::Draw, LlmError> {
+        let grammar = match &req.schema {
+            Some((_, schema)) => {
+                let g = self.grammar(schema)?;
+                Some(LlamaSampler::grammar(&self.model, &g, "root").map_err(|e| local(format!("llama.cpp refused the grammar: {e}")))?)
+            }
+            None => None,
+        };
         let mut chain = Vec::new();
-        if let Some((_, schema)) = &req.schema {
-            let g = self.grammar(schema)?;
-            chain.push(LlamaSampler::grammar(&self.model, &g, "root").map_err(|e| local(format!("llama.cpp refused the grammar: {e}")))?);
-        }
         let s = req.sampling;
         if s.temperature <= 0.0 {
             chain.push(LlamaSampler::greedy());
@@ -263,7 +266,7 @@ impl Local {
             }
             chain.push(LlamaSampler::dist(seed));
         }
-        Ok(LlamaSampler::chain_simple(chain))
+        Ok(decode::Draw { grammar, draw: LlamaSampler::chain_simple(chain) })
     }
 }
 

@@ -9,6 +9,8 @@ use llama_cpp_2::llama_batch::LlamaBatch;
 use llama_cpp_2::model::LlamaModel;
 use llama_cpp_2::sampling::LlamaSampler;
 use llama_cpp_2::token::LlamaToken;
+use llama_cpp_2::token::data::LlamaTokenData;
+use llama_cpp_2::token::data_array::LlamaTokenDataArray;
 use std::num::NonZeroU32;
 
 /// Tokens decoded per batch while reading the prompt.
@@ -71,11 +73,58 @@ pub(super) fn read_prompt(
     Ok((pos, tokens.len()))
 }
 
+/// How a call draws its tokens: the draw (greedy, or temperature, nucleus and a seeded
+/// draw) and the answer schema's grammar, kept apart. Applying a grammar checks every token of
+/// the vocabulary (49,152 for SmolLM2) against it, so each token is first drawn without it and
+/// only that token checked; the grammar filters the whole vocabulary only when the token
+/// fails, and the token is drawn again from what it allows (llama.cpp's own common sampler
+/// does the same). Without truncation this draws from exactly the constrained distribution:
+/// a valid token x comes out with p(x) + (1 - Z) p(x) / Z = p(x) / Z, Z being the valid
+/// tokens' mass; greedy decoding picks the same token as filtering first.
+pub(super) struct Draw {
+    pub(super) grammar: Option<LlamaSampler>,
+    pub(super) draw: LlamaSampler,
+}
+
+impl Draw {
+    /// The next token from the last decoded logits; accepted by the grammar and the draw.
+    fn next(&mut self, ctx: &LlamaContext<'_>) -> LlamaToken {
+        let mut all = ctx.token_data_array();
+        let token = match &mut self.grammar {
+            None => pick(&mut all, &mut self.draw),
+            Some(grammar) => {
+                let mut free = all.clone();
+                let t = pick(&mut free, &mut self.draw);
+                let logit = free.data.iter().find(|d| d.id() == t).map_or(0.0, LlamaTokenData::logit);
+                let mut one = LlamaTokenDataArray::new(vec![LlamaTokenData::new(t, logit, 0.0)], false);
+                grammar.apply(&mut one);
+                if one.data.first().is_some_and(|d| d.logit().is_finite()) {
+                    t
+                } else {
+                    grammar.apply(&mut all);
+                    pick(&mut all, &mut self.draw)
+                }
+            }
+        };
+        if let Some(g) = &mut self.grammar {
+            g.accept(token);
+        }
+        self.draw.accept(token);
+        token
+    }
+}
+
+/// The draw's token from `data` (its selection; the first candidate if it selected none).
+fn pick(data: &mut LlamaTokenDataArray, draw: &mut LlamaSampler) -> LlamaToken {
+    draw.apply(data);
+    data.selected_token().or_else(|| data.data.first().map(LlamaTokenData::id)).unwrap_or(LlamaToken::new(0))
+}
+
 /// Generates up to `max_tokens`; returns the answer's bytes, its token count and why it stopped.
 pub(super) fn generate(
     model: &LlamaModel,
     ctx: &mut LlamaContext<'_>,
-    sampler: &mut LlamaSampler,
+    sampler: &mut Draw,
     mut pos: i32,
     max_tokens: u32,
 ) -> Result<(Vec<u8>, u64, &'static str), LlmError> {
@@ -87,7 +136,7 @@ pub(super) fn generate(
         if n >= u64::from(max_tokens) {
             return Ok((out, n, "length"));
         }
-        let token: LlamaToken = sampler.sample(ctx, -1);
+        let token = sampler.next(ctx);
         if vocab.is_eog(token) {
             return Ok((out, n, "stop"));
         }
