@@ -234,11 +234,12 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
         // AVA's model calls go to the live log as they happen.
         let log = l.logger();
         run.observe(Box::new(move |rec, _| {
-            let name = format!("ava/team{}/{:?}", rec.team, rec.stage);
-            match (&rec.reply, &rec.error) {
-                (Some(r), _) => log.line(avacraft_live::Level::Info, &name, &format!("step {}: {}", rec.step, r.text)),
-                (None, Some(e)) => log.line(avacraft_live::Level::Error, &name, &format!("step {}: {e}", rec.step)),
-                (None, None) => {}
+            let error = rec.error.as_ref().map(ToString::to_string);
+            let reply = rec.reply.as_ref().map(|r| r.text.as_str());
+            if let Some((level, name, text)) =
+                crate::live::call_line(&format!("team{}", rec.team), rec.stage, rec.step, reply, error.as_deref())
+            {
+                log.line(level, &name, &text);
             }
         }));
     }

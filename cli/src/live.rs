@@ -2,8 +2,9 @@
 //! (which `launch` hands them to), and the pacing of a watched run.
 
 use anyhow::{Context, Result, bail};
+use avacraft_ava::llm::Stage;
 use avacraft_engine::Env;
-use avacraft_live::{LiveServer, LiveView, ViewSize};
+use avacraft_live::{Level, LiveServer, LiveView, ViewSize};
 use clap::Args;
 use std::net::SocketAddr;
 use std::time::{Duration, Instant};
@@ -29,23 +30,30 @@ pub struct LiveArgs {
     pub foxglove_speed: f64,
 }
 
-/// An AVA agent node's model call (off its `model_calls` topic, live or recorded) as a line
-/// of the live view's log: its level, name and text, as `episode` shows in-process calls.
-/// `None` for a call with neither reply nor error.
-pub fn call_line(agent: &str, c: &avacraft_msgs::ModelCall) -> Option<(avacraft_live::Level, String, String)> {
+/// A model call as a line of the live view's log, for in-process and agent-node calls
+/// alike: its level, its name (`ava/<who>/<Stage>`) and its text (the reply, else the error).
+/// `None` for a call with neither.
+pub fn call_line(who: &str, stage: Stage, step: u32, reply: Option<&str>, error: Option<&str>) -> Option<(Level, String, String)> {
+    let name = format!("ava/{who}/{stage:?}");
+    match (reply.filter(|r| !r.is_empty()), error.filter(|e| !e.is_empty())) {
+        (Some(r), _) => Some((Level::Info, name, format!("step {step}: {r}"))),
+        (None, Some(e)) => Some((Level::Error, name, format!("step {step}: {e}"))),
+        (None, None) => None,
+    }
+}
+
+/// An AVA agent node's model call (off its `model_calls` topic, live or recorded) as a line of
+/// the live view's log ([`call_line`]); `None` also for a stage this build does not know.
+pub fn model_call_line(agent: &str, c: &avacraft_msgs::ModelCall) -> Option<(Level, String, String)> {
     use avacraft_msgs::ModelCall as M;
     let stage = match c.stage {
-        M::STAGE_PLANNER => "Planner",
-        M::STAGE_PRIORITY => "Priority",
-        M::STAGE_ROLES => "Roles",
-        M::STAGE_DECISION => "Decision",
-        _ => "stage?",
+        M::STAGE_PLANNER => Stage::Planner,
+        M::STAGE_PRIORITY => Stage::Priority,
+        M::STAGE_ROLES => Stage::Roles,
+        M::STAGE_DECISION => Stage::Decision,
+        _ => return None,
     };
-    let name = format!("ava/{agent}/{stage}");
-    if !c.error.is_empty() {
-        return Some((avacraft_live::Level::Error, name, format!("step {}: {}", c.step, c.error)));
-    }
-    (!c.response.is_empty()).then(|| (avacraft_live::Level::Info, name, format!("step {}: {}", c.step, c.response)))
+    call_line(agent, stage, c.step, Some(&c.response), Some(&c.error))
 }
 
 /// A running live view and its pacing.

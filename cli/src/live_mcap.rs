@@ -62,7 +62,7 @@ fn write(bytes: &[u8], rec: &crate::replay::Recording, out: &Path) -> Result<Add
         if let Some(agent) = agent {
             // A call that does not decode stays in the recording, only not in the log.
             if let Ok(c) = avacraft_msgs::decode::<avacraft_msgs::ModelCall>(&m.data) {
-                calls.extend(crate::live::call_line(agent, &c).map(|line| (m.log_time, line)));
+                calls.extend(crate::live::model_call_line(agent, &c).map(|line| (m.log_time, line)));
             }
         }
     }

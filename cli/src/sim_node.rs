@@ -122,7 +122,7 @@ fn forward_calls(node: &Node, topics: &Topics, log: avacraft_live::LiveLog) -> R
                     let Some(TopicKind::ModelCalls(agent)) = topics.classify(&r.topic) else { continue };
                     match r.msg {
                         Ok(c) => {
-                            if let Some((level, name, text)) = crate::live::call_line(agent.as_str(), &c) {
+                            if let Some((level, name, text)) = crate::live::model_call_line(agent.as_str(), &c) {
                                 log.line(level, &name, &text);
                             }
                         }

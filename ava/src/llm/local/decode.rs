@@ -89,18 +89,18 @@ pub(super) struct Draw {
 impl Draw {
     /// The next token from the last decoded logits; accepted by the grammar and the draw.
     fn next(&mut self, ctx: &LlamaContext<'_>) -> LlamaToken {
-        let mut all = ctx.token_data_array();
+        let t = pick(&mut ctx.token_data_array(), &mut self.draw);
         let token = match &mut self.grammar {
-            None => pick(&mut all, &mut self.draw),
+            None => t,
             Some(grammar) => {
-                let mut free = all.clone();
-                let t = pick(&mut free, &mut self.draw);
-                let logit = free.data.iter().find(|d| d.id() == t).map_or(0.0, LlamaTokenData::logit);
-                let mut one = LlamaTokenDataArray::new(vec![LlamaTokenData::new(t, logit, 0.0)], false);
+                // The grammar only sets a refused token's logit to minus infinity.
+                let mut one = LlamaTokenDataArray::new(vec![LlamaTokenData::new(t, 0.0, 0.0)], false);
                 grammar.apply(&mut one);
                 if one.data.first().is_some_and(|d| d.logit().is_finite()) {
                     t
                 } else {
+                    // Rare: the whole vocabulary again, filtered this time.
+                    let mut all = ctx.token_data_array();
                     grammar.apply(&mut all);
                     pick(&mut all, &mut self.draw)
                 }
