@@ -91,7 +91,7 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
     let Some(path) = &a.plan else { bail!("eval: name a plan file (or `eval merge`, `eval report`)") };
     let plan = avacraft_eval::load(path)?;
     let dir = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("eval-{}", plan.name)));
-    avacraft_eval::write_meta(&dir, &Meta { shard: a.shard, ..Meta::of(&plan) })?;
+    avacraft_eval::write_meta(&dir, &Meta { shard: a.shard, fingerprints: avacraft_eval::fingerprints(&plan)?, ..Meta::of(&plan) })?;
     let shown = std::io::stderr().is_terminal();
     let multi = MultiProgress::new();
     let (bar, cell) = if shown {

@@ -18,11 +18,13 @@ mod stats;
 mod train_plan;
 
 pub use marl_eval::{MARL_EVAL_METRICS, marl_eval_json};
-pub use meta::{META_FILE, Meta, check_shards, read_meta, write_meta};
+pub use meta::{META_FILE, Meta, cannot_extend, check_shards, fingerprints, read_meta, write_meta};
 pub use plan::{AgentDef, AgentKind, Cell, CellKey, CurveDef, Job, Plan, PlanError, Shard};
 pub use plan_file::{load, parse};
 pub use plot::read_log;
 pub use report::Report;
+#[cfg(test)]
+mod resume_tests;
 #[cfg(test)]
 mod shard_tests;
 pub use results::{Appender, EpisodeResult, Loaded, ModelUse, RESULTS_FILE, ResultsError, merge, read};
@@ -57,4 +59,13 @@ pub enum EvalError {
     Plot { message: String },
     #[error("eval merge: {} holds {what}", dir.display())]
     Shards { dir: PathBuf, what: String },
+    #[error("{}: this evaluation folder cannot be resumed with this plan: {why}; pick another --out (nothing is overwritten)", path.display())]
+    Folder { path: PathBuf, why: String },
+    #[error("agent `{agent}` on {scenario}: its policy cannot be fingerprinted")]
+    Policy {
+        agent: String,
+        scenario: String,
+        #[source]
+        source: Box<avacraft_policy::PolicyError>,
+    },
 }

@@ -29,6 +29,10 @@ pub struct Meta {
     pub document: Option<PathBuf>,
     #[serde(default)]
     pub protocol: String,
+    /// `(agent, scenario, fingerprint)` of the trained networks and AVA settings played
+    /// ([`fingerprints`]); folders written before it have none, and are not checked for them.
+    #[serde(default)]
+    pub fingerprints: Vec<(String, String, String)>,
 }
 
 pub const META_FILE: &str = "plan.json";
@@ -45,6 +49,7 @@ impl Meta {
             unshipped: plan.unshipped.clone(),
             document: plan.document.clone(),
             protocol: plan.protocol.clone(),
+            fingerprints: Vec::new(),
         }
     }
 
@@ -67,6 +72,12 @@ pub fn check_shards(shards: &[(PathBuf, Meta)]) -> Result<(Meta, Vec<Shard>), Ev
             return Err(EvalError::Shards {
                 dir: dir.clone(),
                 what: format!("the results of another plan (`{}`) than {} (`{}`)", m.name, first_dir.display(), first.name),
+            });
+        }
+        if !m.fingerprints.is_empty() && !first.fingerprints.is_empty() && m.fingerprints != first.fingerprints {
+            return Err(EvalError::Shards {
+                dir: dir.clone(),
+                what: format!("results of other networks or AVA settings than {} (their fingerprints differ)", first_dir.display()),
             });
         }
         match m.shard {
@@ -108,31 +119,83 @@ pub fn read_meta(dir: &Path) -> Result<Meta, EvalError> {
     serde_json::from_str(&text).map_err(|source| EvalError::Meta { path, source })
 }
 
-/// Writes an evaluation folder's `plan.json` (the same plan may be written again; another
-/// plan's results folder is refused, so results of two plans never mix).
+/// Writes an evaluation folder's `plan.json`. A folder played by another plan is refused, so
+/// results of two plans never mix, with one exception: the same plan grown by cells (an agent
+/// added, a baseline shipped since) takes the folder over, and only the new cells are played.
 pub fn write_meta(dir: &Path, meta: &Meta) -> Result<(), EvalError> {
     std::fs::create_dir_all(dir).map_err(|source| EvalError::Io { path: dir.to_path_buf(), source })?;
     let path = dir.join(META_FILE);
     if path.exists() {
         let old = read_meta(dir)?;
-        if old.cells != meta.cells || old.seeds != meta.seeds {
-            return Err(EvalError::Io {
-                path,
-                source: std::io::Error::other("this folder holds another plan's results; pick another --out (nothing is overwritten)"),
-            });
-        }
-        if old.shard != meta.shard {
-            let name = |s: Option<Shard>| s.map_or_else(|| "the whole plan".to_owned(), |s| format!("shard {s}"));
-            return Err(EvalError::Io {
-                path,
-                source: std::io::Error::other(format!(
-                    "this folder holds {}'s results, not {}'s; pick another --out (nothing is overwritten)",
-                    name(old.shard),
-                    name(meta.shard)
-                )),
-            });
+        if let Some(why) = cannot_extend(&old, meta) {
+            return Err(EvalError::Folder { path, why });
         }
     }
     let text = serde_json::to_string_pretty(meta).map_err(|e| EvalError::Io { path: path.clone(), source: std::io::Error::other(e) })?;
     std::fs::write(&path, text).map_err(|source| EvalError::Io { path, source })
+}
+
+/// Why the plan `new` cannot resume a folder that `old` played (`None`: it can). Every result
+/// there must stay what `new` would have played: the same seeds and shard, each old cell
+/// still in the plan, each agent's policy the same, and each trained network or AVA setting
+/// the same (their fingerprints, so a checkpoint trained again is not mixed with the old one).
+pub fn cannot_extend(old: &Meta, new: &Meta) -> Option<String> {
+    if old.shard != new.shard {
+        let name = |s: Option<Shard>| s.map_or_else(|| "the whole plan".to_owned(), |s| format!("shard {s}"));
+        return Some(format!("its results are {}'s, not {}'s", name(old.shard), name(new.shard)));
+    }
+    if old.seeds != new.seeds {
+        return Some(format!("its results were played on seeds {}, this plan's are {}", seed_list(&old.seeds), seed_list(&new.seeds)));
+    }
+    if let Some(c) = old.cells.iter().find(|c| !new.cells.contains(c)) {
+        return Some(format!("its cell `{c}` is not in this plan, whose report would leave its results out"));
+    }
+    for (name, kind, policy) in &old.agents {
+        if let Some((_, k, p)) = new.agents.iter().find(|(n, _, _)| n == name)
+            && (k, p) != (kind, policy)
+        {
+            return Some(format!("agent `{name}` played `{policy}` ({}) there and is `{p}` ({}) here", kind.name(), k.name()));
+        }
+    }
+    for (agent, scenario, was) in &old.fingerprints {
+        if let Some((_, _, now)) = new.fingerprints.iter().find(|(a, s, _)| a == agent && s == scenario)
+            && now != was
+        {
+            return Some(format!(
+                "agent `{agent}` on {scenario} played a policy whose fingerprint was {was} and is {now} now \
+                 (a checkpoint trained or shipped again, or AVA's settings changed)"
+            ));
+        }
+    }
+    None
+}
+
+/// Seeds for a message: short lists whole, long ones by their ends.
+fn seed_list(seeds: &[u64]) -> String {
+    match seeds {
+        [] => "none".to_owned(),
+        [a, .., b] if seeds.len() > 6 => format!("{} seeds, {a} to {b}", seeds.len()),
+        _ => seeds.iter().map(u64::to_string).collect::<Vec<_>>().join(", "),
+    }
+}
+
+/// The fingerprint of every trained network and AVA configuration the plan plays, per agent
+/// and scenario ([`avacraft_policy::PolicySpec::fingerprint`]), sorted.
+pub fn fingerprints(plan: &Plan) -> Result<Vec<(String, String, String)>, EvalError> {
+    let mut out = std::collections::BTreeSet::new();
+    for cell in &plan.cells {
+        for k in std::iter::once(cell.agent).chain(cell.agent2) {
+            let a = &plan.agents[k];
+            let scenario = &cell.scenario.name;
+            let fp = a.policy.fingerprint(scenario).map_err(|source| EvalError::Policy {
+                agent: a.name.clone(),
+                scenario: scenario.clone(),
+                source: Box::new(source),
+            })?;
+            if let Some(fp) = fp {
+                out.insert((a.name.clone(), scenario.clone(), fp));
+            }
+        }
+    }
+    Ok(out.into_iter().collect())
 }

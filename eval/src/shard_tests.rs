@@ -14,6 +14,7 @@ fn meta(name: &str, shard: Option<(usize, usize)>) -> Meta {
         unshipped: Vec::new(),
         document: None,
         protocol: String::new(),
+        fingerprints: Vec::new(),
     }
 }
 
@@ -42,4 +43,15 @@ fn a_merge_takes_each_shard_of_one_plan_once() {
     assert!(split.contains("shard 2/3") && split.contains("shard 1/2"), "{split}");
     let whole = refused(&[("a", meta("p", None)), ("b", meta("p", Some((2, 2))))]);
     assert!(whole.contains("a holds the whole plan"), "{whole}");
+}
+
+#[test]
+fn a_merge_refuses_shards_that_played_other_networks() {
+    let with = |fp: &str| Meta { fingerprints: vec![("q".into(), "3m".into(), fp.into())], ..meta("p", Some((1, 2))) };
+    let mut second = with("xxh3:2");
+    second.shard = Some(Shard { index: 2, count: 2 });
+    let e = refused(&[("a", with("xxh3:1")), ("b", second.clone())]);
+    assert!(e.contains("b holds results of other networks or AVA settings than a"), "{e}");
+    second.fingerprints = with("xxh3:1").fingerprints;
+    check_shards(&[(PathBuf::from("a"), with("xxh3:1")), (PathBuf::from("b"), second)]).expect("the same networks");
 }

@@ -8,6 +8,7 @@ use avacraft_marl::baselines;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, OnceLock, PoisonError};
+use xxhash_rust::xxh3::Xxh3;
 
 /// When a checkpoint's weights are read.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -83,6 +84,20 @@ impl MarlCheckpoint {
             return Err(PolicyError::OtherShape { dir: self.dir.clone(), trained, team, scenario: scenario.name.clone(), here });
         }
         Ok(())
+    }
+
+    /// What identifies the trained network: a hash of the files acting reads
+    /// (`config.json`, `agent.safetensors`). An evaluation records it with its results, so a
+    /// checkpoint trained again or shipped anew is not mixed with the old one's episodes.
+    pub fn fingerprint(&self) -> Result<String, PolicyError> {
+        let mut h = Xxh3::new();
+        for name in ["config.json", "agent.safetensors"] {
+            let path = self.dir.join(name);
+            let bytes = std::fs::read(&path).map_err(|source| PolicyError::Unreadable { dir: path, source })?;
+            h.update(&(bytes.len() as u64).to_le_bytes());
+            h.update(&bytes);
+        }
+        Ok(format!("xxh3:{:016x}", h.digest()))
     }
 
     /// The agent's name: `marl:DIR`.

@@ -120,6 +120,24 @@ impl PolicySpec {
         }
     }
 
+    /// What identifies the policy's play on `scenario` beyond its name: a trained
+    /// network's file hash ([`MarlCheckpoint::fingerprint`]; a baseline's for that scenario)
+    /// or a hash of AVA's settings (`ava` names every model and configuration alike).
+    /// `None` for scripted and DDS agents, whose name says it all.
+    pub fn fingerprint(&self, scenario: &str) -> Result<Option<String>, PolicyError> {
+        match self {
+            PolicySpec::Marl(m) => m.fingerprint().map(Some),
+            PolicySpec::Baseline(b) => b.for_scenario(scenario)?.fingerprint().map(Some),
+            PolicySpec::Ava(spec) => {
+                // Settings always serialise (no map with other than string keys); the debug
+                // form would do as well.
+                let bytes = serde_json::to_vec(spec.as_ref()).unwrap_or_else(|_| format!("{spec:?}").into_bytes());
+                Ok(Some(format!("xxh3:{:016x}", xxhash_rust::xxh3::xxh3_64(&bytes))))
+            }
+            PolicySpec::Scripted(_) | PolicySpec::Dds => Ok(None),
+        }
+    }
+
     pub fn is_dds(&self) -> bool {
         matches!(self, PolicySpec::Dds)
     }

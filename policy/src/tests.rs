@@ -96,3 +96,36 @@ fn made_agents_play_and_checkpoints_check_their_scenario() {
     let made = ava.make(&Calls::Own, None).expect("make");
     assert!(made.run.is_some());
 }
+
+#[test]
+fn fingerprints_follow_the_files_acting_reads_and_ava_s_settings() {
+    let dir = tmp("fingerprint");
+    for f in ["config.json", "agent.safetensors"] {
+        std::fs::copy(shipped().join(f), dir.join(f)).expect("copy the checkpoint");
+    }
+    let spec = PolicySpec::parse(&format!("marl:{}", dir.display()), None).expect("a checkpoint");
+    let first = spec.fingerprint("3m").expect("readable").expect("a network has one");
+    assert_eq!(spec.fingerprint("3m").expect("readable"), Some(first.clone()), "the same files, the same fingerprint");
+    // Files acting does not read leave it alone; a weight changed does not.
+    std::fs::write(dir.join("log.csv"), "step\n1\n").expect("write");
+    assert_eq!(spec.fingerprint("3m").expect("readable"), Some(first.clone()));
+    let mut w = std::fs::read(dir.join("agent.safetensors")).expect("read");
+    let last = w.len() - 1;
+    w[last] ^= 1;
+    std::fs::write(dir.join("agent.safetensors"), w).expect("write");
+    let trained_again = spec.fingerprint("3m").expect("readable").expect("some");
+    assert_ne!(trained_again, first, "another network, another fingerprint");
+    std::fs::remove_file(dir.join("agent.safetensors")).expect("remove");
+    let gone = spec.fingerprint("3m").expect_err("a missing weights file is an error").to_string();
+    assert!(gone.contains("agent.safetensors"), "{gone}");
+
+    assert_eq!(PolicySpec::parse("focus-fire", None).expect("scripted").fingerprint("3m").expect("none to read"), None);
+    let ava = |seed| {
+        let mut s = synthetic();
+        s.config.decide_every = seed;
+        PolicySpec::resolve(AVA_POLICY, Some(s), Resolve::against(None)).expect("ava").fingerprint("3m").expect("settings")
+    };
+    assert_eq!(ava(4), ava(4));
+    assert_ne!(ava(4), ava(8), "AVA's settings are part of what it plays");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -166,7 +166,54 @@ fn a_plan_plays_reports_resumes_and_shards_into_the_same_results() {
     // A shard's folder does not take the whole plan's results (or another shard's).
     let o = eval_captured(&[p.to_str().expect("utf-8"), "--out", s1.to_str().expect("utf-8")]);
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success() && err.contains("shard 1/2's results"), "{err}");
+    assert!(!o.status.success() && err.contains("its results are shard 1/2's, not the whole plan's"), "{err}");
+}
+
+/// A plan grown by an agent resumes its folder and plays only the new cells; a checkpoint
+/// trained again under the same name is refused there, and nothing recorded changes.
+#[test]
+fn a_grown_plan_plays_only_its_new_cells_and_a_changed_checkpoint_is_refused() {
+    let dir = tmp("eval-grown");
+    let ckpt = dir.join("qmix");
+    std::fs::create_dir_all(&ckpt).expect("dir");
+    for f in ["config.json", "agent.safetensors"] {
+        std::fs::copy(marl_checkpoint().join(f), ckpt.join(f)).expect("copy the checkpoint");
+    }
+    let write = |agents: &[(&str, &str)]| {
+        let mut body = "name = \"grown\"\nscenarios = [\"3m\"]\nseeds = [1, 2]\n".to_owned();
+        for (name, policy) in agents {
+            body.push_str(&format!("\n[[agents]]\nname = \"{name}\"\npolicy = \"{policy}\"\n"));
+        }
+        let p = dir.join("plan.toml");
+        std::fs::write(&p, body).expect("plan");
+        p
+    };
+    let marl = format!("marl:{}", ckpt.display());
+    let out = dir.join("out");
+    let run = |p: &Path| eval_captured(&[p.to_str().expect("utf-8"), "--out", out.to_str().expect("utf-8"), "--threads", "1"]);
+
+    let o = run(&write(&[("focus-fire", "focus-fire"), ("qmix", &marl)]));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let before = episodes(&out);
+    assert_eq!(before.len(), 4);
+
+    let o = run(&write(&[("focus-fire", "focus-fire"), ("qmix", &marl), ("hold", "hold")]));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(text(&o).contains("2 played now, 4 done before"), "{}", text(&o));
+    let after = episodes(&out);
+    assert_eq!(after.len(), 6);
+    assert!(before.iter().all(|(k, v)| after.get(k) == Some(v)), "the old episodes are kept as they were");
+    assert!(std::fs::read_to_string(out.join("report.md")).expect("report").contains("hold"), "the report has the new agent");
+
+    // The same name, the same folder, another network: refused, naming what changed.
+    let mut w = std::fs::read(ckpt.join("agent.safetensors")).expect("read");
+    let last = w.len() - 1;
+    w[last] ^= 1;
+    std::fs::write(ckpt.join("agent.safetensors"), w).expect("write");
+    let o = run(&write(&[("focus-fire", "focus-fire"), ("qmix", &marl), ("hold", "hold")]));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("agent `qmix` on 3m played a policy whose fingerprint"), "{err}");
+    assert_eq!(episodes(&out), after, "nothing recorded changed");
 }
 
 /// `baseline:NAME` plays each scenario's shipped policy and leaves out, by name, the

@@ -1,0 +1,82 @@
+//! `write_meta`: which plans may resume a folder. The same plan, or the same plan grown by
+//! cells; never one whose results would differ from those recorded.
+
+use crate::{AgentKind, CellKey, EvalError, Meta, Shard, read_meta, write_meta};
+
+fn cell(scenario: &str, agent: &str) -> CellKey {
+    CellKey { scenario: scenario.into(), agent: agent.into(), against: "opponent:default".into() }
+}
+
+fn plan(agents: &[(&str, &str)], fingerprints: &[(&str, &str, &str)]) -> Meta {
+    Meta {
+        name: "paper".into(),
+        agents: agents.iter().map(|(n, p)| ((*n).to_owned(), AgentKind::Marl, (*p).to_owned())).collect(),
+        seeds: (1001..=1100).collect(),
+        curves: Vec::new(),
+        cells: agents.iter().flat_map(|(n, _)| [cell("3m", n), cell("2s3z", n)]).collect(),
+        shard: None,
+        unshipped: Vec::new(),
+        document: None,
+        protocol: String::new(),
+        fingerprints: fingerprints.iter().map(|(a, s, f)| ((*a).to_owned(), (*s).to_owned(), (*f).to_owned())).collect(),
+    }
+}
+
+fn refused(dir: &std::path::Path, m: &Meta) -> String {
+    match write_meta(dir, m) {
+        Err(e @ EvalError::Folder { .. }) => e.to_string(),
+        other => panic!("expected the folder to be refused, got {other:?}"),
+    }
+}
+
+#[test]
+fn a_folder_resumes_with_its_plan_grown_but_not_with_other_results() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let dir = tmp.path();
+    let fp = [("qmix", "3m", "xxh3:1"), ("qmix", "2s3z", "xxh3:2")];
+    let base = plan(&[("qmix", "baseline:qmix")], &fp);
+    write_meta(dir, &base).expect("a new folder");
+    write_meta(dir, &base).expect("the same plan again");
+
+    // An agent added: its cells are new, the old ones stay; plan.json is the grown plan.
+    let grown = plan(&[("qmix", "baseline:qmix"), ("ava", "ava")], &[fp[0], fp[1], ("ava", "3m", "xxh3:9")]);
+    write_meta(dir, &grown).expect("the plan grown by an agent");
+    assert_eq!(read_meta(dir).expect("written").cells.len(), 4);
+
+    // Cells recorded there that the plan no longer has.
+    let fewer = refused(dir, &base);
+    assert!(fewer.contains("cell `3m / ava vs opponent:default` is not in this plan"), "{fewer}");
+    assert!(fewer.contains("pick another --out (nothing is overwritten)"), "{fewer}");
+
+    // Another policy under the same agent name.
+    let other = refused(dir, &plan(&[("qmix", "marl:runs/q"), ("ava", "ava")], &[]));
+    assert!(other.contains("agent `qmix` played `baseline:qmix` (marl) there and is `marl:runs/q` (marl) here"), "{other}");
+
+    // The same name and policy, but a network trained or shipped again.
+    let again = refused(dir, &plan(&[("qmix", "baseline:qmix"), ("ava", "ava")], &[("qmix", "2s3z", "xxh3:3")]));
+    assert!(again.contains("agent `qmix` on 2s3z") && again.contains("xxh3:2") && again.contains("xxh3:3"), "{again}");
+
+    // Other seeds, another shard.
+    let mut seeds = grown.clone();
+    seeds.seeds = vec![1, 2, 3];
+    let s = refused(dir, &seeds);
+    assert!(s.contains("seeds 100 seeds, 1001 to 1100, this plan's are 1, 2, 3"), "{s}");
+    let mut shard = grown.clone();
+    shard.shard = Some(Shard { index: 1, count: 2 });
+    let s = refused(dir, &shard);
+    assert!(s.contains("the whole plan's, not shard 1/2's"), "{s}");
+
+    // Nothing refused was written.
+    assert_eq!(read_meta(dir).expect("still there"), grown);
+}
+
+#[test]
+fn a_folder_from_before_fingerprints_still_resumes() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let m = plan(&[("qmix", "baseline:qmix")], &[]);
+    let mut json: serde_json::Value = serde_json::to_value(&m).expect("json");
+    json.as_object_mut().expect("an object").remove("fingerprints");
+    std::fs::write(tmp.path().join(crate::META_FILE), json.to_string()).expect("write");
+    write_meta(tmp.path(), &plan(&[("qmix", "baseline:qmix")], &[("qmix", "3m", "xxh3:1")])).expect("no fingerprints to compare");
+    assert_eq!(read_meta(tmp.path()).expect("written").fingerprints.len(), 1);
+}
