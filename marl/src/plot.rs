@@ -32,66 +32,129 @@ pub(crate) fn err(e: impl std::fmt::Display) -> Error {
     Error::Plot { message: e.to_string() }
 }
 
+/// An RGB canvas that plotters draws on, saved as PNG by the workspace's `image` crate:
+/// plotters' own file back end would build a second, older `image` (and its JPEG decoder)
+/// into every build for nothing else.
+#[derive(Debug)]
+pub struct Png {
+    size: (u32, u32),
+    rgb: Vec<u8>,
+}
+
+impl Png {
+    pub fn new(size: (u32, u32)) -> Png {
+        Png { size, rgb: vec![255; size.0 as usize * size.1 as usize * 3] }
+    }
+
+    /// The whole canvas as plotters' drawing area; drop it (and what was drawn from it)
+    /// before [`Png::save`].
+    pub fn area(&mut self) -> DrawingArea<BitMapBackend<'_>, plotters::coord::Shift> {
+        BitMapBackend::with_buffer(&mut self.rgb, self.size).into_drawing_area()
+    }
+
+    pub fn save(self, path: &Path) -> Result<(), String> {
+        image::save_buffer_with_format(path, &self.rgb, self.size.0, self.size.1, image::ExtendedColorType::Rgb8, image::ImageFormat::Png)
+            .map_err(|e| format!("{}: {e}", path.display()))
+    }
+}
+
 /// Draws `points` of the run `title` into `path` (PNG, 900x900).
 pub fn curves(path: &Path, title: &str, points: &[CurvePoint], vs: &[String]) -> Result<(), Error> {
     font()?;
-    let root = BitMapBackend::new(path, (900, 900)).into_drawing_area();
-    root.fill(&WHITE).map_err(err)?;
-    let root = root.titled(title, ("sans-serif", 22)).map_err(err)?;
-    let panels = root.split_evenly((3, 1));
-    let x_max = points.iter().map(|p| p.t_env).max().unwrap_or(1).max(1);
-    let finite = |f: fn(&CurvePoint) -> f64| points.iter().map(f).filter(|v| v.is_finite());
-    let range = |f: fn(&CurvePoint) -> f64| {
-        let (lo, hi) = finite(f).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
-        if lo.is_finite() && hi > lo {
-            lo..hi + (hi - lo) * 0.05
-        } else if lo.is_finite() {
-            lo - 1.0..lo + 1.0
-        } else {
-            0.0..1.0
+    let mut canvas = Png::new((900, 900));
+    {
+        let root = canvas.area();
+        root.fill(&WHITE).map_err(err)?;
+        let root = root.titled(title, ("sans-serif", 22)).map_err(err)?;
+        let panels = root.split_evenly((3, 1));
+        let x_max = points.iter().map(|p| p.t_env).max().unwrap_or(1).max(1);
+        let finite = |f: fn(&CurvePoint) -> f64| points.iter().map(f).filter(|v| v.is_finite());
+        let range = |f: fn(&CurvePoint) -> f64| {
+            let (lo, hi) = finite(f).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+            if lo.is_finite() && hi > lo {
+                lo..hi + (hi - lo) * 0.05
+            } else if lo.is_finite() {
+                lo - 1.0..lo + 1.0
+            } else {
+                0.0..1.0
+            }
+        };
+        let line = |f: &dyn Fn(&CurvePoint) -> f64| -> Vec<(u64, f64)> {
+            points.iter().map(|p| (p.t_env, f(p))).filter(|(_, v)| v.is_finite()).collect()
+        };
+        type Series = (String, Vec<(u64, f64)>, RGBColor);
+        let mut wins: Vec<Series> = vec![
+            ("greedy test".into(), line(&|p| p.test_win_rate), BLUE),
+            ("training (exploring)".into(), line(&|p| p.train_win_rate.unwrap_or(f64::NAN)), RGBColor(230, 120, 0)),
+        ];
+        // Fixed opponents (a self-play run's progress): greens and purples after the two above.
+        let palette = [RGBColor(0, 150, 70), RGBColor(140, 60, 170), RGBColor(120, 120, 120), RGBColor(200, 40, 120)];
+        for (i, name) in vs.iter().enumerate() {
+            wins.push((format!("greedy vs {name}"), line(&|p| p.vs.get(i).copied().unwrap_or(f64::NAN)), palette[i % palette.len()]));
         }
-    };
-    let line = |f: &dyn Fn(&CurvePoint) -> f64| -> Vec<(u64, f64)> {
-        points.iter().map(|p| (p.t_env, f(p))).filter(|(_, v)| v.is_finite()).collect()
-    };
-    type Series = (String, Vec<(u64, f64)>, RGBColor);
-    let mut wins: Vec<Series> = vec![
-        ("greedy test".into(), line(&|p| p.test_win_rate), BLUE),
-        ("training (exploring)".into(), line(&|p| p.train_win_rate.unwrap_or(f64::NAN)), RGBColor(230, 120, 0)),
-    ];
-    // Fixed opponents (a self-play run's progress): greens and purples after the two above.
-    let palette = [RGBColor(0, 150, 70), RGBColor(140, 60, 170), RGBColor(120, 120, 120), RGBColor(200, 40, 120)];
-    for (i, name) in vs.iter().enumerate() {
-        wins.push((format!("greedy vs {name}"), line(&|p| p.vs.get(i).copied().unwrap_or(f64::NAN)), palette[i % palette.len()]));
-    }
-    let specs: [(&str, std::ops::Range<f64>, Vec<Series>); 3] = [
-        ("win rate", 0.0..1.02, wins),
-        ("test return", range(|p| p.test_return), vec![("greedy test return".into(), line(&|p| p.test_return), RGBColor(0, 140, 60))]),
-        ("loss", range(|p| p.loss), vec![("last update's loss".into(), line(&|p| p.loss), RED)]),
-    ];
-    for (area, (label, y, series)) in panels.iter().zip(specs) {
-        let mut chart = ChartBuilder::on(area)
-            .margin(12)
-            .x_label_area_size(36)
-            .y_label_area_size(60)
-            .build_cartesian_2d(0u64..x_max, y)
-            .map_err(err)?;
-        chart.configure_mesh().x_desc("environment steps").y_desc(label).label_style(("sans-serif", 14)).draw().map_err(err)?;
-        for (name, pts, color) in series {
+        let specs: [(&str, std::ops::Range<f64>, Vec<Series>); 3] = [
+            ("win rate", 0.0..1.02, wins),
+            ("test return", range(|p| p.test_return), vec![("greedy test return".into(), line(&|p| p.test_return), RGBColor(0, 140, 60))]),
+            ("loss", range(|p| p.loss), vec![("last update's loss".into(), line(&|p| p.loss), RED)]),
+        ];
+        for (area, (label, y, series)) in panels.iter().zip(specs) {
+            let mut chart = ChartBuilder::on(area)
+                .margin(12)
+                .x_label_area_size(36)
+                .y_label_area_size(60)
+                .build_cartesian_2d(0u64..x_max, y)
+                .map_err(err)?;
+            chart.configure_mesh().x_desc("environment steps").y_desc(label).label_style(("sans-serif", 14)).draw().map_err(err)?;
+            for (name, pts, color) in series {
+                chart
+                    .draw_series(LineSeries::new(pts, color.stroke_width(2)))
+                    .map_err(err)?
+                    .label(name)
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
+            }
             chart
-                .draw_series(LineSeries::new(pts, color.stroke_width(2)))
-                .map_err(err)?
-                .label(name)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 14))
+                .position(SeriesLabelPosition::LowerRight)
+                .draw()
+                .map_err(err)?;
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 14))
-            .position(SeriesLabelPosition::LowerRight)
-            .draw()
-            .map_err(err)?;
+        root.present().map_err(err)?;
     }
-    root.present().map_err(err)
+    canvas.save(path).map_err(err)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn curves_are_drawn_into_a_png_of_their_size() {
+        let dir = std::env::temp_dir().join(format!("avacraft-plot-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let path = dir.join("curves.png");
+        let points: Vec<CurvePoint> = (0..20)
+            .map(|i| CurvePoint {
+                t_env: i * 1000,
+                test_win_rate: i as f64 / 20.0,
+                train_win_rate: Some(i as f64 / 25.0),
+                test_return: i as f64,
+                loss: 1.0 / (1.0 + i as f64),
+                vs: Vec::new(),
+            })
+            .collect();
+        curves(&path, "a run", &points, &[]).expect("drawn");
+        let img = image::open(&path).expect("a PNG image reads back").to_rgb8();
+        assert_eq!(img.dimensions(), (900, 900));
+        // The greedy test curve is drawn in plotters' blue.
+        assert!(img.pixels().any(|p| p.0 == [0, 0, 255]), "the blue test curve is on the canvas");
+        assert!(img.pixels().filter(|p| p.0 == [255, 255, 255]).count() > 900 * 900 / 2, "a white background");
+        // An unwritable path is an error naming it, not a panic.
+        let bad = dir.join("missing-folder").join("curves.png");
+        let e = curves(&bad, "a run", &points, &[]).expect_err("no folder to write into").to_string();
+        assert!(e.contains("missing-folder"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
 }

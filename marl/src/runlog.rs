@@ -7,6 +7,7 @@
 //! so logs of older builds with the same core columns still read.
 
 use crate::Error;
+use crate::plot::Png;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -102,60 +103,64 @@ const COLORS: [RGBColor; 6] = [
 pub fn compare(path: &Path, title: &str, groups: &[Group]) -> Result<(), Error> {
     crate::plot::font()?;
     let err = crate::plot::err;
-    let root = BitMapBackend::new(path, (1400, 900)).into_drawing_area();
-    root.fill(&WHITE).map_err(err)?;
-    let root = root.titled(title, ("sans-serif", 22)).map_err(err)?;
-    let panels = root.split_evenly((2, 2));
-    let all = || groups.iter().flat_map(|g| g.runs.iter().flat_map(|(_, r)| r.iter()));
-    let max_steps = all().map(|r| r.t_env).max().unwrap_or(1).max(1) as f64;
-    let max_secs = all().map(|r| r.elapsed_s).fold(1.0, f64::max);
-    type Pick = fn(&LogRow) -> f64;
-    let specs: [(&str, Pick, &str, Pick, f64); 4] = [
-        ("greedy test win rate", |r| r.test_win_rate, "environment steps", |r| r.t_env as f64, max_steps),
-        ("training win rate", |r| r.train_win_rate, "environment steps", |r| r.t_env as f64, max_steps),
-        ("greedy test win rate", |r| r.test_win_rate, "wall-clock seconds", |r| r.elapsed_s, max_secs),
-        ("training win rate", |r| r.train_win_rate, "wall-clock seconds", |r| r.elapsed_s, max_secs),
-    ];
-    for (area, (y_label, y, x_label, x, x_max)) in panels.iter().zip(specs) {
-        let mut chart = ChartBuilder::on(area)
-            .margin(12)
-            .x_label_area_size(36)
-            .y_label_area_size(56)
-            .build_cartesian_2d(0.0..x_max, 0.0..1.02)
-            .map_err(err)?;
-        let steps = x_label.starts_with("env");
-        let fmt_x = move |v: &f64| if steps { format!("{:.0}k", v / 1000.0) } else { format!("{v:.0}") };
-        chart
-            .configure_mesh()
-            .x_desc(x_label)
-            .y_desc(y_label)
-            .x_label_formatter(&fmt_x)
-            .label_style(("sans-serif", 14))
-            .draw()
-            .map_err(err)?;
-        for (gi, g) in groups.iter().enumerate() {
-            let color = COLORS[gi % COLORS.len()];
-            for (_, rows) in &g.runs {
-                let pts: Vec<(f64, f64)> = rows.iter().map(|r| (x(r), y(r))).filter(|(_, v)| v.is_finite()).collect();
-                chart.draw_series(LineSeries::new(pts, color.mix(0.35).stroke_width(1))).map_err(err)?;
-            }
-            let mean = mean_curve(&g.runs, x, y);
+    let mut canvas = Png::new((1400, 900));
+    {
+        let root = canvas.area();
+        root.fill(&WHITE).map_err(err)?;
+        let root = root.titled(title, ("sans-serif", 22)).map_err(err)?;
+        let panels = root.split_evenly((2, 2));
+        let all = || groups.iter().flat_map(|g| g.runs.iter().flat_map(|(_, r)| r.iter()));
+        let max_steps = all().map(|r| r.t_env).max().unwrap_or(1).max(1) as f64;
+        let max_secs = all().map(|r| r.elapsed_s).fold(1.0, f64::max);
+        type Pick = fn(&LogRow) -> f64;
+        let specs: [(&str, Pick, &str, Pick, f64); 4] = [
+            ("greedy test win rate", |r| r.test_win_rate, "environment steps", |r| r.t_env as f64, max_steps),
+            ("training win rate", |r| r.train_win_rate, "environment steps", |r| r.t_env as f64, max_steps),
+            ("greedy test win rate", |r| r.test_win_rate, "wall-clock seconds", |r| r.elapsed_s, max_secs),
+            ("training win rate", |r| r.train_win_rate, "wall-clock seconds", |r| r.elapsed_s, max_secs),
+        ];
+        for (area, (y_label, y, x_label, x, x_max)) in panels.iter().zip(specs) {
+            let mut chart = ChartBuilder::on(area)
+                .margin(12)
+                .x_label_area_size(36)
+                .y_label_area_size(56)
+                .build_cartesian_2d(0.0..x_max, 0.0..1.02)
+                .map_err(err)?;
+            let steps = x_label.starts_with("env");
+            let fmt_x = move |v: &f64| if steps { format!("{:.0}k", v / 1000.0) } else { format!("{v:.0}") };
             chart
-                .draw_series(LineSeries::new(mean, color.stroke_width(3)))
-                .map_err(err)?
-                .label(format!("{} ({} runs, mean)", g.name, g.runs.len()))
-                .legend(move |(px, py)| PathElement::new(vec![(px, py), (px + 18, py)], color.stroke_width(3)));
+                .configure_mesh()
+                .x_desc(x_label)
+                .y_desc(y_label)
+                .x_label_formatter(&fmt_x)
+                .label_style(("sans-serif", 14))
+                .draw()
+                .map_err(err)?;
+            for (gi, g) in groups.iter().enumerate() {
+                let color = COLORS[gi % COLORS.len()];
+                for (_, rows) in &g.runs {
+                    let pts: Vec<(f64, f64)> = rows.iter().map(|r| (x(r), y(r))).filter(|(_, v)| v.is_finite()).collect();
+                    chart.draw_series(LineSeries::new(pts, color.mix(0.35).stroke_width(1))).map_err(err)?;
+                }
+                let mean = mean_curve(&g.runs, x, y);
+                chart
+                    .draw_series(LineSeries::new(mean, color.stroke_width(3)))
+                    .map_err(err)?
+                    .label(format!("{} ({} runs, mean)", g.name, g.runs.len()))
+                    .legend(move |(px, py)| PathElement::new(vec![(px, py), (px + 18, py)], color.stroke_width(3)));
+            }
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 14))
+                .position(SeriesLabelPosition::LowerRight)
+                .draw()
+                .map_err(err)?;
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 14))
-            .position(SeriesLabelPosition::LowerRight)
-            .draw()
-            .map_err(err)?;
+        root.present().map_err(err)?;
     }
-    root.present().map_err(err)
+    canvas.save(path).map_err(crate::plot::err)
 }
 
 /// The mean over runs of `y` at each run's `x` points, each run held at its last value past

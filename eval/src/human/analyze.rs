@@ -11,6 +11,7 @@
 
 use super::{DB_FILE, Db, HumanError, Key, METRICS, Rating, read_key};
 use crate::AgentKind;
+use avacraft_marl::plot::Png;
 use plotters::prelude::*;
 use statrs::distribution::{ContinuousCDF, Normal};
 use std::collections::{BTreeMap, BTreeSet};
@@ -204,57 +205,61 @@ impl Analysis {
         font()?;
         let err = |e: &dyn std::fmt::Display| HumanError::Plot { message: e.to_string() };
         let kinds: Vec<AgentKind> = self.summaries.iter().map(|k| k.kind).collect::<BTreeSet<_>>().into_iter().collect();
-        let root = BitMapBackend::new(path, (800, 480)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(&e))?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption("Human evaluation: mean rating (± s.e.)", ("sans-serif", 22))
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(50)
-            // Metric i's group of bars is centred on x = i, where its label goes.
-            .build_cartesian_2d(-0.5..METRICS.len() as f64 - 0.5, 0.0..5.5)
-            .map_err(|e| err(&e))?;
-        chart
-            .configure_mesh()
-            .disable_x_mesh()
-            .x_labels(METRICS.len())
-            .x_label_formatter(&|x| {
-                let i = x.round();
-                let m = if (x - i).abs() < 1e-6 && i >= 0.0 { METRICS.get(i as usize) } else { None };
-                m.map_or(String::new(), |m| m.name.to_owned())
-            })
-            .y_desc("rating (1 to 5)")
-            .draw()
-            .map_err(|e| err(&e))?;
-        const COLORS: [RGBColor; 3] = [RGBColor(127, 127, 127), RGBColor(31, 119, 180), RGBColor(255, 127, 14)];
-        let w = 0.8 / kinds.len().max(1) as f64;
-        for (ki, kind) in kinds.iter().enumerate() {
-            let color = COLORS[ki % COLORS.len()];
-            let bars: Vec<(f64, &KindSummary)> = self
-                .summaries
-                .iter()
-                .filter(|s| s.kind == *kind)
-                .filter_map(|s| METRICS.iter().position(|m| m.key == s.metric).map(|mi| (mi as f64 - 0.4 + w * ki as f64, s)))
-                .collect();
-            chart
-                .draw_series(bars.iter().map(|(x, s)| Rectangle::new([(*x, 0.0), (*x + w * 0.9, s.mean)], color.filled())))
-                .map_err(|e| err(&e))?
-                .label(kind.name())
-                .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], color.filled()));
-            chart
-                .draw_series(bars.iter().map(|(x, s)| {
-                    PathElement::new(vec![(*x + w * 0.45, s.mean - s.sem), (*x + w * 0.45, s.mean + s.sem)], BLACK.stroke_width(1))
-                }))
+        let mut canvas = Png::new((800, 480));
+        {
+            let root = canvas.area();
+            root.fill(&WHITE).map_err(|e| err(&e))?;
+            let mut chart = ChartBuilder::on(&root)
+                .caption("Human evaluation: mean rating (± s.e.)", ("sans-serif", 22))
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(50)
+                // Metric i's group of bars is centred on x = i, where its label goes.
+                .build_cartesian_2d(-0.5..METRICS.len() as f64 - 0.5, 0.0..5.5)
                 .map_err(|e| err(&e))?;
+            chart
+                .configure_mesh()
+                .disable_x_mesh()
+                .x_labels(METRICS.len())
+                .x_label_formatter(&|x| {
+                    let i = x.round();
+                    let m = if (x - i).abs() < 1e-6 && i >= 0.0 { METRICS.get(i as usize) } else { None };
+                    m.map_or(String::new(), |m| m.name.to_owned())
+                })
+                .y_desc("rating (1 to 5)")
+                .draw()
+                .map_err(|e| err(&e))?;
+            const COLORS: [RGBColor; 3] = [RGBColor(127, 127, 127), RGBColor(31, 119, 180), RGBColor(255, 127, 14)];
+            let w = 0.8 / kinds.len().max(1) as f64;
+            for (ki, kind) in kinds.iter().enumerate() {
+                let color = COLORS[ki % COLORS.len()];
+                let bars: Vec<(f64, &KindSummary)> = self
+                    .summaries
+                    .iter()
+                    .filter(|s| s.kind == *kind)
+                    .filter_map(|s| METRICS.iter().position(|m| m.key == s.metric).map(|mi| (mi as f64 - 0.4 + w * ki as f64, s)))
+                    .collect();
+                chart
+                    .draw_series(bars.iter().map(|(x, s)| Rectangle::new([(*x, 0.0), (*x + w * 0.9, s.mean)], color.filled())))
+                    .map_err(|e| err(&e))?
+                    .label(kind.name())
+                    .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], color.filled()));
+                chart
+                    .draw_series(bars.iter().map(|(x, s)| {
+                        PathElement::new(vec![(*x + w * 0.45, s.mean - s.sem), (*x + w * 0.45, s.mean + s.sem)], BLACK.stroke_width(1))
+                    }))
+                    .map_err(|e| err(&e))?;
+            }
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .position(SeriesLabelPosition::UpperRight)
+                .draw()
+                .map_err(|e| err(&e))?;
+            root.present().map_err(|e| err(&e))?;
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(|e| err(&e))?;
-        root.present().map_err(|e| err(&e))
+        canvas.save(path).map_err(|e| err(&e))
     }
 }
 
