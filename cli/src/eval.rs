@@ -10,6 +10,7 @@ use std::collections::BTreeMap;
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 #[derive(Args, Debug)]
 #[command(args_conflicts_with_subcommands = true)]
@@ -49,20 +50,38 @@ enum EvalCmd {
     Report { dir: PathBuf },
 }
 
-/// Per-cell progress under one bar of episodes.
+/// Per-cell progress under one bar of episodes; without a terminal (a log file, a cluster
+/// job), plain lines instead: failures at once, and where the run stands once a minute.
 struct Bars {
     bar: ProgressBar,
     cell: ProgressBar,
-    per_cell: usize,
+    shown: bool,
+    /// Episodes each cell plays in this run's plan (an agent may play fewer seeds).
+    per_cell: BTreeMap<CellKey, usize>,
     tally: Mutex<BTreeMap<CellKey, (usize, usize, usize)>>,
+    /// When the last plain progress line was written.
+    said: Mutex<Option<Instant>>,
 }
+
+impl Bars {
+    fn say(&self, line: String) {
+        if self.shown {
+            self.bar.println(line);
+        } else {
+            eprintln!("{line}");
+        }
+    }
+}
+
+/// How often a run without a terminal says where it stands.
+const PLAIN_EVERY: Duration = Duration::from_secs(60);
 
 impl Progress for Bars {
     fn start(&self, total: usize, skipped: usize) {
         self.bar.set_length(total as u64);
         self.bar.set_position(skipped as u64);
         if skipped > 0 {
-            self.bar.println(format!("resuming: {skipped} of {total} episodes are done already"));
+            self.say(format!("resuming: {skipped} of {total} episodes are done already"));
         }
     }
     fn done(&self, r: &EpisodeResult) {
@@ -75,10 +94,22 @@ impl Progress for Bars {
         }
         if let Some(why) = &r.error {
             e.2 += 1;
-            self.bar.println(format!("FAILED {} seed {}: {why}", r.cell, r.seed));
+            self.say(format!("FAILED {} seed {}: {why}", r.cell, r.seed));
         }
         let failed = if e.2 > 0 { format!(", {} failed", e.2) } else { String::new() };
-        self.cell.set_message(format!("{}: {}/{} played, {} won{failed}", r.cell, e.0, self.per_cell, e.1));
+        let of = self.per_cell.get(&r.cell).copied().unwrap_or_default();
+        let line = format!("{}: {}/{of} played, {} won{failed}", r.cell, e.0, e.1);
+        if self.shown {
+            self.cell.set_message(line);
+            return;
+        }
+        let mut said = self.said.lock().unwrap_or_else(|p| p.into_inner());
+        let now = Instant::now();
+        let finished = self.bar.length().is_some_and(|n| self.bar.position() >= n);
+        if finished || said.is_none_or(|t| now.duration_since(t) >= PLAIN_EVERY) {
+            *said = Some(now);
+            eprintln!("{}/{} episodes; {line}", self.bar.position(), self.bar.length().unwrap_or_default());
+        }
     }
 }
 
@@ -101,7 +132,11 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
     };
     bar.set_style(ProgressStyle::with_template("[{bar:40}] {pos}/{len} episodes ({eta})")?.progress_chars("=> "));
     cell.set_style(ProgressStyle::with_template("{msg}")?);
-    let bars = Bars { bar, cell, per_cell: plan.seeds.len(), tally: Mutex::new(BTreeMap::new()) };
+    let mut per_cell = BTreeMap::new();
+    for (_, job) in plan.jobs().into_iter().enumerate().filter(|(i, _)| a.shard.is_none_or(|s| s.takes(*i))) {
+        *per_cell.entry(plan.cells[job.cell].key.clone()).or_insert(0) += 1;
+    }
+    let bars = Bars { bar, cell, shown, per_cell, tally: Mutex::new(BTreeMap::new()), said: Mutex::new(None) };
     let opts = RunOptions { out: dir.clone(), shard: a.shard, threads: a.threads };
     let stats = avacraft_eval::run(&plan, &opts, &bars).with_context(|| format!("eval: {}", plan.file))?;
     bars.bar.finish_and_clear();

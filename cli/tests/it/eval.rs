@@ -330,9 +330,19 @@ ava = { model = { kind = "replay", dir = "no-such-recording" } }
     std::fs::write(&p, body).expect("plan");
     let out = dir.join("out");
     for round in 0..2 {
-        let o = eval(&[p.to_str().expect("utf-8"), "--out", out.to_str().expect("utf-8")]);
+        let o = eval_captured(&[p.to_str().expect("utf-8"), "--out", out.to_str().expect("utf-8")]);
         let said = text(&o);
         assert!(!o.status.success(), "failed episodes make the run fail: {said}");
+        // Without a terminal (here, a pipe) each failure is still said, with its reason, and
+        // where the run stands; every cell counts the seeds it plays (AVA's two, not the plan's).
+        let err = String::from_utf8_lossy(&o.stderr);
+        if round == 0 {
+            assert_eq!(err.matches("FAILED 3m / ava-replay vs opponent:default seed").count(), 2, "{err}");
+            assert!(err.contains("no-such-recording"), "{err}");
+            assert!(err.contains("4/4 episodes; "), "the last episode's line: {err}");
+        } else {
+            assert!(err.contains("resuming: 2 of 4 episodes are done already"), "{err}");
+        }
         let played = if round == 0 { "2 played now, 0 done before, 2 failed" } else { "0 played now, 2 done before, 2 failed" };
         assert!(said.contains(played), "round {round}: {said}");
         let report: avacraft_eval::Report =
