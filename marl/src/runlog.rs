@@ -149,14 +149,7 @@ pub fn compare(path: &Path, title: &str, groups: &[Group]) -> Result<(), Error> 
                     .label(format!("{} ({} runs, mean)", g.name, g.runs.len()))
                     .legend(move |(px, py)| PathElement::new(vec![(px, py), (px + 18, py)], color.stroke_width(3)));
             }
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.8))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 14))
-                .position(SeriesLabelPosition::LowerRight)
-                .draw()
-                .map_err(err)?;
+            crate::plot::legend(&mut chart)?;
         }
         root.present().map_err(err)?;
     }
@@ -256,5 +249,29 @@ mod tests {
         assert_eq!(first_reaching(&rows, 0.95, 0.8).map(|r| r.t_env), Some(3));
         assert_eq!(first_reaching(&rows[..2], 0.95, 0.8), None);
         assert!(first_reaching(&[row(1, f64::NAN, 1.0)], 0.95, 0.8).is_none());
+    }
+
+    #[test]
+    fn groups_are_compared_on_one_png() {
+        let row = |t: u64, w: f64| LogRow {
+            t_env: t,
+            episodes: t / 10,
+            updates: t / 100,
+            train_win_rate: w * 0.9,
+            test_win_rate: w,
+            test_return: 20.0 * w,
+            elapsed_s: t as f64 / 500.0,
+        };
+        let run = |k: f64| (PathBuf::from("r"), (0..30).map(|i| row(i * 1000, (i as f64 * k / 30.0).min(1.0))).collect());
+        let groups = [Group { name: "old".into(), runs: vec![run(1.0), run(0.8)] }, Group { name: "new".into(), runs: vec![run(1.5)] }];
+        let dir = std::env::temp_dir().join(format!("avacraft-compare-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let path = dir.join("compare.png");
+        compare(&path, "old and new", &groups).expect("drawn");
+        let img = image::open(&path).expect("a PNG reads back").to_rgb8();
+        assert_eq!(img.dimensions(), (1400, 900));
+        let colours: std::collections::BTreeSet<[u8; 3]> = img.pixels().map(|p| p.0).collect();
+        assert!(colours.len() > 20, "lines, text and legend are drawn: {} colours", colours.len());
+        std::fs::remove_dir_all(&dir).ok();
     }
 }
