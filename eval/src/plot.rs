@@ -130,13 +130,7 @@ fn win_rates(meta: &Meta, cells: &[CellStats], path: &Path) -> Result<(), EvalEr
                 )
                 .map_err(err)?;
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(err)?;
+        avacraft_marl::plot::legend(&mut chart, SeriesLabelPosition::UpperRight).map_err(err)?;
         root.present().map_err(err)?;
     }
     canvas.save(path).map_err(err)
@@ -225,13 +219,7 @@ fn curves(meta: &Meta, path: &Path) -> Result<(), EvalError> {
                 .label(*name)
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], color.stroke_width(2)));
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::LowerRight)
-            .draw()
-            .map_err(err)?;
+        avacraft_marl::plot::legend(&mut chart, SeriesLabelPosition::LowerRight).map_err(err)?;
         root.present().map_err(err)?;
     }
     canvas.save(path).map_err(err)

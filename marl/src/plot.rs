@@ -58,16 +58,19 @@ impl Png {
     }
 }
 
-/// The series' legend, in the lower right corner of a chart.
-pub(crate) fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(chart: &mut ChartContext<'a, DB, CT>) -> Result<(), Error> {
+/// The series' legend in a corner of a chart, in one style for every plot of the project.
+pub fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    corner: SeriesLabelPosition,
+) -> Result<(), String> {
     chart
         .configure_series_labels()
         .background_style(WHITE.mix(0.8))
         .border_style(BLACK)
         .label_font(("sans-serif", 14))
-        .position(SeriesLabelPosition::LowerRight)
+        .position(corner)
         .draw()
-        .map_err(err)
+        .map_err(|e| e.to_string())
 }
 
 /// Draws `points` of the run `title` into `path` (PNG, 900x900).
@@ -124,7 +127,7 @@ pub fn curves(path: &Path, title: &str, points: &[CurvePoint], vs: &[String]) ->
                     .label(name)
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
             }
-            legend(&mut chart)?;
+            legend(&mut chart, SeriesLabelPosition::LowerRight).map_err(err)?;
         }
         root.present().map_err(err)?;
     }

@@ -149,7 +149,7 @@ pub fn compare(path: &Path, title: &str, groups: &[Group]) -> Result<(), Error> 
                     .label(format!("{} ({} runs, mean)", g.name, g.runs.len()))
                     .legend(move |(px, py)| PathElement::new(vec![(px, py), (px + 18, py)], color.stroke_width(3)));
             }
-            crate::plot::legend(&mut chart)?;
+            crate::plot::legend(&mut chart, SeriesLabelPosition::LowerRight).map_err(crate::plot::err)?;
         }
         root.present().map_err(err)?;
     }

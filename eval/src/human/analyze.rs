@@ -250,13 +250,7 @@ impl Analysis {
                     }))
                     .map_err(|e| err(&e))?;
             }
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .position(SeriesLabelPosition::UpperRight)
-                .draw()
-                .map_err(|e| err(&e))?;
+            avacraft_marl::plot::legend(&mut chart, SeriesLabelPosition::UpperRight).map_err(|e| err(&e))?;
             root.present().map_err(|e| err(&e))?;
         }
         canvas.save(path).map_err(|e| err(&e))
