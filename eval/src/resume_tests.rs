@@ -80,3 +80,48 @@ fn a_folder_from_before_fingerprints_still_resumes() {
     write_meta(tmp.path(), &plan(&[("qmix", "baseline:qmix")], &[("qmix", "3m", "xxh3:1")])).expect("no fingerprints to compare");
     assert_eq!(read_meta(tmp.path()).expect("written").fingerprints.len(), 1);
 }
+
+mod properties {
+    use super::*;
+    use crate::cannot_extend;
+    use proptest::prelude::*;
+
+    fn meta_of(cells: &[(u8, u8)], seeds: &[u64]) -> Meta {
+        let mut m = plan(&[], &[]);
+        m.cells = cells.iter().map(|(s, a)| cell(&format!("s{s}"), &format!("a{a}"))).collect();
+        m.seeds = seeds.to_vec();
+        m
+    }
+
+    proptest! {
+        /// Any plan.json text is read or refused with an error, never a panic.
+        #[test]
+        fn any_plan_json_is_read_or_refused(text in ".{0,400}") {
+            let tmp = tempfile::tempdir().expect("temp dir");
+            std::fs::write(tmp.path().join(crate::META_FILE), &text).expect("write");
+            let _ = read_meta(tmp.path());
+        }
+
+        /// A plan grown by cells takes its folder over; one that lost a cell, or plays other
+        /// seeds, does not.
+        #[test]
+        fn growth_resumes_and_loss_does_not(
+            cells in proptest::collection::btree_set((0u8..6, 0u8..6), 1..12),
+            extra in proptest::collection::btree_set((0u8..6, 0u8..6), 0..6),
+            seeds in proptest::collection::vec(0u64..1000, 1..5),
+            drop in 0usize..12,
+        ) {
+            let old: Vec<(u8, u8)> = cells.iter().copied().collect();
+            let grown: Vec<(u8, u8)> = cells.union(&extra).copied().collect();
+            let base = meta_of(&old, &seeds);
+            prop_assert_eq!(cannot_extend(&base, &meta_of(&grown, &seeds)), None);
+            let mut lost = old.clone();
+            let gone = lost.remove(drop % lost.len());
+            let why = cannot_extend(&base, &meta_of(&lost, &seeds));
+            prop_assert!(why.as_deref().is_some_and(|w| w.contains(&format!("s{} / a{}", gone.0, gone.1))), "{:?}", why);
+            let mut other = seeds.clone();
+            other.push(1000);
+            prop_assert!(cannot_extend(&base, &meta_of(&grown, &other)).is_some());
+        }
+    }
+}
