@@ -133,7 +133,7 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
     bar.set_style(ProgressStyle::with_template("[{bar:40}] {pos}/{len} episodes ({eta})")?.progress_chars("=> "));
     cell.set_style(ProgressStyle::with_template("{msg}")?);
     let mut per_cell = BTreeMap::new();
-    for (_, job) in plan.jobs().into_iter().enumerate().filter(|(i, _)| a.shard.is_none_or(|s| s.takes(*i))) {
+    for job in plan.jobs_in(a.shard) {
         *per_cell.entry(plan.cells[job.cell].key.clone()).or_insert(0) += 1;
     }
     let bars = Bars { bar, cell, shown, per_cell, tally: Mutex::new(BTreeMap::new()), said: Mutex::new(None) };

@@ -183,10 +183,15 @@ fn seed_list(seeds: &[u64]) -> String {
 /// and scenario ([`avacraft_policy::PolicySpec::fingerprint`]), sorted.
 pub fn fingerprints(plan: &Plan) -> Result<Vec<(String, String, String)>, EvalError> {
     let mut out = std::collections::BTreeSet::new();
+    // Each (agent, scenario) once: a policy plays many cells of a scenario (opponents, pairings).
+    let mut seen = std::collections::BTreeSet::new();
     for cell in &plan.cells {
         for k in std::iter::once(cell.agent).chain(cell.agent2) {
             let a = &plan.agents[k];
             let scenario = &cell.scenario.name;
+            if !seen.insert((k, scenario)) {
+                continue;
+            }
             let fp = a.policy.fingerprint(scenario).map_err(|source| EvalError::Policy {
                 agent: a.name.clone(),
                 scenario: scenario.clone(),

@@ -206,6 +206,11 @@ impl Plan {
         self.cells.iter().enumerate().flat_map(|(cell, c)| self.seeds_of(c).iter().map(move |&seed| Job { cell, seed })).collect()
     }
 
+    /// The jobs `shard` plays (all of them without one), in plan order.
+    pub fn jobs_in(&self, shard: Option<Shard>) -> Vec<Job> {
+        self.jobs().into_iter().enumerate().filter(|(i, _)| shard.is_none_or(|s| s.takes(*i))).map(|(_, j)| j).collect()
+    }
+
     /// The seeds a cell plays: the plan's, or the first ones its team-1 agent is limited to.
     pub fn seeds_of(&self, cell: &Cell) -> &[u64] {
         let n = self.agents[cell.agent].seeds.unwrap_or(self.seeds.len());

@@ -45,9 +45,8 @@ pub fn run(plan: &Plan, opts: &RunOptions, progress: &dyn Progress) -> Result<Ru
     for why in &loaded.unreadable {
         tracing::warn!("skipping an unreadable result line: {why}");
     }
-    let jobs: Vec<(usize, Job)> = plan.jobs().into_iter().enumerate().filter(|(i, _)| opts.shard.is_none_or(|s| s.takes(*i))).collect();
-    let todo: Vec<Job> =
-        jobs.iter().map(|(_, j)| *j).filter(|j| !loaded.done.contains_key(&(plan.cells[j.cell].key.clone(), j.seed))).collect();
+    let jobs = plan.jobs_in(opts.shard);
+    let todo: Vec<Job> = jobs.iter().copied().filter(|j| !loaded.done.contains_key(&(plan.cells[j.cell].key.clone(), j.seed))).collect();
     let mut stats = RunStats { planned: jobs.len(), skipped: jobs.len() - todo.len(), ..RunStats::default() };
     progress.start(jobs.len(), stats.skipped);
     let mut appender = Appender::open(&path)?;
