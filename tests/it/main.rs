@@ -24,4 +24,5 @@ mod smac;
 mod speed;
 mod splash;
 mod targeting;
+mod unify;
 mod vision;
