@@ -3,7 +3,8 @@
 //! a dependency's features from what each command builds. Where the two see a shared crate
 //! with different features, the second build compiles it again, and everything above it
 //! (unify/Cargo.toml has the numbers). This checks that they agree, so the second build
-//! reuses the first.
+//! reuses the first, and that CI's wheel check (the extension alone, after the tests, in the
+//! test build's target folder) finds its dependencies compiled by the test build.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -55,5 +56,72 @@ fn the_python_extension_and_the_program_share_their_dependencies_builds() {
          them for the other; add the union to unify/Cargo.toml:\n{}",
         differ.len(),
         differ.join("\n")
+    );
+}
+
+/// One build unit's identity as far as its compiled artefact goes: crate, target, mode,
+/// features and optimisation level.
+type UnitKey = (String, String, String, Vec<String>, String);
+
+/// The build units `args` asks Cargo for, from its unit graph (`--unit-graph`, unstable:
+/// `RUSTC_BOOTSTRAP=1` lets this one Cargo process use it; nothing is compiled).
+fn units(args: &[&str]) -> BTreeSet<UnitKey> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let out = Command::new(&cargo)
+        .current_dir(&root)
+        .env("RUSTC_BOOTSTRAP", "1")
+        .args(args)
+        .args(["--locked", "--offline", "--unit-graph", "-Z", "unstable-options"])
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run {cargo}: {e}"));
+    assert!(out.status.success(), "cargo {args:?} --unit-graph failed:\n{}", String::from_utf8_lossy(&out.stderr));
+    let graph: serde_json::Value = serde_json::from_slice(&out.stdout).expect("the unit graph is JSON");
+    let list = graph["units"].as_array().expect("a `units` list");
+    let text = |v: &serde_json::Value| v.as_str().map(str::to_owned).unwrap_or_else(|| v.to_string());
+    list.iter()
+        .map(|u| {
+            let mut features: Vec<String> = u["features"].as_array().into_iter().flatten().map(text).collect();
+            features.sort();
+            (text(&u["pkg_id"]), text(&u["target"]["name"]), text(&u["mode"]), features, text(&u["profile"]["opt_level"]))
+        })
+        .collect()
+}
+
+/// Crates whose own build for the extension alone may differ from the test build's, and why:
+/// what differs compiles again, with the crates above it (here the llama.cpp bindings, not
+/// llama.cpp, and AVA).
+const MAY_DIFFER: &[(&str, &str)] = &[("enumflags2", "a deployment crate enables its `serde` feature in the test build")];
+
+/// CI checks the README's `pip install ./python` after the tests, with the test build's
+/// profile, target folder and the features `.ci/run` names, so that Cargo finds the
+/// extension's dependencies compiled. That holds while the extension alone enables the
+/// features the whole workspace's test build does: this names every crate that drifts.
+#[test]
+fn the_ci_wheel_check_finds_its_dependencies_in_the_test_build() {
+    let ci_run = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../.ci/run")).expect(".ci/run");
+    let features = ci_run
+        .split("MATURIN_PEP517_ARGS=\"--profile dev --features ")
+        .nth(1)
+        .and_then(|rest| rest.split('"').next())
+        .expect(".ci/run sets MATURIN_PEP517_ARGS=\"--profile dev --features ...\" for its wheel check");
+    let wheel = units(&["build", "-p", "avacraft-python", "--lib", "--features", features]);
+    let tests = units(&["test", "--workspace", "--no-run"]);
+    assert!(wheel.len() > 200, "only {} units in the extension's build: is the unit graph read right?", wheel.len());
+    let crate_of = |pkg_id: &str| {
+        // "registry+...#name@1.2.3", "path+file:///.../python#avacraft-python@0.1.0" or "...#0.1.0".
+        let tail = pkg_id.rsplit('#').next().unwrap_or(pkg_id);
+        tail.split('@').next().unwrap_or(tail).to_owned()
+    };
+    let drift: Vec<String> = wheel
+        .difference(&tests)
+        .map(|u| format!("{} ({}, {}, features {:?}, opt-level {})", crate_of(&u.0), u.1, u.2, u.3, u.4))
+        .filter(|d| !MAY_DIFFER.iter().any(|(name, _)| d.starts_with(name)))
+        .collect();
+    assert!(
+        drift.is_empty(),
+        "the wheel check would compile these crates again, which the test build has with other features \
+         (add the test build's features to unify/Cargo.toml):\n{}",
+        drift.join("\n")
     );
 }

@@ -97,19 +97,20 @@ fn answers_fit_the_decision_schema() {
 
 #[test]
 fn the_same_seed_gives_the_same_answers() {
-    let reqs: Vec<ChatRequest> = [[1u32, 2, 3], [1, 2, 3], [4, 5, 6]].iter().map(|u| decision(u, &[11, 12], sampling(160))).collect();
+    // Short answers (64 tokens, cut before the grammar closes the object): what is compared is
+    // the sampled token stream, and two of them already differ within a few tokens.
+    let reqs: Vec<ChatRequest> = [[1u32, 2, 3], [4, 5, 6]].iter().map(|u| decision(u, &[11, 12], sampling(64))).collect();
     let run = |seed| {
         let mut m = load(seed, 2048);
         reqs.iter().map(|r| m.complete(r).expect("an answer").text).collect::<Vec<_>>()
     };
     let a = run(7);
     assert_eq!(a, run(7), "same seed, same requests in the same order: same answers");
-    // The seed advances between calls: asking the same thing twice need not repeat itself,
-    // and another seed samples other answers.
+    // Another seed samples other answers.
     let b = run(8);
     assert_ne!(a, b, "another seed samples differently");
     // Greedy decoding ignores the seed.
-    let greedy = Sampling { temperature: 0.0, ..sampling(120) };
+    let greedy = Sampling { temperature: 0.0, ..sampling(48) };
     let g = |seed| load(seed, 2048).complete(&decision(&[1, 2], &[5], greedy)).expect("an answer").text;
     assert_eq!(g(1), g(2));
 }
