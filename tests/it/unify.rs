@@ -10,20 +10,26 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 use std::process::Command;
 
+/// The standard output of `cargo ARGS --locked --offline` in the workspace, which must succeed.
+fn cargo(args: &[&str], env: &[(&str, &str)]) -> Vec<u8> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = Command::new(&cargo)
+        .current_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join(".."))
+        .envs(env.iter().copied())
+        .args(args)
+        .args(["--locked", "--offline"])
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run {cargo}: {e}"));
+    assert!(out.status.success(), "cargo {args:?} failed:\n{}", String::from_utf8_lossy(&out.stderr));
+    out.stdout
+}
+
 /// Every crate (name and version) in a package's build graph, compile-time side included,
 /// with the features Cargo enables for it when that package alone is built.
 fn features_of(package: &str) -> BTreeMap<String, BTreeSet<String>> {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let out = Command::new(&cargo)
-        .current_dir(&root)
-        .args(["tree", "--locked", "--offline", "-p", package, "-e", "normal,build", "--prefix", "none", "--no-dedupe"])
-        .args(["-f", "{p}|{f}"])
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run {cargo}: {e}"));
-    assert!(out.status.success(), "cargo tree -p {package} failed:\n{}", String::from_utf8_lossy(&out.stderr));
+    let out = cargo(&["tree", "-p", package, "-e", "normal,build", "--prefix", "none", "--no-dedupe", "-f", "{p}|{f}"], &[]);
     let mut crates: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
-    for line in String::from_utf8_lossy(&out.stdout).lines() {
+    for line in String::from_utf8_lossy(&out).lines() {
         let Some((id, features)) = line.split_once('|') else { continue };
         // "name v1.2.3 (path)" or "name v1.2.3 (*)": name and version identify the crate.
         let id: Vec<&str> = id.split_whitespace().take(2).collect();
@@ -66,17 +72,9 @@ type UnitKey = (String, String, String, Vec<String>, String);
 /// The build units `args` asks Cargo for, from its unit graph (`--unit-graph`, unstable:
 /// `RUSTC_BOOTSTRAP=1` lets this one Cargo process use it; nothing is compiled).
 fn units(args: &[&str]) -> BTreeSet<UnitKey> {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let out = Command::new(&cargo)
-        .current_dir(&root)
-        .env("RUSTC_BOOTSTRAP", "1")
-        .args(args)
-        .args(["--locked", "--offline", "--unit-graph", "-Z", "unstable-options"])
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run {cargo}: {e}"));
-    assert!(out.status.success(), "cargo {args:?} --unit-graph failed:\n{}", String::from_utf8_lossy(&out.stderr));
-    let graph: serde_json::Value = serde_json::from_slice(&out.stdout).expect("the unit graph is JSON");
+    let args = [args, &["--unit-graph", "-Z", "unstable-options"]].concat();
+    let out = cargo(&args, &[("RUSTC_BOOTSTRAP", "1")]);
+    let graph: serde_json::Value = serde_json::from_slice(&out).expect("the unit graph is JSON");
     let list = graph["units"].as_array().expect("a `units` list");
     let text = |v: &serde_json::Value| v.as_str().map(str::to_owned).unwrap_or_else(|| v.to_string());
     list.iter()
