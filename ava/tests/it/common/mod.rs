@@ -168,11 +168,16 @@ pub fn setup(model: Box<dyn avacraft_ava::llm::ChatModel>, cfg: AvaConfig, recor
 
 /// Plays one episode of `scenario` with AVA as team 1; returns the environment at the end.
 pub fn play(scenario: &str, seed: u64, s: &AvaSetup, step_limit: u32) -> Env {
+    play_with(scenario, seed, s, step_limit, EnvConfig::default())
+}
+
+/// [`play`] with the game's settings given (e.g. a shorter time limit).
+pub fn play_with(scenario: &str, seed: u64, s: &AvaSetup, step_limit: u32, config: EnvConfig) -> Env {
     let scenario = Arc::new(Scenario::load(scenario).expect("scenario"));
     let s2 = s.clone();
     let team = AgentTeam::new(Team::One, Grouping::Team, move || Box::new(AvaAgent::new(s2.clone())));
     let mut controllers = Controllers::new(&scenario, vec![team]);
-    let mut env = Env::new(Arc::clone(&scenario), EnvConfig::default(), seed);
+    let mut env = Env::new(Arc::clone(&scenario), config, seed);
     env.reset(seed);
     controllers.reset(&env);
     while !env.done() && env.steps() < step_limit {
