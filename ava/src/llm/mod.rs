@@ -143,7 +143,7 @@ impl ChatRequest {
         }
         if let Some((name, schema)) = &self.schema {
             h.update(name.as_bytes());
-            h.update(schema.to_string().as_bytes());
+            h.update(canonical_text(schema).as_bytes());
         }
         format!("{:016x}", h.digest())
     }
@@ -244,12 +244,26 @@ impl ChatModel for Scripted {
 /// with `unit`, and `actions` would come before `reasoning`. In the schema's own order the
 /// model names the unit first and reasons before it acts, as the schema's author meant.
 pub(crate) fn schema_text(schema: &Value) -> String {
-    fn write(v: &Value, order: Option<&Vec<Value>>, out: &mut String) {
+    json_text(schema, true)
+}
+
+/// The value's JSON with every object's keys by name, whatever order the map keeps them in
+/// (serde_json keeps insertion order in builds where a dependency turns on its
+/// `preserve_order`, as llguidance does): what a request's hash is taken over, so that it is
+/// the same in every build.
+pub(crate) fn canonical_text(v: &Value) -> String {
+    json_text(v, false)
+}
+
+/// JSON text with object keys by name; with `required_first`, the keys of each `properties`
+/// object in the order of its sibling `required` list first.
+fn json_text(v: &Value, required_first: bool) -> String {
+    fn write(v: &Value, order: Option<&Vec<Value>>, required_first: bool, out: &mut String) {
         match v {
             Value::Object(map) => {
                 let rank = |k: &str| order.and_then(|o| o.iter().position(|r| r.as_str() == Some(k))).unwrap_or(usize::MAX);
                 let mut keys: Vec<&String> = map.keys().collect();
-                keys.sort_by_key(|k| rank(k)); // stable: the rest stay in name order
+                keys.sort_by(|a, b| rank(a).cmp(&rank(b)).then_with(|| a.cmp(b)));
                 out.push('{');
                 for (i, k) in keys.into_iter().enumerate() {
                     if i > 0 {
@@ -257,8 +271,8 @@ pub(crate) fn schema_text(schema: &Value) -> String {
                     }
                     out.push_str(&Value::from(k.as_str()).to_string());
                     out.push(':');
-                    let inner = if k == "properties" { map.get("required").and_then(Value::as_array) } else { None };
-                    write(&map[k], inner, out);
+                    let inner = if required_first && k == "properties" { map.get("required").and_then(Value::as_array) } else { None };
+                    write(&map[k], inner, required_first, out);
                 }
                 out.push('}');
             }
@@ -268,7 +282,7 @@ pub(crate) fn schema_text(schema: &Value) -> String {
                     if i > 0 {
                         out.push(',');
                     }
-                    write(x, None, out);
+                    write(x, None, required_first, out);
                 }
                 out.push(']');
             }
@@ -276,13 +290,13 @@ pub(crate) fn schema_text(schema: &Value) -> String {
         }
     }
     let mut out = String::new();
-    write(schema, None, &mut out);
+    write(v, None, required_first, &mut out);
     out
 }
 
 #[cfg(test)]
 mod tests {
-    use super::schema_text;
+    use super::{canonical_text, schema_text};
     use serde_json::{Value, json};
 
     #[test]
@@ -295,5 +309,18 @@ mod tests {
             r#"{"properties":{"z":{"properties":{"y":{},"x":{}},"required":["y","x"],"type":"object"},"b":{"type":"integer"},"a":{"enum":["q\""]}},"required":["z","b"],"type":"object"}"#
         );
         assert_eq!(serde_json::from_str::<Value>(&text).ok(), Some(schema), "the same schema");
+    }
+
+    #[test]
+    fn the_canonical_text_lists_keys_by_name_whatever_the_insertion_order() {
+        let mut a = serde_json::Map::new();
+        a.insert("z".into(), json!({"b": 1, "a": [{"y": null, "x": "q"}]}));
+        a.insert("m".into(), json!(2.5));
+        let mut b = serde_json::Map::new();
+        b.insert("m".into(), json!(2.5));
+        b.insert("z".into(), json!({"a": [{"x": "q", "y": null}], "b": 1}));
+        let (a, b) = (canonical_text(&Value::Object(a)), canonical_text(&Value::Object(b)));
+        assert_eq!(a, b);
+        assert_eq!(a, r#"{"m":2.5,"z":{"a":[{"x":"q","y":null}],"b":1}}"#, "serde_json's own text without preserve_order");
     }
 }
