@@ -1,10 +1,8 @@
 //! A GGUF model on the CPU, offline, through llama.cpp (the `llama-cpp-2` bindings, which
-//! vendor and build it): the model's own chat template, and decoding held by llguidance to
-//! the request's JSON schema, so even a tiny model answers with JSON that parses against the
-//! schema. The constraint keeps every answer a valid beginning of such JSON, written compactly
-//! (`, ` and `: ` between items, no other whitespace, so that a small model cannot spend its
-//! tokens on blank space); only `max_tokens` can cut it short (the reply's `finish` is then
-//! `length`).
+//! vendor and build it): the model's own chat template, and decoding constrained by a grammar
+//! that llama.cpp derives from the request's JSON schema, so even a tiny model answers with
+//! JSON that parses against the schema. The grammar keeps every answer a valid beginning of
+//! such JSON; only `max_tokens` can cut it short (the reply's `finish` is then `length`).
 //! A schema that leaves a list unbounded lets a small model go on listing until then:
 //! SmolLM2-135M does so with AVA's decision schema more often than not; with `maxItems` on
 //! the list its answers close.
@@ -24,7 +22,7 @@ use super::{ChatModel, ChatReply, ChatRequest, LlmError, Part, Role, Usage};
 use llama_cpp_2::model::params::LlamaModelParams;
 use llama_cpp_2::model::{LlamaChatMessage, LlamaChatTemplate, LlamaModel};
 use llama_cpp_2::sampling::LlamaSampler;
-use llguidance::{Matcher, ParserFactory, api::TopLevelGrammar};
+use std::collections::HashMap;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -106,8 +104,8 @@ pub struct Local {
     template: LlamaChatTemplate,
     n_ctx: u32,
     n_threads: i32,
-    /// Builds each call's schema constraint over the model's vocabulary (read once).
-    constraints: ParserFactory,
+    /// GBNF grammars by JSON schema text (AVA asks with a few schemas, over and over).
+    grammars: HashMap<String, String>,
     stats: LocalStats,
     #[cfg(feature = "local-vision")]
     vision: Option<vision::Vision>,
@@ -133,11 +131,6 @@ impl Local {
             Ok(t) => t,
             Err(_) => LlamaChatTemplate::new("chatml").map_err(|e| local(e.to_string()))?,
         };
-        // llguidance's view of the vocabulary (every token's bytes), built once: a few hundred
-        // milliseconds for SmolLM2's 49,152 tokens.
-        let mut constraints = ParserFactory::new_simple(&LlamaSampler::llguidance_tok_env(&model))
-            .map_err(|e| local(format!("the schema constraint's set-up: {e}")))?;
-        constraints.quiet();
         let trained = model.n_ctx_train();
         let n_ctx = match cfg.n_ctx {
             0 => trained,
@@ -178,7 +171,7 @@ impl Local {
             template,
             n_ctx,
             n_threads,
-            constraints,
+            grammars: HashMap::new(),
             stats: LocalStats::default(),
             #[cfg(feature = "local-vision")]
             vision,
@@ -240,28 +233,26 @@ impl Local {
         Ok((text, images))
     }
 
-    /// The schema's constraint, as compact JSON (llguidance's `x-guidance` options, on a copy:
-    /// the recorded schema stays the request's). llguidance has the model write an object's
-    /// properties in the order its map holds them; read back from [`super::schema_text`],
-    /// that is the order of each object's `required` list (serde_json keeps insertion order
-    /// in builds with llguidance).
-    fn constraint(&self, schema: &serde_json::Value) -> Result<LlamaSampler, LlmError> {
-        let mut s: serde_json::Value =
-            serde_json::from_str(&super::schema_text(schema)).map_err(|e| local(format!("the schema's text: {e}")))?;
-        if let Some(o) = s.as_object_mut() {
-            o.insert("x-guidance".into(), serde_json::json!({"whitespace_flexible": false, "item_separator": ", ", "key_separator": ": "}));
+    /// The GBNF grammar of a JSON schema, converted by llama.cpp once per schema.
+    fn grammar(&mut self, schema: &serde_json::Value) -> Result<String, LlmError> {
+        let key = schema.to_string();
+        if let Some(g) = self.grammars.get(&key) {
+            return Ok(g.clone());
         }
-        let m = Matcher::new(self.constraints.create_parser(TopLevelGrammar::from_json_schema(s)));
-        if let Some(e) = m.get_error() {
-            return Err(local(format!("cannot hold answers to the JSON schema: {e}")));
-        }
-        Ok(LlamaSampler::from(m))
+        let text = super::schema_text(schema);
+        let g =
+            llama_cpp_2::json_schema_to_grammar(&text).map_err(|e| local(format!("cannot turn the JSON schema into a grammar: {e}")))?;
+        self.grammars.insert(key, g.clone());
+        Ok(g)
     }
 
-    /// How a call draws: the schema's constraint, and temperature, nucleus, seeded draw.
+    /// How a call draws: the schema's grammar, and temperature, nucleus, seeded draw.
     fn sampler(&mut self, req: &ChatRequest, seed: u32) -> Result<decode::Draw, LlmError> {
         let grammar = match &req.schema {
-            Some((_, schema)) => Some(self.constraint(schema)?),
+            Some((_, schema)) => {
+                let g = self.grammar(schema)?;
+                Some(LlamaSampler::grammar(&self.model, &g, "root").map_err(|e| local(format!("llama.cpp refused the grammar: {e}")))?)
+            }
             None => None,
         };
         let mut chain = Vec::new();

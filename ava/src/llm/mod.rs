@@ -248,9 +248,9 @@ pub(crate) fn schema_text(schema: &Value) -> String {
 }
 
 /// The value's JSON with every object's keys by name, whatever order the map keeps them in
-/// (serde_json keeps insertion order in builds where a dependency turns on its
-/// `preserve_order`, as llguidance does): what a request's hash is taken over, so that it is
-/// the same in every build.
+/// (serde_json keeps insertion order in any build where some crate turns on its
+/// `preserve_order`; llguidance does): what a request's hash is taken over, so that a
+/// recording replays in every build.
 pub(crate) fn canonical_text(v: &Value) -> String {
     json_text(v, false)
 }
