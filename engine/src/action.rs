@@ -1,12 +1,12 @@
-//! The typed action interface shared by every agent kind, its validation, and the 10x10
-//! movement grid that screenshots label.
+//! The typed action interface shared by every agent kind, the reasons an action is refused,
+//! and the 10x10 movement grid that screenshots label. Checking an action and applying it
+//! are [`crate::rules`]' (`World::validate`, `World::apply`).
 
-use crate::ability::{Ability, AbilityTarget, PendingCast, Refusal};
+use crate::ability::{Ability, AbilityTarget, Refusal};
 use crate::geom::Vec2;
 use crate::ids::{Team, UnitId};
-use crate::rules::{Inability, TargetProblem};
 use crate::terrain::Rect;
-use crate::world::{Order, World};
+use crate::units::UnitKind;
 use serde::{Deserialize, Serialize};
 
 /// Cells per side of the movement grid.
@@ -142,33 +142,36 @@ pub fn grid_cell_of(playable: Rect, p: Vec2) -> (u8, u8) {
     (c(fx), c(fy))
 }
 
-impl World {
-    /// Checks an action for `team` and, if valid, gives the unit its new order.
-    pub fn apply(&mut self, team: Team, a: &Action) -> Result<(), ActionError> {
-        let order = self.validate(team, a)?;
-        if let Command::Ability { ability, target } = a.command {
-            self.pending_casts.push(PendingCast { team, unit: a.unit, ability, target });
-            return Ok(());
-        }
-        if let Command::Look { sector, sectors } = a.command {
-            if let Some(u) = self.units.get_mut(a.unit.index()) {
-                u.look = Command::look_direction(sector, sectors);
-            }
-            return Ok(());
-        }
-        if let Some(o) = order {
-            // A new order ends a channel (Steady Targeting, Graviton Beam).
-            self.cancel_channel(a.unit.index());
-            self.set_order(a.unit, o);
-        }
-        Ok(())
-    }
+/// Why a unit may not attack (or, a healer, heal) a target.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TargetProblem {
+    #[error("a healer targets other friendly units")]
+    HealerNeedsFriend,
+    #[error("heal needs a biological target")]
+    NotBiological,
+    #[error("friendly unit")]
+    Friendly,
+    #[error("no weapon hits air units")]
+    NoAirWeapon,
+    #[error("no weapon hits ground units")]
+    NoGroundWeapon,
+    #[error("out of range of an immobile unit")]
+    OutOfReach,
+}
 
-    /// The order an action would give, or why it is refused; `None` keeps the current order.
-    /// The rules are `crate::rules`', which observations check actions with too.
-    pub fn validate(&self, team: Team, a: &Action) -> Result<Option<Order>, ActionError> {
-        crate::rules::check(self, team, a)
-    }
+/// Why a unit cannot take an order now.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error, Serialize, Deserialize)]
+#[serde(tag = "state", rename_all = "snake_case")]
+pub enum Inability {
+    #[error("it is morphing: only stop (which cancels it) is possible")]
+    Morphing,
+    #[error("a {kind} cannot move now")]
+    Immobile { kind: UnitKind },
+    #[error("there is no ground it can reach")]
+    NoGround,
+    #[error("{team} is driven by the opponent policy in PvE")]
+    OpponentDriven { team: Team },
 }
 
 #[cfg(test)]

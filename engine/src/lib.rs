@@ -56,7 +56,7 @@ pub use ability::{
     Ability, AbilityInfo, AbilitySpec, AbilityTarget, AreaEffect, Channel, EffectKind, Refusal, RefusalCode, SlotRule, Status, TargetKind,
     TargetRule, UnknownAbility,
 };
-pub use action::{Action, ActionError, Command, Direction, GRID, MOVE_AMOUNT, grid_cell_center, grid_cell_of};
+pub use action::{Action, ActionError, Command, Direction, GRID, Inability, MOVE_AMOUNT, TargetProblem, grid_cell_center, grid_cell_of};
 pub use agent::{
     AGENTS as POLICIES, Agent, AgentCtx, Controllers, ForkAgent, GroupObs, Reads, UnknownAgent as UnknownPolicy, by_name as agent_by_name,
 };
@@ -71,7 +71,6 @@ pub use obs::{
     Buffs, EnvInfo, IndexError, N_ACTIONS_NO_ATTACK, OrderInfo, SHOOT_RANGE, SIGHT_RANGE, SmacLayout, UnitFlags, UnitInfo, UnknownBits,
     ability_infos, describe, unit_list,
 };
-pub use rules::{Inability, TargetProblem};
 pub use scenario::{
     BUILTIN, Generator, Mode, OpponentKind, PROCEDURAL, RawGenerate, RawOpponent, RawScenario, RawStart, RawTerrain, RawUnit, RawUpgrade,
     Scenario, ScenarioError, ScenarioUnit, StartDist, StartOrder, Upgrade, builtin, builtin_names, procedural_names,

@@ -6,47 +6,14 @@
 //! the two can only disagree where the observation lacks a fact (fog, the exact cooldown),
 //! and then the observation's check is the stricter one (tested in `tests/it/rules.rs`).
 
-use crate::ability::{Ability, AbilityTarget, Refusal, TargetRule};
-use crate::action::{ActionError, Command, GRID, MOVE_AMOUNT, grid_cell_center};
+use crate::ability::{Ability, AbilityTarget, PendingCast, Refusal, TargetRule};
+use crate::action::{Action, ActionError, Command, GRID, Inability, MOVE_AMOUNT, TargetProblem, grid_cell_center};
 use crate::geom::Vec2;
 use crate::ids::{Team, UnitId};
 use crate::obs::{Buffs, UnitFlags, UnitInfo};
 use crate::terrain::Terrain;
 use crate::units::{Attrs, UnitKind, Weapon};
 use crate::world::{Order, Unit, World};
-use serde::{Deserialize, Serialize};
-
-/// Why a unit may not attack (or, a healer, heal) a target.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum TargetProblem {
-    #[error("a healer targets other friendly units")]
-    HealerNeedsFriend,
-    #[error("heal needs a biological target")]
-    NotBiological,
-    #[error("friendly unit")]
-    Friendly,
-    #[error("no weapon hits air units")]
-    NoAirWeapon,
-    #[error("no weapon hits ground units")]
-    NoGroundWeapon,
-    #[error("out of range of an immobile unit")]
-    OutOfReach,
-}
-
-/// Why a unit cannot take an order now.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error, Serialize, Deserialize)]
-#[serde(tag = "state", rename_all = "snake_case")]
-pub enum Inability {
-    #[error("it is morphing: only stop (which cancels it) is possible")]
-    Morphing,
-    #[error("a {kind} cannot move now")]
-    Immobile { kind: UnitKind },
-    #[error("there is no ground it can reach")]
-    NoGround,
-    #[error("{team} is driven by the opponent policy in PvE")]
-    OpponentDriven { team: Team },
-}
 
 /// What the rules read of a unit: the same facts whether it is the world's [`Unit`] or an
 /// observation's [`UnitInfo`] (plus its type's data, which a player knows).
@@ -270,7 +237,7 @@ pub(crate) fn cast<S: Sight>(s: &S, team: Team, u: &S::U, ability: Ability, targ
 
 /// The order an action gives, or why it is refused; `None` keeps the current order (and for
 /// an ability, the cast is queued by the caller).
-pub(crate) fn check<S: Sight>(s: &S, team: Team, a: &crate::action::Action) -> Result<Option<Order>, ActionError> {
+pub(crate) fn check<S: Sight>(s: &S, team: Team, a: &Action) -> Result<Option<Order>, ActionError> {
     let unit = a.unit;
     let u = s.actor(team, unit)?;
     if a.command == Command::NoOp {
@@ -359,5 +326,34 @@ impl Sight for World {
     }
     fn castable(&self, u: &Unit, ability: Ability) -> Result<(), Refusal> {
         self.can_cast(u, ability)
+    }
+}
+
+impl World {
+    /// Checks an action for `team` and, if valid, gives the unit its new order.
+    pub fn apply(&mut self, team: Team, a: &Action) -> Result<(), ActionError> {
+        let order = self.validate(team, a)?;
+        if let Command::Ability { ability, target } = a.command {
+            self.pending_casts.push(PendingCast { team, unit: a.unit, ability, target });
+            return Ok(());
+        }
+        if let Command::Look { sector, sectors } = a.command {
+            if let Some(u) = self.units.get_mut(a.unit.index()) {
+                u.look = Command::look_direction(sector, sectors);
+            }
+            return Ok(());
+        }
+        if let Some(o) = order {
+            // A new order ends a channel (Steady Targeting, Graviton Beam).
+            self.cancel_channel(a.unit.index());
+            self.set_order(a.unit, o);
+        }
+        Ok(())
+    }
+
+    /// The order an action would give, or why it is refused; `None` keeps the current order.
+    /// The rules are [`check`]'s, which observations check actions with too.
+    pub fn validate(&self, team: Team, a: &Action) -> Result<Option<Order>, ActionError> {
+        check(self, team, a)
     }
 }

@@ -293,11 +293,11 @@ impl Config {
             return Err(bad("num_fov_actions", self.num_fov_actions, &rule, n - n % 2));
         }
         positive("lr", self.lr, def(|c| c.lr, 5e-4))?;
-        if let Err(why) = crate::policy::Opponent::parse(&self.opponent) {
+        if let Err(why) = Opponent::parse(&self.opponent) {
             return Err(bad("opponent", format!("{:?}", self.opponent.trim()), &why, "\"focus-fire\""));
         }
         for (i, o) in self.test_opponents.iter().enumerate() {
-            if let Err(why) = crate::policy::Opponent::parse(o) {
+            if let Err(why) = Opponent::parse(o) {
                 return Err(bad(&format!("test_opponents[{i}]"), format!("{o:?}"), &why, "\"focus-fire\""));
             }
             if o.trim() == "self" || o.trim().is_empty() {
@@ -577,6 +577,40 @@ fn default_self_play_every() -> u64 {
 
 fn default_self_play_pool() -> usize {
     5
+}
+
+/// Who plays team 2 of a PvP scenario while team 1 learns (the config's `opponent`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Opponent {
+    /// "": team 2 gets no orders.
+    Idle,
+    /// `scripted:NAME` or `NAME`: a scripted agent.
+    Scripted(String),
+    /// `marl:DIR`: a trained checkpoint.
+    Marl(std::path::PathBuf),
+    /// `self`: the learner's own snapshots ([`crate::selfplay`]).
+    SelfPlay,
+}
+
+impl Opponent {
+    pub fn parse(s: &str) -> Result<Opponent, String> {
+        let s = s.trim();
+        if s.is_empty() {
+            return Ok(Opponent::Idle);
+        }
+        if s == "self" {
+            return Ok(Opponent::SelfPlay);
+        }
+        if let Some(dir) = s.strip_prefix("marl:") {
+            return Ok(Opponent::Marl(dir.into()));
+        }
+        let name = s.strip_prefix("scripted:").unwrap_or(s);
+        if avacraft_engine::agent::factory(name).is_err() {
+            let known: Vec<&str> = avacraft_engine::agent::AGENTS.iter().map(|(n, _)| *n).collect();
+            return Err(format!("scripted:NAME ({}), marl:DIR or self", known.join(", ")));
+        }
+        Ok(Opponent::Scripted(name.to_owned()))
+    }
 }
 
 #[cfg(test)]

@@ -60,14 +60,14 @@ pub mod tensorboard;
 pub mod train;
 
 pub use buffer::{Batch, Episode, ReplayBuffer, Shape};
-pub use config::{ALGOS, Config, MixerKind};
+pub use config::{ALGOS, Config, MixerKind, Opponent};
 pub use encoders::{Backbone, ObsEncoder, ObsKind};
 pub use learner::{Learner, UpdateStats};
 pub use monitor::{Progress, RunOptions, Summary};
 pub use nets::Nets;
 pub use observe::ObsSource;
 pub use optim::{Optimizer, OptimizerKind};
-pub use policy::{MarlAgent, Opponent, Policy, TestResult, select_actions};
+pub use policy::{MarlAgent, Policy, TestResult, select_actions};
 pub use ppo::PpoLearner;
 pub use td::QGrads;
 pub use train::{Trained, train, train_from};

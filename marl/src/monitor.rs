@@ -4,9 +4,10 @@
 //! checkpoints. Apart from [`crate::train`], which hands PPO runs to PPO's loop, so that
 //! PPO's loop need not import it.
 
+use crate::config::Opponent;
 use crate::nets::Nets;
 use crate::plot::CurvePoint;
-use crate::policy::{Opponent, TestResult, test, vec_env_with};
+use crate::policy::{TestResult, test, vec_env_with};
 use crate::resume::RunState;
 use crate::selfplay::Pool;
 use crate::tensorboard::EventWriter;
@@ -159,7 +160,7 @@ impl<'a> Monitor<'a> {
     /// The training environments, seeded from the run's seed.
     pub fn env(&self) -> Result<VecEnv, Error> {
         let seeds: Vec<u64> = (0..self.cfg.envs as u64).map(|i| self.base.wrapping_add(self.seed_offset).wrapping_add(i)).collect();
-        vec_env_with(self.cfg, &self.opts.scenario, &seeds, self.opts.threads, self.pool.as_ref())
+        vec_env_with(self.cfg, &self.opts.scenario, &seeds, self.opts.threads, self.pool.as_ref().map(Pool::factory))
     }
 
     /// Self-play: fills team 2's pool with the learner as it starts (a resumed run: the

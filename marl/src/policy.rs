@@ -18,10 +18,10 @@
 //! modules of their own they would import each other.
 
 use crate::buffer::{Shape, act_inputs};
+use crate::config::Opponent;
 use crate::frames::StepFrames;
 use crate::nets::Nets;
 use crate::observe::ObsSource;
-use crate::selfplay::Pool;
 use crate::{Config, Error};
 use avacraft_engine::agent::view::id_of;
 use avacraft_engine::{Action, Agent, AgentCtx, GroupObs, Reads, Scenario, SmacLayout, Team, VecBuffers, VecEnv};
@@ -420,62 +420,28 @@ pub(crate) fn vec_env(cfg: &Config, scenario: &Arc<Scenario>, seeds: &[u64], thr
     vec_env_with(cfg, scenario, seeds, threads, None)
 }
 
-/// [`vec_env`], team 2 drawing from `pool` under self-play (`None`: the opponent is given by
-/// name, or for self-play is `nets`, the policy under test, playing itself).
+/// [`vec_env`], team 2 made by `self_play` under self-play (the learner's snapshot pool's
+/// factory, or the policy under test playing itself); otherwise the opponent is the config's.
 pub(crate) fn vec_env_with(
     cfg: &Config,
     scenario: &Arc<Scenario>,
     seeds: &[u64],
     threads: usize,
-    pool: Option<&Arc<Pool>>,
+    self_play: Option<avacraft_engine::OpponentFactory>,
 ) -> Result<VecEnv, Error> {
     let env = VecEnv::new(Arc::clone(scenario), cfg.env_config(), seeds, threads.clamp(1, seeds.len()))?;
     let bad = |e: avacraft_engine::VecEnvError| crate::config::bad("opponent", format!("{:?}", cfg.opponent), &e.to_string(), "\"\"");
     match Opponent::parse(&cfg.opponent)
         .map_err(|why| crate::config::bad("opponent", format!("{:?}", cfg.opponent), &why, "\"focus-fire\""))?
     {
-        Opponent::SelfPlay => match pool {
-            Some(p) => env.with_opponent(p.factory()).map_err(bad),
+        Opponent::SelfPlay => match self_play {
+            Some(make) => env.with_opponent(make).map_err(bad),
             None => Err(Error::Checkpoint { message: "self-play needs the learner's snapshot pool".into() }),
         },
         _ => match opponent_factory(cfg)? {
             Some(make) => env.with_opponent(make).map_err(bad),
             None => Ok(env),
         },
-    }
-}
-
-/// Who plays team 2 of a PvP scenario while team 1 learns (the config's `opponent`).
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Opponent {
-    /// "": team 2 gets no orders.
-    Idle,
-    /// `scripted:NAME` or `NAME`: a scripted agent.
-    Scripted(String),
-    /// `marl:DIR`: a trained checkpoint.
-    Marl(std::path::PathBuf),
-    /// `self`: the learner's own snapshots ([`crate::selfplay`]).
-    SelfPlay,
-}
-
-impl Opponent {
-    pub fn parse(s: &str) -> Result<Opponent, String> {
-        let s = s.trim();
-        if s.is_empty() {
-            return Ok(Opponent::Idle);
-        }
-        if s == "self" {
-            return Ok(Opponent::SelfPlay);
-        }
-        if let Some(dir) = s.strip_prefix("marl:") {
-            return Ok(Opponent::Marl(dir.into()));
-        }
-        let name = s.strip_prefix("scripted:").unwrap_or(s);
-        if avacraft_engine::agent::factory(name).is_err() {
-            let known: Vec<&str> = avacraft_engine::agent::AGENTS.iter().map(|(n, _)| *n).collect();
-            return Err(format!("scripted:NAME ({}), marl:DIR or self", known.join(", ")));
-        }
-        Ok(Opponent::Scripted(name.to_owned()))
     }
 }
 
@@ -526,14 +492,13 @@ pub fn test_with(
     mut source: Option<&mut ObsSource>,
 ) -> Result<TestResult, Error> {
     // Under self-play a test's team 2 is the policy under test itself.
-    let pool = if Opponent::parse(&cfg.opponent) == Ok(Opponent::SelfPlay) {
-        let pool = Arc::new(Pool::new(cfg, team_shape(cfg, scenario)?, &scenario.name, None));
-        pool.maybe_snapshot(nets, 0)?;
-        Some(pool)
+    let itself: Option<avacraft_engine::OpponentFactory> = if Opponent::parse(&cfg.opponent) == Ok(Opponent::SelfPlay) {
+        let policy = Arc::new(Policy::of(nets, cfg, team_shape(cfg, scenario)?, &scenario.name)?);
+        Some(Arc::new(move || Box::new(MarlAgent::new(Arc::clone(&policy), "self"))))
     } else {
         None
     };
-    let mut env = vec_env_with(cfg, scenario, seeds, threads, pool.as_ref())?;
+    let mut env = vec_env_with(cfg, scenario, seeds, threads, itself)?;
     let (a, ..) = env.shape();
     let shape = Shape::of(&env);
     let mut actor = Actor::new(nets, seeds.len(), a);

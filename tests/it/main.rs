@@ -23,6 +23,7 @@ mod scenarios;
 mod smac;
 mod speed;
 mod splash;
+mod structure;
 mod targeting;
 mod unify;
 mod vision;

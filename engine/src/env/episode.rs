@@ -513,7 +513,7 @@ impl Env {
         let r = if self.is_agent_team(team) || self.world.unit(a.unit).is_none() {
             self.world.apply(team, a)
         } else {
-            Err(ActionError::Unavailable { unit: a.unit, why: crate::rules::Inability::OpponentDriven { team } })
+            Err(ActionError::Unavailable { unit: a.unit, why: crate::action::Inability::OpponentDriven { team } })
         };
         match r {
             Err(_) => self.refused[team.index()] += 1,
