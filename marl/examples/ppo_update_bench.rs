@@ -1,5 +1,5 @@
 //! Times the pieces of one PPO gradient step (forward, backward, optimiser) on a random
-//! rollout of 3m's sizes, for profiling the update:
+//! rollout of 3m's sizes (or the scenario named by `SCENARIO`), for profiling the update:
 //! `cargo run --release -p avacraft-marl --example ppo_update_bench -- [ALGO] [key=value ...]`
 //! (with the environment `avacraft train` sets for itself: see the `ppo` module's docs).
 
@@ -18,16 +18,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         None => ("mappo", Vec::new()),
     };
     let cfg = Config::for_algo(algo, &overrides)?;
-    let shape = shape_of(&cfg, &Arc::new(Scenario::load("3m")?))?;
+    let shape = shape_of(&cfg, &Arc::new(Scenario::load(&std::env::var("SCENARIO").unwrap_or_else(|_| "3m".into()))?))?;
     let mut rng = ChaCha8Rng::seed_from_u64(1);
     let (t, rows, h) = (cfg.rollout_len, cfg.envs * shape.n_agents, cfg.rnn_hidden_dim);
     let wa = shape.input(cfg.obs_agent_id, cfg.obs_last_action);
-    let wc = CriticInput::of(&cfg).width(&shape);
     let mut r = Rollout { t, rows, n_agents: shape.n_agents, ..Rollout::default() };
     let n = t * rows;
     let mut rand = |k: usize| -> Vec<f32> { (0..k).map(|_| rng.random_range(-1f32..1.0)).collect() };
     r.actor_in = rand(n * wa);
-    r.critic_in = rand(n * wc);
+    let critic = CriticInput::of(&cfg);
+    for _ in 0..t {
+        let (obs, state) = (rand(rows * shape.obs), rand(cfg.envs * shape.state));
+        r.critic.extend(&critic.rows(&shape, &obs, &state, cfg.envs));
+    }
     r.h_actor = rand(n / cfg.data_chunk_length * h);
     r.h_critic = rand(n / cfg.data_chunk_length * h);
     r.values = rand(n + rows);

@@ -15,7 +15,7 @@ pub mod ppo_loss;
 pub use adam::{Adam, RmsProp, clip_global_norm};
 pub use conv::{EncoderForward, EncoderLayout, Pixels};
 pub use mixer::{MixerForward, MixerLayout};
-pub use net::{Forward, NetLayout};
+pub use net::{Forward, Input, NetLayout};
 
 #[cfg(test)]
 mod conv_tests;

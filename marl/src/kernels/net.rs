@@ -105,8 +105,24 @@ impl NetLayout {
         n: usize,
         tape: bool,
     ) -> Forward {
+        self.forward_input(theta, Input::Rows(x), h0, keep, lens, l, n, tape)
+    }
+
+    /// [`NetLayout::forward`] on inputs given as [`Input`] (rows, or rows that share a table).
+    #[allow(clippy::too_many_arguments)]
+    pub fn forward_input(
+        &self,
+        theta: &[f32],
+        x: Input<'_>,
+        h0: &[f32],
+        keep: Option<&[f32]>,
+        lens: Option<&[usize]>,
+        l: usize,
+        n: usize,
+        tape: bool,
+    ) -> Forward {
         assert_eq!(theta.len(), self.len(), "parameters");
-        assert_eq!(x.len(), l * n * self.input, "inputs");
+        x.check(self.input, l * n);
         if self.recurrent {
             assert_eq!(h0.len(), n * self.hidden, "initial hidden states");
         }
@@ -128,7 +144,12 @@ impl NetLayout {
                     steps.push((at, count));
                     at += count;
                 }
-                let xs = gather(x, n, self.input, c0, &steps);
+                let xs = match x {
+                    Input::Rows(x) => ChunkIn::Rows(gather(x, n, self.input, c0, &steps)),
+                    Input::Shared { table, width, idx, ids } => {
+                        ChunkIn::shared(table, width, &gather(idx, n, 1, c0, &steps), gather(ids, n, 1, c0, &steps))
+                    }
+                };
                 let h0 = if self.recurrent { &h0[c0 * self.hidden..c1 * self.hidden] } else { &[][..] };
                 let keep = keep.map(|k| gather(k, n, 1, c0, &steps));
                 self.forward_chunk(theta, xs, h0, keep, steps, tape, (c0, c1))
@@ -148,7 +169,7 @@ impl NetLayout {
     fn forward_chunk(
         &self,
         theta: &[f32],
-        x: Vec<f32>,
+        x: ChunkIn,
         h0: &[f32],
         keep: Option<Vec<f32>>,
         steps: Vec<(usize, usize)>,
@@ -162,7 +183,7 @@ impl NetLayout {
         let p = |a: usize, len: usize| &theta[a..a + len];
         // a1 = relu(x W1^T + b1)
         let mut a1 = bias_rows(p(off.b1, h), rows);
-        matmul(&mut a1, h, Mat::rows(&x, rows, i), Mat::t(p(off.w1, h * i), i, h), true);
+        x.first_layer(&mut a1, p(off.w1, h * i), i, h);
         relu(&mut a1);
         let mut c = Chunk { range, x, a1, out: Vec::new(), ..Chunk::default() };
         c.steps = steps.clone();
@@ -231,7 +252,7 @@ impl NetLayout {
         matmul(&mut out, o, Mat::rows(&c.hs, rows, h), Mat::t(p(off.w2, o * h), h, o), true);
         c.out = out;
         if !tape {
-            c.x = Vec::new();
+            c.x = ChunkIn::default();
             c.a1 = Vec::new();
         }
         c
@@ -340,7 +361,7 @@ impl NetLayout {
             matmul(&mut da1, h, Mat::rows(&dhs, rows, h), Mat::rows(p(off.wi, h * h), h, h), false);
         }
         relu_grad(&mut da1, &c.a1);
-        matmul(&mut g[off.w1..off.w1 + h * i], i, Mat::t(&da1, h, rows), Mat::rows(&c.x, rows, i), false);
+        c.x.first_layer_grad(&mut g[off.w1..off.w1 + h * i], &da1, i, h);
         col_sums(&da1, h, &mut g[off.b1..off.b1 + h]);
         let dx = want_dx.then(|| {
             let mut dx = vec![0f32; rows * i];
@@ -369,7 +390,7 @@ struct Chunk {
     range: (usize, usize),
     /// Each step's first packed row and row count.
     steps: Vec<(usize, usize)>,
-    x: Vec<f32>,
+    x: ChunkIn,
     a1: Vec<f32>,
     hs: Vec<f32>,
     out: Vec<f32>,
@@ -381,8 +402,132 @@ struct Chunk {
     keep: Option<Vec<f32>>,
 }
 
+/// The first layer's input.
+#[derive(Clone, Copy, Debug)]
+pub enum Input<'a> {
+    /// `(L, N, input)`, time-major.
+    Rows(&'a [f32]),
+    /// Row `r` of `(L, N)` is `table[idx[r]]` (`width` values) followed by the one-hot of
+    /// `ids[r]` (`input - width` wide). MAPPO's critic reads this way: every agent of an
+    /// environment step sees the one global state with its own id. Taking the rows so, the
+    /// first layer multiplies each table row once however many rows read it (an environment's
+    /// agents: 23 on pvz_ht), and the `(L, N, input)` copy of the state never exists.
+    Shared { table: &'a [f32], width: usize, idx: &'a [u32], ids: &'a [u32] },
+}
+
+impl Input<'_> {
+    /// Panics (a caller's bug) unless these are `rows` rows of `input` values.
+    fn check(&self, input: usize, rows: usize) {
+        match *self {
+            Input::Rows(x) => assert_eq!(x.len(), rows * input, "inputs"),
+            Input::Shared { table, width, idx, ids } => {
+                assert!(width <= input, "a table {width} wide for inputs {input} wide");
+                assert_eq!((idx.len(), ids.len()), (rows, rows), "table indices and ids of {rows} rows");
+                let stored = table.len() / width.max(1);
+                assert_eq!(table.len(), stored * width, "a table of rows {width} wide");
+                assert!(idx.iter().all(|&i| (i as usize) < stored), "a table index past the table's {stored} rows");
+                assert!(ids.iter().all(|&i| (i as usize) < input - width), "an id past the {} one-hot columns", input - width);
+            }
+        }
+    }
+}
+
+/// A chunk's inputs, kept for the backward pass.
+#[derive(Debug)]
+enum ChunkIn {
+    /// Packed rows `(rows, input)`.
+    Rows(Vec<f32>),
+    /// The distinct table rows the chunk reads (`(U, width)`, in table order), each packed
+    /// row's index among them, and its id.
+    Shared { table: Vec<f32>, width: usize, local: Vec<u32>, ids: Vec<u32> },
+}
+
+impl Default for ChunkIn {
+    fn default() -> ChunkIn {
+        ChunkIn::Rows(Vec::new())
+    }
+}
+
+impl ChunkIn {
+    fn shared(table: &[f32], width: usize, idx: &[u32], ids: Vec<u32>) -> ChunkIn {
+        let mut distinct = idx.to_vec();
+        distinct.sort_unstable();
+        distinct.dedup();
+        // Every index is among the distinct ones, so the search finds it.
+        let local = idx.iter().map(|i| distinct.binary_search(i).unwrap_or_else(|at| at) as u32).collect();
+        let mut rows = Vec::with_capacity(distinct.len() * width);
+        for &d in &distinct {
+            rows.extend_from_slice(&table[d as usize * width..(d as usize + 1) * width]);
+        }
+        ChunkIn::Shared { table: rows, width, local, ids }
+    }
+
+    /// Adds `x W1^T` to `a1` (`(rows, h)`, the biases in), `w1` `(h, input)` row-major.
+    fn first_layer(&self, a1: &mut [f32], w1: &[f32], input: usize, h: usize) {
+        let rows = a1.len() / h.max(1);
+        match self {
+            ChunkIn::Rows(x) => matmul(a1, h, Mat::rows(x, rows, input), Mat::t(w1, input, h), true),
+            ChunkIn::Shared { table, width, local, ids } => {
+                let w = *width;
+                let distinct = table.len() / w.max(1);
+                // Each distinct row's product once: `table W_s^T`, `W_s` the first `w` columns.
+                let mut proj = vec![0f32; distinct * h];
+                matmul(&mut proj, h, Mat::rows(table, distinct, w), Mat::strided(w1, w, h, 1, input), false);
+                // The one-hot's product is the id's column of `W1`.
+                let id_cols = transpose_cols(w1, input, h, w);
+                simd(|| {
+                    for (r, row) in a1.chunks_exact_mut(h.max(1)).enumerate() {
+                        let pr = &proj[local[r] as usize * h..][..h];
+                        let ir = &id_cols[ids[r] as usize * h..][..h];
+                        row.iter_mut().zip(pr.iter().zip(ir)).for_each(|(a, (p, c))| *a += p + c);
+                    }
+                });
+            }
+        }
+    }
+
+    /// Writes `W1`'s gradient (`(h, input)` row-major, into `g`) from `da1` `(rows, h)`.
+    fn first_layer_grad(&self, g: &mut [f32], da1: &[f32], input: usize, h: usize) {
+        let rows = da1.len() / h.max(1);
+        match self {
+            ChunkIn::Rows(x) => matmul(g, input, Mat::t(da1, h, rows), Mat::rows(x, rows, input), false),
+            ChunkIn::Shared { table, width, local, ids } => {
+                let w = *width;
+                let distinct = table.len() / w.max(1);
+                // The rows' gradients summed per distinct table row and per id, then one product.
+                let (mut per_row, mut per_id) = (vec![0f32; distinct * h], vec![0f32; (input - w) * h]);
+                simd(|| {
+                    for (r, d) in da1.chunks_exact(h.max(1)).enumerate() {
+                        let pr = &mut per_row[local[r] as usize * h..][..h];
+                        pr.iter_mut().zip(d).for_each(|(a, &b)| *a += b);
+                        let ir = &mut per_id[ids[r] as usize * h..][..h];
+                        ir.iter_mut().zip(d).for_each(|(a, &b)| *a += b);
+                    }
+                });
+                matmul(g, input, Mat::t(&per_row, h, distinct), Mat::rows(table, distinct, w), false);
+                for (id, col) in per_id.chunks_exact(h.max(1)).enumerate() {
+                    for (j, &v) in col.iter().enumerate() {
+                        g[j * input + w + id] = v;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Columns `from..input` of a row-major `(h, input)` matrix, as rows `(input - from, h)`.
+fn transpose_cols(m: &[f32], input: usize, h: usize, from: usize) -> Vec<f32> {
+    let mut out = vec![0f32; (input - from) * h];
+    for (j, row) in m.chunks_exact(input.max(1)).take(h).enumerate() {
+        for (c, &v) in row[from..].iter().enumerate() {
+            out[c * h + j] = v;
+        }
+    }
+    out
+}
+
 /// A chunk's packed rows of a `(L, N, w)` array: at step `t`, sequences `c0..c0 + count`.
-fn gather(data: &[f32], n: usize, w: usize, c0: usize, steps: &[(usize, usize)]) -> Vec<f32> {
+fn gather<T: Copy>(data: &[T], n: usize, w: usize, c0: usize, steps: &[(usize, usize)]) -> Vec<T> {
     let mut out = Vec::with_capacity(steps.iter().map(|s| s.1).sum::<usize>() * w);
     for (t, &(_, count)) in steps.iter().enumerate() {
         out.extend_from_slice(&data[(t * n + c0) * w..(t * n + c0 + count) * w]);

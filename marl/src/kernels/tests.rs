@@ -136,6 +136,55 @@ fn fused_passes_match_candles_autograd() -> Result<(), Error> {
     Ok(())
 }
 
+/// Rows given as a shared table plus one-hot ids give the passes of the same rows written
+/// out: outputs, every parameter's gradient (the table's columns of `W1` and the ids') and
+/// the input gradients, with resets and padding, on any number of threads.
+#[test]
+fn shared_table_rows_match_the_rows_written_out() -> Result<(), Error> {
+    use super::Input;
+    let mut rng = ChaCha8Rng::seed_from_u64(8);
+    for recurrent in [true, false] {
+        let (c, net, p) = case(recurrent, &mut rng);
+        let theta = p.flat(net.var_count())?;
+        let (i, ids_n) = (c.layout.input, 3);
+        let width = i - ids_n;
+        // 20 table rows, read by the 300 rows unevenly (some rows never, some many times).
+        let table = random(20 * width, &mut rng);
+        let idx: Vec<u32> = (0..c.l * c.n).map(|_| rng.random_range(0..20u32).min(rng.random_range(0..20u32))).collect();
+        let ids: Vec<u32> = (0..c.l * c.n).map(|_| rng.random_range(0..ids_n as u32)).collect();
+        let mut x = vec![0f32; c.l * c.n * i];
+        for (r, row) in x.chunks_exact_mut(i).enumerate() {
+            row[..width].copy_from_slice(&table[idx[r] as usize * width..][..width]);
+            row[width + ids[r] as usize] = 1.0;
+        }
+        let shared = Input::Shared { table: &table, width, idx: &idx, ids: &ids };
+        let mut lens: Vec<usize> = (0..c.n).map(|_| rng.random_range(1..=c.l)).collect();
+        lens.sort_by(|a, b| b.cmp(a));
+        for lens in [None, Some(&lens[..])] {
+            let dense = c.layout.forward(&theta, &x, &c.h0, Some(&c.keep), lens, c.l, c.n, true);
+            let mut g_dense = vec![0f32; c.layout.len()];
+            let dx_dense = c.layout.backward(&theta, &dense, &c.w_out, Some(&c.w_hid), &mut g_dense, true).unwrap_or_default();
+            let run = |threads: usize| {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap_or_else(|e| panic!("{e}"));
+                pool.install(|| {
+                    let f = c.layout.forward_input(&theta, shared, &c.h0, Some(&c.keep), lens, c.l, c.n, true);
+                    let mut g = vec![0f32; c.layout.len()];
+                    let dx = c.layout.backward(&theta, &f, &c.w_out, Some(&c.w_hid), &mut g, true).unwrap_or_default();
+                    (f.out, f.hidden, g, dx)
+                })
+            };
+            let (out, hidden, g, dx) = run(1);
+            let what = format!("recurrent {recurrent}, padding {}", lens.is_some());
+            close(&format!("outputs ({what})"), &out, &dense.out, 1e-5);
+            close(&format!("hidden states ({what})"), &hidden, &dense.hidden, 1e-5);
+            close(&format!("parameter gradients ({what})"), &g, &g_dense, 1e-5);
+            close(&format!("input gradients ({what})"), &dx, &dx_dense, 1e-5);
+            assert!(run(3) == (out, hidden, g, dx), "3 threads changed the shared-table passes ({what})");
+        }
+    }
+    Ok(())
+}
+
 #[test]
 fn results_do_not_depend_on_the_thread_count() -> Result<(), Error> {
     let mut rng = ChaCha8Rng::seed_from_u64(4);

@@ -3,12 +3,12 @@
 //! surrogate, entropy bonus and Huber value loss (optionally clipped) over chunked
 //! sequences, with MAPPO's value normalisation and active masks.
 
-use super::rollout::{FlatBatch, MASKED, PpoBatch, Rollout, gae};
+use super::rollout::{CriticRows, FlatBatch, MASKED, PpoBatch, Rollout, gae};
 use super::value_norm::ValueNorm;
 use crate::buffer::Shape;
 use crate::frames::StepFrames;
 use crate::kernels::ppo_loss::{LossGrads, LossRows, LossSettings, ppo_loss};
-use crate::kernels::{Adam, EncoderForward, EncoderLayout, NetLayout, Pixels, clip_global_norm};
+use crate::kernels::{Adam, EncoderForward, EncoderLayout, Input, NetLayout, Pixels, clip_global_norm};
 use crate::nets::{AgentNet, Nets};
 use crate::params::{Linear, Params};
 use crate::{Config, Error};
@@ -33,27 +33,34 @@ impl CriticInput {
     pub fn of(cfg: &Config) -> CriticInput {
         if cfg.algo == "mappo" { CriticInput::State } else { CriticInput::Obs }
     }
+    /// The input's width: the observation or state, then the agent id's one-hot.
     pub fn width(self, shape: &Shape) -> usize {
-        shape.n_agents
-            + match self {
-                CriticInput::Obs => shape.obs,
-                CriticInput::State => shape.state,
-            }
+        shape.n_agents + self.seen(shape)
     }
-    /// The critic's input rows (`envs x agents`) from a vector step's observations and states.
-    pub fn rows(self, shape: &Shape, obs: &[f32], state: &[f32], envs: usize) -> Vec<f32> {
-        let (a, w) = (shape.n_agents, self.width(shape));
-        let mut out = vec![0f32; envs * a * w];
-        for (i, row) in out.chunks_exact_mut(w.max(1)).enumerate() {
-            let (e, ag) = (i / a.max(1), i % a.max(1));
-            let src = match self {
-                CriticInput::Obs => &obs[i * shape.obs..(i + 1) * shape.obs],
-                CriticInput::State => &state[e * shape.state..(e + 1) * shape.state],
-            };
-            row[..src.len()].copy_from_slice(src);
-            row[src.len() + ag] = 1.0;
+    /// The width of what the critic sees besides the id.
+    fn seen(self, shape: &Shape) -> usize {
+        match self {
+            CriticInput::Obs => shape.obs,
+            CriticInput::State => shape.state,
         }
-        out
+    }
+    /// The critic's input rows (`envs x agents`) of a vector step's observations and states,
+    /// factored: the states (one per environment) or observations (one per row), and each
+    /// row's index among them and agent id.
+    pub fn rows(self, shape: &Shape, obs: &[f32], state: &[f32], envs: usize) -> CriticRows {
+        let a = shape.n_agents.max(1);
+        let rows = envs * shape.n_agents;
+        let (table, idx) = match self {
+            CriticInput::Obs => (&obs[..rows * shape.obs], (0..rows as u32).collect()),
+            CriticInput::State => (&state[..envs * shape.state], (0..rows).map(|r| (r / a) as u32).collect()),
+        };
+        CriticRows {
+            table: std::sync::Arc::new(table.to_vec()),
+            width: self.seen(shape),
+            n_ids: shape.n_agents,
+            idx,
+            ids: (0..rows).map(|r| (r % a) as u32).collect(),
+        }
     }
 }
 
@@ -442,7 +449,9 @@ impl PpoLearner {
             _ => self.actor_rows(b)?,
         };
         let fa = self.actor_layout.forward(theta, &x, &b.h_actor, Some(&b.keep), None, l, n, true);
-        let fc = self.critic_layout.map(|cl| cl.forward(&self.critic_theta, &b.critic_in, &b.h_critic, Some(&b.keep), None, l, n, true));
+        let fc = self
+            .critic_layout
+            .map(|cl| cl.forward_input(&self.critic_theta, b.critic.input(), &b.h_critic, Some(&b.keep), None, l, n, true));
         let na = self.shape.n_actions;
         // A shared trunk's outputs are the logits and then the value, per row.
         let split = fc.is_none().then(|| split_value(&fa.out, na));
@@ -622,7 +631,7 @@ impl PpoLearner {
 
     /// The acting step for `rows` rows: actor logits and critic values and the next hidden
     /// states (`rows x hidden`).
-    pub fn act(&self, x_actor: &[f32], h_actor: &[f32], x_critic: &[f32], h_critic: &[f32]) -> Result<ActOut, Error> {
+    pub fn act(&self, x_actor: &[f32], h_actor: &[f32], x_critic: Input<'_>, h_critic: &[f32]) -> Result<ActOut, Error> {
         self.act_with(x_actor, h_actor, x_critic, h_critic, None)
     }
 
@@ -631,7 +640,7 @@ impl PpoLearner {
         &self,
         x_actor: &[f32],
         h_actor: &[f32],
-        x_critic: &[f32],
+        x_critic: Input<'_>,
         h_critic: &[f32],
         frames: Option<&StepFrames>,
     ) -> Result<ActOut, Error> {
@@ -654,7 +663,7 @@ impl PpoLearner {
         let fa = self.actor_layout.forward(theta, &xa, h_actor, None, None, 1, rows, false);
         match self.critic_layout {
             Some(cl) => {
-                let fc = cl.forward(&self.critic_theta, x_critic, h_critic, None, None, 1, rows, false);
+                let fc = cl.forward_input(&self.critic_theta, x_critic, h_critic, None, None, 1, rows, false);
                 Ok(ActOut { logits: fa.out, values: fc.out, h_actor: fa.hidden, h_critic: fc.hidden })
             }
             None => {
@@ -666,11 +675,11 @@ impl PpoLearner {
 
     /// The critic's values of `rows` rows (a rollout's bootstrap): from the critic's inputs
     /// and hidden states, or with a shared trunk from the actor's.
-    pub fn values(&self, x_actor: &[f32], h_actor: &[f32], x_critic: &[f32], h_critic: &[f32]) -> Vec<f32> {
+    pub fn values(&self, x_actor: &[f32], h_actor: &[f32], x_critic: Input<'_>, h_critic: &[f32]) -> Vec<f32> {
         match self.critic_layout {
             Some(cl) => {
                 let rows = h_critic.len() / cl.hidden.max(1);
-                cl.forward(&self.critic_theta, x_critic, h_critic, None, None, 1, rows, false).out
+                cl.forward_input(&self.critic_theta, x_critic, h_critic, None, None, 1, rows, false).out
             }
             None => {
                 let rows = h_actor.len() / self.actor_layout.hidden.max(1);

@@ -22,6 +22,6 @@ mod train;
 pub mod value_norm;
 
 pub use learner::{CriticInput, Gradients, Losses, PpoLearner, PpoStats, StepReport, masked_log_softmax, sample_actions};
-pub use rollout::{FlatBatch, MASKED, PpoBatch, Rollout, gae, to_chunks};
+pub use rollout::{CriticRows, FlatBatch, MASKED, PpoBatch, Rollout, gae, to_chunks};
 pub use train::{train, train_from};
 pub use value_norm::ValueNorm;

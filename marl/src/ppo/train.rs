@@ -14,7 +14,7 @@
 //! update learns from them); so does a run resumed from a test round inside a rollout.
 
 use super::learner::{PpoLearner, additive_mask, sample_actions};
-use super::rollout::Rollout;
+use super::rollout::{CriticRows, Rollout};
 use crate::buffer::{Shape, act_inputs};
 use crate::monitor::{Monitor, Progress, RunOptions, Summary};
 use crate::resume::RunState;
@@ -78,17 +78,17 @@ pub fn train_from(
         let b = &env.buffers;
         let x_actor = act_inputs(&b.obs, &agents, &last, &shape, id, la);
         // A shared trunk's critic reads the actor's rows: no rows or states of its own.
-        let x_critic = if shared { Vec::new() } else { learner.critic_input.rows(&shape, &b.obs, &b.state, e) };
+        let x_critic = if shared { CriticRows::default() } else { learner.critic_input.rows(&shape, &b.obs, &b.state, e) };
         if roll.t.is_multiple_of(cfg.data_chunk_length) {
             roll.h_actor.extend_from_slice(&h_actor);
             roll.h_critic.extend_from_slice(&h_critic);
         }
         let frames = source.as_mut().map(|s| s.observe(env.envs())).transpose()?;
-        let out = learner.act_with(&x_actor, &h_actor, &x_critic, &h_critic, frames.as_ref())?;
+        let out = learner.act_with(&x_actor, &h_actor, x_critic.input(), &h_critic, frames.as_ref())?;
         roll.frames.extend(frames);
         let (acts, logp) = sample_actions(&out.logits, &b.avail, na, &mut act_rng);
         roll.actor_in.extend(x_actor);
-        roll.critic_in.extend(x_critic);
+        roll.critic.extend(&x_critic);
         roll.mask.extend(additive_mask(&b.avail));
         roll.actions.extend_from_slice(&acts);
         roll.logp.extend(logp);
@@ -131,9 +131,9 @@ pub fn train_from(
         let t_record = clock.elapsed();
 
         if roll.t == cfg.rollout_len {
-            let x_critic = if shared { Vec::new() } else { learner.critic_input.rows(&shape, &b.obs, &b.state, e) };
+            let x_critic = if shared { CriticRows::default() } else { learner.critic_input.rows(&shape, &b.obs, &b.state, e) };
             let x_actor = if shared { act_inputs(&b.obs, &agents, &last, &shape, id, la) } else { Vec::new() };
-            roll.values.extend(learner.values(&x_actor, &h_actor, &x_critic, &h_critic));
+            roll.values.extend(learner.values(&x_actor, &h_actor, x_critic.input(), &h_critic));
             let st = learner.update(&roll, &mut update_rng)?;
             last_stats = UpdateStats {
                 loss: st.loss,

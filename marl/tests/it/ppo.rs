@@ -4,6 +4,7 @@
 use crate::common;
 
 use avacraft_engine::Scenario;
+use avacraft_marl::kernels::Input;
 use avacraft_marl::ppo::{CriticInput, FlatBatch, MASKED, PpoLearner, Rollout, ValueNorm, gae, masked_log_softmax, sample_actions};
 use avacraft_marl::{Config, MarlAgent, Policy, RunOptions, Shape, Trained, train};
 use candle_core::{Device, Tensor};
@@ -22,7 +23,7 @@ fn random_rollout(cfg: &Config, envs: usize, t: usize, rng: &mut ChaCha8Rng) -> 
     let sh = SMALL;
     let rows = envs * sh.n_agents;
     let wa = sh.input(cfg.obs_agent_id, cfg.obs_last_action);
-    let wc = CriticInput::of(cfg).width(&sh);
+    let critic = CriticInput::of(cfg);
     let mut r = Rollout { t, rows, n_agents: sh.n_agents, ..Rollout::default() };
     let h = cfg.rnn_hidden_dim;
     for ti in 0..t {
@@ -31,7 +32,9 @@ fn random_rollout(cfg: &Config, envs: usize, t: usize, rng: &mut ChaCha8Rng) -> 
             r.h_critic.extend((0..rows * h).map(|_| rng.random_range(-0.5f32..0.5)));
         }
         r.actor_in.extend((0..rows * wa).map(|_| rng.random_range(-1f32..1.0)));
-        r.critic_in.extend((0..rows * wc).map(|_| rng.random_range(-1f32..1.0)));
+        let obs: Vec<f32> = (0..rows * sh.obs).map(|_| rng.random_range(-1f32..1.0)).collect();
+        let state: Vec<f32> = (0..envs * sh.state).map(|_| rng.random_range(-1f32..1.0)).collect();
+        r.critic.extend(&critic.rows(&sh, &obs, &state, envs));
         for _ in 0..rows {
             let mut avail: Vec<u8> = (0..sh.n_actions).map(|_| rng.random_range(0..2u8)).collect();
             avail[1] = 1;
@@ -313,7 +316,7 @@ fn a_fused_rgb_update_matches_the_candle_reference() -> R {
     let h: Vec<f32> = (0..rows * c.rnn_hidden_dim).map(|i| (i as f32 * 0.1).sin() * 0.5).collect();
     let xa: Vec<f32> = (0..rows * SMALL.input(true, true)).map(|i| (i as f32 * 0.3).cos()).collect();
     let xc = vec![0.5f32; rows * CriticInput::of(&c).width(&SMALL)];
-    let out = fused.act_with(&xa, &h, &xc, &h, Some(&r.frames[3]))?;
+    let out = fused.act_with(&xa, &h, Input::Rows(&xc), &h, Some(&r.frames[3]))?;
     let x = Tensor::from_vec(xa, (rows, SMALL.input(true, true)), &Device::Cpu)?;
     let x = fused.actor.step_inputs(x, Some(&r.frames[3].tensors()?))?;
     let (q, _) = fused.actor.agent.step(&x, &Tensor::from_vec(h, (rows, c.rnn_hidden_dim), &Device::Cpu)?)?;
@@ -332,7 +335,7 @@ fn acting_matches_the_reference_network() -> R {
     let h: Vec<f32> = (0..rows * c.rnn_hidden_dim).map(|i| (i as f32 * 0.1).sin() * 0.5).collect();
     let xa: Vec<f32> = (0..rows * SMALL.input(true, true)).map(|i| (i as f32 * 0.3).cos()).collect();
     let xc = vec![0.5f32; rows * CriticInput::of(&c).width(&SMALL)];
-    let out = l.act(&xa, &h, &xc, &h)?;
+    let out = l.act(&xa, &h, Input::Rows(&xc), &h)?;
     assert_eq!((out.logits.len(), out.values.len()), (rows * SMALL.n_actions, rows));
     let x = Tensor::from_vec(xa, (rows, SMALL.input(true, true)), &Device::Cpu)?;
     let (q, h2) = l.actor.agent.step(&x, &Tensor::from_vec(h, (rows, c.rnn_hidden_dim), &Device::Cpu)?)?;
