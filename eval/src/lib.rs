@@ -24,6 +24,8 @@ pub use plan_file::{load, parse};
 pub use plot::read_log;
 pub use report::Report;
 #[cfg(test)]
+mod report_tests;
+#[cfg(test)]
 mod resume_tests;
 #[cfg(test)]
 mod shard_tests;

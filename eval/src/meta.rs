@@ -33,6 +33,9 @@ pub struct Meta {
     /// ([`fingerprints`]); folders written before it have none, and are not checked for them.
     #[serde(default)]
     pub fingerprints: Vec<(String, String, String)>,
+    /// `(agent, agent it is another training seed of)` ([`crate::AgentDef::seed_of`]).
+    #[serde(default)]
+    pub seed_of: Vec<(String, String)>,
 }
 
 pub const META_FILE: &str = "plan.json";
@@ -50,7 +53,13 @@ impl Meta {
             document: plan.document.clone(),
             protocol: plan.protocol.clone(),
             fingerprints: Vec::new(),
+            seed_of: plan.agents.iter().filter_map(|a| a.seed_of.clone().map(|b| (a.name.clone(), b))).collect(),
         }
+    }
+
+    /// Whether `agent` is another agent's training seed.
+    pub(crate) fn is_seed(&self, agent: &str) -> bool {
+        self.seed_of.iter().any(|(a, _)| a == agent)
     }
 
     pub(crate) fn kind(&self, agent: &str) -> Option<AgentKind> {

@@ -57,6 +57,9 @@ pub(crate) struct RawAgent {
     /// Only the first `seeds` of the plan's seeds (an expensive agent, e.g. a local model).
     #[serde(default)]
     pub(crate) seeds: Option<usize>,
+    /// Another training seed of the agent named here (same algorithm, config and budget).
+    #[serde(default)]
+    pub(crate) seed_of: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -108,6 +111,10 @@ pub struct AgentDef {
     pub scenarios: Option<Vec<String>>,
     /// How many of the plan's seeds (the first ones) its cells play (`None`: all).
     pub seeds: Option<usize>,
+    /// The agent it is another training seed of: its rows are shown, the table of training
+    /// seeds gathers it with that agent, and the best-of comparisons leave it out (the best
+    /// of several training runs of one learner would flatter the learner).
+    pub seed_of: Option<String>,
 }
 
 /// A training run's learning curve.

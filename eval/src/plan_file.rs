@@ -184,7 +184,22 @@ impl Cx<'_> {
         {
             return Err(self.err(f("seeds"), n.to_string(), format!("the number of the plan's seeds it plays: 1 to {n_seeds}")));
         }
-        Ok(AgentDef { name: a.name.clone(), policy, kind, scenarios: a.scenarios.clone(), seeds: a.seeds })
+        if let Some(of) = &a.seed_of {
+            let Some(base) = before.iter().find(|x| &x.name == of) else {
+                return Err(self.err(f("seed_of"), format!("{of:?}"), "not an agent named before this one"));
+            };
+            if base.seed_of.is_some() {
+                return Err(self.err(f("seed_of"), format!("{of:?}"), "itself another agent's training seed: name that agent"));
+            }
+            if base.kind != AgentKind::Marl || kind != AgentKind::Marl {
+                return Err(self.err(
+                    f("seed_of"),
+                    format!("{of:?}"),
+                    "training seeds are of trained (marl) agents, both this one and that",
+                ));
+            }
+        }
+        Ok(AgentDef { name: a.name.clone(), policy, kind, scenarios: a.scenarios.clone(), seeds: a.seeds, seed_of: a.seed_of.clone() })
     }
 
     /// Every agent on every PvE scenario it plays, against every opponent. A shipped
@@ -314,6 +329,7 @@ impl Cx<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Meta;
 
     /// The plan the README shows parses, with its checkpoint found from the plan's folder.
     #[test]
@@ -323,5 +339,23 @@ mod tests {
         assert_eq!(plan.agents.iter().map(|a| a.kind).filter(|k| *k == AgentKind::Marl).count(), 1);
         assert_eq!(plan.jobs().len(), plan.cells.len() * 5);
         assert!(plan.cells.iter().any(|c| c.agent2.is_some()), "the head-to-head matrix");
+    }
+
+    /// A training seed names a trained agent defined before it; anything else is refused,
+    /// naming the field.
+    #[test]
+    fn training_seeds_name_a_trained_agent_before_them() {
+        let head = "name = \"p\"\nseeds = [1]\nscenarios = [\"3m\"]\n[[agents]]\nname = \"q\"\npolicy = \"baseline:qmix\"\n[[agents]]\nname = \"h\"\npolicy = \"hold\"\n";
+        let seed = |of: &str| format!("{head}[[agents]]\nname = \"q2\"\npolicy = \"baseline:qmix-s2\"\nseed_of = \"{of}\"\n");
+        let plan = parse("ok.toml", &seed("q"), None).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(plan.agents[2].seed_of.as_deref(), Some("q"));
+        assert_eq!(Meta::of(&plan).seed_of, [("q2".to_owned(), "q".to_owned())]);
+        for (of, why) in [("nobody", "not an agent named before"), ("h", "trained (marl) agents"), ("q2", "not an agent named before")] {
+            let e = parse("bad.toml", &seed(of), None).expect_err(of).to_string();
+            assert!(e.contains("agents[2].seed_of") && e.contains(why), "{of}: {e}");
+        }
+        let chained = format!("{}[[agents]]\nname = \"q3\"\npolicy = \"baseline:qmix-s3\"\nseed_of = \"q2\"\n", seed("q"));
+        let e = parse("bad.toml", &chained, None).expect_err("a seed of a seed").to_string();
+        assert!(e.contains("agents[3].seed_of") && e.contains("itself another agent's training seed"), "{e}");
     }
 }

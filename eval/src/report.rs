@@ -92,7 +92,7 @@ impl Report {
     fn best_of(&self, scenario: &str, kind: AgentKind) -> Option<(f64, &str)> {
         let mut best: Option<(f64, &str)> = None;
         for (a, k, _) in &self.meta.agents {
-            if *k != kind {
+            if *k != kind || self.meta.is_seed(a) {
                 continue;
             }
             if let Some(w) = self.versus_scripted(scenario, a)
@@ -139,6 +139,44 @@ impl Report {
             table_row(s, &format!("**mean over {n} scenarios**"), &[format!("{am:.3}"), format!("{ak:.3}"), format!("{:+.3}", am - ak)]);
         }
         s.push('\n');
+    }
+
+    /// Per agent with other training seeds ([`Meta::seed_of`]) and scenario, each seed's win
+    /// rate (as [`Report::versus_scripted`] compares them) and their mean ± standard deviation
+    /// over the seeds: how far one training run's result carries.
+    fn training_seeds(&self, s: &mut String) {
+        let m = &self.meta;
+        let mut all: Vec<&str> = self.scenarios(false);
+        all.extend(self.scenarios(true));
+        for (base, _, _) in m.agents.iter().filter(|(a, _, _)| m.seed_of.iter().any(|(_, b)| b == a)) {
+            let group: Vec<&str> =
+                std::iter::once(base.as_str()).chain(m.seed_of.iter().filter(|(_, b)| b == base).map(|(a, _)| a.as_str())).collect();
+            let rows: Vec<(&str, Vec<Option<f64>>)> = all
+                .iter()
+                .map(|sc| (*sc, group.iter().map(|a| self.versus_scripted(sc, a)).collect::<Vec<_>>()))
+                .filter(|(_, w)| w.iter().flatten().count() > 1)
+                .collect();
+            if rows.is_empty() {
+                continue;
+            }
+            let _ = writeln!(
+                s,
+                "## Training seeds of `{base}`
+
+The win rate of each training run (PvE: against the scenario's own opponent; PvP: the mean over the scripted agents on team 2), and the mean ± standard deviation over the runs. The other tables show `{base}` alone; its other seeds are left out of their best-of columns.
+"
+            );
+            let mut cols = group.clone();
+            cols.push("mean ± std over runs");
+            table_header(s, "scenario", &cols);
+            for (sc, w) in rows {
+                let mut row: Vec<String> = w.iter().map(|x| x.map_or("–".to_owned(), |v| format!("{v:.2}"))).collect();
+                let ms = crate::stats::MeanStd::of(w.iter().flatten().copied());
+                row.push(format!("{:.2} ± {:.2} ({} runs)", ms.mean, ms.std, w.iter().flatten().count()));
+                table_row(s, sc, &row);
+            }
+            s.push('\n');
+        }
     }
 
     /// The paper's tables as Markdown.
@@ -188,6 +226,7 @@ impl Report {
                             let of_kind: Vec<&CellStats> = self
                                 .pve()
                                 .filter(|c| c.key.scenario == sc && c.key.against == against && m.kind(&c.key.agent) == Some(*k))
+                                .filter(|c| !m.is_seed(&c.key.agent))
                                 .collect();
                             of_kind
                                 .into_iter()
@@ -202,6 +241,7 @@ impl Report {
             }
         }
         self.marl_against_scripted(&mut s);
+        self.training_seeds(&mut s);
         let vlm: Vec<&str> = agents.iter().copied().filter(|a| m.kind(a) == Some(AgentKind::Vlm)).collect();
         if vlm.len() > 1 {
             let _ = writeln!(s, "## Ablations (VLM agents, win rate per scenario)\n");

@@ -19,6 +19,7 @@ fn plan(agents: &[(&str, &str)], fingerprints: &[(&str, &str, &str)]) -> Meta {
         document: None,
         protocol: String::new(),
         fingerprints: fingerprints.iter().map(|(a, s, f)| ((*a).to_owned(), (*s).to_owned(), (*f).to_owned())).collect(),
+        seed_of: Vec::new(),
     }
 }
 

@@ -15,6 +15,7 @@ fn meta(name: &str, shard: Option<(usize, usize)>) -> Meta {
         document: None,
         protocol: String::new(),
         fingerprints: Vec::new(),
+        seed_of: Vec::new(),
     }
 }
 

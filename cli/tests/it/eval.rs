@@ -404,6 +404,9 @@ fn the_paper_plan_is_valid() {
             assert!(played != skipped, "{agent} on {name}: played or said to be unshipped");
         }
     }
+    for (seed, of) in [("qmix-s2", "qmix"), ("qmix-s3", "qmix"), ("mappo-s2", "mappo"), ("mappo-s3", "mappo")] {
+        assert!(plan.agents.iter().any(|a| a.name == seed && a.seed_of.as_deref() == Some(of)), "{seed}: a training seed of {of}");
+    }
     let ava: Vec<_> = plan.cells.iter().filter(|c| c.key.agent == "ava-smollm2-text").collect();
     assert_eq!(ava.len(), 3);
     assert!(ava.iter().all(|c| plan.seeds_of(c).len() == 5));

@@ -1,0 +1,49 @@
+//! The report with training seeds: the best-of tables leave the other seeds out, and the
+//! seeds' table gathers them.
+
+use crate::results::{EpisodeResult, Loaded};
+use crate::{Meta, Report, parse};
+use avacraft_engine::Outcome;
+
+fn episode(agent: &str, seed: u64, won: bool) -> EpisodeResult {
+    EpisodeResult {
+        cell: crate::CellKey { scenario: "3m".into(), agent: agent.into(), against: "opponent:default".into() },
+        seed,
+        result: Some(if won { Outcome::Win } else { Outcome::Loss }),
+        error: None,
+        steps: 10,
+        game_seconds: 1.0,
+        damage_dealt: [0.0; 2],
+        kills: [0; 2],
+        units_left: [0; 2],
+        refused_actions: [0; 2],
+        trajectory_hash: String::new(),
+        model: None,
+        model2: None,
+    }
+}
+
+#[test]
+fn other_training_seeds_are_gathered_and_left_out_of_the_best_of_columns() {
+    let text = "name = \"p\"\nseeds = [1, 2, 3, 4]\nscenarios = [\"3m\"]\n\
+        [[agents]]\nname = \"q\"\npolicy = \"baseline:qmix\"\n\
+        [[agents]]\nname = \"q2\"\npolicy = \"baseline:mappo\"\nseed_of = \"q\"\n\
+        [[agents]]\nname = \"ff\"\npolicy = \"focus-fire\"\n";
+    let plan = parse("p.toml", text, None).unwrap_or_else(|e| panic!("{e}"));
+    let mut loaded = Loaded::default();
+    // q wins 1 of 4, its other seed 4 of 4, focus-fire 2 of 4.
+    for (agent, wins) in [("q", 1), ("q2", 4), ("ff", 2)] {
+        for seed in 1..=4u64 {
+            let e = episode(agent, seed, seed <= wins);
+            loaded.done.insert((e.cell.clone(), seed), e);
+        }
+    }
+    let md = Report::build(Meta::of(&plan), &loaded).markdown();
+    assert!(md.contains("| 3m | 0.25 (q) | 0.50 (ff) | -0.25 (MARL behind) |"), "the best MARL agent is seed 1's q, not q2:\n{md}");
+    assert!(md.contains("| 3m | 0.25 (q) | 0.50 (ff) |"), "best of each kind:\n{md}");
+    assert!(md.contains("## Training seeds of `q`"), "{md}");
+    assert!(md.contains("| scenario | q | q2 | mean ± std over runs |"), "{md}");
+    assert!(md.contains("| 3m | 0.25 | 1.00 | 0.62 ± 0.53 (2 runs) |"), "{md}");
+    // q2's own row is still in the per-scenario table.
+    assert!(md.contains("| scenario | q | q2 | ff |"), "{md}");
+}
