@@ -6,20 +6,12 @@ use crate::{Meta, Report, parse};
 use avacraft_engine::Outcome;
 
 fn episode(agent: &str, seed: u64, won: bool) -> EpisodeResult {
+    let cell = crate::CellKey { scenario: "3m".into(), agent: agent.into(), against: "opponent:default".into() };
     EpisodeResult {
-        cell: crate::CellKey { scenario: "3m".into(), agent: agent.into(), against: "opponent:default".into() },
-        seed,
         result: Some(if won { Outcome::Win } else { Outcome::Loss }),
-        error: None,
         steps: 10,
         game_seconds: 1.0,
-        damage_dealt: [0.0; 2],
-        kills: [0; 2],
-        units_left: [0; 2],
-        refused_actions: [0; 2],
-        trajectory_hash: String::new(),
-        model: None,
-        model2: None,
+        ..EpisodeResult::blank(cell, seed)
     }
 }
 

@@ -54,6 +54,25 @@ pub struct EpisodeResult {
 }
 
 impl EpisodeResult {
+    /// An episode of `cell` on `seed` with nothing recorded yet: no result, no error.
+    pub fn blank(cell: CellKey, seed: u64) -> EpisodeResult {
+        EpisodeResult {
+            cell,
+            seed,
+            result: None,
+            error: None,
+            steps: 0,
+            game_seconds: 0.0,
+            damage_dealt: [0.0; 2],
+            kills: [0; 2],
+            units_left: [0; 2],
+            refused_actions: [0; 2],
+            trajectory_hash: String::new(),
+            model: None,
+            model2: None,
+        }
+    }
+
     pub fn ok(&self) -> bool {
         self.error.is_none() && self.result.is_some()
     }

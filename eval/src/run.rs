@@ -107,21 +107,7 @@ pub enum EpisodeError {
 /// Plays one job; never panics (a panicking agent becomes a failed result).
 pub fn play_job(plan: &Plan, job: Job, out: &Path) -> EpisodeResult {
     let cell = &plan.cells[job.cell];
-    let failed = |why: String| EpisodeResult {
-        cell: cell.key.clone(),
-        seed: job.seed,
-        result: None,
-        error: Some(why),
-        steps: 0,
-        game_seconds: 0.0,
-        damage_dealt: [0.0; 2],
-        kills: [0; 2],
-        units_left: [0; 2],
-        refused_actions: [0; 2],
-        trajectory_hash: String::new(),
-        model: None,
-        model2: None,
-    };
+    let failed = |why: String| EpisodeResult { error: Some(why), ..EpisodeResult::blank(cell.key.clone(), job.seed) };
     match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| play(plan, cell, job.seed, out, None))) {
         Ok(Ok(r)) => r,
         Ok(Err(e)) => failed(chain(&e)),
