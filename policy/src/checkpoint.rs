@@ -67,9 +67,13 @@ impl MarlCheckpoint {
 
     /// Refuses a checkpoint trained on another scenario, or whose network does not fit
     /// `team`'s agents there (team size, feature and action counts): it would read other
-    /// features, and the MARL agent gives no orders at all then.
+    /// features, and the MARL agent gives no orders at all then. An image-mode checkpoint is
+    /// refused too: an agent is handed units, not the frames its encoder reads.
     pub fn check(&self, scenario: &Scenario, team: Team) -> Result<(), PolicyError> {
         let policy = self.policy()?;
+        if let Some(why) = policy.agent_refusal() {
+            return Err(PolicyError::NotAnAgent { dir: self.dir.clone(), why });
+        }
         if policy.scenario != scenario.name {
             return Err(PolicyError::OtherScenario {
                 dir: self.dir.clone(),

@@ -34,6 +34,8 @@ pub enum PolicyError {
         #[source]
         source: avacraft_marl::Error,
     },
+    #[error("checkpoint {}: {why}", dir.display())]
+    NotAnAgent { dir: PathBuf, why: String },
     #[error("checkpoint {} was trained on scenario `{trained}`, not `{scenario}`", dir.display())]
     OtherScenario { dir: PathBuf, trained: String, scenario: String },
     #[error(

@@ -86,6 +86,12 @@ fn made_agents_play_and_checkpoints_check_their_scenario() {
     let marl = PolicySpec::parse(&format!("marl:{}", shipped().display()), None).expect("marl");
     marl.check(&three, Team::One).expect("fits 3m");
     assert!(matches!(marl.check(&other, Team::One), Err(PolicyError::OtherScenario { .. })));
+    // An image-mode checkpoint (the shipped rgb IPPO) is refused where a features one plays:
+    // as an agent it would give no orders at all.
+    let rgb = Path::new(env!("CARGO_MANIFEST_DIR")).join("../baselines/3m/ippo-rgb");
+    let rgb = PolicySpec::parse(&format!("marl:{}", rgb.display()), None).expect("rgb checkpoint");
+    let e = rgb.check(&three, Team::One).expect_err("an rgb checkpoint is no agent");
+    assert!(matches!(e, PolicyError::NotAnAgent { .. }) && e.to_string().contains("`rgb` observations"), "{e}");
     let made = marl.make(&Calls::Own, None).expect("make");
     assert!(made.run.is_none() && (made.factory)().name().starts_with("marl:"));
     let dds = PolicySpec::parse(DDS_POLICY, None).expect("dds");
