@@ -20,6 +20,7 @@
 use crate::buffer::{Shape, act_inputs};
 use crate::config::Opponent;
 use crate::frames::StepFrames;
+use crate::kernels::Want;
 use crate::nets::Nets;
 use crate::observe::ObsSource;
 use crate::{Config, Error};
@@ -249,7 +250,7 @@ impl Policy {
                 message: format!("{rows} rows with {} hidden values and {} inputs for a network of {layout:?}", hidden.len(), x.len()),
             });
         }
-        let f = layout.forward(&self.theta, &x, hidden, None, None, 1, rows, false);
+        let f = layout.forward(&self.theta, &x, hidden, None, Want::All, 1, rows, false);
         // A feed-forward network's "hidden state" is its core layer's output, as candle's step gives it.
         Ok((f.out, f.hidden))
     }
@@ -393,7 +394,7 @@ impl Actor {
             let t = Tensor::from_vec(x, (rows, width), &Device::Cpu)?;
             x = nets.step_inputs_pixels(t, frames)?.flatten_all()?.to_vec1()?;
         }
-        let f = nets.agent.layout().forward(theta, &x, &self.h, None, None, 1, rows, false);
+        let f = nets.agent.layout().forward(theta, &x, &self.h, None, Want::All, 1, rows, false);
         if nets.agent.is_recurrent() {
             self.h = f.hidden;
         }

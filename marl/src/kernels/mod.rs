@@ -10,12 +10,14 @@ pub mod conv;
 mod gemm;
 pub mod mixer;
 pub mod net;
+mod pack;
 pub mod ppo_loss;
 
 pub use adam::{Adam, RmsProp, clip_global_norm};
 pub use conv::{EncoderForward, EncoderLayout, Pixels};
 pub use mixer::{MixerForward, MixerLayout};
 pub use net::{Forward, Input, NetLayout};
+pub use pack::Want;
 
 #[cfg(test)]
 mod conv_tests;

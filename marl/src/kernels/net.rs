@@ -18,6 +18,7 @@
 
 use super::act::{sigmoid, tanh};
 use super::gemm::{Mat, matmul};
+use super::pack::{NONE, Packing, Want};
 use rayon::prelude::*;
 
 /// The network's sizes and where each parameter sits in the flat vector, in the order of
@@ -90,9 +91,10 @@ impl NetLayout {
     /// Runs the network over `l` steps of `n` sequences: `x` `(L, N, input)` time-major,
     /// `h0` `(N, hidden)` (ignored by the feed-forward network), `keep` `(L, N)` (0 where an
     /// episode starts at that step, resetting the hidden state; `None`: never). With `tape`,
-    /// keeps what [`NetLayout::backward`] needs. `lens` (`N`, non-increasing): sequence `i`'s
-    /// steps from `lens[i]` on are padding, skipped (their outputs are 0, their gradients
-    /// ignored), so a batch of episodes sorted longest first costs its real steps only.
+    /// keeps what [`NetLayout::backward`] needs. `want`: the rows the caller reads (all, or
+    /// not the padding past `lens`, or not those a mask leaves out). The others are skipped
+    /// where no row read depends on them (see [`Want`]): their outputs are 0 and their
+    /// gradients ignored, so padding and dead agents cost nothing.
     #[allow(clippy::too_many_arguments)]
     pub fn forward(
         &self,
@@ -100,12 +102,12 @@ impl NetLayout {
         x: &[f32],
         h0: &[f32],
         keep: Option<&[f32]>,
-        lens: Option<&[usize]>,
+        want: Want<'_>,
         l: usize,
         n: usize,
         tape: bool,
     ) -> Forward {
-        self.forward_input(theta, Input::Rows(x), h0, keep, lens, l, n, tape)
+        self.forward_input(theta, Input::Rows(x), h0, keep, want, l, n, tape)
     }
 
     /// [`NetLayout::forward`] on inputs given as [`Input`] (rows, or rows that share a table).
@@ -116,7 +118,7 @@ impl NetLayout {
         x: Input<'_>,
         h0: &[f32],
         keep: Option<&[f32]>,
-        lens: Option<&[usize]>,
+        want: Want<'_>,
         l: usize,
         n: usize,
         tape: bool,
@@ -129,42 +131,37 @@ impl NetLayout {
         if let Some(k) = keep {
             assert_eq!(k.len(), l * n, "episode-start mask");
         }
-        if let Some(ls) = lens {
-            assert_eq!(ls.len(), n, "sequence lengths");
-            assert!(ls.windows(2).all(|w| w[0] >= w[1]), "sequence lengths must not increase");
-        }
+        want.check(l, n);
         let chunks: Vec<Chunk> = NetLayout::chunks(n)
             .into_par_iter()
             .map(|(c0, c1)| {
-                // Step t's rows: the chunk's first `count` sequences (the longer ones), packed.
-                let mut steps = Vec::with_capacity(l);
-                let mut at = 0;
-                for t in 0..l {
-                    let count = lens.map_or(c1 - c0, |ls| ls[c0..c1].iter().take_while(|&&len| len > t).count());
-                    steps.push((at, count));
-                    at += count;
-                }
+                let pack = Packing::new(want, keep, self.recurrent, l, n, (c0, c1));
                 let xs = match x {
-                    Input::Rows(x) => ChunkIn::Rows(gather(x, n, self.input, c0, &steps)),
+                    Input::Rows(x) => ChunkIn::Rows(pack.gather(x, n, self.input, c0)),
                     Input::Shared { table, width, idx, ids } => {
-                        ChunkIn::shared(table, width, &gather(idx, n, 1, c0, &steps), gather(ids, n, 1, c0, &steps))
+                        ChunkIn::shared(table, width, &pack.gather(idx, n, 1, c0), pack.gather(ids, n, 1, c0))
                     }
                 };
                 let h0 = if self.recurrent { &h0[c0 * self.hidden..c1 * self.hidden] } else { &[][..] };
-                let keep = keep.map(|k| gather(k, n, 1, c0, &steps));
-                self.forward_chunk(theta, xs, h0, keep, steps, tape, (c0, c1))
+                let keep = keep.map(|k| pack.gather(k, n, 1, c0));
+                self.forward_chunk(theta, xs, h0, keep, pack, tape, (c0, c1))
             })
             .collect();
         let mut out = vec![0f32; l * n * self.out];
-        let mut hidden = vec![0f32; l * n * self.hidden];
         for c in &chunks {
-            scatter(&mut out, &c.out, n, self.out, c.range.0, &c.steps);
-            scatter(&mut hidden, &c.hs, n, self.hidden, c.range.0, &c.steps);
+            c.pack.scatter(&mut out, &c.out, n, self.out, c.range.0);
         }
-        Forward { l, n, out, hidden, chunks: if tape { chunks } else { Vec::new() } }
+        // Training reads the outputs only: the hidden states are written out without a tape
+        // (acting), and on request with one.
+        let mut f = Forward { l, n, width: self.hidden, out, hidden: Vec::new(), chunks };
+        if !tape {
+            f.hidden = f.hidden_states();
+            f.chunks = Vec::new();
+        }
+        f
     }
 
-    /// One chunk's pass on its packed rows (`steps`: each step's first row and row count).
+    /// One chunk's pass on its packed rows.
     #[allow(clippy::too_many_arguments)]
     fn forward_chunk(
         &self,
@@ -172,21 +169,21 @@ impl NetLayout {
         x: ChunkIn,
         h0: &[f32],
         keep: Option<Vec<f32>>,
-        steps: Vec<(usize, usize)>,
+        pack: Packing,
         tape: bool,
         range: (usize, usize),
     ) -> Chunk {
         let (i, h, o) = (self.input, self.hidden, self.out);
         let off = self.offsets();
         let nc = range.1 - range.0;
-        let rows: usize = steps.iter().map(|s| s.1).sum();
+        let rows = pack.rows();
         let p = |a: usize, len: usize| &theta[a..a + len];
         // a1 = relu(x W1^T + b1)
         let mut a1 = bias_rows(p(off.b1, h), rows);
         x.first_layer(&mut a1, p(off.w1, h * i), i, h);
         relu(&mut a1);
         let mut c = Chunk { range, x, a1, out: Vec::new(), ..Chunk::default() };
-        c.steps = steps.clone();
+        let steps = &pack.steps;
         if self.recurrent {
             let h3 = 3 * h;
             // The input side of every step at once: gi = a1 W_ih^T + b_ih.
@@ -203,16 +200,23 @@ impl NetLayout {
             let mut gh = vec![0f32; nc * h3];
             for (t, &(base, cnt)) in steps.iter().enumerate() {
                 let hp = &mut hp[..cnt * h];
-                if t == 0 {
-                    hp.copy_from_slice(&h0[..cnt * h]);
-                } else {
-                    let prev = steps[t - 1].0;
-                    hp.copy_from_slice(&hs[prev * h..(prev + cnt) * h]);
-                    if let Some(k) = keep.as_deref() {
-                        for (row, &kv) in hp.chunks_exact_mut(h).zip(&k[base..base + cnt]) {
-                            if kv != 1.0 {
-                                row.iter_mut().for_each(|v| *v *= kv);
-                            }
+                for (k, row) in hp.chunks_exact_mut(h.max(1)).enumerate() {
+                    let r = base + k;
+                    if t == 0 {
+                        let s = pack.seqs[r] as usize;
+                        row.copy_from_slice(&h0[s * h..(s + 1) * h]);
+                        continue;
+                    }
+                    // A row whose step before was skipped starts an episode (see `Packing`).
+                    let q = pack.prev[r];
+                    let kv = if q == NONE { 0.0 } else { keep.as_deref().map_or(1.0, |k| k[r]) };
+                    if kv == 0.0 {
+                        row.fill(0.0);
+                    } else {
+                        let q = q as usize;
+                        row.copy_from_slice(&hs[q * h..(q + 1) * h]);
+                        if kv != 1.0 {
+                            row.iter_mut().for_each(|v| *v *= kv);
                         }
                     }
                 }
@@ -251,6 +255,7 @@ impl NetLayout {
         let mut out = bias_rows(p(off.b2, o), rows);
         matmul(&mut out, o, Mat::rows(&c.hs, rows, h), Mat::t(p(off.w2, o * h), h, o), true);
         c.out = out;
+        c.pack = pack;
         if !tape {
             c.x = ChunkIn::default();
             c.a1 = Vec::new();
@@ -278,8 +283,8 @@ impl NetLayout {
             .chunks
             .par_iter()
             .map(|c| {
-                let dout = gather(d_out, n, self.out, c.range.0, &c.steps);
-                let dh = d_hidden.map(|d| gather(d, n, self.hidden, c.range.0, &c.steps));
+                let dout = c.pack.gather(d_out, n, self.out, c.range.0);
+                let dh = d_hidden.map(|d| c.pack.gather(d, n, self.hidden, c.range.0));
                 self.backward_chunk(theta, c, dout, dh, want_dx)
             })
             .collect();
@@ -287,7 +292,7 @@ impl NetLayout {
         for ((g, cdx), c) in parts.iter().zip(&f.chunks) {
             grad.iter_mut().zip(g).for_each(|(a, b)| *a += b);
             if let (Some(dx), Some(cdx)) = (dx.as_mut(), cdx) {
-                scatter(dx, cdx, n, self.input, c.range.0, &c.steps);
+                c.pack.scatter(dx, cdx, n, self.input, c.range.0);
             }
         }
         dx
@@ -304,7 +309,7 @@ impl NetLayout {
         let (i, h, o) = (self.input, self.hidden, self.out);
         let off = self.offsets();
         let nc = c.range.1 - c.range.0;
-        let rows: usize = c.steps.iter().map(|s| s.1).sum();
+        let rows = c.pack.rows();
         let p = |a: usize, len: usize| &theta[a..a + len];
         let mut g = vec![0f32; self.len()];
         // Output layer.
@@ -321,8 +326,9 @@ impl NetLayout {
             let w_hh = Mat::rows(p(off.wh, h3 * h), h3, h);
             let mut carry = vec![0f32; nc * h];
             let mut dhp = vec![0f32; nc * h];
-            for t in (0..c.steps.len()).rev() {
-                let (base, cnt) = c.steps[t];
+            let steps = &c.pack.steps;
+            for t in (0..steps.len()).rev() {
+                let (base, cnt) = steps[t];
                 let (a, b) = (base * h, (base + cnt) * h);
                 let dhp = &mut dhp[..cnt * h];
                 pulp::Arch::new().dispatch(GatesBackward {
@@ -339,12 +345,19 @@ impl NetLayout {
                 }
                 matmul(dhp, h, Mat::rows(&dgh[base * h3..(base + cnt) * h3], cnt, h3), w_hh, true);
                 let keep = c.keep.as_deref();
-                // The previous step's rows past `cnt` (longer sequences only) get no carry.
-                carry[cnt * h..].fill(0.0);
+                // Each row's gradient goes to its sequence's row at the step before, if computed;
+                // the rows there with no row after them get none.
+                let pbase = steps[t - 1].0;
+                carry[..steps[t - 1].1 * h].fill(0.0);
                 simd(|| {
-                    for (r, (cr, dr)) in carry.chunks_exact_mut(h).zip(dhp.chunks_exact(h)).enumerate() {
-                        let kv = keep.map_or(1.0, |k| k[base + r]);
-                        cr.iter_mut().zip(dr).for_each(|(c, &d)| *c = kv * d);
+                    for (k, dr) in dhp.chunks_exact(h).enumerate() {
+                        let q = c.pack.prev[base + k];
+                        if q == NONE {
+                            continue;
+                        }
+                        let kv = keep.map_or(1.0, |kp| kp[base + k]);
+                        let at = (q as usize - pbase) * h;
+                        carry[at..at + h].iter_mut().zip(dr).for_each(|(c, &d)| *c = kv * d);
                     }
                 });
             }
@@ -377,19 +390,32 @@ impl NetLayout {
 pub struct Forward {
     pub l: usize,
     pub n: usize,
+    /// The hidden state's width.
+    width: usize,
     /// `(L, N, out)`.
     pub out: Vec<f32>,
-    /// `(L, N, hidden)`: the GRU's hidden states (feed-forward: the core layer's output).
+    /// `(L, N, hidden)`: the GRU's hidden states (feed-forward: the core layer's output), from
+    /// a pass without a tape; with one, see [`Forward::hidden_states`].
     pub hidden: Vec<f32>,
     chunks: Vec<Chunk>,
 }
 
-/// One chunk's pass, its rows time-major within the chunk (`t * nc + i`).
+impl Forward {
+    /// The hidden states `(L, N, hidden)` of a pass run with a tape (0 on skipped rows).
+    pub fn hidden_states(&self) -> Vec<f32> {
+        let mut hidden = vec![0f32; self.l * self.n * self.width];
+        for c in &self.chunks {
+            c.pack.scatter(&mut hidden, &c.hs, self.n, self.width, c.range.0);
+        }
+        hidden
+    }
+}
+
+/// One chunk's pass, its rows packed (see [`Packing`]).
 #[derive(Debug, Default)]
 struct Chunk {
     range: (usize, usize),
-    /// Each step's first packed row and row count.
-    steps: Vec<(usize, usize)>,
+    pack: Packing,
     x: ChunkIn,
     a1: Vec<f32>,
     hs: Vec<f32>,
@@ -524,22 +550,6 @@ fn transpose_cols(m: &[f32], input: usize, h: usize, from: usize) -> Vec<f32> {
         }
     }
     out
-}
-
-/// A chunk's packed rows of a `(L, N, w)` array: at step `t`, sequences `c0..c0 + count`.
-fn gather<T: Copy>(data: &[T], n: usize, w: usize, c0: usize, steps: &[(usize, usize)]) -> Vec<T> {
-    let mut out = Vec::with_capacity(steps.iter().map(|s| s.1).sum::<usize>() * w);
-    for (t, &(_, count)) in steps.iter().enumerate() {
-        out.extend_from_slice(&data[(t * n + c0) * w..(t * n + c0 + count) * w]);
-    }
-    out
-}
-
-/// The inverse of [`gather`] (rows not packed are left as they are).
-fn scatter(data: &mut [f32], part: &[f32], n: usize, w: usize, c0: usize, steps: &[(usize, usize)]) {
-    for (t, &(at, count)) in steps.iter().enumerate() {
-        data[(t * n + c0) * w..(t * n + c0 + count) * w].copy_from_slice(&part[at * w..(at + count) * w]);
-    }
 }
 
 fn bias_rows(b: &[f32], rows: usize) -> Vec<f32> {

@@ -87,6 +87,10 @@ pub fn ppo_loss(r: &LossRows<'_>, s: &LossSettings) -> LossGrads {
         let z = &r.logits[i * na..(i + 1) * na];
         let mk = &r.mask[i * na..(i + 1) * na];
         let w = r.active[i];
+        // An inactive row adds nothing, and the network may not have computed its outputs.
+        if w == 0.0 {
+            continue;
+        }
         let mx = z.iter().zip(mk).map(|(a, b)| a + b).fold(f32::NEG_INFINITY, f32::max);
         let mut sum = 0f32;
         for j in 0..na {

@@ -1,7 +1,7 @@
 //! The fused network against candle's autograd on the crate's reference network
 //! ([`crate::nets::AgentNet`]), and the same bits whatever the number of threads.
 
-use super::NetLayout;
+use super::{NetLayout, Want};
 use crate::Error;
 use crate::nets::AgentNet;
 use crate::params::Params;
@@ -94,16 +94,15 @@ fn fused_passes_match_candles_autograd() -> Result<(), Error> {
         let (c, net, p) = case(recurrent, &mut rng);
         let theta = p.flat(net.var_count())?;
         assert_eq!(theta.len(), c.layout.len());
-        let f = c.layout.forward(&theta, &c.x, &c.h0, Some(&c.keep), None, c.l, c.n, true);
+        let f = c.layout.forward(&theta, &c.x, &c.h0, Some(&c.keep), Want::All, c.l, c.n, true);
         let (out, g_ref, dx_ref) = reference(&c, &net, &p)?;
         close("outputs", &f.out, &out, 1e-5);
         let mut g = vec![0f32; c.layout.len()];
         let dx = c.layout.backward(&theta, &f, &c.w_out, Some(&c.w_hid), &mut g, true).unwrap_or_default();
         close(&format!("parameter gradients (recurrent {recurrent})"), &g, &g_ref, 2e-5);
         close("input gradients", &dx, &dx_ref, 2e-5);
-        // Padding skipped: sequences sorted longest first, the padded rows' loss weights 0.
-        let mut lens: Vec<usize> = (0..c.n).map(|_| rng.random_range(1..=c.l)).collect();
-        lens.sort_by(|a, b| b.cmp(a));
+        // Padding skipped (in any order of lengths), the padded rows' loss weights 0.
+        let lens: Vec<usize> = (0..c.n).map(|_| rng.random_range(1..=c.l)).collect();
         let pad = |w: &[f32], width: usize| -> Vec<f32> {
             let mut w = w.to_vec();
             for t in 0..c.l {
@@ -123,15 +122,82 @@ fn fused_passes_match_candles_autograd() -> Result<(), Error> {
             keep: c.keep.clone(),
             ..c
         };
-        let fp = cp.layout.forward(&theta, &cp.x, &cp.h0, Some(&cp.keep), Some(&lens), cp.l, cp.n, true);
+        let fp = cp.layout.forward(&theta, &cp.x, &cp.h0, Some(&cp.keep), Want::Lens(&lens), cp.l, cp.n, true);
         let (out_all, g_ref, _) = reference(&cp, &net, &p)?;
         close("outputs of real steps", &fp.out, &pad(&out_all, cp.layout.out), 1e-5);
         let mut g = vec![0f32; cp.layout.len()];
         cp.layout.backward(&theta, &fp, &cp.w_out, Some(&cp.w_hid), &mut g, false);
         close(&format!("parameter gradients without padding (recurrent {recurrent})"), &g, &g_ref, 2e-5);
         // A single step without a tape gives the same outputs as the first step with one.
-        let one = c.layout.forward(&theta, &c.x[..c.n * c.layout.input], &c.h0, None, None, 1, c.n, false);
+        let one = c.layout.forward(&theta, &c.x[..c.n * c.layout.input], &c.h0, None, Want::All, 1, c.n, false);
         close("one step", &one.out, &f.out[..c.n * c.layout.out], 1e-6);
+    }
+    Ok(())
+}
+
+/// Rows left out by a mask (PPO's dead agents) are skipped where nothing read depends on
+/// them, and the rows read get candle's full pass: outputs, every parameter's gradient and
+/// the input gradients, the same bits on 1 and 3 threads.
+#[test]
+fn masked_rows_are_skipped_and_the_rest_match_candle() -> Result<(), Error> {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    for recurrent in [true, false] {
+        let (c, net, p) = case(recurrent, &mut rng);
+        let theta = p.flat(net.var_count())?;
+        // Each sequence dies at a random step and stays dead until an episode starts (keep 0);
+        // a few rows in between are left out too, while later rows still read them.
+        let mut mask = vec![1f32; c.l * c.n];
+        for i in 0..c.n {
+            let mut dead = false;
+            let death = rng.random_range(0..c.l + 2);
+            for t in 0..c.l {
+                if t > 0 && c.keep[t * c.n + i] == 0.0 {
+                    dead = false;
+                }
+                dead |= t == death;
+                if dead || rng.random_bool(0.1) {
+                    mask[t * c.n + i] = 0.0;
+                }
+            }
+        }
+        let zero_unread = |w: &[f32], width: usize| -> Vec<f32> {
+            let mut w = w.to_vec();
+            for (row, &m) in mask.iter().enumerate() {
+                if m == 0.0 {
+                    w[row * width..(row + 1) * width].fill(0.0);
+                }
+            }
+            w
+        };
+        let cm = Case {
+            w_out: zero_unread(&c.w_out, c.layout.out),
+            w_hid: zero_unread(&c.w_hid, c.layout.hidden),
+            x: c.x.clone(),
+            h0: c.h0.clone(),
+            keep: c.keep.clone(),
+            ..c
+        };
+        let (out_ref, g_ref, dx_ref) = reference(&cm, &net, &p)?;
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap_or_else(|e| panic!("{e}"));
+            pool.install(|| {
+                let f = cm.layout.forward(&theta, &cm.x, &cm.h0, Some(&cm.keep), Want::Mask(&mask), cm.l, cm.n, true);
+                let mut g = vec![0f32; cm.layout.len()];
+                let dx = cm.layout.backward(&theta, &f, &cm.w_out, Some(&cm.w_hid), &mut g, true).unwrap_or_default();
+                (f.out, g, dx)
+            })
+        };
+        let (out, g, dx) = run(1);
+        let what = format!("recurrent {recurrent}");
+        close(&format!("outputs read ({what})"), &zero_unread(&out, cm.layout.out), &zero_unread(&out_ref, cm.layout.out), 1e-5);
+        close(&format!("parameter gradients ({what})"), &g, &g_ref, 2e-5);
+        close(&format!("input gradients ({what})"), &dx, &dx_ref, 2e-5);
+        // Rows were skipped: rows not read with no output at all (candle's are never all 0).
+        let o = cm.layout.out;
+        let skipped = (0..c.l * c.n).filter(|&r| mask[r] == 0.0 && out[r * o..(r + 1) * o].iter().all(|&v| v == 0.0)).count();
+        let unread = mask.iter().filter(|&&m| m == 0.0).count();
+        assert!(skipped > unread / 3 && skipped <= unread, "{skipped} rows skipped of {unread} not read ({what})");
+        assert!(run(3) == (out, g, dx), "3 threads changed the masked passes ({what})");
     }
     Ok(())
 }
@@ -160,23 +226,24 @@ fn shared_table_rows_match_the_rows_written_out() -> Result<(), Error> {
         let shared = Input::Shared { table: &table, width, idx: &idx, ids: &ids };
         let mut lens: Vec<usize> = (0..c.n).map(|_| rng.random_range(1..=c.l)).collect();
         lens.sort_by(|a, b| b.cmp(a));
-        for lens in [None, Some(&lens[..])] {
-            let dense = c.layout.forward(&theta, &x, &c.h0, Some(&c.keep), lens, c.l, c.n, true);
+        for want in [Want::All, Want::Lens(&lens)] {
+            let dense = c.layout.forward(&theta, &x, &c.h0, Some(&c.keep), want, c.l, c.n, true);
             let mut g_dense = vec![0f32; c.layout.len()];
             let dx_dense = c.layout.backward(&theta, &dense, &c.w_out, Some(&c.w_hid), &mut g_dense, true).unwrap_or_default();
             let run = |threads: usize| {
                 let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap_or_else(|e| panic!("{e}"));
                 pool.install(|| {
-                    let f = c.layout.forward_input(&theta, shared, &c.h0, Some(&c.keep), lens, c.l, c.n, true);
+                    let f = c.layout.forward_input(&theta, shared, &c.h0, Some(&c.keep), want, c.l, c.n, true);
                     let mut g = vec![0f32; c.layout.len()];
                     let dx = c.layout.backward(&theta, &f, &c.w_out, Some(&c.w_hid), &mut g, true).unwrap_or_default();
-                    (f.out, f.hidden, g, dx)
+                    let hidden = f.hidden_states();
+                    (f.out, hidden, g, dx)
                 })
             };
             let (out, hidden, g, dx) = run(1);
-            let what = format!("recurrent {recurrent}, padding {}", lens.is_some());
+            let what = format!("recurrent {recurrent}, padding {}", matches!(want, Want::Lens(_)));
             close(&format!("outputs ({what})"), &out, &dense.out, 1e-5);
-            close(&format!("hidden states ({what})"), &hidden, &dense.hidden, 1e-5);
+            close(&format!("hidden states ({what})"), &hidden, &dense.hidden_states(), 1e-5);
             close(&format!("parameter gradients ({what})"), &g, &g_dense, 1e-5);
             close(&format!("input gradients ({what})"), &dx, &dx_dense, 1e-5);
             assert!(run(3) == (out, hidden, g, dx), "3 threads changed the shared-table passes ({what})");
@@ -193,7 +260,7 @@ fn results_do_not_depend_on_the_thread_count() -> Result<(), Error> {
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap_or_else(|e| panic!("{e}"));
         pool.install(|| {
-            let f = c.layout.forward(&theta, &c.x, &c.h0, Some(&c.keep), None, c.l, c.n, true);
+            let f = c.layout.forward(&theta, &c.x, &c.h0, Some(&c.keep), Want::All, c.l, c.n, true);
             let mut g = vec![0f32; c.layout.len()];
             let dx = c.layout.backward(&theta, &f, &c.w_out, Some(&c.w_hid), &mut g, true);
             (f.out, g, dx)

@@ -11,7 +11,7 @@
 //! two give the same gradients (`tests/it/learn.rs`).
 
 use crate::buffer::{Batch, Shape};
-use crate::kernels::{Adam, EncoderForward, MixerLayout, NetLayout, RmsProp};
+use crate::kernels::{Adam, EncoderForward, MixerLayout, NetLayout, RmsProp, Want};
 use crate::nets::{Mixer, Nets};
 use crate::optim::OptimizerKind;
 use crate::td::{MASKED, QGrads, td_targets_flat};
@@ -127,13 +127,11 @@ impl FlatState {
         } else {
             &x
         };
-        // Rows past an episode's closing row are padding: skipped when the batch is sorted
-        // longest first (as the replay buffer samples it).
+        // Rows past an episode's closing row are padding, skipped.
         let lens = batch.row_lens();
-        let lens = lens.windows(2).all(|w| w[0] >= w[1]).then_some(&lens[..]);
         let h0 = vec![0f32; rows * self.agent.hidden];
-        let fo = self.agent.forward(&self.theta[..an], &x, &h0, None, lens, t1, rows, true);
-        let ft = self.agent.forward(&self.target[..an], xt, &h0, None, lens, t1, rows, false);
+        let fo = self.agent.forward(&self.theta[..an], &x, &h0, None, Want::Lens(&lens), t1, rows, true);
+        let ft = self.agent.forward(&self.target[..an], xt, &h0, None, Want::Lens(&lens), t1, rows, false);
         // The chosen actions' values and the targets' values of the next step, `(T, B*A)`.
         let mut chosen = vec![0f32; t * rows];
         let mut next = vec![0f32; t * rows];

@@ -8,7 +8,7 @@ use super::value_norm::ValueNorm;
 use crate::buffer::Shape;
 use crate::frames::StepFrames;
 use crate::kernels::ppo_loss::{LossGrads, LossRows, LossSettings, ppo_loss};
-use crate::kernels::{Adam, EncoderForward, EncoderLayout, Input, NetLayout, Pixels, clip_global_norm};
+use crate::kernels::{Adam, EncoderForward, EncoderLayout, Input, NetLayout, Pixels, Want, clip_global_norm};
 use crate::nets::{AgentNet, Nets};
 use crate::params::{Linear, Params};
 use crate::{Config, Error};
@@ -448,10 +448,10 @@ impl PpoLearner {
             }
             _ => self.actor_rows(b)?,
         };
-        let fa = self.actor_layout.forward(theta, &x, &b.h_actor, Some(&b.keep), None, l, n, true);
-        let fc = self
-            .critic_layout
-            .map(|cl| cl.forward_input(&self.critic_theta, b.critic.input(), &b.h_critic, Some(&b.keep), None, l, n, true));
+        let fa = self.actor_layout.forward(theta, &x, &b.h_actor, Some(&b.keep), Want::Mask(&b.active), l, n, true);
+        let fc = self.critic_layout.map(|cl| {
+            cl.forward_input(&self.critic_theta, b.critic.input(), &b.h_critic, Some(&b.keep), Want::Mask(&b.active), l, n, true)
+        });
         let na = self.shape.n_actions;
         // A shared trunk's outputs are the logits and then the value, per row.
         let split = fc.is_none().then(|| split_value(&fa.out, na));
@@ -660,10 +660,10 @@ impl PpoLearner {
                 self.actor.step_inputs(xa, tensors.as_ref())?.flatten_all()?.to_vec1()?
             }
         };
-        let fa = self.actor_layout.forward(theta, &xa, h_actor, None, None, 1, rows, false);
+        let fa = self.actor_layout.forward(theta, &xa, h_actor, None, Want::All, 1, rows, false);
         match self.critic_layout {
             Some(cl) => {
-                let fc = cl.forward_input(&self.critic_theta, x_critic, h_critic, None, None, 1, rows, false);
+                let fc = cl.forward_input(&self.critic_theta, x_critic, h_critic, None, Want::All, 1, rows, false);
                 Ok(ActOut { logits: fa.out, values: fc.out, h_actor: fa.hidden, h_critic: fc.hidden })
             }
             None => {
@@ -679,11 +679,11 @@ impl PpoLearner {
         match self.critic_layout {
             Some(cl) => {
                 let rows = h_critic.len() / cl.hidden.max(1);
-                cl.forward_input(&self.critic_theta, x_critic, h_critic, None, None, 1, rows, false).out
+                cl.forward_input(&self.critic_theta, x_critic, h_critic, None, Want::All, 1, rows, false).out
             }
             None => {
                 let rows = h_actor.len() / self.actor_layout.hidden.max(1);
-                let fa = self.actor_layout.forward(self.actor_parts().0, x_actor, h_actor, None, None, 1, rows, false);
+                let fa = self.actor_layout.forward(self.actor_parts().0, x_actor, h_actor, None, Want::All, 1, rows, false);
                 split_value(&fa.out, self.shape.n_actions).1
             }
         }
