@@ -10,6 +10,7 @@ use avacraft_engine::{Controllers, Env, EnvConfig, LOOPS_PER_SECOND, Outcome, Re
 use avacraft_policy::Calls;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// How to run.
 #[derive(Clone, Debug)]
@@ -46,7 +47,9 @@ pub fn run(plan: &Plan, opts: &RunOptions, progress: &dyn Progress) -> Result<Ru
         tracing::warn!("skipping an unreadable result line: {why}");
     }
     let jobs = plan.jobs_in(opts.shard);
-    let todo: Vec<Job> = jobs.iter().copied().filter(|j| !loaded.done.contains_key(&(plan.cells[j.cell].key.clone(), j.seed))).collect();
+    let mut todo: Vec<Job> =
+        jobs.iter().copied().filter(|j| !loaded.done.contains_key(&(plan.cells[j.cell].key.clone(), j.seed))).collect();
+    models_last(plan, &mut todo);
     let mut stats = RunStats { planned: jobs.len(), skipped: jobs.len() - todo.len(), ..RunStats::default() };
     progress.start(jobs.len(), stats.skipped);
     let mut appender = Appender::open(&path)?;
@@ -58,10 +61,22 @@ pub fn run(plan: &Plan, opts: &RunOptions, progress: &dyn Progress) -> Result<Ru
     })?;
     let (tx, rx) = std::sync::mpsc::channel::<EpisodeResult>();
     let mut write_error = None;
+    // The workers take the jobs in `todo`'s order (rayon's parallel iterators would split it
+    // in halves), each result sent the moment its episode ends.
+    let next = AtomicUsize::new(0);
     std::thread::scope(|s| {
         s.spawn(|| {
-            use rayon::prelude::*;
-            pool.install(|| todo.par_iter().for_each_with(tx, |tx, job| drop(tx.send(play_job(plan, *job, &opts.out)))));
+            pool.scope(|ps| {
+                for _ in 0..threads {
+                    let (tx, next, todo) = (tx.clone(), &next, &todo);
+                    ps.spawn(move |_| {
+                        while let Some(job) = todo.get(next.fetch_add(1, Ordering::Relaxed)) {
+                            drop(tx.send(play_job(plan, *job, &opts.out)));
+                        }
+                    });
+                }
+            });
+            drop(tx);
         });
         for r in rx {
             if r.ok() {
@@ -81,6 +96,19 @@ pub fn run(plan: &Plan, opts: &RunOptions, progress: &dyn Progress) -> Result<Ru
         Some(e) => Err(e),
         None => Ok(stats),
     }
+}
+
+/// Puts the jobs that call a model (an AVA side with a local model or an endpoint) after the
+/// others, each group in plan order. Why: a model's
+/// episodes take minutes and a local model runs one answer at a time, so with them first the
+/// thousands of scripted and MARL episodes waited behind them (35 minutes with nothing
+/// written, on the paper's plan).
+pub(crate) fn models_last(plan: &Plan, todo: &mut [Job]) {
+    let calls_model = |a: usize| plan.agents[a].policy.ava_spec().is_some_and(|s| s.model != avacraft_ava::ModelSpec::Synthetic);
+    todo.sort_by_key(|j| {
+        let cell = &plan.cells[j.cell];
+        calls_model(cell.agent) || cell.agent2.is_some_and(calls_model)
+    });
 }
 
 /// Why an episode could not be played (recorded in its result, with its sources, as text).
@@ -254,4 +282,52 @@ fn play(plan: &Plan, cell: &Cell, seed: u64, out: &Path, mut on_step: Option<&mu
         model: run1.as_deref().map(model_use),
         model2: run2.as_deref().map(model_use),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Episodes that call a model go after the rest, whichever team the model plays; the
+    /// others keep the plan's order, and a synthetic AVA (no model) is not moved.
+    #[test]
+    fn jobs_that_call_a_model_go_last() {
+        let text = r#"
+name = "order"
+scenarios = ["3m", "2s3z"]
+seeds = [1, 2]
+[[agents]]
+name = "vlm"
+policy = "ava"
+kind = "vlm"
+ava = { model = { kind = "openai", url = "http://127.0.0.1:9/v1", model = "m" } }
+[[agents]]
+name = "fake"
+policy = "ava"
+kind = "vlm"
+ava = { model = { kind = "synthetic" } }
+[[agents]]
+name = "focus-fire"
+policy = "focus-fire"
+[[headtohead]]
+scenarios = ["MMM_vs_MMM"]
+agents = ["focus-fire"]
+against = ["vlm"]
+"#;
+        let plan = crate::parse("order.toml", text, None).unwrap_or_else(|e| panic!("{e}"));
+        let mut todo = plan.jobs();
+        let before = todo.clone();
+        models_last(&plan, &mut todo);
+        let calls = |j: &Job| {
+            let k = &plan.cells[j.cell].key;
+            k.agent == "vlm" || k.against == "vlm"
+        };
+        let first_model = todo.iter().position(calls).unwrap_or_else(|| panic!("the plan has model jobs"));
+        assert!(first_model > 0 && todo[first_model..].iter().all(calls), "{todo:?}");
+        // Headtohead: the model on team 2 counts too.
+        assert!(todo[first_model..].iter().any(|j| plan.cells[j.cell].key.against == "vlm"));
+        let rest: Vec<Job> = before.iter().copied().filter(|j| !calls(j)).collect();
+        assert_eq!(todo[..first_model], rest[..], "the others in plan order");
+        assert!(rest.iter().any(|j| plan.cells[j.cell].key.agent == "fake"));
+    }
 }
