@@ -128,6 +128,12 @@ pub enum EpisodeError {
     },
     #[error("AVA stopped: {0}")]
     Ava(String),
+    #[error("{agent}: playing from rendered frames")]
+    Frames {
+        agent: String,
+        #[source]
+        source: avacraft_marl::Error,
+    },
     #[error("the plan has no cell {0}")]
     NoCell(usize),
 }
@@ -234,27 +240,44 @@ pub fn replay_job(plan: &Plan, job: Job, out: &Path, on_step: &mut dyn FnMut(&En
 
 fn play(plan: &Plan, cell: &Cell, seed: u64, out: &Path, mut on_step: Option<&mut dyn FnMut(&Env)>) -> Result<EpisodeResult, EpisodeError> {
     let replay = on_step.is_some();
-    let (one, run1) = side(&plan.agents[cell.agent], cell, Team::One, seed, out, replay)?;
-    let mut teams = vec![one];
-    let mut run2 = None;
-    if let Some(b) = cell.agent2 {
-        let (two, r) = side(&plan.agents[b], cell, Team::Two, seed, out, replay)?;
-        teams.push(two);
-        run2 = r;
-    }
-    let mut controllers = Controllers::new(&cell.scenario, teams);
     let cfg = EnvConfig { opponent: cell.opponent, reward: RewardMode::Sparse, ..EnvConfig::default() };
     let mut env = Env::new(Arc::clone(&cell.scenario), cfg, seed);
-    controllers.reset(&env);
-    while !env.done() {
-        if let Some(f) = on_step.as_mut() {
-            f(&env);
+    let team1 = &plan.agents[cell.agent];
+    let policy_err = |source| EpisodeError::Policy { agent: team1.name.clone(), source: Box::new(source) };
+    let (mut run1, mut run2) = (None, None);
+    // An image-mode checkpoint (PvE only: the plan refuses it elsewhere) acts on frames
+    // rendered from the environment, which an engine agent is not handed.
+    match team1.policy.frames_policy(&cell.scenario).map_err(policy_err)?.filter(|_| cell.agent2.is_none()) {
+        Some(policy) => {
+            let mut seen = |e: &Env| {
+                if let Some(f) = on_step.as_mut() {
+                    f(e);
+                }
+            };
+            policy.play_out(&mut env, &mut seen).map_err(|source| EpisodeError::Frames { agent: team1.name.clone(), source })?;
         }
-        controllers.act(&mut env);
-        env.step();
-    }
-    if let Some(f) = on_step.as_mut() {
-        f(&env);
+        None => {
+            let (one, r1) = side(team1, cell, Team::One, seed, out, replay)?;
+            let mut teams = vec![one];
+            run1 = r1;
+            if let Some(b) = cell.agent2 {
+                let (two, r) = side(&plan.agents[b], cell, Team::Two, seed, out, replay)?;
+                teams.push(two);
+                run2 = r;
+            }
+            let mut controllers = Controllers::new(&cell.scenario, teams);
+            controllers.reset(&env);
+            while !env.done() {
+                if let Some(f) = on_step.as_mut() {
+                    f(&env);
+                }
+                controllers.act(&mut env);
+                env.step();
+            }
+            if let Some(f) = on_step.as_mut() {
+                f(&env);
+            }
+        }
     }
     for r in [&run1, &run2].into_iter().flatten() {
         if let Some(why) = r.fatal() {

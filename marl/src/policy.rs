@@ -9,8 +9,9 @@
 //!
 //! Image-mode checkpoints (`rgb`, `hybrid`, `vision-text`) hold the encoder's weights in
 //! `agent.safetensors` too. An engine [`Agent`] is handed units, effects and text, not the
-//! world the renderer draws from, so [`MarlAgent`] refuses them; [`Policy::evaluate`] plays
-//! them greedily from rendered frames, exactly as training's test episodes do.
+//! world the renderer draws from, so [`MarlAgent`] refuses them; [`Policy::evaluate`] and
+//! [`Policy::play_out`] (an evaluation's episodes) play them greedily from rendered frames,
+//! exactly as training's test episodes do.
 //!
 //! Those test episodes are here too ([`test`]), with the environments they play in
 //! ([`opponent_factory`]) and the acting side they share with training's loop: a policy's
@@ -25,7 +26,7 @@ use crate::nets::Nets;
 use crate::observe::ObsSource;
 use crate::{Config, Error};
 use avacraft_engine::agent::view::id_of;
-use avacraft_engine::{Action, Agent, AgentCtx, GroupObs, Reads, Scenario, SmacLayout, Team, VecBuffers, VecEnv};
+use avacraft_engine::{Action, Agent, AgentCtx, Env, GroupObs, Reads, Scenario, SmacLayout, Team, VecBuffers, VecEnv};
 use candle_core::{Device, Tensor};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -224,10 +225,38 @@ impl Policy {
         (self.cfg.obs != crate::ObsKind::Features).then(|| {
             format!(
                 "trained on `{}` observations: an engine agent is not handed the frames the encoder reads, so only `features` \
-                 checkpoints play as agents (evaluate image checkpoints with Policy::evaluate)",
+                 checkpoints play as agents (an evaluation plan's PvE cells play image checkpoints from rendered frames)",
                 self.cfg.obs.name()
             )
         })
+    }
+
+    /// Plays team 1 of `env` greedily to the episode's end, in any observation mode: before
+    /// each step, the frames (and text) the network reads are rendered from `env`, as in
+    /// training's test episodes, and its SMAC features and masks are read. This is how an
+    /// evaluation plays an image checkpoint, which an engine agent cannot. Team 2 is `env`'s
+    /// own opponent. `on_step` sees the environment before each step and at the end.
+    pub fn play_out(&self, env: &mut Env, on_step: &mut dyn FnMut(&Env)) -> Result<(), Error> {
+        self.check_scenario(env.scenario(), Team::One)?;
+        let mut source = ObsSource::new(&self.cfg)?;
+        let n = self.shape.n_agents;
+        let mut actor = Actor::new(&self.nets, 1, n);
+        let mut b = VecBuffers { obs: vec![0.0; n * self.shape.obs], avail: vec![0; n * self.shape.n_actions], ..VecBuffers::default() };
+        let name = env.scenario().name.clone();
+        let unreadable = |e: avacraft_engine::LearnError| Error::Observation { message: format!("team 1 of {name}: {e}") };
+        let mut rng = ChaCha8Rng::seed_from_u64(0);
+        while !env.done() {
+            on_step(env);
+            env.obs_all(Team::One, &mut b.obs).map_err(unreadable)?;
+            env.avail_all(Team::One, &mut b.avail).map_err(unreadable)?;
+            let frames = source.as_mut().map(|s| s.observe(std::slice::from_ref(env))).transpose()?;
+            let acts = actor.act(&self.theta, &self.nets, &self.cfg, &self.shape, &b, frames.as_ref(), 0.0, &mut rng)?;
+            // Greedy choices are among the available actions, so none is refused.
+            let _ = env.submit_indices(Team::One, &acts.iter().map(|&a| a as usize).collect::<Vec<_>>());
+            env.step();
+        }
+        on_step(env);
+        Ok(())
     }
 
     /// Q-values `(rows x n_actions)` and next hidden states for rows of features.

@@ -70,10 +70,26 @@ impl MarlCheckpoint {
     /// features, and the MARL agent gives no orders at all then. An image-mode checkpoint is
     /// refused too: an agent is handed units, not the frames its encoder reads.
     pub fn check(&self, scenario: &Scenario, team: Team) -> Result<(), PolicyError> {
-        let policy = self.policy()?;
-        if let Some(why) = policy.agent_refusal() {
+        if let Some(why) = self.policy()?.agent_refusal() {
             return Err(PolicyError::NotAnAgent { dir: self.dir.clone(), why });
         }
+        self.check_fit(scenario, team)
+    }
+
+    /// The network when it plays from rendered frames (an image mode), checked to fit team 1
+    /// of `scenario`: an evaluation plays it with [`Policy::play_out`]. `None` for a
+    /// `features` checkpoint, which plays as an engine agent.
+    pub fn frames_policy(&self, scenario: &Scenario) -> Result<Option<Arc<Policy>>, PolicyError> {
+        if self.policy()?.agent_refusal().is_none() {
+            return Ok(None);
+        }
+        self.check_fit(scenario, Team::One)?;
+        Ok(Some(Arc::clone(self.policy()?)))
+    }
+
+    /// Refuses a network trained on another scenario or for other sizes.
+    fn check_fit(&self, scenario: &Scenario, team: Team) -> Result<(), PolicyError> {
+        let policy = self.policy()?;
         if policy.scenario != scenario.name {
             return Err(PolicyError::OtherScenario {
                 dir: self.dir.clone(),

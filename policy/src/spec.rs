@@ -138,6 +138,17 @@ impl PolicySpec {
         }
     }
 
+    /// The network when this policy plays `scenario`'s team 1 from rendered frames (an
+    /// image-mode checkpoint, which engine agents cannot play; an evaluation plays it with
+    /// [`avacraft_marl::Policy::play_out`]). `None` for every other policy.
+    pub fn frames_policy(&self, scenario: &Scenario) -> Result<Option<Arc<avacraft_marl::Policy>>, PolicyError> {
+        match self {
+            PolicySpec::Marl(m) => m.frames_policy(scenario),
+            PolicySpec::Baseline(b) => b.for_scenario(&scenario.name)?.frames_policy(scenario),
+            PolicySpec::Scripted(_) | PolicySpec::Dds | PolicySpec::Ava(_) => Ok(None),
+        }
+    }
+
     pub fn is_dds(&self) -> bool {
         matches!(self, PolicySpec::Dds)
     }

@@ -216,6 +216,39 @@ fn a_grown_plan_plays_only_its_new_cells_and_a_changed_checkpoint_is_refused() {
     assert_eq!(episodes(&out), after, "nothing recorded changed");
 }
 
+/// A shipped image-mode baseline plays an evaluation's PvE cells from rendered frames (an
+/// engine agent is not handed them) and wins as its greedy tests did; in a head-to-head, or
+/// as `episode`'s agent, it is refused with the reason.
+#[test]
+fn image_baselines_play_pve_cells_from_rendered_frames() {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let dir = tmp("eval-rgb");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let p = dir.join("plan.toml");
+    std::fs::write(
+        &p,
+        "name = \"rgb\"\nscenarios = [\"3m\"]\nseeds = [7, 8]\n\n[[agents]]\nname = \"mappo-rgb\"\npolicy = \"baseline:mappo-rgb\"\n",
+    )
+    .expect("plan");
+    let out = tmp("eval-rgb-out");
+    let o = Command::new(exe())
+        .env("AVACRAFT_BASELINES", repo.join("baselines"))
+        .args(["eval", p.to_str().expect("utf-8"), "--out", out.to_str().expect("utf-8")])
+        .output()
+        .expect("eval");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let all = episodes(&out);
+    assert_eq!(all.len(), 2, "{all:?}");
+    assert!(all.values().all(|(result, _)| result == "win"), "{all:?}");
+    let o = Command::new(exe())
+        .env("AVACRAFT_BASELINES", repo.join("baselines"))
+        .args(["episode", "--scenario", "3m", "--agent", "baseline:mappo-rgb"])
+        .output()
+        .expect("episode");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("trained on `rgb` observations"), "{err}");
+}
+
 /// `baseline:NAME` plays each scenario's shipped policy and leaves out, by name, the
 /// scenarios where none is shipped.
 #[test]
@@ -406,6 +439,9 @@ fn the_paper_plan_is_valid() {
     }
     for (seed, of) in [("qmix-s2", "qmix"), ("qmix-s3", "qmix"), ("mappo-s2", "mappo"), ("mappo-s3", "mappo")] {
         assert!(plan.agents.iter().any(|a| a.name == seed && a.seed_of.as_deref() == Some(of)), "{seed}: a training seed of {of}");
+    }
+    for agent in ["ippo-rgb", "mappo-rgb"] {
+        assert!(plan.cells.iter().any(|c| c.key.scenario == "3m" && c.key.agent == agent), "{agent} on 3m");
     }
     let ava: Vec<_> = plan.cells.iter().filter(|c| c.key.agent == "ava-smollm2-text").collect();
     assert_eq!(ava.len(), 3);

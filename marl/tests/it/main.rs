@@ -4,6 +4,7 @@
 mod common;
 mod encoders;
 mod learn;
+mod play_out;
 mod ppo;
 mod selfplay;
 mod text;
