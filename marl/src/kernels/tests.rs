@@ -45,6 +45,33 @@ fn case(recurrent: bool, rng: &mut ChaCha8Rng) -> (Case, AgentNet, Params) {
     (c, net, p)
 }
 
+/// Row `row`'s values of a `(rows, width)` array set to 0 where `unread(row)`.
+fn zero_rows(w: &[f32], width: usize, unread: &dyn Fn(usize) -> bool) -> Vec<f32> {
+    let mut w = w.to_vec();
+    for (row, values) in w.chunks_exact_mut(width).enumerate() {
+        if unread(row) {
+            values.fill(0.0);
+        }
+    }
+    w
+}
+
+impl Case {
+    /// The same case whose test loss reads no row `unread` picks (its weights there 0).
+    fn reading(&self, unread: &dyn Fn(usize) -> bool) -> Case {
+        Case {
+            layout: self.layout,
+            l: self.l,
+            n: self.n,
+            x: self.x.clone(),
+            h0: self.h0.clone(),
+            keep: self.keep.clone(),
+            w_out: zero_rows(&self.w_out, self.layout.out, unread),
+            w_hid: zero_rows(&self.w_hid, self.layout.hidden, unread),
+        }
+    }
+}
+
 /// Candle's pass: the learners' unroll (hidden state times `keep` before each step after the
 /// first), the test loss, its gradients.
 /// Outputs, parameter gradients and input gradients.
@@ -103,28 +130,11 @@ fn fused_passes_match_candles_autograd() -> Result<(), Error> {
         close("input gradients", &dx, &dx_ref, 2e-5);
         // Padding skipped (in any order of lengths), the padded rows' loss weights 0.
         let lens: Vec<usize> = (0..c.n).map(|_| rng.random_range(1..=c.l)).collect();
-        let pad = |w: &[f32], width: usize| -> Vec<f32> {
-            let mut w = w.to_vec();
-            for t in 0..c.l {
-                for (i, &len) in lens.iter().enumerate() {
-                    if t >= len {
-                        w[(t * c.n + i) * width..(t * c.n + i + 1) * width].fill(0.0);
-                    }
-                }
-            }
-            w
-        };
-        let cp = Case {
-            w_out: pad(&c.w_out, c.layout.out),
-            w_hid: pad(&c.w_hid, c.layout.hidden),
-            x: c.x.clone(),
-            h0: c.h0.clone(),
-            keep: c.keep.clone(),
-            ..c
-        };
+        let padding = |row: usize| row / c.n >= lens[row % c.n];
+        let cp = c.reading(&padding);
         let fp = cp.layout.forward(&theta, &cp.x, &cp.h0, Some(&cp.keep), Want::Lens(&lens), cp.l, cp.n, true);
         let (out_all, g_ref, _) = reference(&cp, &net, &p)?;
-        close("outputs of real steps", &fp.out, &pad(&out_all, cp.layout.out), 1e-5);
+        close("outputs of real steps", &fp.out, &zero_rows(&out_all, cp.layout.out, &padding), 1e-5);
         let mut g = vec![0f32; cp.layout.len()];
         cp.layout.backward(&theta, &fp, &cp.w_out, Some(&cp.w_hid), &mut g, false);
         close(&format!("parameter gradients without padding (recurrent {recurrent})"), &g, &g_ref, 2e-5);
@@ -160,23 +170,8 @@ fn masked_rows_are_skipped_and_the_rest_match_candle() -> Result<(), Error> {
                 }
             }
         }
-        let zero_unread = |w: &[f32], width: usize| -> Vec<f32> {
-            let mut w = w.to_vec();
-            for (row, &m) in mask.iter().enumerate() {
-                if m == 0.0 {
-                    w[row * width..(row + 1) * width].fill(0.0);
-                }
-            }
-            w
-        };
-        let cm = Case {
-            w_out: zero_unread(&c.w_out, c.layout.out),
-            w_hid: zero_unread(&c.w_hid, c.layout.hidden),
-            x: c.x.clone(),
-            h0: c.h0.clone(),
-            keep: c.keep.clone(),
-            ..c
-        };
+        let unread = |row: usize| mask[row] == 0.0;
+        let cm = c.reading(&unread);
         let (out_ref, g_ref, dx_ref) = reference(&cm, &net, &p)?;
         let run = |threads: usize| {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap_or_else(|e| panic!("{e}"));
@@ -189,11 +184,11 @@ fn masked_rows_are_skipped_and_the_rest_match_candle() -> Result<(), Error> {
         };
         let (out, g, dx) = run(1);
         let what = format!("recurrent {recurrent}");
-        close(&format!("outputs read ({what})"), &zero_unread(&out, cm.layout.out), &zero_unread(&out_ref, cm.layout.out), 1e-5);
+        let o = cm.layout.out;
+        close(&format!("outputs read ({what})"), &zero_rows(&out, o, &unread), &zero_rows(&out_ref, o, &unread), 1e-5);
         close(&format!("parameter gradients ({what})"), &g, &g_ref, 2e-5);
         close(&format!("input gradients ({what})"), &dx, &dx_ref, 2e-5);
         // Rows were skipped: rows not read with no output at all (candle's are never all 0).
-        let o = cm.layout.out;
         let skipped = (0..c.l * c.n).filter(|&r| mask[r] == 0.0 && out[r * o..(r + 1) * o].iter().all(|&v| v == 0.0)).count();
         let unread = mask.iter().filter(|&&m| m == 0.0).count();
         assert!(skipped > unread / 3 && skipped <= unread, "{skipped} rows skipped of {unread} not read ({what})");
