@@ -130,7 +130,7 @@ impl ReplayBuffer {
 
 /// A training batch of `B` episodes padded to `T` steps, as flat time-major arrays (what the
 /// fused update reads; [`Batch::tensors`] gives the same as candle tensors).
-#[derive(Debug)]
+#[derive(Debug, Default)]
 pub struct Batch {
     pub b: usize,
     pub t: usize,
@@ -198,18 +198,36 @@ pub struct BatchTensors {
     pub filled: Tensor,
 }
 
+/// `v` as `n` zeros, in the memory it has (a batch's arrays are refilled every update: fresh
+/// ones of hundreds of MB on large scenarios were fresh mappings, each page a fault).
+fn zeroed<T: Copy + Default>(v: &mut Vec<T>, n: usize) -> &mut [T] {
+    v.clear();
+    v.resize(n, T::default());
+    v
+}
+
 impl Batch {
     /// Pads and stacks `episodes`.
     pub fn new(episodes: &[&Episode], shape: &Shape, agent_id: bool, last_action: bool) -> Result<Batch, Error> {
+        let mut batch = Batch::default();
+        batch.refill(episodes, shape, agent_id, last_action)?;
+        Ok(batch)
+    }
+
+    /// [`Batch::new`] in this batch's memory (its frames cleared).
+    pub fn refill(&mut self, episodes: &[&Episode], shape: &Shape, agent_id: bool, last_action: bool) -> Result<(), Error> {
         let b = episodes.len();
         let t = episodes.iter().map(|e| e.len).max().unwrap_or(0);
         let (a, o, s, na) = (shape.n_agents, shape.obs, shape.state, shape.n_actions);
         let width = shape.input(agent_id, last_action);
-        let mut inputs = vec![0f32; (t + 1) * b * a * width];
-        let mut avail = vec![0f32; (t + 1) * b * a * na];
-        let mut actions = vec![0u32; t * b * a];
-        let mut state = vec![0f32; (t + 1) * b * s];
-        let (mut reward, mut terminated, mut filled) = (vec![0f32; t * b], vec![0f32; t * b], vec![0f32; t * b]);
+        self.frames = None;
+        let inputs = zeroed(&mut self.inputs, (t + 1) * b * a * width);
+        let avail = zeroed(&mut self.avail, (t + 1) * b * a * na);
+        let actions = zeroed(&mut self.actions, t * b * a);
+        let state = zeroed(&mut self.state, (t + 1) * b * s);
+        let reward = zeroed(&mut self.reward, t * b);
+        let terminated = zeroed(&mut self.terminated, t * b);
+        let filled = zeroed(&mut self.filled, t * b);
         for (bi, ep) in episodes.iter().enumerate() {
             if ep.obs.len() < (ep.len + 1) * a * o || ep.avail.len() < (ep.len + 1) * a * na || ep.state.len() < (ep.len + 1) * s {
                 return Err(Error::Observation { message: format!("an episode of {} steps is not closed (see Episode::close)", ep.len) });
@@ -250,23 +268,9 @@ impl Batch {
                 }
             }
         }
-        Ok(Batch {
-            b,
-            t,
-            lens: episodes.iter().map(|e| e.len).collect(),
-            n_agents: a,
-            width,
-            n_actions: na,
-            state_dim: s,
-            inputs,
-            avail,
-            actions,
-            state,
-            reward,
-            terminated,
-            filled,
-            frames: None,
-        })
+        (self.b, self.t, self.n_agents, self.width, self.n_actions, self.state_dim) = (b, t, a, width, na, s);
+        self.lens = episodes.iter().map(|e| e.len).collect();
+        Ok(())
     }
 
     /// The batch as candle tensors.

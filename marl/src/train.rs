@@ -103,6 +103,8 @@ fn train_q(
     let mut running: Vec<Episode> = vec![Episode::default(); e];
     let (mut t_env, mut episodes, mut pending) = (0u64, 0u64, 0u64);
     let mut last = crate::UpdateStats::default();
+    // One batch's memory for every update (see `Batch::refill`).
+    let mut batch = Batch::default();
     if let Some(st) = &start {
         let Some(dir) = &opts.out else {
             return Err(Error::Checkpoint { message: "resuming needs the run's directory".into() });
@@ -157,7 +159,7 @@ fn train_q(
             pending -= cfg.episodes_per_update;
             if buffer.len() >= cfg.batch_size {
                 let sample = buffer.sample(cfg.batch_size, &mut sample_rng);
-                let mut batch = Batch::new(&sample, &shape, cfg.obs_agent_id, cfg.obs_last_action)?;
+                batch.refill(&sample, &shape, cfg.obs_agent_id, cfg.obs_last_action)?;
                 if source.is_some() {
                     batch.frames = Some(FrameBatch::new(&sample, cfg)?);
                 }

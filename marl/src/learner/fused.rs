@@ -17,6 +17,7 @@ use crate::optim::OptimizerKind;
 use crate::td::{MASKED, QGrads, td_targets_flat};
 use crate::{Config, Error};
 use candle_core::{Device, Tensor};
+use std::borrow::Cow;
 use std::sync::Mutex;
 
 /// How the agents' values combine.
@@ -240,28 +241,31 @@ impl FlatState {
     /// The agent network's input rows `(T+1, B*A, input)` of a batch, flat: as stored in
     /// `features` mode, else through the encoder whose weights are in `theta` (a flat vector
     /// of [`Nets::flat`]'s layout): the fused CNN encoder, or candle's (Swin) with its graph.
-    fn inputs(
+    fn inputs<'b>(
         &self,
         nets: &Nets,
         theta: &[f32],
-        batch: &Batch,
+        batch: &'b Batch,
         tape: bool,
         mut pass: EncoderForward,
-    ) -> Result<(Vec<f32>, Encoded), Error> {
-        let Some(e) = &nets.encoder else { return Ok((batch.inputs.clone(), Encoded::None)) };
+    ) -> Result<(Cow<'b, [f32]>, Encoded), Error> {
+        // Without an encoder the network reads the batch's rows as they are: a copy was a
+        // fresh mapping of up to hundreds of MB per update on large scenarios, and its page
+        // faults half of the kernel's time.
+        let Some(e) = &nets.encoder else { return Ok((Cow::Borrowed(&batch.inputs), Encoded::None)) };
         match (e.kernel(), &batch.frames) {
             (Some(k), Some(fb)) => {
                 let an = self.agent.len();
                 k.forward_into(&theta[an..an + self.enc_len], &fb.frames.pixels(), tape, &mut pass)?;
                 let row_frame = nets.unroll_frames(batch)?;
                 let x = e.fuse_flat(&pass.out, &row_frame, &batch.inputs);
-                Ok((x, if tape { Encoded::Fused { pass, row_frame } } else { Encoded::None }))
+                Ok((Cow::Owned(x), if tape { Encoded::Fused { pass, row_frame } } else { Encoded::None }))
             }
             (Some(_), None) => Err(no_frames()),
             (None, _) => {
                 let x = nets.unroll_inputs(batch)?;
                 let flat = x.flatten_all()?.to_vec1::<f32>()?;
-                Ok((flat, if tape { Encoded::Candle(x) } else { Encoded::None }))
+                Ok((Cow::Owned(flat), if tape { Encoded::Candle(x) } else { Encoded::None }))
             }
         }
     }

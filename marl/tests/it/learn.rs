@@ -41,6 +41,21 @@ fn random_episodes(shape: &Shape, n: usize, rng: &mut ChaCha8Rng) -> Vec<Episode
 
 const SMALL: Shape = Shape { n_agents: 3, obs: 6, state: 7, n_actions: 4, n_enemies: 3 };
 
+/// A batch refilled in the memory of a larger one holds what a new batch of the same
+/// episodes holds: no value of the earlier batch is left in its padding.
+#[test]
+fn a_refilled_batch_is_a_new_batch() -> R {
+    let mut rng = ChaCha8Rng::seed_from_u64(21);
+    let eps = random_episodes(&SMALL, 12, &mut rng);
+    let (big, small): (Vec<&Episode>, Vec<&Episode>) = (eps.iter().collect(), eps[..3].iter().collect());
+    let mut batch = Batch::new(&big, &SMALL, true, true)?;
+    batch.refill(&small, &SMALL, true, true)?;
+    let fresh = Batch::new(&small, &SMALL, true, true)?;
+    assert_eq!(format!("{batch:?}"), format!("{fresh:?}"));
+    assert!(batch.b == 3 && batch.inputs.len() < Batch::new(&big, &SMALL, true, true)?.inputs.len());
+    Ok(())
+}
+
 /// The fused agent networks (what training runs) give the gradients candle's autograd gives
 /// through the reference networks, for every mixer and both agent networks.
 #[test]
