@@ -144,6 +144,8 @@ struct Setup {
     ava: Option<(Arc<avacraft_ava::AvaRun>, Option<std::path::PathBuf>)>,
     /// With `--launch`: each AVA node's run, in the file's order.
     nodes: Vec<(String, Arc<avacraft_ava::AvaRun>)>,
+    /// An image-mode checkpoint on team 1 (PvE): it acts on frames rendered from the game.
+    frames: Option<Arc<avacraft_marl::Policy>>,
 }
 
 fn setup(a: &EpisodeArgs) -> Result<Setup> {
@@ -161,6 +163,7 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
             controllers,
             ava: None,
             nodes: runs.into_iter().map(|(id, run)| (id.to_string(), run)).collect(),
+            frames: None,
         });
     }
     if a.episodes == 0 {
@@ -189,8 +192,17 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
             _ => team_agent(&scenario, team, name, flag),
         }
     };
+    // An image-mode checkpoint is not an engine agent: it plays PvE from rendered frames.
+    let frames = if pvp || a.agent == AVA_POLICY {
+        None
+    } else {
+        PolicySpec::parse(&a.agent, None)
+            .and_then(|p| p.on(&scenario))
+            .and_then(|p| p.frames_policy(&scenario))
+            .with_context(|| format!("--agent {}", a.agent))?
+    };
     // One agent per team, each acting for its units on their own observations.
-    let mut teams = vec![side(Team::One, &a.agent, "--agent")?];
+    let mut teams = if frames.is_some() { Vec::new() } else { vec![side(Team::One, &a.agent, "--agent")?] };
     if pvp {
         teams.push(side(Team::Two, &agent2, if a.agent2.is_some() { "--agent2" } else { "--agent (for team 2)" })?);
     }
@@ -208,7 +220,18 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
     };
     let seeds = (0..a.episodes as u64).map(|k| a.seed.wrapping_add(k)).collect();
     let ava = ava.map(|(made, dir)| (made.run.unwrap_or_else(|| unreachable!("an AVA policy is made with its run")), dir));
-    Ok(Setup { scenario, cfg, controllers, seeds, agent: a.agent.clone(), agent2: pvp.then_some(agent2), opponent, ava, nodes: Vec::new() })
+    Ok(Setup {
+        scenario,
+        cfg,
+        controllers,
+        seeds,
+        agent: a.agent.clone(),
+        agent2: pvp.then_some(agent2),
+        opponent,
+        ava,
+        nodes: Vec::new(),
+        frames,
+    })
 }
 
 /// `team` played by one agent of the policy `name` (a scripted agent, `marl:DIR` or
@@ -224,7 +247,8 @@ fn team_agent(scenario: &Scenario, team: Team, name: &str, flag: &str) -> Result
 // Long on purpose: the episode loop, then the report in its three forms (table, JSON,
 // AVA's costs), which share the loop's tallies.
 pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
-    let Setup { scenario, cfg, mut controllers, seeds, agent, agent2, opponent, ava, nodes } = setup(a)?;
+    let Setup { scenario, cfg, mut controllers, seeds, agent, agent2, opponent, ava, nodes, frames } = setup(a)?;
+    let mut frames = frames.as_deref().map(|p| avacraft_marl::FramesActor::new(p, &scenario)).transpose()?;
     let bar = if a.json || !std::io::stderr().is_terminal() { ProgressBar::hidden() } else { ProgressBar::new(seeds.len() as u64) };
     bar.set_style(ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} episodes ({eta})")?.progress_chars("=> "));
     bar.set_message(scenario.name.clone());
@@ -261,6 +285,9 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
     for (k, &seed) in seeds.iter().enumerate() {
         env.reset(seed);
         controllers.reset(&env);
+        if let Some(f) = frames.as_mut() {
+            f.reset();
+        }
         if let Some(l) = live.as_mut() {
             l.step(&env);
         }
@@ -274,7 +301,10 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
             if a.trace_every > 0 && env.steps().is_multiple_of(a.trace_every) {
                 eprintln!("--- seed {seed}, step {}\n{}", env.steps(), avacraft_engine::describe(&env, Team::One));
             }
-            controllers.act(&mut env);
+            match frames.as_mut() {
+                Some(f) => f.act(&mut env)?,
+                None => controllers.act(&mut env),
+            }
             if a.ava.dry_run {
                 // What the model would have seen at the first decision is printed.
                 return Ok(());

@@ -67,7 +67,7 @@ pub use monitor::{Progress, RunOptions, Summary};
 pub use nets::Nets;
 pub use observe::ObsSource;
 pub use optim::{Optimizer, OptimizerKind};
-pub use policy::{MarlAgent, Policy, TestResult, select_actions};
+pub use policy::{FramesActor, MarlAgent, Policy, TestResult, select_actions};
 pub use ppo::PpoLearner;
 pub use td::QGrads;
 pub use train::{Trained, train, train_from};

@@ -231,28 +231,15 @@ impl Policy {
         })
     }
 
-    /// Plays team 1 of `env` greedily to the episode's end, in any observation mode: before
-    /// each step, the frames (and text) the network reads are rendered from `env`, as in
-    /// training's test episodes, and its SMAC features and masks are read. This is how an
-    /// evaluation plays an image checkpoint, which an engine agent cannot. Team 2 is `env`'s
-    /// own opponent. `on_step` sees the environment before each step and at the end.
+    /// Plays team 1 of `env` greedily to the episode's end, in any observation mode (see
+    /// [`FramesActor`]): how an evaluation plays an image checkpoint, which an engine agent
+    /// cannot. Team 2 is `env`'s own opponent. `on_step` sees the environment before each
+    /// step and at the end.
     pub fn play_out(&self, env: &mut Env, on_step: &mut dyn FnMut(&Env)) -> Result<(), Error> {
-        self.check_scenario(env.scenario(), Team::One)?;
-        let mut source = ObsSource::new(&self.cfg)?;
-        let n = self.shape.n_agents;
-        let mut actor = Actor::new(&self.nets, 1, n);
-        let mut b = VecBuffers { obs: vec![0.0; n * self.shape.obs], avail: vec![0; n * self.shape.n_actions], ..VecBuffers::default() };
-        let name = env.scenario().name.clone();
-        let unreadable = |e: avacraft_engine::LearnError| Error::Observation { message: format!("team 1 of {name}: {e}") };
-        let mut rng = ChaCha8Rng::seed_from_u64(0);
+        let mut actor = FramesActor::new(self, env.scenario())?;
         while !env.done() {
             on_step(env);
-            env.obs_all(Team::One, &mut b.obs).map_err(unreadable)?;
-            env.avail_all(Team::One, &mut b.avail).map_err(unreadable)?;
-            let frames = source.as_mut().map(|s| s.observe(std::slice::from_ref(env))).transpose()?;
-            let acts = actor.act(&self.theta, &self.nets, &self.cfg, &self.shape, &b, frames.as_ref(), 0.0, &mut rng)?;
-            // Greedy choices are among the available actions, so none is refused.
-            let _ = env.submit_indices(Team::One, &acts.iter().map(|&a| a as usize).collect::<Vec<_>>());
+            actor.act(env)?;
             env.step();
         }
         on_step(env);
@@ -383,6 +370,61 @@ pub struct TestResult {
     pub episodes: usize,
     pub win_rate: f64,
     pub mean_return: f64,
+}
+
+/// Team 1's greedy actions, step by step, from what the network reads in any observation
+/// mode: before each step the frames (and text) of an image mode are rendered from the
+/// environment, as in training's test episodes, and its SMAC features and masks are read.
+/// An engine agent is handed units, not the world the renderer draws, so image checkpoints
+/// play through this instead (an evaluation's PvE cells, `episode`).
+pub struct FramesActor<'a> {
+    policy: &'a Policy,
+    source: Option<ObsSource>,
+    actor: Actor,
+    buffers: VecBuffers,
+    rng: ChaCha8Rng,
+}
+
+impl std::fmt::Debug for FramesActor<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FramesActor")
+            .field("scenario", &self.policy.scenario)
+            .field("obs", &self.policy.cfg.obs.name())
+            .finish_non_exhaustive()
+    }
+}
+
+impl<'a> FramesActor<'a> {
+    /// Refuses a scenario whose team 1 does not have the sizes the network was trained on.
+    pub fn new(policy: &'a Policy, scenario: &Scenario) -> Result<FramesActor<'a>, Error> {
+        policy.check_scenario(scenario, Team::One)?;
+        let (n, sh) = (policy.shape.n_agents, &policy.shape);
+        Ok(FramesActor {
+            policy,
+            source: ObsSource::new(&policy.cfg)?,
+            actor: Actor::new(&policy.nets, 1, n),
+            buffers: VecBuffers { obs: vec![0.0; n * sh.obs], avail: vec![0; n * sh.n_actions], ..VecBuffers::default() },
+            rng: ChaCha8Rng::seed_from_u64(0),
+        })
+    }
+
+    /// Forgets the episode's hidden states and last actions (call at each episode's start).
+    pub fn reset(&mut self) {
+        self.actor.reset_envs(&[true], self.policy.shape.n_agents);
+    }
+
+    /// Submits team 1's actions for `env`'s next step.
+    pub fn act(&mut self, env: &mut Env) -> Result<(), Error> {
+        let p = self.policy;
+        let unreadable = |e: avacraft_engine::LearnError| Error::Observation { message: format!("team 1 of {}: {e}", env.scenario().name) };
+        env.obs_all(Team::One, &mut self.buffers.obs).map_err(unreadable)?;
+        env.avail_all(Team::One, &mut self.buffers.avail).map_err(unreadable)?;
+        let frames = self.source.as_mut().map(|s| s.observe(std::slice::from_ref(env))).transpose()?;
+        let acts = self.actor.act(&p.theta, &p.nets, &p.cfg, &p.shape, &self.buffers, frames.as_ref(), 0.0, &mut self.rng)?;
+        // Greedy choices are among the available actions, so none is refused.
+        let _ = env.submit_indices(Team::One, &acts.iter().map(|&a| a as usize).collect::<Vec<_>>());
+        Ok(())
+    }
 }
 
 /// The acting side of a set of rows (environments x agents): GRU hidden states and last

@@ -216,11 +216,11 @@ fn a_grown_plan_plays_only_its_new_cells_and_a_changed_checkpoint_is_refused() {
     assert_eq!(episodes(&out), after, "nothing recorded changed");
 }
 
-/// A shipped image-mode baseline plays an evaluation's PvE cells from rendered frames (an
-/// engine agent is not handed them) and wins as its greedy tests did; in a head-to-head, or
-/// as `episode`'s agent, it is refused with the reason.
+/// A shipped image-mode baseline plays PvE from frames rendered from the game (an engine
+/// agent is not handed them): an evaluation's cells and `episode` play the same games, won
+/// as its greedy tests were; in a PvP game it is refused with the reason.
 #[test]
-fn image_baselines_play_pve_cells_from_rendered_frames() {
+fn image_baselines_play_pve_from_rendered_frames() {
     let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let dir = tmp("eval-rgb");
     std::fs::create_dir_all(&dir).expect("dir");
@@ -231,20 +231,21 @@ fn image_baselines_play_pve_cells_from_rendered_frames() {
     )
     .expect("plan");
     let out = tmp("eval-rgb-out");
-    let o = Command::new(exe())
-        .env("AVACRAFT_BASELINES", repo.join("baselines"))
-        .args(["eval", p.to_str().expect("utf-8"), "--out", out.to_str().expect("utf-8")])
-        .output()
-        .expect("eval");
+    let run = |args: &[&str]| Command::new(exe()).env("AVACRAFT_BASELINES", repo.join("baselines")).args(args).output().expect("avacraft");
+    let o = run(&["eval", p.to_str().expect("utf-8"), "--out", out.to_str().expect("utf-8")]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let all = episodes(&out);
     assert_eq!(all.len(), 2, "{all:?}");
     assert!(all.values().all(|(result, _)| result == "win"), "{all:?}");
-    let o = Command::new(exe())
-        .env("AVACRAFT_BASELINES", repo.join("baselines"))
-        .args(["episode", "--scenario", "3m", "--agent", "baseline:mappo-rgb"])
-        .output()
-        .expect("episode");
+    let o = run(&["episode", "--scenario", "3m", "--agent", "baseline:mappo-rgb", "--seed", "7", "--episodes", "2", "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
+    let hashes: Vec<&str> =
+        v["episodes"].as_array().expect("episodes").iter().map(|e| e["trajectory_hash"].as_str().expect("hash")).collect();
+    let evaluated: Vec<&str> = all.values().map(|(_, h)| h.as_str()).collect();
+    assert_eq!(hashes, evaluated, "episode and eval play the same games");
+    let rgb = repo.join("baselines/3m/mappo-rgb");
+    let o = run(&["episode", "--scenario", "MMM_vs_MMM", "--agent", &format!("marl:{}", rgb.display())]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("trained on `rgb` observations"), "{err}");
 }
