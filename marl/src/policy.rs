@@ -225,7 +225,7 @@ impl Policy {
         (self.cfg.obs != crate::ObsKind::Features).then(|| {
             format!(
                 "trained on `{}` observations: an engine agent is not handed the frames the encoder reads, so only `features` \
-                 checkpoints play as agents (an evaluation plan's PvE cells play image checkpoints from rendered frames)",
+                 checkpoints play as agents (`avacraft eval` and `episode` play image checkpoints in PvE, from rendered frames)",
                 self.cfg.obs.name()
             )
         })
