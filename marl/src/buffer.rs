@@ -119,7 +119,8 @@ impl ReplayBuffer {
         self.next = (self.next + 1) % self.capacity;
     }
     /// `n` distinct episodes drawn uniformly (fewer if the buffer holds fewer), longest
-    /// first (ties in drawing order): the fused networks then skip each episode's padding.
+    /// first (ties in drawing order). The fused networks skip padding in any order; sorted,
+    /// each step's running episodes are one contiguous run of rows to pack.
     pub fn sample(&self, n: usize, rng: &mut ChaCha8Rng) -> Vec<&Episode> {
         let n = n.min(self.episodes.len());
         let mut out: Vec<&Episode> = sample(rng, self.episodes.len(), n).into_iter().map(|i| &self.episodes[i]).collect();

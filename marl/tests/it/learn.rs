@@ -73,7 +73,7 @@ fn fused_gradients_match_the_candle_reference() -> R {
         let mut rng = ChaCha8Rng::seed_from_u64(9);
         let eps = random_episodes(&SMALL, 40, &mut rng);
         let mut refs: Vec<&Episode> = eps.iter().collect();
-        // Longest first, as the replay buffer samples them: the fused pass skips the padding.
+        // Longest first, as the replay buffer samples them (the fused pass skips the padding).
         refs.sort_by_key(|e| std::cmp::Reverse(e.len));
         assert!(refs.first().map(|e| e.len) > refs.last().map(|e| e.len), "the batch must hold padding");
         let batch = Batch::new(&refs, &SMALL, true, true)?;
