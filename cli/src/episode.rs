@@ -248,7 +248,7 @@ fn team_agent(scenario: &Scenario, team: Team, name: &str, flag: &str) -> Result
 // AVA's costs), which share the loop's tallies.
 pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
     let Setup { scenario, cfg, mut controllers, seeds, agent, agent2, opponent, ava, nodes, frames } = setup(a)?;
-    let mut frames = frames.as_deref().map(|p| avacraft_marl::FramesActor::new(p, &scenario)).transpose()?;
+    let mut frames = frames.map(|p| avacraft_marl::FramesActor::new(p, &scenario)).transpose()?;
     let bar = if a.json || !std::io::stderr().is_terminal() { ProgressBar::hidden() } else { ProgressBar::new(seeds.len() as u64) };
     bar.set_style(ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} episodes ({eta})")?.progress_chars("=> "));
     bar.set_message(scenario.name.clone());

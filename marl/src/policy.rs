@@ -235,8 +235,8 @@ impl Policy {
     /// [`FramesActor`]): how an evaluation plays an image checkpoint, which an engine agent
     /// cannot. Team 2 is `env`'s own opponent. `on_step` sees the environment before each
     /// step and at the end.
-    pub fn play_out(&self, env: &mut Env, on_step: &mut dyn FnMut(&Env)) -> Result<(), Error> {
-        let mut actor = FramesActor::new(self, env.scenario())?;
+    pub fn play_out(self: &Arc<Self>, env: &mut Env, on_step: &mut dyn FnMut(&Env)) -> Result<(), Error> {
+        let mut actor = FramesActor::new(Arc::clone(self), env.scenario())?;
         while !env.done() {
             on_step(env);
             actor.act(env)?;
@@ -377,15 +377,15 @@ pub struct TestResult {
 /// environment, as in training's test episodes, and its SMAC features and masks are read.
 /// An engine agent is handed units, not the world the renderer draws, so image checkpoints
 /// play through this instead (an evaluation's PvE cells, `episode`).
-pub struct FramesActor<'a> {
-    policy: &'a Policy,
+pub struct FramesActor {
+    policy: Arc<Policy>,
     source: Option<ObsSource>,
     actor: Actor,
     buffers: VecBuffers,
     rng: ChaCha8Rng,
 }
 
-impl std::fmt::Debug for FramesActor<'_> {
+impl std::fmt::Debug for FramesActor {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("FramesActor")
             .field("scenario", &self.policy.scenario)
@@ -394,17 +394,17 @@ impl std::fmt::Debug for FramesActor<'_> {
     }
 }
 
-impl<'a> FramesActor<'a> {
+impl FramesActor {
     /// Refuses a scenario whose team 1 does not have the sizes the network was trained on.
-    pub fn new(policy: &'a Policy, scenario: &Scenario) -> Result<FramesActor<'a>, Error> {
+    pub fn new(policy: Arc<Policy>, scenario: &Scenario) -> Result<FramesActor, Error> {
         policy.check_scenario(scenario, Team::One)?;
-        let (n, sh) = (policy.shape.n_agents, &policy.shape);
+        let (n, sh) = (policy.shape.n_agents, policy.shape);
         Ok(FramesActor {
-            policy,
             source: ObsSource::new(&policy.cfg)?,
             actor: Actor::new(&policy.nets, 1, n),
             buffers: VecBuffers { obs: vec![0.0; n * sh.obs], avail: vec![0; n * sh.n_actions], ..VecBuffers::default() },
             rng: ChaCha8Rng::seed_from_u64(0),
+            policy,
         })
     }
 
@@ -413,17 +413,29 @@ impl<'a> FramesActor<'a> {
         self.actor.reset_envs(&[true], self.policy.shape.n_agents);
     }
 
+    /// The policy it plays.
+    pub fn policy(&self) -> &Arc<Policy> {
+        &self.policy
+    }
+
     /// Submits team 1's actions for `env`'s next step.
     pub fn act(&mut self, env: &mut Env) -> Result<(), Error> {
-        let p = self.policy;
+        let acts = self.choose(env)?;
+        // Greedy choices are among the available actions, so none is refused.
+        let _ = env.submit_indices(Team::One, &acts);
+        Ok(())
+    }
+
+    /// Team 1's greedy SMAC action indices for `env`'s next step (dead agents' no-op
+    /// included), advancing the agents' hidden states: call once per step.
+    pub fn choose(&mut self, env: &Env) -> Result<Vec<usize>, Error> {
+        let p = &*self.policy;
         let unreadable = |e: avacraft_engine::LearnError| Error::Observation { message: format!("team 1 of {}: {e}", env.scenario().name) };
         env.obs_all(Team::One, &mut self.buffers.obs).map_err(unreadable)?;
         env.avail_all(Team::One, &mut self.buffers.avail).map_err(unreadable)?;
         let frames = self.source.as_mut().map(|s| s.observe(std::slice::from_ref(env))).transpose()?;
         let acts = self.actor.act(&p.theta, &p.nets, &p.cfg, &p.shape, &self.buffers, frames.as_ref(), 0.0, &mut self.rng)?;
-        // Greedy choices are among the available actions, so none is refused.
-        let _ = env.submit_indices(Team::One, &acts.iter().map(|&a| a as usize).collect::<Vec<_>>());
-        Ok(())
+        Ok(acts.iter().map(|&a| a as usize).collect())
     }
 }
 

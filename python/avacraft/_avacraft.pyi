@@ -143,6 +143,9 @@ class MarlPolicy:
     @property
     def algo(self) -> str: ...
     @property
+    def obs(self) -> str:
+        """The observation mode it was trained on: features, rgb, hybrid or vision-text."""
+    @property
     def n_agents(self) -> int: ...
     @property
     def obs_size(self) -> int: ...
@@ -154,6 +157,9 @@ class MarlPolicy:
         """Raises `AvacraftError` unless trained on `env`'s scenario with its team's sizes."""
     def act(self, obs: npt.NDArray[np.float32], avail: npt.NDArray[np.uint8], team: int = 1) -> npt.NDArray[np.int64]:
         """n_agents x obs_size features and n_agents x n_actions masks in, one greedy action per agent out."""
+    def act_env(self, env: Env) -> npt.NDArray[np.int64]:
+        """Team 1's greedy actions for `env`'s next step in the checkpoint's own observation mode
+        (an image checkpoint's frames rendered from the game); hidden states apart from `act`'s."""
     def play(self, env: Env, seed: int) -> dict[str, Any]:
         """One episode of `env` from `seed` with the Rust agent (`avacraft episode --agent marl:DIR`, and in
         PvP `--agent2 marl:DIR`): {"result": "win" | "loss" | "draw", "steps", "trajectory_hash", "actions"}

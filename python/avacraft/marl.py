@@ -12,6 +12,14 @@ with its own GRU state and last action, greedy over the available actions: the a
         _, done, info = env.step(policy.act(env.get_obs(), env.get_avail_actions()))
 
 With `parallel_env` observations (features or hybrid mode): `env.step(policy.act_parallel(obs))`.
+
+An image checkpoint (`policy.obs` is `rgb`, `hybrid` or `vision-text`) reads frames rendered
+from the game, which the SMAC API does not hand out: `policy.act_env(env)` renders them as
+training's test episodes did and returns team 1's actions (any checkpoint plays this way):
+
+    policy = avacraft.MarlPolicy.baseline("2s3z", "mappo-rgb")
+    while not done:
+        _, done, info = env.step(policy.act_env(env))
 """
 
 from __future__ import annotations
@@ -50,6 +58,14 @@ class MarlPolicy(_MarlPolicy):
         GRU states: call once per step. `team=2` plays team 2 of a PvP scenario: the network,
         trained as team 1, sees and acts in the mirror image (east and west swapped)."""
         return super().act(np.ascontiguousarray(obs, dtype=np.float32), np.ascontiguousarray(avail, dtype=np.uint8), team)
+
+    def act_env(self, env: Any) -> np.ndarray:
+        """Greedy actions (int64, one per agent of team 1, dead ones' no-op included) for the
+        next step of `env` (an `Env`, or a `StarCraft2Env` or `parallel_env`, whose `.env` is
+        used), read in the checkpoint's own observation mode: an image checkpoint's frames are
+        rendered from the game. Hidden states are kept apart from `act`'s; `reset()` clears
+        both. Image checkpoints play team 1 of PvE scenarios only."""
+        return super().act_env(getattr(env, "env", env))
 
     def act_parallel(self, observations: dict[str, dict[str, Any]], team: int = 1) -> dict[str, int]:
         """Actions for a PettingZoo `parallel_env` step from its observation dict (features or

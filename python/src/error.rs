@@ -61,6 +61,13 @@ pub(crate) enum PolicyError {
     NoAction { agent: usize },
     #[error("the network")]
     Network(#[source] Box<avacraft_marl::Error>),
+    #[error(
+        "{dir}: trained on `{obs}` observations, which {method} is not handed: the network reads frames \
+         rendered from the game; act_env(env) renders them and plays team 1"
+    )]
+    NeedsFrames { dir: String, obs: &'static str, method: &'static str },
+    #[error("{dir}: an `{obs}` checkpoint plays team 1 of a PvE scenario from rendered frames; {scenario} is PvP")]
+    FramesPvp { dir: String, obs: &'static str, scenario: String },
 }
 
 impl From<avacraft_policy::PolicyError> for PolicyError {

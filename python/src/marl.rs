@@ -13,7 +13,7 @@ use crate::env::PyEnv;
 use crate::error::{AvacraftError, PolicyError};
 use avacraft_engine::agent::{AgentTeam, Grouping};
 use avacraft_engine::{Mode, Outcome, Scenario, SmacLayout, Team};
-use avacraft_marl::{MarlAgent, Policy, select_actions};
+use avacraft_marl::{FramesActor, MarlAgent, ObsKind, Policy, select_actions};
 use avacraft_policy::MarlCheckpoint;
 use numpy::{PyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -34,6 +34,9 @@ pub struct PyMarlPolicy {
     last: Vec<Option<u32>>,
     /// Team 2's layout on the trained scenario, loaded when team 2 first acts (to mirror).
     mirror: Option<SmacLayout>,
+    /// `act_env`'s actor (frames rendered from the game, its own hidden states), made on
+    /// first use.
+    frames: Option<FramesActor>,
 }
 
 impl PyMarlPolicy {
@@ -46,7 +49,31 @@ impl PyMarlPolicy {
         let policy = Arc::clone(checkpoint.policy()?);
         let n = policy.shape.n_agents;
         let width = policy.nets.agent.hidden;
-        Ok(Self { policy, checkpoint, hidden: vec![0.0; n * width], last: vec![None; n], mirror: None })
+        Ok(Self { policy, checkpoint, hidden: vec![0.0; n * width], last: vec![None; n], mirror: None, frames: None })
+    }
+
+    fn dir(&self) -> String {
+        self.checkpoint.dir().display().to_string()
+    }
+
+    /// Refuses an image checkpoint where only SMAC features are handed over.
+    fn features_only(&self, method: &'static str) -> Result<(), PolicyError> {
+        match self.policy.cfg.obs {
+            ObsKind::Features => Ok(()),
+            obs => Err(PolicyError::NeedsFrames { dir: self.dir(), obs: obs.name(), method }),
+        }
+    }
+
+    /// Checks that team 1 of `env` fits and that the scenario is PvE for an image checkpoint
+    /// (its frames are team 1's, and no mirror image of them is drawn).
+    fn check_frames(&self, env: &avacraft_engine::Env) -> Result<(), PolicyError> {
+        if self.policy.cfg.obs != ObsKind::Features && env.scenario().mode == Mode::Pvp {
+            return Err(PolicyError::FramesPvp { dir: self.dir(), obs: self.policy.cfg.obs.name(), scenario: env.scenario().name.clone() });
+        }
+        match self.checkpoint.frames_policy(env.scenario())? {
+            Some(_) => Ok(()),
+            None => self.check(env, Team::One),
+        }
     }
 
     /// Team 2's layout, for the mirror image.
@@ -81,6 +108,11 @@ impl PyMarlPolicy {
     fn algo(&self) -> String {
         self.policy.cfg.algo.clone()
     }
+    /// The observation mode it was trained on (`features`, `rgb`, `hybrid`, `vision-text`).
+    #[getter]
+    fn obs(&self) -> &'static str {
+        self.policy.cfg.obs.name()
+    }
     #[getter]
     fn n_agents(&self) -> usize {
         self.policy.shape.n_agents
@@ -98,6 +130,9 @@ impl PyMarlPolicy {
     fn reset(&mut self) {
         self.hidden.iter_mut().for_each(|h| *h = 0.0);
         self.last.iter_mut().for_each(|l| *l = None);
+        if let Some(f) = self.frames.as_mut() {
+            f.reset();
+        }
     }
 
     /// Raises `AvacraftError` unless the policy can play `team` of `env`'s scenario (the
@@ -122,6 +157,7 @@ impl PyMarlPolicy {
         team: u8,
     ) -> PyResult<Bound<'py, PyArray1<i64>>> {
         let team = crate::env::team(team)?;
+        self.features_only("act(obs, avail)")?;
         let sh = self.policy.shape;
         let n = sh.n_agents;
         for (what, a, cols, what_size) in [("obs", obs.shape(), sh.obs, "obs_size"), ("avail", avail.shape(), sh.n_actions, "n_actions")] {
@@ -155,6 +191,25 @@ impl PyMarlPolicy {
         Ok(PyArray1::from_vec(py, out.collect()))
     }
 
+    /// Greedy actions (int64, one per agent, dead agents' no-op included) for team 1 of
+    /// `env`'s next step, from what the network reads in its own observation mode: an image
+    /// checkpoint's frames (and text) are rendered from the game as in training's test
+    /// episodes, with its SMAC features and masks. Any checkpoint plays this way (a
+    /// `features` one reads the same features `act` is handed). Advances the agents' hidden
+    /// states, kept apart from `act`'s: call once per step, and `reset()` at an episode's start.
+    fn act_env<'py>(&mut self, py: Python<'py>, env: &Bound<'py, PyEnv>) -> PyResult<Bound<'py, PyArray1<i64>>> {
+        let mut e = env.borrow_mut();
+        let env = e.engine();
+        self.check_frames(env)?;
+        if self.frames.is_none() {
+            let actor = FramesActor::new(Arc::clone(&self.policy), env.scenario()).map_err(|e| PolicyError::Network(Box::new(e)))?;
+            self.frames = Some(actor);
+        }
+        let actor = self.frames.as_mut().ok_or_else(|| AvacraftError::new_err("act_env: no actor"))?;
+        let acts = actor.choose(env).map_err(|e| PolicyError::Network(Box::new(e)))?;
+        Ok(PyArray1::from_vec(py, acts.into_iter().map(|a| a as i64).collect()))
+    }
+
     /// Plays one episode of `env` from `seed` in Rust with `avacraft_marl::MarlAgent` for
     /// team 1 (what `avacraft episode --agent marl:DIR` runs), and in PvP for team 2 too
     /// (`--agent2 marl:DIR`, in the mirror image), leaving `env` at its end: the reference a
@@ -166,9 +221,16 @@ impl PyMarlPolicy {
     /// The trajectory hash is the typed-action path's: it records no last action for dead
     /// units, where a SMAC loop records their no-op, so it differs from a Python loop's hash
     /// once a unit has died although the games are the same; compare actions and units.
+    ///
+    /// An image checkpoint plays team 1 of a PvE scenario through `FramesActor` (frames
+    /// rendered from the game), as `avacraft eval` and `episode` play it; `act_env` in a
+    /// Python loop takes the same actions.
     fn play<'py>(&self, py: Python<'py>, env: &Bound<'py, PyEnv>, seed: u64) -> PyResult<Bound<'py, PyDict>> {
         let mut e = env.borrow_mut();
         let env = e.engine();
+        if self.policy.cfg.obs != ObsKind::Features {
+            return self.play_frames(py, env, seed);
+        }
         let teams: &[Team] = if env.scenario().mode == Mode::Pvp { &[Team::One, Team::Two] } else { &[Team::One] };
         for &t in teams {
             self.check(env, t)?;
@@ -215,6 +277,29 @@ impl PyMarlPolicy {
             self.policy.cfg.algo,
             self.policy.shape.n_agents
         )
+    }
+}
+
+impl PyMarlPolicy {
+    /// `play` for an image checkpoint: team 1 of a PvE scenario through
+    /// [`FramesActor`], as `avacraft eval` and `episode` play it. The actions are recorded
+    /// as the engine agent's are: -1 for a dead agent (whose only action is the no-op).
+    fn play_frames<'py>(&self, py: Python<'py>, env: &mut avacraft_engine::Env, seed: u64) -> PyResult<Bound<'py, PyDict>> {
+        self.check_frames(env)?;
+        let network = |e| PolicyError::Network(Box::new(e));
+        let mut actor = FramesActor::new(Arc::clone(&self.policy), env.scenario()).map_err(network)?;
+        env.reset(seed);
+        let mut chosen: Vec<Vec<i64>> = Vec::new();
+        while !env.done() {
+            let acts = actor.choose(env).map_err(network)?;
+            // Greedy choices are among the available actions, so none is refused.
+            let _ = env.submit_indices(Team::One, &acts);
+            chosen.push(acts.iter().map(|&a| if a == 0 { -1 } else { a as i64 }).collect());
+            env.step();
+        }
+        let d = episode_result(py, env, Team::One)?;
+        d.set_item("actions", chosen)?;
+        Ok(d)
     }
 }
 

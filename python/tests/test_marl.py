@@ -150,3 +150,45 @@ def test_team_2_plays_in_the_mirror_image_as_the_rust_agent():
         assert len(ref["actions2"]) == ref["steps"] == env.env.steps, f"seed {seed}"
         assert env.env.units() == ref_env.units(), f"seed {seed}: the same units, positions and health at the end"
     assert differs > 0, "the mirror changed no action"
+
+
+RGB = pathlib.Path(__file__).resolve().parents[2] / "baselines" / "3m" / "mappo-rgb"
+
+
+def test_an_image_checkpoint_plays_from_frames_rendered_from_the_game():
+    policy = avacraft.MarlPolicy(RGB)
+    assert (policy.obs, policy.scenario) == ("rgb", "3m")
+    for seed in (1001, 1002):
+        ref_env = avacraft.Env("3m", reward="sparse", passive_allies=False)
+        ref = policy.play(ref_env, seed)
+        env = avacraft.StarCraft2Env("3m", seed=seed, reward_sparse=True, passive_allies=False)
+        env.reset()
+        policy.reset()
+        done, info, actions = False, {}, []
+        while not done:
+            avail = env.get_avail_actions()
+            a = policy.act_env(env)
+            assert a.dtype == np.int64 and all(avail[i][x] for i, x in enumerate(a))
+            actions.append(a.tolist())
+            _, done, info = env.step(a)
+        # The Rust loop records a dead agent's no-op as -1, as the engine agent's no order.
+        assert actions == [[a if a >= 0 else 0 for a in step] for step in ref["actions"]], f"seed {seed}"
+        assert env.env.units() == ref_env.units()
+        assert info["battle_won"] == (ref["result"] == "win")
+    # The shipped policy won 100 of the paper table's 100 games on 3m.
+    assert ref["result"] == "win"
+
+
+def test_an_image_checkpoint_refuses_features_and_pvp():
+    policy = avacraft.MarlPolicy(RGB)
+    with pytest.raises(avacraft.AvacraftError, match=r"trained on `rgb` observations.*act_env\(env\)"):
+        policy.act(np.zeros((3, policy.obs_size)), np.ones((3, 9)))
+    with pytest.raises(avacraft.AvacraftError, match="trained on scenario `3m`, not `2s3z`"):
+        policy.act_env(avacraft.Env("2s3z"))
+    with pytest.raises(avacraft.AvacraftError, match="terran_mirror is PvP"):
+        policy.play(avacraft.Env("terran_mirror"), 1)
+    # A features checkpoint plays through act_env too: the actions `act` takes.
+    features = avacraft.MarlPolicy(POLICY)
+    env = avacraft.Env("3m", seed=1)
+    env.reset(3)
+    assert features.act_env(env).tolist() == features.act(env.obs(), env.avail()).tolist()

@@ -41,7 +41,7 @@ fn play_out_plays_the_game_the_engine_agent_plays() -> R {
 
 #[test]
 fn an_rgb_policy_plays_out_the_episodes_its_tests_play() -> R {
-    let policy = Policy::load(&shipped("mappo-rgb"))?;
+    let policy = Arc::new(Policy::load(&shipped("mappo-rgb"))?);
     assert_eq!(policy.cfg.obs, ObsKind::Rgb);
     let scenario = Arc::new(Scenario::load("3m")?);
     let seeds = [4001, 4002];
