@@ -71,8 +71,8 @@ pub struct TrainArgs {
     #[arg(long, required_unless_present_any = ["resume", "plan"], conflicts_with = "resume")]
     pub out: Option<PathBuf>,
     /// Go on with the run in DIR from its last test round, with its config (`--steps` and
-    /// `--set` still apply, e.g. to train longer). The replay buffer and the optimiser's
-    /// moments start afresh.
+    /// `--set` still apply, e.g. to train longer), its optimisers' state and its random
+    /// streams. The replay buffer and the episodes under way start afresh.
     #[arg(long, value_name = "DIR", conflicts_with_all = ["config", "algo"])]
     pub resume: Option<PathBuf>,
 }

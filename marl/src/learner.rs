@@ -70,6 +70,20 @@ impl Learner {
         Ok(Learner { cfg: cfg.clone(), shape, nets, target, opt, flat, last_target_update: 0, updates: 0 })
     }
 
+    /// The optimiser's running state, kept across a resume (`None` for QTRAN, whose
+    /// candle optimiser starts afresh).
+    pub(crate) fn moments(&self) -> Option<crate::kernels::Moments> {
+        self.flat.as_ref().map(FlatState::moments)
+    }
+
+    /// Takes up a saved optimiser state (see [`Learner::moments`]).
+    pub(crate) fn set_moments(&mut self, m: crate::kernels::Moments) -> Result<(), String> {
+        match &mut self.flat {
+            Some(f) => f.set_moments(m),
+            None => Err("QTRAN's optimiser keeps no state across a resume".into()),
+        }
+    }
+
     /// Reads the flat vectors back from the candle networks (after a restore).
     pub(crate) fn reload(&mut self) -> Result<(), Error> {
         if let Some(f) = &mut self.flat {

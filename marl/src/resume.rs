@@ -6,11 +6,17 @@
 //! round: the log and the curves continue, epsilon and the target copies keep their schedule,
 //! and the environments start fresh episodes (from seeds past the ones already played).
 //!
+//! The optimisers' running states (Adam's moments and step count, RMSprop's averages) are
+//! kept too, in `resume/optim.safetensors`: a fresh Adam's bias correction makes its first
+//! steps full-size, which jolted a resumed policy. A run saved before they were kept resumes
+//! with fresh optimisers, as it did then.
+//!
 //! Not kept, so a resumed run is not bit-identical to an uninterrupted one: the replay
-//! buffer (it refills; up to `buffer_size` episodes of tens of MB), the optimiser's moment
-//! estimates, the episodes that were running at the checkpoint and, for PPO, the unfinished
-//! rollout.
+//! buffer (it refills; up to `buffer_size` episodes of tens of MB, gigabytes on the largest
+//! scenarios), the episodes that were running at the checkpoint, for PPO the unfinished
+//! rollout, and the optimisers of QTRAN and of the Swin encoder (candle's).
 
+use crate::kernels::Moments;
 use crate::learner::Learner;
 use crate::nets::Nets;
 use crate::plot::CurvePoint;
@@ -22,6 +28,51 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 const FORMAT: u32 = 1;
+
+/// The optimisers' states, beside `state.json`.
+const OPTIM_FILE: &str = "optim.safetensors";
+
+/// Writes named optimiser states into `dir/resume` (aside, then renamed).
+pub(crate) fn save_moments(dir: &Path, moments: &[(&str, Moments)]) -> Result<(), Error> {
+    let d = dir.join("resume");
+    std::fs::create_dir_all(&d).map_err(|source| Error::Io { path: d.clone(), source })?;
+    let mut map = std::collections::HashMap::new();
+    for (name, m) in moments {
+        for (i, v) in m.vectors.iter().enumerate() {
+            map.insert(format!("{name}.{i}"), candle_core::Tensor::from_slice(v, v.len(), &Device::Cpu)?);
+        }
+        map.insert(format!("{name}.steps"), candle_core::Tensor::new(&[f64::from(m.steps)], &Device::Cpu)?);
+    }
+    let tmp = d.join("optim.safetensors.tmp");
+    candle_core::safetensors::save(&map, &tmp)?;
+    let path = d.join(OPTIM_FILE);
+    std::fs::rename(&tmp, &path).map_err(|source| Error::Io { path, source })
+}
+
+/// The optimiser states saved in `dir/resume`, by name, shaped like `like`'s; `None` for a
+/// run saved before they were kept.
+fn load_moments(dir: &Path, like: &[(&str, Moments)]) -> Result<Option<Vec<Moments>>, Error> {
+    let path = dir.join("resume").join(OPTIM_FILE);
+    if !path.is_file() {
+        return Ok(None);
+    }
+    let map = load_tensors(&path)?;
+    let bad = |what: String| Error::Checkpoint { message: format!("{}: {what}", path.display()) };
+    let mut out = Vec::new();
+    for (name, m) in like {
+        let get = |key: String| map.get(&key).ok_or_else(|| bad(format!("no tensor `{key}`")));
+        let vectors = (0..m.vectors.len())
+            .map(|i| get(format!("{name}.{i}"))?.flatten_all()?.to_vec1::<f32>().map_err(Error::from))
+            .collect::<Result<Vec<_>, _>>()?;
+        let steps = get(format!("{name}.steps"))?.to_vec1::<f64>()?;
+        let steps = match steps.as_slice() {
+            [s] if s.fract() == 0.0 && (0.0..=f64::from(i32::MAX)).contains(s) => *s as i32,
+            other => return Err(bad(format!("`{name}.steps` = {other:?}, not a step count"))),
+        };
+        out.push(Moments { vectors, steps });
+    }
+    Ok(Some(out))
+}
 
 /// Where a run was at its last test round.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -137,7 +188,18 @@ pub(crate) fn restore_ppo(dir: &Path, learner: &mut PpoLearner, state: &RunState
         .clone()
         .ok_or_else(|| Error::Checkpoint { message: format!("{}: no value statistics to resume from", dir.display()) })?;
     learner.updates = state.updates;
-    learner.load_weights()
+    learner.load_weights()?;
+    let like = learner.moments();
+    if let Some(saved) = load_moments(dir, &like)? {
+        for ((name, _), m) in like.iter().zip(saved) {
+            learner.set_moments(name, m).map_err(|e| optim_mismatch(dir, name, &e))?;
+        }
+    }
+    Ok(())
+}
+
+fn optim_mismatch(dir: &Path, name: &str, why: &str) -> Error {
+    Error::Checkpoint { message: format!("{}: the `{name}` optimiser's state: {why}", dir.join("resume").join(OPTIM_FILE).display()) }
 }
 
 /// Loads the checkpoint's and the saved targets' weights into `learner`.
@@ -158,5 +220,64 @@ pub(crate) fn restore(dir: &Path, learner: &mut Learner, state: &RunState) -> Re
     }
     learner.updates = state.updates;
     learner.last_target_update = state.last_target_update;
-    learner.reload()
+    learner.reload()?;
+    if let Some(like) = learner.moments()
+        && let Some(saved) = load_moments(dir, &[("q", like)])?.and_then(|v| v.into_iter().next())
+    {
+        learner.set_moments(saved).map_err(|e| optim_mismatch(dir, "q", &e))?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kernels::{Adam, RmsProp};
+
+    fn scratch(name: &str) -> std::path::PathBuf {
+        let d = std::env::temp_dir().join(format!("avacraft-resume-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        d
+    }
+
+    /// A resumed Adam takes the steps the uninterrupted one takes; RMSprop's averages come
+    /// back too; a state of another shape, or a broken step count, is refused by name.
+    #[test]
+    fn optimiser_states_come_back_and_mismatches_are_named() -> Result<(), Error> {
+        let dir = scratch("optim");
+        let grads = [[0.5f32, -1.0, 2.0], [0.25, 0.75, -0.5], [1.0, 1.0, 1.0]];
+        let (mut theta, mut adam) = (vec![0.1f32, 0.2, 0.3], Adam::new(3, 0.01, 1e-5));
+        let mut rms = RmsProp::new(3, 0.01, 0.99, 1e-5);
+        let mut rms_theta = theta.clone();
+        for g in &grads[..2] {
+            adam.step(&mut theta, g);
+            rms.step(&mut rms_theta, g);
+        }
+        assert!(load_moments(&dir, &[("q", adam.moments())])?.is_none(), "no file: a fresh optimiser, as before");
+        save_moments(&dir, &[("actor", adam.moments()), ("critic", rms.moments())])?;
+        let (mut fresh, mut fresh_rms) = (Adam::new(3, 0.01, 1e-5), RmsProp::new(3, 0.01, 0.99, 1e-5));
+        let back = load_moments(&dir, &[("actor", fresh.moments()), ("critic", fresh_rms.moments())])?.unwrap_or_default();
+        assert_eq!(back, [adam.moments(), rms.moments()]);
+        let mut it = back.into_iter();
+        fresh.set_moments(it.next().unwrap_or_else(|| fresh.moments())).map_err(|m| Error::Checkpoint { message: m })?;
+        fresh_rms.set_moments(it.next().unwrap_or_else(|| fresh_rms.moments())).map_err(|m| Error::Checkpoint { message: m })?;
+        let (mut resumed, mut resumed_rms) = (theta.clone(), rms_theta.clone());
+        adam.step(&mut theta, &grads[2]);
+        fresh.step(&mut resumed, &grads[2]);
+        rms.step(&mut rms_theta, &grads[2]);
+        fresh_rms.step(&mut resumed_rms, &grads[2]);
+        assert_eq!((resumed, resumed_rms), (theta, rms_theta));
+
+        let e = Adam::new(4, 0.01, 1e-5).set_moments(adam.moments()).err().unwrap_or_default();
+        assert!(e.contains("[3, 3]") && e.contains("[4, 4]"), "{e}");
+        assert!(load_moments(&dir, &[("q", adam.moments())]).err().is_some_and(|e| e.to_string().contains("no tensor `q.0`")));
+        let mut map = std::collections::HashMap::new();
+        map.insert("q.0".to_owned(), candle_core::Tensor::new(&[1f32, 2.0, 3.0], &Device::Cpu)?);
+        map.insert("q.steps".to_owned(), candle_core::Tensor::new(&[2.5f64], &Device::Cpu)?);
+        candle_core::safetensors::save(&map, dir.join("resume").join(OPTIM_FILE))?;
+        let e = load_moments(&dir, &[("q", rms.moments())]).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("`q.steps` = [2.5], not a step count") && e.contains(OPTIM_FILE), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+        Ok(())
+    }
 }

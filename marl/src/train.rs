@@ -171,6 +171,10 @@ fn train_q(
         let tested = monitor.after_step(t_env, (episodes, learner.updates), eps, &last, nets, &mut save)?;
         if tested && let Some(dir) = &opts.out {
             let rngs = (act_rng.get_word_pos(), sample_rng.get_word_pos());
+            // The optimiser's state first: `state.json` is what a resume starts from.
+            if let Some(m) = learner.moments() {
+                crate::resume::save_moments(dir, &[("q", m)])?;
+            }
             RunState::new(
                 opts.seed,
                 t_env,

@@ -2,6 +2,26 @@
 //! `eps` added to the root), RMSprop (PyTorch's, as [`crate::optim`]'s: no momentum, not
 //! centred) and global-norm gradient clipping on flat vectors.
 
+/// An optimiser's running state over one flat vector (Adam's two moments and its step count;
+/// RMSprop's squared-gradient average), kept across a resume so a resumed run's first steps
+/// are not those of a fresh optimiser (Adam's bias correction makes them full-size).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Moments {
+    pub vectors: Vec<Vec<f32>>,
+    pub steps: i32,
+}
+
+impl Moments {
+    /// Refuses a state of another shape than `like`'s (another optimiser or network).
+    fn check(&self, like: &Moments) -> Result<(), String> {
+        let shape = |m: &Moments| m.vectors.iter().map(Vec::len).collect::<Vec<_>>();
+        if shape(self) != shape(like) || self.steps < 0 {
+            return Err(format!("vectors of lengths {:?} and {} steps where {:?} are needed", shape(self), self.steps, shape(like)));
+        }
+        Ok(())
+    }
+}
+
 /// Adam's state for one flat parameter vector.
 #[derive(Clone, Debug)]
 pub struct Adam {
@@ -17,6 +37,20 @@ pub struct Adam {
 impl Adam {
     pub fn new(len: usize, lr: f64, eps: f64) -> Adam {
         Adam { lr, eps, beta1: 0.9, beta2: 0.999, m: vec![0.0; len], v: vec![0.0; len], steps: 0 }
+    }
+
+    pub fn moments(&self) -> Moments {
+        Moments { vectors: vec![self.m.clone(), self.v.clone()], steps: self.steps }
+    }
+
+    /// Takes up a saved state; refuses one of another shape, naming it.
+    pub fn set_moments(&mut self, m: Moments) -> Result<(), String> {
+        m.check(&self.moments())?;
+        let mut it = m.vectors.into_iter();
+        if let (Some(first), Some(second)) = (it.next(), it.next()) {
+            (self.m, self.v, self.steps) = (first, second, m.steps);
+        }
+        Ok(())
     }
 
     /// One step of `theta` along `grad`.
@@ -47,6 +81,19 @@ pub struct RmsProp {
 impl RmsProp {
     pub fn new(len: usize, lr: f64, alpha: f64, eps: f64) -> RmsProp {
         RmsProp { lr, alpha, eps, square_avg: vec![0.0; len] }
+    }
+
+    pub fn moments(&self) -> Moments {
+        Moments { vectors: vec![self.square_avg.clone()], steps: 0 }
+    }
+
+    /// Takes up a saved state; refuses one of another shape, naming it.
+    pub fn set_moments(&mut self, m: Moments) -> Result<(), String> {
+        m.check(&self.moments())?;
+        if let Some(sq) = m.vectors.into_iter().next() {
+            self.square_avg = sq;
+        }
+        Ok(())
     }
 
     /// One step of `theta` along `grad`.

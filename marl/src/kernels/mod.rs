@@ -13,7 +13,7 @@ pub mod net;
 mod pack;
 pub mod ppo_loss;
 
-pub use adam::{Adam, RmsProp, clip_global_norm};
+pub use adam::{Adam, Moments, RmsProp, clip_global_norm};
 pub use conv::{EncoderForward, EncoderLayout, Pixels};
 pub use mixer::{MixerForward, MixerLayout};
 pub use net::{Forward, Input, NetLayout};

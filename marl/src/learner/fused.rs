@@ -11,7 +11,7 @@
 //! two give the same gradients (`tests/it/learn.rs`).
 
 use crate::buffer::{Batch, Shape};
-use crate::kernels::{Adam, EncoderForward, MixerLayout, NetLayout, RmsProp, Want};
+use crate::kernels::{Adam, EncoderForward, MixerLayout, Moments, NetLayout, RmsProp, Want};
 use crate::nets::{Mixer, Nets};
 use crate::optim::OptimizerKind;
 use crate::td::{MASKED, QGrads, td_targets_flat};
@@ -105,6 +105,20 @@ impl FlatState {
             clip: cfg.grad_norm_clip,
             scratch: Mutex::new(EncoderForward::default()),
         })
+    }
+
+    pub(super) fn moments(&self) -> Moments {
+        match &self.opt {
+            FlatOpt::Rms(o) => o.moments(),
+            FlatOpt::Adam(o) => o.moments(),
+        }
+    }
+
+    pub(super) fn set_moments(&mut self, m: Moments) -> Result<(), String> {
+        match &mut self.opt {
+            FlatOpt::Rms(o) => o.set_moments(m),
+            FlatOpt::Adam(o) => o.set_moments(m),
+        }
     }
 
     fn mixer_range(&self) -> std::ops::Range<usize> {

@@ -8,7 +8,7 @@ use super::value_norm::ValueNorm;
 use crate::buffer::Shape;
 use crate::frames::StepFrames;
 use crate::kernels::ppo_loss::{LossGrads, LossRows, LossSettings, ppo_loss};
-use crate::kernels::{Adam, EncoderForward, EncoderLayout, Input, NetLayout, Pixels, Want, clip_global_norm};
+use crate::kernels::{Adam, EncoderForward, EncoderLayout, Input, Moments, NetLayout, Pixels, Want, clip_global_norm};
 use crate::nets::{AgentNet, Nets};
 use crate::params::{Linear, Params};
 use crate::{Config, Error};
@@ -690,6 +690,21 @@ impl PpoLearner {
     }
 
     /// Writes the critic's weights (`critic.safetensors`) into `dir`.
+    /// The actor's and the critic's Adam states, kept across a resume (the Swin encoder's
+    /// candle Adam starts afresh).
+    pub(crate) fn moments(&self) -> [(&'static str, Moments); 2] {
+        [("actor", self.actor_adam.moments()), ("critic", self.critic_adam.moments())]
+    }
+
+    /// Takes up saved Adam states (see [`PpoLearner::moments`]), by name.
+    pub(crate) fn set_moments(&mut self, name: &str, m: Moments) -> Result<(), String> {
+        match name {
+            "actor" => self.actor_adam.set_moments(m),
+            "critic" => self.critic_adam.set_moments(m),
+            other => Err(format!("no optimiser named `{other}`")),
+        }
+    }
+
     pub fn save_critic(&self, dir: &std::path::Path) -> Result<(), Error> {
         std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
         Ok(candle_core::safetensors::save(&self.critic_params.to_map(), dir.join("critic.safetensors"))?)

@@ -166,6 +166,8 @@ pub fn train_from(
                 &monitor.curve,
             );
             state.value_norm = Some(learner.value_norm.clone());
+            // The optimisers' state first: `state.json` is what a resume starts from.
+            crate::resume::save_moments(dir, &learner.moments())?;
             state.save(dir, None)?;
         }
         let t_test = clock.elapsed();

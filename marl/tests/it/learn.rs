@@ -364,6 +364,7 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
     // A resumed run goes on from the last test round with the log, curves and schedule.
     let (cfg_back, state) = avacraft_marl::resume::load(&dir)?;
     assert_eq!(cfg_back, c);
+    assert!(dir.join("resume/optim.safetensors").is_file(), "the optimiser's state is kept");
     assert_eq!((state.t_env, state.tests.clone()), (summary.t_env, summary.tests.clone()));
     let longer = Config { t_max: 600, ..c.clone() };
     let (_, resumed) = avacraft_marl::train_from(&longer, &opts, Some(state), &mut |_| {})?;

@@ -401,6 +401,7 @@ fn short_ippo_and_mappo_runs_on_3m_train_checkpoint_reproduce_and_play() -> R {
             assert_eq!((state.t_env, state.updates, state.seed), (2000, 25, 5));
             let Trained::Ppo(first) = &trained else { unreachable!() };
             assert_eq!(state.value_norm.as_ref(), Some(&first.value_norm));
+            assert!(dir.join("resume/optim.safetensors").is_file(), "the optimisers' state is kept");
             let longer = Config { t_max: 3000, ..cfg_back };
             let mut seen_first = None;
             let (resumed, s3) = avacraft_marl::train_from(&longer, &opts, Some(state), &mut |p| {
