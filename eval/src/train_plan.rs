@@ -315,6 +315,11 @@ opponent = "focus-fire"
         assert_eq!(unique.len(), ids.len(), "a run planned twice");
         // Scenario by scenario: QMIX then MAPPO of each.
         assert_eq!(one.jobs[0].scenario, one.jobs[1].scenario);
+        // SMACv2's scenario: both learners, with units that acquire targets as the scripts' do.
+        let v2 = load_train_plan(&dir.join("smacv2.toml")).unwrap_or_else(|e| panic!("{e}"));
+        let ids: Vec<&str> = v2.jobs.iter().map(|j| j.id.as_str()).collect();
+        assert_eq!(ids, ["protoss_5_vs_5/mappo-s1", "protoss_5_vs_5/qmix-s1"]);
+        assert!(v2.jobs.iter().all(|j| j.overrides.contains(&"passive_agents=false".to_owned())));
     }
 
     #[test]

@@ -278,3 +278,29 @@ def test_procedural_scenarios_are_listed_with_their_types():
     assert "protoss_5_vs_5" in names and "zerg_20_vs_23" in names and "3m" in names
     assert avacraft.scenario_info("zerg_5_vs_5")["drawn_types"] == ["Zergling", "Hydralisk", "Baneling"]
     assert avacraft.scenario_info("3m")["drawn_types"] is None
+
+
+def test_the_shipped_smacv2_baseline_plays_in_smacv2s_wrapper_as_in_rust():
+    """baselines/protoss_5_vs_5/mappo (eval/plans/smacv2.toml, trained with units that acquire
+    targets) acting on the wrapper's observations takes the Rust agent's actions on the
+    built-in scenario: the wrapper's features are the ones it learned on."""
+    policy = avacraft.MarlPolicy.baseline("protoss_5_vs_5", "mappo")
+    assert (policy.scenario, policy.n_agents, policy.obs_size) == ("protoss_5_vs_5", 5, 92)
+    won = 0
+    for seed in (1001, 1002, 1003):
+        ref = policy.play(avacraft.Env("protoss_5_vs_5", reward="sparse", passive_allies=False), seed)
+        env = avacraft.StarCraftCapabilityEnvWrapper(
+            capability_config=sc2_gen("protoss"), map_name="10gen_protoss", seed=seed, passive_allies=False
+        )
+        env.reset()
+        policy.reset()
+        terminated, info, actions = False, {}, []
+        while not terminated:
+            a = policy.act(env.get_obs(), env.get_avail_actions())
+            actions.append(a.tolist())
+            _, terminated, info = env.step(a)
+        assert actions == [[a if a >= 0 else 0 for a in step] for step in ref["actions"]], f"seed {seed}"
+        assert info["battle_won"] == (ref["result"] == "win")
+        won += ref["result"] == "win"
+    # It won 0.85 of docs/simulator.md's 200 episodes from seed 1001.
+    assert won >= 2
