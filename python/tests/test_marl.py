@@ -19,16 +19,16 @@ def reference(policy, seed):
     return policy.play(env, seed), env
 
 
-def smac_episode(policy, seed):
-    """An episode of a SMAC loop with the policy: the actions of every step, the result, the
-    environment at its end."""
+def smac_episode(policy, seed, frames=False):
+    """An episode of a SMAC loop with the policy (`frames`: acting through `act_env`): the
+    actions of every step, the result, the environment at its end."""
     env = avacraft.StarCraft2Env("3m", seed=seed, reward_sparse=True, passive_allies=False)
     env.reset()
     policy.reset()
     done, info, actions = False, {}, []
     while not done:
         avail = env.get_avail_actions()
-        a = policy.act(env.get_obs(), avail)
+        a = policy.act_env(env) if frames else policy.act(env.get_obs(), avail)
         assert a.dtype == np.int64 and all(avail[i][x] for i, x in enumerate(a))
         actions.append(a.tolist())
         _, done, info = env.step(a)
@@ -159,21 +159,11 @@ def test_an_image_checkpoint_plays_from_frames_rendered_from_the_game():
     policy = avacraft.MarlPolicy(RGB)
     assert (policy.obs, policy.scenario) == ("rgb", "3m")
     for seed in (1001, 1002):
-        ref_env = avacraft.Env("3m", reward="sparse", passive_allies=False)
-        ref = policy.play(ref_env, seed)
-        env = avacraft.StarCraft2Env("3m", seed=seed, reward_sparse=True, passive_allies=False)
-        env.reset()
-        policy.reset()
-        done, info, actions = False, {}, []
-        while not done:
-            avail = env.get_avail_actions()
-            a = policy.act_env(env)
-            assert a.dtype == np.int64 and all(avail[i][x] for i, x in enumerate(a))
-            actions.append(a.tolist())
-            _, done, info = env.step(a)
+        ref, ref_env = reference(policy, seed)
+        actions, info, env = smac_episode(policy, seed, frames=True)
         # The Rust loop records a dead agent's no-op as -1, as the engine agent's no order.
         assert actions == [[a if a >= 0 else 0 for a in step] for step in ref["actions"]], f"seed {seed}"
-        assert env.env.units() == ref_env.units()
+        assert env.units() == ref_env.units()
         assert info["battle_won"] == (ref["result"] == "win")
     # The shipped policy won 100 of the paper table's 100 games on 3m.
     assert ref["result"] == "win"
