@@ -201,12 +201,12 @@ impl PyMarlPolicy {
         let mut e = env.borrow_mut();
         let env = e.engine();
         self.check_frames(env)?;
-        if self.frames.is_none() {
-            let actor = FramesActor::new(Arc::clone(&self.policy), env.scenario()).map_err(|e| PolicyError::Network(Box::new(e)))?;
-            self.frames = Some(actor);
-        }
-        let actor = self.frames.as_mut().ok_or_else(|| AvacraftError::new_err("act_env: no actor"))?;
-        let acts = actor.choose(env).map_err(|e| PolicyError::Network(Box::new(e)))?;
+        let network = |e| PolicyError::Network(Box::new(e));
+        let actor = match self.frames.take() {
+            Some(a) => a,
+            None => FramesActor::new(Arc::clone(&self.policy), env.scenario()).map_err(network)?,
+        };
+        let acts = self.frames.insert(actor).choose(env).map_err(network)?;
         Ok(PyArray1::from_vec(py, acts.into_iter().map(|a| a as i64).collect()))
     }
 
