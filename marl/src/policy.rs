@@ -413,11 +413,6 @@ impl FramesActor {
         self.actor.reset_envs(&[true], self.policy.shape.n_agents);
     }
 
-    /// The policy it plays.
-    pub fn policy(&self) -> &Arc<Policy> {
-        &self.policy
-    }
-
     /// Submits team 1's actions for `env`'s next step.
     pub fn act(&mut self, env: &mut Env) -> Result<(), Error> {
         let acts = self.choose(env)?;
