@@ -318,7 +318,7 @@ opponent = "focus-fire"
         // SMACv2's scenario: both learners, with units that acquire targets as the scripts' do.
         let v2 = load_train_plan(&dir.join("smacv2.toml")).unwrap_or_else(|e| panic!("{e}"));
         let ids: Vec<&str> = v2.jobs.iter().map(|j| j.id.as_str()).collect();
-        assert_eq!(ids, ["protoss_5_vs_5/mappo-s1", "protoss_5_vs_5/qmix-s1"]);
+        assert_eq!(ids, ["protoss_5_vs_5/mappo-s1", "protoss_5_vs_5/mappo-s2", "protoss_5_vs_5/qmix-s1"]);
         assert!(v2.jobs.iter().all(|j| j.overrides.contains(&"passive_agents=false".to_owned())));
     }
 
