@@ -14,7 +14,7 @@
 //! Not kept, so a resumed run is not bit-identical to an uninterrupted one: the replay
 //! buffer (it refills; up to `buffer_size` episodes of tens of MB, gigabytes on the largest
 //! scenarios), the episodes that were running at the checkpoint, for PPO the unfinished
-//! rollout, and the optimisers of QTRAN and of the Swin encoder (candle's).
+//! rollout, and the optimisers of QTRAN and of PPO's Swin encoder (candle's).
 
 use crate::kernels::Moments;
 use crate::learner::Learner;
