@@ -7,6 +7,7 @@
 #![forbid(unsafe_code)]
 
 mod command;
+mod frames;
 pub use command::{CommandedConfig, run_commander, run_role_group};
 
 use avacraft_engine::agent::{Agent, AgentCtx, AgentObs, GroupObs, agent_seed, check_action, complete};
@@ -57,8 +58,8 @@ pub(crate) fn act(agent: &mut dyn Agent, g: &GroupObs, scenario: &Scenario, stat
 /// observations are still missing (a lost sample must not stall the node for good).
 pub(crate) const GATHER: Duration = Duration::from_millis(500);
 
-/// Observations gathered for one step, by unit tag.
-type Pending = BTreeMap<(u64, u32), (Instant, BTreeMap<u32, AgentObs>)>;
+/// Observations gathered for one step, by unit tag, with when the first came and its stamp.
+type Pending = BTreeMap<(u64, u32), (Instant, avacraft_msgs::Time, BTreeMap<u32, AgentObs>)>;
 
 /// Runs until `shutdown` (or `max_batches` batches, for tests and benchmarks).
 pub fn run(
@@ -76,6 +77,8 @@ pub fn run(
         .map(|&u| node.subscriber::<UnitObservation>(&topics.unit_obs(cfg.team, u), reliable))
         .collect::<Result<Vec<_>, _>>()?;
     let mut out = node.publisher::<ActionBatch>(&topics.actions(&cfg.id), reliable)?;
+    // An image-mode network also reads its team's frames of the step.
+    let mut feed = frames::FrameFeed::open(node, topics, cfg.team, agent.frames())?;
     let team = Team::from(cfg.team);
     let order: Vec<u32> = cfg.scenario.agent_order(team).iter().map(|id| id.tag()).collect();
     let tags: Vec<u32> = cfg.units.iter().map(|u| u.get()).collect();
@@ -86,6 +89,7 @@ pub fn run(
     let mut episode: Option<(u64, u64)> = None;
     // The episode's scenario (a procedural scenario's draw for its seed).
     let mut scenario = Arc::clone(&cfg.scenario);
+    let mut warned = false;
     tracing::info!(agent = %cfg.id, units = cfg.units.len(), policy = agent.name(), "agent node up");
     while !shutdown.requested() && max_batches.is_none_or(|m| stats.batches < m) {
         let mut got = false;
@@ -95,10 +99,23 @@ pub fn run(
                 accept(cfg, topics, r, &mut pending, &mut last_done, &mut stats);
             }
         }
-        // Act on the newest complete step (or one gathered for long enough); older ones are stale.
-        let ready = pending.iter().rev().find(|(_, (t0, m))| m.len() == cfg.units.len() || t0.elapsed() >= GATHER).map(|(k, _)| *k);
-        if let Some(key) = ready {
-            let obs: Vec<AgentObs> = pending.remove(&key).map(|(_, m)| m.into_values().collect()).unwrap_or_default();
+        if let Some(f) = feed.as_mut() {
+            got |= f.poll(topics, &mut stats)?;
+            if !warned && pending.values().any(|(t0, _, _)| t0.elapsed() >= 4 * GATHER) {
+                warned = true;
+                tracing::warn!(agent = %cfg.id, "observations wait for their frames: does the launch file's simulator draw them?");
+            }
+        }
+        // Act on the newest complete step (or one gathered for long enough) whose frames are
+        // here if the network reads some; older ones are stale.
+        let framed = |stamp: &avacraft_msgs::Time| feed.as_ref().is_none_or(|f| f.has(*stamp));
+        let ready = pending
+            .iter()
+            .rev()
+            .find(|(_, (t0, stamp, m))| (m.len() == cfg.units.len() || t0.elapsed() >= GATHER) && framed(stamp))
+            .map(|(k, (_, stamp, _))| (*k, feed.as_ref().and_then(|f| f.at(*stamp))));
+        if let Some((key, shown)) = ready {
+            let obs: Vec<AgentObs> = pending.remove(&key).map(|(_, _, m)| m.into_values().collect()).unwrap_or_default();
             pending.retain(|k, _| *k > key);
             let Some(first) = obs.first() else { continue };
             if episode != Some((first.episode, first.seed)) {
@@ -110,6 +127,9 @@ pub fn run(
             }
             let header = avacraft_msgs::Header::default();
             let index = |tag: u32| order.iter().position(|&t| t == tag).unwrap_or(0);
+            if let Some(f) = &shown {
+                agent.see(f);
+            }
             let actions = GroupObs::fold(&obs, index).map(|g| act(agent, &g, &scenario, &mut stats)).unwrap_or_default();
             let actions = actions.iter().map(wire::unit_action).collect();
             out.put(&ActionBatch { header, episode: key.0, step: key.1, agent_id: cfg.id.to_string(), actions })?;
@@ -167,5 +187,5 @@ fn accept(
     if last_done.is_some_and(|d| key <= d) {
         return;
     }
-    pending.entry(key).or_insert_with(|| (Instant::now(), BTreeMap::new())).1.insert(o.unit_tag, obs);
+    pending.entry(key).or_insert_with(|| (Instant::now(), o.header.stamp, BTreeMap::new())).2.insert(o.unit_tag, obs);
 }

@@ -87,7 +87,7 @@ impl NodeJob {
         };
         // Only here, in the node that acts, are a checkpoint's weights read.
         a.policy
-            .check(&plan.scenario, a.team.team())
+            .check_seeing(&plan.scenario, a.team.team())
             .with_context(|| format!("agent-node: {} agent `{id}`: policy {}", plan.file, a.policy))?;
         let job = Job::Agent { units: a.units.clone(), role: a.role, policy: a.policy.clone() };
         Ok(NodeJob { id, team: a.team, scenario: plan.scenario, job })
@@ -117,8 +117,11 @@ impl NodeJob {
             let role = a.role.as_deref().map(|r| role("--role", r)).transpose()?;
             let policy = PolicySpec::resolve(&a.policy, ava, Resolve::default())
                 .and_then(|p| p.on(&scenario))
-                .and_then(|p| p.check(&scenario, team.team()).map(|()| p))
+                .and_then(|p| p.check_seeing(&scenario, team.team()).map(|()| p))
                 .with_context(|| format!("agent-node: --policy {}", a.policy))?;
+            if role.is_some() && policy.frames_need(&scenario)?.is_some() {
+                bail!("agent-node: --policy {}: a role group reads no frames; this checkpoint does", a.policy);
+            }
             Job::Agent { units, role, policy }
         };
         Ok(NodeJob { id, team, scenario, job })

@@ -55,6 +55,7 @@ fn sim_config(plan: &Plan, startup: Duration) -> SimConfig {
             minimap: f.minimap,
             vlm: f.vlm,
             every: f.every,
+            for_agents: f.for_agents,
         }),
     }
 }

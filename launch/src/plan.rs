@@ -189,6 +189,9 @@ pub struct FramePlan {
     pub minimap: (u32, u32),
     pub vlm: (u32, u32),
     pub every: u32,
+    /// Agent nodes read them (an image-mode network): every frame is delivered, as the
+    /// observations are, instead of the newest only.
+    pub for_agents: bool,
 }
 
 impl Plan {
@@ -234,7 +237,12 @@ impl Plan {
             runs.extend(run.map(|r| (a.id.clone(), r)));
             teams.push(AgentTeam::new(a.team.team(), Grouping::Groups(vec![a.units.iter().map(|u| u.get()).collect()]), move || make()));
         }
-        Ok((Controllers::new(&self.scenario, teams).with_commanded(&self.scenario, commanded), runs))
+        let mut controllers = Controllers::new(&self.scenario, teams).with_commanded(&self.scenario, commanded);
+        if self.frames.as_ref().is_some_and(|f| f.for_agents) {
+            // Drawn as the simulator node draws its frame topics.
+            controllers = controllers.with_frames(Box::new(avacraft_render::FramePainter::new()));
+        }
+        Ok((controllers, runs))
     }
 
     /// The host that runs the router, the simulator and the recorder.

@@ -3,6 +3,7 @@
 use crate::{LaunchError, chain, parse};
 use avacraft_engine::{Env, Mode};
 use avacraft_marl::Policy;
+use avacraft_nodes::FrameKind;
 use avacraft_policy::PolicySpec;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -111,5 +112,57 @@ fn bad_marl_policies_name_the_field_and_why() {
     }
     for d in [garbage, no_weights, bad_weights, renamed, file.parent().map(Path::to_path_buf).unwrap_or_default()] {
         let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+/// The shipped rgb MAPPO on 3m (an image-mode network).
+fn rgb() -> String {
+    format!("marl:{}", Path::new(env!("CARGO_MANIFEST_DIR")).join("../baselines/3m/mappo-rgb").display())
+}
+
+#[test]
+fn an_image_checkpoint_has_the_simulator_draw_its_frames_and_plays_in_process() {
+    let plan = parse("r.yaml", &launch("3m", &rgb()), None).unwrap_or_else(|e| panic!("{}", chain(&e)));
+    let f = plan.frames.as_ref().expect("frames for the network");
+    assert_eq!((f.screen, f.minimap, f.every, f.for_agents), ((80, 60), (32, 32), 1, true));
+    assert!(f.kinds.contains(&FrameKind::Screen) && f.kinds.contains(&FrameKind::Minimap));
+    // A file's own frames at the network's sizes are kept (with the VLM shot it asks for).
+    let own = format!("{}frames: {{kinds: [vlm, screen, minimap], screen: [80, 60], minimap: [32, 32]}}\n", launch("3m", &rgb()));
+    let kept = parse("o.yaml", &own, None).unwrap_or_else(|e| panic!("{}", chain(&e)));
+    assert_eq!(kept.frames.as_ref().map(|f| (f.kinds.len(), f.for_agents)), Some((3, true)));
+    // A features network's file draws nothing it did not ask for.
+    assert!(parse("m.yaml", &launch("3m", &format!("marl:{}", shipped().display())), None).expect("plan").frames.is_none());
+    // In process the agents are shown the frames and give orders.
+    let noop = parse("n.yaml", &launch("3m", "noop"), None).expect("plan");
+    let play = |p: &crate::Plan| {
+        let mut c = p.controllers().expect("controllers");
+        let mut env = Env::new(Arc::clone(&p.scenario), p.env_config(), 3);
+        c.reset(&env);
+        while !env.done() {
+            c.act(&mut env);
+            env.step();
+        }
+        env.outcome()
+    };
+    assert_eq!(play(&plan), Some(avacraft_engine::Outcome::Win));
+    assert_ne!(play(&noop), Some(avacraft_engine::Outcome::Win));
+}
+
+#[test]
+fn frames_that_do_not_fit_an_image_checkpoint_name_the_field() {
+    let with = |frames: &str| format!("{}frames: {frames}\n", launch("3m", &rgb()));
+    let cases = [
+        (with("{kinds: [screen, minimap], screen: [160, 120], minimap: [32, 32]}"), "frames.screen", "screen frames of [80, 60]"),
+        (with("{kinds: [screen], screen: [80, 60], minimap: [32, 32]}"), "frames.kinds", "minimap frames"),
+        (with("{kinds: [screen, minimap], screen: [80, 60], minimap: [32, 32], every: 2}"), "frames.every", "frames at every step"),
+        (
+            format!("scenario: 3m\nagents:\n  - {{id: g, units: [1, 2, 3], role: attacker, policy: {}}}\n", rgb()),
+            "agents[0].role",
+            "reads no frames",
+        ),
+    ];
+    for (text, field, why) in cases {
+        let msg = chain(&parse("bad.yaml", &text, None).expect_err(&text));
+        assert!(msg.starts_with(&format!("bad.yaml: field `{field}`")) && msg.contains(why), "{text}: {msg}");
     }
 }

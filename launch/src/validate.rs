@@ -6,6 +6,7 @@ use crate::command;
 use crate::deploy;
 use crate::error::{Cx, LaunchError};
 use crate::plan::{AgentPlan, ClockMode, CommanderPlan, FramePlan, Plan, RawAgent, RawFrames, RawLaunch};
+use avacraft_engine::agent::FrameNeed;
 use avacraft_engine::{Env, EnvConfig, Mode, OpponentKind, Scenario, Team, UnitId};
 use avacraft_nodes::{AgentId, FrameKind, TeamNo, UnitTag};
 use avacraft_policy::{AVA_POLICY, CommanderPolicy, DDS_POLICY, PolicyError, PolicySpec, Resolve, Weights};
@@ -56,6 +57,7 @@ pub(crate) fn validate(file: &str, raw: RawLaunch, how: Resolve<'_>) -> Result<P
     for (i, a) in raw.agents.iter().enumerate() {
         nodes.entry(i, a, raw.ava.as_ref())?;
     }
+    let frames = agent_frames(&cx, frames, &nodes.needs)?;
     let Nodes { agents, fields, mut commanders, .. } = nodes;
     command::link(&cx, &mut commanders, &agents, &fields)?;
     let bridge = match &raw.bridge {
@@ -158,7 +160,58 @@ fn frames(cx: &Cx<'_>, f: &RawFrames) -> Result<FramePlan, LaunchError> {
         return Err(cx.err("frames.every", 0, "must be at least 1"));
     }
     let p = |s: [u32; 2]| (s[0], s[1]);
-    Ok(FramePlan { kinds, screen: p(f.screen), minimap: p(f.minimap), vlm: p(f.vlm), every: f.every })
+    Ok(FramePlan { kinds, screen: p(f.screen), minimap: p(f.minimap), vlm: p(f.vlm), every: f.every, for_agents: false })
+}
+
+/// The frames the simulator publishes: the file's, or, when agent nodes read frames (an
+/// image-mode network), their sizes at every step, delivered reliably. The file's must
+/// then draw the screen and minimap at those sizes every step; all such agents read one size.
+fn agent_frames(cx: &Cx<'_>, file: Option<FramePlan>, needs: &[(String, String, FrameNeed)]) -> Result<Option<FramePlan>, LaunchError> {
+    let Some((field, policy, need)) = needs.first() else { return Ok(file) };
+    let size = |(w, h): (u32, u32)| format!("[{w}, {h}]");
+    if let Some((f2, p2, n2)) = needs.iter().find(|(_, _, n)| n != need) {
+        return Err(cx.err(
+            f2,
+            p2,
+            format!(
+                "reads {} screens and {} minimaps, but {field} ({policy}) reads {} and {}: the simulator draws one size",
+                size(n2.screen),
+                size(n2.minimap),
+                size(need.screen),
+                size(need.minimap)
+            ),
+        ));
+    }
+    let why = |what: &str| format!("{field} ({policy}) reads {what}");
+    let Some(mut f) = file else {
+        return Ok(Some(FramePlan {
+            kinds: vec![FrameKind::Screen, FrameKind::Minimap],
+            screen: need.screen,
+            minimap: need.minimap,
+            vlm: (1920, 1080),
+            every: 1,
+            for_agents: true,
+        }));
+    };
+    for (kind, name, got, want) in
+        [(FrameKind::Screen, "screen", f.screen, need.screen), (FrameKind::Minimap, "minimap", f.minimap, need.minimap)]
+    {
+        if !f.kinds.contains(&kind) {
+            return Err(cx.err(
+                "frames.kinds",
+                format!("{:?}", f.kinds.iter().map(|k| k.name()).collect::<Vec<_>>()),
+                why(&format!("{name} frames")),
+            ));
+        }
+        if got != want {
+            return Err(cx.err(format!("frames.{name}"), size(got), why(&format!("{name} frames of {}", size(want)))));
+        }
+    }
+    if f.every != 1 {
+        return Err(cx.err("frames.every", f.every, why("frames at every step")));
+    }
+    f.for_agents = true;
+    Ok(Some(f))
 }
 
 /// The agent nodes and commanders of the entries checked so far, and who owns each unit.
@@ -174,12 +227,25 @@ struct Nodes<'a> {
     fields: Vec<String>,
     commanders: Vec<CommanderPlan>,
     owner: BTreeMap<u32, String>,
+    /// Entries whose network reads frames: (field, policy, sizes).
+    needs: Vec<(String, String, FrameNeed)>,
 }
 
 impl<'a> Nodes<'a> {
     fn new(cx: &'a Cx<'a>, scenario: &'a Arc<Scenario>, how: Resolve<'a>, hosts: &'a [String]) -> Self {
         let env = Env::new(Arc::clone(scenario), EnvConfig::default(), 0);
-        Nodes { cx, scenario, env, how, hosts, agents: Vec::new(), fields: Vec::new(), commanders: Vec::new(), owner: BTreeMap::new() }
+        Nodes {
+            cx,
+            scenario,
+            env,
+            how,
+            hosts,
+            agents: Vec::new(),
+            fields: Vec::new(),
+            commanders: Vec::new(),
+            owner: BTreeMap::new(),
+            needs: Vec::new(),
+        }
     }
 
     /// Entry `i`: a commander, one node per unit of a team, or one node for the units it names.
@@ -236,11 +302,24 @@ impl<'a> Nodes<'a> {
             }
             self.add(i, id, &a.units, f("id"), &policy, &host)?;
         }
+        // An image-mode network reads its team's frames, which the simulator then draws at its
+        // sizes (read from the checkpoint's settings even where its weights stay unread).
+        let need = policy.frames_need(self.scenario).map_err(|e| cx.policy_err(f("policy"), &a.policy, e))?;
+        if let Some(need) = need {
+            if role.is_some() {
+                return Err(cx.err(
+                    f("role"),
+                    a.role.as_deref().unwrap_or_default(),
+                    "a role group's policy reads no frames; this checkpoint does",
+                ));
+            }
+            self.needs.push((f("policy"), a.policy.clone(), need));
+        }
         for ag in &mut self.agents[first_new..] {
             // A process that does not act reads no weights, so it cannot check them either:
             // the agent node checks its own when it starts.
             if self.how.weights == Weights::Load {
-                policy.check(self.scenario, ag.team.team()).map_err(|e| cx.policy_err(f("policy"), &a.policy, e))?;
+                policy.check_seeing(self.scenario, ag.team.team()).map_err(|e| cx.policy_err(f("policy"), &a.policy, e))?;
             }
             ag.role = role;
             self.fields.push(format!("agents[{i}]"));

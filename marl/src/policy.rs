@@ -26,6 +26,7 @@ use crate::nets::Nets;
 use crate::observe::ObsSource;
 use crate::{Config, Error};
 use avacraft_engine::agent::view::id_of;
+use avacraft_engine::agent::{FrameNeed, TeamFrames};
 use avacraft_engine::{Action, Agent, AgentCtx, Env, GroupObs, Reads, Scenario, SmacLayout, Team, VecBuffers, VecEnv};
 use candle_core::{Device, Tensor};
 use rand::{Rng, SeedableRng};
@@ -185,6 +186,15 @@ impl Policy {
         Ok(Policy { cfg: meta.config, shape: meta.shape, scenario: meta.scenario, nets, theta })
     }
 
+    /// The frames the checkpoint in `dir` reads ([`Policy::frames_need`]), from its
+    /// `config.json` alone.
+    pub fn frames_need_in(dir: &Path) -> Result<Option<FrameNeed>, Error> {
+        let path = dir.join("config.json");
+        let text = std::fs::read_to_string(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
+        let meta: Meta = serde_json::from_str(&text).map_err(|source| Error::Json { path, source })?;
+        Ok(need_of(&meta.config))
+    }
+
     /// A copy of `nets`' agent network as a policy (a self-play snapshot): later updates of
     /// `nets` do not reach it.
     pub fn of(nets: &Nets, cfg: &Config, shape: Shape, scenario: &str) -> Result<Policy, Error> {
@@ -224,8 +234,9 @@ impl Policy {
     pub fn agent_refusal(&self) -> Option<String> {
         (self.cfg.obs != crate::ObsKind::Features).then(|| {
             format!(
-                "trained on `{}` observations: an engine agent is not handed the frames the encoder reads, so only `features` \
-                 checkpoints play as agents (`avacraft eval` and `episode` play image checkpoints in PvE, from rendered frames)",
+                "trained on `{}` observations: it reads rendered frames, which this run does not show its agents (agent nodes \
+                 of a launch file and `episode --launch` are shown them; `avacraft eval` and `episode --agent` play image \
+                 checkpoints in PvE, from rendered frames)",
                 self.cfg.obs.name()
             )
         })
@@ -246,6 +257,28 @@ impl Policy {
         Ok(())
     }
 
+    /// Why an agent handed its team's frames ([`Agent::see`]) still cannot play this policy
+    /// for `team` (`None`: it can): `vision-text` also reads the embeddings of the team's
+    /// text, which an agent is not handed, and frames are drawn for team 1's side of the
+    /// map only (a features network plays team 2 in the mirror image; pixels are not mirrored).
+    pub fn seeing_refusal(&self, team: Team) -> Option<String> {
+        if self.cfg.obs.text() {
+            return Some(format!(
+                "trained on `{}` observations: an agent is handed frames but not the text embeddings the encoder also reads \
+                 (`avacraft eval` and `episode` play it in PvE, from the game)",
+                self.cfg.obs.name()
+            ));
+        }
+        (self.cfg.obs.images() && team == Team::Two).then(|| {
+            format!("trained on `{}` observations as team 1: its frames are not drawn in the mirror image for team 2", self.cfg.obs.name())
+        })
+    }
+
+    /// The frames the network reads (its training's screen and minimap sizes), if any.
+    pub fn frames_need(&self) -> Option<FrameNeed> {
+        need_of(&self.cfg)
+    }
+
     /// Q-values `(rows x n_actions)` and next hidden states for rows of features.
     pub fn q_values(
         &self,
@@ -257,9 +290,36 @@ impl Policy {
         if let Some(why) = self.agent_refusal() {
             return Err(Error::Checkpoint { message: why });
         }
+        self.q_values_seeing(features, agents, last, hidden, None)
+    }
+
+    /// [`Policy::q_values`] in any mode but `vision-text`: an image mode's rows also read
+    /// the encoder's features of `frames` (one team observation, which every row sees, as
+    /// each agent of a team sees its team's frames in training).
+    pub fn q_values_seeing(
+        &self,
+        features: &[f32],
+        agents: &[usize],
+        last: &[Option<u32>],
+        hidden: &[f32],
+        frames: Option<&StepFrames>,
+    ) -> Result<(Vec<f32>, Vec<f32>), Error> {
         let (id, la) = (self.cfg.obs_agent_id, self.cfg.obs_last_action);
         let rows = agents.len();
-        let x = act_inputs(features, agents, last, &self.shape, id, la);
+        let mut x = act_inputs(features, agents, last, &self.shape, id, la);
+        if let Some(e) = &self.nets.encoder {
+            let Some(f) = frames.filter(|f| f.n == 1) else {
+                return Err(Error::Observation { message: "an image encoder needs one team observation's frames".into() });
+            };
+            if self.cfg.obs.text() {
+                return Err(Error::Observation { message: self.seeing_refusal(Team::One).unwrap_or_default() });
+            }
+            let theta = e.kernel().map(|_| self.nets.encoder_weights()).transpose()?;
+            let feats = e.encode_pixels(theta.as_deref(), f)?;
+            let feats = Tensor::from_vec(feats, (1, e.out), &Device::Cpu)?.broadcast_as((rows, e.out))?.contiguous()?;
+            let base = Tensor::from_vec(x, (rows, self.shape.input(id, la)), &Device::Cpu)?;
+            x = e.fuse_rows(feats, &base)?.flatten_all()?.to_vec1()?;
+        }
         let layout = self.nets.agent.layout();
         if hidden.len() != rows * layout.hidden || x.len() != rows * layout.input {
             return Err(Error::Checkpoint {
@@ -270,6 +330,11 @@ impl Policy {
         // A feed-forward network's "hidden state" is its core layer's output, as candle's step gives it.
         Ok((f.out, f.hidden))
     }
+}
+
+fn need_of(cfg: &Config) -> Option<FrameNeed> {
+    let ((sw, sh), (mw, mh)) = crate::frames::sizes(cfg);
+    cfg.obs.images().then_some(FrameNeed { screen: (sw as u32, sh as u32), minimap: (mw as u32, mh as u32) })
 }
 
 /// A trained policy acting greedily for the units of its group. On team 2 it plays in the
@@ -287,11 +352,13 @@ pub struct MarlAgent {
     /// Playing team 2: the network, trained as team 1, sees and acts in the mirror image
     /// (east and west swapped, x reflected), as on a left-right mirrored map team 1 would.
     mirror: bool,
+    /// An image mode's frames of this step ([`Agent::see`]), used by the next `act` only.
+    seen: Option<StepFrames>,
 }
 
 impl MarlAgent {
     pub fn new(policy: Arc<Policy>, name: impl Into<String>) -> MarlAgent {
-        MarlAgent { policy, name: name.into(), hidden: Vec::new(), last: Vec::new(), layout: None, fits: false, mirror: false }
+        MarlAgent { policy, name: name.into(), hidden: Vec::new(), last: Vec::new(), layout: None, fits: false, mirror: false, seen: None }
     }
     /// Loads the checkpoint in `dir`; the agent is named `marl:DIR`. Image-mode
     /// checkpoints are refused ([`Policy::agent_refusal`]).
@@ -318,12 +385,25 @@ impl Agent for MarlAgent {
         let n = self.policy.shape.n_agents;
         self.hidden = vec![vec![0.0; self.policy.nets.agent.hidden]; n];
         self.last = vec![None; n];
-        // A network of other sizes would read other features: it then gives no orders.
-        self.fits = self.policy.check_scenario(&ctx.scenario, ctx.team).is_ok() && self.policy.agent_refusal().is_none();
+        // A network of other sizes would read other features: it then gives no orders (an
+        // image mode's too, at the steps whose frames it was not shown).
+        let playable = self.policy.agent_refusal().is_none() || self.policy.seeing_refusal(ctx.team).is_none();
+        self.fits = self.policy.check_scenario(&ctx.scenario, ctx.team).is_ok() && playable;
+        self.seen = None;
         self.layout = Some(self.policy.layout(&ctx.scenario, ctx.team));
         self.mirror = ctx.team == Team::Two;
     }
+    fn frames(&self) -> Option<FrameNeed> {
+        self.policy.frames_need()
+    }
+    fn see(&mut self, frames: &TeamFrames) {
+        self.seen = self.policy.frames_need().filter(|&need| frames.fits(need)).map(|need| {
+            let size = |(w, h): (u32, u32)| (w as usize, h as usize);
+            StepFrames::from_pixels(1, (size(need.screen), size(need.minimap)), frames.screen.clone(), frames.minimap.clone())
+        });
+    }
     fn act(&mut self, g: &GroupObs) -> Vec<Action> {
+        let seen = self.seen.take();
         let (Some(layout), true) = (&self.layout, self.fits) else { return Vec::new() };
         let sh = self.policy.shape;
         let rows: Vec<_> = g
@@ -343,7 +423,7 @@ impl Agent for MarlAgent {
         }
         let last: Vec<Option<u32>> = agents.iter().map(|&a| self.last[a]).collect();
         let hidden: Vec<f32> = agents.iter().flat_map(|&a| self.hidden[a].iter().copied()).collect();
-        let Ok((q, h2)) = self.policy.q_values(&features, &agents, &last, &hidden) else { return Vec::new() };
+        let Ok((q, h2)) = self.policy.q_values_seeing(&features, &agents, &last, &hidden, seen.as_ref()) else { return Vec::new() };
         // Greedy: epsilon 0 never draws.
         let acts = select_actions(&q, &avail, sh.n_actions, 0.0, &mut ChaCha8Rng::seed_from_u64(0));
         let width = self.policy.nets.agent.hidden;

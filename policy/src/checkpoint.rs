@@ -2,6 +2,7 @@
 //! (the simulator node, the bridge) names them without reading their weights.
 
 use crate::PolicyError;
+use avacraft_engine::agent::FrameNeed;
 use avacraft_engine::{Scenario, Team};
 use avacraft_marl::Policy;
 use avacraft_marl::baselines;
@@ -74,6 +75,27 @@ impl MarlCheckpoint {
             return Err(PolicyError::NotAnAgent { dir: self.dir.clone(), why });
         }
         self.check_fit(scenario, team)
+    }
+
+    /// [`MarlCheckpoint::check`] for an agent shown its team's frames before each step: an
+    /// `rgb` or `hybrid` checkpoint plays team 1 then ([`Policy::seeing_refusal`]).
+    pub fn check_seeing(&self, scenario: &Scenario, team: Team) -> Result<(), PolicyError> {
+        let policy = self.policy()?;
+        if policy.agent_refusal().is_some()
+            && let Some(why) = policy.seeing_refusal(team)
+        {
+            return Err(PolicyError::NotAnAgent { dir: self.dir.clone(), why });
+        }
+        self.check_fit(scenario, team)
+    }
+
+    /// The frames the network reads, from `config.json` (the weights stay unread when
+    /// they are not read yet).
+    pub fn frames_need(&self) -> Result<Option<FrameNeed>, PolicyError> {
+        match self.policy.get() {
+            Some(p) => Ok(p.frames_need()),
+            None => Policy::frames_need_in(&self.dir).map_err(|source| PolicyError::Checkpoint { dir: self.dir.clone(), source }),
+        }
     }
 
     /// The network when it plays from rendered frames (an image mode), checked to fit team 1

@@ -9,7 +9,7 @@ use crate::PolicyError;
 use crate::checkpoint::{BaselineSet, MarlCheckpoint, Weights};
 use crate::names::{AVA_POLICY, DDS_POLICY, MARL_PREFIX, ROTATE_POLICY};
 use avacraft_ava::AvaSpec;
-use avacraft_engine::agent::AGENTS;
+use avacraft_engine::agent::{AGENTS, FrameNeed};
 use avacraft_engine::{Scenario, Team};
 use avacraft_marl::baselines::BASELINE_PREFIX;
 use std::path::Path;
@@ -160,6 +160,27 @@ impl PolicySpec {
             PolicySpec::Marl(m) => m.check(scenario, team),
             PolicySpec::Baseline(b) => b.for_scenario(&scenario.name)?.check(scenario, team),
             PolicySpec::Scripted(_) | PolicySpec::Dds | PolicySpec::Ava(_) => Ok(()),
+        }
+    }
+
+    /// [`PolicySpec::check`] where the agent is shown its team's frames before each step
+    /// (an agent node of a launch file, `episode --launch`): an `rgb` or `hybrid`
+    /// checkpoint plays team 1 there too.
+    pub fn check_seeing(&self, scenario: &Scenario, team: Team) -> Result<(), PolicyError> {
+        match self {
+            PolicySpec::Marl(m) => m.check_seeing(scenario, team),
+            PolicySpec::Baseline(b) => b.for_scenario(&scenario.name)?.check_seeing(scenario, team),
+            PolicySpec::Scripted(_) | PolicySpec::Dds | PolicySpec::Ava(_) => Ok(()),
+        }
+    }
+
+    /// The frames the policy reads (an image-mode checkpoint's screen and minimap sizes,
+    /// from its `config.json` alone: a process that never acts reads no weights).
+    pub fn frames_need(&self, scenario: &Scenario) -> Result<Option<FrameNeed>, PolicyError> {
+        match self {
+            PolicySpec::Marl(m) => m.frames_need(),
+            PolicySpec::Baseline(b) => b.for_scenario(&scenario.name)?.frames_need(),
+            PolicySpec::Scripted(_) | PolicySpec::Dds | PolicySpec::Ava(_) => Ok(None),
         }
     }
 }

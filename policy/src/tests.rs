@@ -92,6 +92,14 @@ fn made_agents_play_and_checkpoints_check_their_scenario() {
     let rgb = PolicySpec::parse(&format!("marl:{}", rgb.display()), None).expect("rgb checkpoint");
     let e = rgb.check(&three, Team::One).expect_err("an rgb checkpoint is no agent");
     assert!(matches!(e, PolicyError::NotAnAgent { .. }) && e.to_string().contains("`rgb` observations"), "{e}");
+    // Where the agent is shown its team's frames it plays team 1, and says which it reads;
+    // team 2 would need the frames in the mirror image.
+    rgb.check_seeing(&three, Team::One).expect("an rgb checkpoint shown its frames");
+    let need = rgb.frames_need(&three).expect("config").expect("an image mode");
+    assert_eq!((need.screen, need.minimap), ((80, 60), (32, 32)));
+    assert_eq!(marl.frames_need(&three).expect("config"), None);
+    let e = rgb.check_seeing(&three, Team::Two).expect_err("no mirrored frames");
+    assert!(matches!(e, PolicyError::NotAnAgent { .. }) && e.to_string().contains("mirror image"), "{e}");
     let made = marl.make(&Calls::Own, None).expect("make");
     assert!(made.run.is_none() && (made.factory)().name().starts_with("marl:"));
     let dds = PolicySpec::parse(DDS_POLICY, None).expect("dds");

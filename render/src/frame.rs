@@ -228,3 +228,28 @@ fn legend(world: &World, team: Team, scene: &mut Scene, x: f32, s: u32) {
         world.units().iter().filter(|u| u.alive && world.visible_to(team, u.id)).map(|u| u.kind.base().name()).collect();
     draw::legend(scene, x, s, team, world.tick(), &[], kinds);
 }
+
+/// Draws a team's screen and minimap for in-process agents that read frames (an image-mode
+/// network): the scene builder and CPU back end the training's observation source, the
+/// simulator node's frame topics and the evaluations use, so every path hands a network
+/// the same pixels.
+#[derive(Debug, Default)]
+pub struct FramePainter {
+    frames: FrameBuilder,
+    cpu: crate::CpuBackend,
+}
+
+impl FramePainter {
+    pub fn new() -> Self {
+        Self::default()
+    }
+}
+
+impl avacraft_engine::agent::FrameSource for FramePainter {
+    fn draw(&mut self, world: &World, team: Team, need: avacraft_engine::agent::FrameNeed) -> avacraft_engine::agent::TeamFrames {
+        let ((sw, sh), (mw, mh)) = (need.screen, need.minimap);
+        let screen = self.cpu.render(&self.frames.screen(world, team, sw, sh)).into_raw();
+        let minimap = self.cpu.render(&self.frames.minimap(world, team, mw, mh)).into_raw();
+        avacraft_engine::agent::TeamFrames { screen, minimap }
+    }
+}

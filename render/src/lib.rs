@@ -31,7 +31,7 @@ pub use backend::{Backend, BackendChoice};
 pub use camera::Camera;
 pub use cpu::CpuBackend;
 pub use error::GpuError;
-pub use frame::{FrameBuilder, VlmOptions, vlm_layout};
+pub use frame::{FrameBuilder, FramePainter, VlmOptions, vlm_layout};
 #[cfg(feature = "gpu")]
 pub use gpu::WgpuBackend;
 pub use map_view::MapView;

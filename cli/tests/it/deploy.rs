@@ -417,6 +417,40 @@ fn deployed_and_in_process_marl_policies_have_equal_trajectory_hashes() {
     assert!(deployed.iter().zip(&idle).all(|(m, n)| m.2 != n.2), "{deployed:?} vs idle {idle:?}");
 }
 
+/// An image-mode checkpoint deployed as one agent node per Marine: the simulator draws team
+/// 1's frames at the network's sizes every step and sends them reliably, and each node acts
+/// once it holds its step's frames. It plays the games `episode --launch` plays in process,
+/// and the games the evaluations' frames actor (`episode --agent`) plays: the same results
+/// in the same number of steps.
+#[test]
+fn deployed_image_policies_read_the_simulators_frames_and_play_as_in_process() {
+    let body = "scenario: 3m\nepisodes: 2\nseed: 11\nagents:\n  - {per_unit: true, team: 1, policy: baseline:mappo-rgb}\n";
+    let file = write_launch("rgb.yaml", &format!("router: tcp/127.0.0.1:{}\n{body}", free_port()));
+    let deployed_raw = launch_json(&file);
+    for e in deployed_raw.as_array().expect("episodes") {
+        assert_eq!((e["missing_actions"][0].as_u64(), e["malformed_messages"].as_u64()), (Some(0), Some(0)), "{e}");
+    }
+    let deployed = outcomes(&deployed_raw);
+    assert_eq!(deployed.len(), 2);
+    assert_eq!(deployed, outcomes(&in_process(&file)), "deployed vs in-process (seed, result, trajectory hash)");
+    let out = Command::new(exe())
+        .args(["episode", "--json", "--scenario", "3m", "--agent", "baseline:mappo-rgb", "--seed", "11", "--episodes", "2"])
+        .output()
+        .expect("run avacraft episode");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let actor: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    let games = |v: &serde_json::Value| -> Vec<(u64, String, u64)> {
+        v.as_array()
+            .or_else(|| v["episodes"].as_array())
+            .expect("episodes")
+            .iter()
+            .map(|e| (e["seed"].as_u64().unwrap_or(0), e["result"].to_string(), e["steps"].as_u64().unwrap_or(0)))
+            .collect()
+    };
+    assert_eq!(games(&deployed_raw), games(&actor), "deployed vs the frames actor (seed, result, steps)");
+    assert!(games(&actor).iter().all(|g| g.1 == "\"win\""), "the shipped rgb MAPPO wins 3m: {actor}");
+}
+
 /// A checkpoint that cannot play is refused before any process starts, naming the field;
 /// an agent node started by hand refuses it too.
 #[test]

@@ -34,6 +34,44 @@ pub trait Agent: Send {
     /// A commander's briefing for this step (a role group under dynamic roles gets one before
     /// each `act`); agents that take no orders ignore it.
     fn brief(&mut self, _briefing: &Briefing) {}
+    /// The rendered frames it reads besides its observation (an image-mode network), if any.
+    /// The engine draws nothing: whoever runs the agent renders them (in-process through a
+    /// [`FrameSource`], a deployment from the simulator's frame topics) and hands them to
+    /// [`Agent::see`] before each `act`.
+    fn frames(&self) -> Option<FrameNeed> {
+        None
+    }
+    /// This step's frames, before `act`, for an agent whose [`Agent::frames`] asks for some.
+    fn see(&mut self, _frames: &TeamFrames) {}
+}
+
+/// The frames an agent reads: its team's screen and minimap at these (width, height).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct FrameNeed {
+    pub screen: (u32, u32),
+    pub minimap: (u32, u32),
+}
+
+/// One step's frames of a team, RGB8 rows as the renderer draws them, at a [`FrameNeed`]'s
+/// sizes.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct TeamFrames {
+    pub screen: Vec<u8>,
+    pub minimap: Vec<u8>,
+}
+
+impl TeamFrames {
+    /// Whether the pixel counts fit `need` (3 bytes a pixel).
+    pub fn fits(&self, need: FrameNeed) -> bool {
+        let len = |(w, h): (u32, u32)| w as usize * h as usize * 3;
+        self.screen.len() == len(need.screen) && self.minimap.len() == len(need.minimap)
+    }
+}
+
+/// What draws a team's frames from the world for in-process agents that read them (the
+/// renderer implements it; the engine has none).
+pub trait FrameSource: Send {
+    fn draw(&mut self, world: &crate::World, team: Team, need: FrameNeed) -> TeamFrames;
 }
 
 /// Parts of an observation an agent may not need: SMAC's features and masks, and the text.

@@ -2,7 +2,7 @@
 //! value, so every tool (episodes, rendering, tests) plays episodes the same way.
 
 use super::scripted::factory;
-use super::{AgentTeam, CommandedTeam, Grouping, UnknownAgent};
+use super::{AgentTeam, CommandedTeam, FrameSource, Grouping, UnknownAgent};
 use crate::env::Env;
 use crate::ids::Team;
 use crate::scenario::{Mode, Scenario};
@@ -13,6 +13,8 @@ pub struct Controllers {
     commanded: Vec<CommandedTeam>,
     /// Episodes started so far, less one (the episode number the agents are told).
     episode: Option<u64>,
+    /// What draws the frames of agents that read them (image-mode networks).
+    frames: Option<Box<dyn FrameSource>>,
 }
 
 impl std::fmt::Debug for Controllers {
@@ -28,12 +30,21 @@ impl Controllers {
     /// The given agent teams; one for team 2 is dropped in PvE, where the opponent plays it.
     pub fn new(scenario: &Scenario, teams: Vec<AgentTeam>) -> Self {
         let teams = teams.into_iter().filter(|t| t.team() == Team::One || scenario.mode == Mode::Pvp).collect();
-        Self { teams, commanded: Vec::new(), episode: None }
+        Self { teams, commanded: Vec::new(), episode: None, frames: None }
     }
 
     /// Adds teams under a commander (one dropped in PvE for team 2, as in [`Controllers::new`]).
     pub fn with_commanded(mut self, scenario: &Scenario, commanded: Vec<CommandedTeam>) -> Self {
         self.commanded.extend(commanded.into_iter().filter(|t| t.team() == Team::One || scenario.mode == Mode::Pvp));
+        self
+    }
+
+    /// Draws frames with `source` for the agents that read them (see [`Agent::frames`]);
+    /// without one they see none, and an image-mode network gives no orders.
+    ///
+    /// [`Agent::frames`]: super::Agent::frames
+    pub fn with_frames(mut self, source: Box<dyn FrameSource>) -> Self {
+        self.frames = Some(source);
         self
     }
 
@@ -73,6 +84,9 @@ impl Controllers {
     /// submitted: no side sees the other's orders of the same step.
     pub fn act(&mut self, env: &mut Env) {
         let episode = self.episode.unwrap_or(0);
+        for t in &mut self.teams {
+            t.show(env, self.frames.as_deref_mut());
+        }
         let mut actions: Vec<_> = self.teams.iter_mut().map(|t| (t.team(), t.act(env, episode))).collect();
         actions.extend(self.commanded.iter_mut().map(|t| (t.team(), t.act(env, episode))));
         for (team, a) in actions {

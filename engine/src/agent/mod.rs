@@ -20,7 +20,7 @@ pub use command::{
     Assignment, CommandedTeam, Commander, MakeAgent, MakeCommander, Orders, OrdersError, RoleGroupSpec, Rotate, commander_seed,
     validate as validate_orders,
 };
-pub use contract::{Agent, AgentCtx, ForkAgent, Reads, agent_seed, complete};
+pub use contract::{Agent, AgentCtx, ForkAgent, FrameNeed, FrameSource, Reads, TeamFrames, agent_seed, complete};
 pub use controllers::Controllers;
 pub use obs::{AgentObs, Controlled, EffectInfo, GroupObs};
 pub use observe::effects;

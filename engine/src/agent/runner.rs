@@ -69,6 +69,22 @@ impl AgentTeam {
             .collect();
     }
 
+    /// Hands each group's agent that reads frames its team's frames of this step, drawn by
+    /// `source` (once per size); without a source such agents see none.
+    pub fn show(&mut self, env: &Env, source: Option<&mut (dyn super::FrameSource + '_)>) {
+        let Some(source) = source else { return };
+        let mut drawn: Vec<(super::FrameNeed, super::TeamFrames)> = Vec::new();
+        for (_, agent) in &mut self.groups {
+            let Some(need) = agent.frames() else { continue };
+            if !drawn.iter().any(|(n, _)| *n == need) {
+                drawn.push((need, source.draw(env.world(), self.team, need)));
+            }
+            if let Some((_, f)) = drawn.iter().find(|(n, _)| *n == need) {
+                agent.see(f);
+            }
+        }
+    }
+
     /// Every group's actions for this step, from its units' observations.
     pub fn act(&mut self, env: &Env, episode: u64) -> Vec<Action> {
         let order: Vec<u32> = env.agents(self.team).iter().map(|id| id.tag()).collect();

@@ -57,3 +57,47 @@ fn an_rgb_policy_plays_out_the_episodes_its_tests_play() -> R {
     assert_eq!(won, seeds.len());
     Ok(())
 }
+
+/// An image checkpoint as an engine agent that is shown its team's frames before each step
+/// (what `episode --launch` and agent nodes do) plays the game `play_out` plays, whether the
+/// team is one group or one agent per unit: the same world at every step. (Their trajectory
+/// hashes differ once a unit dies: `play_out` submits a dead agent's no-op by index, which
+/// records it as the agent's last action, and an engine agent sends dead units nothing.)
+#[test]
+fn an_rgb_agent_shown_frames_plays_the_game_play_out_plays() -> R {
+    let policy = Arc::new(Policy::load(&shipped("mappo-rgb"))?);
+    let scenario = Arc::new(Scenario::load("3m")?);
+    let agents = |grouping: Grouping| {
+        let p = Arc::clone(&policy);
+        Controllers::new(&scenario, vec![AgentTeam::new(Team::One, grouping, move || Box::new(MarlAgent::new(Arc::clone(&p), "marl")))])
+    };
+    let play = |controllers: &mut Controllers, seed: u64| {
+        let mut env = Env::new(Arc::clone(&scenario), policy.cfg.env_config(), seed);
+        controllers.reset(&env);
+        let mut worlds = Vec::new();
+        while !env.done() {
+            worlds.push(env.world().state_hash());
+            controllers.act(&mut env);
+            env.step();
+        }
+        worlds.push(env.world().state_hash());
+        (worlds, env.outcome())
+    };
+    let mut deaths = 0;
+    for (seed, grouping) in [(4001, Grouping::Team), (4002, Grouping::PerUnit)] {
+        let mut seeing = agents(grouping).with_frames(Box::new(avacraft_render::FramePainter::new()));
+        let (by_agent, outcome) = play(&mut seeing, seed);
+        let mut env = Env::new(Arc::clone(&scenario), policy.cfg.env_config(), seed);
+        let mut played = Vec::new();
+        policy.play_out(&mut env, &mut |e| played.push(e.world().state_hash()))?;
+        assert_eq!(played, by_agent, "seed {seed}");
+        assert_eq!(env.outcome(), outcome);
+        deaths += usize::from(env.world().alive(Team::One).count() < 3);
+        // Without frames the network gives no orders: another game.
+        let (blind, _) = play(&mut agents(Grouping::Team), seed);
+        assert_ne!(blind, by_agent, "seed {seed}");
+    }
+    // The games compared lost units, where the bookkeeping of the two paths differs.
+    assert!(deaths > 0);
+    Ok(())
+}

@@ -66,6 +66,9 @@ pub struct FrameSpec {
     pub vlm: (u32, u32),
     /// Publish every this many steps.
     pub every: u32,
+    /// Agent nodes read them (an image-mode network): sent reliably, as the observations
+    /// are, not best effort.
+    pub for_agents: bool,
 }
 
 /// A team under a commander.

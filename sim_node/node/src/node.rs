@@ -429,7 +429,8 @@ fn collect_actions(
     Ok(applied)
 }
 
-/// Renders and publishes each agent team's frames (best effort: a late frame is worthless).
+/// Renders and publishes each agent team's frames (best effort for viewers, reliably when
+/// agent nodes read them).
 struct Frames {
     spec: Option<FrameSpec>,
     pubs: Vec<(Team, FrameKind, avacraft_nodes::Publisher<avacraft_msgs::Image>)>,
@@ -446,10 +447,13 @@ impl Frames {
     fn new(node: &Node, topics: &Topics, teams: &[Team], spec: Option<FrameSpec>) -> Result<Frames, NodeError> {
         let mut pubs = Vec::new();
         if let Some(s) = &spec {
+            // A network's frames must all arrive (each step's matches its observations); a
+            // viewer's are worthless late.
+            let qos = if s.for_agents { Qos::Reliable { depth: 10 } } else { Qos::BestEffort { depth: 1 } };
             for &team in teams {
                 let no = TeamNo::from(team);
                 for &k in &s.kinds {
-                    pubs.push((team, k, node.publisher(&topics.frames(no, k), Qos::BestEffort { depth: 1 })?));
+                    pubs.push((team, k, node.publisher(&topics.frames(no, k), qos)?));
                 }
             }
         }
