@@ -70,7 +70,7 @@ fn screen_size() -> [u32; 2] {
 fn minimap_size() -> [u32; 2] {
     [32, 32]
 }
-fn vlm_size() -> [u32; 2] {
+pub(crate) fn vlm_size() -> [u32; 2] {
     [1920, 1080]
 }
 fn one32() -> u32 {

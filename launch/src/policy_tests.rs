@@ -38,6 +38,18 @@ fn launch(scenario: &str, policy: &str) -> String {
     format!("scenario: {scenario}\nagents:\n  - per_unit: true\n    team: 1\n    policy: {policy}\n")
 }
 
+/// One episode of `plan` in process, on `seed`, played to its end.
+fn played(plan: &crate::Plan, seed: u64) -> Env {
+    let mut c = plan.controllers().expect("controllers");
+    let mut env = Env::new(Arc::clone(&plan.scenario), plan.env_config(), seed);
+    c.reset(&env);
+    while !env.done() {
+        c.act(&mut env);
+        env.step();
+    }
+    env
+}
+
 #[test]
 fn marl_policies_resolve_against_the_launch_file_and_share_one_network() {
     let base = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -66,18 +78,8 @@ fn marl_policies_resolve_against_the_launch_file_and_share_one_network() {
 fn a_marl_plan_plays_in_process_with_one_network_per_unit() {
     let plan = parse("m.yaml", &launch("3m", &format!("marl:{}", shipped().display())), None).expect("plan");
     let noop = parse("n.yaml", &launch("3m", "noop"), None).expect("plan");
-    let play = |p: &crate::Plan| {
-        let mut c = p.controllers().expect("controllers");
-        let mut env = Env::new(Arc::clone(&p.scenario), p.env_config(), 3);
-        c.reset(&env);
-        while !env.done() {
-            c.act(&mut env);
-            env.step();
-        }
-        env.trajectory_hash()
-    };
     assert_eq!(plan.scenario.mode, Mode::Pve);
-    assert_ne!(play(&plan), play(&noop), "the network gives orders");
+    assert_ne!(played(&plan, 3).trajectory_hash(), played(&noop, 3).trajectory_hash(), "the network gives orders");
 }
 
 #[test]
@@ -134,18 +136,8 @@ fn an_image_checkpoint_has_the_simulator_draw_its_frames_and_plays_in_process() 
     assert!(parse("m.yaml", &launch("3m", &format!("marl:{}", shipped().display())), None).expect("plan").frames.is_none());
     // In process the agents are shown the frames and give orders.
     let noop = parse("n.yaml", &launch("3m", "noop"), None).expect("plan");
-    let play = |p: &crate::Plan| {
-        let mut c = p.controllers().expect("controllers");
-        let mut env = Env::new(Arc::clone(&p.scenario), p.env_config(), 3);
-        c.reset(&env);
-        while !env.done() {
-            c.act(&mut env);
-            env.step();
-        }
-        env.outcome()
-    };
-    assert_eq!(play(&plan), Some(avacraft_engine::Outcome::Win));
-    assert_ne!(play(&noop), Some(avacraft_engine::Outcome::Win));
+    assert_eq!(played(&plan, 3).outcome(), Some(avacraft_engine::Outcome::Win));
+    assert_ne!(played(&noop, 3).outcome(), Some(avacraft_engine::Outcome::Win));
 }
 
 #[test]

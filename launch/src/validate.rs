@@ -188,7 +188,10 @@ fn agent_frames(cx: &Cx<'_>, file: Option<FramePlan>, needs: &[(String, String, 
             kinds: vec![FrameKind::Screen, FrameKind::Minimap],
             screen: need.screen,
             minimap: need.minimap,
-            vlm: (1920, 1080),
+            vlm: {
+                let [w, h] = crate::plan::vlm_size();
+                (w, h)
+            },
             every: 1,
             for_agents: true,
         }));
