@@ -234,9 +234,9 @@ impl Policy {
     pub fn agent_refusal(&self) -> Option<String> {
         (self.cfg.obs != crate::ObsKind::Features).then(|| {
             format!(
-                "trained on `{}` observations: it reads rendered frames, which this run does not show its agents (agent nodes \
-                 of a launch file and `episode --launch` are shown them; `avacraft eval` and `episode --agent` play image \
-                 checkpoints in PvE, from rendered frames)",
+                "trained on `{}` observations: it reads rendered frames, which this run does not show its agents, so only \
+                 `features` checkpoints play as agents here (agent nodes of a launch file and `episode --launch` show them \
+                 the frames; `avacraft eval` and `episode --agent` play image checkpoints in PvE, from rendered frames)",
                 self.cfg.obs.name()
             )
         })
