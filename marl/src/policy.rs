@@ -394,7 +394,8 @@ impl Agent for MarlAgent {
         self.mirror = ctx.team == Team::Two;
     }
     fn frames(&self) -> Option<FrameNeed> {
-        self.policy.frames_need()
+        // `vision-text` reads the text's embeddings too, which frames alone do not give it.
+        self.policy.frames_need().filter(|_| !self.policy.cfg.obs.text())
     }
     fn see(&mut self, frames: &TeamFrames) {
         self.seen = self.policy.frames_need().filter(|&need| frames.fits(need)).map(|need| {
