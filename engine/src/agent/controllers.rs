@@ -2,7 +2,7 @@
 //! value, so every tool (episodes, rendering, tests) plays episodes the same way.
 
 use super::scripted::factory;
-use super::{AgentTeam, CommandedTeam, FrameSource, Grouping, UnknownAgent};
+use super::{AgentTeam, CommandedTeam, FrameNeed, FrameSource, Grouping, TeamFrames, UnknownAgent};
 use crate::env::Env;
 use crate::ids::Team;
 use crate::scenario::{Mode, Scenario};
@@ -84,8 +84,19 @@ impl Controllers {
     /// submitted: no side sees the other's orders of the same step.
     pub fn act(&mut self, env: &mut Env) {
         let episode = self.episode.unwrap_or(0);
-        for t in &mut self.teams {
-            t.show(env, self.frames.as_deref_mut());
+        if let Some(source) = self.frames.as_deref_mut() {
+            // Each team's frames of a size are drawn once, however many groups read them.
+            let mut drawn: Vec<(Team, FrameNeed, TeamFrames)> = Vec::new();
+            for t in &self.teams {
+                for need in t.frame_needs() {
+                    if !drawn.iter().any(|(team, n, _)| *team == t.team() && *n == need) {
+                        drawn.push((t.team(), need, source.draw(env.world(), t.team(), need)));
+                    }
+                }
+            }
+            for t in &mut self.teams {
+                t.show(&drawn);
+            }
         }
         let mut actions: Vec<_> = self.teams.iter_mut().map(|t| (t.team(), t.act(env, episode))).collect();
         actions.extend(self.commanded.iter_mut().map(|t| (t.team(), t.act(env, episode))));

@@ -69,17 +69,17 @@ impl AgentTeam {
             .collect();
     }
 
-    /// Hands each group's agent that reads frames its team's frames of this step, drawn by
-    /// `source` (once per size); without a source such agents see none.
-    pub fn show(&mut self, env: &Env, source: Option<&mut (dyn super::FrameSource + '_)>) {
-        let Some(source) = source else { return };
-        let mut drawn: Vec<(super::FrameNeed, super::TeamFrames)> = Vec::new();
+    /// The frame sizes its groups' agents read (see [`super::Agent::frames`]).
+    pub fn frame_needs(&self) -> impl Iterator<Item = super::FrameNeed> + '_ {
+        self.groups.iter().filter_map(|(_, a)| a.frames())
+    }
+
+    /// Hands each group's agent that reads frames its team's frames of this step, from
+    /// `drawn` (frames by team and size, drawn once for every team that reads them).
+    pub fn show(&mut self, drawn: &[(Team, super::FrameNeed, super::TeamFrames)]) {
         for (_, agent) in &mut self.groups {
             let Some(need) = agent.frames() else { continue };
-            if !drawn.iter().any(|(n, _)| *n == need) {
-                drawn.push((need, source.draw(env.world(), self.team, need)));
-            }
-            if let Some((_, f)) = drawn.iter().find(|(n, _)| *n == need) {
+            if let Some((_, _, f)) = drawn.iter().find(|(t, n, _)| *t == self.team && *n == need) {
                 agent.see(f);
             }
         }
