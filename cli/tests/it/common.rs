@@ -3,7 +3,7 @@
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::sync::{Arc, OnceLock};
+use std::sync::{Arc, Mutex, MutexGuard, OnceLock};
 
 pub fn exe() -> &'static str {
     env!("CARGO_BIN_EXE_avacraft")
@@ -17,6 +17,14 @@ pub fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("avacraft-it-{}", std::process::id()));
     std::fs::create_dir_all(&d).expect("temp dir");
     d.join(name)
+}
+
+/// Held by tests whose simulators publish frames of team 1 in the default namespace: the
+/// iceoryx2 services are named by the namespace only, so one test's reader would take
+/// another's frames (of another size) while both run.
+pub fn shm_frames() -> MutexGuard<'static, ()> {
+    static LOCK: Mutex<()> = Mutex::new(());
+    LOCK.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 pub fn write_launch(name: &str, body: &str) -> PathBuf {

@@ -7,7 +7,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 use zenoh::Wait;
 
-use crate::common::{Child, exe, free_port, launch_json, marl_checkpoint, tmp, write_launch};
+use crate::common::{Child, exe, free_port, launch_json, marl_checkpoint, shm_frames, tmp, write_launch};
 
 /// Runs `avacraft launch --json` on `body` with its own router on a free port.
 fn launch_on_free_port(name: &str, body: &str) -> serde_json::Value {
@@ -17,6 +17,7 @@ fn launch_on_free_port(name: &str, body: &str) -> serde_json::Value {
 
 #[test]
 fn launch_3m_with_three_agent_processes_finishes_episodes_and_records_them() {
+    let _frames = shm_frames();
     let port = free_port();
     let mcap = tmp("3m.mcap");
     let file = write_launch(
@@ -424,6 +425,7 @@ fn deployed_and_in_process_marl_policies_have_equal_trajectory_hashes() {
 /// in the same number of steps.
 #[test]
 fn deployed_image_policies_read_the_simulators_frames_and_play_as_in_process() {
+    let _frames = shm_frames();
     let body = "scenario: 3m\nepisodes: 2\nseed: 11\nagents:\n  - {per_unit: true, team: 1, policy: baseline:mappo-rgb}\n";
     let file = write_launch("rgb.yaml", &format!("router: tcp/127.0.0.1:{}\n{body}", free_port()));
     let deployed_raw = launch_json(&file);
