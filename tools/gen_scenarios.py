@@ -41,6 +41,27 @@ DESCRIPTIONS = {
     "8m3mr1mv1st_mirror_pvp": "Terran bio mirror with a Siege Tank, agents on both sides.",
 }
 KEEP = {("6r_vs_8z", "Zealot"): 8, ("pvz_ht", "Queen"): 3}
+# The unit data each map runs: the mod its DocumentHeader depends on, as sc2_data's
+# map_overrides.json lists it (Liberty -> liberty, Void -> void, VoidMulti -> ladder).
+MODS = {"Mods/Liberty.SC2Mod": "liberty", "Mods/Void.SC2Mod": "void", "Mods/VoidMulti.SC2Mod": "ladder"}
+# pvz_ht's map is not among sc2_data's maps: LLM-PySC2's pvz_task6_level3.SC2Map (commit
+# 5b4a38a, sha1 30af0e71) was read with mpyq: its DocumentHeader and DocumentInfo name one
+# dependency, Mods/Void.SC2Mod, and it ships no data files.
+UNLISTED = {"pvz_task6_level3": "void"}
+DATA_NOTES = {
+    "pvz_task6_level3": "LLM-PySC2's map depends on Mods/Void.SC2Mod (read from its DocumentHeader)",
+}
+
+
+def map_data(source_map):
+    if source_map in UNLISTED:
+        return UNLISTED[source_map], DATA_NOTES[source_map]
+    maps = json.loads((REF.parent / "sc2_data" / "map_overrides.json").read_text())["maps"]
+    deps = maps[f"ava/{source_map}"]["declared_dependencies"]
+    sets = {MODS[m] for d in deps for m in MODS if d.endswith(m)}
+    if len(sets) != 1:
+        raise SystemExit(f"{source_map}: dependencies {deps} name no single known mod")
+    return sets.pop(), f"the map depends on {deps[0].split(',file:')[-1]}"
 RAMP_CHARS = "abcdefghijklmnopqrstuvwxyz"
 
 
@@ -101,6 +122,8 @@ def convert(path):
         f'description = "{DESCRIPTIONS[name]}"',
         'objective = "Destroy every enemy unit within 300 seconds of game time."',
         f'source = "{d["source_map"]}"',
+        f"# unit data: {map_data(d['source_map'])[1]}",
+        f'data = "{map_data(d["source_map"])[0]}"',
         f"map_size = [{w}, {h}]",
         f"playable = [{fmt(float(l))}, {fmt(float(b))}, {fmt(float(r))}, {fmt(float(t))}]",
         "time_limit_s = 300.0",
@@ -166,6 +189,8 @@ def procedural(race, n, m):
         f'description = "{n} vs {m} {race.capitalize()} units drawn every episode, surrounded or reflected starts (SMACv2)."',
         'objective = "Destroy every enemy unit within 71 seconds of game time."',
         f'source = "smacv2:10gen_{race}"',
+        "# unit data: SMACv2's maps depend on Mods/Liberty.SC2Mod",
+        'data = "liberty"',
         "map_size = [32, 32]",
         "playable = [0.0, 0.0, 32.0, 32.0]",
         "# SMACv2's episode limit: 200 steps of 8 game loops.",

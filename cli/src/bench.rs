@@ -293,6 +293,8 @@ fn run_scaling(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
 #[derive(Serialize, Debug, Clone)]
 pub struct BenchRow {
     scenario: String,
+    /// The unit data the scenario plays (its map's).
+    data: String,
     units: usize,
     steps: u64,
     episodes: u64,
@@ -309,6 +311,13 @@ pub struct BenchRow {
     /// steps_per_sec / no_abilities_steps_per_sec (goal: at least 0.5).
     ratio_to_no_abilities: f64,
     game_loops_per_sec: f64,
+    /// Baseline measured in the same run: the scenario on the legacy data set (no weapon
+    /// timing: attacks land at once, no missiles in flight), the engine's game before it read
+    /// StarCraft II's data files.
+    legacy_steps_per_sec: f64,
+    /// steps_per_sec / legacy_steps_per_sec: what the maps' own data and weapon timing cost
+    /// (goal: at least 0.9). The battles differ too, so it measures the game, not only code.
+    ratio_to_legacy: f64,
     /// Heap and inline bytes of one environment (needs the binary's counting allocator).
     bytes_per_env: Option<usize>,
 }
@@ -464,11 +473,15 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
         let (steps, episodes, loops, secs) = measure(&scenario, a.seconds, a.steps, full);
         let (base_steps, _, _, base_secs) = measure(&scenario, a.seconds / 2.0, a.steps, Config { with_obs: false, ..full });
         let (plain_steps, _, _, plain_secs) = measure(&scenario, a.seconds / 2.0, a.steps, Config { abilities: false, ..full });
+        let legacy = Arc::new(scenario.with_data(avacraft_engine::DataSet::Legacy)?);
+        let (legacy_steps, _, _, legacy_secs) = measure(&legacy, a.seconds / 2.0, a.steps, full);
+        let legacy_sps = legacy_steps as f64 / legacy_secs;
         let sps = steps as f64 / secs;
         let base = base_steps as f64 / base_secs;
         let plain = plain_steps as f64 / plain_secs;
         rows.push(BenchRow {
             scenario: scenario.name.clone(),
+            data: scenario.data.to_string(),
             units: scenario.units.len(),
             steps,
             episodes,
@@ -479,6 +492,8 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
             no_abilities_steps_per_sec: plain,
             ratio_to_no_abilities: sps / plain,
             game_loops_per_sec: loops as f64 / secs,
+            legacy_steps_per_sec: legacy_sps,
+            ratio_to_legacy: sps / legacy_sps,
             bytes_per_env: alloc.map(|a| bytes_per_env(&scenario, a)),
         });
         if !a.json {
@@ -496,6 +511,7 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
     let t = table(
         &[
             "scenario",
+            "data",
             "units",
             "steps/s",
             "sim-only steps/s",
@@ -503,12 +519,15 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
             "ratio to 100k goal",
             "no-abilities steps/s",
             "ratio to no abilities",
+            "legacy data steps/s",
+            "ratio to legacy (goal 0.9)",
             "game loops/s",
             "bytes/env",
         ],
         rows.iter().map(|r| {
             vec![
                 r.scenario.clone(),
+                r.data.clone(),
                 r.units.to_string(),
                 format!("{:.0}", r.steps_per_sec),
                 format!("{:.0}", r.sim_only_steps_per_sec),
@@ -516,6 +535,8 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
                 format!("{:.2}", r.ratio_to_goal),
                 format!("{:.0}", r.no_abilities_steps_per_sec),
                 format!("{:.2}", r.ratio_to_no_abilities),
+                format!("{:.0}", r.legacy_steps_per_sec),
+                format!("{:.2}", r.ratio_to_legacy),
                 format!("{:.0}", r.game_loops_per_sec),
                 r.bytes_per_env.map_or("-".to_owned(), |b| b.to_string()),
             ]

@@ -19,11 +19,15 @@ pub struct EpisodeArgs {
     /// Built-in scenario name or path to a scenario file.
     #[arg(long, required_unless_present = "launch")]
     pub scenario: Option<String>,
+    /// The unit data to play on: liberty, void, ladder or legacy (default: the scenario's
+    /// own, its map's; `avacraft scenarios` lists them).
+    #[arg(long, value_parser = parse_data)]
+    pub data: Option<avacraft_engine::DataSet>,
     /// Play a launch file's games in-process: its scenario, seeds, opponent and agent nodes
     /// (each node's units, policy and seed; `policy: marl:DIR` loads the checkpoint once and
     /// runs one network per node), exactly as `avacraft launch` deploys them, so the
     /// trajectory hashes can be compared with the deployment's.
-    #[arg(long, conflicts_with_all = ["scenario", "agent", "agent2", "opponent", "episodes", "seed", "full_vision", "passive_agents", "no_jitter", "no_abilities"])]
+    #[arg(long, conflicts_with_all = ["scenario", "data", "agent", "agent2", "opponent", "episodes", "seed", "full_vision", "passive_agents", "no_jitter", "no_abilities"])]
     pub launch: Option<std::path::PathBuf>,
     /// Policy for team 1: focus-fire, kite, attack-move, builtin, aggressive, defensive, focus, random, hold, noop,
     /// marl:DIR, a checkpoint written by `avacraft train --out DIR` (refused if trained on another
@@ -170,7 +174,11 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
         bail!("--episodes must be at least 1");
     }
     let Some(name) = &a.scenario else { bail!("--scenario or --launch is needed") };
-    let scenario = Arc::new(Scenario::load(name)?);
+    let scenario = Scenario::load(name)?;
+    let scenario = Arc::new(match a.data {
+        Some(d) => scenario.with_data(d).with_context(|| format!("--data {d}"))?,
+        None => scenario,
+    });
     let opponent = a.opponent.as_deref().map(str::parse::<OpponentKind>).transpose().map_err(anyhow::Error::msg).context("--opponent")?;
     if scenario.mode == Mode::Pvp && opponent.is_some() {
         bail!("--opponent applies to PvE scenarios; {} is PvP: pick team 2's policy with --agent2", scenario.name);
@@ -407,4 +415,9 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
     }
     let _ = team_of;
     Ok(())
+}
+
+/// `--data`'s parser: one of the data sets, with their list in the error.
+pub(crate) fn parse_data(s: &str) -> Result<avacraft_engine::DataSet, String> {
+    s.parse().map_err(|e: avacraft_engine::UnknownDataSet| e.to_string())
 }

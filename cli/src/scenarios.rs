@@ -1,5 +1,5 @@
 //! `avacraft scenarios`: the built-in scenarios (the paper's, then the procedural ones) with
-//! their teams, map and time limit.
+//! their teams, map, unit data set and time limit.
 
 use anyhow::{Context, Result};
 use avacraft_engine::{Scenario, Team, builtin, builtin_names, loops_to_seconds, procedural_names};
@@ -25,6 +25,8 @@ struct Row {
     team1_units: String,
     team2_units: String,
     map: String,
+    /// The unit data the scenario's map runs (`--data` plays another).
+    data: String,
     time_limit_s: f32,
 }
 
@@ -53,6 +55,7 @@ pub fn scenarios(a: &ScenariosArgs, out: &mut dyn Write) -> Result<()> {
             team1_units: composition(&s, Team::One),
             team2_units: composition(&s, Team::Two),
             map: format!("{}x{}", s.terrain.width(), s.terrain.height()),
+            data: s.data.to_string(),
             time_limit_s: loops_to_seconds(s.time_limit_loops),
         });
     }
@@ -61,10 +64,14 @@ pub fn scenarios(a: &ScenariosArgs, out: &mut dyn Write) -> Result<()> {
         return Ok(());
     }
     let mut t = Table::new();
-    t.load_preset(UTF8_FULL_CONDENSED).set_header(["scenario", "mode", "team 1", "team 2", "team 1 units", "team 2 units", "map"]);
+    t.load_preset(UTF8_FULL_CONDENSED).set_header(["scenario", "mode", "team 1", "team 2", "team 1 units", "team 2 units", "map", "data"]);
     for r in rows {
-        t.add_row([r.name, r.mode, r.team1.to_string(), r.team2.to_string(), r.team1_units, r.team2_units, r.map]);
+        t.add_row([r.name, r.mode, r.team1.to_string(), r.team2.to_string(), r.team1_units, r.team2_units, r.map, r.data]);
     }
     writeln!(out, "{t}")?;
+    writeln!(out, "Unit data sets (a scenario's is its map's; `--data` plays another):")?;
+    for d in avacraft_engine::DataSet::ALL {
+        writeln!(out, "  {:<8} {}", d.name(), d.describe())?;
+    }
     Ok(())
 }

@@ -121,14 +121,14 @@ impl World {
             for i in 0..self.units.len() {
                 let u = &self.units[i];
                 if u.alive && u.hp <= 0.0 {
-                    let (team, pos, kind) = (u.team, u.pos, u.kind);
+                    let (team, pos, spec) = (u.team, u.pos, u.spec);
                     let u = &mut self.units[i];
                     u.alive = false;
                     u.hp = 0.0;
                     u.activity = crate::world::Activity::Dead;
                     u.vel = Vec2::ZERO;
                     self.stats[team.other().index()].kills += 1;
-                    if let Some(w) = kind.spec().weapons.first().filter(|w| w.suicide) {
+                    if let Some(w) = spec.weapons.first().filter(|w| w.suicide) {
                         pending.push(PendingHit { attacker: UnitId::new(i as u16), target: None, weapon: w, impact: pos, dir: Vec2::ZERO });
                     }
                 }

@@ -76,9 +76,9 @@ mod tests {
 
     #[test]
     fn marine_on_zealot_shields_then_hull() {
-        let w = &UnitKind::Marine.spec().weapons[0];
+        let w = &UnitKind::Marine.spec_in(crate::units::DataSet::Legacy).weapons[0];
         let (mut sh, mut hp) = (50.0, 100.0);
-        let d = apply_hits(hit_damage(w, UnitKind::Zealot.spec().attrs), 1, 1.0, &mut sh, &mut hp);
+        let d = apply_hits(hit_damage(w, UnitKind::Zealot.spec_in(crate::units::DataSet::Legacy).attrs), 1, 1.0, &mut sh, &mut hp);
         assert_eq!((d.shield, d.hp, sh, hp), (6.0, 0.0, 44.0, 100.0));
         let (mut sh, mut hp) = (0.0, 100.0);
         let d = apply_hits(6.0, 1, 1.0, &mut sh, &mut hp);
@@ -97,11 +97,11 @@ mod tests {
 
     #[test]
     fn bonus_damage_by_attribute() {
-        let w = &UnitKind::Marauder.spec().weapons[0];
-        assert_eq!(hit_damage(w, UnitKind::Stalker.spec().attrs), 20.0);
-        assert_eq!(hit_damage(w, UnitKind::Zealot.spec().attrs), 10.0);
-        let bane = &UnitKind::Baneling.spec().weapons[0];
-        assert_eq!(hit_damage(bane, UnitKind::Marine.spec().attrs), 35.0);
-        assert_eq!(hit_damage(bane, UnitKind::PhotonCannon.spec().attrs), 96.0);
+        let w = &UnitKind::Marauder.spec_in(crate::units::DataSet::Legacy).weapons[0];
+        assert_eq!(hit_damage(w, UnitKind::Stalker.spec_in(crate::units::DataSet::Legacy).attrs), 20.0);
+        assert_eq!(hit_damage(w, UnitKind::Zealot.spec_in(crate::units::DataSet::Legacy).attrs), 10.0);
+        let bane = &UnitKind::Baneling.spec_in(crate::units::DataSet::Legacy).weapons[0];
+        assert_eq!(hit_damage(bane, UnitKind::Marine.spec_in(crate::units::DataSet::Legacy).attrs), 35.0);
+        assert_eq!(hit_damage(bane, UnitKind::PhotonCannon.spec_in(crate::units::DataSet::Legacy).attrs), 96.0);
     }
 }

@@ -102,6 +102,8 @@ impl World {
             pending_casts,
             any_guarded,
             deaths_pending,
+            missiles,
+            data,
             // Fixed by the scenario, which a recording carries as text.
             terrain: _,
             max_sight: _,
@@ -146,6 +148,20 @@ impl World {
         effects.iter().for_each(|e| hash_effect(&mut h, e));
         h.u32(pending_casts.len() as u32);
         pending_casts.iter().for_each(|c| hash_cast(&mut h, c));
+        // Hashed only where they can differ from the legacy game, so that its hashes (golden
+        // trajectories, earlier recordings) are what they were before data sets existed.
+        if *data != crate::units::DataSet::Legacy {
+            h.u32(0xDA7A_0000 | data.code() as u32);
+        }
+        if !missiles.is_empty() {
+            h.u32(missiles.len() as u32);
+            for m in missiles {
+                h.unit(Some(m.attacker));
+                h.unit(Some(m.target));
+                h.vec2(m.pos);
+                h.f32(m.weapon.damage);
+            }
+        }
         h.finish()
     }
 }
@@ -213,7 +229,18 @@ fn hash_unit(h: &mut Fnv, u: &Unit) {
         waypoint,
         base_speed,
         status,
+        swing,
+        // The kind's row in the world's data set, hashed with the world.
+        spec: _,
     } = u;
+    // An attack in progress exists only under weapon timing: hashed when there is one.
+    if let Some(sw) = swing {
+        h.unit(Some(sw.target));
+        h.u32(sw.weapon as u32 | (sw.fired as u32) << 8);
+        h.u32(sw.fire_at);
+        h.u32(sw.done_at);
+        h.f32(sw.cooldown_before);
+    }
     h.u32(team.index() as u32 | (*kind as u32) << 1 | (*body as u32) << 16 | (*activity as u32) << 20);
     h.u32(*ordinal as u32 | (*blocked_loops as u32) << 16);
     h.bools([*alive, *was_healing].into_iter());

@@ -75,9 +75,8 @@ pub use scenario::{
     BUILTIN, Generator, Mode, OpponentKind, PROCEDURAL, RawGenerate, RawOpponent, RawScenario, RawStart, RawTerrain, RawUnit, RawUpgrade,
     Scenario, ScenarioError, ScenarioUnit, StartDist, StartOrder, Upgrade, builtin, builtin_names, procedural_names,
 };
-pub use sim::{ENERGY_REGEN, SHIELD_REGEN, SHIELD_REGEN_DELAY, ZERG_REGEN};
 pub use terrain::{MAX_STEP, Rect, Terrain};
 pub use time::{DEFAULT_STEP_MUL, DEFAULT_TIME_LIMIT_S, LOOPS_PER_NORMAL_SECOND, LOOPS_PER_SECOND, loops_to_seconds, seconds_to_loops};
-pub use units::{Attrs, Heal, Race, Reach, Splash, UnitKind, UnitSpec, UnknownUnitKind, Weapon};
+pub use units::{Attrs, DataSet, Heal, Race, Reach, Regen, Splash, Timing, UnitKind, UnitSpec, UnknownDataSet, UnknownUnitKind, Weapon};
 pub use vec_env::{OpponentFactory, VecBuffers, VecEnv, VecEnvError};
 pub use world::{Activity, Body, Order, Rules, Shot, TeamStats, Unit, World};

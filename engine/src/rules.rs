@@ -12,7 +12,7 @@ use crate::geom::Vec2;
 use crate::ids::{Team, UnitId};
 use crate::obs::{Buffs, UnitFlags, UnitInfo};
 use crate::terrain::Terrain;
-use crate::units::{Attrs, UnitKind, Weapon};
+use crate::units::{Attrs, UnitKind, UnitSpec, Weapon};
 use crate::world::{Order, Unit, World};
 
 /// What the rules read of a unit: the same facts whether it is the world's [`Unit`] or an
@@ -20,6 +20,8 @@ use crate::world::{Order, Unit, World};
 pub(crate) trait Facts {
     fn tag(&self) -> u32;
     fn kind(&self) -> UnitKind;
+    /// The kind's row in the game's data set.
+    fn spec(&self) -> &'static UnitSpec;
     fn pos(&self) -> Vec2;
     fn radius(&self) -> f32;
     /// 0 while immobile, morphing, lifted or channelling.
@@ -39,6 +41,9 @@ impl Facts for Unit {
     }
     fn kind(&self) -> UnitKind {
         self.kind
+    }
+    fn spec(&self) -> &'static UnitSpec {
+        self.spec
     }
     fn pos(&self) -> Vec2 {
         self.pos
@@ -76,11 +81,14 @@ impl Facts for UnitInfo {
     fn kind(&self) -> UnitKind {
         self.kind
     }
+    fn spec(&self) -> &'static UnitSpec {
+        UnitInfo::spec(self)
+    }
     fn pos(&self) -> Vec2 {
         Vec2::new(self.x, self.y)
     }
     fn radius(&self) -> f32 {
-        self.kind.spec().radius
+        UnitInfo::spec(self).radius
     }
     fn speed(&self) -> f32 {
         self.speed
@@ -113,7 +121,7 @@ pub(crate) fn edge(a: &impl Facts, b: &impl Facts) -> f32 {
 /// The weapon of `u` that reaches `t`'s layer, with its index.
 pub(crate) fn weapon_for(u: &impl Facts, t: &impl Facts) -> Option<(usize, &'static Weapon)> {
     let air = t.on_air();
-    u.kind().spec().weapons.iter().enumerate().find(|(_, w)| w.reach.hits(air))
+    u.spec().weapons.iter().enumerate().find(|(_, w)| w.reach.hits(air))
 }
 
 /// Whether `t` is within the range band of `u`'s weapon against it.
@@ -130,7 +138,7 @@ pub(crate) fn attack(u: &impl Facts, t: &impl Facts, friendly: bool) -> Result<(
         if !friendly || t.tag() == u.tag() {
             return Err(TargetProblem::HealerNeedsFriend);
         }
-        if !t.kind().spec().attrs.has(Attrs::BIOLOGICAL) {
+        if !t.spec().attrs.has(Attrs::BIOLOGICAL) {
             return Err(TargetProblem::NotBiological);
         }
         return Ok(());
@@ -164,7 +172,7 @@ pub(crate) fn cast_on(ability: Ability, u: &impl Facts, t: &impl Facts, friendly
     if distance > spec.range {
         return Err(Refusal::OutOfRange { distance, range: spec.range });
     }
-    let attrs = t.kind().spec().attrs;
+    let attrs = t.spec().attrs;
     let bio = attrs.has(Attrs::BIOLOGICAL);
     match ability {
         Ability::SteadyTargeting if !bio => Err(invalid("Steady Targeting needs a biological target")),
@@ -266,7 +274,7 @@ pub(crate) fn check<S: Sight>(s: &S, team: Team, a: &Action) -> Result<Option<Or
         if u.on_air() {
             return Ok(p);
         }
-        terrain.reachable_point(u.pos(), p, u.kind().spec().cliff_walk).ok_or(cannot(Inability::NoGround))
+        terrain.reachable_point(u.pos(), p, u.spec().cliff_walk).ok_or(cannot(Inability::NoGround))
     };
     Ok(match a.command {
         Command::NoOp | Command::Ability { .. } | Command::Look { .. } => None,

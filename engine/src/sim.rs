@@ -4,18 +4,10 @@
 use crate::combat::{LEASH, PendingHit, acquire_range, edge_dist, in_heal_range, weapon_for};
 use crate::geom::Vec2;
 use crate::ids::UnitId;
-use crate::units::{Attrs, Race};
-use crate::world::{Activity, Intent, Order, Unit, World};
+use crate::units::Attrs;
+use crate::world::{Activity, Intent, Missile, Order, Swing, Unit, World};
 use rand::Rng;
 
-/// Shields regenerate after this many loops without damage (10 Normal seconds).
-pub const SHIELD_REGEN_DELAY: u32 = 160;
-/// Shield points per loop (2 per Normal second).
-pub const SHIELD_REGEN: f32 = 2.0 / 16.0;
-/// Zerg HP per loop (0.38 per Faster second).
-pub const ZERG_REGEN: f32 = 0.38 / 22.4;
-/// Energy per loop (0.5625 per Normal second).
-pub const ENERGY_REGEN: f32 = 0.5625 / 16.0;
 /// Distance within which a move order counts as arrived.
 const ARRIVE: f32 = 0.05;
 /// Loops of being blocked near its goal after which a move order ends.
@@ -52,6 +44,12 @@ impl World {
             // Morphing, lifted or channelling: nothing else this loop.
             return Intent::default();
         }
+        if let Some(sw) = u.swing
+            && let Some(it) = self.swing_on(i, sw)
+        {
+            return it;
+        }
+        let u = &self.units[i];
         if u.spec().heal.is_some() {
             return self.decide_healer(i);
         }
@@ -101,6 +99,37 @@ impl World {
             },
             Order::Move { to } => self.go(i, to),
         }
+    }
+
+    /// An attack in progress: during the wind-up the unit stands facing its target until the
+    /// damage point, unless the target dies, hides or gets beyond range plus `RangeSlop`
+    /// (then the attack is cancelled and its cooldown given back); during the backswing it
+    /// stands. `None` once the attack is over or cancelled: the unit decides as usual.
+    fn swing_on(&mut self, i: usize, sw: Swing) -> Option<Intent> {
+        let tick = self.tick;
+        let u = &self.units[i];
+        if sw.fired {
+            if tick < sw.done_at {
+                self.units[i].activity = Activity::Attacking;
+                return Some(Intent::default());
+            }
+            self.units[i].swing = None;
+            return None;
+        }
+        let w = &u.spec().weapons[sw.weapon as usize];
+        let keep = self.valid_enemy(u, sw.target) && edge_dist(u, &self.units[sw.target.index()]) <= w.range + w.timing.range_slop;
+        let tpos = self.units[sw.target.index()].pos;
+        let u = &mut self.units[i];
+        if !keep {
+            u.cooldown = sw.cooldown_before;
+            u.swing = None;
+            return None;
+        }
+        u.heading = (tpos - u.pos).normalized();
+        u.activity = Activity::Attacking;
+        u.target = Some(sw.target);
+        let release = (tick >= sw.fire_at).then_some((sw.target, sw.weapon as usize));
+        Some(Intent { release, closing_on: Some(sw.target), ..Intent::default() })
     }
 
     /// Move towards `to`; the order completes on arrival.
@@ -207,27 +236,35 @@ impl World {
 
     fn attack(&mut self, intents: &[Intent]) {
         let mut pending = Vec::new();
+        self.fly_missiles(&mut pending);
         for (i, it) in intents.iter().enumerate() {
-            let Some((t, wi)) = it.fire else { continue };
-            let w = &self.units[i].spec().weapons[wi];
-            let jitter = if self.rules.cooldown_jitter { self.rng().random_range(-1.0f32..=2.0) } else { 0.0 };
-            let tpos = self.units[t.index()].pos;
-            let tick = self.tick;
-            let u = &mut self.units[i];
-            u.cooldown = w.cooldown / u.status.attack_rate(tick) + jitter + u.cooldown.clamp(-1.0, 0.0);
-            u.activity = Activity::Attacking;
-            let dir = (tpos - u.pos).normalized();
-            let (id, team, pos) = (u.id, u.team, u.pos);
-            if w.suicide {
-                u.alive = false;
-                u.hp = 0.0;
-                u.activity = Activity::Dead;
-                pending.push(PendingHit { attacker: id, target: None, weapon: w, impact: pos, dir });
-            } else {
-                pending.push(PendingHit { attacker: id, target: Some(t), weapon: w, impact: tpos, dir });
+            if let Some((t, wi)) = it.fire {
+                let w = &self.units[i].spec().weapons[wi];
+                // RandomDelayMin/Max: drawn at every attack and added to the period.
+                let jitter = if self.rules.cooldown_jitter { self.rng().random_range(w.timing.delay[0]..=w.timing.delay[1]) } else { 0.0 };
+                let tick = self.tick;
+                let u = &mut self.units[i];
+                let before = u.cooldown;
+                // The period runs from the start of the attack; the wind-up and the backswing
+                // lie inside it.
+                u.cooldown = w.cooldown / u.status.attack_rate(tick) + jitter + u.cooldown.clamp(-1.0, 0.0);
+                u.activity = Activity::Attacking;
+                let windup = w.timing.damage_point.round() as u32;
+                if windup > 0 {
+                    u.swing = Some(Swing {
+                        target: t,
+                        weapon: wi as u8,
+                        fire_at: tick + windup,
+                        done_at: 0,
+                        fired: false,
+                        cooldown_before: before,
+                    });
+                    continue;
+                }
+                self.release(i, t, wi, &mut pending);
+            } else if let Some((t, wi)) = it.release {
+                self.release(i, t, wi, &mut pending);
             }
-            self.stats[team.index()].attacks += 1;
-            self.record_shot(id, t, tpos);
         }
         for (i, it) in intents.iter().enumerate() {
             let Some(t) = it.heal else { continue };
@@ -251,19 +288,84 @@ impl World {
         self.resolve_hits(pending);
     }
 
+    /// The effect of an attack at its damage point: the hit now, or a missile on its way.
+    /// The unit then stands through its backswing.
+    fn release(&mut self, i: usize, t: UnitId, wi: usize, pending: &mut Vec<PendingHit>) {
+        let w = &self.units[i].spec().weapons[wi];
+        let tpos = self.units[t.index()].pos;
+        let tick = self.tick;
+        let u = &mut self.units[i];
+        u.activity = Activity::Attacking;
+        let dir = (tpos - u.pos).normalized();
+        let (id, team, pos) = (u.id, u.team, u.pos);
+        let backswing = w.timing.backswing.round() as u32;
+        u.swing = (backswing > 0 && !w.suicide).then_some(Swing {
+            target: t,
+            weapon: wi as u8,
+            fire_at: tick,
+            done_at: tick + backswing,
+            fired: true,
+            cooldown_before: 0.0,
+        });
+        if w.suicide {
+            u.alive = false;
+            u.hp = 0.0;
+            u.activity = Activity::Dead;
+            pending.push(PendingHit { attacker: id, target: None, weapon: w, impact: pos, dir });
+        } else if w.timing.missile_speed > 0.0 {
+            self.missiles.push(Missile { attacker: id, target: t, weapon: w, pos });
+        } else {
+            pending.push(PendingHit { attacker: id, target: Some(t), weapon: w, impact: tpos, dir });
+        }
+        self.stats[team.index()].attacks += 1;
+        self.record_shot(id, t, tpos);
+    }
+
+    /// Moves every missile towards its target's current position at the weapon's missile
+    /// speed; one that reaches it hits this loop, one whose target died is lost.
+    fn fly_missiles(&mut self, pending: &mut Vec<PendingHit>) {
+        if self.missiles.is_empty() {
+            return;
+        }
+        let mut missiles = std::mem::take(&mut self.missiles);
+        missiles.retain_mut(|m| {
+            let t = &self.units[m.target.index()];
+            if !t.alive {
+                return false;
+            }
+            let to = t.pos - m.pos;
+            let d = to.len();
+            let step = m.weapon.timing.missile_speed;
+            if d - t.radius <= step {
+                pending.push(PendingHit {
+                    attacker: m.attacker,
+                    target: Some(m.target),
+                    weapon: m.weapon,
+                    impact: t.pos,
+                    dir: to.normalized(),
+                });
+                return false;
+            }
+            m.pos += to * (step / d);
+            true
+        });
+        self.missiles = missiles;
+    }
+
     fn regen(&mut self) {
         let tick = self.tick;
         for u in self.units.iter_mut().filter(|u| u.alive) {
             u.cooldown = (u.cooldown - 1.0).max(-1.0);
-            if u.shield < u.max_shield && tick.saturating_sub(u.last_damaged) >= SHIELD_REGEN_DELAY {
-                u.shield = (u.shield + SHIELD_REGEN).min(u.max_shield);
-            }
             let s = u.spec();
-            if s.race == Race::Zerg && u.hp < u.max_hp {
-                u.hp = (u.hp + ZERG_REGEN).min(u.max_hp);
+            let quiet = tick.saturating_sub(u.last_damaged) as f32;
+            if u.shield < u.max_shield && s.regen.shield > 0.0 && quiet >= s.regen.shield_delay {
+                u.shield = (u.shield + s.regen.shield).min(u.max_shield);
+            }
+            if s.regen.life > 0.0 && u.hp < u.max_hp && quiet >= s.regen.life_delay {
+                u.hp = (u.hp + s.regen.life).min(u.max_hp);
             }
             if s.energy_max > 0.0 {
-                u.energy = (u.energy + ENERGY_REGEN).min(s.energy_max);
+                u.energy = (u.energy + s.regen.energy).min(s.energy_max);
             }
         }
     }

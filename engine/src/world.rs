@@ -9,7 +9,8 @@ use crate::pathing::PathCache;
 use crate::scenario::{Scenario, Upgrade};
 use crate::spatial::SpatialGrid;
 use crate::terrain::Terrain;
-use crate::units::{UnitKind, UnitSpec};
+use crate::time::per_normal_s;
+use crate::units::{DataSet, UnitKind, UnitSpec, Weapon};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -63,11 +64,10 @@ impl Body {
         }
     }
 
-    pub fn of(kind: UnitKind) -> Body {
-        let s = kind.spec();
+    pub fn of(s: &UnitSpec) -> Body {
         if s.flying {
             Body::Air
-        } else if s.cliff_walk {
+        } else if s.tall {
             Body::Tall
         } else if s.attrs.has(crate::units::Attrs::MASSIVE) {
             Body::Massive
@@ -83,6 +83,8 @@ pub struct Unit {
     pub id: UnitId,
     pub team: Team,
     pub kind: UnitKind,
+    /// The kind's row in the world's data set (changes with it on a morph).
+    pub(crate) spec: &'static UnitSpec,
     pub(crate) body: Body,
     pub(crate) radius: f32,
     /// 1-based number among the units of the same team and base type (`Marine_3`).
@@ -118,6 +120,31 @@ pub struct Unit {
     pub(crate) base_speed: f32,
     /// Buffs, modes, timers and cooldowns from abilities.
     pub status: Status,
+    /// An attack started and not yet over (wind-up or backswing).
+    pub(crate) swing: Option<Swing>,
+}
+
+/// An attack in progress: it started at `start`, its effect fires at `fire_at` (the
+/// weapon's damage point later) and the unit stands until `done_at` (the backswing after).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Swing {
+    pub target: UnitId,
+    pub weapon: u8,
+    pub fire_at: u32,
+    pub done_at: u32,
+    pub fired: bool,
+    /// The weapon's cooldown before the attack began, restored if it is cancelled before its
+    /// effect (a cancelled attack costs no cooldown).
+    pub cooldown_before: f32,
+}
+
+/// A weapon's missile on its way to its target (it homes, as the game's guided movers do).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Missile {
+    pub attacker: UnitId,
+    pub target: UnitId,
+    pub weapon: &'static Weapon,
+    pub pos: Vec2,
 }
 
 /// A unit's field of view before any [`crate::Command::Look`]: east, as SMACv2 starts.
@@ -125,7 +152,7 @@ pub const LOOK_EAST: Vec2 = Vec2 { x: 1.0, y: 0.0 };
 
 impl Unit {
     pub fn spec(&self) -> &'static UnitSpec {
-        self.kind.spec()
+        self.spec
     }
     /// The name shown in observations: base type and ordinal, e.g. `Marine_1`.
     pub fn name(&self) -> String {
@@ -206,7 +233,10 @@ pub struct Shot {
 pub(crate) struct Intent {
     /// Where to go and how close (centre to centre) is close enough.
     pub goal: Option<(Vec2, f32)>,
+    /// Start an attack on a target with a weapon (its effect fires at the damage point).
     pub fire: Option<(UnitId, usize)>,
+    /// The damage point of an attack started earlier is reached: its effect fires.
+    pub release: Option<(UnitId, usize)>,
     pub heal: Option<UnitId>,
     /// Unit to ignore in collision avoidance (the one it is closing on).
     pub closing_on: Option<UnitId>,
@@ -279,6 +309,10 @@ pub struct World {
     pub(crate) effects: Vec<AreaEffect>,
     /// Casts accepted since the last loop.
     pub(crate) pending_casts: Vec<PendingCast>,
+    /// Weapon missiles in flight.
+    pub(crate) missiles: Vec<Missile>,
+    /// The unit data every unit's row comes from.
+    pub(crate) data: DataSet,
     /// Whether some unit was marked as under a Guardian Shield (flags need clearing).
     pub(crate) any_guarded: bool,
     pub(crate) scratch_damage: Vec<(usize, f32, UnitId)>,
@@ -292,6 +326,7 @@ impl World {
     /// Instantiates a scenario with a seed. Everything random downstream draws from `rng`.
     pub fn new(scenario: &Scenario, rules: Rules, seed: u64) -> Self {
         let terrain = Arc::clone(&scenario.terrain);
+        let data = scenario.data;
         let mut units = Vec::with_capacity(scenario.units.len());
         let mut ordinals: Vec<(Team, UnitKind, u16)> = Vec::new();
         for (i, su) in scenario.units.iter().enumerate() {
@@ -306,7 +341,7 @@ impl World {
                     1
                 }
             };
-            let s = su.kind.spec();
+            let s = data.spec(su.kind);
             let ups = &scenario.upgrades[su.team.index()];
             let mut max_hp = s.hp;
             if su.kind == UnitKind::Marine && ups.contains(&Upgrade::CombatShield) {
@@ -314,13 +349,16 @@ impl World {
             }
             let mut speed = s.speed;
             if su.kind == UnitKind::Zergling && ups.contains(&Upgrade::MetabolicBoost) {
-                speed *= 1.6;
+                // The data's zerglingmovementspeed adds 1.746 per Normal second in every mod;
+                // the legacy table multiplied by 1.6.
+                speed = if data == DataSet::Legacy { speed * 1.6 } else { speed + per_normal_s(1.746) };
             }
             units.push(Unit {
                 id: UnitId::new(i as u16),
                 team: su.team,
                 kind: su.kind,
-                body: Body::of(su.kind),
+                spec: s,
+                body: Body::of(s),
                 radius: s.radius,
                 ordinal: ord,
                 pos: su.pos,
@@ -345,6 +383,7 @@ impl World {
                 waypoint: None,
                 base_speed: speed,
                 status: Status::default(),
+                swing: None,
             });
         }
         let n = units.len();
@@ -360,15 +399,15 @@ impl World {
             heights: vec![0.0; n],
             dirty: vec![true; n],
             dirty_next: vec![false; n],
-            max_sight: scenario.units.iter().map(|u| u.kind.spec().sight).fold(0.0, f32::max),
+            max_sight: scenario.units.iter().map(|u| data.spec(u.kind).sight).fold(0.0, f32::max),
             reach_radius: {
                 let r = |f: &dyn Fn(Body) -> bool| {
-                    scenario.units.iter().filter(|u| f(Body::of(u.kind))).map(|u| u.kind.spec().radius).fold(0.0, f32::max)
+                    scenario.units.iter().map(|u| data.spec(u.kind)).filter(|s| f(Body::of(s))).map(|s| s.radius).fold(0.0, f32::max)
                 };
                 [r(&|b| b != Body::Air && b != Body::Tall), r(&|b| b == Body::Massive || b == Body::Tall)]
             },
             // Metabolic Boost x1.6, Stimpack x1.5, Afterburners x1.7: no unit outruns this.
-            max_step: scenario.units.iter().map(|u| u.kind.spec().speed * 1.7).fold(0.0, f32::max),
+            max_step: scenario.units.iter().map(|u| data.spec(u.kind).speed * 1.7).fold(0.0, f32::max),
             team_grid: [grid.clone(), grid.clone()],
             grid,
             paths: PathCache::default(),
@@ -378,6 +417,8 @@ impl World {
             scratch: Default::default(),
             effects: Vec::new(),
             pending_casts: Vec::new(),
+            missiles: Vec::new(),
+            data,
             any_guarded: false,
             scratch_damage: Vec::new(),
             deaths_pending: false,
@@ -405,6 +446,10 @@ impl World {
     }
     pub fn rules(&self) -> &Rules {
         &self.rules
+    }
+    /// The unit data this game runs.
+    pub fn data(&self) -> DataSet {
+        self.data
     }
     pub fn stats(&self, team: Team) -> &TeamStats {
         &self.stats[team.index()]
@@ -478,6 +523,14 @@ impl World {
 
     pub(crate) fn set_order(&mut self, id: UnitId, order: Order) {
         if let Some(u) = self.units.get_mut(id.index()) {
+            // A new order cancels an attack in progress (a cancelled wind-up gives its
+            // cooldown back); the same order again, as agents send every step, does not.
+            if u.order != order
+                && let Some(sw) = u.swing.take()
+                && !sw.fired
+            {
+                u.cooldown = sw.cooldown_before;
+            }
             u.order = order;
             u.target = match order {
                 Order::Attack { target } => Some(target),

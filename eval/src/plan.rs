@@ -23,6 +23,10 @@ pub(crate) struct RawPlan {
     pub(crate) opponents: Vec<String>,
     /// Episode seeds: one episode per seed and cell.
     pub(crate) seeds: Vec<u64>,
+    /// The unit data every scenario of the plan plays on (`liberty`, `void`, `ladder`,
+    /// `legacy`); default: each scenario's own (its map's).
+    #[serde(default)]
+    pub(crate) data: Option<String>,
     #[serde(default)]
     pub(crate) agents: Vec<RawAgent>,
     #[serde(default)]

@@ -3,7 +3,7 @@
 //! curve folders, the document) are resolved against the plan's folder.
 
 use crate::plan::{AgentDef, AgentKind, Cell, CellKey, CurveDef, Plan, PlanError, RawAgent, RawCurve, RawHeadToHead, RawPlan, unshipped};
-use avacraft_engine::{Mode, OpponentKind, Scenario, Team, builtin_names};
+use avacraft_engine::{DataSet, Mode, OpponentKind, Scenario, Team, builtin_names};
 use avacraft_policy::{PolicyError, PolicySpec, Resolve};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -18,7 +18,16 @@ pub fn load(path: &Path) -> Result<Plan, PlanError> {
 /// Parses plan text (`file` names it in errors).
 pub fn parse(file: &str, text: &str, base: Option<&Path>) -> Result<Plan, PlanError> {
     let raw: RawPlan = toml::from_str(text).map_err(|source| PlanError::Syntax { file: file.to_owned(), source: Box::new(source) })?;
-    let cx = Cx { file, base };
+    let data = match &raw.data {
+        None => None,
+        Some(d) => Some(d.parse::<DataSet>().map_err(|e| PlanError::Invalid {
+            file: file.to_owned(),
+            field: "data".into(),
+            value: format!("{d:?}"),
+            reason: e.to_string(),
+        })?),
+    };
+    let cx = Cx { file, base, data };
     let seeds = cx.seeds(&raw.seeds)?;
     let scenarios = cx.scenarios(&raw.scenarios)?;
     let opponents = cx.opponents(&raw.opponents)?;
@@ -67,6 +76,8 @@ pub fn parse(file: &str, text: &str, base: Option<&Path>) -> Result<Plan, PlanEr
 struct Cx<'a> {
     file: &'a str,
     base: Option<&'a Path>,
+    /// The plan's data set for every scenario, if it names one.
+    data: Option<DataSet>,
 }
 
 impl Cx<'_> {
@@ -96,7 +107,11 @@ impl Cx<'_> {
             Some(p) if p.is_file() => p.display().to_string(),
             _ => name.to_owned(),
         };
-        Scenario::load(&arg).map(Arc::new).map_err(|e| self.err(field, format!("{name:?}"), e.to_string()))
+        let s = Scenario::load(&arg).map_err(|e| self.err(field.clone(), format!("{name:?}"), e.to_string()))?;
+        match self.data {
+            None => Ok(Arc::new(s)),
+            Some(d) => s.with_data(d).map(Arc::new).map_err(|e| self.err(field, format!("{name:?}"), e.to_string())),
+        }
     }
 
     /// The PvE scenarios (`all`: every built-in one).

@@ -68,9 +68,14 @@ pub struct UnitState {
     pub target_tag: u32,
     pub flags: u32,
     pub buffs: u32,
+    pub data_set: u8,
 }
 
 impl UnitState {
+    pub const DATA_LIBERTY: u8 = 0;
+    pub const DATA_VOID: u8 = 1;
+    pub const DATA_LADDER: u8 = 2;
+    pub const DATA_LEGACY: u8 = 3;
     pub const ORDER_IDLE: u8 = 0;
     pub const ORDER_HOLD: u8 = 1;
     pub const ORDER_MOVE: u8 = 2;

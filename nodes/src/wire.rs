@@ -5,8 +5,8 @@
 
 use avacraft_engine::agent::{AgentObs, EffectInfo};
 use avacraft_engine::{
-    Ability, AbilityInfo, AbilityTarget, Action, Activity, Buffs, Command, Direction, EffectKind, OrderInfo, RefusalCode, TargetKind,
-    UnitFlags, UnitId, UnitInfo, UnitKind, UnknownBits, Vec2,
+    Ability, AbilityInfo, AbilityTarget, Action, Activity, Buffs, Command, DataSet, Direction, EffectKind, OrderInfo, RefusalCode,
+    TargetKind, UnitFlags, UnitId, UnitInfo, UnitKind, UnknownBits, Vec2,
 };
 use avacraft_msgs::{AbilityState, AreaEffect, Header, UnitAction, UnitObservation, UnitState};
 use std::sync::Arc;
@@ -107,7 +107,18 @@ pub fn unit_state(u: &UnitInfo) -> UnitState {
         target_tag: u.target.unwrap_or(0),
         flags: u.flags.bits(),
         buffs: u.buffs.bits(),
+        data_set: u.data.code(),
     }
+}
+
+/// The data set a unit's stats come from; a type the set lacks is refused.
+fn data_set_from(s: &UnitState) -> Result<DataSet, WireError> {
+    let d = DataSet::from_code(s.data_set).ok_or(WireError::Unknown { msg: "UnitState", field: "data_set", value: s.data_set as u32 })?;
+    let kind = unit_type_from(s.unit_type)?;
+    if !d.has(kind) {
+        return Err(WireError::Unknown { msg: "UnitState", field: "data_set", value: s.data_set as u32 });
+    }
+    Ok(d)
 }
 
 /// The inverse of [`unit_state`]: `abilities` are the unit's own (empty for others).
@@ -116,6 +127,7 @@ pub fn unit_info(s: &UnitState, abilities: &[AbilityState]) -> Result<UnitInfo, 
         tag: s.tag,
         name: s.name.clone(),
         kind: unit_type_from(s.unit_type)?,
+        data: data_set_from(s)?,
         team: s.team,
         own: s.own,
         x: s.x,
@@ -433,6 +445,25 @@ mod tests {
             action(&UnitAction { unit_tag: 1, kind: 99, ..UnitAction::default() }),
             Err(WireError::Unknown { field: "kind", .. })
         ));
+    }
+
+    #[test]
+    fn data_set_codes_are_the_msg_constants() {
+        let pairs = [
+            (DataSet::Liberty, UnitState::DATA_LIBERTY),
+            (DataSet::Void, UnitState::DATA_VOID),
+            (DataSet::Ladder, UnitState::DATA_LADDER),
+            (DataSet::Legacy, UnitState::DATA_LEGACY),
+        ];
+        for (d, code) in pairs {
+            assert_eq!(d.code(), code, "{d}");
+            let s = UnitState { unit_type: 1, data_set: code, ..UnitState::default() };
+            assert_eq!(data_set_from(&s).expect("known"), d);
+        }
+        // An unknown set, and a unit the set lacks (Liberty has no Hellbat), are refused.
+        assert!(data_set_from(&UnitState { unit_type: 1, data_set: 9, ..UnitState::default() }).is_err());
+        let hellbat = unit_type_code(UnitKind::Hellbat);
+        assert!(data_set_from(&UnitState { unit_type: hellbat, data_set: 0, ..UnitState::default() }).is_err());
     }
 
     #[test]

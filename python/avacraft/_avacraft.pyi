@@ -55,6 +55,7 @@ class Env:
         prob_obs_enemy: float = 1.0,
         action_mask: bool = True,
         fov_actions: int = 0,
+        data: Optional[str] = None,
     ) -> None: ...
     def reset(self, seed: int) -> None: ...
     @property
@@ -121,6 +122,7 @@ class VecEnv:
         prob_obs_enemy: float = 1.0,
         action_mask: bool = True,
         fov_actions: int = 0,
+        data: Optional[str] = None,
     ) -> None: ...
     @property
     def num_envs(self) -> int: ...

@@ -94,6 +94,7 @@ class StarCraft2Env:
         heuristic_rest: bool = False,
         debug: bool = False,
         *,
+        data: Optional[str] = None,
         opponent: Optional[str] = None,
         full_vision: bool = False,
         abilities: bool = True,
@@ -165,6 +166,7 @@ class StarCraft2Env:
             prob_obs_enemy=opt.probability("prob_obs_enemy", prob_obs_enemy),
             action_mask=opt.boolean("action_mask", action_mask),
             fov_actions=opt.fov_actions(conic_fov, num_fov_actions),
+            data=data,
         )
         info = self._env.env_info(1)
         self.n_agents: int = info["n_agents"]

@@ -116,6 +116,8 @@ def scenario_toml(capability_config: dict[str, Any], map_name: str = "10gen_prot
         'mode = "pve"',
         f'description = "SMACv2 capability config on {map_name}."',
         f'source = "smacv2:{map_name}"',
+        # SMACv2's maps depend on Mods/Liberty.SC2Mod: they run the Liberty unit data.
+        'data = "liberty"',
         f"map_size = [{size[0]}, {size[1]}]",
         # SMACv2's episode limit on 10gen maps: 200 steps of 8 game loops.
         "time_limit_s = 71.4286",

@@ -141,7 +141,7 @@ impl Sized2 for Observer {
 impl PyEnv {
     #[new]
     #[pyo3(signature = (scenario, seed=0, step_mul=8, reward="dense", opponent=None, full_vision=false, passive_allies=true,
-        cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None, prob_obs_enemy=1.0, action_mask=true, fov_actions=0))]
+        cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None, prob_obs_enemy=1.0, action_mask=true, fov_actions=0, data=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         scenario: &str,
@@ -158,6 +158,7 @@ impl PyEnv {
         prob_obs_enemy: f64,
         action_mask: bool,
         fov_actions: i64,
+        data: Option<String>,
     ) -> PyResult<Self> {
         let opts = Options {
             step_mul,
@@ -172,9 +173,10 @@ impl PyEnv {
             prob_obs_enemy,
             action_mask,
             fov_actions,
+            data,
         };
         let cfg = opts.config()?;
-        let env = Env::new(load_scenario(scenario)?, cfg, seed);
+        let env = Env::new(opts.scenario(load_scenario(scenario)?)?, cfg, seed);
         let observer = Observer::new(ObsMode::Features, RenderConfig::default());
         Ok(Self { inner: Mutex::new(Inner { env, observer, recording: Recording::default() }) })
     }

@@ -2,7 +2,7 @@
 //! shared by the single and the vector environment.
 
 use crate::error::Error;
-use avacraft_engine::{EnvConfig, OpponentKind, RewardMode, Scenario, ScenarioError, builtin_names};
+use avacraft_engine::{DataSet, EnvConfig, OpponentKind, RewardMode, Scenario, ScenarioError, builtin_names};
 use std::num::NonZeroU32;
 use std::sync::Arc;
 
@@ -17,6 +17,19 @@ pub(crate) fn load_scenario(name: &str) -> Result<Arc<Scenario>, Error> {
         Ok(s) => Ok(Arc::new(s)),
         Err(ScenarioError::Unknown(name)) => Err(Error::UnknownScenario { name, known: builtin_names().collect::<Vec<_>>().join(", ") }),
         Err(e) => Err(e.into()),
+    }
+}
+
+impl Options {
+    /// The scenario on the data set asked for.
+    pub(crate) fn scenario(&self, s: Arc<Scenario>) -> Result<Arc<Scenario>, Error> {
+        let Some(name) = &self.data else { return Ok(s) };
+        let d: DataSet = name.parse().map_err(|_| Error::Option {
+            option: "data",
+            value: name.clone(),
+            supported: "one of liberty, void, ladder, legacy (or None: the scenario's own)".into(),
+        })?;
+        Ok(Arc::new(s.with_data(d)?))
     }
 }
 
@@ -37,6 +50,9 @@ pub(crate) struct Options {
     pub action_mask: bool,
     /// SMACv2's conic fields of view: the number of look actions (0: off).
     pub fov_actions: i64,
+    /// The unit data to play on (`liberty`, `void`, `ladder`, `legacy`); `None`: the
+    /// scenario's own.
+    pub data: Option<String>,
 }
 
 impl Options {

@@ -31,7 +31,7 @@ impl PyVecEnv {
 impl PyVecEnv {
     #[new]
     #[pyo3(signature = (scenario, seeds, threads=None, step_mul=8, reward="dense", opponent=None, full_vision=false,
-        passive_allies=true, cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None, prob_obs_enemy=1.0, action_mask=true, fov_actions=0))]
+        passive_allies=true, cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None, prob_obs_enemy=1.0, action_mask=true, fov_actions=0, data=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         scenario: &str,
@@ -49,6 +49,7 @@ impl PyVecEnv {
         prob_obs_enemy: f64,
         action_mask: bool,
         fov_actions: i64,
+        data: Option<String>,
     ) -> PyResult<Self> {
         let opts = Options {
             step_mul,
@@ -63,10 +64,11 @@ impl PyVecEnv {
             prob_obs_enemy,
             action_mask,
             fov_actions,
+            data,
         };
         let cfg = opts.config()?;
         let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-        let inner = VecEnv::new(load_scenario(scenario)?, cfg, &seeds, threads).map_err(Error::from)?;
+        let inner = VecEnv::new(opts.scenario(load_scenario(scenario)?)?, cfg, &seeds, threads).map_err(Error::from)?;
         Ok(Self { inner: Mutex::new(inner) })
     }
 

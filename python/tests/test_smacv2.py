@@ -120,7 +120,7 @@ def test_an_episode_replays_the_pinned_rust_trajectory():
     with open(GOLDEN, "rb") as f:
         pinned = {e["case"]: e for e in tomllib.load(f)["episode"]}
     case = pinned["protoss_5_vs_5 seed 4 highest-index vs default"]
-    env = avacraft.Env("protoss_5_vs_5", seed=4, reward="sparse", passive_allies=False)
+    env = avacraft.Env("protoss_5_vs_5", seed=4, reward="sparse", passive_allies=False, data="legacy")
     n = env.env_info()["n_agents"]
     while not env.done:
         avail = np.asarray(env.avail())
@@ -288,9 +288,10 @@ def test_the_shipped_smacv2_baseline_plays_in_smacv2s_wrapper_as_in_rust():
     assert (policy.scenario, policy.n_agents, policy.obs_size) == ("protoss_5_vs_5", 5, 92)
     won = 0
     for seed in (1001, 1002, 1003):
-        ref = policy.play(avacraft.Env("protoss_5_vs_5", reward="sparse", passive_allies=False), seed)
+        # On the game the baseline trained on: the engine's legacy unit data.
+        ref = policy.play(avacraft.Env("protoss_5_vs_5", reward="sparse", passive_allies=False, data="legacy"), seed)
         env = avacraft.StarCraftCapabilityEnvWrapper(
-            capability_config=sc2_gen("protoss"), map_name="10gen_protoss", seed=seed, passive_allies=False
+            capability_config=sc2_gen("protoss"), map_name="10gen_protoss", seed=seed, passive_allies=False, data="legacy"
         )
         env.reset()
         policy.reset()

@@ -2,6 +2,7 @@
 //! Faster seconds x 22.4 = loops), then every refusal reason.
 
 use crate::helpers::{arena_units, exact_loop, load, run_loops, uid};
+use avacraft_engine::DataSet;
 use avacraft_engine::{Ability, AbilityTarget, Action, ActionError, Command, Env, LOOPS_PER_SECOND, Refusal, Team, UnitId, UnitKind, Vec2};
 
 const STIM: &str = "upgrades = [{ team = 1, name = \"Stimpack\" }]";
@@ -49,7 +50,7 @@ fn stimpack_costs_life_and_speeds_up_attacks_and_movement() {
     assert_eq!(m.status.stim_until, 240, "10.71 s");
     assert!((m.speed - base_speed * 1.5).abs() < 1e-6);
     // 13.77 loops between shots become 9.18; one loop has passed.
-    let cd = UnitKind::Marine.spec().weapons[0].cooldown;
+    let cd = UnitKind::Marine.spec_in(DataSet::Legacy).weapons[0].cooldown;
     assert!((m.cooldown - (cd / 1.5 - 1.0)).abs() < 1e-4, "{}", m.cooldown);
     run_loops(&mut env, 239);
     assert!(!unit(&env, 0).status.stimmed(env.world().tick()));
@@ -85,7 +86,7 @@ fn concussive_shells_slow_for_24_loops_but_not_massive_units() {
     assert_eq!(unit(&env, 1).status.slow_until, 24, "1.07 s");
     env.step();
     let z = unit(&env, 1);
-    assert!((z.speed - UnitKind::Zealot.spec().speed * 0.5).abs() < 1e-6, "{}", z.speed);
+    assert!((z.speed - UnitKind::Zealot.spec_in(DataSet::Legacy).speed * 0.5).abs() < 1e-6, "{}", z.speed);
     let mut env = env_of(&[("Marauder", 1, 10.0, 20.0, ""), ("Ultralisk", 2, 15.5, 20.0, "")], extra);
     order(&mut env, Team::One, 0, Command::Attack { target: uid(1) }).expect("attack");
     env.step();
@@ -102,7 +103,7 @@ fn medivac_heal_cast_and_afterburners() {
     cast(&mut env, Team::One, 0, Ability::Afterburners, AbilityTarget::None).expect("boost");
     env.step();
     let m = unit(&env, 0);
-    assert!((m.speed - UnitKind::Medivac.spec().speed * 1.7).abs() < 1e-6, "5.95 instead of 3.5");
+    assert!((m.speed - UnitKind::Medivac.spec_in(DataSet::Legacy).speed * 1.7).abs() < 1e-6, "5.95 instead of 3.5");
     assert_eq!(m.status.boost_until, 128, "5.71 s");
     let r = refusal(cast(&mut env, Team::One, 0, Ability::Afterburners, AbilityTarget::None));
     assert_eq!(r, Refusal::OnCooldown { seconds: 319.0 / LOOPS_PER_SECOND }, "14.29 s from the cast");

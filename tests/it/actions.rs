@@ -107,6 +107,7 @@ fn medivac_heals_biological_allies() {
     }
     let hp = env.world().unit(uid(0)).map_or(0.0, |u| u.hp);
     assert!((hp - (hurt + 9.0)).abs() < 1e-3, "{hp}");
-    let spent = energy + 16.0 * avacraft_engine::ENERGY_REGEN - env.world().unit(uid(1)).map_or(0.0, |u| u.energy);
+    let spent = energy + 16.0 * avacraft_engine::UnitKind::Medivac.spec_in(avacraft_engine::DataSet::Legacy).regen.energy
+        - env.world().unit(uid(1)).map_or(0.0, |u| u.energy);
     assert!((spent - 3.0).abs() < 1e-3, "{spent}");
 }

@@ -1,6 +1,7 @@
 //! Damage, cooldowns, range and duels, with StarCraft II numbers worked by hand.
 
 use crate::helpers::*;
+use avacraft_engine::DataSet;
 use avacraft_engine::{Env, Outcome, Team, UnitKind};
 
 /// Loops at which a unit firing continuously shoots, from its cooldown in loops, with the
@@ -106,7 +107,7 @@ fn bonus_damage_and_armour_per_hit() {
     env.step();
     // Zerg regeneration adds its per-loop share at the end of the loop.
     let hp = env.world().unit(uid(1)).map_or(0.0, |u| u.hp);
-    assert!((hp - (500.0 - 12.0 + avacraft_engine::ZERG_REGEN)).abs() < 1e-4, "{hp}");
+    assert!((hp - (500.0 - 12.0 + UnitKind::Ultralisk.spec_in(DataSet::Legacy).regen.life)).abs() < 1e-4, "{hp}");
 }
 
 #[test]
@@ -115,14 +116,17 @@ fn cooldowns_in_loops_match_the_data() {
     for (k, loops) in
         [(UnitKind::Marine, 13.773), (UnitKind::Stalker, 29.92), (UnitKind::Zergling, 11.136), (UnitKind::SiegeTankSieged, 48.0)]
     {
-        let cd = k.spec().weapons[0].cooldown;
+        let cd = k.spec_in(DataSet::Legacy).weapons[0].cooldown;
         assert!((cd - loops).abs() < 0.01, "{k}: {cd}");
     }
 }
 
 #[test]
 fn regeneration_rates() {
-    use avacraft_engine::{ENERGY_REGEN, SHIELD_REGEN, SHIELD_REGEN_DELAY, ZERG_REGEN};
+    // The legacy table's rates (arenas without `data` play it); game_data.rs checks the sets'.
+    let legacy = |k: UnitKind| k.spec_in(DataSet::Legacy).regen;
+    let (shield_regen, shield_delay) = (legacy(UnitKind::Zealot).shield, legacy(UnitKind::Zealot).shield_delay as u32);
+    let (zerg_regen, energy_regen) = (legacy(UnitKind::Zergling).life, legacy(UnitKind::HighTemplar).energy);
     // Shields: nothing for 160 loops after the last damage, then 2 per Normal second.
     let s = load(&arena("pvp", &[("Marine", 1, 10.0, 16.0), ("Zealot", 2, 15.5, 16.0)]));
     let mut env = Env::new(s, one_loop(exact()), 1);
@@ -135,7 +139,7 @@ fn regeneration_rates() {
     );
     assert_eq!(env.world().unit(uid(1)).map(|u| u.shield), Some(44.0));
     // Damaged on loop 0: loops 1..=159 regenerate nothing, loop 160 is the first that does.
-    for _ in 1..SHIELD_REGEN_DELAY {
+    for _ in 1..shield_delay {
         env.step();
     }
     let sh = env.world().unit(uid(1)).map(|u| u.shield).unwrap_or_default();
@@ -144,8 +148,8 @@ fn regeneration_rates() {
         env.step();
     }
     let sh = env.world().unit(uid(1)).map(|u| u.shield).unwrap_or_default();
-    assert!((sh - (44.0 + 16.0 * SHIELD_REGEN)).abs() < 1e-3, "2 shields per Normal second: {sh}");
-    assert!((SHIELD_REGEN * 16.0 - 2.0).abs() < 1e-6);
-    assert!((ZERG_REGEN * 22.4 - 0.38).abs() < 1e-6);
-    assert!((ENERGY_REGEN * 22.4 - 0.7875).abs() < 1e-6);
+    assert!((sh - (44.0 + 16.0 * shield_regen)).abs() < 1e-3, "2 shields per Normal second: {sh}");
+    assert!((shield_regen * 16.0 - 2.0).abs() < 1e-6);
+    assert!((zerg_regen * 22.4 - 0.38).abs() < 1e-6);
+    assert!((energy_regen * 22.4 - 0.7875).abs() < 1e-6);
 }

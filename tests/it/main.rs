@@ -10,6 +10,7 @@ mod combat;
 mod determinism;
 mod epo;
 mod fov;
+mod game_data;
 mod golden;
 mod helpers;
 mod learn;

@@ -2,6 +2,7 @@
 //! function of the seed, keep SMACv2's sizes, and bad distribution files are refused by field.
 
 use crate::helpers::{load, play};
+use avacraft_engine::DataSet;
 use avacraft_engine::{Env, EnvConfig, PROCEDURAL, Scenario, ScenarioError, Team, UnitKind, Vec2, builtin, procedural_names};
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 use std::sync::Arc;
@@ -117,8 +118,8 @@ fn a_draw_is_a_function_of_the_seed() {
         }
         for (i, a) in d.units.iter().enumerate() {
             for b in &d.units[i + 1..] {
-                if !a.kind.spec().flying && !b.kind.spec().flying {
-                    let gap = a.pos.dist(b.pos) - a.kind.spec().radius - b.kind.spec().radius;
+                if !a.kind.spec_in(DataSet::Liberty).flying && !b.kind.spec_in(DataSet::Liberty).flying {
+                    let gap = a.pos.dist(b.pos) - a.kind.spec_in(DataSet::Liberty).radius - b.kind.spec_in(DataSet::Liberty).radius;
                     assert!(gap > -1e-3, "seed {seed}: {} and {} overlap by {}", a.kind, b.kind, -gap);
                 }
             }

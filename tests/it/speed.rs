@@ -2,6 +2,7 @@
 //! speed under every kind of move order, and stops at the goal.
 
 use crate::helpers::*;
+use avacraft_engine::DataSet;
 use avacraft_engine::{Action, Command, Direction, LOOPS_PER_SECOND, MOVE_AMOUNT, Order, Team, UnitKind, Vec2, World, grid_cell_center};
 
 /// Speed in cells per Faster second, as Liquipedia and `shared/reference/units.md` quote it
@@ -135,13 +136,18 @@ fn every_mobile_unit_moves_at_its_speed_and_stops_at_the_goal() {
         let immobile = IMMOBILE.iter().any(|(i, _)| *i == k);
         let listed = FASTER_SPEED.iter().any(|(m, _)| *m == k);
         assert!(immobile != listed, "{k}: list it in exactly one of FASTER_SPEED and IMMOBILE");
-        assert_eq!(immobile, k.spec().speed == 0.0, "{k}: table speed {} disagrees with IMMOBILE", k.spec().speed);
+        assert_eq!(
+            immobile,
+            k.spec_in(DataSet::Legacy).speed == 0.0,
+            "{k}: table speed {} disagrees with IMMOBILE",
+            k.spec_in(DataSet::Legacy).speed
+        );
     }
     let mut failures = Vec::new();
     for &(kind, faster) in FASTER_SPEED {
         // Faster seconds to game loops (22.4 a second); the table rounds to 1 % at most.
         let per_loop = faster / LOOPS_PER_SECOND;
-        let table = kind.spec().speed;
+        let table = kind.spec_in(DataSet::Legacy).speed;
         if (table - per_loop).abs() > 0.01 * per_loop {
             failures.push(format!("{kind}: table speed {table:.4}/loop, StarCraft II's {per_loop:.4}/loop"));
         }

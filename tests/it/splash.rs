@@ -69,7 +69,7 @@ fn colossus_lance_hits_a_line_across_the_shot() {
     env.submit(Team::One, &[Action::new(uid(0), Command::Attack { target: uid(1) })]);
     env.step();
     // Zerglings regenerate their per-loop share after the hit.
-    let z = avacraft_engine::ZERG_REGEN;
+    let z = avacraft_engine::UnitKind::Zergling.spec_in(avacraft_engine::DataSet::Legacy).regen.life;
     assert_eq!([hp(&env, 1), hp(&env, 2), hp(&env, 3), hp(&env, 4)], [5.0 + z, 5.0 + z, 5.0 + z, 35.0]);
 }
 

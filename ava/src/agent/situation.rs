@@ -49,7 +49,7 @@ pub fn describe(obs: &GroupObs, camera: &Camera, controlled: &[u32]) -> String {
     let mut s = format!("Step {}, game time {:.1} s.\nYour units:\n", obs.step, loops_to_seconds(obs.game_loop));
     for u in obs.units.iter().filter(|u| u.own && controlled.contains(&u.tag)) {
         let _ = write!(s, "- {} {} at {}: {}", u.tag, u.kind.name(), place(camera, u), vitals(u));
-        if !u.kind.spec().weapons.is_empty() {
+        if !u.spec().weapons.is_empty() {
             if u.weapon_cooldown_s > 0.0 {
                 let _ = write!(s, ", weapon ready in {:.1} s", u.weapon_cooldown_s);
             } else {

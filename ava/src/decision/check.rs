@@ -175,7 +175,7 @@ fn words(s: &Situation<'_>, u: &UnitInfo, item: &Item, cmd: &Command, e: ActionE
             TargetProblem::HealerNeedsFriend => format!("{} heals: its target must be another of your units", name(u)),
             TargetProblem::NotBiological => format!("{} heals biological units only, and {} is not", name(u), other(target)),
             TargetProblem::Friendly => format!("target {} is your own unit", target.tag()),
-            TargetProblem::NoAirWeapon | TargetProblem::NoGroundWeapon if u.kind.spec().weapons.is_empty() => {
+            TargetProblem::NoAirWeapon | TargetProblem::NoGroundWeapon if u.spec().weapons.is_empty() => {
                 format!("{} has no weapon", name(u))
             }
             TargetProblem::NoAirWeapon => format!("{} cannot hit air units such as {}", name(u), other(target)),

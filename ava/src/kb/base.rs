@@ -262,9 +262,13 @@ fn ability_facts(a: Ability) -> String {
     if facts.is_empty() { String::new() } else { format!(" ({}; action name `{}`)", facts.join(", "), a.name()) }
 }
 
+/// The unit data the passages' numbers come from: Liberty, which SMAC's, SMACv2's and most of
+/// the paper's maps run (the Void maps' numbers differ for a few units; docs/ava.md).
+const KB_DATA: avacraft_engine::DataSet = avacraft_engine::DataSet::Liberty;
+
 fn passages_of(d: &UnitDoc) -> Vec<Passage> {
     let name = d.kind.name();
-    let mut profile = format!("{name}: {} Stats: {}", d.summary.trim(), stats_line(d.kind.spec()));
+    let mut profile = format!("{name}: {} Stats: {}", d.summary.trim(), stats_line(d.kind.spec_in(KB_DATA)));
     let _ = write!(profile, " Strengths: {} Weaknesses: {}", d.strengths.trim(), d.weaknesses.trim());
     if !d.strong_against.is_empty() {
         let _ = write!(profile, " Strong against: {}.", join_kinds(&d.strong_against));

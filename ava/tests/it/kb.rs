@@ -32,7 +32,7 @@ fn every_unit_type_and_every_ability_is_described() {
 #[test]
 fn profiles_carry_the_engines_numbers() {
     for kind in UnitKind::ALL {
-        let spec = kind.spec();
+        let spec = kind.spec_in(avacraft_engine::DataSet::Liberty);
         let p = kb().passages().iter().find(|p| p.kind == kind && p.topic == Topic::Profile).expect("a profile");
         assert!(p.text.contains(&format!("{} health", spec.hp)), "{kind}: {}", p.text);
         assert!(p.text.contains(&format!("{} armor", spec.armor)), "{kind}: {}", p.text);

@@ -481,6 +481,9 @@ fn shipped_baselines_win_as_often_as_the_results_table_says() {
                 "episode",
                 "--scenario",
                 scenario,
+                // The game the table was played on (eval/plans/paper.toml's `data`).
+                "--data",
+                "legacy",
                 "--agent",
                 &format!("baseline:{agent}"),
                 "--seed",
@@ -515,7 +518,21 @@ fn smacv2_baselines_beat_the_scripts_on_protoss_5_vs_5() {
     let wins = |agent: &str| {
         let o = Command::new(exe())
             .env("AVACRAFT_BASELINES", repo.join("baselines"))
-            .args(["episode", "--scenario", "protoss_5_vs_5", "--agent", agent, "--seed", "5001", "--episodes", "200", "--json"])
+            // The game these baselines trained on: the engine's legacy unit data.
+            .args([
+                "episode",
+                "--scenario",
+                "protoss_5_vs_5",
+                "--data",
+                "legacy",
+                "--agent",
+                agent,
+                "--seed",
+                "5001",
+                "--episodes",
+                "200",
+                "--json",
+            ])
             .output()
             .expect("episode");
         assert!(o.status.success(), "{agent}: {}", String::from_utf8_lossy(&o.stderr));

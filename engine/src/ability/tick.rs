@@ -12,6 +12,7 @@ impl World {
     pub(crate) fn tick_abilities(&mut self) {
         self.run_casts();
         let tick = self.tick;
+        let data = self.data;
         let mut channels = false;
         for i in 0..self.units.len() {
             let u = &mut self.units[i];
@@ -28,9 +29,10 @@ impl World {
             if let Some((into, done)) = u.status.morph
                 && tick >= done
             {
-                let s = into.spec();
+                let s = data.spec(into);
                 u.kind = into;
-                u.body = Body::of(into);
+                u.spec = s;
+                u.body = Body::of(s);
                 u.radius = s.radius;
                 u.base_speed = s.speed;
                 u.status.morph = None;
@@ -38,7 +40,7 @@ impl World {
                 u.target = None;
             }
             if u.body == Body::Air && !u.spec().flying && !u.status.lifted(tick) {
-                u.body = Body::of(u.kind);
+                u.body = Body::of(u.spec);
             }
             if u.status.cloaked {
                 u.energy -= CLOAK_DRAIN;

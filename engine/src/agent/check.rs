@@ -66,7 +66,7 @@ fn refusal(u: &UnitInfo, info: &AbilityInfo, code: RefusalCode) -> Refusal {
         },
         RefusalCode::NotEnoughEnergy => {
             let need = match a {
-                Ability::Heal => u.kind.spec().heal.map_or(0.0, |h| h.min_energy_to_start),
+                Ability::Heal => u.spec().heal.map_or(0.0, |h| h.min_energy_to_start),
                 _ => info.energy_cost,
             };
             Refusal::NotEnoughEnergy { have: u.energy, need }

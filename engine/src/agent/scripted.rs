@@ -11,7 +11,7 @@ use super::{Agent, AgentCtx, GroupObs};
 use crate::action::{Action, Command};
 use crate::geom::Vec2;
 use crate::ids::Team;
-use crate::obs::{OrderInfo, SmacLayout, UnitInfo};
+use crate::obs::{Buffs, OrderInfo, SmacLayout, UnitInfo};
 use crate::scenario::{OpponentKind, Scenario};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -266,7 +266,8 @@ impl FocusFire {
 
     /// A melee enemy that is slower than `u` and about to reach it while `u` reloads.
     fn kite_from(&self, g: &GroupObs, u: &UnitInfo) -> Option<Vec2> {
-        if !self.kite || max_range(u) < 3.0 || !reloading_longer_than(u, 2.0) || !mobile(u) {
+        // An attack in its wind-up is left to fire: stepping away would cancel it.
+        if !self.kite || max_range(u) < 3.0 || !reloading_longer_than(u, 2.0) || !mobile(u) || u.buffs.contains(Buffs::WINDING_UP) {
             return None;
         }
         let threats: Vec<&UnitInfo> = g

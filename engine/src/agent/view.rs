@@ -16,7 +16,7 @@ pub fn pos(u: &UnitInfo) -> Vec2 {
 
 /// Collision radius (a unit type's, in its current mode).
 pub fn radius(u: &UnitInfo) -> f32 {
-    u.kind.spec().radius
+    u.spec().radius
 }
 
 /// Whether it can move now (0 while immobile, morphing, lifted or channelling).
@@ -37,7 +37,7 @@ pub fn busy(u: &UnitInfo) -> bool {
 
 /// Heals instead of fighting, or has no weapon at all.
 pub fn support(u: &UnitInfo) -> bool {
-    u.flags.contains(UnitFlags::HEALER) || u.kind.spec().weapons.is_empty()
+    u.flags.contains(UnitFlags::HEALER) || u.spec().weapons.is_empty()
 }
 
 /// The weapon of `u` that reaches `t`'s layer (the simulator's rule, `crate::rules`).
@@ -60,7 +60,7 @@ pub fn range_gap(u: &UnitInfo, t: &UnitInfo) -> Option<f32> {
 }
 
 pub fn max_range(u: &UnitInfo) -> f32 {
-    u.kind.spec().weapons.iter().map(|w| w.range).fold(0.0, f32::max)
+    u.spec().weapons.iter().map(|w| w.range).fold(0.0, f32::max)
 }
 
 /// Effective HP used to rank targets: what must be dealt to kill the unit.
@@ -116,7 +116,7 @@ pub fn ready(u: &UnitInfo, a: Ability) -> bool {
 pub fn sees_point<'a>(terrain: &Terrain, mut team_units: impl Iterator<Item = &'a UnitInfo>, p: Vec2) -> bool {
     let ph = terrain.height_at(p);
     team_units.any(|v| {
-        let sight = v.kind.spec().sight;
+        let sight = v.spec().sight;
         pos(v).dist_sq(p) <= sight * sight && (flying(v) || ph < terrain.height_at(pos(v)) + 0.5)
     })
 }

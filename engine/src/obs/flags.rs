@@ -97,7 +97,9 @@ bit_set! {
 }
 
 bit_set! {
-    /// Buffs and states active on a unit now.
+    /// Buffs and states active on a unit now. `WINDING_UP`: an attack has started and its
+    /// effect has not fired yet (the game shows the attack animation); an order that moves
+    /// the unit now cancels the attack.
     Buffs {
         STIMMED = 0 => "stimmed",
         SLOWED = 1 => "slowed",
@@ -111,6 +113,7 @@ bit_set! {
         MORPHING = 9 => "morphing",
         CHANNELLING = 10 => "channelling",
         DETECTED = 11 => "detected",
+        WINDING_UP = 12 => "winding_up",
     }
 }
 

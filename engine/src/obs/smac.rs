@@ -116,14 +116,14 @@ impl SmacLayout {
             Some(g) => g.kinds().any(f),
             None => scenario.team_units(t).any(|(_, u)| f(u.kind)),
         };
-        let shields = |t: Team| could(t, &|k| k.spec().race == Race::Protoss) as usize;
+        let shields = |t: Team| could(t, &|k| scenario.data.spec(k).race == Race::Protoss) as usize;
         let (shield_ally, shield_enemy) = (shields(team), shields(team.other()));
         let tb = ally_types.len();
         let (n_agents, n_enemies) = (agents.len(), enemies.len());
         // SMAC's healers target allies through the attack slots; where a team has more agents
         // than enemies, the block widens so a healer can reach every ally (SMAC's own maps
         // never need this: MMM has as many agents as enemies).
-        let healer = could(team, &|k| k.spec().heal.is_some());
+        let healer = could(team, &|k| scenario.data.spec(k).heal.is_some());
         let n_targets = if healer { n_enemies.max(n_agents) } else { n_enemies };
         let floor = generator.map_or(0, |g| g.kinds().map(|k| super::slot_abilities(k).len()).max().unwrap_or(0));
         let slots = if abilities { AbilitySlots::new(scenario, &agents, n_enemies, floor) } else { AbilitySlots::default() };

@@ -5,7 +5,7 @@ use crate::ability::AbilityInfo;
 use crate::action::grid_cell_of;
 use crate::ids::Team;
 use crate::time::LOOPS_PER_SECOND;
-use crate::units::{Attrs, UnitKind};
+use crate::units::{Attrs, DataSet, UnitKind, UnitSpec};
 use crate::world::{Activity, Order, Unit, World};
 use serde::Serialize;
 
@@ -28,6 +28,8 @@ pub struct UnitInfo {
     pub name: String,
     #[serde(rename = "type")]
     pub kind: UnitKind,
+    /// The game's unit data, which gives the kind's stats (a player knows them).
+    pub data: DataSet,
     pub team: u8,
     pub own: bool,
     pub x: f32,
@@ -59,6 +61,11 @@ pub struct UnitInfo {
 }
 
 impl UnitInfo {
+    /// The unit type's data in the game's data set.
+    pub fn spec(&self) -> &'static UnitSpec {
+        self.data.spec(self.kind)
+    }
+
     pub fn from_unit(w: &World, team: Team, u: &Unit) -> Self {
         let s = u.spec();
         let checks = [
@@ -90,6 +97,7 @@ impl UnitInfo {
             tag: u.id.tag(),
             name: u.name(),
             kind: u.kind,
+            data: w.data(),
             team: u.team.player(),
             own: u.team == team,
             x: u.pos.x,
@@ -119,6 +127,9 @@ impl UnitInfo {
                 // (that would reveal enemy detectors in the fog).
                 if u.team != team && u.status.cloaked {
                     b.insert(Buffs::DETECTED);
+                }
+                if u.swing.is_some_and(|s| !s.fired) {
+                    b.insert(Buffs::WINDING_UP);
                 }
                 b
             },

@@ -16,6 +16,10 @@ pub struct RawScenario {
     pub objective: String,
     #[serde(default)]
     pub source: String,
+    /// The unit data the map runs (`liberty`, `void`, `ladder`; `legacy` when absent: the
+    /// engine's table from before it read the game's files, which files written then meant).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub data: Option<String>,
     /// Map size in cells: [width, height].
     pub map_size: [u32; 2],
     /// Playable rectangle: [left, bottom, right, top]; defaults to the whole map.

@@ -23,7 +23,7 @@ use super::types::ScenarioUnit;
 use crate::geom::Vec2;
 use crate::ids::Team;
 use crate::terrain::{Rect, Terrain};
-use crate::units::UnitKind;
+use crate::units::{DataSet, UnitKind, UnitSpec};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f32::consts::TAU;
@@ -73,7 +73,7 @@ const PACKING: f32 = 0.5;
 
 impl Generator {
     /// Checks a raw table against the map it will place units on.
-    pub(super) fn from_raw(raw: &RawGenerate, playable: Rect) -> Result<Generator, GenerateProblem> {
+    pub(super) fn from_raw(raw: &RawGenerate, playable: Rect, data: DataSet) -> Result<Generator, GenerateProblem> {
         let n = [raw.n_units, raw.n_enemies];
         for (name, v) in [("n_units", n[0]), ("n_enemies", n[1])] {
             if !(1..=super::validate::MAX_UNITS / 2).contains(&v) {
@@ -97,6 +97,9 @@ impl Generator {
                 .map_err(|e: crate::units::UnknownUnitKind| problem(&format!("unit_types[{i}]"), format!("{name:?}"), e.to_string()))?;
             if types.iter().any(|(k, _)| *k == kind) {
                 return Err(problem(&format!("unit_types[{i}]"), format!("{name:?}"), "listed twice"));
+            }
+            if !data.has(kind) {
+                return Err(problem(&format!("unit_types[{i}]"), format!("{name:?}"), format!("not in the {data} data set")));
             }
             if !(w.is_finite() && (0.0..=1.0).contains(&w)) {
                 return Err(problem(&format!("weights[{i}]"), w, "must be a probability in [0, 1]"));
@@ -148,7 +151,7 @@ impl Generator {
         let g = Generator { n, types, exceptions, start };
         // Room: each team's largest possible bodies must fit their start area (the left half
         // but a buffer for team 1 when reflected; team 2's is as large).
-        let r = g.types.iter().filter(|(_, w)| *w > 0.0).map(|(k, _)| k.spec().radius).fold(0.0, f32::max);
+        let r = g.types.iter().filter(|(_, w)| *w > 0.0).map(|(k, _)| data.spec(*k).radius).fold(0.0, f32::max);
         let area = (playable.width() / 2.0 - 1.0).max(0.0) * playable.height();
         for (i, name) in ["n_units", "n_enemies"].into_iter().enumerate() {
             let need = g.n[i] as f32 * std::f32::consts::PI * r * r / PACKING;
@@ -170,7 +173,7 @@ impl Generator {
 
     /// Both teams for the episode of `seed`: team 1 first, each team sorted as SMAC orders
     /// agents (type name, x, y), so a team's `i`-th unit is its `i`-th agent in every episode.
-    pub(super) fn draw(&self, seed: u64, terrain: &Terrain) -> Vec<ScenarioUnit> {
+    pub(super) fn draw(&self, seed: u64, terrain: &Terrain, data: DataSet) -> Vec<ScenarioUnit> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ DRAW_SALT);
         let allies = self.team(&mut rng, self.n[0]);
         let mut enemies: Vec<UnitKind> = allies.iter().copied().take(self.n[1]).collect();
@@ -193,9 +196,10 @@ impl Generator {
                 .iter()
                 .zip(points)
                 .map(|(&kind, &want)| {
-                    let pos = place(terrain, &placed, kind, want);
-                    placed.push((pos, kind.spec().radius, kind.spec().flying));
-                    ScenarioUnit { kind, team, pos, facing: facing.y.atan2(facing.x), energy: kind.spec().energy_start }
+                    let s = data.spec(kind);
+                    let pos = place(terrain, &placed, s, want);
+                    placed.push((pos, s.radius, s.flying));
+                    ScenarioUnit { kind, team, pos, facing: facing.y.atan2(facing.x), energy: s.energy_start }
                 })
                 .collect();
             team_units.sort_by(|a, b| {
@@ -277,8 +281,8 @@ fn centroid(v: &[Vec2]) -> Vec2 {
 /// The nearest free spot to `want` for a unit of `kind`: `want` itself if free, else the first
 /// free point on rings around it. Ground bodies may not overlap ground bodies, air bodies air
 /// bodies; a point must be on the unit's ground (or in the playable area, flying).
-fn place(terrain: &Terrain, placed: &[(Vec2, f32, bool)], kind: UnitKind, want: Vec2) -> Vec2 {
-    let (r, fly) = (kind.spec().radius, kind.spec().flying);
+fn place(terrain: &Terrain, placed: &[(Vec2, f32, bool)], spec: &UnitSpec, want: Vec2) -> Vec2 {
+    let (r, fly) = (spec.radius, spec.flying);
     let p = terrain.playable();
     let inside = Rect { left: p.left + r, bottom: p.bottom + r, right: p.right - r, top: p.top - r };
     let want = Vec2::new(want.x.clamp(inside.left, inside.right), want.y.clamp(inside.bottom, inside.top));

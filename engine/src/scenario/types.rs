@@ -4,7 +4,7 @@
 use crate::geom::Vec2;
 use crate::ids::Team;
 use crate::terrain::Terrain;
-use crate::units::UnitKind;
+use crate::units::{DataSet, UnitKind};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
@@ -129,6 +129,8 @@ pub struct Scenario {
     pub description: String,
     pub objective: String,
     pub source: String,
+    /// The unit data the game runs (the map's dependency).
+    pub data: DataSet,
     pub terrain: Arc<Terrain>,
     pub units: Vec<ScenarioUnit>,
     pub upgrades: [Vec<Upgrade>; 2],
@@ -155,13 +157,26 @@ impl Scenario {
     }
 
     pub(super) fn drawn(&self, g: &super::Generator, seed: u64) -> Scenario {
-        let units = g.draw(seed, &self.terrain);
+        let units = g.draw(seed, &self.terrain, self.data);
         let mut s = Scenario { units, ..self.clone() };
         // The opponent attack-moves to where team 1 starts (SMAC's opening, whatever the draw).
         if self.mode == Mode::Pve {
             s.start = StartOrder::AttackMove { to: s.spawn(Team::One), delay_loops: 0 };
         }
         s
+    }
+
+    /// This scenario on another data set: every unit must be in it. The text a recording
+    /// carries says the set, so a replay plays the same game.
+    pub fn with_data(&self, data: DataSet) -> Result<Scenario, ScenarioError> {
+        if data == self.data {
+            return Ok(self.clone());
+        }
+        let mut table: toml::Table = toml::from_str(&self.text)
+            .map_err(|e| ScenarioError::Syntax { file: self.name.clone(), message: e.to_string().trim_end().to_owned() })?;
+        table.insert("data".to_owned(), toml::Value::String(data.name().to_owned()));
+        let text = toml::to_string(&table).map_err(|e| ScenarioError::Syntax { file: self.name.clone(), message: e.to_string() })?;
+        Scenario::from_toml(&format!("{} (data = {data})", self.name), &text)
     }
 
     /// Whether episodes draw their units ([`Scenario::episode`]).

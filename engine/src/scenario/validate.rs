@@ -6,7 +6,7 @@ use crate::geom::Vec2;
 use crate::ids::Team;
 use crate::terrain::{Rect, Terrain};
 use crate::time::{DEFAULT_TIME_LIMIT_S, seconds_to_loops};
-use crate::units::UnitKind;
+use crate::units::{DataSet, UnitKind};
 use std::sync::Arc;
 
 /// Units per scenario at most (ids are 16-bit; the game caps armies far lower).
@@ -50,6 +50,10 @@ pub(super) fn validate(file: &str, raw: RawScenario, text: &str) -> Result<Scena
         "pve" => Mode::Pve,
         "pvp" => Mode::Pvp,
         other => return Err(cx.err("mode", format!("{other:?}"), "must be \"pve\" or \"pvp\"")),
+    };
+    let data = match &raw.data {
+        None => DataSet::Legacy,
+        Some(d) => d.parse::<DataSet>().map_err(|e| cx.err("data", format!("{d:?}"), e.to_string()))?,
     };
     let [w, h] = raw.map_size;
     for (i, v) in [w, h].into_iter().enumerate() {
@@ -107,6 +111,10 @@ pub(super) fn validate(file: &str, raw: RawScenario, text: &str) -> Result<Scena
         let kind: UnitKind =
             u.kind.parse().map_err(|e: crate::units::UnknownUnitKind| cx.err(f("type"), format!("{:?}", u.kind), e.to_string()))?;
         let team = Team::from_player(u.team).ok_or_else(|| cx.err(f("team"), u.team, "must be 1 or 2"))?;
+        let spec = data.spec(kind);
+        if !spec.present {
+            return Err(cx.err(f("type"), kind, format!("not in the {data} data set ({})", data.describe())));
+        }
         let pos = Vec2::new(u.x, u.y);
         if !pos.is_finite() || !playable.contains(pos) {
             return Err(cx.err(
@@ -115,7 +123,7 @@ pub(super) fn validate(file: &str, raw: RawScenario, text: &str) -> Result<Scena
                 format!("outside the playable area {playable:?}"),
             ));
         }
-        if !kind.spec().flying && !terrain.walkable(pos) {
+        if !spec.flying && !terrain.walkable(pos) {
             return Err(cx.err(
                 format!("units[{i}].x/y"),
                 format!("({}, {})", u.x, u.y),
@@ -125,9 +133,9 @@ pub(super) fn validate(file: &str, raw: RawScenario, text: &str) -> Result<Scena
         if !u.facing.is_finite() {
             return Err(cx.err(f("facing"), u.facing, "must be a finite angle in radians"));
         }
-        let emax = kind.spec().energy_max;
+        let emax = spec.energy_max;
         let energy = match u.energy {
-            None => kind.spec().energy_start,
+            None => spec.energy_start,
             Some(e) if emax > 0.0 && e.is_finite() && (0.0..=emax).contains(&e) => e,
             Some(e) if emax == 0.0 => return Err(cx.err(f("energy"), e, format!("{kind} has no energy"))),
             Some(e) => return Err(cx.err(f("energy"), e, format!("must be between 0 and {emax} for {kind}"))),
@@ -139,7 +147,7 @@ pub(super) fn validate(file: &str, raw: RawScenario, text: &str) -> Result<Scena
         Some(_) if !units.is_empty() => {
             return Err(cx.err("units", format!("{} units", units.len()), "a scenario with [generate] draws its units: leave units empty"));
         }
-        Some(g) => Some(Arc::new(super::Generator::from_raw(g, playable).map_err(|p| ScenarioError::Invalid {
+        Some(g) => Some(Arc::new(super::Generator::from_raw(g, playable, data).map_err(|p| ScenarioError::Invalid {
             file: file.to_owned(),
             field: p.field,
             value: p.value,
@@ -148,7 +156,7 @@ pub(super) fn validate(file: &str, raw: RawScenario, text: &str) -> Result<Scena
     };
     let terrain = Arc::new(terrain);
     if let Some(g) = &generator {
-        units = g.draw(0, &terrain);
+        units = g.draw(0, &terrain, data);
     }
     for team in Team::BOTH {
         if !units.iter().any(|u| u.team == team) {
@@ -177,6 +185,7 @@ pub(super) fn validate(file: &str, raw: RawScenario, text: &str) -> Result<Scena
         description: raw.description,
         objective: if raw.objective.is_empty() { "Destroy every enemy unit before time runs out.".into() } else { raw.objective },
         source: raw.source,
+        data,
         terrain,
         units,
         upgrades,

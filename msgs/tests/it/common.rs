@@ -44,13 +44,13 @@ pub fn unit_state(_min_len: usize) -> impl Strategy<Value = UnitState> {
     (
         (any::<u32>(), text(), any::<u8>(), any::<u8>(), any::<bool>(), float(), float(), float(), float()),
         (float(), float(), float(), float(), float(), float(), any::<u8>(), any::<u8>(), any::<u8>()),
-        (float(), float(), any::<u32>(), any::<u8>(), any::<u32>(), any::<u32>(), any::<u32>()),
+        (float(), float(), any::<u32>(), any::<u8>(), any::<u32>(), any::<u32>(), any::<u32>(), any::<u8>()),
     )
         .prop_map(
             |(
                 (tag, name, unit_type, team, own, x, y, hp, max_hp),
                 (shield, max_shield, energy, max_energy, speed, weapon_cooldown_s, grid_x, grid_y, order),
-                (order_x, order_y, order_target, activity, target_tag, flags, buffs),
+                (order_x, order_y, order_target, activity, target_tag, flags, buffs, data_set),
             )| UnitState {
                 tag,
                 name,
@@ -77,6 +77,7 @@ pub fn unit_state(_min_len: usize) -> impl Strategy<Value = UnitState> {
                 target_tag,
                 flags,
                 buffs,
+                data_set,
             },
         )
 }
