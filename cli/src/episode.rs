@@ -248,6 +248,14 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
 fn team_agent(scenario: &Scenario, team: Team, name: &str, flag: &str) -> Result<AgentTeam> {
     let spec = PolicySpec::parse(name, None).and_then(|p| p.on(scenario)).with_context(|| format!("{flag} {name}"))?;
     spec.check(scenario, team).with_context(|| format!("{flag} {name}"))?;
+    if let Some(trained) = spec.trained_data(scenario).with_context(|| format!("{flag} {name}"))?
+        && trained != scenario.data
+    {
+        eprintln!(
+            "warning: {flag} {name} trained on the {trained} unit data; {} plays on {} here (--data {trained} plays the game it learned)",
+            scenario.name, scenario.data
+        );
+    }
     let make = spec.factory().with_context(|| format!("{flag} {name}"))?;
     Ok(AgentTeam::new(team, Grouping::Team, move || make()))
 }

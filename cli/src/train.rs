@@ -268,6 +268,8 @@ fn run_plan(path: &std::path::Path, shard: Option<avacraft_eval::Shard>, threads
             continue;
         }
         let cfg = Config::for_algo(&job.algo, &job.overrides).with_context(|| format!("run {}", job.id))?;
+        // Resolved before comparing with a saved run, which names the set it played.
+        let (cfg, scenario) = cfg.resolved(Arc::new(Scenario::load(&job.scenario)?)).with_context(|| format!("run {}", job.id))?;
         let start = if job.dir.join("resume").join("state.json").is_file() {
             let (saved, state) = avacraft_marl::resume::load(&job.dir).with_context(|| format!("resuming run {}", job.id))?;
             if saved != cfg {
@@ -282,7 +284,6 @@ fn run_plan(path: &std::path::Path, shard: Option<avacraft_eval::Shard>, threads
             None
         };
         let status = if start.is_some() { "resumed" } else { "ran" };
-        let scenario = Arc::new(Scenario::load(&job.scenario)?);
         let label = format!("[{}/{}] {} ", k + 1, jobs.len(), job.id);
         let summary =
             execute(&cfg, scenario, job.seed, threads, &job.dir, start, &label, out).with_context(|| format!("run {}", job.id))?;

@@ -18,6 +18,10 @@ use std::time::Duration;
 #[serde(deny_unknown_fields)]
 pub struct RawLaunch {
     pub scenario: String,
+    /// The unit data to play on (`liberty`, `void`, `ladder`, `legacy`); default: the
+    /// scenario's own.
+    #[serde(default)]
+    pub data: Option<String>,
     #[serde(default = "lockstep")]
     pub clock: String,
     #[serde(default = "deadline")]

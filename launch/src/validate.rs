@@ -21,6 +21,14 @@ pub(crate) fn validate(file: &str, raw: RawLaunch, how: Resolve<'_>) -> Result<P
         _ => raw.scenario.clone(),
     };
     let scenario = Scenario::load(&scenario_arg).map_err(|e| cx.err("scenario", format!("{:?}", raw.scenario), e.to_string()))?;
+    let scenario = match &raw.data {
+        None => scenario,
+        Some(d) => {
+            let set: avacraft_engine::DataSet =
+                d.parse().map_err(|e: avacraft_engine::UnknownDataSet| cx.err("data", format!("{d:?}"), e.to_string()))?;
+            scenario.with_data(set).map_err(|e| cx.err("data", format!("{d:?}"), e.to_string()))?
+        }
+    };
     let clock = match raw.clock.as_str() {
         "lockstep" => ClockMode::Lockstep,
         "realtime" => ClockMode::RealTime,

@@ -9,8 +9,9 @@
 
 use crate::Error;
 use crate::encoders::settings::{self as obs, Backbone, ObsKind, SwinSizes};
-use avacraft_engine::{EnvConfig, RewardMode, Rules};
+use avacraft_engine::{DataSet, EnvConfig, RewardMode, Rules, Scenario};
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
 
 /// The algorithms with a built-in config.
 pub const ALGOS: &[&str] = &["iql", "vdn", "qmix", "qtran", "ippo", "mappo"];
@@ -90,6 +91,12 @@ pub struct Config {
     pub test_nepisode: usize,
     pub reward: RewardMode,
     pub passive_agents: bool,
+    /// The unit data the run plays: `map` (the scenario's own, its map's) or a data set
+    /// (`liberty`, `void`, `ladder`, `legacy`). Training writes the set it resolved to, so a
+    /// checkpoint names the game it learned; one without the key was trained on `legacy`,
+    /// the only game there was before.
+    #[serde(default = "legacy_data")]
+    pub data: String,
     /// PvP: team 2's agent while team 1 learns (see the config files); empty: none.
     #[serde(default)]
     pub opponent: String,
@@ -233,6 +240,13 @@ pub fn default_text(algo: &str) -> Result<&'static str, Error> {
     }
 }
 
+/// `data = "map"`: the scenario's own unit data.
+pub const MAP_DATA: &str = "map";
+
+fn legacy_data() -> String {
+    DataSet::Legacy.name().to_owned()
+}
+
 impl Config {
     /// The fixed opponents a test round also plays: `test_opponents`, or under self-play
     /// attack-move and focus-fire when it is empty.
@@ -259,6 +273,7 @@ impl Config {
         table.entry("action_mask").or_insert(toml::Value::Boolean(true));
         table.entry("conic_fov").or_insert(toml::Value::Boolean(false));
         table.entry("num_fov_actions").or_insert(toml::Value::Integer(12));
+        table.entry("data").or_insert(toml::Value::String(MAP_DATA.to_owned()));
         for o in overrides {
             let Some((key, value)) = o.split_once('=') else {
                 return Err(Error::Override { text: o.clone(), message: "expected key=value".into() });
@@ -282,7 +297,30 @@ impl Config {
         matches!(self.algo.as_str(), "ippo" | "mappo")
     }
 
+    /// The data set the run plays on `scenario` (`map`: the scenario's own).
+    pub fn data_set(&self, scenario: &Scenario) -> Result<DataSet, Error> {
+        if self.data == MAP_DATA {
+            return Ok(scenario.data);
+        }
+        self.data.parse::<DataSet>().map_err(|e| Error::ConfigParse { what: "data".into(), message: e.to_string() })
+    }
+
+    /// This config and `scenario` as a run plays them: the scenario on the config's data set,
+    /// and the config naming that set (not `map`), as its checkpoints record it.
+    pub fn resolved(&self, scenario: Arc<Scenario>) -> Result<(Config, Arc<Scenario>), Error> {
+        let d = self.data_set(&scenario)?;
+        let scenario = if d == scenario.data {
+            scenario
+        } else {
+            Arc::new(scenario.with_data(d).map_err(|e| Error::ConfigParse { what: "data".into(), message: e.to_string() })?)
+        };
+        Ok((Config { data: d.name().to_owned(), ..self.clone() }, scenario))
+    }
+
     fn validate(&self) -> Result<(), Error> {
+        if self.data != MAP_DATA {
+            self.data.parse::<DataSet>().map_err(|e| Error::ConfigParse { what: "data".into(), message: e.to_string() })?;
+        }
         let default = Config::for_algo_unchecked(&self.algo);
         let def = |f: fn(&Config) -> f64, fallback: f64| default.as_ref().map_or(fallback, f);
         unit("gamma", self.gamma)?;
@@ -616,6 +654,25 @@ impl Opponent {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_data_set_resolves_from_the_map_and_checkpoints_without_it_are_legacy() -> Result<(), Error> {
+        let s = Arc::new(avacraft_engine::builtin("3m").map_err(|e| Error::ConfigParse { what: "3m".into(), message: e.to_string() })?);
+        let c = Config::for_algo("qmix", &[])?;
+        assert_eq!(c.data, MAP_DATA);
+        let (r, played) = c.resolved(Arc::clone(&s))?;
+        assert_eq!((r.data.as_str(), played.data), ("liberty", DataSet::Liberty));
+        let (r, played) = Config::for_algo("qmix", &["data=\"ladder\"".into()])?.resolved(s)?;
+        assert_eq!((r.data.as_str(), played.data), ("ladder", DataSet::Ladder));
+        let e = Config::for_algo("qmix", &["data=\"lotv\"".into()]).expect_err("no such set");
+        assert!(e.to_string().contains("data") && format!("{e:?}").contains("liberty, void, ladder, legacy"), "{e:?}");
+        // A checkpoint's config written before data sets existed: the legacy game.
+        let mut json = serde_json::to_value(&r).map_err(|e| Error::ConfigParse { what: "json".into(), message: e.to_string() })?;
+        json.as_object_mut().map(|o| o.remove("data"));
+        let old: Config = serde_json::from_value(json).map_err(|e| Error::ConfigParse { what: "json".into(), message: e.to_string() })?;
+        assert_eq!(old.data, "legacy");
+        Ok(())
+    }
 
     #[test]
     fn defaults_load_and_overrides_apply() -> Result<(), Error> {

@@ -195,6 +195,15 @@ impl Policy {
         Ok(need_of(&meta.config))
     }
 
+    /// The unit data the checkpoint in `dir` trained on, from its `config.json` alone (one
+    /// written before data sets existed trained on `legacy`).
+    pub fn data_in(dir: &Path) -> Result<avacraft_engine::DataSet, Error> {
+        let path = dir.join("config.json");
+        let text = std::fs::read_to_string(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
+        let meta: Meta = serde_json::from_str(&text).map_err(|source| Error::Json { path, source })?;
+        meta.config.data.parse().map_err(|e: avacraft_engine::UnknownDataSet| Error::Checkpoint { message: e.to_string() })
+    }
+
     /// A copy of `nets`' agent network as a policy (a self-play snapshot): later updates of
     /// `nets` do not reach it.
     pub fn of(nets: &Nets, cfg: &Config, shape: Shape, scenario: &str) -> Result<Policy, Error> {

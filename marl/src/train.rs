@@ -74,6 +74,9 @@ pub fn train_from(
     {
         return Err(Error::Checkpoint { message: format!("resuming a run of seed {} with seed {}", st.seed, opts.seed) });
     }
+    // The game the run plays, named in its config (so in every checkpoint it writes).
+    let (cfg, scenario) = cfg.resolved(std::sync::Arc::clone(&opts.scenario))?;
+    let (cfg, opts) = (&cfg, &RunOptions { scenario, ..opts.clone() });
     if cfg.is_ppo() {
         let (l, s) = crate::ppo::train_from(cfg, opts, start, on_progress)?;
         return Ok((Trained::Ppo(Box::new(l)), s));

@@ -46,6 +46,11 @@ impl MarlCheckpoint {
         Ok(m)
     }
 
+    /// The unit data it trained on ([`Policy::data_in`]).
+    pub fn trained_data(&self) -> Result<avacraft_engine::DataSet, PolicyError> {
+        Policy::data_in(&self.dir).map_err(|source| PolicyError::Checkpoint { dir: self.dir.clone(), source })
+    }
+
     /// Loads the checkpoint in `dir` now.
     pub fn load(dir: &Path) -> Result<MarlCheckpoint, PolicyError> {
         Self::open(dir, Weights::Load)

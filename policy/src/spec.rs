@@ -153,6 +153,16 @@ impl PolicySpec {
         matches!(self, PolicySpec::Dds)
     }
 
+    /// The unit data a trained network learned on (`None` for scripted agents, AVA and DDS,
+    /// which play any). A network played on another set still plays, a different game.
+    pub fn trained_data(&self, scenario: &Scenario) -> Result<Option<avacraft_engine::DataSet>, PolicyError> {
+        match self {
+            PolicySpec::Marl(m) => m.trained_data().map(Some),
+            PolicySpec::Baseline(b) => b.for_scenario(&scenario.name)?.trained_data().map(Some),
+            PolicySpec::Scripted(_) | PolicySpec::Dds | PolicySpec::Ava(_) => Ok(None),
+        }
+    }
+
     /// Refuses a policy that cannot play `team` in `scenario` (a checkpoint of another
     /// scenario or size); scripted agents, AVA and DDS agents play anything.
     pub fn check(&self, scenario: &Scenario, team: Team) -> Result<(), PolicyError> {

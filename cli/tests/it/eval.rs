@@ -507,6 +507,24 @@ fn shipped_baselines_win_as_often_as_the_results_table_says() {
     assert_eq!(checked, cases.len());
 }
 
+/// A network played on other unit data than it learned on plays (a different game), with a
+/// warning naming both sets; `--data` with its set plays the game it learned, quietly.
+#[test]
+fn a_baseline_on_other_unit_data_is_played_with_a_warning() {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let run = |extra: &[&str]| {
+        let mut args = vec!["episode", "--scenario", "3m", "--agent", "baseline:qmix", "--episodes", "1", "--json"];
+        args.extend_from_slice(extra);
+        let o = Command::new(exe()).env("AVACRAFT_BASELINES", repo.join("baselines")).args(&args).output().expect("episode");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let warned = run(&[]);
+    assert!(warned.contains("trained on the legacy unit data") && warned.contains("3m plays on liberty"), "{warned}");
+    let quiet = run(&["--data", "legacy"]);
+    assert!(!quiet.contains("warning"), "{quiet}");
+}
+
 /// The shipped SMACv2 baselines (eval/plans/smacv2.toml) on protoss_5_vs_5, whose units and
 /// start positions are drawn every episode, on 200 seeds apart from training's and from
 /// docs/simulator.md's (5001-5200): both beat focus-fire (the bar) and attack-move;
