@@ -121,8 +121,7 @@ impl World {
         let tpos = self.units[sw.target.index()].pos;
         let u = &mut self.units[i];
         if !keep {
-            u.cooldown = sw.cooldown_before;
-            u.swing = None;
+            u.cancel_swing();
             return None;
         }
         u.heading = (tpos - u.pos).normalized();
@@ -249,7 +248,9 @@ impl World {
                 // lie inside it.
                 u.cooldown = w.cooldown / u.status.attack_rate(tick) + jitter + u.cooldown.clamp(-1.0, 0.0);
                 u.activity = Activity::Attacking;
-                let windup = w.timing.damage_point.round() as u32;
+                // The game acts on loop boundaries: the effect fires on the first loop by which
+                // the damage point has passed (the Spine Crawler's 5.33 loops: on the 6th).
+                let windup = w.timing.damage_point.ceil() as u32;
                 if windup > 0 {
                     u.swing = Some(Swing {
                         target: t,
@@ -298,7 +299,7 @@ impl World {
         u.activity = Activity::Attacking;
         let dir = (tpos - u.pos).normalized();
         let (id, team, pos) = (u.id, u.team, u.pos);
-        let backswing = w.timing.backswing.round() as u32;
+        let backswing = w.timing.backswing.ceil() as u32;
         u.swing = (backswing > 0 && !w.suicide).then_some(Swing {
             target: t,
             weapon: wi as u8,

@@ -175,6 +175,15 @@ impl Unit {
         Body::collide(self.body, other.body)
     }
 
+    /// Ends an attack in progress; one cancelled in its wind-up gives its cooldown back.
+    pub(crate) fn cancel_swing(&mut self) {
+        if let Some(sw) = self.swing.take()
+            && !sw.fired
+        {
+            self.cooldown = sw.cooldown_before;
+        }
+    }
+
     /// Facing in radians, counter-clockwise from east.
     pub fn facing(&self) -> f32 {
         self.heading.angle()
@@ -525,11 +534,8 @@ impl World {
         if let Some(u) = self.units.get_mut(id.index()) {
             // A new order cancels an attack in progress (a cancelled wind-up gives its
             // cooldown back); the same order again, as agents send every step, does not.
-            if u.order != order
-                && let Some(sw) = u.swing.take()
-                && !sw.fired
-            {
-                u.cooldown = sw.cooldown_before;
+            if u.order != order {
+                u.cancel_swing();
             }
             u.order = order;
             u.target = match order {

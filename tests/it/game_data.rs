@@ -95,7 +95,7 @@ fn every_unit_type_attacks_as_its_row_says_on_every_set() {
             let what = format!("{data} {kind} on {target}");
             assert!(!got.is_empty(), "{what}: never hit");
             // No effect before the damage point; a missile adds its flight.
-            let windup = w.timing.damage_point.round() as u32;
+            let windup = w.timing.damage_point.ceil() as u32;
             let flight = if w.timing.missile_speed > 0.0 { ((gap - tspec.radius) / w.timing.missile_speed).ceil() as u32 + 1 } else { 0 };
             assert!(
                 got[0].0 >= windup && got[0].0 <= windup + flight,
@@ -122,7 +122,8 @@ fn every_unit_type_attacks_as_its_row_says_on_every_set() {
 
 #[test]
 fn an_order_in_the_wind_up_cancels_the_attack_and_gives_the_cooldown_back() {
-    // A Liberty Stalker winds up for 3 loops (0.167 Normal s); ordered away after 1, it fires nothing.
+    // A Liberty Stalker winds up for 3 loops (0.167 Normal s = 2.7 loops); ordered away after
+    // 1, it fires nothing.
     let s = on(DataSet::Liberty, &[("Stalker", 1, 10.0, 16.0), ("SpineCrawler", 2, 16.0, 16.0)]);
     let mut env = Env::new(Arc::clone(&s), exact_loop(), 1);
     env.submit(Team::One, &[Action::new(uid(0), Command::Attack { target: uid(1) })]);
@@ -140,9 +141,9 @@ fn an_order_in_the_wind_up_cancels_the_attack_and_gives_the_cooldown_back() {
 #[test]
 fn range_slop_holds_an_attack_whose_target_steps_back() {
     // An attack starts on a Stalker just inside range, which then walks straight away at 0.185
-    // cells a loop. A Liberty Hydralisk (range 5, `RangeSlop` 1, wind-up 3 loops) still lands
-    // it 5.5 cells out. The Spine Crawler's weapon has `RangeSlop` 0: past its range 7 before
-    // the 5-loop wind-up ends, the attack is abandoned (the Stalker on 2s_vs_1sc can dodge).
+    // cells a loop. A Liberty Hydralisk (range 5, `RangeSlop` 1, wind-up 4 loops) still lands
+    // it 5.7 cells out. The Spine Crawler's weapon has `RangeSlop` 0: past its range 7 before
+    // the 6-loop wind-up ends, the attack is abandoned (the Stalker on 2s_vs_1sc can dodge).
     for (attacker, radius, start, landed) in [("Hydralisk", 0.625, 4.95, true), ("SpineCrawler", 0.875, 6.95, false)] {
         let gap = radius + 0.625 + start;
         let s = on(DataSet::Liberty, &[(attacker, 1, 8.0, 16.0), ("Stalker", 2, 8.0 + gap, 16.0)]);
@@ -158,8 +159,9 @@ fn range_slop_holds_an_attack_whose_target_steps_back() {
 #[test]
 fn missiles_fly_and_hit_after_their_flight() {
     // A Liberty Hydralisk's needle (missile 40 per Normal s = 2.5 per loop) from 5 cells lands
-    // 1 to 2 loops after its 3-loop wind-up; the Liberty Marine's rifle is instant after 1 loop.
-    for (kind, first_min, first_max) in [("Hydralisk", 4, 6), ("Marine", 1, 1)] {
+    // 1 to 2 loops after its 4-loop wind-up (0.208 s = 3.3 loops, fired on the 4th); the
+    // Liberty Marine's rifle is instant after 1 loop.
+    for (kind, first_min, first_max) in [("Hydralisk", 5, 7), ("Marine", 1, 1)] {
         let s = on(DataSet::Liberty, &[(kind, 1, 10.0, 16.0), ("SpineCrawler", 2, 16.2, 16.0)]);
         let mut env = Env::new(s, exact_loop(), 1);
         env.submit(Team::One, &[Action::new(uid(0), Command::Attack { target: uid(1) })]);

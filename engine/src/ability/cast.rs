@@ -243,6 +243,8 @@ impl World {
         let id = self.units[i].id;
         self.set_order(id, Order::Idle);
         let u = &mut self.units[i];
+        // The new mode has other weapons: an attack under way ends now.
+        u.cancel_swing();
         u.status.morph = Some((into, self.tick + loops));
         u.vel = Vec2::ZERO;
         u.speed = 0.0;
