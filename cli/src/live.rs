@@ -108,7 +108,7 @@ impl Live {
         let (seed, tick) = (env.seed(), env.world().tick());
         match self.anchor {
             Some((at, s, t0)) if s == seed && tick >= t0 => {
-                let game = Duration::from_secs_f64(f64::from(tick - t0) / 22.4 / self.speed);
+                let game = Duration::from_secs_f64(f64::from(tick - t0) / f64::from(avacraft_engine::LOOPS_PER_SECOND) / self.speed);
                 if let Some(wait) = game.checked_sub(at.elapsed()) {
                     std::thread::sleep(wait);
                 }

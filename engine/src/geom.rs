@@ -40,11 +40,6 @@ impl Vec2 {
         let l = self.len();
         if l > 1e-6 { self * (1.0 / l) } else { Vec2::ZERO }
     }
-    /// Shortens the vector to at most `max` length.
-    pub fn clamp_len(self, max: f32) -> Vec2 {
-        let l2 = self.len_sq();
-        if l2 > max * max && l2 > 0.0 { self * (max / l2.sqrt()) } else { self }
-    }
     pub fn perp(self) -> Vec2 {
         Vec2::new(-self.y, self.x)
     }

@@ -1,7 +1,7 @@
 //! One game loop: every unit decides (targets, orders), attacks resolve simultaneously,
 //! units move, overlaps are resolved, then regeneration and cooldowns tick.
 
-use crate::combat::{LEASH, PendingHit, acquire_range, edge_dist, in_heal_range, weapon_for};
+use crate::combat::{LEASH, PendingHit, edge_dist, in_heal_range, weapon_for};
 use crate::geom::Vec2;
 use crate::ids::UnitId;
 use crate::units::Attrs;
@@ -376,11 +376,6 @@ impl World {
         let (a, b) = (self.unit(u)?, self.unit(t)?);
         let (_, w) = weapon_for(a, b)?;
         Some(edge_dist(a, b) - w.range)
-    }
-
-    /// How far `u` auto-acquires targets (edge to edge).
-    pub fn acquisition_range(&self, u: UnitId) -> f32 {
-        self.unit(u).map_or(0.0, acquire_range)
     }
 }
 

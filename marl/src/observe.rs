@@ -10,7 +10,7 @@
 //! [`crate::frames`].
 
 use crate::encoders::ObsKind;
-use crate::encoders::clause_cache::{TextEmbedder, TextStats};
+use crate::encoders::clause_cache::TextEmbedder;
 use crate::encoders::clauses::{SlotLayout, clauses};
 use crate::frames::sizes;
 use crate::{Config, Error};
@@ -84,11 +84,6 @@ impl ObsSource {
     pub fn with_text(cfg: &Config, text: Option<Arc<Mutex<TextEmbedder>>>) -> ObsSource {
         let painters = (0..RENDER_PARTS).map(|_| Painter::default()).collect();
         ObsSource { kind: cfg.obs, painters, text, sizes: sizes(cfg) }
-    }
-
-    /// The text embedder's counters, if this mode embeds texts.
-    pub fn text_stats(&self) -> Option<TextStats> {
-        self.text.as_ref().and_then(|t| t.lock().ok().map(|t| t.stats()))
     }
 
     /// Team 1's observation of each environment as it is now.

@@ -2,7 +2,6 @@
 //! scored. Above the observations, which are built from an `Env` and for its opponent here.
 
 use super::episode::{Env, Outcome, RewardMode, StepResult};
-use crate::action::{Action, ActionError};
 use crate::agent::{self, GroupObs};
 use crate::ids::Team;
 
@@ -66,12 +65,6 @@ impl Env {
     fn builtin_may_cast(&self) -> bool {
         let w = &self.world;
         w.rules().abilities && w.alive(Team::Two).any(|u| u.kind.mode_abilities().any(|a| w.can_cast(u, a).is_ok()))
-    }
-
-    /// Submits team 1's actions and steps: the single-team convenience for PvE loops.
-    pub fn step_with(&mut self, actions: &[Action]) -> (StepResult, Vec<Result<(), ActionError>>) {
-        let r = self.submit(Team::One, actions);
-        (self.step(), r)
     }
 
     fn dense_reward(&mut self, outcome: Option<Outcome>) -> [f32; 2] {

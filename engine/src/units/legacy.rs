@@ -7,7 +7,7 @@
 
 use super::short::{A, B, L, M, MS, P, S};
 use super::{Attrs, Heal, Race, Reach, Regen, Splash, Timing, UnitKind, UnitSpec, Weapon};
-use crate::time::{normal_s, per_normal_s};
+use crate::time::{LOOPS_PER_SECOND, normal_s, per_normal_s};
 
 const fn weapon(reach: Reach, damage: f32, hits: u8, cooldown_normal_s: f32, range: f32) -> Weapon {
     Weapon {
@@ -70,7 +70,7 @@ const fn spec(kind: UnitKind, race: Race, hp: f32, shield: f32, armor: f32, attr
 const fn legacy_regen(race: Race) -> Regen {
     let energy = per_normal_s(0.5625);
     match race {
-        Race::Zerg => Regen { life: 0.38 / 22.4, life_delay: 0.0, shield: 0.0, shield_delay: 0.0, energy },
+        Race::Zerg => Regen { life: 0.38 / LOOPS_PER_SECOND, life_delay: 0.0, shield: 0.0, shield_delay: 0.0, energy },
         Race::Protoss => Regen { life: 0.0, life_delay: 0.0, shield: per_normal_s(2.0), shield_delay: normal_s(10.0), energy },
         Race::Terran => Regen { life: 0.0, life_delay: 0.0, shield: 0.0, shield_delay: 0.0, energy },
     }

@@ -366,7 +366,11 @@ fn collect_actions(
         Clock::Lockstep { deadline } => (Instant::now() + deadline, false),
         // An absolute schedule from the episode's start, so publishing and rendering do not
         // make the clock drift.
-        Clock::RealTime => (episode_start + Duration::from_secs_f64((step + 1) as f64 * cfg.env.step_mul.get() as f64 / 22.4), true),
+        Clock::RealTime => (
+            episode_start
+                + Duration::from_secs_f64((step + 1) as f64 * cfg.env.step_mul.get() as f64 / f64::from(avacraft_engine::LOOPS_PER_SECOND)),
+            true,
+        ),
     };
     w.command.expect(episode, step);
     while (realtime || !waiting.is_empty() || w.command.waiting()) && !shutdown.requested() {
