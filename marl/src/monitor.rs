@@ -95,7 +95,10 @@ impl<'a> Monitor<'a> {
             Some(dir) => {
                 std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.clone(), source })?;
                 let path = dir.join("log.csv");
-                let f = if start.is_some() {
+                let f = if let Some(st) = start {
+                    // A test round writes its row before the state it saves: a run killed in
+                    // between left a row the resumed run writes again.
+                    truncate_log(&path, st.t_env)?;
                     std::fs::OpenOptions::new().append(true).open(&path).map_err(|source| Error::Io { path: path.clone(), source })?
                 } else {
                     let mut f = std::fs::File::create(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
@@ -263,6 +266,35 @@ impl<'a> Monitor<'a> {
     }
 }
 
+/// Keeps the header and the rows of `log.csv` up to step `t_env` (the state a run resumes
+/// from); the file is replaced whole, so a kill during this leaves the old one.
+fn truncate_log(path: &std::path::Path, t_env: u64) -> Result<(), Error> {
+    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    let text = std::fs::read_to_string(path).map_err(io)?;
+    let mut lines = text.lines();
+    let mut kept = String::with_capacity(text.len());
+    if let Some(header) = lines.next() {
+        kept.push_str(header);
+        kept.push('\n');
+    }
+    let mut dropped = false;
+    for line in lines {
+        let step = line.split(',').next().and_then(|v| v.parse::<u64>().ok());
+        if step.is_some_and(|s| s <= t_env) && !dropped {
+            kept.push_str(line);
+            kept.push('\n');
+        } else {
+            dropped = true;
+        }
+    }
+    if kept.len() == text.len() {
+        return Ok(());
+    }
+    let tmp = path.with_extension("csv.tmp");
+    std::fs::write(&tmp, kept).map_err(io)?;
+    std::fs::rename(&tmp, path).map_err(io)
+}
+
 /// A test round's counters, for [`scalars`].
 struct Row {
     episodes: u64,
@@ -312,4 +344,28 @@ fn scalars(
         out.push((format!("test/return_vs_{}", o.trim()), *ret));
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::truncate_log;
+
+    #[test]
+    fn a_resumed_log_keeps_the_rows_up_to_its_state() {
+        let dir = std::env::temp_dir().join(format!("avacraft-log-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join("log.csv");
+        let rows = "t_env,episodes\n1000,10\n2000,21\n3000,33\n";
+        for (t, want) in [
+            (2000, "t_env,episodes\n1000,10\n2000,21\n"),
+            (3000, rows),
+            (0, "t_env,episodes\n"),
+            (2500, "t_env,episodes\n1000,10\n2000,21\n"),
+        ] {
+            std::fs::write(&path, rows).expect("write");
+            truncate_log(&path, t).expect("truncate");
+            assert_eq!(std::fs::read_to_string(&path).expect("read"), want, "resumed at {t}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
