@@ -36,6 +36,10 @@ pub struct Meta {
     /// `(agent, agent it is another training seed of)` ([`crate::AgentDef::seed_of`]).
     #[serde(default)]
     pub seed_of: Vec<(String, String)>,
+    /// `(cell, unit data set)`: the game each cell plays. Folders written before data sets
+    /// existed have none: their cells played `legacy`.
+    #[serde(default)]
+    pub games: Vec<(CellKey, String)>,
 }
 
 pub const META_FILE: &str = "plan.json";
@@ -54,7 +58,13 @@ impl Meta {
             protocol: plan.protocol.clone(),
             fingerprints: Vec::new(),
             seed_of: plan.agents.iter().filter_map(|a| a.seed_of.clone().map(|b| (a.name.clone(), b))).collect(),
+            games: plan.cells.iter().map(|c| (c.key.clone(), c.scenario.data.name().to_owned())).collect(),
         }
+    }
+
+    /// The unit data set `cell` played (`legacy` in a folder written before data sets).
+    pub fn game(&self, cell: &CellKey) -> &str {
+        self.games.iter().find(|(c, _)| c == cell).map_or("legacy", |(_, d)| d.as_str())
     }
 
     /// Whether `agent` is another agent's training seed.
@@ -165,6 +175,9 @@ pub fn cannot_extend(old: &Meta, new: &Meta) -> Option<String> {
         {
             return Some(format!("agent `{name}` played `{policy}` ({}) there and is `{p}` ({}) here", kind.name(), k.name()));
         }
+    }
+    if let Some(c) = old.cells.iter().find(|c| new.cells.contains(c) && old.game(c) != new.game(c)) {
+        return Some(format!("its cell `{c}` was played on the {} unit data and is {} here", old.game(c), new.game(c)));
     }
     for (agent, scenario, was) in &old.fingerprints {
         if let Some((_, _, now)) = new.fingerprints.iter().find(|(a, s, _)| a == agent && s == scenario)

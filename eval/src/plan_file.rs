@@ -101,6 +101,21 @@ impl Cx<'_> {
         Ok(seeds.to_vec())
     }
 
+    /// The game a cell of `policy` on `sc` plays: the plan's data set where it names one;
+    /// otherwise a trained network's own (the one it learned on), else the scenario's.
+    fn played_on(&self, field: String, sc: &Arc<Scenario>, policy: &PolicySpec) -> Result<Arc<Scenario>, PlanError> {
+        if self.data.is_some() {
+            return Ok(Arc::clone(sc));
+        }
+        let trained = policy.trained_data(sc).map_err(|e| self.policy_err(field.clone(), format!("{policy} on {}", sc.name), e))?;
+        match trained {
+            Some(d) if d != sc.data => {
+                sc.with_data(d).map(Arc::new).map_err(|e| self.err(field, format!("{policy} on {}", sc.name), e.to_string()))
+            }
+            _ => Ok(Arc::clone(sc)),
+        }
+    }
+
     /// A built-in scenario by name, or a scenario file relative to the plan.
     fn scenario(&self, field: String, name: &str) -> Result<Arc<Scenario>, PlanError> {
         let arg = match self.base.map(|b| b.join(name)) {
@@ -244,11 +259,12 @@ impl Cx<'_> {
                         return Err(self.policy_err(format!("agents[{ai}].policy"), format!("{} on {}", a.policy, sc.name), source));
                     }
                 }
+                let played = self.played_on(format!("agents[{ai}].policy"), sc, &a.policy)?;
                 for o in opponents {
                     let against = format!("opponent:{}", o.map_or("default", |k| k.name()));
                     cells.push(Cell {
                         key: CellKey { scenario: sc.name.clone(), agent: a.name.clone(), against },
-                        scenario: Arc::clone(sc),
+                        scenario: Arc::clone(&played),
                         agent: ai,
                         opponent: *o,
                         agent2: None,
@@ -319,7 +335,9 @@ impl Cx<'_> {
                     if cells.iter().any(|c| c.key == key) {
                         return Err(self.err(format!("headtohead[{h}]"), key.to_string(), "this pairing is planned twice"));
                     }
-                    cells.push(Cell { key, scenario: Arc::clone(&sc), agent: a, opponent: None, agent2: Some(b) });
+                    // Team 1's agent decides the game (a network plays the one it learned).
+                    let played = self.played_on(format!("headtohead[{h}].agents"), &sc, &agents[a].policy)?;
+                    cells.push(Cell { key, scenario: played, agent: a, opponent: None, agent2: Some(b) });
                 }
             }
         }

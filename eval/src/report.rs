@@ -179,6 +179,26 @@ The win rate of each training run (PvE: against the scenario's own opponent; PvP
         }
     }
 
+    /// Which unit data the rows played (a trained network plays the set it learned on).
+    fn games_line(&self) -> String {
+        let m = &self.meta;
+        let mut by: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
+        for c in &self.cells {
+            let agents = by.entry(m.game(&c.key)).or_default();
+            if !agents.contains(&c.key.agent.as_str()) {
+                agents.push(c.key.agent.as_str());
+            }
+        }
+        match by.len() {
+            0 => "No cell played yet.".to_owned(),
+            1 => format!("Unit data: every cell played on the `{}` set.", by.keys().next().copied().unwrap_or_default()),
+            _ => {
+                let parts: Vec<String> = by.iter().map(|(d, a)| format!("`{d}`: {}", a.join(", "))).collect();
+                format!("Unit data per row (a trained network plays the set it learned on): {}.", parts.join("; "))
+            }
+        }
+    }
+
     /// The paper's tables as Markdown.
     // Long: the document's sections in their printed order, sharing the column layout.
     pub fn markdown(&self) -> String {
@@ -196,6 +216,7 @@ The win rate of each training run (PvE: against the scenario's own opponent; PvP
             episodes,
             m.seeds.len()
         );
+        let _ = writeln!(s, "{}\n", self.games_line());
         let agents: Vec<&str> = m.agents.iter().map(|(n, _, _)| n.as_str()).collect();
         for against in self.opponents() {
             let _ = writeln!(s, "## Win rate per scenario ({})\n", against.trim_start_matches("opponent:"));

@@ -20,6 +20,7 @@ fn plan(agents: &[(&str, &str)], fingerprints: &[(&str, &str, &str)]) -> Meta {
         protocol: String::new(),
         fingerprints: fingerprints.iter().map(|(a, s, f)| ((*a).to_owned(), (*s).to_owned(), (*f).to_owned())).collect(),
         seed_of: Vec::new(),
+        games: Vec::new(),
     }
 }
 
@@ -125,4 +126,19 @@ mod properties {
             prop_assert!(cannot_extend(&base, &meta_of(&grown, &other)).is_some());
         }
     }
+}
+
+/// A cell played on one unit data set is not mixed with the same cell on another: a folder
+/// written before data sets existed played `legacy`.
+#[test]
+fn a_folder_of_another_game_is_not_resumed() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let dir = tmp.path();
+    let old = plan(&[("qmix", "baseline:qmix")], &[]);
+    write_meta(dir, &old).expect("a folder of before data sets");
+    let same = Meta { games: old.cells.iter().map(|c| (c.clone(), "legacy".to_owned())).collect(), ..old.clone() };
+    write_meta(dir, &same).expect("the same cells on legacy");
+    let liberty = Meta { games: old.cells.iter().map(|c| (c.clone(), "liberty".to_owned())).collect(), ..old };
+    let why = refused(dir, &liberty);
+    assert!(why.contains("was played on the legacy unit data and is liberty here"), "{why}");
 }

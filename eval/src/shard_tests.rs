@@ -16,6 +16,7 @@ fn meta(name: &str, shard: Option<(usize, usize)>) -> Meta {
         protocol: String::new(),
         fingerprints: Vec::new(),
         seed_of: Vec::new(),
+        games: Vec::new(),
     }
 }
 

@@ -237,7 +237,21 @@ fn image_baselines_play_pve_from_rendered_frames() {
     let all = episodes(&out);
     assert_eq!(all.len(), 2, "{all:?}");
     assert!(all.values().all(|(result, _)| result == "win"), "{all:?}");
-    let o = run(&["episode", "--scenario", "3m", "--agent", "baseline:mappo-rgb", "--seed", "7", "--episodes", "2", "--json"]);
+    // The plan plays the network on the game it learned (`legacy`); so does `--data legacy`.
+    let o = run(&[
+        "episode",
+        "--scenario",
+        "3m",
+        "--data",
+        "legacy",
+        "--agent",
+        "baseline:mappo-rgb",
+        "--seed",
+        "7",
+        "--episodes",
+        "2",
+        "--json",
+    ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
     let hashes: Vec<&str> =
@@ -505,6 +519,28 @@ fn shipped_baselines_win_as_often_as_the_results_table_says() {
         checked += 1;
     }
     assert_eq!(checked, cases.len());
+}
+
+/// Without a plan-wide `data`, a trained network's cells play the unit data it learned on
+/// (the shipped 3m QMIX: `legacy`), a script's the scenario's own (Liberty); with one, every
+/// cell plays it.
+#[test]
+fn each_cell_plays_its_networks_game_unless_the_plan_names_one() {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let text = |data: &str| {
+        format!(
+            "name = \"g\"\n{data}scenarios = [\"3m\"]\nseeds = [1]\n\n[[agents]]\nname = \"q\"\npolicy = \"marl:baselines/3m/qmix\"\n\n[[agents]]\nname = \"ff\"\npolicy = \"focus-fire\"\n"
+        )
+    };
+    let game = |plan: &avacraft_eval::Plan, agent: &str| {
+        plan.cells.iter().find(|c| c.key.agent == agent).map(|c| c.scenario.data).expect("a cell")
+    };
+    let own = avacraft_eval::parse("g.toml", &text(""), Some(&repo)).expect("plan");
+    assert_eq!((game(&own, "q"), game(&own, "ff")), (avacraft_engine::DataSet::Legacy, avacraft_engine::DataSet::Liberty));
+    let ladder = avacraft_eval::parse("g.toml", &text("data = \"ladder\"\n"), Some(&repo)).expect("plan");
+    assert_eq!((game(&ladder, "q"), game(&ladder, "ff")), (avacraft_engine::DataSet::Ladder, avacraft_engine::DataSet::Ladder));
+    let e = avacraft_eval::parse("g.toml", &text("data = \"lotv\"\n"), Some(&repo)).expect_err("no such set").to_string();
+    assert!(e.contains("data") && e.contains("liberty, void, ladder, legacy"), "{e}");
 }
 
 /// A network played on other unit data than it learned on plays (a different game), with a
