@@ -336,6 +336,8 @@ impl World {
     pub fn new(scenario: &Scenario, rules: Rules, seed: u64) -> Self {
         let terrain = Arc::clone(&scenario.terrain);
         let data = scenario.data;
+        // A map without fog of war shows everything, whatever the rules ask.
+        let rules = Rules { full_vision: rules.full_vision || !scenario.fog_of_war, ..rules };
         let mut units = Vec::with_capacity(scenario.units.len());
         let mut ordinals: Vec<(Team, UnitKind, u16)> = Vec::new();
         for (i, su) in scenario.units.iter().enumerate() {

@@ -22,6 +22,7 @@ mod render;
 mod rules;
 mod scenarios;
 mod smac;
+mod smac_maps;
 mod speed;
 mod splash;
 mod structure;

@@ -16,6 +16,9 @@ pub struct RawScenario {
     pub objective: String,
     #[serde(default)]
     pub source: String,
+    /// Fog of war (default on); SMAC's maps turn it and the black mask off at start.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fog_of_war: Option<bool>,
     /// The unit data the map runs (`liberty`, `void`, `ladder`; `legacy` when absent: the
     /// engine's table from before it read the game's files, which files written then meant).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -88,6 +91,11 @@ pub struct RawUnit {
     /// Starting energy for casters (default: the unit type's, e.g. 50 for a High Templar).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub energy: Option<f32>,
+    /// Creates this many units at (x, y) as StarCraft II's triggers do: each goes to the
+    /// nearest free spot around the point (SMAC's maps create armies so). Without it, the one
+    /// unit stands exactly at (x, y).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub count: Option<u32>,
 }
 
 #[derive(Debug, Clone, Default, Deserialize, Serialize)]

@@ -19,14 +19,14 @@
 //! episodes start without overlapping bodies.
 
 use super::file::RawGenerate;
+use super::place::place;
 use super::types::ScenarioUnit;
 use crate::geom::Vec2;
 use crate::ids::Team;
 use crate::terrain::{Rect, Terrain};
-use crate::units::{DataSet, UnitKind, UnitSpec};
+use crate::units::{DataSet, UnitKind};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::f32::consts::TAU;
 
 /// Keeps the scenario draw's stream apart from the world's and the policies', which are
 /// seeded from the same episode seed.
@@ -276,35 +276,4 @@ impl Generator {
 fn centroid(v: &[Vec2]) -> Vec2 {
     let s = v.iter().fold(Vec2::ZERO, |s, &p| s + p);
     s * (1.0 / v.len().max(1) as f32)
-}
-
-/// The nearest free spot to `want` for a unit of `kind`: `want` itself if free, else the first
-/// free point on rings around it. Ground bodies may not overlap ground bodies, air bodies air
-/// bodies; a point must be on the unit's ground (or in the playable area, flying).
-fn place(terrain: &Terrain, placed: &[(Vec2, f32, bool)], spec: &UnitSpec, want: Vec2) -> Vec2 {
-    let (r, fly) = (spec.radius, spec.flying);
-    let p = terrain.playable();
-    let inside = Rect { left: p.left + r, bottom: p.bottom + r, right: p.right - r, top: p.top - r };
-    let want = Vec2::new(want.x.clamp(inside.left, inside.right), want.y.clamp(inside.bottom, inside.top));
-    let free = |q: Vec2| {
-        inside.contains(q) && (fly || terrain.walkable(q)) && placed.iter().all(|&(o, orad, ofly)| ofly != fly || o.dist(q) >= r + orad)
-    };
-    if free(want) {
-        return want;
-    }
-    let step = r.max(0.25);
-    let rings = ((p.width().max(p.height())) / step) as usize + 1;
-    for ring in 1..=rings {
-        let d = ring as f32 * step;
-        let around = ((TAU * d / step).ceil() as usize).max(6);
-        for k in 0..around {
-            let q = want + Vec2::from_angle(TAU * k as f32 / around as f32) * d;
-            if free(q) {
-                return q;
-            }
-        }
-    }
-    // Validation keeps the teams small enough that a spot exists; if none did, overlapping
-    // bodies are pushed apart by the simulation's collisions.
-    want
 }

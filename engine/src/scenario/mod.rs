@@ -4,6 +4,7 @@
 mod builtin;
 mod file;
 mod generate;
+mod place;
 mod types;
 mod validate;
 

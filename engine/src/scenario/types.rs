@@ -131,6 +131,8 @@ pub struct Scenario {
     pub source: String,
     /// The unit data the game runs (the map's dependency).
     pub data: DataSet,
+    /// Whether fog of war hides units (SMAC's maps turn it off).
+    pub fog_of_war: bool,
     pub terrain: Arc<Terrain>,
     pub units: Vec<ScenarioUnit>,
     pub upgrades: [Vec<Upgrade>; 2],

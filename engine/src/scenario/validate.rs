@@ -105,7 +105,13 @@ pub(super) fn validate(file: &str, raw: RawScenario, text: &str) -> Result<Scena
     if raw.units.len() > MAX_UNITS {
         return Err(cx.err("units", raw.units.len(), format!("at most {MAX_UNITS} units")));
     }
-    let mut units = Vec::with_capacity(raw.units.len());
+    let total: u64 = raw.units.iter().map(|u| u64::from(u.count.unwrap_or(1))).sum();
+    if total > MAX_UNITS as u64 {
+        return Err(cx.err("units", total, format!("at most {MAX_UNITS} units (counts included)")));
+    }
+    let mut units = Vec::with_capacity(total as usize);
+    // Where units already stand: a `count` group is placed around them.
+    let mut placed: Vec<(Vec2, f32, bool)> = Vec::new();
     for (i, u) in raw.units.iter().enumerate() {
         let f = |name: &str| format!("units[{i}].{name}");
         let kind: UnitKind =
@@ -140,7 +146,20 @@ pub(super) fn validate(file: &str, raw: RawScenario, text: &str) -> Result<Scena
             Some(e) if emax == 0.0 => return Err(cx.err(f("energy"), e, format!("{kind} has no energy"))),
             Some(e) => return Err(cx.err(f("energy"), e, format!("must be between 0 and {emax} for {kind}"))),
         };
-        units.push(ScenarioUnit { kind, team, pos, facing: u.facing, energy });
+        match u.count {
+            None => {
+                placed.push((pos, spec.radius, spec.flying));
+                units.push(ScenarioUnit { kind, team, pos, facing: u.facing, energy });
+            }
+            Some(0) => return Err(cx.err(f("count"), 0, "at least 1 unit")),
+            Some(n) => {
+                for _ in 0..n {
+                    let at = super::place::place(&terrain, &placed, spec, pos);
+                    placed.push((at, spec.radius, spec.flying));
+                    units.push(ScenarioUnit { kind, team, pos: at, facing: u.facing, energy });
+                }
+            }
+        }
     }
     let generator = match &raw.generate {
         None => None,
@@ -185,6 +204,7 @@ pub(super) fn validate(file: &str, raw: RawScenario, text: &str) -> Result<Scena
         description: raw.description,
         objective: if raw.objective.is_empty() { "Destroy every enemy unit before time runs out.".into() } else { raw.objective },
         source: raw.source,
+        fog_of_war: raw.fog_of_war.unwrap_or(true),
         data,
         terrain,
         units,
