@@ -64,7 +64,7 @@ fn team_observation_is_the_fold_of_its_units_observations() {
 fn every_policy_acts_only_for_the_units_it_controls() {
     for (name, seed) in [("MMM_vs_MMM", 4), ("pvz_ht", 1), ("8m3mr1mv1st_mirror_pvp", 2), ("2c_vs_64zg", 3)] {
         let s: Arc<Scenario> = Arc::new(builtin(name).expect("scenario"));
-        for &(policy, _) in AGENTS {
+        for &(policy, _) in &AGENTS {
             let mut env = Env::new(Arc::clone(&s), EnvConfig::default(), seed);
             // The game is played by focus fire; the policy under test sees every second unit's
             // observations and controls those units only.

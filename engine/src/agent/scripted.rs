@@ -17,23 +17,38 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::sync::Arc;
 
-/// Names accepted by [`by_name`] (the CLI's `--agent` and launch files' `policy:` values),
-/// with a line each for `--help` and error messages.
-pub const AGENTS: &[(&str, &str)] = &[
-    ("focus-fire", "every unit attacks the visible enemy with the lowest HP + shields it can hit"),
-    ("kite", "focus fire; ranged units step back from slower melee units while reloading"),
-    ("attack-move", "attack-move to the enemy start and let the engine pick targets"),
-    ("builtin", "the built-in AI's behaviour: attack-move towards the enemy"),
-    ("aggressive", "scripted style: attack-move, everyone on the enemy closest to the army"),
-    ("defensive", "scripted style: hold ground or high ground, pull back badly hurt units"),
-    ("focus", "scripted style: lowest effective HP in range, ranged units kite slower melee"),
-    ("random", "uniformly random available SMAC action per unit"),
-    ("hold", "every unit holds its position and fires at what comes in range"),
-    ("noop", "never gives an order"),
+/// What makes a fresh scripted agent.
+pub type MakeAgent = fn() -> Box<dyn Agent>;
+
+/// The scripted agents, written once: the names [`by_name`] accepts (the CLI's `--agent` and
+/// launch files' `policy:` values), a line each for `--help` and error messages, and what
+/// makes one.
+pub const SCRIPTED: &[(&str, &str, MakeAgent)] = &[
+    ("focus-fire", "every unit attacks the visible enemy with the lowest HP + shields it can hit", || Box::new(FocusFire::team_focus())),
+    ("kite", "focus fire; ranged units step back from slower melee units while reloading", || Box::new(FocusFire::kiting())),
+    ("attack-move", "attack-move to the enemy start and let the engine pick targets", || Box::new(AttackMove::default())),
+    ("builtin", "the built-in AI's behaviour: attack-move towards the enemy", || Box::new(AttackMove::default())),
+    ("aggressive", "scripted style: attack-move, everyone on the enemy closest to the army", || Box::new(FocusFire::aggressive())),
+    ("defensive", "scripted style: hold ground or high ground, pull back badly hurt units", || Box::new(Defensive::default())),
+    ("focus", "scripted style: lowest effective HP in range, ranged units kite slower melee", || Box::new(FocusFire::focus())),
+    ("random", "uniformly random available SMAC action per unit", || Box::new(RandomActions::default())),
+    ("hold", "every unit holds its position and fires at what comes in range", || Box::new(Hold)),
+    ("noop", "never gives an order", || Box::new(NoOp)),
 ];
 
+/// The scripted agents' names and lines ([`SCRIPTED`] without the makers).
+pub const AGENTS: [(&str, &str); SCRIPTED.len()] = {
+    let mut out = [("", ""); SCRIPTED.len()];
+    let mut i = 0;
+    while i < SCRIPTED.len() {
+        out[i] = (SCRIPTED[i].0, SCRIPTED[i].1);
+        i += 1;
+    }
+    out
+};
+
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown agent `{0}` (known: focus-fire, kite, attack-move, builtin, aggressive, defensive, focus, random, hold, noop)")]
+#[error("unknown agent `{0}` (known: {known})", known = AGENTS.map(|a| a.0).join(", "))]
 pub struct UnknownAgent(pub String);
 
 /// A scripted agent by its CLI name (see [`AGENTS`]).
@@ -43,19 +58,8 @@ pub fn by_name(name: &str) -> Result<Box<dyn Agent>, UnknownAgent> {
 
 /// What makes a fresh agent of a named policy (for [`AgentTeam`](super::AgentTeam)s, which
 /// make one per group).
-pub fn factory(name: &str) -> Result<fn() -> Box<dyn Agent>, UnknownAgent> {
-    Ok(match name {
-        "focus-fire" => || Box::new(FocusFire::team_focus()),
-        "kite" => || Box::new(FocusFire::kiting()),
-        "attack-move" | "builtin" => || Box::new(AttackMove::default()),
-        "aggressive" => || Box::new(FocusFire::aggressive()),
-        "defensive" => || Box::new(Defensive::default()),
-        "focus" => || Box::new(FocusFire::focus()),
-        "random" => || Box::new(RandomActions::default()),
-        "hold" => || Box::new(Hold),
-        "noop" => || Box::new(NoOp),
-        other => return Err(UnknownAgent(other.to_owned())),
-    })
+pub fn factory(name: &str) -> Result<MakeAgent, UnknownAgent> {
+    SCRIPTED.iter().find(|(n, _, _)| *n == name).map(|(_, _, make)| *make).ok_or_else(|| UnknownAgent(name.to_owned()))
 }
 
 /// The scripted opponent for a style (not `builtin`, which is the engine's own AI).
