@@ -325,7 +325,7 @@ impl DataSet {
     pub const fn describe(self) -> &'static str {
         match self {
             DataSet::Liberty => "StarCraft II 4.10, Liberty mod (SMAC, SMACv2 and most of the paper's maps)",
-            DataSet::Void => "StarCraft II 4.10, Void mod (mixed_units, mixed_units_pvp, terran_mirror, 8m1mv_vs_2st)",
+            DataSet::Void => "StarCraft II 4.10, Void mod (mixed_units, mixed_units_pvp, terran_mirror, 8m1mv_vs_2st, pvz_ht)",
             DataSet::Ladder => "the multiplayer ladder (VoidMulti; python-sc2's 5.0.9 values)",
             DataSet::Legacy => "the engine's table before the game's files, without weapon timing",
         }
