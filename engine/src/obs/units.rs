@@ -28,7 +28,9 @@ pub struct UnitInfo {
     pub name: String,
     #[serde(rename = "type")]
     pub kind: UnitKind,
-    /// The game's unit data, which gives the kind's stats (a player knows them).
+    /// The game's unit data, which gives the kind's stats (a player knows them). A fact of the
+    /// game, not of the unit: left out of the JSON that prompts, unit lists and recordings carry.
+    #[serde(skip_serializing)]
     pub data: DataSet,
     pub team: u8,
     pub own: bool,
