@@ -1,7 +1,7 @@
 //! The unit tables: every stat the engine uses, one row per unit type and mode, in one table
 //! per [`DataSet`]. A map runs the unit data of the mods it depends on (its DocumentHeader):
 //! SMAC's, SMACv2's and most of the paper's maps depend on Liberty, five of the paper's on
-//! Void, none on the ladder's VoidMulti. `sets.rs` is generated from the game's own data files
+//! Void, none on the ladder's VoidMulti. `sets/` is generated from the game's own data files
 //! (tools/gen_units.py); `legacy.rs` is the engine's table from before it read them.
 //!
 //! Modes that StarCraft II implements as a morph into another unit type (sieged tank,
@@ -19,11 +19,21 @@ mod short {
     pub(super) const MS: Attrs = Attrs::MASSIVE;
     pub(super) const S: Attrs = Attrs::STRUCTURE;
 }
-// Generated data: python-sc2's values are exact binary fractions (1.8701171875), kept as the
-// dump has them.
-#[rustfmt::skip]
-#[allow(clippy::excessive_precision)]
-mod sets;
+/// The generated tables, one file per set.
+mod sets {
+    // Generated data: python-sc2's values are exact binary fractions (1.8701171875), kept
+    // as the dump has them.
+    #[rustfmt::skip]
+    #[allow(clippy::excessive_precision)]
+    mod ladder;
+    #[rustfmt::skip]
+    mod liberty;
+    #[rustfmt::skip]
+    mod void;
+    pub(super) use ladder::LADDER;
+    pub(super) use liberty::LIBERTY;
+    pub(super) use void::VOID;
+}
 
 use crate::time::{normal_s, per_normal_s};
 use serde::{Deserialize, Serialize};
