@@ -18,16 +18,16 @@ OUT = Path(sys.argv[2]) if len(sys.argv) > 2 else ROOT / "engine" / "scenarios"
 
 # Paper, appendix "Map Details": what each scenario tests, and where it comes from.
 DESCRIPTIONS = {
-    "2c_vs_64zg": "2 Colossi against 64 Zerglings: unit control, terrain usage and kiting (SMAC).",
-    "2m_vs_1z": "2 Marines against 1 Zealot: kiting a melee unit (SMAC).",
-    "2s_vs_1sc": "2 Stalkers against a Spine Crawler: alternating aggro (SMAC).",
-    "3s_vs_3z": "3 Stalkers against 3 Zealots: kiting (SMAC).",
+    "2c_vs_64zg_vlm": "2 Colossi against 64 Zerglings: unit control, terrain usage and kiting (VLM-Attention's version of SMAC's map: 32x32, 300 s).",
+    "2m_vs_1z_vlm": "2 Marines against 1 Zealot: kiting a melee unit (VLM-Attention's version of SMAC's map: 32x32, 300 s).",
+    "2s_vs_1sc_vlm": "2 Stalkers against a Spine Crawler: alternating aggro (VLM-Attention's version of SMAC's map: 32x32, 300 s).",
+    "3s_vs_3z_vlm": "3 Stalkers against 3 Zealots: kiting (VLM-Attention's version of SMAC's map: 32x32, 300 s).",
     "6r_vs_8z": "6 Reapers against 8 Zealots: hit-and-run over terrain.",
     "8m1mv_vs_2st": "8 Marines and a Medivac against 2 sieged Siege Tanks: closing in under splash.",
     "8m2st_vs_35zg4b": "8 Marines and 2 sieged Siege Tanks against 35 Zerglings and 4 Banelings: holding a position.",
     "8m_vs_2pc1wp": "8 Marines against 2 Photon Cannons powered by a phasing Warp Prism: picking the key target.",
-    "2s3z": "2 Stalkers and 3 Zealots on each side: mixed-unit mirror (SMAC).",
-    "3m": "3 Marines on each side: focus fire (SMAC).",
+    "2s3z_vlm": "2 Stalkers and 3 Zealots on each side: mixed-unit mirror (VLM-Attention's version of SMAC's map: 32x32, 300 s).",
+    "3m_vlm": "3 Marines on each side: focus fire (VLM-Attention's version of SMAC's map: 32x32, 300 s).",
     "mixed_units": "Zealot, Immortal, Archon, Stalker and Phoenix against eight different Terran units: target priority.",
     "8m3mr1mv1st_mirror": "Marines, Marauders, a Medivac and a Siege Tank on each side, with Stimpack and Combat Shield.",
     "8s_vs_8m3mr1mv1st": "8 Blink Stalkers against a Terran bio army with a Medivac and a Siege Tank.",
@@ -40,6 +40,10 @@ DESCRIPTIONS = {
     "8s_vs_8m3mr1mv1st_pvp": "8 Blink Stalkers against a Terran bio army, agents on both sides.",
     "8m3mr1mv1st_mirror_pvp": "Terran bio mirror with a Siege Tank, agents on both sides.",
 }
+# The paper's six scenarios that share a name with one of SMAC's maps are VLM-Attention's
+# maps (`<name>_vlm_attention`): another map size, start and a 300 s limit. SMAC's names mean
+# SMAC's maps (engine/scenarios/smac/), so these carry the source map's suffix.
+RENAMED = {n: f"{n}_vlm" for n in ("2c_vs_64zg", "2m_vs_1z", "2s3z", "2s_vs_1sc", "3m", "3s_vs_3z")}
 KEEP = {("6r_vs_8z", "Zealot"): 8, ("pvz_ht", "Queen"): 3}
 # The unit data each map runs: the mod its DocumentHeader depends on, as sc2_data's
 # map_overrides.json lists it (Liberty -> liberty, Void -> void, VoidMulti -> ladder).
@@ -101,7 +105,7 @@ def terrain(rows_from_y0):
 
 def convert(path):
     d = json.loads(path.read_text())
-    name = d["scenario"]
+    name = RENAMED.get(d["scenario"], d["scenario"])
     w, h = d["map_size"]
     l, b, r, t = d["playable_bounds_lbrt"]
     if (l, b, r, t) == (0, 0, 0, 0):

@@ -14,17 +14,17 @@ use std::io::Write;
 use std::sync::Arc;
 use std::time::Instant;
 
-/// The goal for 2s3z on one core.
+/// The goal for 2s3z_vlm on one core.
 const GOAL_STEPS_PER_SEC: f64 = 100_000.0;
 
 impl BenchArgs {
-    const DEFAULT_SCENARIOS: [&str; 5] = ["3m", "2s3z", "2c_vs_64zg", "8m3mr1mv1st_mirror", "pvz_ht"];
+    const DEFAULT_SCENARIOS: [&str; 5] = ["3m_vlm", "2s3z_vlm", "2c_vs_64zg_vlm", "8m3mr1mv1st_mirror", "pvz_ht"];
 }
 
 #[derive(Args, Debug)]
 pub struct BenchArgs {
     /// Scenario names or files; `all` for every built-in scenario.
-    #[arg(long, num_args = 1.., default_values_t = ["3m".to_owned(), "2s3z".to_owned(), "2c_vs_64zg".to_owned(), "8m3mr1mv1st_mirror".to_owned(), "pvz_ht".to_owned()])]
+    #[arg(long, num_args = 1.., default_values_t = ["3m_vlm".to_owned(), "2s3z_vlm".to_owned(), "2c_vs_64zg_vlm".to_owned(), "8m3mr1mv1st_mirror".to_owned(), "pvz_ht".to_owned()])]
     scenario: Vec<String>,
     /// Seconds of measurement per scenario and configuration.
     #[arg(long, default_value_t = 2.0)]
@@ -45,7 +45,7 @@ pub struct BenchArgs {
     #[arg(long, conflicts_with = "steps")]
     render: bool,
     /// Instead: measure the distributed deployment (lockstep steps/s with one agent process
-    /// per unit for 3m and pvz_ht, observation-to-action round trip, frame latency through
+    /// per unit for 3m_vlm and pvz_ht, observation-to-action round trip, frame latency through
     /// Zenoh, the cost of recording), each against its goal.
     #[arg(long)]
     deploy: bool,
@@ -54,7 +54,7 @@ pub struct BenchArgs {
     #[arg(long, conflicts_with = "deploy")]
     bridge: bool,
     /// Instead: a vector environment of `--envs` episodes on all cores against one
-    /// environment on one core (default scenarios: 3m and 2s3z), and the per-core rate
+    /// environment on one core (default scenarios: 3m_vlm and 2s3z_vlm), and the per-core rate
     /// against 150,000 steps/s.
     #[arg(long, conflicts_with_all = ["deploy", "bridge", "render", "scaling", "steps"])]
     vec: bool,
@@ -62,23 +62,23 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 64, requires = "vec")]
     envs: usize,
     /// Instead: training throughput (environment steps per second with learning) of each
-    /// `--algo` on `--scenario` (default 3m) for `--steps` steps (default 10000), against the
+    /// `--algo` on `--scenario` (default 3m_vlm) for `--steps` steps (default 10000), against the
     /// same vector environment stepped with random actions in the same run.
     #[arg(long, conflicts_with_all = ["deploy", "bridge", "render", "scaling", "vec"])]
     train: bool,
-    /// With --train: the learners' goal rows (IPPO and MAPPO with JaxMARL's settings on 3m
-    /// and 2s3z, QMIX with PyMARL's defaults and feed-forward, MAPPO rgb and vision-text),
+    /// With --train: the learners' goal rows (IPPO and MAPPO with JaxMARL's settings on 3m_vlm
+    /// and 2s3z_vlm, QMIX with PyMARL's defaults and feed-forward, MAPPO rgb and vision-text),
     /// each against its goal, `--steps` steps each (default 153600; the image modes one or two
     /// rollouts of their config).
     #[arg(long, requires = "train", conflicts_with = "algo")]
     goals: bool,
     /// With --goals: only the goal rows whose label, algorithm or scenario contains this
-    /// (repeatable), e.g. --only QMIX --only 2s3z.
+    /// (repeatable), e.g. --only QMIX --only 2s3z_vlm.
     #[arg(long, requires = "goals")]
     only: Vec<String>,
     /// With --goals: a JaxMARL checkout (github.com/FLAIROx/JaxMARL) whose IPPO and MAPPO SMAX
     /// baselines run in this run with the same settings, beside the rows they compare with;
-    /// the 3m goals become 1.2x its IPPO. Needs a Python with jax and JaxMARL's dependencies
+    /// the 3m_vlm goals become 1.2x its IPPO. Needs a Python with jax and JaxMARL's dependencies
     /// (--jaxmarl-python).
     #[arg(long, requires = "goals", value_name = "DIR")]
     jaxmarl: Option<std::path::PathBuf>,
@@ -88,7 +88,7 @@ pub struct BenchArgs {
     /// Algorithms of the training benchmark (default: all six).
     #[arg(long, num_args = 1.., requires = "train")]
     algo: Vec<String>,
-    /// Instead: AVA's pipeline time per decision beyond the model's (default scenarios: 3m
+    /// Instead: AVA's pipeline time per decision beyond the model's (default scenarios: 3m_vlm
     /// and pvz_ht; `--steps` decisions per variant, default 60), against its goals and an
     /// environment step.
     #[arg(long, conflicts_with_all = ["deploy", "bridge", "render", "scaling", "vec", "train"])]
@@ -303,7 +303,7 @@ pub struct BenchRow {
     sim_only_steps_per_sec: f64,
     /// steps_per_sec / sim_only_steps_per_sec: what observations cost.
     ratio_to_sim_only: f64,
-    /// steps_per_sec / 100,000 (the 2s3z goal).
+    /// steps_per_sec / 100,000 (the 2s3z_vlm goal).
     ratio_to_goal: f64,
     /// Baseline measured in the same run: abilities switched off (no casts, no scripted
     /// ability use, SMAC's plain action set).
@@ -434,7 +434,7 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
     if a.train {
         let explicit = a.scenario != BenchArgs::DEFAULT_SCENARIOS;
         let scenario = match (explicit, a.scenario.as_slice()) {
-            (false, _) => "3m",
+            (false, _) => "3m_vlm",
             (true, [one]) => one.as_str(),
             (true, _) => anyhow::bail!("--train measures one scenario at a time"),
         };
@@ -454,7 +454,7 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
     }
     if a.ava {
         let explicit = a.scenario != BenchArgs::DEFAULT_SCENARIOS;
-        let names = if explicit { scenario_names(a) } else { vec!["3m".to_owned(), "pvz_ht".to_owned()] };
+        let names = if explicit { scenario_names(a) } else { vec!["3m_vlm".to_owned(), "pvz_ht".to_owned()] };
         return crate::bench_ava::run(&names, a.steps.unwrap_or(60).max(1), a.json, out);
     }
     if a.vec {
@@ -462,7 +462,7 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
             anyhow::bail!("--envs must be at least 1");
         }
         let explicit = a.scenario != BenchArgs::DEFAULT_SCENARIOS;
-        let names = if explicit { scenario_names(a) } else { vec!["3m".to_owned(), "2s3z".to_owned()] };
+        let names = if explicit { scenario_names(a) } else { vec!["3m_vlm".to_owned(), "2s3z_vlm".to_owned()] };
         return crate::bench_vec::run(&names, a.envs, a.seconds, a.json, out);
     }
     let names = scenario_names(a);

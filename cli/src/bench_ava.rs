@@ -1,6 +1,6 @@
 //! `bench --ava`: AVA's pipeline time per decision beyond the model's (screenshots, prompts,
 //! retrieval, parsing and checking), with a stand-in model that answers at once, against
-//! the goals (5 ms on 3m, 20 ms on pvz_ht) and against an environment step measured in the
+//! the goals (5 ms on 3m_vlm, 20 ms on pvz_ht) and against an environment step measured in the
 //! same run.
 
 use anyhow::Result;

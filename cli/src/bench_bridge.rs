@@ -1,4 +1,4 @@
-//! `avacraft bench --bridge`: what the DDS bridge costs. A unit observation (3m, as the
+//! `avacraft bench --bridge`: what the DDS bridge costs. A unit observation (3m_vlm, as the
 //! simulator publishes it) and a 160x120 frame go from a Zenoh publisher through a router
 //! to (a) a Zenoh subscriber directly and (b) the bridge and on to a ros2-client DDS
 //! reader; latency one message at a time, then throughput in a burst. The direct path,
@@ -219,8 +219,8 @@ pub fn run(out: &mut dyn Write) -> Result<()> {
     let viewer = Node::open(&args, topics.namespace(), &avacraft_nodes::NodeName::tool("viewer")?)?;
     let mut dds = DdsReader::open(domain)?;
 
-    // A real 3m unit observation, as the simulator publishes it.
-    let scenario = Arc::new(avacraft_engine::Scenario::load("3m").context("bench: 3m")?);
+    // A real 3m_vlm unit observation, as the simulator publishes it.
+    let scenario = Arc::new(avacraft_engine::Scenario::load("3m_vlm").context("bench: 3m_vlm")?);
     let env = avacraft_engine::Env::new(scenario, avacraft_engine::EnvConfig::default(), 1);
     let obs = avacraft_nodes::wire::unit_observation(&env.agent_obs(avacraft_engine::Team::One, 0, 0), Header::default());
     let obs_bytes = avacraft_msgs::encode(&obs).len();
@@ -246,7 +246,7 @@ pub fn run(out: &mut dyn Write) -> Result<()> {
     let mut rows = Vec::new();
     for (rate, n) in [(0.0, 3000), (2000.0, 2000), (500.0, 500)] {
         rows.push((
-            format!("unit observation (3m), {obs_bytes} B"),
+            format!("unit observation (3m_vlm), {obs_bytes} B"),
             rate,
             measure(&mut obs_pub, &obs_direct, &obs_dds, &obs, 200, n, rate)?,
         ));

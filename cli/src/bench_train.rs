@@ -116,7 +116,7 @@ pub fn jaxmarl_rate(peer: &Peer, algo: &str, map: &str, steps: u64) -> Result<f6
     v.get("steps_per_s").and_then(serde_json::Value::as_f64).with_context(|| format!("no steps_per_s in `{line}`"))
 }
 
-/// The learners issue's row set. The first two goals are 1.2x JaxMARL's IPPO on SMAX 3m as
+/// The learners issue's row set. The first two goals are 1.2x JaxMARL's IPPO on SMAX 3m_vlm as
 /// measured on the same 2-core machine (12,700 env steps/s, JIT excluded); the others the
 /// issue's own figures.
 pub fn goal_rows() -> Vec<GoalRow> {
@@ -125,7 +125,7 @@ pub fn goal_rows() -> Vec<GoalRow> {
         GoalRow {
             label: "IPPO, JaxMARL's settings",
             algo: "ippo",
-            scenario: "3m",
+            scenario: "3m_vlm",
             overrides: with(&[JAXMARL_IPPO_NET]),
             goal: 15_000.0,
             steps: None,
@@ -136,7 +136,7 @@ pub fn goal_rows() -> Vec<GoalRow> {
         GoalRow {
             label: "MAPPO, JaxMARL's settings",
             algo: "mappo",
-            scenario: "3m",
+            scenario: "3m_vlm",
             overrides: with(&[]),
             goal: 15_000.0,
             steps: None,
@@ -147,7 +147,7 @@ pub fn goal_rows() -> Vec<GoalRow> {
         GoalRow {
             label: "IPPO, JaxMARL's settings",
             algo: "ippo",
-            scenario: "2s3z",
+            scenario: "2s3z_vlm",
             overrides: with(&[JAXMARL_IPPO_NET, "episode_limit=120"]),
             goal: 10_000.0,
             steps: None,
@@ -158,7 +158,7 @@ pub fn goal_rows() -> Vec<GoalRow> {
         GoalRow {
             label: "MAPPO, JaxMARL's settings",
             algo: "mappo",
-            scenario: "2s3z",
+            scenario: "2s3z_vlm",
             overrides: with(&["episode_limit=120"]),
             goal: 10_000.0,
             steps: None,
@@ -169,7 +169,7 @@ pub fn goal_rows() -> Vec<GoalRow> {
         GoalRow {
             label: "QMIX, PyMARL's defaults",
             algo: "qmix",
-            scenario: "3m",
+            scenario: "3m_vlm",
             overrides: vec![],
             goal: 3_000.0,
             steps: None,
@@ -180,7 +180,7 @@ pub fn goal_rows() -> Vec<GoalRow> {
         GoalRow {
             label: "QMIX feed-forward ($FAST)",
             algo: "qmix",
-            scenario: "3m",
+            scenario: "3m_vlm",
             overrides: FAST.to_vec(),
             goal: 6_000.0,
             steps: None,
@@ -191,7 +191,7 @@ pub fn goal_rows() -> Vec<GoalRow> {
         GoalRow {
             label: "MAPPO rgb (80x60 + 32x32)",
             algo: "mappo",
-            scenario: "3m",
+            scenario: "3m_vlm",
             overrides: vec!["obs=rgb"],
             goal: 1_500.0,
             steps: Some(6_400),
@@ -202,7 +202,7 @@ pub fn goal_rows() -> Vec<GoalRow> {
         GoalRow {
             label: "MAPPO vision-text",
             algo: "mappo",
-            scenario: "3m",
+            scenario: "3m_vlm",
             overrides: vec!["obs=\"vision-text\""],
             goal: 400.0,
             steps: Some(6_400),
@@ -261,7 +261,7 @@ fn measure(
     let threads = std::thread::available_parallelism().map_or(1, usize::from);
     // One greedy test at the end; SMAC's time limit unless overridden.
     let mut overrides = vec![format!("t_max={steps}"), format!("test_interval={steps}"), "test_nepisode=8".to_owned()];
-    if scenario.name == "3m" {
+    if scenario.name == "3m_vlm" {
         overrides.push("episode_limit=60".to_owned());
     }
     overrides.extend(extra.iter().cloned());
@@ -404,10 +404,10 @@ pub fn run(b: &TrainBench<'_>, out: &mut dyn Write) -> Result<()> {
         match &b.peer {
             Some(p) => writeln!(
                 out,
-                "JaxMARL ({}): its baselines/{{IPPO,MAPPO}}/*_rnn_smax.py unchanged on SMAX, NUM_ENVS=64 and the scripts' own settings, JIT compile excluded, run before the rows; the 3m goals are 1.2x its IPPO",
+                "JaxMARL ({}): its baselines/{{IPPO,MAPPO}}/*_rnn_smax.py unchanged on SMAX, NUM_ENVS=64 and the scripts' own settings, JIT compile excluded, run before the rows; the 3m_vlm goals are 1.2x its IPPO",
                 p.dir.display()
             )?,
-            None => writeln!(out, "JaxMARL not run (--jaxmarl DIR): the 3m goals are the issue's 15,000 (1.2x the 12,700 it reports)")?,
+            None => writeln!(out, "JaxMARL not run (--jaxmarl DIR): the 3m_vlm goals are the issue's 15,000 (1.2x the 12,700 it reports)")?,
         }
     }
     Ok(())

@@ -14,7 +14,7 @@ use std::time::Instant;
 
 /// The goal for the scaling ratio on two cores.
 const GOAL_RATIO: f64 = 1.8;
-/// The goal for 2s3z engine steps per second per core.
+/// The goal for 2s3z_vlm engine steps per second per core.
 const GOAL_PER_CORE: f64 = 150_000.0;
 
 #[derive(Serialize, Debug, Clone)]

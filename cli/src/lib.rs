@@ -27,6 +27,7 @@ mod render;
 mod replay;
 mod scenarios;
 mod sim_node;
+mod smac_report;
 mod train;
 
 pub use bench::{BenchRow, RenderRow, ScalingRow};
@@ -88,6 +89,9 @@ enum Cmd {
     /// Compare training runs: groups of runs' learning curves in one figure (against
     /// environment steps and wall-clock seconds) and when each run reached given win rates.
     Curves(curves::CurvesArgs),
+    /// SMAC's 23 maps: the learners' training runs (eval/plans/smac.toml) beside the real
+    /// game's published win rates, as a Markdown table and one figure of learning curves.
+    SmacReport(smac_report::SmacReportArgs),
     /// Evaluate agents from a plan file (scenarios, agents, opponents, seeds, head-to-head
     /// pairings): parallel, resumable, shardable; writes the paper's tables and plots.
     Eval(eval::EvalArgs),
@@ -123,6 +127,7 @@ pub fn run(cli: Cli, out: &mut dyn Write, alloc: Option<&'static StatsAlloc<Syst
         Cmd::Replay(a) => replay::run(&a, out),
         Cmd::Train(a) => train::run(&a, out),
         Cmd::Curves(a) => curves::run(&a, out),
+        Cmd::SmacReport(a) => smac_report::run(&a, out),
         Cmd::Eval(a) => eval::run(&a, out),
         Cmd::HumanEval(a) => human::run(&a, out),
     }

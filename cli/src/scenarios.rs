@@ -2,7 +2,7 @@
 //! their teams, map, unit data set and time limit.
 
 use anyhow::{Context, Result};
-use avacraft_engine::{Scenario, Team, builtin, builtin_names, loops_to_seconds, procedural_names};
+use avacraft_engine::{Scenario, Team, builtin, builtin_names, loops_to_seconds, procedural_names, smac_names};
 use clap::Args;
 use comfy_table::{Table, presets::UTF8_FULL_CONDENSED};
 use serde::Serialize;
@@ -19,6 +19,8 @@ pub struct ScenariosArgs {
 #[derive(Serialize)]
 struct Row {
     name: String,
+    /// paper, smac or smacv2.
+    family: String,
     mode: String,
     team1: usize,
     team2: usize,
@@ -45,10 +47,13 @@ fn composition(s: &Scenario, team: Team) -> String {
 
 pub fn scenarios(a: &ScenariosArgs, out: &mut dyn Write) -> Result<()> {
     let mut rows = Vec::new();
-    for name in builtin_names().chain(procedural_names()) {
+    let families =
+        builtin_names().map(|n| (n, "paper")).chain(smac_names().map(|n| (n, "smac"))).chain(procedural_names().map(|n| (n, "smacv2")));
+    for (name, family) in families {
         let s = builtin(name).with_context(|| format!("built-in scenario {name}"))?;
         rows.push(Row {
             name: s.name.clone(),
+            family: family.to_owned(),
             mode: s.mode.to_string(),
             team1: s.count(Team::One),
             team2: s.count(Team::Two),
@@ -64,11 +69,27 @@ pub fn scenarios(a: &ScenariosArgs, out: &mut dyn Write) -> Result<()> {
         return Ok(());
     }
     let mut t = Table::new();
-    t.load_preset(UTF8_FULL_CONDENSED).set_header(["scenario", "mode", "team 1", "team 2", "team 1 units", "team 2 units", "map", "data"]);
+    t.load_preset(UTF8_FULL_CONDENSED).set_header([
+        "scenario",
+        "from",
+        "mode",
+        "team 1",
+        "team 2",
+        "team 1 units",
+        "team 2 units",
+        "map",
+        "data",
+    ]);
     for r in rows {
-        t.add_row([r.name, r.mode, r.team1.to_string(), r.team2.to_string(), r.team1_units, r.team2_units, r.map, r.data]);
+        t.add_row([r.name, r.family, r.mode, r.team1.to_string(), r.team2.to_string(), r.team1_units, r.team2_units, r.map, r.data]);
     }
     writeln!(out, "{t}")?;
+    writeln!(
+        out,
+        "From: paper = the AVACraft paper's 21 scenarios; smac = SMAC's 23 maps, under SMAC's names; smacv2 = procedural, SMACv2's settings."
+    )?;
+    let renamed: Vec<String> = avacraft_engine::RENAMED.iter().map(|(o, n)| format!("{o} -> {n}")).collect();
+    writeln!(out, "Renamed: SMAC's names mean SMAC's maps; the paper's scenarios that had them are {}.", renamed.join(", "))?;
     writeln!(out, "Unit data sets (a scenario's is its map's; `--data` plays another):")?;
     for d in avacraft_engine::DataSet::ALL {
         writeln!(out, "  {:<8} {}", d.name(), d.describe())?;

@@ -6,7 +6,7 @@
 //! use avacraft_engine::{builtin, Env, EnvConfig, Team};
 //! use std::sync::Arc;
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
-//! let mut env = Env::new(Arc::new(builtin("3m")?), EnvConfig::default(), 1);
+//! let mut env = Env::new(Arc::new(builtin("3m_vlm")?), EnvConfig::default(), 1);
 //! let info = env.env_info(Team::One);
 //! assert_eq!((info.obs_shape, info.state_shape, info.n_actions), (30, 48, 9));
 //! let (mut obs, mut avail) = (vec![0.0; info.obs_shape], vec![0u8; info.n_actions]);
@@ -72,8 +72,9 @@ pub use obs::{
     ability_infos, describe, unit_list,
 };
 pub use scenario::{
-    BUILTIN, Generator, Mode, OpponentKind, PROCEDURAL, RawGenerate, RawOpponent, RawScenario, RawStart, RawTerrain, RawUnit, RawUpgrade,
-    Scenario, ScenarioError, ScenarioUnit, StartDist, StartOrder, Upgrade, builtin, builtin_names, procedural_names,
+    BUILTIN, Generator, Mode, OpponentKind, PROCEDURAL, RENAMED, RawGenerate, RawOpponent, RawScenario, RawStart, RawTerrain, RawUnit,
+    RawUpgrade, SMAC, Scenario, ScenarioError, ScenarioUnit, StartDist, StartOrder, Upgrade, all_names, builtin, builtin_names,
+    procedural_names, renamed, smac_names,
 };
 pub use terrain::{MAX_STEP, Rect, Terrain};
 pub use time::{DEFAULT_STEP_MUL, DEFAULT_TIME_LIMIT_S, LOOPS_PER_NORMAL_SECOND, LOOPS_PER_SECOND, loops_to_seconds, seconds_to_loops};

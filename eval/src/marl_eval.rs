@@ -100,22 +100,22 @@ mod tests {
     fn episodes_land_per_task_and_algorithm_in_seed_order() {
         let mut loaded = Loaded::default();
         for r in [
-            ep("3m", "kite", 2, Some(Outcome::Loss)),
-            ep("3m", "kite", 1, Some(Outcome::Win)),
-            ep("3m", "kite", 3, None),
-            ep("2s3z", "kite", 1, Some(Outcome::Draw)),
+            ep("3m_vlm", "kite", 2, Some(Outcome::Loss)),
+            ep("3m_vlm", "kite", 1, Some(Outcome::Win)),
+            ep("3m_vlm", "kite", 3, None),
+            ep("2s3z_vlm", "kite", 1, Some(Outcome::Draw)),
         ] {
             loaded.done.insert((r.cell.clone(), r.seed), r);
         }
         let v = marl_eval_json(&loaded);
-        let run = &v["avacraft-pve"]["3m"]["kite"]["run_1"];
+        let run = &v["avacraft-pve"]["3m_vlm"]["kite"]["run_1"];
         assert_eq!(run["step_1"]["step_count"], 0);
         assert_eq!(run["step_1"]["win_rate"], json!([1.0, 0.0]), "seed 1 then 2, the failed one left out");
         assert_eq!(run["absolute_metrics"]["damage_dealt"], json!([1.0, 2.0]));
         for m in MARL_EVAL_METRICS {
             assert_eq!(run["step_1"][m].as_array().map(Vec::len), Some(2), "{m}");
         }
-        assert_eq!(v["avacraft-pve"]["2s3z"]["kite"]["run_1"]["absolute_metrics"]["win_rate"], json!([0.0]));
+        assert_eq!(v["avacraft-pve"]["2s3z_vlm"]["kite"]["run_1"]["absolute_metrics"]["win_rate"], json!([0.0]));
         assert_eq!(v["avacraft-pve"].as_object().map(|o| o.len()), Some(2));
     }
 
@@ -129,20 +129,20 @@ mod tests {
             r.cell.against = against.into();
             loaded.done.insert((r.cell.clone(), 1), r);
         };
-        for s in ["3m", "2s3z", "pvz_ht", "MMM_vs_MMM"] {
+        for s in ["3m_vlm", "2s3z_vlm", "pvz_ht", "MMM_vs_MMM"] {
             let against = if s == "MMM_vs_MMM" { "focus-fire" } else { DEFAULT_OPPONENT };
             add(s, "kite", against);
             add(s, "focus,fire", against);
         }
         // The trained baselines cover two of the PvE scenarios.
-        add("3m", "qmix", DEFAULT_OPPONENT);
-        add("2s3z", "qmix", DEFAULT_OPPONENT);
+        add("3m_vlm", "qmix", DEFAULT_OPPONENT);
+        add("2s3z_vlm", "qmix", DEFAULT_OPPONENT);
         let v = marl_eval_json(&loaded);
         let envs = v.as_object().expect("environments");
         let names: Vec<&str> = envs.keys().map(String::as_str).collect();
         assert_eq!(names, ["avacraft-pve", "avacraft-pve-2", "avacraft-pvp"]);
         let tasks = |e: &str| envs[e].as_object().map(|o| o.keys().cloned().collect::<Vec<_>>()).unwrap_or_default();
-        assert_eq!(tasks("avacraft-pve"), ["2s3z", "3m"], "the largest group first");
+        assert_eq!(tasks("avacraft-pve"), ["2s3z_vlm", "3m_vlm"], "the largest group first");
         assert_eq!(tasks("avacraft-pve-2"), ["pvz_ht"]);
         assert!(envs["avacraft-pvp"]["MMM_vs_MMM"]["kite vs focus-fire"].is_object());
         for (name, env) in envs {

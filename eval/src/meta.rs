@@ -40,9 +40,21 @@ pub struct Meta {
     /// existed have none: their cells played `legacy`.
     #[serde(default)]
     pub games: Vec<(CellKey, String)>,
+    /// The scenario names the cells are written in ([`NAMES`]); folders without it were
+    /// played before SMAC's maps took SMAC's names.
+    #[serde(default = "old_names")]
+    pub names: u32,
 }
 
 pub const META_FILE: &str = "plan.json";
+
+/// 2 since SMAC's names mean SMAC's maps ([`avacraft_engine::RENAMED`]): before, `3m` was the
+/// paper's scenario now named `3m_vlm`.
+pub const NAMES: u32 = 2;
+
+fn old_names() -> u32 {
+    1
+}
 
 impl Meta {
     pub fn of(plan: &Plan) -> Meta {
@@ -59,6 +71,7 @@ impl Meta {
             fingerprints: Vec::new(),
             seed_of: plan.agents.iter().filter_map(|a| a.seed_of.clone().map(|b| (a.name.clone(), b))).collect(),
             games: plan.cells.iter().map(|c| (c.key.clone(), c.scenario.data.name().to_owned())).collect(),
+            names: NAMES,
         }
     }
 
@@ -159,6 +172,14 @@ pub fn write_meta(dir: &Path, meta: &Meta) -> Result<(), EvalError> {
 /// still in the plan, each agent's policy the same, and each trained network or AVA setting
 /// the same (their fingerprints, so a checkpoint trained again is not mixed with the old one).
 pub fn cannot_extend(old: &Meta, new: &Meta) -> Option<String> {
+    if old.names < NAMES
+        && let Some((c, now)) = old.cells.iter().find_map(|c| avacraft_engine::renamed(&c.scenario).map(|n| (c, n)))
+    {
+        return Some(format!(
+            "its cell `{c}` played the paper's `{}`, named `{now}` since `{}` means SMAC's map: play this plan into a new folder (or name `{now}` in it)",
+            c.scenario, c.scenario
+        ));
+    }
     if old.shard != new.shard {
         let name = |s: Option<Shard>| s.map_or_else(|| "the whole plan".to_owned(), |s| format!("shard {s}"));
         return Some(format!("its results are {}'s, not {}'s", name(old.shard), name(new.shard)));

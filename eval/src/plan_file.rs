@@ -3,7 +3,7 @@
 //! curve folders, the document) are resolved against the plan's folder.
 
 use crate::plan::{AgentDef, AgentKind, Cell, CellKey, CurveDef, Plan, PlanError, RawAgent, RawCurve, RawHeadToHead, RawPlan, unshipped};
-use avacraft_engine::{DataSet, Mode, OpponentKind, Scenario, Team, builtin_names};
+use avacraft_engine::{DataSet, Mode, OpponentKind, Scenario, Team, builtin_names, smac_names};
 use avacraft_policy::{PolicyError, PolicySpec, Resolve};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -133,8 +133,9 @@ impl Cx<'_> {
     fn scenarios(&self, names: &[String]) -> Result<Vec<Arc<Scenario>>, PlanError> {
         let mut scenarios: Vec<Arc<Scenario>> = Vec::new();
         for (i, s) in names.iter().enumerate() {
-            if s == "all" {
-                for n in builtin_names() {
+            if s == "all" || s == "smac" {
+                let names: Vec<&str> = if s == "all" { builtin_names().collect() } else { smac_names().collect() };
+                for n in names {
                     let sc = self.scenario(format!("scenarios[{i}]"), n)?;
                     if sc.mode == Mode::Pve && !scenarios.iter().any(|x| x.name == sc.name) {
                         scenarios.push(sc);
@@ -380,7 +381,7 @@ mod tests {
     /// naming the field.
     #[test]
     fn training_seeds_name_a_trained_agent_before_them() {
-        let head = "name = \"p\"\nseeds = [1]\nscenarios = [\"3m\"]\n[[agents]]\nname = \"q\"\npolicy = \"baseline:qmix\"\n[[agents]]\nname = \"h\"\npolicy = \"hold\"\n";
+        let head = "name = \"p\"\nseeds = [1]\nscenarios = [\"3m_vlm\"]\n[[agents]]\nname = \"q\"\npolicy = \"baseline:qmix\"\n[[agents]]\nname = \"h\"\npolicy = \"hold\"\n";
         let seed = |of: &str| format!("{head}[[agents]]\nname = \"q2\"\npolicy = \"baseline:qmix-s2\"\nseed_of = \"{of}\"\n");
         let plan = parse("ok.toml", &seed("q"), None).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(plan.agents[2].seed_of.as_deref(), Some("q"));

@@ -6,7 +6,7 @@ use crate::{Meta, Report, parse};
 use avacraft_engine::Outcome;
 
 fn episode(agent: &str, seed: u64, won: bool) -> EpisodeResult {
-    let cell = crate::CellKey { scenario: "3m".into(), agent: agent.into(), against: "opponent:default".into() };
+    let cell = crate::CellKey { scenario: "3m_vlm".into(), agent: agent.into(), against: "opponent:default".into() };
     EpisodeResult {
         result: Some(if won { Outcome::Win } else { Outcome::Loss }),
         steps: 10,
@@ -17,7 +17,7 @@ fn episode(agent: &str, seed: u64, won: bool) -> EpisodeResult {
 
 #[test]
 fn other_training_seeds_are_gathered_and_left_out_of_the_best_of_columns() {
-    let text = "name = \"p\"\nseeds = [1, 2, 3, 4]\nscenarios = [\"3m\"]\n\
+    let text = "name = \"p\"\nseeds = [1, 2, 3, 4]\nscenarios = [\"3m_vlm\"]\n\
         [[agents]]\nname = \"q\"\npolicy = \"baseline:qmix\"\n\
         [[agents]]\nname = \"q2\"\npolicy = \"baseline:mappo\"\nseed_of = \"q\"\n\
         [[agents]]\nname = \"ff\"\npolicy = \"focus-fire\"\n";
@@ -31,11 +31,11 @@ fn other_training_seeds_are_gathered_and_left_out_of_the_best_of_columns() {
         }
     }
     let md = Report::build(Meta::of(&plan), &loaded).markdown();
-    assert!(md.contains("| 3m | 0.25 (q) | 0.50 (ff) | -0.25 (MARL behind) |"), "the best MARL agent is seed 1's q, not q2:\n{md}");
-    assert!(md.contains("| 3m | 0.25 (q) | 0.50 (ff) |"), "best of each kind:\n{md}");
+    assert!(md.contains("| 3m_vlm | 0.25 (q) | 0.50 (ff) | -0.25 (MARL behind) |"), "the best MARL agent is seed 1's q, not q2:\n{md}");
+    assert!(md.contains("| 3m_vlm | 0.25 (q) | 0.50 (ff) |"), "best of each kind:\n{md}");
     assert!(md.contains("## Training seeds of `q`"), "{md}");
     assert!(md.contains("| scenario | q | q2 | mean ± std over runs |"), "{md}");
-    assert!(md.contains("| 3m | 0.25 | 1.00 | 0.62 ± 0.53 (2 runs) |"), "{md}");
+    assert!(md.contains("| 3m_vlm | 0.25 | 1.00 | 0.62 ± 0.53 (2 runs) |"), "{md}");
     // q2's own row is still in the per-scenario table.
     assert!(md.contains("| scenario | q | q2 | ff |"), "{md}");
 }

@@ -13,7 +13,7 @@ fn plan(agents: &[(&str, &str)], fingerprints: &[(&str, &str, &str)]) -> Meta {
         agents: agents.iter().map(|(n, p)| ((*n).to_owned(), AgentKind::Marl, (*p).to_owned())).collect(),
         seeds: (1001..=1100).collect(),
         curves: Vec::new(),
-        cells: agents.iter().flat_map(|(n, _)| [cell("3m", n), cell("2s3z", n)]).collect(),
+        cells: agents.iter().flat_map(|(n, _)| [cell("3m_vlm", n), cell("2s3z_vlm", n)]).collect(),
         shard: None,
         unshipped: Vec::new(),
         document: None,
@@ -21,7 +21,32 @@ fn plan(agents: &[(&str, &str)], fingerprints: &[(&str, &str, &str)]) -> Meta {
         fingerprints: fingerprints.iter().map(|(a, s, f)| ((*a).to_owned(), (*s).to_owned(), (*f).to_owned())).collect(),
         seed_of: Vec::new(),
         games: Vec::new(),
+        names: crate::meta::NAMES,
     }
+}
+
+#[test]
+fn a_folder_played_before_smacs_names_is_refused_naming_the_new_name() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let dir = tmp.path();
+    // Written before SMAC's maps took SMAC's names: its `3m` was the paper's scenario.
+    let mut old = plan(&[("qmix", "baseline:qmix")], &[]);
+    old.cells = vec![cell("3m", "qmix")];
+    old.games = Vec::new();
+    let mut json = serde_json::to_value(&old).expect("json");
+    json.as_object_mut().map(|o| o.remove("names"));
+    std::fs::write(dir.join("plan.json"), json.to_string()).expect("write");
+    let read = read_meta(dir).expect("an old plan.json reads");
+    assert_eq!(read.names, 1);
+    // The same plan now means SMAC's 3m: refused, naming 3m_vlm.
+    let mut now = old.clone();
+    now.names = crate::meta::NAMES;
+    let why = refused(dir, &now);
+    assert!(why.contains("3m_vlm") && why.contains("SMAC"), "{why}");
+    // A folder of the new names resumes as before.
+    let fresh = tempfile::tempdir().expect("temp dir");
+    write_meta(fresh.path(), &now).expect("new folder");
+    write_meta(fresh.path(), &now).expect("resumed");
 }
 
 fn refused(dir: &std::path::Path, m: &Meta) -> String {
@@ -35,19 +60,19 @@ fn refused(dir: &std::path::Path, m: &Meta) -> String {
 fn a_folder_resumes_with_its_plan_grown_but_not_with_other_results() {
     let tmp = tempfile::tempdir().expect("temp dir");
     let dir = tmp.path();
-    let fp = [("qmix", "3m", "xxh3:1"), ("qmix", "2s3z", "xxh3:2")];
+    let fp = [("qmix", "3m_vlm", "xxh3:1"), ("qmix", "2s3z_vlm", "xxh3:2")];
     let base = plan(&[("qmix", "baseline:qmix")], &fp);
     write_meta(dir, &base).expect("a new folder");
     write_meta(dir, &base).expect("the same plan again");
 
     // An agent added: its cells are new, the old ones stay; plan.json is the grown plan.
-    let grown = plan(&[("qmix", "baseline:qmix"), ("ava", "ava")], &[fp[0], fp[1], ("ava", "3m", "xxh3:9")]);
+    let grown = plan(&[("qmix", "baseline:qmix"), ("ava", "ava")], &[fp[0], fp[1], ("ava", "3m_vlm", "xxh3:9")]);
     write_meta(dir, &grown).expect("the plan grown by an agent");
     assert_eq!(read_meta(dir).expect("written").cells.len(), 4);
 
     // Cells recorded there that the plan no longer has.
     let fewer = refused(dir, &base);
-    assert!(fewer.contains("cell `3m / ava vs opponent:default` is not in this plan"), "{fewer}");
+    assert!(fewer.contains("cell `3m_vlm / ava vs opponent:default` is not in this plan"), "{fewer}");
     assert!(fewer.contains("pick another --out (nothing is overwritten)"), "{fewer}");
 
     // Another policy under the same agent name.
@@ -55,8 +80,8 @@ fn a_folder_resumes_with_its_plan_grown_but_not_with_other_results() {
     assert!(other.contains("agent `qmix` played `baseline:qmix` (marl) there and is `marl:runs/q` (marl) here"), "{other}");
 
     // The same name and policy, but a network trained or shipped again.
-    let again = refused(dir, &plan(&[("qmix", "baseline:qmix"), ("ava", "ava")], &[("qmix", "2s3z", "xxh3:3")]));
-    assert!(again.contains("agent `qmix` on 2s3z") && again.contains("xxh3:2") && again.contains("xxh3:3"), "{again}");
+    let again = refused(dir, &plan(&[("qmix", "baseline:qmix"), ("ava", "ava")], &[("qmix", "2s3z_vlm", "xxh3:3")]));
+    assert!(again.contains("agent `qmix` on 2s3z_vlm") && again.contains("xxh3:2") && again.contains("xxh3:3"), "{again}");
 
     // Other seeds, another shard.
     let mut seeds = grown.clone();
@@ -79,7 +104,7 @@ fn a_folder_from_before_fingerprints_still_resumes() {
     let mut json: serde_json::Value = serde_json::to_value(&m).expect("json");
     json.as_object_mut().expect("an object").remove("fingerprints");
     std::fs::write(tmp.path().join(crate::META_FILE), json.to_string()).expect("write");
-    write_meta(tmp.path(), &plan(&[("qmix", "baseline:qmix")], &[("qmix", "3m", "xxh3:1")])).expect("no fingerprints to compare");
+    write_meta(tmp.path(), &plan(&[("qmix", "baseline:qmix")], &[("qmix", "3m_vlm", "xxh3:1")])).expect("no fingerprints to compare");
     assert_eq!(read_meta(tmp.path()).expect("written").fingerprints.len(), 1);
 }
 

@@ -317,7 +317,7 @@ mod tests {
     fn jobs_that_call_a_model_go_last() {
         let text = r#"
 name = "order"
-scenarios = ["3m", "2s3z"]
+scenarios = ["3m_vlm", "2s3z_vlm"]
 seeds = [1, 2]
 [[agents]]
 name = "vlm"

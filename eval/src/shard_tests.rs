@@ -9,12 +9,13 @@ fn meta(name: &str, shard: Option<(usize, usize)>) -> Meta {
         agents: Vec::new(),
         seeds: vec![1, 2],
         curves: Vec::new(),
-        cells: vec![CellKey { scenario: "3m".into(), agent: "a".into(), against: "opponent:default".into() }],
+        cells: vec![CellKey { scenario: "3m_vlm".into(), agent: "a".into(), against: "opponent:default".into() }],
         shard: shard.map(|(index, count)| Shard { index, count }),
         unshipped: Vec::new(),
         document: None,
         protocol: String::new(),
         fingerprints: Vec::new(),
+        names: crate::meta::NAMES,
         seed_of: Vec::new(),
         games: Vec::new(),
     }
@@ -49,7 +50,7 @@ fn a_merge_takes_each_shard_of_one_plan_once() {
 
 #[test]
 fn a_merge_refuses_shards_that_played_other_networks() {
-    let with = |fp: &str| Meta { fingerprints: vec![("q".into(), "3m".into(), fp.into())], ..meta("p", Some((1, 2))) };
+    let with = |fp: &str| Meta { fingerprints: vec![("q".into(), "3m_vlm".into(), fp.into())], ..meta("p", Some((1, 2))) };
     let mut second = with("xxh3:2");
     second.shard = Some(Shard { index: 2, count: 2 });
     let e = refused(&[("a", with("xxh3:1")), ("b", second.clone())]);

@@ -13,7 +13,7 @@
 //! [[runs]]
 //! name = "qmix"                  # the run's folder prefix
 //! algo = "qmix"
-//! scenarios = ["all"]            # names, or "all", "pve", "pvp"
+//! scenarios = ["all"]            # names, or "all", "pve", "pvp" (the paper's), "smac" (SMAC's 23)
 //! set = ["use_rnn=false"]        # config overrides, as `train --set`
 //! opponent = "focus-fire"        # who plays team 2 of the PvP scenarios
 //! ```
@@ -23,7 +23,7 @@
 //! scenario, then of the next), so a plan cut short leaves complete scenarios.
 
 use crate::plan::Shard;
-use avacraft_engine::{Mode, Scenario, builtin_names};
+use avacraft_engine::{Mode, Scenario, builtin_names, smac_names};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -228,19 +228,24 @@ fn expand_scenarios(
     }
     let mut out: Vec<Scenario> = Vec::new();
     for (i, n) in names.iter().enumerate() {
+        let paper = |mode: Option<Mode>| -> Vec<Scenario> {
+            builtin_names().filter_map(|b| Scenario::load(b).ok()).filter(|s| mode.is_none_or(|m| s.mode == m)).collect()
+        };
         let group = match n.as_str() {
-            "all" => Some(None),
-            "pve" => Some(Some(Mode::Pve)),
-            "pvp" => Some(Some(Mode::Pvp)),
+            "all" => Some(paper(None)),
+            "pve" => Some(paper(Some(Mode::Pve))),
+            "pvp" => Some(paper(Some(Mode::Pvp))),
+            "smac" => Some(smac_names().filter_map(|b| Scenario::load(b).ok()).collect()),
             _ => None,
         };
+        let grouped = group.is_some();
         let found: Vec<Scenario> = match group {
-            Some(mode) => builtin_names().filter_map(|b| Scenario::load(b).ok()).filter(|s| mode.is_none_or(|m| s.mode == m)).collect(),
+            Some(found) => found,
             None => vec![Scenario::load(n).map_err(|e| err(format!("{field}[{i}]"), format!("{n:?}"), &e.to_string()))?],
         };
         for s in found {
             if out.iter().any(|x| x.name == s.name) {
-                if group.is_none() {
+                if !grouped {
                     return Err(err(format!("{field}[{i}]"), format!("{n:?}"), "named twice"));
                 }
                 continue;
@@ -264,7 +269,7 @@ seeds = [1]
 [[runs]]
 name = "qmix"
 algo = "qmix"
-scenarios = ["3m", "2s3z"]
+scenarios = ["3m_vlm", "2s3z_vlm"]
 seeds = [1, 2]
 set = ["use_rnn=false"]
 
@@ -279,11 +284,11 @@ opponent = "focus-fire"
     fn plans_expand_in_a_fixed_order_and_shard_every_job_once() {
         let p = parse_train_plan("t.toml", PLAN, Some(Path::new("/plans"))).unwrap_or_else(|e| panic!("{e}"));
         let ids: Vec<&str> = p.jobs.iter().map(|j| j.id.as_str()).collect();
-        assert_eq!(&ids[..4], ["3m/qmix-s1", "3m/qmix-s2", "2s3z/qmix-s1", "2s3z/qmix-s2"]);
+        assert_eq!(&ids[..4], ["3m_vlm/qmix-s1", "3m_vlm/qmix-s2", "2s3z_vlm/qmix-s1", "2s3z_vlm/qmix-s2"]);
         let pvp = builtin_names().filter_map(|b| Scenario::load(b).ok()).filter(|s| s.mode == Mode::Pvp).count();
         assert_eq!(p.jobs.len(), 4 + pvp);
         assert!(p.jobs[4..].iter().all(|j| j.overrides.contains(&"opponent=\"focus-fire\"".to_owned())));
-        assert_eq!(p.jobs[0].dir, Path::new("/plans/runs/3m/qmix-s1"));
+        assert_eq!(p.jobs[0].dir, Path::new("/plans/runs/3m_vlm/qmix-s1"));
         assert!(p.jobs[0].overrides.contains(&"t_max=1000".to_owned()));
         let shards: Vec<Shard> = ["1/3", "2/3", "3/3"].iter().filter_map(|s| s.parse().ok()).collect();
         let mut seen: Vec<&str> = shards.iter().flat_map(|s| p.shard(Some(*s))).map(|j| j.id.as_str()).collect();
@@ -320,6 +325,17 @@ opponent = "focus-fire"
         let ids: Vec<&str> = v2.jobs.iter().map(|j| j.id.as_str()).collect();
         assert_eq!(ids, ["protoss_5_vs_5/mappo-s1", "protoss_5_vs_5/mappo-s2", "protoss_5_vs_5/qmix-s1"]);
         assert!(v2.jobs.iter().all(|j| j.overrides.contains(&"passive_agents=false".to_owned())));
+        // SMAC's 23 maps: QMIX and MAPPO on each at SMAC's budgets (10M on the super-hard ones).
+        let smac = load_train_plan(&dir.join("smac.toml")).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(smac.jobs.len(), 2 * 23);
+        for name in smac_names() {
+            for run in ["qmix", "mappo"] {
+                let job = smac.jobs.iter().find(|j| j.id == format!("{name}/{run}-s1")).unwrap_or_else(|| panic!("{name} {run}"));
+                let hard = ["MMM2", "3s5z_vs_3s6z", "27m_vs_30m", "6h_vs_8z", "corridor"].contains(&name);
+                let budget = format!("t_max={}", if hard { 10_000_000 } else { 2_000_000 });
+                assert!(job.overrides.contains(&budget), "{name} {run}: {:?}", job.overrides);
+            }
+        }
     }
 
     #[test]
@@ -331,7 +347,7 @@ opponent = "focus-fire"
                 .unwrap_or_default()
         };
         let with = |from: &str, to: &str| e(&PLAN.replacen(from, to, 1));
-        assert!(with("scenarios = [\"3m\", \"2s3z\"]", "scenarios = [\"3m\", \"nowhere\"]").contains("runs[0].scenarios[1]"));
+        assert!(with("scenarios = [\"3m_vlm\", \"2s3z_vlm\"]", "scenarios = [\"3m_vlm\", \"nowhere\"]").contains("runs[0].scenarios[1]"));
         assert!(with("opponent = \"focus-fire\"\n", "").contains("runs[1].opponent"));
         assert!(with("opponent = \"focus-fire\"", "opponent = \"nobody\"").contains("opponent"));
         assert!(with("set = [\"use_rnn=false\"]", "set = [\"lr=-1\"]").contains("runs[0].set"));
@@ -339,15 +355,15 @@ opponent = "focus-fire"
         assert!(with("seeds = [1, 2]", "seeds = [1, 1]").contains("runs[0].seeds[1]"));
         // The same run name on other scenarios is fine; on the same scenario and seed it is not.
         assert!(with("name = \"mappo\"", "name = \"qmix\"").is_empty());
-        let twice = format!("{PLAN}\n[[runs]]\nname = \"qmix\"\nalgo = \"vdn\"\nscenarios = [\"2s3z\"]\n");
-        assert!(e(&twice).contains("runs[2].name") && e(&twice).contains("2s3z/qmix-s1"));
+        let twice = format!("{PLAN}\n[[runs]]\nname = \"qmix\"\nalgo = \"vdn\"\nscenarios = [\"2s3z_vlm\"]\n");
+        assert!(e(&twice).contains("runs[2].name") && e(&twice).contains("2s3z_vlm/qmix-s1"));
         assert!(with("steps = 1000", "steps = 0").contains("steps"));
         assert!(e("out = \"x\"\n").contains("runs"));
         assert!(with("seeds = [1]\n", "seeds = [1]\norder = \"random\"\n").contains("order"));
         let by_scenario = parse_train_plan("t.toml", &PLAN.replacen("seeds = [1]\n", "seeds = [1]\norder = \"scenarios\"\n", 1), None)
             .unwrap_or_else(|e| panic!("{e}"));
         let first: Vec<&str> = by_scenario.jobs.iter().take(2).map(|j| j.id.as_str()).collect();
-        assert_eq!(first, ["3m/qmix-s1", "3m/qmix-s2"]);
+        assert_eq!(first, ["3m_vlm/qmix-s1", "3m_vlm/qmix-s2"]);
         assert!(e("out = \"x\"\nbogus = 1\n").contains("bogus"));
     }
 }

@@ -51,7 +51,7 @@ fn key_of(replays: &[(&str, AgentKind)]) -> Key {
             let e = KeyEntry {
                 agent: format!("{}-agent", kind.name()),
                 kind: *kind,
-                scenario: "3m".into(),
+                scenario: "3m_vlm".into(),
                 against: "opponent:default".into(),
                 seed: 1,
                 result: "win".into(),

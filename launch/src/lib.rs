@@ -64,7 +64,7 @@ mod tests {
 
     #[test]
     fn a_good_file_becomes_a_plan() {
-        let p = parse("t.yaml", "scenario: 3m\nepisodes: 2\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n", None)
+        let p = parse("t.yaml", "scenario: 3m_vlm\nepisodes: 2\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n", None)
             .expect("plan");
         assert_eq!(p.agents.len(), 3);
         assert_eq!(p.seeds, vec![1, 2]);
@@ -76,26 +76,32 @@ mod tests {
     fn errors_name_file_field_and_value() {
         let cases = [
             ("scenario: nope\nagents: []\n", "scenario"),
-            ("scenario: 3m\nclock: fast\nagents:\n  - {per_unit: true, team: 1, policy: noop}\n", "clock"),
-            ("scenario: 3m\nagents:\n  - {id: a, units: [9], policy: noop}\n", "agents[0].units"),
-            ("scenario: 3m\nagents:\n  - {id: a, units: [1], policy: dance}\n", "agents[0].policy"),
-            ("scenario: 3m\nagents:\n  - {id: a, units: [1], policy: noop}\n  - {id: b, units: [1], policy: noop}\n", "agents[1].units"),
-            ("scenario: 3m\nagents:\n  - {id: A, units: [1], policy: noop}\n", "agents[0].id"),
-            ("scenario: 3m\ncolour: red\nagents: []\n", "colour"),
-            ("scenario: 3m\nagents:\n  - {per_unit: true, team: 2, policy: noop}\n", "agents[0].units"),
-            ("scenario: 3m\nagents:\n  - {id: a, team: 1, units: [1], policy: noop}\n", "agents[0].team"),
-            ("scenario: 3m\nagents:\n  - {id: a, units: [1], policy: ava}\n", "agents[0].policy"),
-            ("scenario: 3m\nagents:\n  - {id: a, units: [1], policy: noop, ava: {model: {kind: synthetic}}}\n", "agents[0].ava"),
-            ("scenario: 3m\nava: {model: {kind: openai, url: ftp://x, model: m}}\nagents:\n  - {id: a, units: [1], policy: ava}\n", "ava"),
+            ("scenario: 3m_vlm\nclock: fast\nagents:\n  - {per_unit: true, team: 1, policy: noop}\n", "clock"),
+            ("scenario: 3m_vlm\nagents:\n  - {id: a, units: [9], policy: noop}\n", "agents[0].units"),
+            ("scenario: 3m_vlm\nagents:\n  - {id: a, units: [1], policy: dance}\n", "agents[0].policy"),
             (
-                "scenario: 3m\nava: {model: {kind: synthetic}, config: {decide_every: 0}}\nagents:\n  - {id: a, units: [1], policy: ava}\n",
+                "scenario: 3m_vlm\nagents:\n  - {id: a, units: [1], policy: noop}\n  - {id: b, units: [1], policy: noop}\n",
+                "agents[1].units",
+            ),
+            ("scenario: 3m_vlm\nagents:\n  - {id: A, units: [1], policy: noop}\n", "agents[0].id"),
+            ("scenario: 3m_vlm\ncolour: red\nagents: []\n", "colour"),
+            ("scenario: 3m_vlm\nagents:\n  - {per_unit: true, team: 2, policy: noop}\n", "agents[0].units"),
+            ("scenario: 3m_vlm\nagents:\n  - {id: a, team: 1, units: [1], policy: noop}\n", "agents[0].team"),
+            ("scenario: 3m_vlm\nagents:\n  - {id: a, units: [1], policy: ava}\n", "agents[0].policy"),
+            ("scenario: 3m_vlm\nagents:\n  - {id: a, units: [1], policy: noop, ava: {model: {kind: synthetic}}}\n", "agents[0].ava"),
+            (
+                "scenario: 3m_vlm\nava: {model: {kind: openai, url: ftp://x, model: m}}\nagents:\n  - {id: a, units: [1], policy: ava}\n",
                 "ava",
             ),
             (
-                "scenario: 3m\nava: {model: {kind: synthetic}, config: {planer: false}}\nagents:\n  - {id: a, units: [1], policy: ava}\n",
+                "scenario: 3m_vlm\nava: {model: {kind: synthetic}, config: {decide_every: 0}}\nagents:\n  - {id: a, units: [1], policy: ava}\n",
+                "ava",
+            ),
+            (
+                "scenario: 3m_vlm\nava: {model: {kind: synthetic}, config: {planer: false}}\nagents:\n  - {id: a, units: [1], policy: ava}\n",
                 "planer",
             ),
-            ("scenario: 3m\nava: {model: {kind: gpt}}\nagents:\n  - {id: a, units: [1], policy: ava}\n", "gpt"),
+            ("scenario: 3m_vlm\nava: {model: {kind: gpt}}\nagents:\n  - {id: a, units: [1], policy: ava}\n", "gpt"),
         ];
         for (text, field) in cases {
             let e = chain(&parse("bad.yaml", text, None).expect_err(text));
@@ -169,7 +175,7 @@ mod deploy_tests {
             (pvp("bridge: {dds_domain: 300}\n"), "bridge.dds_domain"),
             (pvp("").replace("policy: hold, host: blue", "policy: dds, host: blue"), "agents[0].policy"),
             (pvp("bridge: {host: server, teams: [1]}\n").replace("policy: hold, host: blue", "policy: dds, host: blue"), "bridge.host"),
-            ("scenario: 3m\nhosts: [a, b]\nagents:\n  - {id: x, units: [1], policy: hold}\n".to_owned(), "hosts"),
+            ("scenario: 3m_vlm\nhosts: [a, b]\nagents:\n  - {id: x, units: [1], policy: hold}\n".to_owned(), "hosts"),
             (pvp("").replace("tls/10.0.0.1:7447", "tls/127.0.0.1:7447"), "router"),
             (pvp("").replace("tls/10.0.0.1:7447", "tls/0.0.0.0:7447"), "router"),
             (pvp("").replace("tls/10.0.0.1:7447", "tls/10.0.0.1"), "router"),
@@ -251,7 +257,7 @@ mod deploy_tests {
             assert!(pem.starts_with("-----BEGIN CERTIFICATE-----"));
             assert!(std::fs::read_to_string(sec.key(h)).expect("key").contains("PRIVATE KEY"));
         }
-        let without = parse("p.yaml", "scenario: 3m\nagents:\n  - {id: x, units: [1], policy: hold}\n", None).expect("plan");
+        let without = parse("p.yaml", "scenario: 3m_vlm\nagents:\n  - {id: x, units: [1], policy: hold}\n", None).expect("plan");
         assert!(matches!(write_certs(&without), Err(CertError::NoSecurity)));
         let _ = std::fs::remove_dir_all(&dir);
     }

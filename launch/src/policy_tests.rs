@@ -8,9 +8,9 @@ use avacraft_policy::PolicySpec;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-/// The committed 3m checkpoint (launch/policies/3m), whichever run wrote it.
+/// The committed 3m_vlm checkpoint (launch/policies/3m_vlm), whichever run wrote it.
 fn shipped() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("policies/3m")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("policies/3m_vlm")
 }
 
 fn tmp(name: &str) -> PathBuf {
@@ -53,7 +53,7 @@ fn played(plan: &crate::Plan, seed: u64) -> Env {
 #[test]
 fn marl_policies_resolve_against_the_launch_file_and_share_one_network() {
     let base = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let plan = parse("m.yaml", &launch("3m", "marl:policies/3m"), Some(base)).unwrap_or_else(|e| panic!("{}", chain(&e)));
+    let plan = parse("m.yaml", &launch("3m_vlm", "marl:policies/3m_vlm"), Some(base)).unwrap_or_else(|e| panic!("{}", chain(&e)));
     assert_eq!(plan.agents.len(), 3);
     let nets: Vec<&Arc<Policy>> = plan
         .agents
@@ -70,14 +70,15 @@ fn marl_policies_resolve_against_the_launch_file_and_share_one_network() {
     assert_eq!(PolicySpec::parse(&text, None).expect("reparse"), plan.agents[0].policy);
     // An absolute directory, and a role group of two units, are fine too.
     let abs = format!("marl:{}", shipped().display());
-    let groups = "scenario: 3m\nagents:\n  - {id: pair, units: [1, 2], policy: POLICY}\n  - {id: solo, units: [3], policy: focus-fire}\n";
+    let groups =
+        "scenario: 3m_vlm\nagents:\n  - {id: pair, units: [1, 2], policy: POLICY}\n  - {id: solo, units: [3], policy: focus-fire}\n";
     parse("g.yaml", &groups.replace("POLICY", &abs), None).unwrap_or_else(|e| panic!("{}", chain(&e)));
 }
 
 #[test]
 fn a_marl_plan_plays_in_process_with_one_network_per_unit() {
-    let plan = parse("m.yaml", &launch("3m", &format!("marl:{}", shipped().display())), None).expect("plan");
-    let noop = parse("n.yaml", &launch("3m", "noop"), None).expect("plan");
+    let plan = parse("m.yaml", &launch("3m_vlm", &format!("marl:{}", shipped().display())), None).expect("plan");
+    let noop = parse("n.yaml", &launch("3m_vlm", "noop"), None).expect("plan");
     assert_eq!(plan.scenario.mode, Mode::Pve);
     assert_ne!(played(&plan, 3).trajectory_hash(), played(&noop, 3).trajectory_hash(), "the network gives orders");
 }
@@ -90,20 +91,20 @@ fn bad_marl_policies_name_the_field_and_why() {
     std::fs::remove_file(no_weights.join("agent.safetensors")).expect("remove");
     let bad_weights = edited("bad_weights", |_| {});
     std::fs::write(bad_weights.join("agent.safetensors"), b"\x08\0\0\0\0\0\0\0{}garbage").expect("write");
-    let renamed = edited("renamed", |v| v["scenario"] = "2m_vs_1z".into());
+    let renamed = edited("renamed", |v| v["scenario"] = "2m_vs_1z_vlm".into());
     let file = tmp("file").join("config.json");
     std::fs::write(&file, "{}").expect("write");
     let s = |p: &Path| format!("marl:{}", p.display());
     let cases: Vec<(String, String, &str)> = vec![
-        (launch("3m", "\"marl:\""), "marl:".into(), "needs the directory of a checkpoint"),
-        (launch("3m", "marl:/nonexistent/ckpt"), "/nonexistent/ckpt".into(), "does not exist"),
-        (launch("3m", &s(&file)), "config.json".into(), "is not a directory"),
-        (launch("3m", &s(&garbage)), "config.json".into(), "cannot load the checkpoint"),
-        (launch("3m", &s(&no_weights)), "agent.safetensors is missing".into(), "cannot load the checkpoint"),
-        (launch("3m", &s(&bad_weights)), "bad_weights: tensor operation failed".into(), "cannot load the checkpoint"),
-        (launch("2m_vs_1z", &s(&shipped())), "trained on scenario `3m`, not `2m_vs_1z`".into(), "trained on"),
-        (launch("2m_vs_1z", &s(&renamed)), "3 agents".into(), "team 1 of 2m_vs_1z has 2 agents"),
-        (launch("3m", "marl-ish"), "unknown policy `marl-ish`".into(), "marl:DIR"),
+        (launch("3m_vlm", "\"marl:\""), "marl:".into(), "needs the directory of a checkpoint"),
+        (launch("3m_vlm", "marl:/nonexistent/ckpt"), "/nonexistent/ckpt".into(), "does not exist"),
+        (launch("3m_vlm", &s(&file)), "config.json".into(), "is not a directory"),
+        (launch("3m_vlm", &s(&garbage)), "config.json".into(), "cannot load the checkpoint"),
+        (launch("3m_vlm", &s(&no_weights)), "agent.safetensors is missing".into(), "cannot load the checkpoint"),
+        (launch("3m_vlm", &s(&bad_weights)), "bad_weights: tensor operation failed".into(), "cannot load the checkpoint"),
+        (launch("2m_vs_1z_vlm", &s(&shipped())), "trained on scenario `3m_vlm`, not `2m_vs_1z_vlm`".into(), "trained on"),
+        (launch("2m_vs_1z_vlm", &s(&renamed)), "3 agents".into(), "team 1 of 2m_vs_1z_vlm has 2 agents"),
+        (launch("3m_vlm", "marl-ish"), "unknown policy `marl-ish`".into(), "marl:DIR"),
     ];
     for (text, says, why) in cases {
         let e = parse("bad.yaml", &text, None).expect_err(&text);
@@ -117,38 +118,38 @@ fn bad_marl_policies_name_the_field_and_why() {
     }
 }
 
-/// The shipped rgb MAPPO on 3m (an image-mode network).
+/// The shipped rgb MAPPO on 3m_vlm (an image-mode network).
 fn rgb() -> String {
-    format!("marl:{}", Path::new(env!("CARGO_MANIFEST_DIR")).join("../baselines/3m/mappo-rgb").display())
+    format!("marl:{}", Path::new(env!("CARGO_MANIFEST_DIR")).join("../baselines/3m_vlm/mappo-rgb").display())
 }
 
 #[test]
 fn an_image_checkpoint_has_the_simulator_draw_its_frames_and_plays_in_process() {
-    let plan = parse("r.yaml", &launch("3m", &rgb()), None).unwrap_or_else(|e| panic!("{}", chain(&e)));
+    let plan = parse("r.yaml", &launch("3m_vlm", &rgb()), None).unwrap_or_else(|e| panic!("{}", chain(&e)));
     let f = plan.frames.as_ref().expect("frames for the network");
     assert_eq!((f.screen, f.minimap, f.every, f.for_agents), ((80, 60), (32, 32), 1, true));
     assert!(f.kinds.contains(&FrameKind::Screen) && f.kinds.contains(&FrameKind::Minimap));
     // A file's own frames at the network's sizes are kept (with the VLM shot it asks for).
-    let own = format!("{}frames: {{kinds: [vlm, screen, minimap], screen: [80, 60], minimap: [32, 32]}}\n", launch("3m", &rgb()));
+    let own = format!("{}frames: {{kinds: [vlm, screen, minimap], screen: [80, 60], minimap: [32, 32]}}\n", launch("3m_vlm", &rgb()));
     let kept = parse("o.yaml", &own, None).unwrap_or_else(|e| panic!("{}", chain(&e)));
     assert_eq!(kept.frames.as_ref().map(|f| (f.kinds.len(), f.for_agents)), Some((3, true)));
     // A features network's file draws nothing it did not ask for.
-    assert!(parse("m.yaml", &launch("3m", &format!("marl:{}", shipped().display())), None).expect("plan").frames.is_none());
+    assert!(parse("m.yaml", &launch("3m_vlm", &format!("marl:{}", shipped().display())), None).expect("plan").frames.is_none());
     // In process the agents are shown the frames and give orders.
-    let noop = parse("n.yaml", &launch("3m", "noop"), None).expect("plan");
+    let noop = parse("n.yaml", &launch("3m_vlm", "noop"), None).expect("plan");
     assert_eq!(played(&plan, 3).outcome(), Some(avacraft_engine::Outcome::Win));
     assert_ne!(played(&noop, 3).outcome(), Some(avacraft_engine::Outcome::Win));
 }
 
 #[test]
 fn frames_that_do_not_fit_an_image_checkpoint_name_the_field() {
-    let with = |frames: &str| format!("{}frames: {frames}\n", launch("3m", &rgb()));
+    let with = |frames: &str| format!("{}frames: {frames}\n", launch("3m_vlm", &rgb()));
     let cases = [
         (with("{kinds: [screen, minimap], screen: [160, 120], minimap: [32, 32]}"), "frames.screen", "screen frames of [80, 60]"),
         (with("{kinds: [screen], screen: [80, 60], minimap: [32, 32]}"), "frames.kinds", "minimap frames"),
         (with("{kinds: [screen, minimap], screen: [80, 60], minimap: [32, 32], every: 2}"), "frames.every", "frames at every step"),
         (
-            format!("scenario: 3m\nagents:\n  - {{id: g, units: [1, 2, 3], role: attacker, policy: {}}}\n", rgb()),
+            format!("scenario: 3m_vlm\nagents:\n  - {{id: g, units: [1, 2, 3], role: attacker, policy: {}}}\n", rgb()),
             "agents[0].role",
             "reads no frames",
         ),

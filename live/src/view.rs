@@ -367,7 +367,7 @@ mod tests {
 
     #[test]
     fn a_step_is_framed_on_every_channel_and_decodes() -> R {
-        let scenario = Arc::new(Scenario::load("3m")?);
+        let scenario = Arc::new(Scenario::load("3m_vlm")?);
         let mut env = Env::new(Arc::clone(&scenario), EnvConfig::default(), 3);
         let mut framer = Framer::new(ViewSize { screen: (160, 120), minimap: 64 });
         env.step();
@@ -391,7 +391,7 @@ mod tests {
         assert_eq!(logs, env.agents(Team::One).len());
         let (_, _, st) = on(LiveChannel::Status).next().ok_or("no status")?;
         let st: serde_json::Value = serde_json::from_slice(st)?;
-        assert_eq!((st["scenario"].as_str(), st["step"].as_u64(), st["result"].as_str()), (Some("3m"), Some(1), Some("running")));
+        assert_eq!((st["scenario"].as_str(), st["step"].as_u64(), st["result"].as_str()), (Some("3m_vlm"), Some(1), Some("running")));
         // Only wanted channels are framed.
         let only = framer.frame(&env, &|c| c == LiveChannel::Status);
         assert!(only.iter().all(|(c, ..)| *c == LiveChannel::Status) && only.len() == 1);
@@ -400,7 +400,7 @@ mod tests {
 
     #[test]
     fn session_time_only_moves_forward_across_episodes() -> R {
-        let scenario = Arc::new(Scenario::load("3m")?);
+        let scenario = Arc::new(Scenario::load("3m_vlm")?);
         let mut env = Env::new(Arc::clone(&scenario), EnvConfig::default(), 3);
         let mut framer = Framer::new(ViewSize { screen: (32, 24), minimap: 16 });
         let mut last = 0;

@@ -1,5 +1,5 @@
 //! Times the pieces of one PPO gradient step (forward, backward, optimiser) on a random
-//! rollout of 3m's sizes (or the scenario named by `SCENARIO`), for profiling the update:
+//! rollout of 3m_vlm's sizes (or the scenario named by `SCENARIO`), for profiling the update:
 //! `cargo run --release -p avacraft-marl --example ppo_update_bench -- [ALGO] [key=value ...]`
 //! (with the environment `avacraft train` sets for itself: see the `ppo` module's docs).
 
@@ -18,7 +18,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         None => ("mappo", Vec::new()),
     };
     let cfg = Config::for_algo(algo, &overrides)?;
-    let shape = shape_of(&cfg, &Arc::new(Scenario::load(&std::env::var("SCENARIO").unwrap_or_else(|_| "3m".into()))?))?;
+    let shape = shape_of(&cfg, &Arc::new(Scenario::load(&std::env::var("SCENARIO").unwrap_or_else(|_| "3m_vlm".into()))?))?;
     let mut rng = ChaCha8Rng::seed_from_u64(1);
     let (t, rows, h) = (cfg.rollout_len, cfg.envs * shape.n_agents, cfg.rnn_hidden_dim);
     let wa = shape.input(cfg.obs_agent_id, cfg.obs_last_action);

@@ -25,7 +25,7 @@ fn main() -> R<()> {
     if args.first().map(String::as_str) == Some("batch") {
         return batch(args.get(1).map_or(Ok(64), |s| s.parse())?);
     }
-    let scenario = Arc::new(Scenario::load(args.first().map_or("3m", String::as_str))?);
+    let scenario = Arc::new(Scenario::load(args.first().map_or("3m_vlm", String::as_str))?);
     let steps: u64 = args.get(1).map_or(Ok(20_000), |s| s.parse())?;
     let envs: usize = args.get(2).map_or(Ok(8), |s| s.parse())?;
     let mut o = vec!["obs=\"vision-text\"".to_owned(), "text_disk_cache=false".to_owned()];
@@ -129,7 +129,7 @@ fn main() -> R<()> {
 /// Padded batches against one text per forward.
 fn batch(n: usize) -> R<()> {
     let model = MiniLm::load()?;
-    let scenario = Arc::new(Scenario::load("2s3z")?);
+    let scenario = Arc::new(Scenario::load("2s3z_vlm")?);
     let cfg = Config::for_algo("mappo", &[])?;
     let mut v = VecEnv::new(Arc::clone(&scenario), cfg.env_config(), &[1, 2, 3, 4], 1)?;
     let mut texts: Vec<String> = Vec::new();

@@ -1,4 +1,4 @@
-//! Where a Q-learner's update spends its time, on a fixed batch of 32 random 3m-sized
+//! Where a Q-learner's update spends its time, on a fixed batch of 32 random 3m_vlm-sized
 //! episodes (20 to 60 steps): building the batch, the unroll, the loss, the backward pass
 //! and a whole `train` step, printed per repetition. Config overrides as arguments:
 //! `cargo run --release -p avacraft-marl --example update_bench -- use_rnn=false`.

@@ -1,5 +1,5 @@
-//! The shipped baselines by name: `baseline:qmix` on 3m is the policy under
-//! `baselines/3m/qmix/`, written by `avacraft train --plan ... --ship baselines`.
+//! The shipped baselines by name: `baseline:qmix` on 3m_vlm is the policy under
+//! `baselines/3m_vlm/qmix/`, written by `avacraft train --plan ... --ship baselines`.
 //!
 //! The folder is `$AVACRAFT_BASELINES` when set (an installed binary or wheel pointed at a
 //! checkout or a copy), else the repository's own `baselines/` this crate was built from.
@@ -81,12 +81,12 @@ mod tests {
         assert!(check_name("mappo-rgb").is_ok());
         let root = std::env::temp_dir().join(format!("avacraft-baselines-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&root);
-        std::fs::create_dir_all(root.join("3m/qmix")).expect("dir");
-        std::fs::write(root.join("3m/qmix/config.json"), "{}").expect("write");
-        assert_eq!(dir(&root, "3m", "qmix").expect("shipped"), root.join("3m/qmix"));
-        let e = dir(&root, "3m", "mappo").expect_err("not shipped").to_string();
+        std::fs::create_dir_all(root.join("3m_vlm/qmix")).expect("dir");
+        std::fs::write(root.join("3m_vlm/qmix/config.json"), "{}").expect("write");
+        assert_eq!(dir(&root, "3m_vlm", "qmix").expect("shipped"), root.join("3m_vlm/qmix"));
+        let e = dir(&root, "3m_vlm", "mappo").expect_err("not shipped").to_string();
         assert!(e.contains("`mappo`") && e.contains("shipped there: qmix"), "{e}");
-        let e = dir(&root, "2s3z", "qmix").expect_err("no scenario").to_string();
+        let e = dir(&root, "2s3z_vlm", "qmix").expect_err("no scenario").to_string();
         assert!(e.contains("shipped there: none"), "{e}");
         let _ = std::fs::remove_dir_all(&root);
     }

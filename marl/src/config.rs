@@ -657,7 +657,8 @@ mod tests {
 
     #[test]
     fn the_data_set_resolves_from_the_map_and_checkpoints_without_it_are_legacy() -> Result<(), Error> {
-        let s = Arc::new(avacraft_engine::builtin("3m").map_err(|e| Error::ConfigParse { what: "3m".into(), message: e.to_string() })?);
+        let s =
+            Arc::new(avacraft_engine::builtin("3m_vlm").map_err(|e| Error::ConfigParse { what: "3m_vlm".into(), message: e.to_string() })?);
         let c = Config::for_algo("qmix", &[])?;
         assert_eq!(c.data, MAP_DATA);
         let (r, played) = c.resolved(Arc::clone(&s))?;

@@ -4,7 +4,7 @@
 //! candle encoders (Swin, the references) turn them into float tensors ([`FrameTensors`]).
 //! At 80x60 plus 32x32 that is 17.5 kB a step (a 60-step episode about 1 MB; mind
 //! `buffer_size`, 5,000 episodes by default). The text features add `slots x 384` floats a
-//! step: 12 kB on 3m (8 slots), 18 kB on 2s3z (12).
+//! step: 12 kB on 3m_vlm (8 slots), 18 kB on 2s3z_vlm (12).
 //!
 //! Apart from [`crate::observe`], which draws them: the replay buffer, the networks and the
 //! encoders hold frames, and drawing needs none of those.

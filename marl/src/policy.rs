@@ -36,10 +36,20 @@ use std::path::Path;
 use std::sync::Arc;
 
 const FORMAT: u32 = 1;
+/// The scenario names a checkpoint's `scenario` is written in: 2 since SMAC's maps took SMAC's
+/// names ([`avacraft_engine::RENAMED`]). In a checkpoint without it, `3m` meant the paper's
+/// scenario, now `3m_vlm`.
+const NAMES: u32 = 2;
+
+fn old_names() -> u32 {
+    1
+}
 
 #[derive(Serialize, Deserialize)]
 struct Meta {
     format: u32,
+    #[serde(default = "old_names")]
+    names: u32,
     scenario: String,
     shape: Shape,
     config: Config,
@@ -53,7 +63,7 @@ pub fn save(dir: &Path, nets: &Nets, cfg: &Config, shape: &Shape, scenario: &str
     if !mixer.is_empty() {
         candle_core::safetensors::save(&mixer, dir.join("mixer.safetensors"))?;
     }
-    let meta = Meta { format: FORMAT, scenario: scenario.to_owned(), shape: *shape, config: cfg.clone() };
+    let meta = Meta { format: FORMAT, names: NAMES, scenario: scenario.to_owned(), shape: *shape, config: cfg.clone() };
     let path = dir.join("config.json");
     let text = serde_json::to_string_pretty(&meta).map_err(|source| Error::Json { path: path.clone(), source })?;
     std::fs::write(&path, text).map_err(|source| Error::Io { path, source })
@@ -183,7 +193,11 @@ impl Policy {
             nets.mixer_params.load_map(&load("mixer.safetensors")?, "mixer.safetensors")?;
         }
         let theta = nets.agent_params.flat(nets.agent.var_count())?;
-        Ok(Policy { cfg: meta.config, shape: meta.shape, scenario: meta.scenario, nets, theta })
+        let scenario = match avacraft_engine::renamed(&meta.scenario) {
+            Some(now) if meta.names < NAMES => now.to_owned(),
+            _ => meta.scenario,
+        };
+        Ok(Policy { cfg: meta.config, shape: meta.shape, scenario, nets, theta })
     }
 
     /// The frames the checkpoint in `dir` reads ([`Policy::frames_need`]), from its

@@ -156,6 +156,73 @@ pub fn compare(path: &Path, title: &str, groups: &[Group]) -> Result<(), Error> 
     canvas.save(path).map_err(crate::plot::err)
 }
 
+/// One panel of [`grid`]: a title, named runs (one colour per name, in [`COLORS`]' order)
+/// and an optional reference level (e.g. a published win rate) drawn dashed.
+#[derive(Clone, Debug)]
+pub struct Panel {
+    pub title: String,
+    pub runs: Vec<(String, Vec<LogRow>)>,
+    pub reference: Option<f64>,
+}
+
+/// Small multiples: each panel's greedy test win rates against environment steps, `cols`
+/// panels a row, one legend of run names under the title. For many maps at a glance.
+pub fn grid(path: &Path, title: &str, names: &[&str], panels: &[Panel], cols: usize) -> Result<(), Error> {
+    crate::plot::font()?;
+    let err = crate::plot::err;
+    let cols = cols.max(1);
+    let rows = panels.len().div_ceil(cols).max(1);
+    let (cell_w, cell_h) = (300u32, 220u32);
+    let mut canvas = Png::new((cell_w * cols as u32, cell_h * rows as u32 + 70));
+    {
+        let root = canvas.area();
+        root.fill(&WHITE).map_err(err)?;
+        let (head, body) = root.split_vertically(70);
+        head.draw(&Text::new(title.to_owned(), (12, 8), ("sans-serif", 22))).map_err(err)?;
+        let mut x = 12;
+        for (i, n) in names.iter().enumerate() {
+            let c = COLORS[i % COLORS.len()];
+            head.draw(&PathElement::new(vec![(x, 50), (x + 24, 50)], c.stroke_width(3))).map_err(err)?;
+            head.draw(&Text::new((*n).to_owned(), (x + 30, 41), ("sans-serif", 17))).map_err(err)?;
+            x += 40 + 10 * n.len() as i32;
+        }
+        head.draw(&PathElement::new(vec![(x, 50), (x + 24, 50)], BLACK.stroke_width(1))).map_err(err)?;
+        head.draw(&Text::new("published (best)".to_owned(), (x + 30, 41), ("sans-serif", 17))).map_err(err)?;
+        for (area, p) in body.split_evenly((rows, cols)).iter().zip(panels) {
+            let x_max = p.runs.iter().flat_map(|(_, r)| r.iter().map(|r| r.t_env)).max().unwrap_or(1).max(1) as f64;
+            let mut chart = ChartBuilder::on(area)
+                .caption(&p.title, ("sans-serif", 17))
+                .margin(6)
+                .x_label_area_size(24)
+                .y_label_area_size(34)
+                .build_cartesian_2d(0.0..x_max, 0.0..1.02)
+                .map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_labels(4)
+                .y_labels(3)
+                .x_label_formatter(&|v: &f64| if *v >= 1e6 { format!("{:.0}M", v / 1e6) } else { format!("{:.0}k", v / 1e3) })
+                .label_style(("sans-serif", 12))
+                .draw()
+                .map_err(err)?;
+            if let Some(level) = p.reference {
+                let dashes = (0..20).map(|k| {
+                    let a = x_max * k as f64 / 20.0;
+                    PathElement::new(vec![(a, level), (a + x_max / 40.0, level)], BLACK.stroke_width(1))
+                });
+                chart.draw_series(dashes).map_err(err)?;
+            }
+            for (name, rows) in &p.runs {
+                let c = COLORS[names.iter().position(|n| n == name).unwrap_or(names.len()) % COLORS.len()];
+                let pts: Vec<(f64, f64)> = rows.iter().map(|r| (r.t_env as f64, r.test_win_rate)).filter(|(_, v)| v.is_finite()).collect();
+                chart.draw_series(LineSeries::new(pts, c.stroke_width(2))).map_err(err)?;
+            }
+        }
+        root.present().map_err(err)?;
+    }
+    canvas.save(path).map_err(crate::plot::err)
+}
+
 /// The mean over runs of `y` at each run's `x` points, each run held at its last value past
 /// its end and at its first before its start (step interpolation on the union of points).
 fn mean_curve(runs: &[(PathBuf, Vec<LogRow>)], x: fn(&LogRow) -> f64, y: fn(&LogRow) -> f64) -> Vec<(f64, f64)> {

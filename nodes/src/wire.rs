@@ -369,7 +369,7 @@ mod tests {
     fn real_observations_round_trip() {
         use avacraft_engine::{Controllers, Env, EnvConfig, Team, builtin, unit_list};
         let mut seen = (0, UnitFlags::empty(), Buffs::empty());
-        for name in ["3m", "pvz_ht", "8m3mr1mv1st_mirror", "MMM_vs_MMM", "2c_vs_64zg"] {
+        for name in ["3m_vlm", "pvz_ht", "8m3mr1mv1st_mirror", "MMM_vs_MMM", "2c_vs_64zg_vlm"] {
             let scenario = Arc::new(builtin(name).expect("scenario"));
             let mut env = Env::new(Arc::clone(&scenario), EnvConfig::default(), 3);
             let mut ctl = Controllers::named(&scenario, "focus-fire", Some("focus-fire")).expect("policy");
@@ -400,7 +400,7 @@ mod tests {
     #[test]
     fn agent_observations_and_actions_round_trip() {
         use avacraft_engine::{Env, EnvConfig, Team, builtin};
-        for name in ["3m", "pvz_ht", "8m3mr1mv1st_mirror"] {
+        for name in ["3m_vlm", "pvz_ht", "8m3mr1mv1st_mirror"] {
             let mut env = Env::new(Arc::new(builtin(name).expect("scenario")), EnvConfig::default(), 5);
             for step in 0..120 {
                 if step % 30 == 0 {

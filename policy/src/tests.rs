@@ -3,9 +3,9 @@ use avacraft_ava::{AvaSpec, ModelSpec};
 use avacraft_engine::{Scenario, Team};
 use std::path::{Path, PathBuf};
 
-/// The committed 3m checkpoint of the launch examples.
+/// The committed 3m_vlm checkpoint of the launch examples.
 fn shipped() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../launch/policies/3m")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../launch/policies/3m_vlm")
 }
 
 fn synthetic() -> AvaSpec {
@@ -81,14 +81,14 @@ fn weights_are_read_where_named_or_on_first_use() {
 
 #[test]
 fn made_agents_play_and_checkpoints_check_their_scenario() {
-    let three = Scenario::load("3m").expect("3m");
-    let other = Scenario::load("2m_vs_1z").expect("2m_vs_1z");
+    let three = Scenario::load("3m_vlm").expect("3m_vlm");
+    let other = Scenario::load("2m_vs_1z_vlm").expect("2m_vs_1z_vlm");
     let marl = PolicySpec::parse(&format!("marl:{}", shipped().display()), None).expect("marl");
-    marl.check(&three, Team::One).expect("fits 3m");
+    marl.check(&three, Team::One).expect("fits 3m_vlm");
     assert!(matches!(marl.check(&other, Team::One), Err(PolicyError::OtherScenario { .. })));
     // An image-mode checkpoint (the shipped rgb IPPO) is refused where a features one plays:
     // as an agent it would give no orders at all.
-    let rgb = Path::new(env!("CARGO_MANIFEST_DIR")).join("../baselines/3m/ippo-rgb");
+    let rgb = Path::new(env!("CARGO_MANIFEST_DIR")).join("../baselines/3m_vlm/ippo-rgb");
     let rgb = PolicySpec::parse(&format!("marl:{}", rgb.display()), None).expect("rgb checkpoint");
     let e = rgb.check(&three, Team::One).expect_err("an rgb checkpoint is no agent");
     assert!(matches!(e, PolicyError::NotAnAgent { .. }) && e.to_string().contains("`rgb` observations"), "{e}");
@@ -118,26 +118,26 @@ fn fingerprints_follow_the_files_acting_reads_and_ava_s_settings() {
         std::fs::copy(shipped().join(f), dir.join(f)).expect("copy the checkpoint");
     }
     let spec = PolicySpec::parse(&format!("marl:{}", dir.display()), None).expect("a checkpoint");
-    let first = spec.fingerprint("3m").expect("readable").expect("a network has one");
-    assert_eq!(spec.fingerprint("3m").expect("readable"), Some(first.clone()), "the same files, the same fingerprint");
+    let first = spec.fingerprint("3m_vlm").expect("readable").expect("a network has one");
+    assert_eq!(spec.fingerprint("3m_vlm").expect("readable"), Some(first.clone()), "the same files, the same fingerprint");
     // Files acting does not read leave it alone; a weight changed does not.
     std::fs::write(dir.join("log.csv"), "step\n1\n").expect("write");
-    assert_eq!(spec.fingerprint("3m").expect("readable"), Some(first.clone()));
+    assert_eq!(spec.fingerprint("3m_vlm").expect("readable"), Some(first.clone()));
     let mut w = std::fs::read(dir.join("agent.safetensors")).expect("read");
     let last = w.len() - 1;
     w[last] ^= 1;
     std::fs::write(dir.join("agent.safetensors"), w).expect("write");
-    let trained_again = spec.fingerprint("3m").expect("readable").expect("some");
+    let trained_again = spec.fingerprint("3m_vlm").expect("readable").expect("some");
     assert_ne!(trained_again, first, "another network, another fingerprint");
     std::fs::remove_file(dir.join("agent.safetensors")).expect("remove");
-    let gone = spec.fingerprint("3m").expect_err("a missing weights file is an error").to_string();
+    let gone = spec.fingerprint("3m_vlm").expect_err("a missing weights file is an error").to_string();
     assert!(gone.contains("agent.safetensors"), "{gone}");
 
-    assert_eq!(PolicySpec::parse("focus-fire", None).expect("scripted").fingerprint("3m").expect("none to read"), None);
+    assert_eq!(PolicySpec::parse("focus-fire", None).expect("scripted").fingerprint("3m_vlm").expect("none to read"), None);
     let ava = |seed| {
         let mut s = synthetic();
         s.config.decide_every = seed;
-        PolicySpec::resolve(AVA_POLICY, Some(s), Resolve::against(None)).expect("ava").fingerprint("3m").expect("settings")
+        PolicySpec::resolve(AVA_POLICY, Some(s), Resolve::against(None)).expect("ava").fingerprint("3m_vlm").expect("settings")
     };
     assert_eq!(ava(4), ava(4));
     assert_ne!(ava(4), ava(8), "AVA's settings are part of what it plays");

@@ -43,7 +43,7 @@ __all__ = [
 ]
 
 
-def parallel_env(scenario: str = "3m", obs_mode: str = "features", opponent: Any = None, seed: Any = None, **kwargs: Any) -> Any:
+def parallel_env(scenario: str = "3m_vlm", obs_mode: str = "features", opponent: Any = None, seed: Any = None, **kwargs: Any) -> Any:
     """A PettingZoo `ParallelEnv` (`avacraft.pettingzoo_env.AvacraftParallelEnv`); imported on
     first use so `import avacraft` needs neither pettingzoo nor gymnasium."""
     from .pettingzoo_env import parallel_env as make

@@ -5,9 +5,9 @@ Rust agent, asking the model exactly what `avacraft episode --agent ava` asks; e
 recorded (`record=`) and can be replayed without the model (`replay=`).
 
     ava = avacraft.Ava(url="https://api.openai.com/v1", model="gpt-4o-mini", record="runs/ava")
-    env = avacraft.Env("3m")
+    env = avacraft.Env("3m_vlm")
     result = ava.play(env, seed=1)          # {"result": "win", "steps": ..., "cost": {...}}
-    again = avacraft.Ava(replay="runs/ava").play(avacraft.Env("3m"), seed=1)   # no model called
+    again = avacraft.Ava(replay="runs/ava").play(avacraft.Env("3m_vlm"), seed=1)   # no model called
 
 Without a model: `Ava(synthetic=True)` answers instantly (a crude focus-fire stand-in).
 """

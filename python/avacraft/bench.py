@@ -1,6 +1,6 @@
 """Steps per second of the Python SMAC loop against the same loop in Rust, measured in one run.
 
-    python3 -m avacraft.bench [--steps N] [--maps 3m 2s3z]
+    python3 -m avacraft.bench [--steps N] [--maps 3m_vlm 2s3z_vlm]
 
 Each step of both loops: every agent's observation, the state, the action masks, a random
 available action per agent, a checked step (and a reset when the episode ends). The ratio
@@ -41,7 +41,7 @@ def python_loop_steps_per_s(map_name: str, steps: int, seed: int = 0) -> float:
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--steps", type=int, default=20_000)
-    p.add_argument("--maps", nargs="+", default=["3m", "2s3z"])
+    p.add_argument("--maps", nargs="+", default=["3m_vlm", "2s3z_vlm"])
     p.add_argument("--repeat", type=int, default=3, help="best of this many runs of each loop")
     a = p.parse_args(argv)
     print(f"{time.strftime('%Y-%m-%d')}, {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}")

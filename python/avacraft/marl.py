@@ -5,7 +5,7 @@ with its own GRU state and last action, greedy over the available actions: the a
 `avacraft episode --agent marl:DIR` takes in Rust, so a Python loop plays the same episodes.
 
     policy = avacraft.MarlPolicy("runs/qmix-3m")
-    env = avacraft.StarCraft2Env("3m")
+    env = avacraft.StarCraft2Env("3m_vlm")
     env.reset(); policy.reset()
     done = False
     while not done:
@@ -17,7 +17,7 @@ An image checkpoint (`policy.obs` is `rgb`, `hybrid` or `vision-text`) reads fra
 from the game, which the SMAC API does not hand out: `policy.act_env(env)` renders them as
 training's test episodes did and returns team 1's actions (any checkpoint plays this way):
 
-    policy = avacraft.MarlPolicy.baseline("2s3z", "mappo-rgb")
+    policy = avacraft.MarlPolicy.baseline("2s3z_vlm", "mappo-rgb")
     while not done:
         _, done, info = env.step(policy.act_env(env))
 """

@@ -59,7 +59,7 @@ class AvacraftParallelEnv(ParallelEnv):
 
     def __init__(
         self,
-        scenario: str = "3m",
+        scenario: str = "3m_vlm",
         obs_mode: str = "features",
         opponent: Optional[str] = None,
         seed: Optional[int] = None,
@@ -268,6 +268,6 @@ class AvacraftParallelEnv(ParallelEnv):
         return self._env
 
 
-def parallel_env(scenario: str = "3m", obs_mode: str = "features", opponent: Optional[str] = None, seed: Optional[int] = None, **kwargs: Any) -> AvacraftParallelEnv:
+def parallel_env(scenario: str = "3m_vlm", obs_mode: str = "features", opponent: Optional[str] = None, seed: Optional[int] = None, **kwargs: Any) -> AvacraftParallelEnv:
     """A PettingZoo `ParallelEnv` of `scenario` (see `AvacraftParallelEnv`)."""
     return AvacraftParallelEnv(scenario, obs_mode, opponent, seed, **kwargs)

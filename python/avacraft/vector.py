@@ -31,7 +31,7 @@ except ImportError:  # pragma: no cover - gymnasium is an optional dependency
 
 
 class VecEnv:
-    """`VecEnv("3m", num_envs=64)` or `VecEnv("3m", seeds=[...])`; `threads=None` uses every
+    """`VecEnv("3m_vlm", num_envs=64)` or `VecEnv("3m_vlm", seeds=[...])`; `threads=None` uses every
     core. Options are `StarCraft2Env`'s AVACraft options (dense reward and SMAC's passive
     allies by default, as `StarCraft2Env`)."""
 

@@ -18,7 +18,6 @@ mod marl;
 mod options;
 mod vec;
 
-use avacraft_engine::builtin_names;
 use error::{AvacraftError, Error, PolicyError};
 use options::load_scenario;
 use pyo3::prelude::*;
@@ -36,10 +35,10 @@ fn baseline_dir(scenario: &str, name: &str) -> PyResult<String> {
     Ok(m.dir().to_string_lossy().into_owned())
 }
 
-/// The built-in scenarios' names: the paper's 21, then the procedural ones.
+/// The built-in scenarios' names: the paper's 21, SMAC's 23 maps, then the procedural ones.
 #[pyfunction]
 fn scenario_names() -> Vec<&'static str> {
-    builtin_names().chain(avacraft_engine::procedural_names()).collect()
+    avacraft_engine::all_names().collect()
 }
 
 /// A scenario's summary: name, mode ("pve"/"pvp"), units per team, time limit in loops.

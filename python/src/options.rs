@@ -2,7 +2,7 @@
 //! shared by the single and the vector environment.
 
 use crate::error::Error;
-use avacraft_engine::{DataSet, EnvConfig, OpponentKind, RewardMode, Scenario, ScenarioError, builtin_names};
+use avacraft_engine::{DataSet, EnvConfig, OpponentKind, RewardMode, Scenario, ScenarioError, all_names};
 use std::num::NonZeroU32;
 use std::sync::Arc;
 
@@ -15,7 +15,7 @@ pub(crate) fn load_scenario(name: &str) -> Result<Arc<Scenario>, Error> {
     }
     match Scenario::load(name) {
         Ok(s) => Ok(Arc::new(s)),
-        Err(ScenarioError::Unknown(name)) => Err(Error::UnknownScenario { name, known: builtin_names().collect::<Vec<_>>().join(", ") }),
+        Err(ScenarioError::Unknown(name)) => Err(Error::UnknownScenario { name, known: all_names().collect::<Vec<_>>().join(", ") }),
         Err(e) => Err(e.into()),
     }
 }

@@ -13,7 +13,7 @@ import avacraft
 
 def test_the_stand_in_plays_records_and_replays(tmp_path):
     ava = avacraft.Ava(synthetic=True, record=str(tmp_path / "calls"), config={"image_max": 256})
-    first = ava.play(avacraft.Env("3m"), seed=4)
+    first = ava.play(avacraft.Env("3m_vlm"), seed=4)
     assert first["result"] in ("win", "loss", "draw")
     cost = first["cost"]
     assert cost["decisions"] > 0 and cost["total"]["calls"] >= cost["decisions"]
@@ -21,11 +21,11 @@ def test_the_stand_in_plays_records_and_replays(tmp_path):
     lines = (tmp_path / "calls" / "calls.jsonl").read_text().splitlines()
     assert len(lines) == cost["total"]["calls"]
     assert {json.loads(line)["stage"] for line in lines} >= {"planner", "decision"}
-    again = avacraft.Ava(replay=str(tmp_path / "calls"), config={"image_max": 256}).play(avacraft.Env("3m"), seed=4)
+    again = avacraft.Ava(replay=str(tmp_path / "calls"), config={"image_max": 256}).play(avacraft.Env("3m_vlm"), seed=4)
     assert again["trajectory_hash"] == first["trajectory_hash"]
     # Another seed asks other questions: the replay stops and says so.
     with pytest.raises(avacraft.AvacraftError, match="differs from the recording"):
-        avacraft.Ava(replay=str(tmp_path / "calls"), config={"image_max": 256}).play(avacraft.Env("3m"), seed=5)
+        avacraft.Ava(replay=str(tmp_path / "calls"), config={"image_max": 256}).play(avacraft.Env("3m_vlm"), seed=5)
 
 
 @pytest.mark.parametrize(
@@ -101,7 +101,7 @@ def test_an_openai_compatible_server_is_asked_with_images_and_the_key(tmp_path, 
     try:
         url = f"http://127.0.0.1:{server.server_address[1]}/v1"
         ava = avacraft.Ava(url=url, model="gpt-4o-mini", key_env="FAKE_KEY", record=str(tmp_path / "calls"), config={"image_max": 256})
-        out = ava.play(avacraft.Env("3m"), seed=2)
+        out = ava.play(avacraft.Env("3m_vlm"), seed=2)
     finally:
         server.shutdown()
     assert out["cost"]["total"]["calls"] == len(FakeModel.seen) > 0

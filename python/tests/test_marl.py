@@ -1,6 +1,6 @@
 """`avacraft.MarlPolicy`: a checkpoint of `avacraft train` acting from Python plays the episodes
 the Rust agent (`avacraft episode --agent marl:DIR`) plays. The checkpoint is the committed
-launch/policies/3m; nothing here depends on how well it plays."""
+launch/policies/3m_vlm; nothing here depends on how well it plays."""
 
 import pathlib
 
@@ -9,20 +9,20 @@ import pytest
 
 import avacraft
 
-POLICY = pathlib.Path(__file__).resolve().parents[2] / "launch" / "policies" / "3m"
+POLICY = pathlib.Path(__file__).resolve().parents[2] / "launch" / "policies" / "3m_vlm"
 
 
 def reference(policy, seed):
     """The Rust agent's episode on `avacraft episode`'s settings (sparse reward, no passive
     allies), and the environment at its end."""
-    env = avacraft.Env("3m", reward="sparse", passive_allies=False)
+    env = avacraft.Env("3m_vlm", reward="sparse", passive_allies=False)
     return policy.play(env, seed), env
 
 
 def smac_episode(policy, seed, frames=False):
     """An episode of a SMAC loop with the policy (`frames`: acting through `act_env`): the
     actions of every step, the result, the environment at its end."""
-    env = avacraft.StarCraft2Env("3m", seed=seed, reward_sparse=True, passive_allies=False)
+    env = avacraft.StarCraft2Env("3m_vlm", seed=seed, reward_sparse=True, passive_allies=False)
     env.reset()
     policy.reset()
     done, info, actions = False, {}, []
@@ -37,7 +37,7 @@ def smac_episode(policy, seed, frames=False):
 
 def test_a_smac_loop_plays_the_rust_agents_episodes_action_for_action():
     policy = avacraft.MarlPolicy(POLICY)
-    assert (policy.scenario, policy.n_agents, policy.n_actions) == ("3m", 3, 9)
+    assert (policy.scenario, policy.n_agents, policy.n_actions) == ("3m_vlm", 3, 9)
     for seed in (1, 2, 3):
         actions, info, env = smac_episode(policy, seed)
         ref, ref_env = reference(policy, seed)
@@ -50,7 +50,7 @@ def test_a_smac_loop_plays_the_rust_agents_episodes_action_for_action():
 
 def test_parallel_env_observations_play_the_same_episodes():
     policy = avacraft.MarlPolicy(POLICY)
-    env = avacraft.parallel_env("3m", obs_mode="features")
+    env = avacraft.parallel_env("3m_vlm", obs_mode="features")
     for seed in (4, 5):
         obs, _ = env.reset(seed=seed)
         policy.reset()
@@ -66,7 +66,7 @@ def test_parallel_env_observations_play_the_same_episodes():
 
 def test_a_fresh_reset_replays_the_episode_and_state_carries_across_steps():
     policy = avacraft.MarlPolicy(POLICY)
-    env = avacraft.Env("3m", seed=1)
+    env = avacraft.Env("3m_vlm", seed=1)
     env.reset(7)
     first = [policy.act(env.obs(), env.avail()).tolist() for _ in range(3)]
     policy.reset()
@@ -85,31 +85,31 @@ def test_bad_checkpoints_and_inputs_raise(tmp_path):
         policy.act(np.zeros((2, 30)), np.ones((3, 9)))
     with pytest.raises(avacraft.AvacraftError, match=r"avail\[1\]: no action is available"):
         policy.act(np.zeros((3, 30)), np.array([[1] * 9, [0] * 9, [1] * 9]))
-    with pytest.raises(avacraft.AvacraftError, match="trained on scenario `3m`, not `2m_vs_1z`"):
-        policy.play(avacraft.Env("2m_vs_1z"), 1)
-    with pytest.raises(avacraft.AvacraftError, match="trained on scenario `3m`, not `2m_vs_1z`"):
-        policy.check_env(avacraft.Env("2m_vs_1z"))
-    policy.check_env(avacraft.Env("3m"))
+    with pytest.raises(avacraft.AvacraftError, match="trained on scenario `3m_vlm`, not `2m_vs_1z_vlm`"):
+        policy.play(avacraft.Env("2m_vs_1z_vlm"), 1)
+    with pytest.raises(avacraft.AvacraftError, match="trained on scenario `3m_vlm`, not `2m_vs_1z_vlm`"):
+        policy.check_env(avacraft.Env("2m_vs_1z_vlm"))
+    policy.check_env(avacraft.Env("3m_vlm"))
     with pytest.raises(avacraft.AvacraftError, match="SMAC features of 30 needed"):
-        env = avacraft.parallel_env("3m", obs_mode="rgb")
+        env = avacraft.parallel_env("3m_vlm", obs_mode="rgb")
         obs, _ = env.reset(seed=1)
         policy.act_parallel(obs)
 
 
 def test_a_shipped_baseline_by_name_plays_as_its_checkpoint(tmp_path, monkeypatch):
-    shipped = tmp_path / "3m" / "qmix"
+    shipped = tmp_path / "3m_vlm" / "qmix"
     shipped.mkdir(parents=True)
     for f in ("agent.safetensors", "config.json"):
         (shipped / f).write_bytes((POLICY / f).read_bytes())
     monkeypatch.setenv("AVACRAFT_BASELINES", str(tmp_path))
-    by_name = avacraft.MarlPolicy.baseline("3m", "qmix")
-    assert (by_name.scenario, by_name.algo) == ("3m", avacraft.MarlPolicy(POLICY).algo)
+    by_name = avacraft.MarlPolicy.baseline("3m_vlm", "qmix")
+    assert (by_name.scenario, by_name.algo) == ("3m_vlm", avacraft.MarlPolicy(POLICY).algo)
     ref, _ = reference(avacraft.MarlPolicy(POLICY), 3)
-    assert by_name.play(avacraft.Env("3m", reward="sparse", passive_allies=False), 3)["actions"] == ref["actions"]
-    with pytest.raises(avacraft.AvacraftError, match=r"no shipped `mappo` baseline for scenario `3m`.*shipped there: qmix"):
-        avacraft.MarlPolicy.baseline("3m", "mappo")
+    assert by_name.play(avacraft.Env("3m_vlm", reward="sparse", passive_allies=False), 3)["actions"] == ref["actions"]
+    with pytest.raises(avacraft.AvacraftError, match=r"no shipped `mappo` baseline for scenario `3m_vlm`.*shipped there: qmix"):
+        avacraft.MarlPolicy.baseline("3m_vlm", "mappo")
     with pytest.raises(avacraft.AvacraftError, match="only letters"):
-        avacraft.MarlPolicy.baseline("3m", "../qmix")
+        avacraft.MarlPolicy.baseline("3m_vlm", "../qmix")
 
 
 
@@ -152,12 +152,12 @@ def test_team_2_plays_in_the_mirror_image_as_the_rust_agent():
     assert differs > 0, "the mirror changed no action"
 
 
-RGB = pathlib.Path(__file__).resolve().parents[2] / "baselines" / "3m" / "mappo-rgb"
+RGB = pathlib.Path(__file__).resolve().parents[2] / "baselines" / "3m_vlm" / "mappo-rgb"
 
 
 def test_an_image_checkpoint_plays_from_frames_rendered_from_the_game():
     policy = avacraft.MarlPolicy(RGB)
-    assert (policy.obs, policy.scenario) == ("rgb", "3m")
+    assert (policy.obs, policy.scenario) == ("rgb", "3m_vlm")
     for seed in (1001, 1002):
         ref, ref_env = reference(policy, seed)
         actions, info, env = smac_episode(policy, seed, frames=True)
@@ -165,7 +165,7 @@ def test_an_image_checkpoint_plays_from_frames_rendered_from_the_game():
         assert actions == [[a if a >= 0 else 0 for a in step] for step in ref["actions"]], f"seed {seed}"
         assert env.units() == ref_env.units()
         assert info["battle_won"] == (ref["result"] == "win")
-    # The shipped policy won 100 of the paper table's 100 games on 3m.
+    # The shipped policy won 100 of the paper table's 100 games on 3m_vlm.
     assert ref["result"] == "win"
 
 
@@ -173,12 +173,12 @@ def test_an_image_checkpoint_refuses_features_and_pvp():
     policy = avacraft.MarlPolicy(RGB)
     with pytest.raises(avacraft.AvacraftError, match=r"trained on `rgb` observations.*act_env\(env\)"):
         policy.act(np.zeros((3, policy.obs_size)), np.ones((3, 9)))
-    with pytest.raises(avacraft.AvacraftError, match="trained on scenario `3m`, not `2s3z`"):
-        policy.act_env(avacraft.Env("2s3z"))
+    with pytest.raises(avacraft.AvacraftError, match="trained on scenario `3m_vlm`, not `2s3z_vlm`"):
+        policy.act_env(avacraft.Env("2s3z_vlm"))
     with pytest.raises(avacraft.AvacraftError, match="terran_mirror is PvP"):
         policy.play(avacraft.Env("terran_mirror"), 1)
     # A features checkpoint plays through act_env too: the actions `act` takes.
     features = avacraft.MarlPolicy(POLICY)
-    env = avacraft.Env("3m", seed=1)
+    env = avacraft.Env("3m_vlm", seed=1)
     env.reset(3)
     assert features.act_env(env).tolist() == features.act(env.obs(), env.avail()).tolist()

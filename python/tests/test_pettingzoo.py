@@ -10,14 +10,14 @@ import avacraft  # noqa: E402
 from avacraft import AvacraftError  # noqa: E402
 
 
-@pytest.mark.parametrize("scenario", ["3m", "MMM_vs_MMM"])
+@pytest.mark.parametrize("scenario", ["3m_vlm", "MMM_vs_MMM"])
 @pytest.mark.parametrize("mode", ["features", "rgb"])
 def test_parallel_api(scenario, mode):
     env = avacraft.parallel_env(scenario, obs_mode=mode, seed=1, screen_size=(64, 48), minimap_size=(16, 16))
     parallel_api_test(env, num_cycles=1000)
 
 
-@pytest.mark.parametrize("scenario", ["3m", "MMM_vs_MMM"])
+@pytest.mark.parametrize("scenario", ["3m_vlm", "MMM_vs_MMM"])
 def test_parallel_seed(scenario):
     parallel_seed_test(lambda: avacraft.parallel_env(scenario, obs_mode="features"), num_cycles=200)
 
@@ -25,7 +25,7 @@ def test_parallel_seed(scenario):
 def test_pvp_has_both_teams_and_pve_one():
     pvp = avacraft.parallel_env("MMM_vs_MMM", seed=0)
     assert any(a.startswith("team1_") for a in pvp.possible_agents) and any(a.startswith("team2_") for a in pvp.possible_agents)
-    pve = avacraft.parallel_env("3m", seed=0)
+    pve = avacraft.parallel_env("3m_vlm", seed=0)
     assert pve.possible_agents == ["agent_0", "agent_1", "agent_2"]
 
 
@@ -47,7 +47,7 @@ def play(env, seed, rng):
 
 
 def test_episodes_end_and_dead_agents_leave():
-    env = avacraft.parallel_env("3m", seed=3)
+    env = avacraft.parallel_env("3m_vlm", seed=3)
     for a in env.possible_agents:
         env.action_space(a).seed(0)
     trace, infos = play(env, 3, None)
@@ -65,11 +65,11 @@ def test_same_seed_same_episode():
 
 
 def test_hybrid_and_vlm_modes():
-    env = avacraft.parallel_env("3m", obs_mode="hybrid", seed=0, screen_size=(80, 60))
+    env = avacraft.parallel_env("3m_vlm", obs_mode="hybrid", seed=0, screen_size=(80, 60))
     obs, _ = env.reset()
     o = obs["agent_0"]
     assert o["observation"].dtype == np.float32 and o["screen"].shape == (60, 80, 3) and o["action_mask"].dtype == np.int8
-    env = avacraft.parallel_env("3m", obs_mode="vlm", seed=0, vlm_size=(320, 180))
+    env = avacraft.parallel_env("3m_vlm", obs_mode="vlm", seed=0, vlm_size=(320, 180))
     obs, _ = env.reset()
     o = obs["agent_1"]
     assert o["observation"].shape == (180, 320, 3) and o["observation"].dtype == np.uint8
@@ -79,7 +79,7 @@ def test_hybrid_and_vlm_modes():
 
 
 def test_invalid_actions():
-    env = avacraft.parallel_env("3m", seed=0)
+    env = avacraft.parallel_env("3m_vlm", seed=0)
     env.reset()
     # Attacking an enemy out of range: unavailable at the start. By default it becomes stop.
     _, _, _, _, infos = env.step({"agent_0": 6, "agent_1": 1, "agent_2": 1})
@@ -92,7 +92,7 @@ def test_invalid_actions():
         env.step({"agent_0": 1, "agent_1": 1, "agent_2": 1, "agent_9": 1})
     with pytest.raises(AvacraftError, match="integer"):
         env.step({"agent_0": 1.0, "agent_1": 1, "agent_2": 1})
-    strict = avacraft.parallel_env("3m", seed=0, invalid_action="raise")
+    strict = avacraft.parallel_env("3m_vlm", seed=0, invalid_action="raise")
     strict.reset()
     with pytest.raises(AvacraftError, match=r"agent_0: action 6 is not available now \(available: \[1, 2, 3, 4, 5\]\)"):
         strict.step({"agent_0": 6, "agent_1": 1, "agent_2": 1})
@@ -110,12 +110,12 @@ def test_invalid_actions():
 )
 def test_bad_options(kwargs, words):
     with pytest.raises(AvacraftError) as e:
-        avacraft.parallel_env("3m", **kwargs)
+        avacraft.parallel_env("3m_vlm", **kwargs)
     for w in words:
         assert w in str(e.value)
 
 
 def test_render_rgb_array():
-    env = avacraft.parallel_env("3m", seed=0, render_mode="rgb_array", screen_size=(64, 48))
+    env = avacraft.parallel_env("3m_vlm", seed=0, render_mode="rgb_array", screen_size=(64, 48))
     env.reset()
     assert env.render().shape == (48, 64, 3)

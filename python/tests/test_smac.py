@@ -21,7 +21,7 @@ def play(env, rng, max_steps=10_000):
     raise AssertionError("episode did not end")
 
 
-@pytest.mark.parametrize("name", ["3m", "2s3z"])
+@pytest.mark.parametrize("name", ["3m_vlm", "2s3z_vlm"])
 def test_shapes_match_env_info(name):
     env = StarCraft2Env(map_name=name, seed=3)
     info = env.get_env_info()
@@ -39,12 +39,23 @@ def test_shapes_match_env_info(name):
 
 
 def test_smac_sizes_of_3m():
-    # SMAC's own numbers for 3m (smac_layout.md).
+    # SMAC's own numbers for 3m (smac_layout.md): SMAC's map under SMAC's name, and the
+    # paper's 3m_vlm, which has the same armies and a 300 s limit.
     info = StarCraft2Env(map_name="3m").get_env_info()
-    assert (info["n_actions"], info["obs_shape"], info["state_shape"]) == (9, 30, 48)
+    assert (info["n_actions"], info["obs_shape"], info["state_shape"], info["episode_limit"]) == (9, 30, 48, 60)
+    info = StarCraft2Env(map_name="3m_vlm").get_env_info()
+    assert (info["n_actions"], info["obs_shape"], info["state_shape"], info["episode_limit"]) == (9, 30, 48, 840)
 
 
-@pytest.mark.parametrize("name", ["3m", "2s3z"])
+def test_every_smac_map_loads_by_its_smac_name():
+    names = avacraft.scenario_names()
+    for name, agents, limit in [("3s5z", 8, 150), ("corridor", 6, 400), ("27m_vs_30m", 27, 180), ("2c_vs_64zg", 2, 400)]:
+        assert name in names
+        info = StarCraft2Env(map_name=name).get_env_info()
+        assert (info["n_agents"], info["episode_limit"]) == (agents, limit), name
+
+
+@pytest.mark.parametrize("name", ["3m_vlm", "2s3z_vlm"])
 def test_random_episodes_play_to_the_end(name, rng):
     env = StarCraft2Env(map_name=name, seed=1)
     for _ in range(3):
@@ -60,7 +71,7 @@ def test_random_episodes_play_to_the_end(name, rng):
 
 
 def test_dead_agents_only_have_noop(rng):
-    env = StarCraft2Env(map_name="3m", seed=2)
+    env = StarCraft2Env(map_name="3m_vlm", seed=2)
     env.reset()
     while True:
         r, terminated, info = env.step(random_actions(env.get_avail_actions(), rng))
@@ -73,7 +84,7 @@ def test_dead_agents_only_have_noop(rng):
 
 
 def test_time_out_terminates_with_episode_limit():
-    env = StarCraft2Env(map_name="3m", seed=1, episode_limit=3)
+    env = StarCraft2Env(map_name="3m_vlm", seed=1, episode_limit=3)
     assert env.get_env_info()["episode_limit"] == 3
     env.reset()
     infos = []
@@ -85,7 +96,7 @@ def test_time_out_terminates_with_episode_limit():
     assert infos[-1][1]["episode_limit"] is True and infos[-1][1]["battle_won"] is False
     assert env.get_stats()["timeouts"] == 1
     # SMAC's continuing_episode=False leaves the key out (PyMARL's sc2.yaml passes False).
-    smac = StarCraft2Env(map_name="3m", seed=1, episode_limit=2, continuing_episode=False)
+    smac = StarCraft2Env(map_name="3m_vlm", seed=1, episode_limit=2, continuing_episode=False)
     smac.reset()
     smac.step([1, 1, 1])
     _, terminated, info = smac.step([1, 1, 1])
@@ -95,48 +106,48 @@ def test_time_out_terminates_with_episode_limit():
 
 
 def test_same_seed_same_trajectory(rng):
-    a = StarCraft2Env(map_name="2s3z", seed=7)
-    b = StarCraft2Env(map_name="2s3z", seed=7)
+    a = StarCraft2Env(map_name="2s3z_vlm", seed=7)
+    b = StarCraft2Env(map_name="2s3z_vlm", seed=7)
     ra, ta, _ = play(a, np.random.default_rng(5))
     rb, tb, _ = play(b, np.random.default_rng(5))
     assert ra == rb
     assert len(ta) == len(tb) and all(np.array_equal(x, y) for x, y in zip(ta, tb))
-    c = StarCraft2Env(map_name="2s3z", seed=8)
+    c = StarCraft2Env(map_name="2s3z_vlm", seed=8)
     rc, tc, _ = play(c, np.random.default_rng(5))
     assert rc != ra or any(not np.array_equal(x, y) for x, y in zip(ta, tc))
 
 
 def test_seed_get_and_set(rng):
-    env = StarCraft2Env(map_name="3m", seed=11)
+    env = StarCraft2Env(map_name="3m_vlm", seed=11)
     assert env.seed() == 11
     first, _ = env.reset()
     env.reset()
     assert env.seed(11) == 11  # back to episode 0 of seed 11
     again, _ = env.reset()
     assert all(np.array_equal(x, y) for x, y in zip(first, again))
-    assert isinstance(StarCraft2Env(map_name="3m").seed(), int)
+    assert isinstance(StarCraft2Env(map_name="3m_vlm").seed(), int)
 
 
 def test_sparse_reward_and_scale_rate(rng):
-    env = StarCraft2Env(map_name="3m", seed=4, reward_sparse=True)
+    env = StarCraft2Env(map_name="3m_vlm", seed=4, reward_sparse=True)
     rewards, _, info = play(env, rng)
     assert set(rewards[:-1]) <= {0.0}
     assert rewards[-1] == (1.0 if info["battle_won"] else (0.0 if info.get("episode_limit") or info["dead_allies"] < 3 else -1.0))
     # reward_scale_rate scales the dense reward linearly.
-    a = StarCraft2Env(map_name="3m", seed=4)
-    b = StarCraft2Env(map_name="3m", seed=4, reward_scale_rate=10)
+    a = StarCraft2Env(map_name="3m_vlm", seed=4)
+    b = StarCraft2Env(map_name="3m_vlm", seed=4, reward_scale_rate=10)
     ra, _, _ = play(a, np.random.default_rng(1))
     rb, _, _ = play(b, np.random.default_rng(1))
     assert np.allclose(np.array(ra) / 2, rb)
 
 
 def test_state_and_obs_options():
-    base = StarCraft2Env(map_name="3m", seed=1)
-    env = StarCraft2Env(map_name="3m", seed=1, state_last_action=False, state_timestep_number=True, obs_timestep_number=True)
+    base = StarCraft2Env(map_name="3m_vlm", seed=1)
+    env = StarCraft2Env(map_name="3m_vlm", seed=1, state_last_action=False, state_timestep_number=True, obs_timestep_number=True)
     obs, state = env.reset()
     assert state.shape == (env.get_state_size(),) == (48 - 3 * 9 + 1,)
     assert obs[0].shape == (env.get_obs_size(),) == (31,)
-    both = StarCraft2Env(map_name="3m", seed=1, obs_instead_of_state=True)
+    both = StarCraft2Env(map_name="3m_vlm", seed=1, obs_instead_of_state=True)
     obs, state = both.reset()
     assert np.array_equal(state, np.concatenate(obs)) and both.get_state_size() == 90
     assert base.get_env_info()["state_shape"] == 48
@@ -145,7 +156,7 @@ def test_state_and_obs_options():
 def test_pymarl_sc2_yaml_keys_are_accepted():
     # PyMARL's src/config/envs/sc2.yaml env_args.
     args = dict(
-        continuing_episode=False, difficulty="7", game_version=None, map_name="3m", move_amount=2, obs_all_health=True,
+        continuing_episode=False, difficulty="7", game_version=None, map_name="3m_vlm", move_amount=2, obs_all_health=True,
         obs_instead_of_state=False, obs_last_action=False, obs_own_health=True, obs_pathing_grid=False,
         obs_terrain_height=False, obs_timestep_number=False, reward_death_value=10, reward_defeat=0,
         reward_negative_scale=0.5, reward_only_positive=True, reward_scale=True, reward_scale_rate=20, reward_sparse=False,
@@ -174,7 +185,7 @@ def test_pymarl_sc2_yaml_keys_are_accepted():
 )
 def test_unsupported_option_values_raise(key, value, words):
     with pytest.raises(ValueError) as e:
-        StarCraft2Env(map_name="3m", **{key: value})
+        StarCraft2Env(map_name="3m_vlm", **{key: value})
     assert isinstance(e.value, AvacraftError)
     for w in words:
         assert w in str(e.value)
@@ -182,21 +193,21 @@ def test_unsupported_option_values_raise(key, value, words):
 
 def test_unknown_keyword_and_scenario():
     with pytest.raises(TypeError):
-        StarCraft2Env(map_name="3m", no_such_option=1)
+        StarCraft2Env(map_name="3m_vlm", no_such_option=1)
     with pytest.raises(AvacraftError) as e:
         StarCraft2Env(map_name="4m")
-    assert "4m" in str(e.value) and "3m" in str(e.value) and "2s3z" in str(e.value)
+    assert "4m" in str(e.value) and "3m_vlm" in str(e.value) and "2s3z_vlm" in str(e.value)
 
 
 def test_scenario_file_by_path(tmp_path):
     import glob
     import os
 
-    files = glob.glob(os.path.join(os.path.dirname(__file__), "..", "..", "engine", "scenarios", "3m.toml"))
+    files = glob.glob(os.path.join(os.path.dirname(__file__), "..", "..", "engine", "scenarios", "3m_vlm.toml"))
     if not files:
         pytest.skip("scenario files are not next to the tests")
     env = StarCraft2Env(map_name=files[0], seed=1)
-    assert env.get_env_info() == StarCraft2Env(map_name="3m").get_env_info()
+    assert env.get_env_info() == StarCraft2Env(map_name="3m_vlm").get_env_info()
     bad = tmp_path / "bad.toml"
     bad.write_text("this is = not [ a scenario")
     with pytest.raises(AvacraftError, match="bad.toml"):
@@ -204,7 +215,7 @@ def test_scenario_file_by_path(tmp_path):
 
 
 def test_bad_actions_name_what_is_wrong():
-    env = StarCraft2Env(map_name="3m", seed=1)
+    env = StarCraft2Env(map_name="3m_vlm", seed=1)
     env.reset()
     with pytest.raises(AvacraftError, match="2 actions given for 3 agents"):
         env.step([1, 1])
@@ -239,7 +250,7 @@ def test_bad_actions_name_what_is_wrong():
 
 
 def test_render_rgb_array_and_human():
-    env = StarCraft2Env(map_name="3m", seed=1, window_size_x=320, window_size_y=200)
+    env = StarCraft2Env(map_name="3m_vlm", seed=1, window_size_x=320, window_size_y=200)
     env.reset()
     img = env.render(mode="rgb_array")
     assert img.shape == (200, 320, 3) and img.dtype == np.uint8 and img.std() > 0
@@ -251,7 +262,7 @@ def test_render_rgb_array_and_human():
 
 
 def test_save_replay_writes_a_gif(tmp_path, rng):
-    env = StarCraft2Env(map_name="3m", seed=1, replay_dir=str(tmp_path), replay_prefix="run")
+    env = StarCraft2Env(map_name="3m_vlm", seed=1, replay_dir=str(tmp_path), replay_prefix="run")
     _, trace, _ = play(env, rng)
     path = env.save_replay()
     data = open(path, "rb").read()
@@ -259,11 +270,11 @@ def test_save_replay_writes_a_gif(tmp_path, rng):
     # One frame per step plus the first: count the GIF image descriptors' graphic control blocks.
     assert data.count(b"\x21\xf9\x04") == len(trace)
     with pytest.raises(AvacraftError, match="replay_dir"):
-        StarCraft2Env(map_name="3m").save_replay()
+        StarCraft2Env(map_name="3m_vlm").save_replay()
 
 
 def test_snapshot_and_restore(rng):
-    env = StarCraft2Env(map_name="2s3z", seed=3)
+    env = StarCraft2Env(map_name="2s3z_vlm", seed=3)
     env.reset()
     for _ in range(5):
         env.step(random_actions(env.get_avail_actions(), rng))
@@ -276,7 +287,7 @@ def test_snapshot_and_restore(rng):
 
 
 def test_vlm_observation_and_typed_actions():
-    env = StarCraft2Env(map_name="3m", seed=1, full_vision=True)
+    env = StarCraft2Env(map_name="3m_vlm", seed=1, full_vision=True)
     env.reset()
     vlm = env.get_vlm_obs(size=(320, 180))
     assert vlm["image"].shape == (180, 320, 3) and vlm["image"].dtype == np.uint8
@@ -315,7 +326,7 @@ def test_vlm_observation_and_typed_actions():
     ],
 )
 def test_bad_typed_actions_raise(action, words):
-    env = StarCraft2Env(map_name="3m", seed=1)
+    env = StarCraft2Env(map_name="3m_vlm", seed=1)
     env.reset()
     with pytest.raises(AvacraftError) as e:
         env.step_typed([{"unit": 2, "command": "stop"}, action][1:])
@@ -325,6 +336,6 @@ def test_bad_typed_actions_raise(action, words):
 
 
 def test_scenario_helpers():
-    assert "3m" in avacraft.scenario_names() and "MMM_vs_MMM" in avacraft.scenario_names()
+    assert "3m_vlm" in avacraft.scenario_names() and "MMM_vs_MMM" in avacraft.scenario_names()
     assert avacraft.scenario_info("MMM_vs_MMM")["mode"] == "pvp"
-    assert avacraft.scenario_info("3m")["units"] == (3, 3)
+    assert avacraft.scenario_info("3m_vlm")["units"] == (3, 3)

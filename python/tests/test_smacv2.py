@@ -247,7 +247,7 @@ def test_the_epo_config_plays_with_extended_partial_observability(rng):
     with pytest.raises(avacraft.AvacraftError, match="prob_obs_enemy"):
         make(prob_obs_enemy=1.5)
     with pytest.raises(avacraft.AvacraftError, match="action_mask"):
-        avacraft.StarCraft2Env("3m", action_mask="no")
+        avacraft.StarCraft2Env("3m_vlm", action_mask="no")
 
 
 def test_pettingzoo_and_vector_envs_play_procedural_scenarios(rng):
@@ -275,9 +275,9 @@ def test_pettingzoo_and_vector_envs_play_procedural_scenarios(rng):
 
 def test_procedural_scenarios_are_listed_with_their_types():
     names = avacraft.scenario_names()
-    assert "protoss_5_vs_5" in names and "zerg_20_vs_23" in names and "3m" in names
+    assert "protoss_5_vs_5" in names and "zerg_20_vs_23" in names and "3m_vlm" in names
     assert avacraft.scenario_info("zerg_5_vs_5")["drawn_types"] == ["Zergling", "Hydralisk", "Baneling"]
-    assert avacraft.scenario_info("3m")["drawn_types"] is None
+    assert avacraft.scenario_info("3m_vlm")["drawn_types"] is None
 
 
 def test_the_shipped_smacv2_baseline_plays_in_smacv2s_wrapper_as_in_rust():

@@ -19,7 +19,7 @@ def rollout(vec, steps, seed):
 
 
 def test_shapes():
-    vec = VecEnv("2s3z", num_envs=4, threads=2)
+    vec = VecEnv("2s3z_vlm", num_envs=4, threads=2)
     info = vec.env_info
     obs, state, avail = vec.reset()
     assert obs.shape == (4, info["n_agents"], info["obs_shape"]) and obs.dtype == np.float32
@@ -32,8 +32,8 @@ def test_shapes():
 
 def test_independent_of_thread_count():
     seeds = [3, 1, 4, 1, 5, 9]
-    one = rollout(VecEnv("3m", seeds=seeds, threads=1), 150, 0)
-    two = rollout(VecEnv("3m", seeds=seeds, threads=2), 150, 0)
+    one = rollout(VecEnv("3m_vlm", seeds=seeds, threads=1), 150, 0)
+    two = rollout(VecEnv("3m_vlm", seeds=seeds, threads=2), 150, 0)
     for a, b in zip(one, two):
         for x, y in zip(a, b):
             assert np.array_equal(x, y)
@@ -42,8 +42,8 @@ def test_independent_of_thread_count():
 
 def test_matches_single_environments():
     seeds = [10, 11, 12]
-    vec = VecEnv("3m", seeds=seeds, threads=2)
-    singles = [Env("3m", seed=s) for s in seeds]
+    vec = VecEnv("3m_vlm", seeds=seeds, threads=2)
+    singles = [Env("3m_vlm", seed=s) for s in seeds]
     rng = np.random.default_rng(1)
     obs, state, avail = vec.reset()
     ended = 0
@@ -75,7 +75,7 @@ def test_declares_gymnasium_autoreset_mode():
 
 
 def test_errors():
-    vec = VecEnv("3m", num_envs=2)
+    vec = VecEnv("3m_vlm", num_envs=2)
     vec.reset()
     with pytest.raises(ValueError, match=r"shape \[2, 2\] given, \[2, 3\] needed"):
         vec.step(np.ones((2, 2), dtype=np.int64))
@@ -84,10 +84,10 @@ def test_errors():
     with pytest.raises(AvacraftError, match=r"environment 1: agent 0: action 7 is not available"):
         vec.step(np.array([[1, 1, 1], [7, 1, 1]]))
     with pytest.raises(AvacraftError, match="num_envs or seeds"):
-        VecEnv("3m")
+        VecEnv("3m_vlm")
     with pytest.raises(AvacraftError, match="threads"):
-        VecEnv("3m", num_envs=2, threads=0)
+        VecEnv("3m_vlm", num_envs=2, threads=0)
     with pytest.raises(AvacraftError, match="at least one seed"):
-        VecEnv("3m", seeds=[])
+        VecEnv("3m_vlm", seeds=[])
     with pytest.raises(AvacraftError, match="unknown scenario `nope`"):
         VecEnv("nope", num_envs=1)

@@ -62,7 +62,7 @@ fn team_observation_is_the_fold_of_its_units_observations() {
 
 #[test]
 fn every_policy_acts_only_for_the_units_it_controls() {
-    for (name, seed) in [("MMM_vs_MMM", 4), ("pvz_ht", 1), ("8m3mr1mv1st_mirror_pvp", 2), ("2c_vs_64zg", 3)] {
+    for (name, seed) in [("MMM_vs_MMM", 4), ("pvz_ht", 1), ("8m3mr1mv1st_mirror_pvp", 2), ("2c_vs_64zg_vlm", 3)] {
         let s: Arc<Scenario> = Arc::new(builtin(name).expect("scenario"));
         for &(policy, _) in &AGENTS {
             let mut env = Env::new(Arc::clone(&s), EnvConfig::default(), seed);
@@ -104,7 +104,7 @@ fn focus_fire_hash(s: &Arc<Scenario>, seed: u64, grouping: Grouping) -> (u64, u3
 
 #[test]
 fn focus_fire_plays_the_same_game_per_unit_and_per_team() {
-    let s = Arc::new(builtin("3m").expect("scenario"));
+    let s = Arc::new(builtin("3m_vlm").expect("scenario"));
     for seed in [1, 2, 3] {
         let team = focus_fire_hash(&s, seed, Grouping::Team);
         assert_eq!(focus_fire_hash(&s, seed, Grouping::PerUnit), team, "seed {seed}");

@@ -22,7 +22,7 @@ fn hashes(name: &str, seed: u64, policy_name: &str) -> Vec<u64> {
 
 #[test]
 fn same_seed_same_trajectory() {
-    for (name, pol) in [("3m", "kite"), ("2s3z", "random"), ("2c_vs_64zg", "focus-fire"), ("2m_vs_1z", "attack-move")] {
+    for (name, pol) in [("3m_vlm", "kite"), ("2s3z_vlm", "random"), ("2c_vs_64zg_vlm", "focus-fire"), ("2m_vs_1z_vlm", "attack-move")] {
         assert_eq!(hashes(name, 11, pol), hashes(name, 11, pol), "{name}");
     }
 }
@@ -30,8 +30,8 @@ fn same_seed_same_trajectory() {
 #[test]
 fn different_seeds_differ() {
     // Random attack delays and the random opening point make seeds matter.
-    assert_ne!(hashes("2m_vs_1z", 1, "kite").last(), hashes("2m_vs_1z", 2, "kite").last());
-    assert_ne!(hashes("3m", 1, "kite").last(), hashes("3m", 2, "kite").last());
+    assert_ne!(hashes("2m_vs_1z_vlm", 1, "kite").last(), hashes("2m_vs_1z_vlm", 2, "kite").last());
+    assert_ne!(hashes("3m_vlm", 1, "kite").last(), hashes("3m_vlm", 2, "kite").last());
 }
 
 #[test]
@@ -63,7 +63,7 @@ fn record_then_replay_reproduces_every_step() {
 
 #[test]
 fn reset_restarts_identically() {
-    let s = Arc::new(builtin("2s3z").expect("scenario"));
+    let s = Arc::new(builtin("2s3z_vlm").expect("scenario"));
     let mut env = Env::new(s, exact(), 4);
     let first = env.world().state_hash();
     for _ in 0..30 {

@@ -103,7 +103,7 @@ fn the_cone_follows_the_look_actions() {
 
 #[test]
 fn sizes_grow_by_the_look_actions() {
-    for name in ["3m", "protoss_5_vs_5", "MMM_vs_MMM"] {
+    for name in ["3m_vlm", "protoss_5_vs_5", "MMM_vs_MMM"] {
         let s = Arc::new(builtin(name).expect("scenario"));
         let off = Env::new(Arc::clone(&s), EnvConfig::default(), 1).env_info(Team::One);
         let on = Env::new(Arc::clone(&s), fov(N), 1).env_info(Team::One);
@@ -136,7 +136,7 @@ fn a_bad_look_is_refused_and_a_look_keeps_the_order() {
 /// environment's hash but not the world's when nobody looks.
 #[test]
 fn conic_views_replay_and_leave_other_runs_alone() {
-    let s = Arc::new(builtin("3m").expect("3m"));
+    let s = Arc::new(builtin("3m_vlm").expect("3m_vlm"));
     let run = |cfg: EnvConfig, looks: bool| {
         let mut env = Env::new(Arc::clone(&s), cfg, 7);
         let mut k = 0usize;

@@ -30,8 +30,8 @@ struct Case {
 const LEGACY: Option<DataSet> = Some(DataSet::Legacy);
 
 const CASES: &[Case] = &[
-    Case { scenario: "3m", seed: 1, policy: "focus-fire", opponent: Some(OpponentKind::Builtin), data: LEGACY },
-    Case { scenario: "2s3z", seed: 7, policy: "kite", opponent: None, data: LEGACY },
+    Case { scenario: "3m_vlm", seed: 1, policy: "focus-fire", opponent: Some(OpponentKind::Builtin), data: LEGACY },
+    Case { scenario: "2s3z_vlm", seed: 7, policy: "kite", opponent: None, data: LEGACY },
     Case { scenario: "MMM_vs_MMM", seed: 3, policy: "focus-fire", opponent: None, data: LEGACY },
     // Abilities: storms, feedback and the opponent's casts.
     Case { scenario: "pvz_ht", seed: 2, policy: "focus-fire", opponent: None, data: LEGACY },
@@ -45,8 +45,8 @@ const CASES: &[Case] = &[
     Case { scenario: "protoss_5_vs_5", seed: 4, policy: HIGHEST, opponent: None, data: LEGACY },
     // The maps' own data with the game's weapon timing: Liberty (missiles, wind-ups, Zerg
     // regeneration) and Void (splash, abilities, a Medivac and tanks).
-    Case { scenario: "3s_vs_3z", seed: 1, policy: "kite", opponent: None, data: None },
-    Case { scenario: "2s3z", seed: 7, policy: "kite", opponent: None, data: None },
+    Case { scenario: "3s_vs_3z_vlm", seed: 1, policy: "kite", opponent: None, data: None },
+    Case { scenario: "2s3z_vlm", seed: 7, policy: "kite", opponent: None, data: None },
     Case { scenario: "zerg_10_vs_11", seed: 2, policy: "kite", opponent: None, data: None },
     Case { scenario: "pvz_ht", seed: 2, policy: "focus-fire", opponent: None, data: None },
     Case { scenario: "8m1mv_vs_2st", seed: 5, policy: "focus-fire", opponent: None, data: None },

@@ -24,7 +24,7 @@ fn random_actions(avail: &[u8], n_actions: usize, rng: &mut ChaCha8Rng) -> Vec<i
 
 #[test]
 fn batched_accessors_match_the_per_agent_ones() {
-    let e = env("2s3z", EnvConfig::default(), 3);
+    let e = env("2s3z_vlm", EnvConfig::default(), 3);
     let i = e.env_info(Team::One);
     let mut all = vec![0.0; i.n_agents * i.obs_shape];
     e.obs_all(Team::One, &mut all).expect("sizes");
@@ -43,7 +43,7 @@ fn batched_accessors_match_the_per_agent_ones() {
 #[test]
 fn a_time_out_is_truncated_and_a_wipe_is_terminated() {
     let short = EnvConfig { time_limit_loops: NonZeroU32::new(16), ..EnvConfig::default() };
-    let mut e = env("3m", short, 1);
+    let mut e = env("3m_vlm", short, 1);
     let stop = vec![1i64; 3];
     let first = e.step_indices(&stop, None).expect("valid");
     assert!(!first.done && !first.terminated && !first.truncated);
@@ -53,7 +53,7 @@ fn a_time_out_is_truncated_and_a_wipe_is_terminated() {
     assert!(info.episode_limit && !info.battle_won, "{info:?}");
 
     // Attack-moving Marines against the built-in AI end the episode in the game.
-    let mut e = env("3m", EnvConfig::default(), 2);
+    let mut e = env("3m_vlm", EnvConfig::default(), 2);
     let mut rng = ChaCha8Rng::seed_from_u64(0);
     let n = e.env_info(Team::One).n_actions;
     let mut masks = vec![0u8; 3 * n];
@@ -74,7 +74,7 @@ fn a_time_out_is_truncated_and_a_wipe_is_terminated() {
 
 #[test]
 fn bad_indices_name_the_agent_and_apply_nothing() {
-    let mut e = env("3m", EnvConfig::default(), 1);
+    let mut e = env("3m_vlm", EnvConfig::default(), 1);
     let before = e.state_hash();
     assert_eq!(e.step_indices(&[1, 1], None).err(), Some(LearnError::Count { given: 2, agents: 3 }));
     assert_eq!(e.step_indices(&[1, 99, 1], None).err(), Some(LearnError::OutOfRange { agent: 1, index: 99, n_actions: 9 }));
@@ -90,7 +90,7 @@ fn bad_indices_name_the_agent_and_apply_nothing() {
 /// Plays `steps` steps of a vector environment with actions drawn from its masks.
 fn play(threads: usize, steps: usize) -> (Vec<u64>, Vec<(usize, u64)>) {
     let seeds: Vec<u64> = (10..18).collect();
-    let mut v = VecEnv::new(Arc::new(builtin("3m").expect("scenario")), EnvConfig::default(), &seeds, threads).expect("vec env");
+    let mut v = VecEnv::new(Arc::new(builtin("3m_vlm").expect("scenario")), EnvConfig::default(), &seeds, threads).expect("vec env");
     let (_, _, _, n_actions) = v.shape();
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let mut digest = Vec::new();
@@ -129,8 +129,8 @@ fn vector_env_results_do_not_depend_on_threads_and_episodes_restart() {
 #[test]
 fn vector_env_matches_a_single_env_and_refuses_bad_actions() {
     let seeds = [5u64, 6];
-    let mut v = VecEnv::new(Arc::new(builtin("2s3z").expect("scenario")), EnvConfig::default(), &seeds, 2).expect("vec env");
-    let mut solo = env("2s3z", EnvConfig::default(), 5);
+    let mut v = VecEnv::new(Arc::new(builtin("2s3z_vlm").expect("scenario")), EnvConfig::default(), &seeds, 2).expect("vec env");
+    let mut solo = env("2s3z_vlm", EnvConfig::default(), 5);
     let (agents, obs, _, n_actions) = v.shape();
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     for _ in 0..40 {
@@ -160,8 +160,8 @@ fn vector_env_matches_a_single_env_and_refuses_bad_actions() {
 fn vector_env_keeps_what_an_episode_ended_on() {
     // A short time limit so that both kinds of ending (time-out, battle over) happen.
     let cfg = EnvConfig { time_limit_loops: NonZeroU32::new(12 * 8), ..EnvConfig::default() };
-    let mut v = VecEnv::new(Arc::new(builtin("3m").expect("scenario")), cfg.clone(), &[21], 1).expect("vec env");
-    let mut solo = env("3m", cfg, 21);
+    let mut v = VecEnv::new(Arc::new(builtin("3m_vlm").expect("scenario")), cfg.clone(), &[21], 1).expect("vec env");
+    let mut solo = env("3m_vlm", cfg, 21);
     let (agents, obs, state, n_actions) = v.shape();
     let mut rng = ChaCha8Rng::seed_from_u64(9);
     let mut ended = 0;
@@ -205,7 +205,7 @@ fn a_snapshot_goes_on_exactly_as_the_original() {
     // Every opponent kind: the scripted ones keep memory (focus targets, seeded draws) that
     // the snapshot must carry; the built-in AI keeps its opening.
     for opponent in [OpponentKind::Builtin, OpponentKind::Aggressive, OpponentKind::Defensive, OpponentKind::Focus] {
-        for name in ["3m", "2s3z"] {
+        for name in ["3m_vlm", "2s3z_vlm"] {
             let cfg = EnvConfig { opponent: Some(opponent), reward: avacraft_engine::RewardMode::Dense, ..EnvConfig::default() };
             let mut e = env(name, cfg, 11);
             let mut rng = ChaCha8Rng::seed_from_u64(5);
@@ -265,7 +265,7 @@ fn a_pvp_vector_env_plays_a_named_opponent_whatever_the_thread_count() {
     assert_eq!(deaths, deaths2);
     assert_ne!(one, idle, "team 2 acts when an opponent is installed");
     assert!(deaths > idle_deaths, "a focus-firing team 2 kills more of random team 1 ({deaths}) than an idle one ({idle_deaths})");
-    let pve = VecEnv::new(Arc::new(builtin("3m").expect("scenario")), EnvConfig::default(), &[1], 1).expect("vec env");
+    let pve = VecEnv::new(Arc::new(builtin("3m_vlm").expect("scenario")), EnvConfig::default(), &[1], 1).expect("vec env");
     let make: OpponentFactory = Arc::new(|| agent_by_name("focus-fire").expect("a scripted agent"));
-    assert!(matches!(pve.with_opponent(make), Err(VecEnvError::OpponentInPve { scenario }) if scenario == "3m"));
+    assert!(matches!(pve.with_opponent(make), Err(VecEnvError::OpponentInPve { scenario }) if scenario == "3m_vlm"));
 }

@@ -18,7 +18,7 @@ fn worst_overlap(env: &Env) -> f32 {
 
 #[test]
 fn ground_units_do_not_overlap_in_battle() {
-    for name in ["2s3z", "3s_vs_3z", "8m2st_vs_35zg4b", "2c_vs_64zg"] {
+    for name in ["2s3z_vlm", "3s_vs_3z_vlm", "8m2st_vs_35zg4b", "2c_vs_64zg_vlm"] {
         let s = Arc::new(builtin(name).expect("scenario"));
         let mut env = Env::new(s, exact(), 3);
         let mut worst = f32::MIN;
@@ -69,10 +69,10 @@ fn path_heights(env: &mut Env, id: u16, loops: u32) -> (Vec<f32>, bool) {
 
 #[test]
 fn ground_units_take_the_ramp_and_colossi_walk_cliffs() {
-    // 2c_vs_64zg: the Colossi stand on a level-2 plateau; low ground is level 1; ramps at
+    // 2c_vs_64zg_vlm: the Colossi stand on a level-2 plateau; low ground is level 1; ramps at
     // x = 4..7 and 25..28. A Zergling ordered onto the plateau must use a ramp; a Colossus
     // ordered down walks straight over the cliff.
-    let s = Arc::new(builtin("2c_vs_64zg").expect("scenario"));
+    let s = Arc::new(builtin("2c_vs_64zg_vlm").expect("scenario"));
     let zid = s.units.iter().position(|u| u.kind == UnitKind::Zergling).expect("zergling") as u16;
     let mut env = Env::new(Arc::clone(&s), one_loop(passive()), 1);
     let top = Vec2::new(16.0, 17.0);
@@ -147,9 +147,9 @@ fn grid_move_targets_the_cell_a_screenshot_labels() {
 
 #[test]
 fn a_move_into_the_void_goes_as_close_as_it_can() {
-    // 3m's arena has no ground in its corners: grid cell (1, 1) is void. The Marine walks to
+    // 3m_vlm's arena has no ground in its corners: grid cell (1, 1) is void. The Marine walks to
     // the nearest ground instead of freezing.
-    let mut s = builtin("3m").expect("scenario");
+    let mut s = builtin("3m_vlm").expect("scenario");
     s.mode = avacraft_engine::Mode::Pvp;
     let mut env = Env::new(Arc::new(s), one_loop(passive()), 1);
     let start = env.world().unit(uid(0)).expect("marine").pos;

@@ -31,7 +31,7 @@ fn unit_list_has_stable_names_and_grid_cells() {
 
 #[test]
 fn text_names_units_numbers_and_objective() {
-    let s = Arc::new(builtin("3m").expect("scenario"));
+    let s = Arc::new(builtin("3m_vlm").expect("scenario"));
     let mut env = Env::new(s, EnvConfig::default(), 0);
     for _ in 0..12 {
         env.step();

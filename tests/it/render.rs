@@ -97,7 +97,7 @@ fn grid_labels_sit_over_their_cells() {
 
 #[test]
 fn rendering_is_deterministic_and_png_round_trips() {
-    let s = Arc::new(builtin("2s3z").expect("scenario"));
+    let s = Arc::new(builtin("2s3z_vlm").expect("scenario"));
     let mut env = Env::new(s, EnvConfig::default(), 3);
     for _ in 0..15 {
         env.step();
@@ -114,7 +114,7 @@ fn rendering_is_deterministic_and_png_round_trips() {
 
 #[test]
 fn observation_modes() {
-    let s = Arc::new(builtin("3m").expect("scenario"));
+    let s = Arc::new(builtin("3m_vlm").expect("scenario"));
     let env = Env::new(s, EnvConfig::default(), 0);
     let cfg = RenderConfig::default().with_vlm(480, 270);
     match Observer::new(ObsMode::Rgb, cfg).observe(&env, Team::One, &VlmOptions::default()) {
@@ -158,7 +158,7 @@ fn golden(name: &str, img: &RgbImage) {
 
 #[test]
 fn golden_frames() {
-    for (name, scenario, steps) in [("3m_start", "3m", 0), ("2s3z_fight", "2s3z", 20), ("2c_vs_64zg_fight", "2c_vs_64zg", 25)] {
+    for (name, scenario, steps) in [("3m_start", "3m_vlm", 0), ("2s3z_fight", "2s3z_vlm", 20), ("2c_vs_64zg_fight", "2c_vs_64zg_vlm", 25)] {
         // The frames were pinned on the legacy game: these test drawing, not the battle.
         let s = Arc::new(builtin(scenario).expect("scenario").with_data(avacraft_engine::DataSet::Legacy).expect("legacy has every unit"));
         let mut env = Env::new(s, exact(), 1);
@@ -188,7 +188,7 @@ fn gpu() -> avacraft_render::WgpuBackend {
 #[test]
 fn cpu_and_wgpu_back_ends_agree() {
     let mut gpu = gpu();
-    for (scenario, steps) in [("3m", 12), ("2c_vs_64zg", 25), ("mixed_units", 30)] {
+    for (scenario, steps) in [("3m_vlm", 12), ("2c_vs_64zg_vlm", 25), ("mixed_units", 30)] {
         let s = Arc::new(builtin(scenario).expect("scenario"));
         let mut env = Env::new(s, exact(), 1);
         for _ in 0..steps {
@@ -251,7 +251,7 @@ fn cpu_and_wgpu_back_ends_agree() {
     }
     assert!(gpu.render(&avacraft_render::Scene::new(0, 0, avacraft_render::Rgba::rgb(0, 0, 0))).is_err(), "0x0 is an error, not a panic");
     // Deterministic on the GPU too.
-    let s = Arc::new(builtin("2s3z").expect("scenario"));
+    let s = Arc::new(builtin("2s3z_vlm").expect("scenario"));
     let env = Env::new(s, exact(), 1);
     let scene = FrameBuilder::new().vlm(env.world(), Team::One, 640, 360, &VlmOptions::default());
     assert_eq!(gpu.render(&scene).expect("frame").as_raw(), gpu.render(&scene).expect("frame").as_raw());
@@ -260,7 +260,7 @@ fn cpu_and_wgpu_back_ends_agree() {
 #[test]
 fn any_back_end_serves_observations() {
     // Auto picks wgpu where an adapter exists and the CPU elsewhere; both give the frame.
-    let s = Arc::new(builtin("3m").expect("scenario"));
+    let s = Arc::new(builtin("3m_vlm").expect("scenario"));
     let env = Env::new(s, EnvConfig::default(), 0);
     let backend = avacraft_render::BackendChoice::Auto.open().expect("auto never fails");
     let name = backend.name();
@@ -278,7 +278,7 @@ fn videos_are_valid_gifs_and_write_errors_surface() {
     let dir = std::env::temp_dir().join(format!("avacraft-video-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("tmp");
     let path = dir.join("ep.gif");
-    let s = Arc::new(builtin("3m").expect("scenario"));
+    let s = Arc::new(builtin("3m_vlm").expect("scenario"));
     let mut env = Env::new(s, EnvConfig::default(), 0);
     let mut fb = FrameBuilder::new();
     let mut cpu = CpuBackend::new();

@@ -9,7 +9,7 @@ use avacraft_engine::{
 use proptest::prelude::*;
 use std::sync::Arc;
 
-const SCENARIOS: [&str; 6] = ["3m", "MMM_vs_MMM", "pvz_ht", "8m3mr1mv1st_vs_5s2c", "2c_vs_64zg", "7s_vs_11m1mv1st"];
+const SCENARIOS: [&str; 6] = ["3m_vlm", "MMM_vs_MMM", "pvz_ht", "8m3mr1mv1st_vs_5s2c", "2c_vs_64zg_vlm", "7s_vs_11m1mv1st"];
 
 /// `scenario` after `steps` steps of attack-move for both sides.
 fn state(scenario: &str, seed: u64, steps: u32) -> Env {
@@ -122,7 +122,7 @@ fn refusals_carry_the_simulators_typed_reason() {
 /// for a living agent, wherever the observation holds the unit the command names.
 #[test]
 fn smac_indices_mean_the_same_from_world_and_observation() {
-    for name in ["3m", "MMM_vs_MMM", "pvz_ht", "8m3mr1mv1st_vs_5s2c"] {
+    for name in ["3m_vlm", "MMM_vs_MMM", "pvz_ht", "8m3mr1mv1st_vs_5s2c"] {
         for steps in [0, 10, 25] {
             let env = state(name, 3, steps);
             if env.done() {

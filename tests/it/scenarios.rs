@@ -20,7 +20,7 @@ fn the_paper_has_21_scenarios_with_its_armies() {
     use UnitKind::*;
     type Army = &'static [(UnitKind, usize)];
     let want: &[(&str, Mode, Army, Army)] = &[
-        ("2c_vs_64zg", Mode::Pve, &[(Colossus, 2)], &[(Zergling, 64)]),
+        ("2c_vs_64zg_vlm", Mode::Pve, &[(Colossus, 2)], &[(Zergling, 64)]),
         ("6r_vs_8z", Mode::Pve, &[(Reaper, 6)], &[(Zealot, 8)]),
         ("8m_vs_2pc1wp", Mode::Pve, &[(Marine, 8)], &[(WarpPrism, 1), (PhotonCannon, 2)]),
         (
@@ -72,7 +72,7 @@ fn every_scenario_runs_to_the_end_against_every_opponent() {
 
 #[test]
 fn random_opponent_draws_each_style_from_the_seed() {
-    let s = Arc::new(builtin("3m").expect("scenario"));
+    let s = Arc::new(builtin("3m_vlm").expect("scenario"));
     let cfg = EnvConfig { opponent: Some(OpponentKind::Random), ..EnvConfig::default() };
     let mut seen = std::collections::BTreeSet::new();
     for seed in 0..40 {
@@ -156,7 +156,7 @@ fn terrain_grid_errors() {
 
 #[test]
 fn load_by_name_or_path() {
-    assert!(Scenario::load("3m").is_ok());
+    assert!(Scenario::load("3m_vlm").is_ok());
     assert!(matches!(Scenario::load("no_such_map"), Err(ScenarioError::Unknown(_))));
     let e = Scenario::load("/nonexistent/dir/x.toml").expect_err("missing file");
     assert!(e.to_string().contains("/nonexistent/dir/x.toml"), "{e}");

@@ -12,12 +12,12 @@ fn info(name: &str) -> EnvInfo {
 fn sizes_match_smac_for_the_same_unit_mix() {
     // (n_agents, n_actions, obs, state) from SMAC's formulas; the SMAC-derived maps.
     for (name, want) in [
-        ("3m", (3, 9, 30, 48)),
-        ("2m_vs_1z", (2, 7, 16, 26)),
-        ("2s_vs_1sc", (2, 7, 17, 27)),
-        ("3s_vs_3z", (3, 9, 36, 54)),
-        ("2s3z", (5, 11, 80, 120)),
-        ("2c_vs_64zg", (2, 70, 332, 342)),
+        ("3m_vlm", (3, 9, 30, 48)),
+        ("2m_vs_1z_vlm", (2, 7, 16, 26)),
+        ("2s_vs_1sc_vlm", (2, 7, 17, 27)),
+        ("3s_vs_3z_vlm", (3, 9, 36, 54)),
+        ("2s3z_vlm", (5, 11, 80, 120)),
+        ("2c_vs_64zg_vlm", (2, 70, 332, 342)),
         // 12 per side, 3 types: 4 + 12*8 + 11*8 + 4 = 192; 12*7 + 12*6 + 12*18 = 372.
         ("MMM_vs_MMM", (12, 18, 192, 372)),
     ] {
@@ -106,7 +106,7 @@ fn index_and_typed_action_round_trip() {
 
 #[test]
 fn stalkers_and_zealots_keep_smacs_reversed_enemy_one_hot() {
-    let s = Arc::new(builtin("2s3z").expect("scenario"));
+    let s = Arc::new(builtin("2s3z_vlm").expect("scenario"));
     let env = Env::new(s, EnvConfig::default(), 0);
     let l = env.smac_layout(Team::One);
     use avacraft_engine::UnitKind::{Stalker, Zealot};
@@ -151,8 +151,8 @@ fn layouts_scale_past_256_actions() {
 
 #[test]
 fn agents_are_ordered_like_smac() {
-    // SMAC sorts allies by unit type, then x, then y: 2s3z is S, S, Z, Z, Z.
-    let s = Arc::new(builtin("2s3z").expect("scenario"));
+    // SMAC sorts allies by unit type, then x, then y: 2s3z_vlm is S, S, Z, Z, Z.
+    let s = Arc::new(builtin("2s3z_vlm").expect("scenario"));
     let env = Env::new(Arc::clone(&s), EnvConfig::default(), 0);
     let kinds: Vec<_> = env.agents(Team::One).iter().map(|&u| env.world().unit(u).map(|u| u.kind)).collect();
     use avacraft_engine::UnitKind::{Stalker, Zealot};

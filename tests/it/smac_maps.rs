@@ -80,6 +80,74 @@ fn smacs_interface_sizes_where_its_layout_gives_them() {
     }
 }
 
+/// SMAC's registry's races and unit-type bits per map (smac_maps.py), for its formulas.
+const RACES: [(&str, char, char, usize); 23] = [
+    ("3m", 'T', 'T', 0),
+    ("8m", 'T', 'T', 0),
+    ("25m", 'T', 'T', 0),
+    ("5m_vs_6m", 'T', 'T', 0),
+    ("8m_vs_9m", 'T', 'T', 0),
+    ("10m_vs_11m", 'T', 'T', 0),
+    ("27m_vs_30m", 'T', 'T', 0),
+    ("MMM", 'T', 'T', 3),
+    ("MMM2", 'T', 'T', 3),
+    ("2s3z", 'P', 'P', 2),
+    ("3s5z", 'P', 'P', 2),
+    ("3s5z_vs_3s6z", 'P', 'P', 2),
+    ("3s_vs_3z", 'P', 'P', 0),
+    ("3s_vs_4z", 'P', 'P', 0),
+    ("3s_vs_5z", 'P', 'P', 0),
+    ("1c3s5z", 'P', 'P', 3),
+    ("2m_vs_1z", 'T', 'P', 0),
+    ("corridor", 'P', 'Z', 0),
+    ("6h_vs_8z", 'Z', 'P', 0),
+    ("2s_vs_1sc", 'P', 'Z', 0),
+    ("bane_vs_bane", 'Z', 'Z', 2),
+    ("so_many_baneling", 'P', 'Z', 0),
+    ("2c_vs_64zg", 'P', 'Z', 0),
+];
+
+#[test]
+fn smacs_interface_sizes_on_every_map_by_smacs_formulas() {
+    // shared/reference/smac_layout.md's formulas with SMAC's defaults (no last action in the
+    // observation, last actions in the state): what SMAC computes from its registry.
+    for ((name, agents, enemies, limit), (rname, ra, re, tb)) in REGISTRY.into_iter().zip(RACES) {
+        assert_eq!(name, rname);
+        let (sh_a, sh_e) = (usize::from(ra == 'P'), usize::from(re == 'P'));
+        let n_actions = 6 + enemies;
+        let obs = 4 + enemies * (5 + sh_e + tb) + (agents - 1) * (5 + sh_a + tb) + (1 + sh_a + tb);
+        let state = agents * (4 + sh_a + tb) + enemies * (3 + sh_e + tb) + agents * n_actions;
+        let env = Env::new(map(name), EnvConfig::smac(), 1);
+        let info = env.env_info(Team::One);
+        assert_eq!(
+            (info.n_agents, info.n_actions, info.obs_shape, info.state_shape, info.episode_limit),
+            (agents, n_actions, obs, state, limit as usize),
+            "{name}"
+        );
+    }
+}
+
+#[test]
+fn smacs_names_mean_smacs_maps_and_the_papers_have_their_own() {
+    use avacraft_engine::{RENAMED, builtin, renamed, smac_names};
+    assert_eq!(smac_names().count(), 23);
+    for (name, agents, enemies, limit) in REGISTRY {
+        let s = builtin(name).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let units = |s: &Scenario| s.units.iter().map(|u| (u.kind, u.team, u.pos)).collect::<Vec<_>>();
+        assert_eq!(units(&s), units(&map(name)), "{name}: the built-in is SMAC's file");
+        assert_eq!((s.count(Team::One), s.count(Team::Two), s.time_limit_loops), (agents, enemies, limit * 8), "{name}");
+    }
+    // The paper's six scenarios that had SMAC's names: their own now, with their own game.
+    for (old, new) in RENAMED {
+        assert_eq!(renamed(old), Some(*new));
+        let paper = builtin(new).unwrap_or_else(|e| panic!("{new}: {e}"));
+        assert_eq!(paper.name, *new);
+        assert_eq!(paper.time_limit_loops, 6720, "{new}: the paper's 300 s");
+        assert_ne!(paper.time_limit_loops, builtin(old).map(|s| s.time_limit_loops).unwrap_or_default(), "{old}");
+    }
+    assert_eq!(renamed("MMM_vs_MMM"), None);
+}
+
 #[test]
 fn no_fog_shows_every_unit_from_the_start() {
     // 2s_vs_1sc's Spine Crawler stands beyond the Stalkers' sight: with the map's fog off they

@@ -6,8 +6,8 @@ use std::sync::Arc;
 
 #[test]
 fn low_ground_does_not_see_high_ground() {
-    // 2c_vs_64zg: Zerglings on low ground, Colossi on the plateau, within sight range.
-    let s = Arc::new(builtin("2c_vs_64zg").expect("scenario"));
+    // 2c_vs_64zg_vlm: Zerglings on low ground, Colossi on the plateau, within sight range.
+    let s = Arc::new(builtin("2c_vs_64zg_vlm").expect("scenario"));
     let env = Env::new(Arc::clone(&s), exact(), 1);
     let w = env.world();
     let colossus = w.units().iter().find(|u| u.kind == UnitKind::Colossus).expect("colossus");

@@ -34,7 +34,7 @@ fn item(unit: u32, action: Verb) -> Item {
 
 #[test]
 fn refusals_say_what_is_wrong() {
-    let env = state("3m", 1, 6);
+    let env = state("3m_vlm", 1, 6);
     let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
     let cam = camera(&env, &obs);
     let sit = Situation { obs: &obs, camera: &cam, terrain: env.world().terrain() };
@@ -190,10 +190,10 @@ fn the_schema_names_the_tags_there_are_and_bounds_the_list() {
 
 #[test]
 fn targets_are_enemies_in_sight_and_own_units_only_for_those_that_heal() {
-    let env = state("3m", 1, 8);
+    let env = state("3m_vlm", 1, 8);
     let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
     let enemies: Vec<u32> = obs.units.iter().filter(|u| !u.own).map(|u| u.tag).collect();
-    assert!(!enemies.is_empty(), "3m's enemies are in sight after 8 steps of attack-move");
+    assert!(!enemies.is_empty(), "3m_vlm's enemies are in sight after 8 steps of attack-move");
     assert_eq!(targets(&obs), enemies, "Marines act on enemies only");
     // MMM: Medivacs heal other units of theirs.
     let env = state("MMM_vs_MMM", 2, 4);
@@ -253,7 +253,7 @@ proptest! {
         steps in 0u32..30,
         picks in arb_items(),
     ) {
-        let scenario = ["3m", "MMM_vs_MMM", "pvz_ht", "8m3mr1mv1st_vs_5s2c"][which];
+        let scenario = ["3m_vlm", "MMM_vs_MMM", "pvz_ht", "8m3mr1mv1st_vs_5s2c"][which];
         let mut env = state(scenario, 5, steps);
         prop_assume!(!env.done());
         let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);

@@ -116,7 +116,7 @@ fn an_episode_completes_through_every_failure_and_counts_them() {
         Fault::Prose,
     ]);
     let s = setup(Box::new(server.client(0.5)), fast(), None);
-    let env = play("3m", 3, &s, 400);
+    let env = play("3m_vlm", 3, &s, 400);
     assert!(env.done(), "the episode ends");
     eprintln!("outcome {:?} after {} steps", env.outcome(), env.steps());
     assert_eq!(env.refused()[0], 0, "no order AVA gave was refused by the engine");
@@ -151,7 +151,7 @@ fn a_dead_endpoint_falls_back_and_the_episode_ends() {
         schema_mode: avacraft_ava::llm::SchemaMode::JsonSchema,
     });
     let s = setup(Box::new(model), cfg, None);
-    let env = play("3m", 1, &s, 60);
+    let env = play("3m_vlm", 1, &s, 60);
     let c = &s.run.episodes()[0];
     assert!(c.decisions > 0);
     assert_eq!(c.transport_failures, c.decisions, "{c:?}");
@@ -166,7 +166,7 @@ fn a_recorded_episode_replays_exactly_without_the_model() {
     server.push([Fault::Status(500), Fault::BadItems]);
     let dir = tmp("replay");
     let s = setup(Box::new(server.client(5.0)), fast(), Some(&dir));
-    let env = play("3m", 7, &s, 400);
+    let env = play("3m_vlm", 7, &s, 400);
     let calls = server.seen().len();
     let hash = env.trajectory_hash();
     let cost = s.run.episodes();
@@ -175,7 +175,7 @@ fn a_recorded_episode_replays_exactly_without_the_model() {
     let replay = Replay::open(&dir).expect("recording");
     assert_eq!(replay.remaining(), calls, "every call is recorded, failed ones too");
     let r = setup(Box::new(replay), fast(), None);
-    let env2 = play("3m", 7, &r, 400);
+    let env2 = play("3m_vlm", 7, &r, 400);
     assert!(r.run.fatal().is_none(), "{:?}", r.run.fatal());
     assert_eq!(env2.trajectory_hash(), hash, "the replay re-simulates the episode");
     assert_eq!(server.seen().len(), calls, "the replay called no model");
@@ -191,7 +191,7 @@ fn a_recorded_episode_replays_exactly_without_the_model() {
     // Another seed asks other questions: the replay stops instead of answering them.
     let replay = Replay::open(&dir).expect("recording");
     let r = setup(Box::new(replay), fast(), None);
-    let _ = play("3m", 8, &r, 40);
+    let _ = play("3m_vlm", 8, &r, 40);
     let why = r.run.fatal().expect("a diverging replay is fatal");
     assert!(why.contains("differs from the recording"), "{why}");
     let _ = std::fs::remove_dir_all(&dir);
@@ -205,7 +205,7 @@ fn realtime_applies_actions_after_the_model_time() {
     server.push(slow);
     let cfg = AvaConfig { timing: avacraft_ava::Timing::Realtime, planner: false, roles: false, priority: true, ..fast() };
     let s = setup(Box::new(server.client(5.0)), cfg, None);
-    let env = play("3m", 2, &s, 12);
+    let env = play("3m_vlm", 2, &s, 12);
     let c = &s.run.episodes()[0];
     // Lockstep would decide at steps 0, 2, 4, ...; real time waits for the model.
     assert!(c.decisions <= 4, "decisions wait for the model's answers: {c:?}");

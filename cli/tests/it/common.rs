@@ -33,7 +33,7 @@ pub fn write_launch(name: &str, body: &str) -> PathBuf {
     p
 }
 
-/// A 3m checkpoint from a short QMIX run of `avacraft_marl::train` (300 steps: it plays,
+/// A 3m_vlm checkpoint from a short QMIX run of `avacraft_marl::train` (300 steps: it plays,
 /// it need not win), made once per test process in `tmp("marl-3m")`, next to the launch
 /// files `write_launch` writes (so they can name it `marl:marl-3m`).
 pub fn marl_checkpoint() -> &'static Path {
@@ -42,7 +42,7 @@ pub fn marl_checkpoint() -> &'static Path {
         let dir = tmp("marl-3m");
         let overrides = ["t_max=300", "envs=2", "batch_size=4", "test_interval=300", "test_nepisode=2", "episode_limit=60"];
         let cfg = avacraft_marl::Config::for_algo("qmix", &overrides.map(String::from)).expect("config");
-        let scenario = Arc::new(avacraft_engine::Scenario::load("3m").expect("3m"));
+        let scenario = Arc::new(avacraft_engine::Scenario::load("3m_vlm").expect("3m_vlm"));
         let opts = avacraft_marl::RunOptions { scenario, seed: 7, threads: 1, out: Some(dir.clone()) };
         avacraft_marl::train(&cfg, &opts, &mut |_| {}).expect("a short training run");
         dir

@@ -19,11 +19,11 @@ fn launch_on_free_port(name: &str, body: &str) -> serde_json::Value {
 fn launch_3m_with_three_agent_processes_finishes_episodes_and_records_them() {
     let _frames = shm_frames();
     let port = free_port();
-    let mcap = tmp("3m.mcap");
+    let mcap = tmp("3m_vlm.mcap");
     let file = write_launch(
-        "3m.yaml",
+        "3m_vlm.yaml",
         &format!(
-            "scenario: 3m\nepisodes: 2\nseed: 5\nrouter: tcp/127.0.0.1:{port}\nrecord: {}\nframes:\n  kinds: [screen, minimap]\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n",
+            "scenario: 3m_vlm\nepisodes: 2\nseed: 5\nrouter: tcp/127.0.0.1:{port}\nrecord: {}\nframes:\n  kinds: [screen, minimap]\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n",
             mcap.display()
         ),
     );
@@ -94,7 +94,7 @@ fn launch_3m_with_three_agent_processes_finishes_episodes_and_records_them() {
     );
     let parts: Vec<&str> = text.split_whitespace().collect();
     assert!(parts.first().and_then(|n| n.parse::<u32>().ok()).is_some_and(|n| n > 10), "{text}");
-    assert_eq!(parts.get(1), Some(&"3m"), "{text}");
+    assert_eq!(parts.get(1), Some(&"3m_vlm"), "{text}");
     // Replay from the recording alone, and tampered copies of it.
     crate::replay::check_recording(&mcap);
 }
@@ -138,12 +138,12 @@ fn bad_input_is_counted_and_ros_conventions_hold_for_a_plain_zenoh_client() {
     // The test process is the router and the independent client.
     let (session, samples, endpoint, file) = deployment(
         "2m.yaml",
-        "scenario: 2m_vs_1z\nepisodes: 300\nseed: 3\ndeadline_ms: 300\nagents:\n  - per_unit: true\n    team: 1\n    policy: hold\n",
+        "scenario: 2m_vs_1z_vlm\nepisodes: 300\nseed: 3\ndeadline_ms: 300\nagents:\n  - per_unit: true\n    team: 1\n    policy: hold\n",
     );
     let _a1 =
-        start(&["agent-node", "--id", "unit_1", "--units", "1", "--policy", "hold", "--scenario", "2m_vs_1z", "--connect", &endpoint]);
+        start(&["agent-node", "--id", "unit_1", "--units", "1", "--policy", "hold", "--scenario", "2m_vs_1z_vlm", "--connect", &endpoint]);
     let _a2 =
-        start(&["agent-node", "--id", "unit_2", "--units", "2", "--policy", "hold", "--scenario", "2m_vs_1z", "--connect", &endpoint]);
+        start(&["agent-node", "--id", "unit_2", "--units", "2", "--policy", "hold", "--scenario", "2m_vs_1z_vlm", "--connect", &endpoint]);
     let result = tmp("2m.json");
     let sim = start_sim(&file, &result, &endpoint);
     // Wait for the first observation, then inject: garbage on an agent's action topic and an
@@ -245,9 +245,9 @@ fn wait_exit(c: &mut Child, secs: u64) -> bool {
 fn a_killed_agent_gets_no_ops_and_a_restarted_one_rejoins() {
     let (_session, samples, endpoint, file) = deployment(
         "kill.yaml",
-        "scenario: 3m\nepisodes: 4\nseed: 1\ndeadline_ms: 1000\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n",
+        "scenario: 3m_vlm\nepisodes: 4\nseed: 1\ndeadline_ms: 1000\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n",
     );
-    let agent = |id: &str, unit: &str| start(&["agent-node", "--id", id, "--units", unit, "--scenario", "3m", "--connect", &endpoint]);
+    let agent = |id: &str, unit: &str| start(&["agent-node", "--id", id, "--units", unit, "--scenario", "3m_vlm", "--connect", &endpoint]);
     let (mut a1, _a2, _a3) = (agent("unit_1", "1"), agent("unit_2", "2"), agent("unit_3", "3"));
     let result = tmp("kill.json");
     let mut sim = start_sim(&file, &result, &endpoint);
@@ -270,13 +270,13 @@ fn a_killed_agent_gets_no_ops_and_a_restarted_one_rejoins() {
 fn the_recording_survives_a_killed_simulator() {
     let (_session, samples, endpoint, file) = deployment(
         "crash.yaml",
-        "scenario: 3m\nepisodes: 1000\nseed: 1\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n",
+        "scenario: 3m_vlm\nepisodes: 1000\nseed: 1\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n",
     );
     let mcap = tmp("crash.mcap");
     let mut rec = start(&["record", "--out", mcap.to_str().expect("utf8"), "--connect", &endpoint]);
     let _agents: Vec<Child> = (1..=3)
         .map(|u| {
-            start(&["agent-node", "--id", &format!("unit_{u}"), "--units", &u.to_string(), "--scenario", "3m", "--connect", &endpoint])
+            start(&["agent-node", "--id", &format!("unit_{u}"), "--units", &u.to_string(), "--scenario", "3m_vlm", "--connect", &endpoint])
         })
         .collect();
     let mut sim = start(&["sim-node", "--launch", file.to_str().expect("utf8"), "--connect", &endpoint]);
@@ -312,7 +312,7 @@ fn nix_term(c: &Child) -> Result<(), String> {
 fn the_real_time_clock_paces_22_4_loops_per_second() {
     let v = launch_on_free_port(
         "rt.yaml",
-        "scenario: 3m\nclock: realtime\nepisodes: 1\nseed: 2\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n",
+        "scenario: 3m_vlm\nclock: realtime\nepisodes: 1\nseed: 2\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n",
     );
     let e = &v[0];
     let steps = e["steps"].as_f64().unwrap_or(0.0);
@@ -355,7 +355,7 @@ fn deployed_and_in_process_runs_of_a_plan_have_equal_trajectory_hashes() {
     for (name, body) in [
         (
             "per_unit.yaml",
-            "scenario: 3m\nepisodes: 3\nseed: 1\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n".to_owned(),
+            "scenario: 3m_vlm\nepisodes: 3\nseed: 1\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n".to_owned(),
         ),
         ("roles.yaml", roles.lines().filter(|l| !l.starts_with("router:")).collect::<Vec<_>>().join("\n")),
         // Procedural: every process draws the episode's units from its seed.
@@ -403,7 +403,7 @@ fn deployed_and_in_process_marl_policies_have_equal_trajectory_hashes() {
     let name = ckpt.file_name().and_then(|n| n.to_str()).expect("a directory name");
     // Relative to the launch file's directory (both are in the tests' temporary directory).
     let body =
-        |policy: &str| format!("scenario: 3m\nepisodes: 3\nseed: 1\nagents:\n  - per_unit: true\n    team: 1\n    policy: {policy}\n");
+        |policy: &str| format!("scenario: 3m_vlm\nepisodes: 3\nseed: 1\nagents:\n  - per_unit: true\n    team: 1\n    policy: {policy}\n");
     let file = write_launch("marl.yaml", &format!("router: tcp/127.0.0.1:{}\n{}", free_port(), body(&format!("marl:{name}"))));
     let deployed_raw = launch_json(&file);
     for e in deployed_raw.as_array().expect("episodes") {
@@ -426,7 +426,7 @@ fn deployed_and_in_process_marl_policies_have_equal_trajectory_hashes() {
 #[test]
 fn deployed_image_policies_read_the_simulators_frames_and_play_as_in_process() {
     let _frames = shm_frames();
-    let body = "scenario: 3m\nepisodes: 2\nseed: 11\nagents:\n  - {per_unit: true, team: 1, policy: baseline:mappo-rgb}\n";
+    let body = "scenario: 3m_vlm\nepisodes: 2\nseed: 11\nagents:\n  - {per_unit: true, team: 1, policy: baseline:mappo-rgb}\n";
     let file = write_launch("rgb.yaml", &format!("router: tcp/127.0.0.1:{}\n{body}", free_port()));
     let deployed_raw = launch_json(&file);
     for e in deployed_raw.as_array().expect("episodes") {
@@ -436,7 +436,7 @@ fn deployed_image_policies_read_the_simulators_frames_and_play_as_in_process() {
     assert_eq!(deployed.len(), 2);
     assert_eq!(deployed, outcomes(&in_process(&file)), "deployed vs in-process (seed, result, trajectory hash)");
     let out = Command::new(exe())
-        .args(["episode", "--json", "--scenario", "3m", "--agent", "baseline:mappo-rgb", "--seed", "11", "--episodes", "2"])
+        .args(["episode", "--json", "--scenario", "3m_vlm", "--agent", "baseline:mappo-rgb", "--seed", "11", "--episodes", "2"])
         .output()
         .expect("run avacraft episode");
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
@@ -450,7 +450,7 @@ fn deployed_image_policies_read_the_simulators_frames_and_play_as_in_process() {
             .collect()
     };
     assert_eq!(games(&deployed_raw), games(&actor), "deployed vs the frames actor (seed, result, steps)");
-    assert!(games(&actor).iter().all(|g| g.1 == "\"win\""), "the shipped rgb MAPPO wins 3m: {actor}");
+    assert!(games(&actor).iter().all(|g| g.1 == "\"win\""), "the shipped rgb MAPPO wins 3m_vlm: {actor}");
 }
 
 /// A checkpoint that cannot play is refused before any process starts, naming the field;
@@ -464,10 +464,10 @@ fn bad_marl_policies_are_refused_up_front() {
     };
     let on_2m = write_launch(
         "marl_2m.yaml",
-        &format!("scenario: 2m_vs_1z\nagents:\n  - {{per_unit: true, team: 1, policy: marl:{}}}\n", ckpt.display()),
+        &format!("scenario: 2m_vs_1z_vlm\nagents:\n  - {{per_unit: true, team: 1, policy: marl:{}}}\n", ckpt.display()),
     );
-    let missing = write_launch("marl_missing.yaml", "scenario: 3m\nagents:\n  - {per_unit: true, team: 1, policy: marl:no-such-dir}\n");
-    for (file, says) in [(&on_2m, "trained on scenario `3m`, not `2m_vs_1z`"), (&missing, "does not exist")] {
+    let missing = write_launch("marl_missing.yaml", "scenario: 3m_vlm\nagents:\n  - {per_unit: true, team: 1, policy: marl:no-such-dir}\n");
+    for (file, says) in [(&on_2m, "trained on scenario `3m_vlm`, not `2m_vs_1z_vlm`"), (&missing, "does not exist")] {
         for cmd in ["launch", "episode"] {
             let f = file.to_str().expect("utf8");
             let args: Vec<&str> = if cmd == "launch" { vec!["launch", "--json", f] } else { vec!["episode", "--json", "--launch", f] };
@@ -476,10 +476,10 @@ fn bad_marl_policies_are_refused_up_front() {
         }
     }
     let policy = format!("marl:{}", ckpt.display());
-    let (ok, err) = run(&["agent-node", "--id", "a", "--units", "1", "--scenario", "2m_vs_1z", "--policy", &policy]);
-    assert!(!ok && err.contains("--policy") && err.contains("trained on scenario `3m`, not `2m_vs_1z`"), "{err}");
-    let (ok, err) = run(&["episode", "--scenario", "2m_vs_1z", "--agent", &policy, "--episodes", "1"]);
-    assert!(!ok && err.contains("--agent") && err.contains("trained on scenario `3m`, not `2m_vs_1z`"), "{err}");
+    let (ok, err) = run(&["agent-node", "--id", "a", "--units", "1", "--scenario", "2m_vs_1z_vlm", "--policy", &policy]);
+    assert!(!ok && err.contains("--policy") && err.contains("trained on scenario `3m_vlm`, not `2m_vs_1z_vlm`"), "{err}");
+    let (ok, err) = run(&["episode", "--scenario", "2m_vs_1z_vlm", "--agent", &policy, "--episodes", "1"]);
+    assert!(!ok && err.contains("--agent") && err.contains("trained on scenario `3m_vlm`, not `2m_vs_1z_vlm`"), "{err}");
 }
 
 /// AVA as two role-group agent nodes (the instant stand-in model): the deployment plays the
@@ -489,7 +489,7 @@ fn bad_marl_policies_are_refused_up_front() {
 fn ava_role_groups_play_the_same_game_deployed_and_in_process() {
     let body = |calls: &Path| {
         format!(
-            "scenario: 3m\nepisodes: 1\nseed: 3\nava:\n  model: {{kind: synthetic}}\n  record: {}\n  config: {{image_max: 256}}\nagents:\n  - {{id: front, units: [1, 2], policy: ava}}\n  - {{id: back, units: [3], policy: ava}}\n",
+            "scenario: 3m_vlm\nepisodes: 1\nseed: 3\nava:\n  model: {{kind: synthetic}}\n  record: {}\n  config: {{image_max: 256}}\nagents:\n  - {{id: front, units: [1, 2], policy: ava}}\n  - {{id: back, units: [3], policy: ava}}\n",
             calls.display()
         )
     };
@@ -530,7 +530,7 @@ fn in_process_text(name: &str, body: &str) -> serde_json::Value {
 /// refused or late, units did change hands, and the game is the one played in-process.
 #[test]
 fn a_commander_moves_units_between_running_role_groups() {
-    let body = "scenario: 3m\nepisodes: 2\nseed: 7\nagents:\n  - {id: cmd, team: 1, commander: true, policy: rotate}\n  - {id: front, units: [1, 2], policy: focus-fire, role: attacker}\n  - {id: back, units: [3], policy: hold, role: defender}\n";
+    let body = "scenario: 3m_vlm\nepisodes: 2\nseed: 7\nagents:\n  - {id: cmd, team: 1, commander: true, policy: rotate}\n  - {id: front, units: [1, 2], policy: focus-fire, role: attacker}\n  - {id: back, units: [3], policy: hold, role: defender}\n";
     let v = launch_on_free_port("rotate.yaml", body);
     let local = in_process_text("rotate-local.yaml", body);
     for (k, e) in v.as_array().expect("episodes").iter().enumerate() {
@@ -561,7 +561,7 @@ fn a_commander_moves_units_between_running_role_groups() {
 fn an_ava_commander_and_its_role_groups_play_the_same_game_deployed_and_in_process() {
     let body = |calls: &Path| {
         format!(
-            "scenario: 3m\nepisodes: 1\nseed: 4\nava:\n  model: {{kind: synthetic}}\n  record: {}\n  config: {{image_max: 256}}\nagents:\n  - {{id: cmd, team: 1, commander: true, policy: ava}}\n  - {{id: front, units: [1], policy: ava, role: attacker}}\n  - {{id: back, units: [2, 3], policy: ava, role: defender}}\n",
+            "scenario: 3m_vlm\nepisodes: 1\nseed: 4\nava:\n  model: {{kind: synthetic}}\n  record: {}\n  config: {{image_max: 256}}\nagents:\n  - {{id: cmd, team: 1, commander: true, policy: ava}}\n  - {{id: front, units: [1], policy: ava, role: attacker}}\n  - {{id: back, units: [2, 3], policy: ava, role: defender}}\n",
             calls.display()
         )
     };

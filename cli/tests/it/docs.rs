@@ -88,8 +88,8 @@ fn every_command_in_the_docs_parses() {
 
 #[test]
 fn the_extraction_reads_what_a_reader_would_type() {
-    let page = "text `avacraft x`\n```bash\n# a comment\nFOO=1 cargo run --release -p avacraft-cli -- episode --scenario 3m \\\n    --episodes 2   # two\navacraft eval merge --out a b ...\navacraft scenarios\n```\n";
-    assert_eq!(commands(page), vec![vec!["avacraft", "episode", "--scenario", "3m", "--episodes", "2"], vec!["avacraft", "scenarios"]]);
+    let page = "text `avacraft x`\n```bash\n# a comment\nFOO=1 cargo run --release -p avacraft-cli -- episode --scenario 3m_vlm \\\n    --episodes 2   # two\navacraft eval merge --out a b ...\navacraft scenarios\n```\n";
+    assert_eq!(commands(page), vec![vec!["avacraft", "episode", "--scenario", "3m_vlm", "--episodes", "2"], vec!["avacraft", "scenarios"]]);
     // And a refused one is refused.
     assert!(<avacraft_cli::Cli as clap::Parser>::try_parse_from(["avacraft", "episode", "--no-such-flag"]).is_err());
 }
@@ -97,7 +97,7 @@ fn the_extraction_reads_what_a_reader_would_type() {
 /// The cheap commands are run as shown.
 #[test]
 fn the_cheap_commands_run() {
-    for argv in [vec!["avacraft", "scenarios"], vec!["avacraft", "env-info", "--scenario", "3m"]] {
+    for argv in [vec!["avacraft", "scenarios"], vec!["avacraft", "env-info", "--scenario", "3m_vlm"]] {
         let mut out = Vec::new();
         avacraft_cli::run_args(&argv, &mut out).unwrap_or_else(|e| panic!("{argv:?}: {e:#}"));
         assert!(!out.is_empty(), "{argv:?} printed nothing");

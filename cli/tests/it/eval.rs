@@ -37,7 +37,7 @@ fn plan(name: &str) -> std::path::PathBuf {
     let marl = marl_checkpoint();
     let body = format!(
         r#"name = "{name}"
-scenarios = ["3m", "2m_vs_1z"]
+scenarios = ["3m_vlm", "2m_vs_1z_vlm"]
 seeds = [1, 2, 3]
 
 [[agents]]
@@ -51,12 +51,12 @@ policy = "hold"
 [[agents]]
 name = "qmix"
 policy = "marl:{marl}"
-scenarios = ["3m"]
+scenarios = ["3m_vlm"]
 
 [[agents]]
 name = "ava-standin"
 policy = "ava"
-scenarios = ["3m"]
+scenarios = ["3m_vlm"]
 ava = {{ model = {{ kind = "synthetic" }}, record = "calls", config = {{ image = false, decide_every = 4 }} }}
 
 [[headtohead]]
@@ -64,7 +64,7 @@ scenarios = ["MMM_vs_MMM"]
 agents = ["focus-fire", "hold"]
 
 [[curves]]
-name = "qmix 3m"
+name = "qmix 3m_vlm"
 dir = "{marl}"
 "#,
         marl = marl.display()
@@ -80,7 +80,7 @@ fn a_plan_plays_reports_resumes_and_shards_into_the_same_results() {
     let out = tmp("eval-full-out");
     let o = eval(&[p.to_str().expect("utf-8"), "--out", out.to_str().expect("utf-8"), "--threads", "2"]);
     assert!(o.status.success(), "{}", text(&o));
-    // 3m: 4 agents, 2m_vs_1z: 2 (the checkpoint and AVA are limited to 3m), MMM: 4 pairings.
+    // 3m_vlm: 4 agents, 2m_vs_1z_vlm: 2 (the checkpoint and AVA are limited to 3m_vlm), MMM: 4 pairings.
     let all = episodes(&out);
     assert_eq!(all.len(), (4 + 2 + 4) * 3, "{:?}", all.keys().collect::<Vec<_>>());
     for f in ["report.md", "report.csv", "report.json", "winrate.png", "headtohead-MMM_vs_MMM.png", "curves.png", "plan.json"] {
@@ -92,14 +92,14 @@ fn a_plan_plays_reports_resumes_and_shards_into_the_same_results() {
         "### Best of each kind",
         "## Cost per agent",
         "## Head to head on MMM_vs_MMM",
-        "| 3m |",
+        "| 3m_vlm |",
         "ava-standin",
     ] {
         assert!(md.contains(needle), "report lacks `{needle}`:\n{md}");
     }
     let report: avacraft_eval::Report =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).expect("json")).expect("report");
-    let ff = report.cells.iter().find(|c| c.key.scenario == "3m" && c.key.agent == "focus-fire").expect("cell");
+    let ff = report.cells.iter().find(|c| c.key.scenario == "3m_vlm" && c.key.agent == "focus-fire").expect("cell");
     assert_eq!(ff.episodes, 3);
     assert_eq!(ff.wins + ff.draws + ff.losses, 3);
     assert!(ff.win_ci95.0 <= ff.win_rate.mean && ff.win_rate.mean <= ff.win_ci95.1, "{ff:?}");
@@ -111,19 +111,19 @@ fn a_plan_plays_reports_resumes_and_shards_into_the_same_results() {
     let me: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("marl_eval.json")).expect("marl_eval.json")).expect("json");
     // Tasks are grouped by their set of agents (marl-eval needs the same set in every task).
-    let env = me.as_object().and_then(|envs| envs.values().find(|e| e.get("3m").is_some())).expect("an environment with 3m");
-    let ff_runs = &env["3m"]["focus-fire"]["run_1"];
+    let env = me.as_object().and_then(|envs| envs.values().find(|e| e.get("3m_vlm").is_some())).expect("an environment with 3m_vlm");
+    let ff_runs = &env["3m_vlm"]["focus-fire"]["run_1"];
     let wins = ff_runs["absolute_metrics"]["win_rate"].as_array().expect("win_rate");
     assert_eq!(wins.len(), 3);
     assert_eq!(wins.iter().filter_map(serde_json::Value::as_f64).sum::<f64>() as usize, ff.wins);
     assert_eq!(ff_runs["step_1"]["step_count"], 0);
     // The episodes equal what `episode` plays in-process for the same agent and seed.
     let one = Command::new(exe())
-        .args(["episode", "--scenario", "3m", "--agent", "focus-fire", "--seed", "2", "--json"])
+        .args(["episode", "--scenario", "3m_vlm", "--agent", "focus-fire", "--seed", "2", "--json"])
         .output()
         .expect("episode");
     let v: serde_json::Value = serde_json::from_slice(&one.stdout).expect("json");
-    let key = ("3m / focus-fire vs opponent:default".to_owned(), 2);
+    let key = ("3m_vlm / focus-fire vs opponent:default".to_owned(), 2);
     assert_eq!(v["episodes"][0]["trajectory_hash"].as_str(), Some(all[&key].1.as_str()));
 
     // Interrupted: half the lines and a torn last one are left; the rerun plays only the rest.
@@ -180,7 +180,7 @@ fn a_grown_plan_plays_only_its_new_cells_and_a_changed_checkpoint_is_refused() {
         std::fs::copy(marl_checkpoint().join(f), ckpt.join(f)).expect("copy the checkpoint");
     }
     let write = |agents: &[(&str, &str)]| {
-        let mut body = "name = \"grown\"\nscenarios = [\"3m\"]\nseeds = [1, 2]\n".to_owned();
+        let mut body = "name = \"grown\"\nscenarios = [\"3m_vlm\"]\nseeds = [1, 2]\n".to_owned();
         for (name, policy) in agents {
             body.push_str(&format!("\n[[agents]]\nname = \"{name}\"\npolicy = \"{policy}\"\n"));
         }
@@ -212,7 +212,7 @@ fn a_grown_plan_plays_only_its_new_cells_and_a_changed_checkpoint_is_refused() {
     std::fs::write(ckpt.join("agent.safetensors"), w).expect("write");
     let o = run(&write(&[("focus-fire", "focus-fire"), ("qmix", &marl), ("hold", "hold")]));
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success() && err.contains("agent `qmix` on 3m played a policy whose fingerprint"), "{err}");
+    assert!(!o.status.success() && err.contains("agent `qmix` on 3m_vlm played a policy whose fingerprint"), "{err}");
     assert_eq!(episodes(&out), after, "nothing recorded changed");
 }
 
@@ -227,7 +227,7 @@ fn image_baselines_play_pve_from_rendered_frames() {
     let p = dir.join("plan.toml");
     std::fs::write(
         &p,
-        "name = \"rgb\"\nscenarios = [\"3m\"]\nseeds = [7, 8]\n\n[[agents]]\nname = \"mappo-rgb\"\npolicy = \"baseline:mappo-rgb\"\n",
+        "name = \"rgb\"\nscenarios = [\"3m_vlm\"]\nseeds = [7, 8]\n\n[[agents]]\nname = \"mappo-rgb\"\npolicy = \"baseline:mappo-rgb\"\n",
     )
     .expect("plan");
     let out = tmp("eval-rgb-out");
@@ -241,7 +241,7 @@ fn image_baselines_play_pve_from_rendered_frames() {
     let o = run(&[
         "episode",
         "--scenario",
-        "3m",
+        "3m_vlm",
         "--data",
         "legacy",
         "--agent",
@@ -258,7 +258,7 @@ fn image_baselines_play_pve_from_rendered_frames() {
         v["episodes"].as_array().expect("episodes").iter().map(|e| e["trajectory_hash"].as_str().expect("hash")).collect();
     let evaluated: Vec<&str> = all.values().map(|(_, h)| h.as_str()).collect();
     assert_eq!(hashes, evaluated, "episode and eval play the same games");
-    let rgb = repo.join("baselines/3m/mappo-rgb");
+    let rgb = repo.join("baselines/3m_vlm/mappo-rgb");
     let o = run(&["episode", "--scenario", "MMM_vs_MMM", "--agent", &format!("marl:{}", rgb.display())]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("trained on `rgb` observations"), "{err}");
@@ -269,7 +269,7 @@ fn image_baselines_play_pve_from_rendered_frames() {
 #[test]
 fn baseline_agents_play_the_shipped_policy_of_each_scenario() {
     let root = tmp("eval-baselines-root");
-    let qmix = root.join("3m").join("qmix");
+    let qmix = root.join("3m_vlm").join("qmix");
     std::fs::create_dir_all(&qmix).expect("dir");
     for f in ["agent.safetensors", "config.json"] {
         std::fs::copy(marl_checkpoint().join(f), qmix.join(f)).expect("copy");
@@ -279,7 +279,7 @@ fn baseline_agents_play_the_shipped_policy_of_each_scenario() {
     let p = dir.join("plan.toml");
     std::fs::write(
         &p,
-        "name = \"b\"\nscenarios = [\"3m\", \"2m_vs_1z\"]\nseeds = [7, 8]\n\n[[agents]]\nname = \"qmix\"\npolicy = \"baseline:qmix\"\n\n[[agents]]\nname = \"focus-fire\"\npolicy = \"focus-fire\"\n",
+        "name = \"b\"\nscenarios = [\"3m_vlm\", \"2m_vs_1z_vlm\"]\nseeds = [7, 8]\n\n[[agents]]\nname = \"qmix\"\npolicy = \"baseline:qmix\"\n\n[[agents]]\nname = \"focus-fire\"\npolicy = \"focus-fire\"\n",
     )
     .expect("plan");
     let out = tmp("eval-baselines-out");
@@ -289,18 +289,18 @@ fn baseline_agents_play_the_shipped_policy_of_each_scenario() {
         .output()
         .expect("eval");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert!(text(&o).contains("No shipped baseline, so not played: qmix on 2m_vs_1z"), "{}", text(&o));
+    assert!(text(&o).contains("No shipped baseline, so not played: qmix on 2m_vs_1z_vlm"), "{}", text(&o));
     let md = text(&o);
     assert!(md.contains("## MARL against scripted agents") && md.contains("**mean over 1 scenarios**"), "{md}");
     let all = episodes(&out);
-    // qmix on 3m only; focus-fire on both.
+    // qmix on 3m_vlm only; focus-fire on both.
     assert_eq!(all.len(), 2 + 2 * 2, "{:?}", all.keys().collect::<Vec<_>>());
     // The same games as the checkpoint named by its folder.
     for seed in ["7", "8"] {
         let ep = |agent: &str| {
             let o = Command::new(exe())
                 .env("AVACRAFT_BASELINES", &root)
-                .args(["episode", "--scenario", "3m", "--agent", agent, "--seed", seed, "--json"])
+                .args(["episode", "--scenario", "3m_vlm", "--agent", agent, "--seed", seed, "--json"])
                 .output()
                 .expect("episode");
             assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -309,17 +309,17 @@ fn baseline_agents_play_the_shipped_policy_of_each_scenario() {
         };
         let by_name = ep("baseline:qmix");
         assert_eq!(by_name, ep(&format!("marl:{}", qmix.display())));
-        assert_eq!(all[&("3m / qmix vs opponent:default".to_owned(), seed.parse().expect("seed"))].1, by_name);
+        assert_eq!(all[&("3m_vlm / qmix vs opponent:default".to_owned(), seed.parse().expect("seed"))].1, by_name);
     }
     // A scenario without one is refused where it is named, with what is shipped.
     let o = Command::new(exe())
         .env("AVACRAFT_BASELINES", &root)
-        .args(["episode", "--scenario", "3m", "--agent", "baseline:mappo"])
+        .args(["episode", "--scenario", "3m_vlm", "--agent", "baseline:mappo"])
         .output()
         .expect("episode");
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
-        !o.status.success() && err.contains("no shipped `mappo` baseline for scenario `3m`") && err.contains("shipped there: qmix"),
+        !o.status.success() && err.contains("no shipped `mappo` baseline for scenario `3m_vlm`") && err.contains("shipped there: qmix"),
         "{err}"
     );
 }
@@ -330,7 +330,7 @@ fn a_cell_whose_endpoint_is_down_plays_on_fallbacks_and_counts_the_failed_calls(
     std::fs::create_dir_all(&dir).expect("dir");
     let port = std::net::TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).map(|a| a.port()).expect("port");
     let body = format!(
-        r#"scenarios = ["3m"]
+        r#"scenarios = ["3m_vlm"]
 seeds = [5, 6]
 [[agents]]
 name = "focus-fire"
@@ -364,7 +364,7 @@ ava = {{ model = {{ kind = "openai", url = "http://127.0.0.1:{port}/v1", model =
 fn failed_episodes_are_reported_kept_apart_and_played_again() {
     let dir = tmp("eval-fail");
     std::fs::create_dir_all(&dir).expect("dir");
-    let body = r#"scenarios = ["3m"]
+    let body = r#"scenarios = ["3m_vlm"]
 seeds = [1, 2]
 [[agents]]
 name = "focus-fire"
@@ -385,7 +385,7 @@ ava = { model = { kind = "replay", dir = "no-such-recording" } }
         // where the run stands; every cell counts the seeds it plays (AVA's two, not the plan's).
         let err = String::from_utf8_lossy(&o.stderr);
         if round == 0 {
-            assert_eq!(err.matches("FAILED 3m / ava-replay vs opponent:default seed").count(), 2, "{err}");
+            assert_eq!(err.matches("FAILED 3m_vlm / ava-replay vs opponent:default seed").count(), 2, "{err}");
             assert!(err.contains("no-such-recording"), "{err}");
             assert!(err.contains("4/4 episodes; "), "the last episode's line: {err}");
         } else {
@@ -410,19 +410,19 @@ fn plan_mistakes_name_the_field() {
     let dir = tmp("eval-bad");
     std::fs::create_dir_all(&dir).expect("dir");
     let cases = [
-        ("seeds = []\nscenarios = [\"3m\"]\n", "seeds"),
-        ("seeds = [1, 1]\nscenarios = [\"3m\"]\n[[agents]]\nname = \"a\"\npolicy = \"hold\"\n", "seeds[1]"),
+        ("seeds = []\nscenarios = [\"3m_vlm\"]\n", "seeds"),
+        ("seeds = [1, 1]\nscenarios = [\"3m_vlm\"]\n[[agents]]\nname = \"a\"\npolicy = \"hold\"\n", "seeds[1]"),
         ("seeds = [1]\nscenarios = [\"4m\"]\n[[agents]]\nname = \"a\"\npolicy = \"hold\"\n", "scenarios[0]"),
         ("seeds = [1]\nscenarios = [\"MMM_vs_MMM\"]\n[[agents]]\nname = \"a\"\npolicy = \"hold\"\n", "headtohead"),
-        ("seeds = [1]\nscenarios = [\"3m\"]\n[[agents]]\nname = \"a\"\npolicy = \"dance\"\n", "agents[0].policy"),
-        ("seeds = [1]\nscenarios = [\"3m\"]\n[[agents]]\nname = \"a b\"\npolicy = \"hold\"\n", "agents[0].name"),
-        ("seeds = [1]\nscenarios = [\"3m\"]\n[[agents]]\nname = \"a\"\npolicy = \"ava\"\n", "agents[0].policy"),
-        ("seeds = [1]\nscenarios = [\"3m\"]\nopponents = [\"nice\"]\n[[agents]]\nname = \"a\"\npolicy = \"hold\"\n", "opponents[0]"),
+        ("seeds = [1]\nscenarios = [\"3m_vlm\"]\n[[agents]]\nname = \"a\"\npolicy = \"dance\"\n", "agents[0].policy"),
+        ("seeds = [1]\nscenarios = [\"3m_vlm\"]\n[[agents]]\nname = \"a b\"\npolicy = \"hold\"\n", "agents[0].name"),
+        ("seeds = [1]\nscenarios = [\"3m_vlm\"]\n[[agents]]\nname = \"a\"\npolicy = \"ava\"\n", "agents[0].policy"),
+        ("seeds = [1]\nscenarios = [\"3m_vlm\"]\nopponents = [\"nice\"]\n[[agents]]\nname = \"a\"\npolicy = \"hold\"\n", "opponents[0]"),
         (
             "seeds = [1]\n[[agents]]\nname = \"a\"\npolicy = \"hold\"\n[[headtohead]]\nscenarios = [\"MMM_vs_MMM\"]\nagents = [\"b\"]\n",
             "headtohead[0].agents[0]",
         ),
-        ("seeds = [1]\nscenarios = [\"3m\"]\nepisodes = 3\n", "unknown field"),
+        ("seeds = [1]\nscenarios = [\"3m_vlm\"]\nepisodes = 3\n", "unknown field"),
     ];
     for (body, field) in cases {
         let p = dir.join("bad.toml");
@@ -456,7 +456,7 @@ fn the_paper_plan_is_valid() {
         assert!(plan.agents.iter().any(|a| a.name == seed && a.seed_of.as_deref() == Some(of)), "{seed}: a training seed of {of}");
     }
     for agent in ["ippo-rgb", "mappo-rgb"] {
-        assert!(plan.cells.iter().any(|c| c.key.scenario == "3m" && c.key.agent == agent), "{agent} on 3m");
+        assert!(plan.cells.iter().any(|c| c.key.scenario == "3m_vlm" && c.key.agent == agent), "{agent} on 3m_vlm");
     }
     let ava: Vec<_> = plan.cells.iter().filter(|c| c.key.agent == "ava-smollm2-text").collect();
     assert_eq!(ava.len(), 3);
@@ -475,11 +475,11 @@ fn shipped_baselines_win_as_often_as_the_results_table_says() {
     let report: avacraft_eval::Report = serde_json::from_str(&json).expect("the report");
     let mut checked = 0;
     let cases = [
-        ("3m", "qmix"),
-        ("3m", "mappo"),
-        ("2s3z", "qmix"),
-        ("2s3z", "mappo"),
-        ("2m_vs_1z", "qmix"),
+        ("3m_vlm", "qmix"),
+        ("3m_vlm", "mappo"),
+        ("2s3z_vlm", "qmix"),
+        ("2s3z_vlm", "mappo"),
+        ("2m_vs_1z_vlm", "qmix"),
         ("8m1mv_vs_2st", "mappo"),
         ("8m1mv_vs_2st", "qmix"),
     ];
@@ -522,14 +522,14 @@ fn shipped_baselines_win_as_often_as_the_results_table_says() {
 }
 
 /// Without a plan-wide `data`, a trained network's cells play the unit data it learned on
-/// (the shipped 3m QMIX: `legacy`), a script's the scenario's own (Liberty); with one, every
+/// (the shipped 3m_vlm QMIX: `legacy`), a script's the scenario's own (Liberty); with one, every
 /// cell plays it.
 #[test]
 fn each_cell_plays_its_networks_game_unless_the_plan_names_one() {
     let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let text = |data: &str| {
         format!(
-            "name = \"g\"\n{data}scenarios = [\"3m\"]\nseeds = [1]\n\n[[agents]]\nname = \"q\"\npolicy = \"marl:baselines/3m/qmix\"\n\n[[agents]]\nname = \"ff\"\npolicy = \"focus-fire\"\n"
+            "name = \"g\"\n{data}scenarios = [\"3m_vlm\"]\nseeds = [1]\n\n[[agents]]\nname = \"q\"\npolicy = \"marl:baselines/3m_vlm/qmix\"\n\n[[agents]]\nname = \"ff\"\npolicy = \"focus-fire\"\n"
         )
     };
     let game = |plan: &avacraft_eval::Plan, agent: &str| {
@@ -549,14 +549,14 @@ fn each_cell_plays_its_networks_game_unless_the_plan_names_one() {
 fn a_baseline_on_other_unit_data_is_played_with_a_warning() {
     let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let run = |extra: &[&str]| {
-        let mut args = vec!["episode", "--scenario", "3m", "--agent", "baseline:qmix", "--episodes", "1", "--json"];
+        let mut args = vec!["episode", "--scenario", "3m_vlm", "--agent", "baseline:qmix", "--episodes", "1", "--json"];
         args.extend_from_slice(extra);
         let o = Command::new(exe()).env("AVACRAFT_BASELINES", repo.join("baselines")).args(&args).output().expect("episode");
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         String::from_utf8_lossy(&o.stderr).into_owned()
     };
     let warned = run(&[]);
-    assert!(warned.contains("trained on the legacy unit data") && warned.contains("3m plays on liberty"), "{warned}");
+    assert!(warned.contains("trained on the legacy unit data") && warned.contains("3m_vlm plays on liberty"), "{warned}");
     let quiet = run(&["--data", "legacy"]);
     assert!(!quiet.contains("warning"), "{quiet}");
 }

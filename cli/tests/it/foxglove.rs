@@ -55,7 +55,7 @@ fn foxglove_s_own_client_watches_a_live_episode() {
         &[
             "episode",
             "--scenario",
-            "3m",
+            "3m_vlm",
             "--agent",
             "focus-fire",
             "--episodes",
@@ -83,16 +83,16 @@ fn foxglove_s_own_client_watches_a_live_episode() {
     assert_eq!(img["bytes"].as_u64(), Some(640 * 480 * 3));
     let scene = &seen["scene"];
     assert_eq!(scene["schema"], "foxglove.SceneUpdate");
-    // 3m: three marines a side, all alive near the start.
+    // 3m_vlm: three marines a side, all alive near the start.
     assert!(scene["entities"].as_u64().is_some_and(|n| (1..=6).contains(&n)), "{scene}");
     assert_eq!(scene["frame"], "map");
     assert!(scene["label"].as_str().is_some_and(|l| l.contains("Marine")), "{scene}");
-    assert_eq!(seen["status"]["scenario"], "3m");
+    assert_eq!(seen["status"]["scenario"], "3m_vlm");
     assert_eq!(seen["status"]["seed"], 4);
     // The episode's own result is unchanged by being watched.
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("episode JSON");
     let unwatched = Command::new(exe())
-        .args(["episode", "--scenario", "3m", "--agent", "focus-fire", "--episodes", "1", "--seed", "4", "--json"])
+        .args(["episode", "--scenario", "3m_vlm", "--agent", "focus-fire", "--episodes", "1", "--seed", "4", "--json"])
         .output()
         .expect("runs");
     let plain: serde_json::Value = serde_json::from_slice(&unwatched.stdout).expect("episode JSON");
@@ -106,7 +106,7 @@ fn foxglove_s_own_client_watches_a_live_episode() {
 #[test]
 fn a_launch_s_live_log_shows_its_ava_nodes_model_calls() {
     let body = format!(
-        "router: tcp/127.0.0.1:{}\nscenario: 3m\nepisodes: 1\nseed: 4\nava:\n  model: {{kind: synthetic}}\n  record: {}\n  config: {{image_max: 256}}\nagents:\n  - {{id: front, units: [1, 2, 3], policy: ava}}\n",
+        "router: tcp/127.0.0.1:{}\nscenario: 3m_vlm\nepisodes: 1\nseed: 4\nava:\n  model: {{kind: synthetic}}\n  record: {}\n  config: {{image_max: 256}}\nagents:\n  - {{id: front, units: [1, 2, 3], policy: ava}}\n",
         crate::common::free_port(),
         crate::common::tmp("fox-ava-calls").display()
     );
@@ -127,7 +127,7 @@ fn a_launch_s_live_log_shows_its_ava_nodes_model_calls() {
 #[test]
 fn foxglove_flags_are_checked() {
     let run =
-        |args: &[&str]| Command::new(exe()).args(["episode", "--scenario", "3m", "--episodes", "1"]).args(args).output().expect("runs");
+        |args: &[&str]| Command::new(exe()).args(["episode", "--scenario", "3m_vlm", "--episodes", "1"]).args(args).output().expect("runs");
     let bad = run(&["--foxglove", "localhost"]);
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("--foxglove"), "{}", String::from_utf8_lossy(&bad.stderr));
@@ -146,7 +146,7 @@ fn launch_and_replay_serve_the_live_view() {
     use tungstenite::client::IntoClientRequest;
     let mcap = crate::common::tmp("fox.mcap");
     let body = format!(
-        "router: tcp/127.0.0.1:{}\nscenario: 3m\nclock: lockstep\nepisodes: 1\nseed: 9\nrecord: {}\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n",
+        "router: tcp/127.0.0.1:{}\nscenario: 3m_vlm\nclock: lockstep\nepisodes: 1\nseed: 9\nrecord: {}\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n",
         crate::common::free_port(),
         mcap.display()
     );

@@ -188,7 +188,7 @@ fn human_eval_in_headless_chromium() {
     std::fs::write(
         &plan,
         r#"name = "human"
-scenarios = ["3m"]
+scenarios = ["3m_vlm"]
 seeds = [1, 2]
 
 [[agents]]

@@ -91,7 +91,7 @@ pub fn check_recording(mcap: &Path) {
     let copy = tmp("tampered_action.mcap");
     std::fs::write(&copy, &tampered).expect("write");
     let (ok, text) = replay_cli(&copy, &[]);
-    assert!(!ok && text.contains(&format!("episode 0 (seed {}, 3m): MISMATCH: diverges at step {}", ep0.seed, k + 1)), "{text}");
+    assert!(!ok && text.contains(&format!("episode 0 (seed {}, 3m_vlm): MISMATCH: diverges at step {}", ep0.seed, k + 1)), "{text}");
     assert!(text.contains(&format!("recorded state hash {want:016x}")), "{text}");
 
     // Another seed for episode 1: its very first state differs.
@@ -141,9 +141,9 @@ pub fn check_recording(mcap: &Path) {
     assert!(ok && text.contains("is cut short"), "{text}");
 
     // Not MCAP at all.
-    assert!(matches!(read_recording(b"scenario: 3m\n"), Err(ReplayError::NotMcap(_))));
+    assert!(matches!(read_recording(b"scenario: 3m_vlm\n"), Err(ReplayError::NotMcap(_))));
     let copy = tmp("not.mcap");
-    std::fs::write(&copy, b"scenario: 3m\n").expect("write");
+    std::fs::write(&copy, b"scenario: 3m_vlm\n").expect("write");
     let (ok, text) = replay_cli(&copy, &[]);
     assert!(!ok && text.contains("not an MCAP file"), "{text}");
 }

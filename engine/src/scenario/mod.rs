@@ -8,7 +8,7 @@ mod place;
 mod types;
 mod validate;
 
-pub use builtin::{BUILTIN, PROCEDURAL, builtin, builtin_names, procedural_names};
+pub use builtin::{BUILTIN, PROCEDURAL, RENAMED, SMAC, all_names, builtin, builtin_names, procedural_names, renamed, smac_names};
 pub use file::{RawGenerate, RawOpponent, RawScenario, RawStart, RawTerrain, RawUnit, RawUpgrade};
 pub use generate::{Generator, StartDist};
 pub use types::{Mode, OpponentKind, Scenario, ScenarioError, ScenarioUnit, StartOrder, Upgrade};

@@ -21,7 +21,7 @@
 //! decimal numbers (move and attack-move targets, area-effect centres) is rounded to whole
 //! map units, because those coordinates almost never repeat; and each ability is its own
 //! clause with the list's `abilities: ` in front. Nothing is dropped, and nothing is cut at
-//! a token limit any more (the whole 3m text ran past MiniLM's 256 tokens once enemies were
+//! a token limit any more (the whole 3m_vlm text ran past MiniLM's 256 tokens once enemies were
 //! in sight).
 
 use avacraft_engine::{Env, Team, UnitId};
@@ -318,8 +318,8 @@ mod tests {
 
     #[test]
     fn header_lines_cut_into_sentences() {
-        let line = "Scenario 3m (pve), you are player 1. Game time 1.5 s of 120 s (loop 32 of 2688).";
+        let line = "Scenario 3m_vlm (pve), you are player 1. Game time 1.5 s of 120 s (loop 32 of 2688).";
         let s: Vec<&str> = sentences(line).into_iter().map(|r| &line[r]).collect();
-        assert_eq!(s, ["Scenario 3m (pve), you are player 1.", "Game time 1.5 s of 120 s (loop 32 of 2688)."]);
+        assert_eq!(s, ["Scenario 3m_vlm (pve), you are player 1.", "Game time 1.5 s of 120 s (loop 32 of 2688)."]);
     }
 }

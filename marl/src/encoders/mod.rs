@@ -16,7 +16,7 @@
 //!   The projection is one linear layer over the slots' concatenation rather than one
 //!   shared by every slot: a slot's place is what says whose line it is (a clause such as
 //!   `HP 12/45` reads the same in every unit's line), and a shared projection would need
-//!   slot embeddings or a second layer to keep it; at 3m's 8 slots it is 3,072 x 32 weights,
+//!   slot embeddings or a second layer to keep it; at 3m_vlm's 8 slots it is 3,072 x 32 weights,
 //!   small next to the image streams.
 //!
 //! The renderer draws one view per team (the whole playable area, as the Python package's

@@ -1,7 +1,7 @@
 //! Which rows of an `(L, N)` batch a chunk of [`super::net`] computes, packed step by step.
 //!
 //! Why: rows whose outputs nobody reads cost as much as the others. PPO's rows of dead agents
-//! (a third of a rollout on 2s3z at the start of training) are left out of every loss, and
+//! (a third of a rollout on 2s3z_vlm at the start of training) are left out of every loss, and
 //! the Q-learners' padding past an episode's end is masked. A row nobody reads can be skipped
 //! when no row that is read depends on it: for a recurrent network, when every later row of
 //! its sequence up to the next episode start (`keep` 0, which zeroes the hidden state) is

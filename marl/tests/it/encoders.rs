@@ -1,5 +1,5 @@
 //! The image and text encoders of the rgb, hybrid and vision-text modes: shapes, adaptive
-//! pooling, gradients, seeding, and short end-to-end runs on 3m (the text features
+//! pooling, gradients, seeding, and short end-to-end runs on 3m_vlm (the text features
 //! themselves: `tests/it/text.rs`).
 
 use avacraft_engine::Scenario;
@@ -161,7 +161,7 @@ fn parallel_frames_are_the_observers() -> R {
     use avacraft_engine::{Team, VecEnv};
     use avacraft_render::{ObsMode, Observer, RenderConfig};
     let c = cfg(&["obs=rgb", "screen_size=[40, 30]", "minimap_size=[16, 12]"])?;
-    let scenario = Arc::new(Scenario::load("3m")?);
+    let scenario = Arc::new(Scenario::load("3m_vlm")?);
     let mut env = VecEnv::new(scenario, c.env_config(), &[1, 2, 3, 4, 5], 1)?;
     let mut source = avacraft_marl::ObsSource::with_text(&c, None);
     let mut observer = Observer::new(ObsMode::Rgb, RenderConfig::default().with_screen(40, 30).with_minimap(16, 12));
@@ -197,7 +197,7 @@ fn short_run_of(algo: &str, obs: &str, steps: u64, limit: u32, extra: &[&str]) -
     o.push(format!("obs=\"{obs}\""));
     o.extend(extra.iter().map(|s| s.to_string()));
     let c = Config::for_algo(algo, &o)?;
-    let scenario = Arc::new(Scenario::load("3m")?);
+    let scenario = Arc::new(Scenario::load("3m_vlm")?);
     let opts = RunOptions { scenario: Arc::clone(&scenario), seed: 2, threads: 2, out: Some(dir.clone()) };
     let (learner, summary) = train(&c, &opts, &mut |_| {})?;
     assert!(summary.t_env >= steps && summary.updates > 0 && summary.last_loss.is_finite(), "{summary:?}");

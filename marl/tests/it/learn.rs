@@ -1,5 +1,5 @@
 //! The learners on small hand-made data, the checkpoint format, action masking, and a short
-//! end-to-end run on 3m.
+//! end-to-end run on 3m_vlm.
 
 use crate::common;
 
@@ -330,7 +330,7 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
         &["t_max=400", "envs=4", "batch_size=4", "test_interval=200", "test_nepisode=4", "epsilon_anneal_time=300", "episode_limit=20"]
             .map(String::from),
     )?;
-    let scenario = Arc::new(Scenario::load("3m")?);
+    let scenario = Arc::new(Scenario::load("3m_vlm")?);
     let opts = RunOptions { scenario: Arc::clone(&scenario), seed: 5, threads: 2, out: Some(dir.clone()) };
     let mut calls = 0;
     let (trained, summary) = train(&c, &opts, &mut |_| calls += 1)?;
@@ -363,7 +363,7 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
     }
     // A resumed run goes on from the last test round with the log, curves and schedule.
     let (cfg_back, state) = avacraft_marl::resume::load(&dir)?;
-    // The run names the unit data it resolved `map` to: 3m's own, Liberty.
+    // The run names the unit data it resolved `map` to: 3m_vlm's own, Liberty.
     assert_eq!(cfg_back, Config { data: "liberty".into(), ..c.clone() });
     assert!(dir.join("resume/optim.safetensors").is_file(), "the optimiser's state is kept");
     assert_eq!((state.t_env, state.tests.clone()), (summary.t_env, summary.tests.clone()));
@@ -380,11 +380,11 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
 }
 
 /// IQL, VDN and QTRAN (QMIX and PPO have fuller tests above and in `ppo.rs`) each run a
-/// short training on 3m end to end: updates happen, the losses stay finite, the greedy
+/// short training on 3m_vlm end to end: updates happen, the losses stay finite, the greedy
 /// tests run and the checkpoint plays as an engine agent without an invalid order.
 #[test]
 fn short_iql_vdn_and_qtran_runs_on_3m_train_and_play() -> R {
-    let scenario = Arc::new(Scenario::load("3m")?);
+    let scenario = Arc::new(Scenario::load("3m_vlm")?);
     for algo in ["iql", "vdn", "qtran"] {
         let dir = std::env::temp_dir().join(format!("avacraft-marl-e2e-{algo}-{}", std::process::id()));
         let c = Config::for_algo(
@@ -417,7 +417,7 @@ fn short_iql_vdn_and_qtran_runs_on_3m_train_and_play() -> R {
 /// into chunks that depend on the sizes only, and the environments' results on their seeds.
 #[test]
 fn runs_do_not_depend_on_the_thread_count() -> R {
-    let scenario = Arc::new(Scenario::load("3m")?);
+    let scenario = Arc::new(Scenario::load("3m_vlm")?);
     for (algo, extra) in [
         ("qmix", &["batch_size=8", "epsilon_anneal_time=300"][..]),
         ("qmix", &["batch_size=8", "use_rnn=false", "optimizer=adam", "td_lambda=0.6"]),

@@ -11,13 +11,13 @@ use std::sync::Arc;
 type R = Result<(), Box<dyn std::error::Error>>;
 
 fn shipped(run: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../baselines/3m").join(run)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../baselines/3m_vlm").join(run)
 }
 
 #[test]
 fn play_out_plays_the_game_the_engine_agent_plays() -> R {
     let policy = Arc::new(Policy::load(&shipped("qmix"))?);
-    let scenario = Arc::new(Scenario::load("3m")?);
+    let scenario = Arc::new(Scenario::load("3m_vlm")?);
     for seed in [4001, 4002] {
         let p = Arc::clone(&policy);
         let mut controllers = Controllers::new(
@@ -43,7 +43,7 @@ fn play_out_plays_the_game_the_engine_agent_plays() -> R {
 fn an_rgb_policy_plays_out_the_episodes_its_tests_play() -> R {
     let policy = Arc::new(Policy::load(&shipped("mappo-rgb"))?);
     assert_eq!(policy.cfg.obs, ObsKind::Rgb);
-    let scenario = Arc::new(Scenario::load("3m")?);
+    let scenario = Arc::new(Scenario::load("3m_vlm")?);
     let seeds = [4001, 4002];
     let mut won = 0;
     for seed in seeds {
@@ -66,7 +66,7 @@ fn an_rgb_policy_plays_out_the_episodes_its_tests_play() -> R {
 #[test]
 fn an_rgb_agent_shown_frames_plays_the_game_play_out_plays() -> R {
     let policy = Arc::new(Policy::load(&shipped("mappo-rgb"))?);
-    let scenario = Arc::new(Scenario::load("3m")?);
+    let scenario = Arc::new(Scenario::load("3m_vlm")?);
     let agents = |grouping: Grouping| {
         let p = Arc::clone(&policy);
         Controllers::new(&scenario, vec![AgentTeam::new(Team::One, grouping, move || Box::new(MarlAgent::new(Arc::clone(&p), "marl")))])
@@ -99,5 +99,29 @@ fn an_rgb_agent_shown_frames_plays_the_game_play_out_plays() -> R {
     }
     // The games compared lost units, where the bookkeeping of the two paths differs.
     assert!(deaths > 0);
+    Ok(())
+}
+
+/// A checkpoint written before SMAC's maps took SMAC's names: its `3m` is the paper's
+/// scenario, read as `3m_vlm`; one written since keeps `3m` (SMAC's map).
+#[test]
+fn a_checkpoint_from_before_smacs_names_reads_the_papers_new_name() -> R {
+    let dir = std::env::temp_dir().join(format!("avacraft-old-names-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    for f in ["agent.safetensors", "config.json"] {
+        std::fs::copy(shipped("qmix").join(f), dir.join(f))?;
+    }
+    let path = dir.join("config.json");
+    let mut json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path)?)?;
+    let o = json.as_object_mut().ok_or("config.json is an object")?;
+    o.insert("scenario".into(), "3m".into());
+    o.remove("names");
+    std::fs::write(&path, json.to_string())?;
+    let before = Policy::load(&dir)?.scenario;
+    json.as_object_mut().ok_or("object")?.insert("names".into(), 2.into());
+    std::fs::write(&path, json.to_string())?;
+    let since = Policy::load(&dir)?.scenario;
+    std::fs::remove_dir_all(&dir)?;
+    assert_eq!((before.as_str(), since.as_str()), ("3m_vlm", "3m"));
     Ok(())
 }

@@ -1,5 +1,5 @@
 //! IPPO and MAPPO: the update on a fixed batch, masking and sampling, GAE, value
-//! normalisation, checkpoints, reproducibility and short end-to-end runs on 3m.
+//! normalisation, checkpoints, reproducibility and short end-to-end runs on 3m_vlm.
 
 use crate::common;
 
@@ -358,7 +358,7 @@ fn short(algo: &str) -> Result<Config, avacraft_marl::Error> {
 
 #[test]
 fn short_ippo_and_mappo_runs_on_3m_train_checkpoint_reproduce_and_play() -> R {
-    let scenario = Arc::new(Scenario::load("3m")?);
+    let scenario = Arc::new(Scenario::load("3m_vlm")?);
     for algo in ["ippo", "mappo"] {
         let dir = std::env::temp_dir().join(format!("avacraft-ppo-e2e-{algo}-{}", std::process::id()));
         let c = short(algo)?;

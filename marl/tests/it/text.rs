@@ -1,4 +1,4 @@
-//! The vision-text text features: real 3m and 2s3z descriptions cut into clauses and slots,
+//! The vision-text text features: real 3m_vlm and 2s3z_vlm descriptions cut into clauses and slots,
 //! MiniLM's embeddings one at a time, in parallel and padded, features that do not depend
 //! on the cache, the thread count or the on-disk file.
 
@@ -66,7 +66,7 @@ fn tag_of(identity: &str) -> Option<u32> {
 
 #[test]
 fn real_3m_and_2s3z_descriptions_cut_into_clauses_and_slots() -> R {
-    for (name, agents, enemies) in [("3m", 3, 3), ("2s3z", 5, 5)] {
+    for (name, agents, enemies) in [("3m_vlm", 3, 3), ("2s3z_vlm", 5, 5)] {
         let (steps, layout) = play(name, 4, 120, 11)?;
         let (own_tags, enemy_tags) = roster(name)?;
         assert_eq!(layout.slots(), 1 + agents + enemies + 1, "{name}");
@@ -114,14 +114,14 @@ fn real_3m_and_2s3z_descriptions_cut_into_clauses_and_slots() -> R {
 
 #[test]
 fn the_first_3m_and_2s3z_descriptions_give_these_slots_and_clauses() -> R {
-    let (steps, layout) = play("3m", 1, 1, 1)?;
+    let (steps, layout) = play("3m_vlm", 1, 1, 1)?;
     let got: Vec<(usize, String)> = clauses(&steps[0][0], &layout).into_iter().map(|c| (c.slot, c.text.into_owned())).collect();
     let marine = |slot: usize, n: u32, cell: &str| {
         let id = format!("Marine_{n} (tag {n}, Marine)");
         [&*id, "HP 45/45", "weapon ready", cell, "idle", "abilities: stimpack unavailable (needs upgrade)"].map(|t| (slot, t.to_owned()))
     };
     let mut want: Vec<(usize, String)> = [
-        (0, "Scenario 3m (PvE), you are team 1."),
+        (0, "Scenario 3m_vlm (PvE), you are team 1."),
         (0, "Game time 0.0 s of 300 s (loop 0 of 6720)."),
         (0, "Objective: Destroy every enemy unit within 300 seconds of game time."),
         (0, "The map is divided into a 10x10 grid; (1, 1) is the top-left cell and (10, 10) the bottom-right."),
@@ -136,7 +136,7 @@ fn the_first_3m_and_2s3z_descriptions_give_these_slots_and_clauses() -> R {
     want.push((0, "No enemy units in sight (0 destroyed so far); the rest are hidden by fog of war.".to_owned()));
     assert_eq!(got, want);
 
-    let (steps, layout) = play("2s3z", 1, 1, 1)?;
+    let (steps, layout) = play("2s3z_vlm", 1, 1, 1)?;
     let cs = clauses(&steps[0][0], &layout);
     let zealot: Vec<&str> = cs.iter().filter(|c| c.slot == 5).map(|c| &*c.text).collect();
     assert_eq!(zealot, ["Zealot_1 (tag 2, Zealot)", "HP 100/100", "shields 50/50", "weapon ready", "at grid (4, 6)", "idle"]);
@@ -188,7 +188,7 @@ fn distinct(steps: &[Vec<String>], layout: &SlotLayout) -> Vec<String> {
 #[test]
 fn parallel_and_padded_embeddings_equal_one_at_a_time() -> R {
     let model = model()?;
-    let (steps, layout) = play("2s3z", 2, 30, 5)?;
+    let (steps, layout) = play("2s3z_vlm", 2, 30, 5)?;
     let mut texts = distinct(&steps, &layout);
     texts.truncate(40);
     texts.push("Objective: a much longer clause, so that the batch pads the short ones by many tokens.".into());
@@ -226,7 +226,7 @@ fn features(emb: &mut TextEmbedder, steps: &[Vec<String>], layout: &SlotLayout) 
 #[test]
 fn features_do_not_depend_on_the_cache_or_the_thread_count() -> R {
     let model = model()?;
-    let (steps, layout) = play("3m", 3, 40, 21)?;
+    let (steps, layout) = play("3m_vlm", 3, 40, 21)?;
     let width = layout.slots() * TEXT_DIM;
     let mut big = TextEmbedder::new(Arc::clone(&model), 100_000, None);
     let all = features(&mut big, &steps, &layout)?;
@@ -258,7 +258,7 @@ fn features_do_not_depend_on_the_cache_or_the_thread_count() -> R {
 #[test]
 fn the_file_is_used_only_when_it_checks_out() -> R {
     let model = model()?;
-    let (steps, layout) = play("3m", 2, 15, 31)?;
+    let (steps, layout) = play("3m_vlm", 2, 15, 31)?;
     let dir = std::env::temp_dir().join(format!("avacraft-text-file-{}", std::process::id()));
     let path = clause_store::file_in(&dir, model.hash());
     let _ = std::fs::remove_file(&path);

@@ -15,16 +15,16 @@ fn env(name: &str) -> Env {
     Env::new(s, EnvConfig { rules: Rules { cooldown_jitter: false, ..Rules::default() }, ..EnvConfig::default() }, 1)
 }
 
-/// 3m stepped until team 1 sees all three enemy Marines.
+/// 3m_vlm stepped until team 1 sees all three enemy Marines.
 fn env_3m_in_sight() -> Env {
-    let mut e = env("3m");
+    let mut e = env("3m_vlm");
     for _ in 0..60 {
         if GroupObs::team(&e, Team::One, 0, Reads::UNITS).enemies().count() == 3 {
             return e;
         }
         e.step();
     }
-    panic!("3m: the enemy never came in sight");
+    panic!("3m_vlm: the enemy never came in sight");
 }
 
 fn obs(e: &Env) -> GroupObs {
@@ -67,7 +67,7 @@ fn own_units_are_blue_and_seen_enemies_red_at_both_sizes() {
 
 #[test]
 fn units_are_drawn_at_camera_scale_several_times_the_whole_map_size() {
-    let e = env("3m");
+    let e = env("3m_vlm");
     let o = obs(&e);
     let (w, h) = (1920, 1080);
     let layout = vlm_obs_layout(w, h);
@@ -99,7 +99,7 @@ fn units_are_drawn_at_camera_scale_several_times_the_whole_map_size() {
 
 #[test]
 fn ground_the_team_does_not_see_is_darker() {
-    let e = env("3m");
+    let e = env("3m_vlm");
     let o = obs(&e);
     let (w, h) = (960, 540);
     let cam = camera(&e, &o, w, h);
@@ -133,7 +133,7 @@ fn ground_the_team_does_not_see_is_darker() {
 
 #[test]
 fn the_grid_covers_the_view_and_its_cells_sit_where_cell_center_says() {
-    let e = env("3m");
+    let e = env("3m_vlm");
     let o = obs(&e);
     let (w, h) = (1920, 1080);
     let layout = vlm_obs_layout(w, h);
@@ -259,7 +259,7 @@ fn effects_intents_and_highlights_come_from_the_observation() {
 
 #[test]
 fn same_observation_same_pixels_in_process_or_folded_from_agent_messages() {
-    let mut e = env("3m");
+    let mut e = env("3m_vlm");
     for _ in 0..12 {
         e.step();
     }

@@ -1,0 +1,211 @@
+//! `avacraft smac-report`: SMAC's 23 maps, our learners beside the real game's published
+//! results. It reads the training runs of eval/plans/smac.toml (`<runs>/<map>/<run>-s1/log.csv`,
+//! and `heldout.json`, an `avacraft episode --json` report on held-out seeds, where one was
+//! played) and the published numbers (eval/smac/published.toml), and writes the comparison
+//! table (Markdown) and the learning curves of every map in one figure.
+
+use anyhow::{Context, Result, bail};
+use avacraft_engine::smac_names;
+use avacraft_marl::runlog::{LogRow, Panel, grid, read_log};
+use clap::Args;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+#[derive(Args, Debug)]
+pub struct SmacReportArgs {
+    /// The plan's output folder (`<map>/<run>-s1/` under it).
+    #[arg(long, default_value = "runs/smac")]
+    runs: PathBuf,
+    /// The published results (TOML: `[maps.<map>]` with `class` and `qmix_smac`, `qmix_tuned`,
+    /// `mappo` = { value, check }).
+    #[arg(long, default_value = "eval/smac/published.toml")]
+    published: PathBuf,
+    /// Where the figure goes (`curves.png`) and the table (`table.md`).
+    #[arg(long, default_value = "docs/smac")]
+    out: PathBuf,
+    /// Also write the table into this Markdown file, between the lines
+    /// `<!-- smac-report:begin -->` and `<!-- smac-report:end -->`.
+    #[arg(long)]
+    doc: Option<PathBuf>,
+}
+
+/// The learners compared, as the plan names their runs.
+const RUNS: [&str; 2] = ["qmix", "mappo"];
+/// Test rounds whose median is a run's final win rate (the MAPPO paper's rule).
+const LAST_ROUNDS: usize = 10;
+const BEGIN: &str = "<!-- smac-report:begin -->";
+const END: &str = "<!-- smac-report:end -->";
+
+#[derive(Deserialize)]
+struct Published {
+    maps: BTreeMap<String, PublishedMap>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PublishedMap {
+    class: String,
+    qmix_smac: Option<Cell>,
+    qmix_tuned: Option<Cell>,
+    mappo: Option<Cell>,
+}
+
+#[derive(Deserialize, Clone, Copy)]
+#[serde(deny_unknown_fields)]
+struct Cell {
+    value: f64,
+    check: Check,
+}
+
+#[derive(Deserialize, Clone, Copy, PartialEq)]
+enum Check {
+    #[serde(rename = "repo")]
+    Repo,
+    #[serde(rename = "2nd")]
+    Second,
+    #[serde(rename = "u")]
+    Unverified,
+}
+
+impl Cell {
+    fn show(self) -> String {
+        let tag = match self.check {
+            Check::Repo => "",
+            Check::Second => " ²",
+            Check::Unverified => " ᵘ",
+        };
+        format!("{:.0}{tag}", self.value)
+    }
+}
+
+/// One learner's run on one map.
+struct Ours {
+    steps: u64,
+    final_rate: f64,
+    /// Held-out greedy win rate and its episodes.
+    heldout: Option<(f64, usize)>,
+    rows: Vec<LogRow>,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => v[n / 2],
+        n => (v[n / 2 - 1] + v[n / 2]) / 2.0,
+    }
+}
+
+fn ours(dir: &Path) -> Result<Option<Ours>> {
+    if !dir.join("log.csv").is_file() {
+        return Ok(None);
+    }
+    let rows = read_log(dir)?;
+    let Some(last) = rows.last() else { return Ok(None) };
+    let tail: Vec<f64> = rows.iter().rev().take(LAST_ROUNDS).map(|r| r.test_win_rate).collect();
+    let heldout = match std::fs::read_to_string(dir.join("heldout.json")) {
+        Ok(text) => {
+            let r: crate::Report = serde_json::from_str(&text).with_context(|| format!("{}/heldout.json", dir.display()))?;
+            Some((r.summary.win.mean, r.episodes.len()))
+        }
+        Err(_) => None,
+    };
+    Ok(Some(Ours { steps: last.t_env, final_rate: median(tail), heldout, rows }))
+}
+
+fn pct(x: f64) -> String {
+    format!("{:.0}", 100.0 * x)
+}
+
+fn show_ours(o: Option<&Ours>) -> String {
+    match o {
+        None => "not run".into(),
+        Some(o) => {
+            let held = o.heldout.map_or_else(String::new, |(w, n)| format!(" / {} ({n})", pct(w)));
+            format!("{}{held} @ {:.1}M", pct(o.final_rate), o.steps as f64 / 1e6)
+        }
+    }
+}
+
+pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
+    let text = std::fs::read_to_string(&a.published).with_context(|| format!("{}", a.published.display()))?;
+    let published: Published = toml::from_str(&text).with_context(|| format!("{}", a.published.display()))?;
+    for name in published.maps.keys() {
+        if !smac_names().any(|n| n == name) {
+            bail!("{}: `{name}` is not one of SMAC's maps", a.published.display());
+        }
+    }
+    let mut table = String::new();
+    table.push_str(
+        "| map | class | our QMIX | our MAPPO | QMIX (SMAC paper) | QMIX (pymarl2 tuned) | MAPPO (paper) | ours best − published best |\n",
+    );
+    table.push_str("|---|---|---|---|---|---|---|---|\n");
+    let mut panels = Vec::new();
+    let mut gaps = Vec::new();
+    let mut easy = Vec::new();
+    for map in smac_names() {
+        let p = published.maps.get(map).with_context(|| format!("{}: no entry for `{map}`", a.published.display()))?;
+        let runs: Vec<(&str, Option<Ours>)> =
+            RUNS.iter().map(|r| Ok((*r, ours(&a.runs.join(map).join(format!("{r}-s1")))?))).collect::<Result<_>>()?;
+        let best_ours = runs.iter().filter_map(|(_, o)| o.as_ref().map(|o| o.final_rate)).fold(f64::NAN, f64::max);
+        let best_pub = [p.qmix_smac, p.qmix_tuned, p.mappo].iter().flatten().map(|c| c.value).fold(f64::NAN, f64::max);
+        let gap = if best_ours.is_finite() && best_pub.is_finite() {
+            let g = 100.0 * best_ours - best_pub;
+            gaps.push(g);
+            format!("{g:+.0}")
+        } else {
+            "–".into()
+        };
+        if p.class == "easy" {
+            let held = runs.iter().filter_map(|(_, o)| o.as_ref().and_then(|o| o.heldout.map(|h| h.0))).fold(f64::NAN, f64::max);
+            easy.push((map, held));
+        }
+        let cell = |c: Option<Cell>| c.map_or_else(|| "–".to_owned(), Cell::show);
+        table.push_str(&format!(
+            "| {map} | {} | {} | {} | {} | {} | {} | {gap} |\n",
+            p.class,
+            show_ours(runs[0].1.as_ref()),
+            show_ours(runs[1].1.as_ref()),
+            cell(p.qmix_smac),
+            cell(p.qmix_tuned),
+            cell(p.mappo),
+        ));
+        let best_pub_rate = best_pub.is_finite().then_some(best_pub / 100.0);
+        let run_rows: Vec<(String, Vec<LogRow>)> = runs.into_iter().filter_map(|(r, o)| o.map(|o| (r.to_owned(), o.rows))).collect();
+        if !run_rows.is_empty() {
+            panels.push(Panel { title: map.to_owned(), runs: run_rows, reference: best_pub_rate });
+        }
+    }
+    let med = median(gaps.clone());
+    table.push_str(&format!(
+        "\nOurs: the median greedy test win rate (%) of the run's last {LAST_ROUNDS} test rounds (32 episodes each), / the held-out win rate (episodes) where played, @ the steps trained. \
+         Published: ² seen in a secondary copy, ᵘ unverified (the paper's table could not be read), unmarked read in the authors' repository. \
+         Median gap over the {} maps with both: {}.\n",
+        gaps.len(),
+        if med.is_finite() { format!("{med:+.1} points") } else { "none yet".into() }
+    ));
+    let easy_held: Vec<String> =
+        easy.iter().map(|(m, h)| if h.is_finite() { format!("{m} {}", pct(*h)) } else { format!("{m} –") }).collect();
+    table.push_str(&format!("Easy maps, best held-out win rate (%): {}.\n", easy_held.join(", ")));
+    std::fs::create_dir_all(&a.out).with_context(|| format!("{}", a.out.display()))?;
+    std::fs::write(a.out.join("table.md"), &table).with_context(|| format!("{}/table.md", a.out.display()))?;
+    let names: Vec<&str> = RUNS.to_vec();
+    if !panels.is_empty() {
+        grid(&a.out.join("curves.png"), "SMAC's maps: greedy test win rate against environment steps", &names, &panels, 5)?;
+    }
+    if let Some(doc) = &a.doc {
+        let text = std::fs::read_to_string(doc).with_context(|| format!("{}", doc.display()))?;
+        let (Some(b), Some(e)) = (text.find(BEGIN), text.find(END)) else {
+            bail!("{}: no `{BEGIN}` ... `{END}` section to write the table into", doc.display());
+        };
+        if e < b {
+            bail!("{}: `{END}` comes before `{BEGIN}`", doc.display());
+        }
+        let new = format!("{}{BEGIN}\n{table}{}", &text[..b], &text[e..]);
+        std::fs::write(doc, new).with_context(|| format!("{}", doc.display()))?;
+    }
+    write!(out, "{table}")?;
+    Ok(())
+}
