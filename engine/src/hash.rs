@@ -230,9 +230,14 @@ fn hash_unit(h: &mut Fnv, u: &Unit) {
         base_speed,
         status,
         swing,
+        aim,
         // The kind's row in the world's data set, hashed with the world.
         spec: _,
     } = u;
+    // A turret exists only in the game's data sets: hashed for the units that have one.
+    if u.spec.weapons.iter().any(|w| w.timing.turn > 0.0) {
+        h.f32(*aim);
+    }
     // An attack in progress exists only under weapon timing: hashed when there is one.
     if let Some(sw) = swing {
         h.unit(Some(sw.target));
@@ -369,7 +374,7 @@ mod tests {
     /// orders does not see: each must change the hash.
     #[test]
     fn hidden_state_changes_the_hash() {
-        let s = crate::builtin("3m").expect("built in");
+        let s = crate::builtin("3m_vlm").expect("built in");
         let fresh = || World::new(&s, Rules::default(), 1);
         let base = fresh().state_hash();
         assert_eq!(base, fresh().state_hash(), "deterministic");

@@ -125,6 +125,7 @@ impl World {
             return None;
         }
         u.heading = (tpos - u.pos).normalized();
+        u.aim_at(tpos, &w.timing);
         u.activity = Activity::Attacking;
         u.target = Some(sw.target);
         let release = (tick >= sw.fire_at).then_some((sw.target, sw.weapon as usize));
@@ -153,10 +154,12 @@ impl World {
         let stop = w.range + u.radius + tu.radius - 0.05;
         let u = &mut self.units[i];
         u.target = Some(t);
+        // A turret tracks its target while the unit engages it, in range or closing in.
+        let aimed = u.aim_at(tpos, &w.timing);
         if d <= w.range && d >= w.min_range {
             u.heading = (tpos - u.pos).normalized();
             u.activity = Activity::Attacking;
-            return Intent { fire: ready.then_some((t, wi)), closing_on: Some(t), ..Intent::default() };
+            return Intent { fire: (ready && aimed).then_some((t, wi)), closing_on: Some(t), ..Intent::default() };
         }
         if chase && u.speed > 0.0 && d > w.range {
             return Intent { goal: Some((tpos, stop)), closing_on: Some(t), ..Intent::default() };

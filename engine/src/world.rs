@@ -122,6 +122,9 @@ pub struct Unit {
     pub status: Status,
     /// An attack started and not yet over (wind-up or backswing).
     pub(crate) swing: Option<Swing>,
+    /// Where its weapon's turret points (radians, counter-clockwise from east), for
+    /// weapons with a turret ([`crate::units::Timing::turn`]); the unit's facing at the start.
+    pub(crate) aim: f32,
 }
 
 /// An attack in progress: it started at `start`, its effect fires at `fire_at` (the
@@ -182,6 +185,19 @@ impl Unit {
         {
             self.cooldown = sw.cooldown_before;
         }
+    }
+
+    /// Turns the turret of a weapon with `timing` towards `to`, by at most its yaw rate this
+    /// loop, and tells whether it now points within the weapon's `ArcSlop` of it (always true
+    /// for a weapon without a turret: it fires whichever way).
+    pub(crate) fn aim_at(&mut self, to: Vec2, timing: &crate::units::Timing) -> bool {
+        if timing.turn <= 0.0 {
+            return true;
+        }
+        let want = (to - self.pos).angle();
+        let off = wrap_angle(want - self.aim);
+        self.aim = if off.abs() <= timing.turn { want } else { wrap_angle(self.aim + timing.turn.copysign(off)) };
+        wrap_angle(want - self.aim).abs() <= timing.arc_slop
     }
 
     /// Facing in radians, counter-clockwise from east.
@@ -395,6 +411,7 @@ impl World {
                 base_speed: speed,
                 status: Status::default(),
                 swing: None,
+                aim: su.facing,
             });
         }
         let n = units.len();
@@ -602,4 +619,11 @@ impl World {
 
 pub(crate) fn sq(x: f32) -> f32 {
     x * x
+}
+
+/// An angle brought into [-pi, pi].
+fn wrap_angle(a: f32) -> f32 {
+    let tau = std::f32::consts::TAU;
+    let a = a.rem_euclid(tau);
+    if a > std::f32::consts::PI { a - tau } else { a }
 }

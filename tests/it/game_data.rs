@@ -143,7 +143,7 @@ fn range_slop_holds_an_attack_whose_target_steps_back() {
     // An attack starts on a Stalker just inside range, which then walks straight away at 0.185
     // cells a loop. A Liberty Hydralisk (range 5, `RangeSlop` 1, wind-up 4 loops) still lands
     // it 5.7 cells out. The Spine Crawler's weapon has `RangeSlop` 0: past its range 7 before
-    // the 6-loop wind-up ends, the attack is abandoned (the Stalker on 2s_vs_1sc can dodge).
+    // the 6-loop wind-up ends, the attack is abandoned (the Stalker on 2s_vs_1sc_vlm can dodge).
     for (attacker, radius, start, landed) in [("Hydralisk", 0.625, 4.95, true), ("SpineCrawler", 0.875, 6.95, false)] {
         let gap = radius + 0.625 + start;
         let s = on(DataSet::Liberty, &[(attacker, 1, 8.0, 16.0), ("Stalker", 2, 8.0 + gap, 16.0)]);
@@ -186,7 +186,7 @@ fn the_legacy_set_keeps_attacks_instant() {
 #[test]
 fn scenarios_state_their_maps_data_and_refuse_units_the_set_lacks() {
     for (name, data) in
-        [("3m", DataSet::Liberty), ("2s_vs_1sc", DataSet::Liberty), ("mixed_units", DataSet::Void), ("pvz_ht", DataSet::Void)]
+        [("3m_vlm", DataSet::Liberty), ("2s_vs_1sc_vlm", DataSet::Liberty), ("mixed_units", DataSet::Void), ("pvz_ht", DataSet::Void)]
     {
         assert_eq!(builtin(name).expect("built in").data, data, "{name}");
     }
@@ -198,7 +198,7 @@ fn scenarios_state_their_maps_data_and_refuse_units_the_set_lacks() {
         .expect_err("unknown set");
     assert!(e.to_string().contains("data") && e.to_string().contains("liberty, void, ladder, legacy"), "{e}");
     // Another set, and back: the recorded text carries it.
-    let s = builtin("3m").expect("built in").with_data(DataSet::Ladder).expect("ladder has Marines");
+    let s = builtin("3m_vlm").expect("built in").with_data(DataSet::Ladder).expect("ladder has Marines");
     assert_eq!(Scenario::from_toml("again", &s.text).expect("reads back").data, DataSet::Ladder);
 }
 
@@ -229,7 +229,7 @@ fn alternating_fire_wins_2s_vs_1sc_on_liberty() {
     // Stalker fights while its shields last (30 or more), then walks out of the Spine
     // Crawler's reach and rests until its shields are back to 60; the Crawler, rooted, turns
     // to the other. Approach while the Crawler is in the fog.
-    let s = Arc::new(builtin("2s_vs_1sc").expect("built in"));
+    let s = Arc::new(builtin("2s_vs_1sc_vlm").expect("built in"));
     let mut resting = [false; 2];
     let won = wins(&s, &smac(), 1..11, |env| {
         let w = env.world();
@@ -265,11 +265,30 @@ fn alternating_fire_wins_2s_vs_1sc_on_liberty() {
 fn stalkers_kite_zealots_on_3s_vs_3z_on_liberty() {
     // The engine's `kite` agent: shoot when the weapon is ready, step back from Zealots while
     // it reloads.
-    let s = Arc::new(builtin("3s_vs_3z").expect("built in"));
+    let s = Arc::new(builtin("3s_vs_3z_vlm").expect("built in"));
     let env = play(&s, EnvConfig::default(), 1, "kite", "builtin");
     let mut won = (env.outcome() == Some(Outcome::Win)) as usize;
     for seed in 2..11 {
         won += (play(&s, EnvConfig::default(), seed, "kite", "builtin").outcome() == Some(Outcome::Win)) as usize;
     }
     assert!(won >= 9, "kiting won {won} of 10 on Liberty");
+}
+
+#[test]
+fn a_turret_turns_to_its_target_before_the_attack_starts() {
+    // The Spine Crawler's tentacle sits on a turret (TurretData.xml: YawRate 360 degrees per
+    // Normal second, 22.5 a loop; ArcSlop 11.25). A Stalker in front of it (east, where the
+    // Crawler faces) is hit after the 6-loop wind-up; one behind it only after the turret has
+    // turned half a circle, 8 loops more. Weapons without a turret (a Stalker's) fire at once.
+    for (x, first) in [(24.0, 6..=7), (8.0, 13..=15)] {
+        let s = on(DataSet::Liberty, &[("SpineCrawler", 2, 16.0, 16.0), ("Stalker", 1, x, 16.0)]);
+        let mut env = Env::new(s, exact_loop(), 1);
+        env.submit(Team::Two, &[Action::new(uid(0), Command::Attack { target: uid(1) })]);
+        let got = hits(&mut env, uid(1), 30);
+        assert!(got.first().is_some_and(|h| first.contains(&h.0)), "Stalker at x = {x}: first hit {:?}, expected {first:?}", got.first());
+    }
+    let t = DataSet::Liberty.spec(UnitKind::SpineCrawler).weapons[0].timing;
+    assert!((t.turn.to_degrees() - 22.5).abs() < 1e-3 && (t.arc_slop.to_degrees() - 11.25).abs() < 1e-3, "{t:?}");
+    assert_eq!(DataSet::Liberty.spec(UnitKind::Stalker).weapons[0].timing.turn, 0.0);
+    assert_eq!(DataSet::Legacy.spec(UnitKind::SpineCrawler).weapons[0].timing.turn, 0.0, "the legacy game has no turrets");
 }

@@ -26,8 +26,16 @@ const fn weapon(reach: Reach, damage: f32, hits: u8, cooldown_normal_s: f32, ran
 
 /// No wind-up, backswing, slop or missile flight; the random delay of -1 to +2 loops the
 /// engine always drew (the data's -0.0625 to +0.125 Normal seconds).
-const LEGACY_TIMING: Timing =
-    Timing { damage_point: 0.0, backswing: 0.0, range_slop: 0.0, scan: 0.0, delay: [-1.0, 2.0], missile_speed: 0.0 };
+const LEGACY_TIMING: Timing = Timing {
+    damage_point: 0.0,
+    backswing: 0.0,
+    range_slop: 0.0,
+    scan: 0.0,
+    delay: [-1.0, 2.0],
+    missile_speed: 0.0,
+    turn: 0.0,
+    arc_slop: 0.0,
+};
 
 const fn with_bonus(w: Weapon, bonus: &'static [(Attrs, f32)]) -> Weapon {
     Weapon { bonus, ..w }

@@ -141,6 +141,12 @@ pub struct Timing {
     /// The missile's `MaxSpeed` (its mover's fastest phase) in map units per loop; 0 for
     /// weapons whose effect is instant.
     pub missile_speed: f32,
+    /// The weapon's turret (`Turret` in its data; the turret's `YawRate`) in radians per
+    /// loop: before an attack starts the turret turns until the target lies within
+    /// `ArcSlop` of where it points. 0: no turret, the weapon fires whichever way.
+    pub turn: f32,
+    /// `ArcSlop` in radians: how far off the target a turret may point and still fire.
+    pub arc_slop: f32,
 }
 
 /// Regeneration (per loop) and the delays (loops since the last damage) before it starts.
@@ -165,6 +171,17 @@ const fn timing(damage_point: f32, backswing: f32, range_slop: f32, scan: f32, d
         scan,
         delay: [normal_s(delay[0]), normal_s(delay[1])],
         missile_speed: per_normal_s(missile),
+        turn: 0.0,
+        arc_slop: 0.0,
+    }
+}
+
+impl Timing {
+    /// The weapon's turret: its `YawRate` in degrees per Normal second and the weapon's
+    /// `ArcSlop` in degrees.
+    const fn turret(self, yaw_deg: f32, arc_slop_deg: f32) -> Timing {
+        let deg = std::f32::consts::PI / 180.0;
+        Timing { turn: per_normal_s(yaw_deg) * deg, arc_slop: arc_slop_deg * deg, ..self }
     }
 }
 
