@@ -48,3 +48,65 @@ fn a_short_run_resumes_from_its_directory_alone() {
     assert!(err.contains("train-no-run") && err.contains("config.json"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `avacraft smac-report`: a run's log beside the published numbers, one row per SMAC map, the
+/// gap computed, the table written into a document's marked section, the figure drawn; a
+/// published file naming a map SMAC lacks is refused, naming it.
+#[test]
+fn smac_report_sets_runs_beside_published_results() {
+    let dir = tmp("smac-report");
+    let _ = std::fs::remove_dir_all(&dir);
+    let run = dir.join("runs/3m/qmix-s1");
+    std::fs::create_dir_all(&run).expect("run dir");
+    let mut log =
+        String::from("t_env,episodes,updates,epsilon,loss,grad_norm,q_taken,train_win_rate,test_win_rate,test_return,elapsed_s\n");
+    for k in 1..=12 {
+        // The last 10 test rounds: 0.5 twice, then 0.9 eight times: median 0.9.
+        let w = if k <= 4 { 0.5 } else { 0.9 };
+        log.push_str(&format!("{},{k},{k},0.05,0.1,0.1,0.1,0.5,{w},10,{k}\n", k * 10000));
+    }
+    std::fs::write(run.join("log.csv"), log).expect("log");
+    let published = dir.join("published.toml");
+    std::fs::write(&published, "[maps.3m]\nclass = \"easy\"\nmappo = { value = 100.0, check = \"u\" }\n").expect("published");
+    let doc = dir.join("page.md");
+    std::fs::write(&doc, "# page\n<!-- smac-report:begin -->\nold\n<!-- smac-report:end -->\ntail\n").expect("doc");
+    let args = |p: &std::path::Path| {
+        let mut c = Command::new(exe());
+        c.args(["smac-report", "--runs"])
+            .arg(dir.join("runs"))
+            .arg("--published")
+            .arg(p)
+            .arg("--out")
+            .arg(dir.join("out"))
+            .arg("--doc")
+            .arg(&doc);
+        c.output().expect("run avacraft smac-report")
+    };
+    // Every map needs an entry: 3m alone is refused, naming the next map.
+    let out = args(&published);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no entry for `8m`"), "{}", String::from_utf8_lossy(&out.stderr));
+    let mut all = String::new();
+    for m in avacraft_engine::smac_names() {
+        let v = if m == "3m" { "mappo = { value = 100.0, check = \"u\" }\n" } else { "" };
+        all.push_str(&format!("[maps.{m}]\nclass = \"easy\"\n{v}"));
+    }
+    std::fs::write(&published, &all).expect("published");
+    let out = args(&published);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(table.contains("| 3m | easy | 90 @ 0.1M | not run | – | – | 100 ᵘ | -10 |"), "{table}");
+    assert!(table.contains("Median gap over the 1 maps with both: -10.0 points"), "{table}");
+    let page = std::fs::read_to_string(&doc).expect("doc");
+    assert!(
+        page.starts_with("# page\n<!-- smac-report:begin -->\n| map |")
+            && page.ends_with("<!-- smac-report:end -->\ntail\n")
+            && !page.contains("old"),
+        "{page}"
+    );
+    assert!(dir.join("out/curves.png").is_file() && dir.join("out/table.md").is_file());
+    // A map SMAC does not have.
+    std::fs::write(&published, format!("{all}[maps.4m]\nclass = \"easy\"\n")).expect("published");
+    let out = args(&published);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("`4m` is not one of SMAC's maps"), "{}", String::from_utf8_lossy(&out.stderr));
+}
