@@ -163,6 +163,9 @@ pub struct Panel {
     pub title: String,
     pub runs: Vec<(String, Vec<LogRow>)>,
     pub reference: Option<f64>,
+    /// The x axis runs to this many steps at least (the budget), so a run under way shows
+    /// how far it has come.
+    pub budget: u64,
 }
 
 /// Small multiples: each panel's greedy test win rates against environment steps, `cols`
@@ -189,7 +192,7 @@ pub fn grid(path: &Path, title: &str, names: &[&str], panels: &[Panel], cols: us
         head.draw(&PathElement::new(vec![(x, 50), (x + 24, 50)], BLACK.stroke_width(1))).map_err(err)?;
         head.draw(&Text::new("published (best)".to_owned(), (x + 30, 41), ("sans-serif", 17))).map_err(err)?;
         for (area, p) in body.split_evenly((rows, cols)).iter().zip(panels) {
-            let x_max = p.runs.iter().flat_map(|(_, r)| r.iter().map(|r| r.t_env)).max().unwrap_or(1).max(1) as f64;
+            let x_max = p.runs.iter().flat_map(|(_, r)| r.iter().map(|r| r.t_env)).max().unwrap_or(1).max(p.budget).max(1) as f64;
             let mut chart = ChartBuilder::on(area)
                 .caption(&p.title, ("sans-serif", 17))
                 .margin(6)

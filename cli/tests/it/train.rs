@@ -95,8 +95,14 @@ fn smac_report_sets_runs_beside_published_results() {
     let out = args(&published);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let table = String::from_utf8_lossy(&out.stdout);
+    // Still training: shown, not compared.
+    assert!(table.contains("| 3m | easy | 90 @ 0.1M (running) | not run | – | – | 100 ᵘ | – |"), "{table}");
+    assert!(table.contains("maps with a finished run and a published number: none yet"), "{table}");
+    std::fs::write(run.join("done.json"), "{}").expect("done");
+    let out = args(&published);
+    let table = String::from_utf8_lossy(&out.stdout);
     assert!(table.contains("| 3m | easy | 90 @ 0.1M | not run | – | – | 100 ᵘ | -10 |"), "{table}");
-    assert!(table.contains("Median gap over the 1 maps with both: -10.0 points"), "{table}");
+    assert!(table.contains("Median gap over the 1 maps with a finished run and a published number: -10.0 points"), "{table}");
     let page = std::fs::read_to_string(&doc).expect("doc");
     assert!(
         page.starts_with("# page\n<!-- smac-report:begin -->\n| map |")
