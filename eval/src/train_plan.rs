@@ -325,6 +325,14 @@ opponent = "focus-fire"
         let ids: Vec<&str> = v2.jobs.iter().map(|j| j.id.as_str()).collect();
         assert_eq!(ids, ["protoss_5_vs_5/mappo-s1", "protoss_5_vs_5/mappo-s2", "protoss_5_vs_5/qmix-s1"]);
         assert!(v2.jobs.iter().all(|j| j.overrides.contains(&"passive_agents=false".to_owned())));
+        // The PvP league: both learners on the six PvP scenarios, self-play with scripts.
+        let league = load_train_plan(&dir.join("pvp_league.toml")).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(league.jobs.len(), 12);
+        assert!(
+            league.jobs.iter().all(|j| j.overrides.iter().any(|o| o.starts_with("self_play_scripts=[\"focus-fire\""))),
+            "{:?}",
+            league.jobs[0].overrides
+        );
         // SMAC's 23 maps: QMIX and MAPPO on each at SMAC's budgets (10M on the super-hard ones).
         let smac = load_train_plan(&dir.join("smac.toml")).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(smac.jobs.len(), 2 * 23);

@@ -107,6 +107,14 @@ pub struct Config {
     /// Self-play: snapshots kept in the pool (team 2 draws one per episode).
     #[serde(default = "default_self_play_pool")]
     pub self_play_pool: usize,
+    /// Self-play as a small league: scripted agents that join the snapshots in team 2's pool
+    /// (e.g. `["focus-fire", "kite", "attack-move", "random"]`); empty: snapshots only.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub self_play_scripts: Vec<String>,
+    /// The share of episodes in which team 2 plays one of `self_play_scripts` (drawn
+    /// uniformly) instead of a snapshot; every episode before the first snapshot does.
+    #[serde(default = "default_script_share", skip_serializing_if = "is_default_script_share")]
+    pub self_play_script_share: f64,
     /// PvP: fixed opponents every test round also plays (greedy), logged as
     /// `test_win_rate_vs_<name>` and drawn in the curves; under self-play, empty means
     /// attack-move and focus-fire.
@@ -274,6 +282,9 @@ impl Config {
         table.entry("conic_fov").or_insert(toml::Value::Boolean(false));
         table.entry("num_fov_actions").or_insert(toml::Value::Integer(12));
         table.entry("data").or_insert(toml::Value::String(MAP_DATA.to_owned()));
+        // Self-play's league, off unless set.
+        table.entry("self_play_scripts").or_insert(toml::Value::Array(Vec::new()));
+        table.entry("self_play_script_share").or_insert(toml::Value::Float(default_script_share()));
         for o in overrides {
             let Some((key, value)) = o.split_once('=') else {
                 return Err(Error::Override { text: o.clone(), message: "expected key=value".into() });
@@ -349,6 +360,20 @@ impl Config {
         }
         at_least("self_play_every", self.self_play_every, 1)?;
         at_least("self_play_pool", self.self_play_pool, 1)?;
+        for (i, name) in self.self_play_scripts.iter().enumerate() {
+            if avacraft_engine::agent::factory(name).is_err() {
+                let known: Vec<&str> = avacraft_engine::agent::AGENTS.iter().map(|(n, _)| *n).collect();
+                return Err(bad(
+                    &format!("self_play_scripts[{i}]"),
+                    format!("{name:?}"),
+                    &format!("one of {}", known.join(", ")),
+                    "\"focus-fire\"",
+                ));
+            }
+        }
+        if !(0.0..=1.0).contains(&self.self_play_script_share) {
+            return Err(bad("self_play_script_share", self.self_play_script_share.to_string(), "a share between 0 and 1", "0.5"));
+        }
         at_least("envs", self.envs, 1)?;
         at_least("rnn_hidden_dim", self.rnn_hidden_dim, 1)?;
         if self.is_ppo() {
@@ -615,6 +640,14 @@ fn default_self_play_every() -> u64 {
 
 fn default_self_play_pool() -> usize {
     5
+}
+
+fn default_script_share() -> f64 {
+    0.5
+}
+
+fn is_default_script_share(v: &f64) -> bool {
+    *v == default_script_share()
 }
 
 /// Who plays team 2 of a PvP scenario while team 1 learns (the config's `opponent`).

@@ -5,6 +5,10 @@
 //! between vector steps, in the training loop's thread: a run stays a function of its config
 //! and seed, whatever the thread count.
 //!
+//! With `self_play_scripts` the pool is a small league: in a `self_play_script_share` of the
+//! episodes (all of them before the first snapshot) team 2 plays one of those scripted agents
+//! instead, drawn uniformly, so the learner keeps meeting opponents unlike itself.
+//!
 //! Snapshots are written to `<run>/selfplay/u<updates>/` as they are taken, so a resumed run
 //! finds the pool it had (those taken up to its last checkpoint); at each test round those
 //! no checkpoint can need any more are deleted, but the first (the run's start).
@@ -125,6 +129,20 @@ impl Pool {
         Some(Arc::clone(&s[i].1))
     }
 
+    /// Who team 2 is in the episode whose team-2 agent seed is `seed`: one of the league's
+    /// scripted agents (by name) in `self_play_script_share` of the episodes and whenever no
+    /// snapshot exists yet, else a snapshot ([`Pool::draw`]). `None`: nobody (no snapshot and
+    /// no scripts).
+    pub fn pick(&self, seed: u64) -> Option<Pick> {
+        let scripts = &self.cfg.self_play_scripts;
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x1ea6_0000_0000_0002);
+        let empty = self.read().is_none_or(|s| s.is_empty());
+        if !scripts.is_empty() && (empty || rng.random_bool(self.cfg.self_play_script_share)) {
+            return Some(Pick::Script(scripts[rng.random_range(0..scripts.len())].clone()));
+        }
+        self.draw(seed).map(Pick::Snapshot)
+    }
+
     /// Team 2's agent factory: each episode's agent plays a snapshot drawn from the pool.
     pub fn factory(self: &Arc<Self>) -> avacraft_engine::OpponentFactory {
         let pool = Arc::clone(self);
@@ -132,10 +150,20 @@ impl Pool {
     }
 }
 
-/// Team 2 under self-play: a [`MarlAgent`] on the snapshot drawn for the episode.
+/// Team 2's opponent in one self-play episode ([`Pool::pick`]).
+#[derive(Clone, Debug)]
+pub enum Pick {
+    /// A scripted agent of the league, by name.
+    Script(String),
+    /// A snapshot of the learner.
+    Snapshot(Arc<Policy>),
+}
+
+/// Team 2 under self-play: a [`MarlAgent`] on the snapshot drawn for the episode, or one of
+/// the league's scripted agents.
 struct PoolAgent {
     pool: Arc<Pool>,
-    inner: Option<MarlAgent>,
+    inner: Option<Box<dyn Agent>>,
 }
 
 impl Agent for PoolAgent {
@@ -146,7 +174,12 @@ impl Agent for PoolAgent {
         Reads { smac: true, text: false }
     }
     fn reset(&mut self, ctx: &AgentCtx) {
-        self.inner = self.pool.draw(ctx.seed).map(|p| MarlAgent::new(p, "self"));
+        self.inner = match self.pool.pick(ctx.seed) {
+            // Names were checked with the config.
+            Some(Pick::Script(name)) => avacraft_engine::agent::factory(&name).ok().map(|make| make()),
+            Some(Pick::Snapshot(p)) => Some(Box::new(MarlAgent::new(p, "self")) as Box<dyn Agent>),
+            None => None,
+        };
         if let Some(a) = self.inner.as_mut() {
             a.reset(ctx);
         }

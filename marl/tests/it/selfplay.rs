@@ -142,3 +142,37 @@ fn bad_opponents_are_refused_by_field() {
     }
     assert!(config(&["opponent=\"scripted:focus-fire\"", "test_opponents=[\"kite\"]"]).is_ok());
 }
+
+/// A league: scripted agents join the snapshots. Team 2 plays a script in every episode
+/// before the first snapshot and in about `self_play_script_share` of them after, drawn by the
+/// episode's seed; names the engine does not know are refused with the config.
+#[test]
+fn a_league_mixes_scripted_agents_with_snapshots() -> R {
+    use avacraft_marl::selfplay::Pick;
+    let scenario = arena()?;
+    let cfg = config(&["self_play_scripts=[\"kite\", \"attack-move\"]", "self_play_script_share=0.25"])?;
+    let probe = avacraft_engine::VecEnv::new(Arc::clone(&scenario), cfg.env_config(), &[0], 1)?;
+    let shape = Shape::of(&probe);
+    let pool = Pool::new(&cfg, shape, &scenario.name, None);
+    let scripts = |pool: &Pool| (0..400u64).filter(|s| matches!(pool.pick(*s), Some(Pick::Script(_)))).count();
+    assert_eq!(scripts(&pool), 400, "no snapshot yet: every episode plays a script");
+    pool.maybe_snapshot(&Nets::new(&cfg, &shape, 1)?, 2)?;
+    let n = scripts(&pool);
+    assert!((60..=140).contains(&n), "{n} of 400 episodes drew a script at a share of 0.25");
+    let names: std::collections::BTreeSet<String> = (0..400u64)
+        .filter_map(|s| match pool.pick(s) {
+            Some(Pick::Script(n)) => Some(n),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(names.into_iter().collect::<Vec<_>>(), ["attack-move", "kite"]);
+    let again: Vec<bool> = (0..50u64).map(|s| matches!(pool.pick(s), Some(Pick::Script(_)))).collect();
+    assert_eq!(
+        again,
+        (0..50u64).map(|s| matches!(pool.pick(s), Some(Pick::Script(_)))).collect::<Vec<_>>(),
+        "a pick is a function of the seed"
+    );
+    let e = config(&["self_play_scripts=[\"kyte\"]"]).err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(e.contains("self_play_scripts[0]") && e.contains("kyte"), "{e}");
+    Ok(())
+}
