@@ -46,6 +46,7 @@ pub mod learner;
 pub mod monitor;
 pub mod nets;
 pub mod observe;
+mod opponent;
 pub mod optim;
 pub mod params;
 pub mod plot;

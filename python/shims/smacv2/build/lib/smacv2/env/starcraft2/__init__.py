@@ -1,0 +1,1 @@
+__avacraft__ = True
