@@ -46,7 +46,8 @@ enum EvalCmd {
         #[arg(required = true)]
         shards: Vec<PathBuf>,
     },
-    /// Write the report of an evaluation folder again (e.g. while a run is going on).
+    /// Write the report of an evaluation folder again (e.g. while a run is going on); given
+    /// a published `report.json` instead (its folder gone), write its document again.
     Report { dir: PathBuf },
 }
 
@@ -159,6 +160,9 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
 }
 
 fn report(dir: &Path, out: &mut dyn Write, print: bool) -> Result<()> {
+    if dir.is_file() {
+        return report_from_json(dir, out, print);
+    }
     let meta = avacraft_eval::read_meta(dir)?;
     let loaded = avacraft_eval::read(&dir.join(avacraft_eval::RESULTS_FILE))?;
     for why in &loaded.unreadable {
@@ -175,6 +179,27 @@ fn report(dir: &Path, out: &mut dyn Write, print: bool) -> Result<()> {
         writeln!(out, "{}", r.markdown())?;
     }
     for f in files {
+        writeln!(out, "wrote {}", f.display())?;
+    }
+    Ok(())
+}
+
+/// The document of a published `report.json` written again (the tables and plots from its
+/// numbers; the plots drawn in a scratch folder first).
+fn report_from_json(path: &Path, out: &mut dyn Write, print: bool) -> Result<()> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("eval report: reading {}", path.display()))?;
+    let r: Report = serde_json::from_str(&text).with_context(|| format!("eval report: {} is not a report.json", path.display()))?;
+    if r.meta.document.is_none() {
+        bail!("eval report: {} names no document to write (its plan had no `document`)", path.display());
+    }
+    let scratch = std::env::temp_dir().join(format!("avacraft-report-{}", std::process::id()));
+    std::fs::create_dir_all(&scratch).with_context(|| format!("eval report: creating {}", scratch.display()))?;
+    let files = r.write(&scratch);
+    let _ = std::fs::remove_dir_all(&scratch);
+    if print {
+        writeln!(out, "{}", r.markdown())?;
+    }
+    for f in files?.iter().filter(|f| !f.starts_with(&scratch)) {
         writeln!(out, "wrote {}", f.display())?;
     }
     Ok(())

@@ -15,6 +15,7 @@ mod report;
 mod results;
 mod run;
 mod stats;
+mod summary;
 mod train_plan;
 
 pub use marl_eval::{MARL_EVAL_METRICS, marl_eval_json};

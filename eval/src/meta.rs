@@ -85,6 +85,20 @@ impl Meta {
         self.seed_of.iter().any(|(a, _)| a == agent)
     }
 
+    /// The agent whose last checkpoint `agent` plays (`baseline:qmix@last` is qmix's, where
+    /// the plan has an agent playing `baseline:qmix`).
+    pub(crate) fn last_of(&self, agent: &str) -> Option<&str> {
+        let (_, _, spec) = self.agents.iter().find(|(n, _, _)| n == agent)?;
+        let run = spec.strip_suffix(avacraft_marl::baselines::LAST_SUFFIX)?;
+        self.agents.iter().find(|(_, _, s)| s == run).map(|(n, _, _)| n.as_str())
+    }
+
+    /// Whether `agent` is another agent's training seed or last checkpoint: a variant of
+    /// it, left out where one agent stands for each learner.
+    pub(crate) fn is_variant(&self, agent: &str) -> bool {
+        self.is_seed(agent) || self.last_of(agent).is_some()
+    }
+
     pub(crate) fn kind(&self, agent: &str) -> Option<AgentKind> {
         self.agents.iter().find(|(n, _, _)| n == agent).map(|(_, k, _)| *k)
     }

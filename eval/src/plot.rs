@@ -1,9 +1,10 @@
 //! The report's plots (PNG, plotters, DejaVu Sans from the `dejavu` crate so no system font
-//! is needed): win rates per scenario and agent with their 95% intervals, a head-to-head
+//! is needed): a heat map of every agent's win rate on every scenario, a head-to-head
 //! heatmap per PvP scenario, and the MARL learning curves of the plan's training runs.
 
 use crate::EvalError;
 use crate::meta::Meta;
+use crate::plan::AgentKind;
 use crate::stats::CellStats;
 use avacraft_marl::plot::Png;
 use plotters::prelude::*;
@@ -40,14 +41,21 @@ const PALETTE: [RGBColor; 8] = [
 pub fn all(meta: &Meta, cells: &[CellStats], dir: &Path) -> Result<Vec<PathBuf>, EvalError> {
     font()?;
     let mut files = Vec::new();
-    let pve: Vec<_> = cells.iter().filter(|c| c.key.against.starts_with("opponent:")).collect();
-    if !pve.is_empty() {
-        let p = dir.join("winrate.png");
+    if !cells.is_empty() {
+        let p = dir.join(WIN_RATES);
         win_rates(meta, cells, &p)?;
         files.push(p);
     }
     let mut pvp: Vec<&str> = cells.iter().filter(|c| !c.key.against.starts_with("opponent:")).map(|c| c.key.scenario.as_str()).collect();
-    pvp.dedup();
+    let mut seen: Vec<&str> = Vec::new();
+    pvp.retain(|sc| {
+        if seen.contains(sc) {
+            false
+        } else {
+            seen.push(sc);
+            true
+        }
+    });
     for sc in pvp {
         let p = dir.join(format!("headtohead-{sc}.png"));
         heatmap(meta, cells, sc, &p)?;
@@ -61,76 +69,93 @@ pub fn all(meta: &Meta, cells: &[CellStats], dir: &Path) -> Result<Vec<PathBuf>,
     Ok(files)
 }
 
-/// Grouped bars: one group per (scenario, opponent), one bar per agent, whiskers at the 95%
-/// interval.
+/// The file name of the win-rate heat map that opens the report.
+pub(crate) const WIN_RATES: &str = "winrate.png";
+
+/// An agent's win rate on a scenario as the report compares agents: PvE against the
+/// scenario's own opponent, PvP the mean over the scripted agents it met on team 2.
+fn versus_scripted(meta: &Meta, cells: &[CellStats], scenario: &str, agent: &str) -> Option<f64> {
+    let rates: Vec<f64> = cells
+        .iter()
+        .filter(|c| c.key.scenario == scenario && c.key.agent == agent)
+        .filter(|c| c.key.against == "opponent:default" || meta.kind(&c.key.against) == Some(AgentKind::Scripted))
+        .map(|c| c.win_rate.mean)
+        .collect();
+    (!rates.is_empty()).then(|| rates.iter().sum::<f64>() / rates.len() as f64)
+}
+
+/// Blues, from near white at 0 to dark blue at 1: the darker, the more won.
+fn blues(v: f64) -> RGBColor {
+    let v = v.clamp(0.0, 1.0);
+    let mix = |lo: f64, hi: f64| (lo + (hi - lo) * v).round() as u8;
+    RGBColor(mix(240.0, 8.0), mix(246.0, 48.0), mix(252.0, 107.0))
+}
+
+/// One row per scenario (PvE, then PvP), one column per agent in plan order, each
+/// cell the win rate written in it: every agent on every scenario in one picture.
 fn win_rates(meta: &Meta, cells: &[CellStats], path: &Path) -> Result<(), EvalError> {
-    let cells: Vec<_> = cells.iter().filter(|c| c.key.against.starts_with("opponent:")).collect();
-    let mut groups: Vec<(String, String)> = Vec::new();
-    for c in &cells {
-        let g = (c.key.scenario.clone(), c.key.against.clone());
-        if !groups.contains(&g) {
-            groups.push(g);
+    let mut scenarios: Vec<(&str, bool)> = Vec::new();
+    for pvp in [false, true] {
+        for c in cells {
+            let sc = c.key.scenario.as_str();
+            if c.key.against.starts_with("opponent:") != pvp && !scenarios.iter().any(|(s, _)| *s == sc) {
+                scenarios.push((sc, pvp));
+            }
         }
     }
-    let agents: Vec<&str> = meta.agents.iter().map(|(n, _, _)| n.as_str()).filter(|a| cells.iter().any(|c| c.key.agent == *a)).collect();
-    let width = (160 + groups.len() * (agents.len() * 18 + 24)).clamp(700, 4000) as u32;
-    let mut canvas = Png::new((width, 560));
+    let agents: Vec<&str> = meta
+        .agents
+        .iter()
+        .map(|(n, _, _)| n.as_str())
+        .filter(|a| scenarios.iter().any(|(sc, _)| versus_scripted(meta, cells, sc, a).is_some()))
+        .collect();
+    let (cw, ch) = (66i32, 26i32);
+    let left = 16 + 9 * scenarios.iter().map(|(s, p)| s.chars().count() as i32 + if *p { 6 } else { 0 }).max().unwrap_or(8);
+    let top = 44 + 8 * agents.iter().map(|a| a.chars().count() as i32).max().unwrap_or(6);
+    let (w, h) = (left + cw * agents.len() as i32 + 16, top + ch * scenarios.len() as i32 + 40);
+    let mut canvas = Png::new((w.max(400) as u32, h as u32));
     {
         let root = canvas.area();
         root.fill(&WHITE).map_err(err)?;
-        let opponents: Vec<&str> = {
-            let mut v: Vec<&str> = groups.iter().map(|(_, o)| o.as_str()).collect();
-            v.dedup();
-            v
-        };
-        let label = |i: usize| {
-            groups.get(i).map_or(String::new(), |(s, o)| {
-                if opponents.len() > 1 { format!("{s} ({})", o.trim_start_matches("opponent:")) } else { s.clone() }
-            })
-        };
-        let mut chart = ChartBuilder::on(&root)
-            .caption(format!("Win rate per scenario: {}", meta.name), ("sans-serif", 22))
-            .margin(12)
-            .x_label_area_size(210)
-            .y_label_area_size(50)
-            .build_cartesian_2d(0.0..groups.len().max(1) as f64, 0.0..1.05)
-            .map_err(err)?;
-        // The mesh's own x labels go at "nice" numbers of the float axis, so with many groups
-        // some are skipped and the rest sit off the groups' centres: each group's name is drawn
-        // under its centre instead.
-        chart.configure_mesh().disable_x_mesh().x_labels(0).x_label_formatter(&|_| String::new()).y_desc("win rate").draw().map_err(err)?;
-        let style = ("sans-serif", 13).into_text_style(&root).transform(FontTransform::Rotate90);
-        for gi in 0..groups.len() {
-            let (px, py) = chart.backend_coord(&(gi as f64 + 0.5, 0.0));
-            root.draw(&Text::new(label(gi), (px + 6, py + 6), style.clone())).map_err(err)?;
+        let title = ("sans-serif", 20).into_font().color(&BLACK);
+        root.draw(&Text::new(format!("Win rate per scenario and agent: {}", meta.name), (12, 10), title)).map_err(err)?;
+        let label = ("sans-serif", 15).into_font().color(&BLACK).pos(Pos::new(HPos::Right, VPos::Center));
+        let head = ("sans-serif", 15).into_font().color(&BLACK).transform(FontTransform::Rotate270).pos(Pos::new(HPos::Left, VPos::Center));
+        for (i, a) in agents.iter().enumerate() {
+            let x = left + cw * i as i32 + cw / 2;
+            root.draw(&Text::new((*a).to_owned(), (x, top - 6), head.clone())).map_err(err)?;
         }
-        let n = agents.len().max(1) as f64;
-        for (ai, a) in agents.iter().enumerate() {
-            let color = PALETTE[ai % PALETTE.len()];
-            let bars: Vec<(f64, f64, (f64, f64))> = groups
-                .iter()
-                .enumerate()
-                .filter_map(|(gi, (s, o))| {
-                    cells.iter().find(|c| &c.key.scenario == s && &c.key.against == o && c.key.agent == *a).map(|c| {
-                        let x = gi as f64 + 0.1 + 0.8 * ai as f64 / n;
-                        (x, c.win_rate.mean, c.win_ci95)
-                    })
-                })
-                .collect();
-            let w = 0.8 / n;
-            chart
-                .draw_series(bars.iter().map(|(x, y, _)| Rectangle::new([(*x, 0.0), (*x + w * 0.9, *y)], color.filled())))
-                .map_err(err)?
-                .label(*a)
-                .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], color.filled()));
-            chart
-                .draw_series(
-                    bars.iter()
-                        .map(|(x, _, (lo, hi))| PathElement::new(vec![(*x + w * 0.45, *lo), (*x + w * 0.45, *hi)], BLACK.stroke_width(1))),
-                )
-                .map_err(err)?;
+        for (r, (sc, pvp)) in scenarios.iter().enumerate() {
+            let y = top + ch * r as i32;
+            let name = if *pvp { format!("{sc} (PvP)") } else { (*sc).to_owned() };
+            root.draw(&Text::new(name, (left - 8, y + ch / 2), label.clone())).map_err(err)?;
+            for (i, a) in agents.iter().enumerate() {
+                let x = left + cw * i as i32;
+                let cell = [(x, y), (x + cw - 2, y + ch - 2)];
+                let v = versus_scripted(meta, cells, sc, a);
+                let fill = v.map_or(RGBColor(225, 225, 225), blues);
+                root.draw(&Rectangle::new(cell, fill.filled())).map_err(err)?;
+                let ink = if v.is_some_and(|v| v > 0.55) { WHITE } else { BLACK };
+                let text = v.map_or("–".to_owned(), |v| format!("{v:.2}"));
+                let font = ("sans-serif", 14).into_font().color(&ink).pos(Pos::new(HPos::Center, VPos::Center));
+                root.draw(&Text::new(text, (x + cw / 2 - 1, y + ch / 2 - 1), font)).map_err(err)?;
+            }
+            // A rule between the PvE and the PvP rows.
+            if *pvp && r > 0 && !scenarios[r - 1].1 {
+                root.draw(&PathElement::new(vec![(8, y - 1), (w - 8, y - 1)], BLACK.stroke_width(2))).map_err(err)?;
+            }
         }
-        avacraft_marl::plot::legend(&mut chart, SeriesLabelPosition::UpperRight).map_err(err)?;
+        // Rules between kinds of agent (learners, scripts, AVA).
+        for i in 1..agents.len() {
+            if meta.kind(agents[i]) != meta.kind(agents[i - 1]) {
+                let x = left + cw * i as i32 - 1;
+                root.draw(&PathElement::new(vec![(x, top - 4), (x, top + ch * scenarios.len() as i32)], BLACK.stroke_width(2)))
+                    .map_err(err)?;
+            }
+        }
+        let note = ("sans-serif", 14).into_font().color(&RGBColor(60, 60, 60));
+        let text = "PvE: against the scenario's own opponent. PvP: mean over the scripted agents on team 2. Grey: not played.";
+        root.draw(&Text::new(text, (12, top + ch * scenarios.len() as i32 + 12), note)).map_err(err)?;
         root.present().map_err(err)?;
     }
     canvas.save(path).map_err(err)

@@ -6,6 +6,7 @@ use crate::meta::Meta;
 use crate::plan::{AgentKind, CellKey};
 use crate::results::{EpisodeResult, Loaded};
 use crate::stats::CellStats;
+use crate::summary::Links;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -59,7 +60,7 @@ impl Report {
         v
     }
 
-    fn scenarios(&self, pvp: bool) -> Vec<&str> {
+    pub(crate) fn scenarios(&self, pvp: bool) -> Vec<&str> {
         let mut v: Vec<&str> = Vec::new();
         for c in &self.cells {
             if c.key.against.starts_with("opponent:") != pvp && !v.contains(&c.key.scenario.as_str()) {
@@ -75,7 +76,7 @@ impl Report {
 
     /// An agent's win rate on a scenario, for comparing kinds: PvE against the scenario's
     /// own opponent, PvP averaged over the scripted agents it met on team 2.
-    fn versus_scripted(&self, scenario: &str, agent: &str) -> Option<f64> {
+    pub(crate) fn versus_scripted(&self, scenario: &str, agent: &str) -> Option<f64> {
         let m = &self.meta;
         let rates: Vec<f64> = self
             .cells
@@ -89,10 +90,10 @@ impl Report {
 
     /// The best agent of `kind` on `scenario` by [`Report::versus_scripted`] (the first named
     /// on a tie).
-    fn best_of(&self, scenario: &str, kind: AgentKind) -> Option<(f64, &str)> {
+    pub(crate) fn best_of(&self, scenario: &str, kind: AgentKind) -> Option<(f64, &str)> {
         let mut best: Option<(f64, &str)> = None;
         for (a, k, _) in &self.meta.agents {
-            if *k != kind || self.meta.is_seed(a) {
+            if *k != kind || self.meta.is_variant(a) {
                 continue;
             }
             if let Some(w) = self.versus_scripted(scenario, a)
@@ -202,9 +203,17 @@ The win rate of each training run (PvE: against the scenario's own opponent; PvP
     /// The paper's tables as Markdown.
     // Long: the document's sections in their printed order, sharing the column layout.
     pub fn markdown(&self) -> String {
+        self.markdown_with(&Links::none())
+    }
+
+    /// [`Report::markdown`] with links to the learning curves and images from where it is
+    /// written.
+    pub(crate) fn markdown_with(&self, links: &Links) -> String {
         let mut s = String::new();
         let m = &self.meta;
         let _ = writeln!(s, "# Evaluation `{}`\n", m.name);
+        self.summary(&mut s, links);
+        let _ = writeln!(s, "## Protocol\n");
         if !m.protocol.trim().is_empty() {
             let _ = writeln!(s, "{}\n", m.protocol.trim());
         }
@@ -247,7 +256,7 @@ The win rate of each training run (PvE: against the scenario's own opponent; PvP
                             let of_kind: Vec<&CellStats> = self
                                 .pve()
                                 .filter(|c| c.key.scenario == sc && c.key.against == against && m.kind(&c.key.agent) == Some(*k))
-                                .filter(|c| !m.is_seed(&c.key.agent))
+                                .filter(|c| !m.is_variant(&c.key.agent))
                                 .collect();
                             of_kind
                                 .into_iter()
@@ -406,7 +415,7 @@ The win rate of each training run (PvE: against the scenario's own opponent; PvP
             files.push(p);
             Ok(())
         };
-        put("report.md", &self.markdown())?;
+        put("report.md", &self.markdown_with(&Links::from(dir, &avacraft_marl::baselines::root(), "")))?;
         put("report.csv", &self.csv())?;
         let json = serde_json::to_string_pretty(self)
             .map_err(|e| crate::EvalError::Io { path: dir.join("report.json"), source: std::io::Error::other(e) })?;
@@ -429,16 +438,21 @@ The win rate of each training run (PvE: against the scenario's own opponent; PvP
         let stem = doc.file_stem().map_or_else(|| "results".to_owned(), |s| s.to_string_lossy().into_owned());
         let img_dir = doc.with_file_name(&stem);
         std::fs::create_dir_all(&img_dir).map_err(io(&img_dir))?;
-        let mut text = self.markdown();
+        let here = doc.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        let mut text = self.markdown_with(&Links::from(here, &avacraft_marl::baselines::root(), &format!("{stem}/")));
         let mut files = Vec::new();
-        if !plots.is_empty() {
+        // The win-rate heat map opens the page; the others go under the tables.
+        let rest: Vec<&PathBuf> = plots.iter().filter(|p| p.file_name().is_some_and(|n| n != crate::plot::WIN_RATES)).collect();
+        if !rest.is_empty() {
             text.push_str("\n## Plots\n\n");
         }
         for p in plots {
             let Some(name) = p.file_name() else { continue };
             let to = img_dir.join(name);
             std::fs::copy(p, &to).map_err(io(&to))?;
-            let _ = writeln!(text, "![{}]({stem}/{})\n", name.to_string_lossy(), name.to_string_lossy());
+            if rest.contains(&p) {
+                let _ = writeln!(text, "![{}]({stem}/{})\n", name.to_string_lossy(), name.to_string_lossy());
+            }
             files.push(to);
         }
         // The numbers behind the tables, for scripts and the tests that check them.

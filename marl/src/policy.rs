@@ -80,7 +80,8 @@ pub struct Shipped {
 
 /// Copies what plays a trained run in `run` (its `best/` checkpoint if it has one, else the
 /// last) into `to`: the agent network's weights (the mixer and critic are not needed to act),
-/// `config.json`, and the run's `log.csv` and `curves.png`. Past `max_bytes` (curves aside)
+/// `config.json`, and the run's `log.csv` and `curves.png`; with a `best/` checkpoint, the last
+/// one's weights and config too, in `last/`. Past `max_bytes` (curves aside)
 /// the weights are stored as 16-bit floats; still past it, nothing is left half-written and
 /// the error names the run.
 /// The shipped curves' width and height: the training run's 900x900 PNG took about 450 kB, so
@@ -127,15 +128,34 @@ pub fn ship(run: &Path, to: &Path, max_bytes: u64) -> Result<Shipped, Error> {
     let size_without_curves = |dir: &Path| -> u64 {
         ["agent.safetensors", "config.json", "log.csv"].iter().filter_map(|f| std::fs::metadata(dir.join(f)).ok()).map(|m| m.len()).sum()
     };
-    candle_core::safetensors::save(&weights, tmp.join("agent.safetensors"))?;
+    // The run's last checkpoint too, where the best one is another (`baseline:NAME@last`):
+    // a table can then show what training ended with beside the best of its tests.
+    let last = (ckpt != run && run.join("config.json").is_file()).then(|| Policy::load(run)).transpose()?;
+    let last_dir = tmp.join(crate::baselines::LAST_DIR);
+    if last.is_some() {
+        std::fs::create_dir_all(&last_dir).map_err(io(&last_dir))?;
+        std::fs::copy(run.join("config.json"), last_dir.join("config.json")).map_err(io(&run.join("config.json")))?;
+    }
+    let last_weights = last.as_ref().map(|p| p.nets.agent_params.to_map());
+    let size = |dir: &Path| size_without_curves(dir) + size_without_curves(&dir.join(crate::baselines::LAST_DIR));
+    let write = |half: bool| -> Result<(), Error> {
+        let conv =
+            |w: &std::collections::HashMap<String, Tensor>| -> Result<std::collections::HashMap<String, Tensor>, candle_core::Error> {
+                w.iter().map(|(k, t)| Ok((k.clone(), if half { t.to_dtype(candle_core::DType::F16)? } else { t.clone() }))).collect()
+            };
+        candle_core::safetensors::save(&conv(&weights)?, tmp.join("agent.safetensors"))?;
+        if let Some(w) = &last_weights {
+            candle_core::safetensors::save(&conv(w)?, last_dir.join("agent.safetensors"))?;
+        }
+        Ok(())
+    };
+    write(false)?;
     let mut half = false;
-    if size_without_curves(&tmp) > max_bytes {
-        let halved: Result<std::collections::HashMap<String, Tensor>, candle_core::Error> =
-            weights.iter().map(|(k, t)| Ok((k.clone(), t.to_dtype(candle_core::DType::F16)?))).collect();
-        candle_core::safetensors::save(&halved?, tmp.join("agent.safetensors"))?;
+    if size(&tmp) > max_bytes {
+        write(true)?;
         half = true;
     }
-    let bytes = size_without_curves(&tmp);
+    let bytes = size(&tmp);
     if bytes > max_bytes {
         let _ = std::fs::remove_dir_all(&tmp);
         return Err(Error::Checkpoint {
@@ -144,6 +164,9 @@ pub fn ship(run: &Path, to: &Path, max_bytes: u64) -> Result<Shipped, Error> {
     }
     // The loaded copy must play: a shipped checkpoint is read back before it replaces one.
     Policy::load(&tmp)?;
+    if last.is_some() {
+        Policy::load(&last_dir)?;
+    }
     let _ = std::fs::remove_dir_all(to);
     std::fs::rename(&tmp, to).map_err(io(to))?;
     Ok(Shipped { bytes, half })

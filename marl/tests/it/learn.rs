@@ -361,6 +361,17 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
         assert!((f64::from(p.ret) - r.mean_return).abs() < 1e-4, "seed {seed}: agent {}, trainer {}", p.ret, r.mean_return);
         assert_eq!(p.outcome == Some(avacraft_engine::Outcome::Win), r.win_rate == 1.0);
     }
+    // Shipped, it keeps the best checkpoint and the last one (`baseline:NAME@last`) apart.
+    let root = dir.with_extension("baselines");
+    let _ = std::fs::remove_dir_all(&root);
+    avacraft_marl::policy::ship(&dir, &root.join("3m_vlm/qmix"), 10_000_000)?;
+    let best = avacraft_marl::baselines::dir(&root, "3m_vlm", "qmix")?;
+    let last = avacraft_marl::baselines::dir(&root, "3m_vlm", "qmix@last")?;
+    assert_eq!(std::fs::read(best.join("config.json"))?, std::fs::read(dir.join("best/config.json"))?);
+    assert_eq!(std::fs::read(last.join("config.json"))?, std::fs::read(dir.join("config.json"))?);
+    let (p_best, p_last) = (Policy::load(&best)?, Policy::load(&last)?);
+    assert_eq!(p_last.nets.agent_params.to_map().len(), p_best.nets.agent_params.to_map().len());
+    let _ = std::fs::remove_dir_all(&root);
     // A resumed run goes on from the last test round with the log, curves and schedule.
     let (cfg_back, state) = avacraft_marl::resume::load(&dir)?;
     // The run names the unit data it resolved `map` to: 3m_vlm's own, Liberty.
