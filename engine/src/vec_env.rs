@@ -25,6 +25,10 @@ pub enum VecEnvError {
     Count { given: usize, envs: usize, agents: usize, needed: usize },
     #[error("scenario `{scenario}` is PvE: its own opponent policy plays team 2, which takes no agent")]
     OpponentInPve { scenario: String },
+    #[error("environment {env}: no environment {env} among {envs}")]
+    NoEnv { env: usize, envs: usize },
+    #[error("environment {env}: episode {episode} ended after {steps} of the {given} steps replayed: these actions are not that episode's")]
+    Replay { env: usize, episode: u64, steps: usize, given: usize },
     #[error("environment {env}: {source}")]
     Action {
         env: usize,
@@ -189,6 +193,63 @@ impl VecEnv {
         self.started.iter_mut().for_each(|k| *k = 1);
         self.buffers.seed.clone_from(&seeds);
         self.fill_all();
+    }
+
+    /// The number (1 for the first) of the episode each environment is now in: with the
+    /// actions taken since it started, what [`VecEnv::restore`] puts an environment back from.
+    pub fn episode_numbers(&self) -> &[u64] {
+        &self.started
+    }
+
+    /// Puts environment `i` back where it was: in its episode number `episode` (as
+    /// [`VecEnv::episode_numbers`] gave it), after team 1's `actions` (SMAC indices, `A` a
+    /// step) replayed from the episode's start. The game and its opponent are deterministic
+    /// given the episode's seed and team 1's actions, so the environment and its row of the
+    /// buffers are as they were when those were recorded (a resumed training run goes on
+    /// exactly as the uninterrupted one). Actions that end the episode early, or that its
+    /// masks refuse, are not that episode's: an error.
+    pub fn restore(&mut self, i: usize, episode: u64, actions: &[i64]) -> Result<(), VecEnvError> {
+        let e = self.envs.len();
+        if i >= e {
+            return Err(VecEnvError::NoEnv { env: i, envs: e });
+        }
+        let a = self.n_agents.max(1);
+        if !actions.len().is_multiple_of(a) {
+            return Err(VecEnvError::Count { given: actions.len(), envs: 1, agents: a, needed: actions.len().div_ceil(a) * a });
+        }
+        let episode = episode.max(1);
+        let seed = self.seeds[i].wrapping_add((episode - 1) * e as u64);
+        let env = &mut self.envs[i];
+        env.reset(seed);
+        let mut opponent = self.opponents.get_mut(i);
+        if let Some(o) = opponent.as_deref_mut() {
+            o.reset(env);
+        }
+        self.started[i] = episode;
+        self.buffers.seed[i] = seed;
+        let (na, steps) = (self.n_actions, actions.len() / a);
+        let mut masks = vec![0u8; self.n_agents * na];
+        for (t, acts) in actions.chunks(a).enumerate() {
+            if env.done() {
+                return Err(VecEnvError::Replay { env: i, episode, steps: t, given: steps });
+            }
+            let _ = env.avail_all(Team::One, &mut masks);
+            check_against_masks(acts, &masks, self.n_agents, na).map_err(|source| VecEnvError::Action { env: i, source })?;
+            if let Some(o) = opponent.as_deref_mut() {
+                let orders = o.act(env, episode - 1);
+                env.submit(Team::Two, &orders);
+            }
+            let idx: Vec<usize> = acts.iter().map(|&x| x as usize).collect();
+            env.submit_indices(Team::One, &idx);
+            env.step();
+        }
+        if env.done() {
+            return Err(VecEnvError::Replay { env: i, episode, steps, given: steps });
+        }
+        let (oa, sa, aa) = (self.n_agents * self.obs_size, self.state_size, self.n_agents * na);
+        let b = &mut self.buffers;
+        fill(env, &mut b.obs[i * oa..(i + 1) * oa], &mut b.state[i * sa..(i + 1) * sa], &mut b.avail[i * aa..(i + 1) * aa]);
+        Ok(())
     }
 
     /// Writes every environment's observation, state and mask into the buffers.

@@ -38,7 +38,7 @@ impl Shape {
 
 /// One finished episode of `len` steps; observations, states and masks have `len + 1` rows
 /// (the last one after the final step, a placeholder: see [`Episode::close`]).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Episode {
     pub len: usize,
     pub obs: Vec<f32>,
@@ -93,7 +93,7 @@ impl Episode {
 }
 
 /// A ring of finished episodes.
-#[derive(Debug)]
+#[derive(Debug, PartialEq)]
 pub struct ReplayBuffer {
     episodes: Vec<Episode>,
     capacity: usize,
@@ -103,6 +103,18 @@ pub struct ReplayBuffer {
 impl ReplayBuffer {
     pub fn new(capacity: usize) -> ReplayBuffer {
         ReplayBuffer { episodes: Vec::new(), capacity: capacity.max(1), next: 0 }
+    }
+    /// The buffer after `inserted` insertions, from the last of them (`(insertion index,
+    /// episode)`, in order): each in the slot the ring put it in.
+    pub(crate) fn restored(capacity: usize, kept: Vec<(u64, Episode)>, inserted: u64) -> ReplayBuffer {
+        let capacity = capacity.max(1);
+        let mut slots: Vec<Option<Episode>> = vec![None; kept.len().min(capacity)];
+        for (idx, ep) in kept {
+            if let Some(slot) = slots.get_mut((idx % capacity as u64) as usize) {
+                *slot = Some(ep);
+            }
+        }
+        ReplayBuffer { episodes: slots.into_iter().flatten().collect(), capacity, next: (inserted % capacity as u64) as usize }
     }
     pub fn len(&self) -> usize {
         self.episodes.len()

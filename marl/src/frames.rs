@@ -121,7 +121,7 @@ pub fn concat_steps(steps: &[StepFrames]) -> Result<StepFrames, Error> {
 
 /// An episode's stored observations, one per step (the `len + 1`-th row of the episode,
 /// after its last step, has none: the encoder gives it zero features, and it is masked).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Frames {
     pub len: usize,
     screen: Vec<u8>,

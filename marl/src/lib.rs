@@ -38,9 +38,11 @@
 
 pub mod baselines;
 pub mod buffer;
+mod carry;
 pub mod config;
 pub mod encoders;
 pub mod frames;
+mod journal;
 pub mod kernels;
 pub mod learner;
 pub mod monitor;

@@ -155,6 +155,12 @@ impl<'a> Monitor<'a> {
         Ok(m)
     }
 
+    /// A resume that puts the environments back where they were ([`crate::carry`]): they
+    /// are made from the run's own seeds, not from seeds past the episodes played.
+    pub fn keep_episodes(&mut self) {
+        self.seed_offset = 0;
+    }
+
     /// Seconds of training so far (across resumes).
     pub fn elapsed(&self) -> f64 {
         self.elapsed_before + self.started.elapsed().as_secs_f64()

@@ -610,6 +610,28 @@ impl Actor {
         Ok(acts)
     }
 
+    /// The hidden states and last actions of every row (what a resumed run restores).
+    pub(crate) fn state(&self) -> (&[f32], &[Option<u32>]) {
+        (&self.h, &self.last)
+    }
+
+    /// Puts back what [`Actor::state`] gave; sizes must match.
+    pub(crate) fn set_state(&mut self, h: Vec<f32>, last: Vec<Option<u32>>) -> Result<(), Error> {
+        if h.len() != self.h.len() || last.len() != self.last.len() {
+            return Err(Error::Checkpoint {
+                message: format!(
+                    "resume: {} hidden values and {} last actions kept, {} and {} wanted",
+                    h.len(),
+                    last.len(),
+                    self.h.len(),
+                    self.last.len()
+                ),
+            });
+        }
+        (self.h, self.last) = (h, last);
+        Ok(())
+    }
+
     /// Clears the rows of the environments whose episode just ended.
     pub(crate) fn reset_envs(&mut self, done: &[bool], n_agents: usize) {
         for (e, &d) in done.iter().enumerate() {

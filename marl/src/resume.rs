@@ -11,10 +11,13 @@
 //! steps full-size, which jolted a resumed policy. A run saved before they were kept resumes
 //! with fresh optimisers, as it did then.
 //!
-//! Not kept, so a resumed run is not bit-identical to an uninterrupted one: the replay
-//! buffer (it refills; up to `buffer_size` episodes of tens of MB, gigabytes on the largest
-//! scenarios), the episodes that were running at the checkpoint, for PPO the unfinished
-//! rollout, and the optimisers of QTRAN and of PPO's Swin encoder (candle's).
+//! In `features` mode the run also keeps what it carries between steps ([`crate::carry`]:
+//! where each environment's episode stands, the episodes or the rollout under way, the
+//! hidden states) and the Q-learners' replay buffer ([`crate::journal`]), so a resumed run
+//! goes on exactly as the uninterrupted one: the same log, row for row. Not kept, so a
+//! resumed run in an image mode is not identical to an uninterrupted one: the stored frames
+//! (the buffer refills, the episodes under way start afresh), and the optimisers of QTRAN and
+//! of PPO's Swin encoder (candle's).
 
 use crate::kernels::Moments;
 use crate::learner::Learner;

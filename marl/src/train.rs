@@ -15,6 +15,8 @@
 //! for the log's `elapsed_s` column only.
 
 use crate::buffer::{Batch, Episode, FrameBatch, ReplayBuffer, Shape};
+use crate::carry::Carry;
+use crate::journal::Journal;
 use crate::learner::Learner;
 use crate::monitor::Monitor;
 use crate::nets::Nets;
@@ -94,6 +96,17 @@ fn train_q(
 ) -> Result<(Learner, Summary), Error> {
     let e = cfg.envs;
     let mut monitor = Monitor::resuming(cfg, opts, start.as_ref())?;
+    // Features mode keeps what a resume needs to go on exactly (see `crate::carry`); the
+    // image modes' frames are not kept, and they resume with fresh episodes.
+    let exact = opts.out.as_ref().filter(|_| !cfg.obs.images());
+    let mut kept = None;
+    if let (Some(dir), Some(st)) = (exact, &start)
+        && let Some(carry) = Carry::load(dir, st.t_env)?
+        && let Some(journal) = Journal::resume(dir, cfg.buffer_size, st.episodes)?
+    {
+        monitor.keep_episodes();
+        kept = Some((carry, journal));
+    }
     let mut env = monitor.env()?;
     let (a, o, s, na) = env.shape();
     let shape = Shape::of(&env);
@@ -119,6 +132,25 @@ fn train_q(
         (t_env, episodes) = (st.t_env, st.episodes);
     }
     monitor.start_self_play(&learner.nets, learner.updates, start.is_some(), &mut env)?;
+    let mut journal = match kept {
+        Some((carry, (journal, kept_buffer))) => {
+            carry.restore_lanes(&mut env)?;
+            running = carry.get_episodes("running", &shape)?;
+            actor.set_state(carry.get_f32s("actor.h")?, carry.get_actions("actor.last")?)?;
+            pending = carry.get_u64s("pending")?.first().copied().unwrap_or(0);
+            last = carry.get_stats("last")?;
+            buffer = kept_buffer;
+            Some(journal)
+        }
+        None => match exact {
+            Some(dir) => Some(if start.is_some() {
+                Journal::create_at(dir, cfg.buffer_size, episodes)?
+            } else {
+                Journal::create(dir, cfg.buffer_size)?
+            }),
+            None => None,
+        },
+    };
     while t_env < cfg.t_max {
         let eps = cfg.epsilon(t_env);
         let frames = source.as_mut().map(|s| s.observe(env.envs())).transpose()?;
@@ -152,6 +184,9 @@ fn train_q(
                 });
                 finished.close(&shape, last);
                 monitor.episode_end(b.info[i].battle_won, finished.reward.iter().map(|&r| f64::from(r)).sum());
+                if let Some(j) = &mut journal {
+                    j.append(&finished)?;
+                }
                 buffer.insert(finished);
                 episodes += 1;
                 pending += 1;
@@ -177,6 +212,19 @@ fn train_q(
             // The optimiser's state first: `state.json` is what a resume starts from.
             if let Some(m) = learner.moments() {
                 crate::resume::save_moments(dir, &[("q", m)])?;
+            }
+            if let Some(j) = &mut journal {
+                j.sync()?;
+                let mut carry = Carry::new(t_env)?;
+                let since: Vec<Vec<u32>> = running.iter().map(|ep| ep.actions.clone()).collect();
+                carry.lanes(&env, &since)?;
+                carry.episodes("running", &running)?;
+                let (h, last_acts) = actor.state();
+                carry.f32s("actor.h", h)?;
+                carry.actions("actor.last", last_acts)?;
+                carry.u64s("pending", &[pending])?;
+                carry.stats("last", &last)?;
+                carry.save(dir)?;
             }
             RunState::new(
                 opts.seed,

@@ -269,3 +269,57 @@ fn a_pvp_vector_env_plays_a_named_opponent_whatever_the_thread_count() {
     let make: OpponentFactory = Arc::new(|| agent_by_name("focus-fire").expect("a scripted agent"));
     assert!(matches!(pve.with_opponent(make), Err(VecEnvError::OpponentInPve { scenario }) if scenario == "3m_vlm"));
 }
+
+/// A vector environment made again from its seeds, each environment restored from its
+/// episode number and the actions taken since that episode began, is the environment it was:
+/// the same buffers now and the same results from then on.
+#[test]
+fn a_vector_env_restored_from_episode_numbers_and_actions_goes_on_as_the_original() {
+    for (name, opponent) in [("3m_vlm", None), ("8m3mr1mv1st_mirror_pvp", Some("random"))] {
+        // A short time limit, so that environments are several episodes in when restored.
+        let cfg = EnvConfig { time_limit_loops: NonZeroU32::new(15 * 8), ..EnvConfig::default() };
+        let make = |threads: usize| {
+            let v = VecEnv::new(Arc::new(builtin(name).expect("scenario")), cfg.clone(), &[31, 32, 33], threads).expect("vec env");
+            match opponent {
+                Some(o) => v.with_opponent(Arc::new(move || agent_by_name(o).expect("scripted"))).expect("PvP"),
+                None => v,
+            }
+        };
+        let mut v = make(2);
+        let (a, _, _, n_actions) = v.shape();
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut since: Vec<Vec<i64>> = vec![Vec::new(); 3];
+        for _ in 0..40 {
+            let acts = random_actions(&v.buffers.avail, n_actions, &mut rng);
+            v.step(&acts).expect("valid");
+            for (i, h) in since.iter_mut().enumerate() {
+                if v.buffers.terminated[i] || v.buffers.truncated[i] {
+                    h.clear();
+                } else {
+                    h.extend_from_slice(&acts[i * a..(i + 1) * a]);
+                }
+            }
+        }
+        assert!(v.episode_numbers().iter().all(|&k| k > 1), "{name}: every environment restarted at least once");
+        let mut back = make(1);
+        for (i, h) in since.iter().enumerate() {
+            back.restore(i, v.episode_numbers()[i], h).expect("the episode's own actions");
+        }
+        assert_eq!(back.episode_numbers(), v.episode_numbers());
+        assert_eq!((&back.buffers.obs, &back.buffers.state, &back.buffers.avail), (&v.buffers.obs, &v.buffers.state, &v.buffers.avail));
+        assert_eq!(back.buffers.seed, v.buffers.seed);
+        for _ in 0..40 {
+            let acts = random_actions(&v.buffers.avail, n_actions, &mut rng);
+            v.step(&acts).expect("valid");
+            back.step(&acts).expect("valid");
+            let hashes = |x: &VecEnv| x.envs().iter().map(Env::trajectory_hash).collect::<Vec<_>>();
+            assert_eq!(hashes(&back), hashes(&v), "{name}");
+            assert_eq!((&back.buffers.reward, &back.buffers.terminated), (&v.buffers.reward, &v.buffers.terminated));
+        }
+        // Actions that are not the episode's are refused, naming the environment.
+        let long = vec![1i64; a * 400];
+        let e = back.restore(1, back.episode_numbers()[1], &long).expect_err("the episode ends before");
+        assert!(matches!(e, VecEnvError::Replay { env: 1, .. } | VecEnvError::Action { env: 1, .. }), "{e}");
+        assert!(matches!(back.restore(7, 1, &[]), Err(VecEnvError::NoEnv { env: 7, envs: 3 })));
+    }
+}

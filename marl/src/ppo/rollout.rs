@@ -82,6 +82,65 @@ impl Rollout {
     }
 }
 
+impl Rollout {
+    /// Keeps a rollout under way (features mode: no frames) in `carry`, to go on with.
+    pub(crate) fn keep(&self, c: &mut crate::carry::Carry) -> Result<(), Error> {
+        c.u64s("roll.dims", &[self.t as u64, self.rows as u64, self.n_agents as u64])?;
+        for (name, v) in [
+            ("roll.actor_in", &self.actor_in),
+            ("roll.mask", &self.mask),
+            ("roll.logp", &self.logp),
+            ("roll.values", &self.values),
+            ("roll.active", &self.active),
+            ("roll.keep", &self.keep),
+            ("roll.reward", &self.reward),
+            ("roll.done", &self.done),
+            ("roll.h_actor", &self.h_actor),
+            ("roll.h_critic", &self.h_critic),
+            ("roll.critic.table", self.critic.table.as_ref()),
+        ] {
+            c.f32s(name, v)?;
+        }
+        c.u32s("roll.actions", &self.actions)?;
+        c.u64s("roll.critic.dims", &[self.critic.width as u64, self.critic.n_ids as u64])?;
+        c.u32s("roll.critic.idx", &self.critic.idx)?;
+        c.u32s("roll.critic.ids", &self.critic.ids)
+    }
+
+    /// The rollout [`Rollout::keep`] kept.
+    pub(crate) fn kept(c: &crate::carry::Carry) -> Result<Rollout, Error> {
+        let dims = c.get_u64s("roll.dims")?;
+        let cd = c.get_u64s("roll.critic.dims")?;
+        let (&[t, rows, n_agents], &[width, n_ids]) = (&dims[..], &cd[..]) else {
+            return Err(Error::Checkpoint { message: "resume/carry.safetensors: the rollout's sizes are missing".into() });
+        };
+        Ok(Rollout {
+            t: t as usize,
+            rows: rows as usize,
+            n_agents: n_agents as usize,
+            actor_in: c.get_f32s("roll.actor_in")?,
+            critic: CriticRows {
+                table: Arc::new(c.get_f32s("roll.critic.table")?),
+                width: width as usize,
+                n_ids: n_ids as usize,
+                idx: c.get_u32s("roll.critic.idx")?,
+                ids: c.get_u32s("roll.critic.ids")?,
+            },
+            mask: c.get_f32s("roll.mask")?,
+            actions: c.get_u32s("roll.actions")?,
+            logp: c.get_f32s("roll.logp")?,
+            values: c.get_f32s("roll.values")?,
+            active: c.get_f32s("roll.active")?,
+            keep: c.get_f32s("roll.keep")?,
+            reward: c.get_f32s("roll.reward")?,
+            done: c.get_f32s("roll.done")?,
+            h_actor: c.get_f32s("roll.h_actor")?,
+            h_critic: c.get_f32s("roll.h_critic")?,
+            frames: Vec::new(),
+        })
+    }
+}
+
 /// Generalised advantage estimation over `T` steps of `rows` independent rows:
 /// `rewards` and `dones` `T x rows`, `values` `(T + 1) x rows` (the last row bootstraps the
 /// step after the rollout). A done step neither bootstraps nor passes advantages back across

@@ -11,11 +11,13 @@
 //! input.
 //!
 //! A run that ends inside a rollout drops the unfinished rollout (its steps count, but no
-//! update learns from them); so does a run resumed from a test round inside a rollout.
+//! update learns from them). A run resumed from a test round inside a rollout goes on with it
+//! (features mode, [`crate::carry`]); in the image modes it starts a fresh one.
 
 use super::learner::{PpoLearner, additive_mask, sample_actions};
 use super::rollout::{CriticRows, Rollout};
 use crate::buffer::{Shape, act_inputs};
+use crate::carry::Carry;
 use crate::monitor::{Monitor, Progress, RunOptions, Summary};
 use crate::resume::RunState;
 use crate::{Config, Error, UpdateStats, policy};
@@ -29,7 +31,7 @@ pub fn train(cfg: &Config, opts: &RunOptions, on_progress: &mut dyn FnMut(&Progr
 }
 
 /// [`train`], going on from `start` (see [`crate::resume`]): the checkpoint and state in
-/// `opts.out`. The resumed run starts a fresh rollout.
+/// `opts.out`.
 // Long on purpose: the PPO loop (rollout, update, test round, checkpoint, resume state) in
 // the order it runs; each phase calls into its own module.
 pub fn train_from(
@@ -40,6 +42,16 @@ pub fn train_from(
 ) -> Result<(PpoLearner, Summary), Error> {
     let e = cfg.envs;
     let mut monitor = Monitor::resuming(cfg, opts, start.as_ref())?;
+    // Features mode keeps the rollout under way and the environments (see `crate::carry`);
+    // the image modes' frames are not kept, and they resume with a fresh rollout.
+    let exact = opts.out.as_ref().filter(|_| !cfg.obs.images());
+    let kept = match (exact, &start) {
+        (Some(dir), Some(st)) => Carry::load(dir, st.t_env)?,
+        _ => None,
+    };
+    if kept.is_some() {
+        monitor.keep_episodes();
+    }
     let mut env = monitor.env()?;
     let (a, _, _, na) = env.shape();
     let shape = Shape::of(&env);
@@ -71,6 +83,20 @@ pub fn train_from(
     let mut last_stats = UpdateStats::default();
     // Each environment's return so far this episode (the log's training return).
     let mut returns = vec![0f32; e];
+    // Team 1's actions since each environment's episode began (what a resume replays).
+    let mut since: Vec<Vec<u32>> = vec![Vec::new(); e];
+    if let Some(c) = &kept {
+        since = c.restore_lanes(&mut env)?;
+        roll = Rollout::kept(c)?;
+        (h_actor, h_critic) = (c.get_f32s("h_actor")?, c.get_f32s("h_critic")?);
+        last = c.get_actions("last")?;
+        keep = c.get_f32s("keep")?;
+        returns = c.get_f32s("returns")?;
+        last_stats = c.get_stats("last_stats")?;
+        if (h_actor.len(), last.len(), keep.len(), returns.len()) != (rows * hidden, rows, rows, e) {
+            return Err(Error::Checkpoint { message: "resume/carry.safetensors: its sizes are not this run's".into() });
+        }
+    }
     // Wall-clock per phase, for the summary only: nothing learned depends on it.
     let mut time = [Duration::ZERO; 5];
     while t_env < cfg.t_max {
@@ -112,6 +138,9 @@ pub fn train_from(
             if d {
                 episodes += 1;
                 monitor.episode_end(b.info[i].battle_won, f64::from(std::mem::take(&mut returns[i])));
+                since[i].clear();
+            } else if exact.is_some() {
+                since[i].extend_from_slice(&acts[i * a..(i + 1) * a]);
             }
         }
         for (r, k) in keep.iter_mut().enumerate() {
@@ -168,6 +197,18 @@ pub fn train_from(
             state.value_norm = Some(learner.value_norm.clone());
             // The optimisers' state first: `state.json` is what a resume starts from.
             crate::resume::save_moments(dir, &learner.moments())?;
+            if exact.is_some() {
+                let mut c = Carry::new(t_env)?;
+                c.lanes(&env, &since)?;
+                roll.keep(&mut c)?;
+                c.f32s("h_actor", &h_actor)?;
+                c.f32s("h_critic", &h_critic)?;
+                c.actions("last", &last)?;
+                c.f32s("keep", &keep)?;
+                c.f32s("returns", &returns)?;
+                c.stats("last_stats", &last_stats)?;
+                c.save(dir)?;
+            }
             state.save(dir, None)?;
         }
         let t_test = clock.elapsed();

@@ -6,5 +6,6 @@ mod encoders;
 mod learn;
 mod play_out;
 mod ppo;
+mod resume;
 mod selfplay;
 mod text;

@@ -1,0 +1,333 @@
+//! The Q-learners' replay buffer kept on disk episode by episode (`resume/buffer/`), so that a
+//! resumed run samples from the very buffer the uninterrupted run would have. Each finished
+//! episode is appended once, as it goes into the buffer, instead of the whole buffer (up to
+//! gigabytes) being written at every test round; segments of [`SEGMENT`] episodes that have
+//! left the buffer are deleted at test rounds. A resume reads back the episodes the buffer
+//! held at the state's test round and drops any written after it.
+//!
+//! Image observations are not journaled: a run in an image mode resumes with a refilled
+//! buffer, as before.
+
+use crate::buffer::ReplayBuffer;
+use crate::{Episode, Error};
+use std::io::{BufWriter, Read, Write};
+use std::path::{Path, PathBuf};
+
+/// Episodes per segment file.
+const SEGMENT: u64 = 64;
+/// The first bytes of every episode record.
+const MAGIC: u32 = 0x4a45_5031;
+
+pub(crate) struct Journal {
+    dir: PathBuf,
+    capacity: u64,
+    /// Episodes appended so far (over the whole run).
+    written: u64,
+    file: Option<BufWriter<std::fs::File>>,
+    /// Episodes written at the previous [`Journal::sync`]: the state saved then may still be
+    /// the one a resume starts from (a kill before the next state is saved), so segments it
+    /// needs stay.
+    synced: u64,
+    /// Episodes before this one are not written (a journal started mid-run starts at a
+    /// segment's first episode, so each segment holds whole runs of episodes).
+    skip_until: u64,
+}
+
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> Error + '_ {
+    move |source| Error::Io { path: path.to_path_buf(), source }
+}
+
+fn segment_path(dir: &Path, first: u64) -> PathBuf {
+    dir.join(format!("seg-{first:012}.bin"))
+}
+
+impl Journal {
+    /// A new, empty journal in `run/resume/buffer` (a previous one is removed).
+    pub(crate) fn create(run: &Path, capacity: usize) -> Result<Journal, Error> {
+        let dir = run.join("resume").join("buffer");
+        if dir.exists() {
+            std::fs::remove_dir_all(&dir).map_err(io(&dir))?;
+        }
+        std::fs::create_dir_all(&dir).map_err(io(&dir))?;
+        Ok(Journal { dir, capacity: capacity.max(1) as u64, written: 0, file: None, synced: 0, skip_until: 0 })
+    }
+
+    /// A new, empty journal whose next episode is the run's `inserted`-th: a run resumed
+    /// without a journal (saved before journals) keeps one from there on.
+    pub(crate) fn create_at(run: &Path, capacity: usize, inserted: u64) -> Result<Journal, Error> {
+        let mut j = Journal::create(run, capacity)?;
+        (j.written, j.synced) = (inserted, inserted);
+        j.skip_until = inserted.div_ceil(SEGMENT) * SEGMENT;
+        Ok(j)
+    }
+
+    /// The buffer as it was after `inserted` episodes, and the journal going on from there;
+    /// `None` if the journal does not hold those episodes (a run saved before journals).
+    pub(crate) fn resume(run: &Path, capacity: usize, inserted: u64) -> Result<Option<(Journal, ReplayBuffer)>, Error> {
+        let dir = run.join("resume").join("buffer");
+        let capacity = capacity.max(1) as u64;
+        let from = inserted.saturating_sub(capacity);
+        let mut kept: Vec<(u64, Episode)> = Vec::new();
+        let mut first = from / SEGMENT * SEGMENT;
+        while first < inserted {
+            let path = segment_path(&dir, first);
+            if !path.is_file() {
+                return Ok(None);
+            }
+            let eps = read_segment(&path)?;
+            // The segment holding episode `inserted` may hold later ones: kept on disk only
+            // up to it.
+            let upto = (inserted - first).min(SEGMENT) as usize;
+            if eps.len() < upto {
+                return Ok(None);
+            }
+            if eps.len() > upto {
+                rewrite_segment(&path, &eps[..upto])?;
+            }
+            for (k, ep) in eps.into_iter().take(upto).enumerate() {
+                let idx = first + k as u64;
+                if idx >= from {
+                    kept.push((idx, ep));
+                }
+            }
+            first += SEGMENT;
+        }
+        // Later segments were written after the state: gone.
+        for e in std::fs::read_dir(&dir).map_err(io(&dir))?.flatten() {
+            let name = e.file_name().to_string_lossy().into_owned();
+            if let Some(n) = name.strip_prefix("seg-").and_then(|n| n.strip_suffix(".bin")).and_then(|n| n.parse::<u64>().ok())
+                && n >= first
+            {
+                std::fs::remove_file(e.path()).map_err(io(&e.path()))?;
+            }
+        }
+        let buffer = ReplayBuffer::restored(capacity as usize, kept, inserted);
+        let file =
+            if inserted.is_multiple_of(SEGMENT) { None } else { Some(open_append(&segment_path(&dir, inserted / SEGMENT * SEGMENT))?) };
+        Ok(Some((Journal { dir, capacity, written: inserted, file, synced: inserted, skip_until: 0 }, buffer)))
+    }
+
+    /// Appends a finished episode (the one the buffer just took).
+    pub(crate) fn append(&mut self, ep: &Episode) -> Result<(), Error> {
+        if self.written < self.skip_until {
+            self.written += 1;
+            return Ok(());
+        }
+        if self.written.is_multiple_of(SEGMENT) || self.file.is_none() {
+            self.flush()?;
+            let path = segment_path(&self.dir, self.written / SEGMENT * SEGMENT);
+            self.file = Some(open_append(&path)?);
+        }
+        let path = segment_path(&self.dir, self.written / SEGMENT * SEGMENT);
+        if let Some(f) = &mut self.file {
+            write_episode(f, ep).map_err(io(&path))?;
+        }
+        self.written += 1;
+        Ok(())
+    }
+
+    /// At a test round, before the state is saved: everything appended is on disk, and the
+    /// segments that had left the buffer by the previous test round are deleted.
+    pub(crate) fn sync(&mut self) -> Result<(), Error> {
+        self.flush()?;
+        let oldest = self.synced.min(self.written).saturating_sub(self.capacity);
+        self.synced = self.written;
+        let mut first = 0;
+        while first + SEGMENT <= oldest {
+            let p = segment_path(&self.dir, first);
+            if p.is_file() {
+                std::fs::remove_file(&p).map_err(io(&p))?;
+            }
+            first += SEGMENT;
+        }
+        Ok(())
+    }
+
+    fn flush(&mut self) -> Result<(), Error> {
+        if let Some(f) = &mut self.file {
+            f.flush().map_err(io(&self.dir))?;
+            f.get_ref().sync_data().map_err(io(&self.dir))?;
+        }
+        Ok(())
+    }
+}
+
+fn open_append(path: &Path) -> Result<BufWriter<std::fs::File>, Error> {
+    let f = std::fs::OpenOptions::new().create(true).append(true).open(path).map_err(io(path))?;
+    Ok(BufWriter::new(f))
+}
+
+fn rewrite_segment(path: &Path, eps: &[Episode]) -> Result<(), Error> {
+    let tmp = path.with_extension("bin.tmp");
+    let mut f = BufWriter::new(std::fs::File::create(&tmp).map_err(io(&tmp))?);
+    for ep in eps {
+        write_episode(&mut f, ep).map_err(io(&tmp))?;
+    }
+    f.flush().map_err(io(&tmp))?;
+    drop(f);
+    std::fs::rename(&tmp, path).map_err(io(path))
+}
+
+fn write_episode(w: &mut impl Write, ep: &Episode) -> std::io::Result<()> {
+    w.write_all(&MAGIC.to_le_bytes())?;
+    w.write_all(&(ep.len as u64).to_le_bytes())?;
+    let put_len = |w: &mut dyn Write, n: usize| w.write_all(&(n as u64).to_le_bytes());
+    for v in [&ep.obs, &ep.state, &ep.reward, &ep.terminated] {
+        put_len(w, v.len())?;
+        for x in v.iter() {
+            w.write_all(&x.to_le_bytes())?;
+        }
+    }
+    put_len(w, ep.avail.len())?;
+    w.write_all(&ep.avail)?;
+    put_len(w, ep.actions.len())?;
+    for x in &ep.actions {
+        w.write_all(&x.to_le_bytes())?;
+    }
+    Ok(())
+}
+
+/// Reads every whole episode of a segment; a torn record at its end (a kill mid-write)
+/// ends it.
+fn read_segment(path: &Path) -> Result<Vec<Episode>, Error> {
+    let mut bytes = Vec::new();
+    std::fs::File::open(path).and_then(|mut f| f.read_to_end(&mut bytes)).map_err(io(path))?;
+    let mut r = Reader { bytes: &bytes, at: 0 };
+    let mut eps = Vec::new();
+    while r.at < bytes.len() {
+        let start = r.at;
+        match r.episode() {
+            Some(ep) => eps.push(ep),
+            None if start == r.at || r.at >= bytes.len() => break,
+            None => {
+                return Err(Error::Checkpoint {
+                    message: format!("{}: episode record {} at byte {start} is corrupt", path.display(), eps.len()),
+                });
+            }
+        }
+    }
+    Ok(eps)
+}
+
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl Reader<'_> {
+    fn take(&mut self, n: usize) -> Option<&[u8]> {
+        let end = self.at.checked_add(n)?;
+        let s = self.bytes.get(self.at..end);
+        self.at = if s.is_some() { end } else { self.bytes.len() };
+        s
+    }
+    fn u64(&mut self) -> Option<u64> {
+        self.take(8).map(|b| u64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
+    }
+    fn count(&mut self, item: usize) -> Option<usize> {
+        let n = usize::try_from(self.u64()?).ok()?;
+        // A count past the bytes left is a torn or corrupt record, not an allocation.
+        (n.checked_mul(item)? <= self.bytes.len() - self.at).then_some(n)
+    }
+    fn f32s(&mut self) -> Option<Vec<f32>> {
+        let n = self.count(4)?;
+        Some(self.take(n * 4)?.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
+    }
+    fn episode(&mut self) -> Option<Episode> {
+        let magic = self.take(4)?;
+        if magic != MAGIC.to_le_bytes() {
+            return None;
+        }
+        let len = usize::try_from(self.u64()?).ok()?;
+        let (obs, state, reward, terminated) = (self.f32s()?, self.f32s()?, self.f32s()?, self.f32s()?);
+        let n = self.count(1)?;
+        let avail = self.take(n)?.to_vec();
+        let n = self.count(4)?;
+        let actions = self.take(n * 4)?.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        Some(Episode { len, obs, state, avail, actions, reward, terminated, frames: Default::default() })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn episode(k: u64) -> Episode {
+        let len = (k % 5) as usize + 1;
+        Episode {
+            len,
+            obs: (0..len * 3).map(|i| i as f32 + k as f32).collect(),
+            state: vec![k as f32; len + 1],
+            avail: vec![1; len * 2],
+            actions: (0..len as u32).collect(),
+            reward: vec![0.5; len],
+            terminated: vec![0.0; len],
+            frames: Default::default(),
+        }
+    }
+
+    fn scratch(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("avacraft-journal-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        d
+    }
+
+    #[test]
+    fn a_resumed_journal_gives_back_the_buffer_and_forgets_later_episodes() -> Result<(), Error> {
+        let run = scratch("resume");
+        let cap = 100;
+        let mut j = Journal::create(&run, cap)?;
+        let mut buf = ReplayBuffer::new(cap);
+        for k in 0..250 {
+            j.append(&episode(k))?;
+            buf.insert(episode(k));
+            if k == 180 {
+                j.sync()?;
+            }
+        }
+        j.sync()?;
+        // Segments that had left the buffer at the previous sync (181 - 100) are gone.
+        assert!(!segment_path(&run.join("resume/buffer"), 0).exists());
+        assert!(segment_path(&run.join("resume/buffer"), 64).exists());
+        let (mut j2, back) = Journal::resume(&run, cap, 250)?.expect("all kept");
+        assert_eq!(back, buf);
+        // Resumed at the previous sync's state (a kill after the last sync, before its state
+        // was saved): that state's buffer, and the later episodes are dropped from disk.
+        let (_, earlier) = Journal::resume(&run, cap, 181)?.expect("kept");
+        let mut want = ReplayBuffer::new(cap);
+        (0..181).for_each(|k| want.insert(episode(k)));
+        assert_eq!(earlier, want);
+        // The journal goes on from there.
+        let (mut j3, _) = Journal::resume(&run, cap, 181)?.expect("kept");
+        for k in 181..230 {
+            j3.append(&episode(k))?;
+            want.insert(episode(k));
+        }
+        j3.sync()?;
+        let (_, again) = Journal::resume(&run, cap, 230)?.expect("kept");
+        assert_eq!(again, want);
+        // Episodes the journal never held: none to resume from.
+        assert!(Journal::resume(&run, cap, 400)?.is_none());
+        j2.sync()?;
+        let _ = std::fs::remove_dir_all(&run);
+        Ok(())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+        #[test]
+        fn torn_or_garbled_segments_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..400), cut in 0usize..400) {
+            let dir = scratch(&format!("fuzz-{cut}"));
+            std::fs::create_dir_all(&dir).expect("dir");
+            let path = dir.join("seg.bin");
+            let mut good = Vec::new();
+            write_episode(&mut good, &episode(3)).expect("write");
+            good.truncate(cut.min(good.len()));
+            good.extend(&bytes);
+            std::fs::write(&path, &good).expect("write");
+            let _ = read_segment(&path);
+            let _ = std::fs::remove_dir_all(&dir);
+        }
+    }
+}

@@ -1,0 +1,76 @@
+//! A run killed and resumed writes the log the uninterrupted run writes, row for row (elapsed
+//! time aside), for QMIX and MAPPO. A kill loses what came after the last test round (the
+//! state a resume starts from, and the log rows past it, which the resume drops), so stopping
+//! a run at a test round and going on from its state is what a kill anywhere between that round
+//! and the next amounts to.
+
+use avacraft_engine::Scenario;
+use avacraft_marl::{Config, RunOptions, train, train_from};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+type R = Result<(), Box<dyn std::error::Error>>;
+
+/// The log's rows without the elapsed-seconds column.
+fn rows(dir: &Path) -> Result<Vec<String>, std::io::Error> {
+    let text = std::fs::read_to_string(dir.join("log.csv"))?;
+    Ok(text.lines().map(|l| l.rsplit_once(',').map_or(l, |(head, _)| head).to_owned()).collect())
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("avacraft-resume-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+fn killed_and_resumed_runs_write_the_uninterrupted_log(algo: &str, scenario: &str, extra: &[&str], kills: &[usize]) -> R {
+    let mut o: Vec<String> = vec!["test_nepisode=4".into(), "test_interval=200".into()];
+    o.extend(extra.iter().map(|s| s.to_string()));
+    let full = Config::for_algo(algo, &o)?;
+    let scenario = Arc::new(Scenario::load(scenario)?);
+    let dir = scratch(&format!("{algo}-full"));
+    let opts = RunOptions { scenario: Arc::clone(&scenario), seed: 3, threads: 2, out: Some(dir.clone()) };
+    let (_, whole) = train(&full, &opts, &mut |_| {})?;
+    let want = rows(&dir)?;
+    assert_eq!(want.len(), 1 + whole.tests.len());
+    // The steps of the full run's test rounds picked by `kills` (indices of its rounds).
+    let steps: Vec<u64> = want[1..].iter().filter_map(|r| r.split(',').next()?.parse().ok()).collect();
+    for &k in kills.iter().filter_map(|&i| steps.get(i)) {
+        let kdir = scratch(&format!("{algo}-{k}"));
+        let opts = RunOptions { out: Some(kdir.clone()), ..opts.clone() };
+        // Stopped at the test round of step k...
+        train(&Config { t_max: k, ..full.clone() }, &opts, &mut |_| {})?;
+        let (_, state) = avacraft_marl::resume::load(&kdir)?;
+        // ... and gone on from its state, with one threads count less: nothing depends on it.
+        let opts = RunOptions { threads: 1, ..opts };
+        let (_, resumed) = train_from(&full, &opts, Some(state), &mut |_| {})?;
+        assert_eq!(rows(&kdir)?, want, "{algo} stopped at {k}: the resumed log differs");
+        assert_eq!(
+            (resumed.episodes, resumed.updates, resumed.last_loss),
+            (whole.episodes, whole.updates, whole.last_loss),
+            "{algo} at {k}"
+        );
+        // Resumed once its run is over (killed after the last test round): nothing more.
+        let (_, state) = avacraft_marl::resume::load(&kdir)?;
+        train_from(&full, &opts, Some(state), &mut |_| {})?;
+        assert_eq!(rows(&kdir)?, want, "{algo} resumed after its end");
+        let _ = std::fs::remove_dir_all(&kdir);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
+
+#[test]
+fn a_killed_and_resumed_mappo_run_writes_the_uninterrupted_log() -> R {
+    // Rollouts of 8 x 30 steps and a test round every 100: the kills fall inside rollouts,
+    // and some test rounds come before the resumed run's first update.
+    let extra = ["t_max=1200", "envs=8", "rollout_len=30", "episode_limit=25", "test_interval=100"];
+    killed_and_resumed_runs_write_the_uninterrupted_log("mappo", "2s3z", &extra, &[1, 4, 9])
+}
+
+#[test]
+fn a_killed_and_resumed_qmix_run_writes_the_uninterrupted_log() -> R {
+    // A buffer smaller than the episodes played, so it has wrapped when resumed.
+    let extra = ["t_max=1400", "envs=4", "batch_size=8", "buffer_size=40", "epsilon_anneal_time=600", "episode_limit=25"];
+    killed_and_resumed_runs_write_the_uninterrupted_log("qmix", "3m", &extra, &[0, 3, 5])
+}
