@@ -257,6 +257,11 @@ fn legacy_data() -> String {
 }
 
 impl Config {
+    /// Whether team 2 is the learner's own snapshot pool (`opponent = "self"`).
+    pub fn self_play(&self) -> bool {
+        matches!(Opponent::parse(&self.opponent), Ok(Opponent::SelfPlay))
+    }
+
     /// The fixed opponents a test round also plays: `test_opponents`, or under self-play
     /// attack-move and focus-fire when it is empty.
     pub fn fixed_test_opponents(&self) -> Vec<String> {

@@ -97,8 +97,10 @@ fn train_q(
     let e = cfg.envs;
     let mut monitor = Monitor::resuming(cfg, opts, start.as_ref())?;
     // Features mode keeps what a resume needs to go on exactly (see `crate::carry`); the
-    // image modes' frames are not kept, and they resume with fresh episodes.
-    let exact = opts.out.as_ref().filter(|_| !cfg.obs.images());
+    // image modes' frames are not kept, and they resume with fresh episodes. Neither is
+    // self-play's: an episode's opponent was drawn from the pool as it was when the episode
+    // began, which a resume no longer has.
+    let exact = opts.out.as_ref().filter(|_| !cfg.obs.images() && !cfg.self_play());
     let mut kept = None;
     if let (Some(dir), Some(st)) = (exact, &start)
         && let Some(carry) = Carry::load(dir, st.t_env)?

@@ -43,8 +43,9 @@ pub fn train_from(
     let e = cfg.envs;
     let mut monitor = Monitor::resuming(cfg, opts, start.as_ref())?;
     // Features mode keeps the rollout under way and the environments (see `crate::carry`);
-    // the image modes' frames are not kept, and they resume with a fresh rollout.
-    let exact = opts.out.as_ref().filter(|_| !cfg.obs.images());
+    // the image modes' frames are not kept, and they resume with a fresh rollout; nor does
+    // self-play (an episode's opponent was drawn from the pool as it was then).
+    let exact = opts.out.as_ref().filter(|_| !cfg.obs.images() && !cfg.self_play());
     let kept = match (exact, &start) {
         (Some(dir), Some(st)) => Carry::load(dir, st.t_env)?,
         _ => None,
