@@ -143,6 +143,13 @@ impl Journal {
         Ok(())
     }
 
+    /// Deletes the journal: a finished run keeps no buffer on disk (a buffer holds up to
+    /// gigabytes); a run extended past its end refills its buffer.
+    pub(crate) fn remove(self) -> Result<(), Error> {
+        drop(self.file);
+        std::fs::remove_dir_all(&self.dir).map_err(io(&self.dir))
+    }
+
     fn flush(&mut self) -> Result<(), Error> {
         if let Some(f) = &mut self.file {
             f.flush().map_err(io(&self.dir))?;

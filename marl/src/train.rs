@@ -251,6 +251,9 @@ fn train_q(
             last_test: monitor.tests.last().copied(),
         });
     }
+    if let Some(j) = journal {
+        j.remove()?;
+    }
     let summary = Summary { t_env, episodes, updates: learner.updates, last_loss: last.loss, tests: monitor.tests, phases: Vec::new() };
     Ok((learner, summary))
 }

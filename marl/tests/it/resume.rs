@@ -1,8 +1,8 @@
 //! A run killed and resumed writes the log the uninterrupted run writes, row for row (elapsed
 //! time aside), for QMIX and MAPPO. A kill loses what came after the last test round (the
 //! state a resume starts from, and the log rows past it, which the resume drops), so stopping
-//! a run at a test round and going on from its state is what a kill anywhere between that round
-//! and the next amounts to.
+//! a run right after a test round and going on from its state is what a kill anywhere between
+//! that round and the next amounts to.
 
 use avacraft_engine::Scenario;
 use avacraft_marl::{Config, RunOptions, train, train_from};
@@ -32,14 +32,19 @@ fn killed_and_resumed_runs_write_the_uninterrupted_log(algo: &str, scenario: &st
     let opts = RunOptions { scenario: Arc::clone(&scenario), seed: 3, threads: 2, out: Some(dir.clone()) };
     let (_, whole) = train(&full, &opts, &mut |_| {})?;
     let want = rows(&dir)?;
+    assert!(!dir.join("resume/buffer").exists(), "a finished run keeps no replay journal");
     assert_eq!(want.len(), 1 + whole.tests.len());
     // The steps of the full run's test rounds picked by `kills` (indices of its rounds).
     let steps: Vec<u64> = want[1..].iter().filter_map(|r| r.split(',').next()?.parse().ok()).collect();
     for &k in kills.iter().filter_map(|&i| steps.get(i)) {
         let kdir = scratch(&format!("{algo}-{k}"));
         let opts = RunOptions { out: Some(kdir.clone()), ..opts.clone() };
-        // Stopped at the test round of step k...
-        train(&Config { t_max: k, ..full.clone() }, &opts, &mut |_| {})?;
+        // Killed right after the test round of step k (the progress callback comes after the
+        // round's checkpoint; a panic stops the run there, as a kill would)...
+        let killed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            train(&full, &opts, &mut |p| assert!(p.t_env < k || p.last_test.is_none(), "killed at {k}"))
+        }));
+        assert!(killed.is_err(), "{algo}: the run was to be killed at {k}");
         let (_, state) = avacraft_marl::resume::load(&kdir)?;
         // ... and gone on from its state, with one threads count less: nothing depends on it.
         let opts = RunOptions { threads: 1, ..opts };
