@@ -264,12 +264,22 @@ impl<'a> Monitor<'a> {
             crate::plot::curves(&dir.join("curves.png"), &title, &self.curve, &self.fixed)?;
             save(dir)?;
             // Greedy win rates swing while the policy explores: keep the best one's weights too.
-            if self.tests.iter().all(|t| t.win_rate <= r.win_rate) {
+            // With fixed test opponents (a league), the best is the one whose worst result
+            // against them is highest: a policy that beats every script, not one script best.
+            if let Some((now, before)) = self.curve.split_last()
+                && before.iter().all(|p| best_score(p) <= best_score(now))
+            {
                 save(&dir.join("best"))?;
             }
         }
         Ok(true)
     }
+}
+
+/// What `best/` keeps the highest of: the greedy test win rate, or with fixed test
+/// opponents the lowest win rate against them.
+fn best_score(p: &CurvePoint) -> f64 {
+    if p.vs.is_empty() { p.test_win_rate } else { p.vs.iter().copied().fold(f64::INFINITY, f64::min) }
 }
 
 /// Keeps the header and the rows of `log.csv` up to step `t_env` (the state a run resumes
@@ -354,7 +364,17 @@ fn scalars(
 
 #[cfg(test)]
 mod tests {
-    use super::truncate_log;
+    use super::{best_score, truncate_log};
+    use crate::plot::CurvePoint;
+
+    #[test]
+    fn a_league_keeps_the_checkpoint_whose_worst_script_result_is_best() {
+        let p = |test: f64, vs: &[f64]| CurvePoint { test_win_rate: test, vs: vs.to_vec(), ..CurvePoint::default() };
+        assert_eq!(best_score(&p(0.7, &[])), 0.7);
+        // Beating three scripts every time and losing to the fourth is worse than winning
+        // half the games against each.
+        assert!(best_score(&p(1.0, &[1.0, 1.0, 1.0, 0.0])) < best_score(&p(0.5, &[0.5, 0.6, 0.5, 0.5])));
+    }
 
     #[test]
     fn a_resumed_log_keeps_the_rows_up_to_its_state() {
