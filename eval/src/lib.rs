@@ -6,6 +6,7 @@
 #![forbid(unsafe_code)]
 
 pub mod human;
+mod links;
 mod marl_eval;
 mod meta;
 mod plan;

@@ -2,11 +2,11 @@
 //! JSON, and the plots. It reads only the folder (`plan.json` and `results.jsonl`), so merged
 //! shards report like one run.
 
+use crate::links::Links;
 use crate::meta::Meta;
 use crate::plan::{AgentKind, CellKey};
 use crate::results::{EpisodeResult, Loaded};
 use crate::stats::CellStats;
-use crate::summary::Links;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
