@@ -1,1 +1,0 @@
-__avacraft__ = True
