@@ -99,6 +99,18 @@ impl Meta {
         self.is_seed(agent) || self.last_of(agent).is_some()
     }
 
+    /// An agent's win rate on a scenario for comparing kinds: PvE against the scenario's
+    /// own opponent, PvP averaged over the scripted agents it met on team 2.
+    pub(crate) fn versus_scripted(&self, cells: &[crate::CellStats], scenario: &str, agent: &str) -> Option<f64> {
+        let rates: Vec<f64> = cells
+            .iter()
+            .filter(|c| c.key.scenario == scenario && c.key.agent == agent)
+            .filter(|c| c.key.against == "opponent:default" || self.kind(&c.key.against) == Some(AgentKind::Scripted))
+            .map(|c| c.win_rate.mean)
+            .collect();
+        (!rates.is_empty()).then(|| rates.iter().sum::<f64>() / rates.len() as f64)
+    }
+
     pub(crate) fn kind(&self, agent: &str) -> Option<AgentKind> {
         self.agents.iter().find(|(n, _, _)| n == agent).map(|(_, k, _)| *k)
     }

@@ -4,7 +4,6 @@
 
 use crate::EvalError;
 use crate::meta::Meta;
-use crate::plan::AgentKind;
 use crate::stats::CellStats;
 use avacraft_marl::plot::Png;
 use plotters::prelude::*;
@@ -72,18 +71,6 @@ pub fn all(meta: &Meta, cells: &[CellStats], dir: &Path) -> Result<Vec<PathBuf>,
 /// The file name of the win-rate heat map that opens the report.
 pub(crate) const WIN_RATES: &str = "winrate.png";
 
-/// An agent's win rate on a scenario as the report compares agents: PvE against the
-/// scenario's own opponent, PvP the mean over the scripted agents it met on team 2.
-fn versus_scripted(meta: &Meta, cells: &[CellStats], scenario: &str, agent: &str) -> Option<f64> {
-    let rates: Vec<f64> = cells
-        .iter()
-        .filter(|c| c.key.scenario == scenario && c.key.agent == agent)
-        .filter(|c| c.key.against == "opponent:default" || meta.kind(&c.key.against) == Some(AgentKind::Scripted))
-        .map(|c| c.win_rate.mean)
-        .collect();
-    (!rates.is_empty()).then(|| rates.iter().sum::<f64>() / rates.len() as f64)
-}
-
 /// Blues, from near white at 0 to dark blue at 1: the darker, the more won.
 fn blues(v: f64) -> RGBColor {
     let v = v.clamp(0.0, 1.0);
@@ -107,7 +94,7 @@ fn win_rates(meta: &Meta, cells: &[CellStats], path: &Path) -> Result<(), EvalEr
         .agents
         .iter()
         .map(|(n, _, _)| n.as_str())
-        .filter(|a| scenarios.iter().any(|(sc, _)| versus_scripted(meta, cells, sc, a).is_some()))
+        .filter(|a| scenarios.iter().any(|(sc, _)| meta.versus_scripted(cells, sc, a).is_some()))
         .collect();
     let (cw, ch) = (66i32, 26i32);
     let left = 16 + 9 * scenarios.iter().map(|(s, p)| s.chars().count() as i32 + if *p { 6 } else { 0 }).max().unwrap_or(8);
@@ -132,7 +119,7 @@ fn win_rates(meta: &Meta, cells: &[CellStats], path: &Path) -> Result<(), EvalEr
             for (i, a) in agents.iter().enumerate() {
                 let x = left + cw * i as i32;
                 let cell = [(x, y), (x + cw - 2, y + ch - 2)];
-                let v = versus_scripted(meta, cells, sc, a);
+                let v = meta.versus_scripted(cells, sc, a);
                 let fill = v.map_or(RGBColor(225, 225, 225), blues);
                 root.draw(&Rectangle::new(cell, fill.filled())).map_err(err)?;
                 let ink = if v.is_some_and(|v| v > 0.55) { WHITE } else { BLACK };

@@ -74,18 +74,9 @@ impl Report {
         self.cells.iter().find(|c| c.key.scenario == scenario && c.key.agent == agent && c.key.against == against)
     }
 
-    /// An agent's win rate on a scenario, for comparing kinds: PvE against the scenario's
-    /// own opponent, PvP averaged over the scripted agents it met on team 2.
+    /// [`Meta::versus_scripted`] over this report's cells.
     pub(crate) fn versus_scripted(&self, scenario: &str, agent: &str) -> Option<f64> {
-        let m = &self.meta;
-        let rates: Vec<f64> = self
-            .cells
-            .iter()
-            .filter(|c| c.key.scenario == scenario && c.key.agent == agent)
-            .filter(|c| c.key.against == "opponent:default" || m.kind(&c.key.against) == Some(AgentKind::Scripted))
-            .map(|c| c.win_rate.mean)
-            .collect();
-        (!rates.is_empty()).then(|| rates.iter().sum::<f64>() / rates.len() as f64)
+        self.meta.versus_scripted(&self.cells, scenario, agent)
     }
 
     /// The best agent of `kind` on `scenario` by [`Report::versus_scripted`] (the first named
