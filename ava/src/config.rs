@@ -40,6 +40,34 @@ pub enum RetrieverKind {
     Dense,
 }
 
+/// What the prompt tells the model.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum PromptStyle {
+    /// The paper's: positions as cells of the screenshot's 10x10 grid, HP and readiness, and
+    /// BM25 passages from the knowledge base (`ava/prompts/v1`).
+    #[default]
+    Paper,
+    /// What a player needs: exact positions in world units with the map's scale, each unit's
+    /// current order and target, weapon range and readiness, the enemies in range of each
+    /// unit and the nearest one's distance, one line of data per unit type on the field, and
+    /// history in the schema's words (`ava/prompts/v2`). The screenshot keeps the paper's grid.
+    Rich,
+}
+
+/// What the model may order.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum ActionSet {
+    /// The paper's: attack, move_grid, move_dir, ability, hold, stop.
+    #[default]
+    Paper,
+    /// The paper's and `attack_move` (to a cell or a point), `move` to an exact point, and
+    /// per-unit stances (`focus` a target, `kite`, `hold`) that the agent carries out every
+    /// step until the unit's next order, so a slow decision cycle keeps its intent.
+    Micro,
+}
+
 /// The pipeline's switches and settings. Defaults follow the paper.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -83,6 +111,10 @@ pub struct AvaConfig {
     pub schema_in_prompt: bool,
     /// Retrieval's ranking: `bm25` or `dense`.
     pub retriever: RetrieverKind,
+    /// The prompt's content: `paper` or `rich`.
+    pub prompt: PromptStyle,
+    /// The orders the model may give: `paper` or `micro`.
+    pub actions: ActionSet,
 }
 
 impl Default for AvaConfig {
@@ -109,6 +141,8 @@ impl Default for AvaConfig {
             fallback: Fallback::AttackNearest,
             schema_in_prompt: false,
             retriever: RetrieverKind::Bm25,
+            prompt: PromptStyle::Paper,
+            actions: ActionSet::Paper,
         }
     }
 }

@@ -23,8 +23,10 @@ pub mod llm;
 mod prompt;
 mod spec;
 
-pub use agent::{AvaAgent, AvaCommander, AvaRun, AvaSetup, CallObserver, Plan, Priority, ROLES, RoleOf, Skill, Tally, describe, place};
-pub use config::{AvaConfig, ConfigError, Fallback, RetrieverKind, Timing};
+pub use agent::{
+    AvaAgent, AvaCommander, AvaRun, AvaSetup, CallObserver, Plan, Priority, ROLES, RoleOf, Skill, Tally, describe, describe_rich, place,
+};
+pub use config::{ActionSet, AvaConfig, ConfigError, Fallback, PromptStyle, RetrieverKind, Timing};
 pub use kb::{Bm25, Hit, KbError, KnowledgeBase, Passage, Retriever, Topic, UnitDoc};
 pub use prompt::{PromptError, Prompts, TEMPLATES};
 pub use spec::{AvaSpec, ModelSpec, SpecError};

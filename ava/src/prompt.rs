@@ -17,6 +17,15 @@ const V1: [(&str, &str); 6] = [
     ("repair", include_str!("../prompts/v1/repair.j2")),
 ];
 
+const V2: [(&str, &str); 6] = [
+    ("system", include_str!("../prompts/v2/system.j2")),
+    ("planner", include_str!("../prompts/v2/planner.j2")),
+    ("priority", include_str!("../prompts/v2/priority.j2")),
+    ("roles", include_str!("../prompts/v2/roles.j2")),
+    ("decision", include_str!("../prompts/v2/decision.j2")),
+    ("repair", include_str!("../prompts/v2/repair.j2")),
+];
+
 #[derive(Debug, thiserror::Error)]
 pub enum PromptError {
     #[error("{}: cannot read the template: {source}", path.display())]
@@ -43,9 +52,18 @@ pub struct Prompts {
 }
 
 impl Prompts {
-    /// The set shipped with the crate.
+    /// The paper's set shipped with the crate (`v1`).
     pub fn builtin() -> Result<Prompts, PromptError> {
-        Prompts::from_sources("v1", "builtin v1", V1.iter().map(|(n, s)| (n.to_string(), s.to_string())).collect())
+        Prompts::builtin_for(crate::PromptStyle::Paper)
+    }
+
+    /// The set shipped for a prompt style: `v1` (the paper's) or `v2` (the rich prompt).
+    pub fn builtin_for(style: crate::PromptStyle) -> Result<Prompts, PromptError> {
+        let (version, set) = match style {
+            crate::PromptStyle::Paper => ("v1", &V1),
+            crate::PromptStyle::Rich => ("v2", &V2),
+        };
+        Prompts::from_sources(version, &format!("builtin {version}"), set.iter().map(|(n, s)| (n.to_string(), s.to_string())).collect())
     }
 
     /// A set from `dir`, holding `<name>.j2` for each of [`TEMPLATES`]. Its version is the

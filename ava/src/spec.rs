@@ -73,6 +73,9 @@ pub enum ModelSpec {
     Replay { dir: PathBuf },
     /// The instant stand-in model (crude focus fire), for pipelines and tests.
     Synthetic,
+    /// The ceiling: a perfect model's stand-in that reads only the prompt and answers as
+    /// `script` would ([`crate::llm::Ceiling`]).
+    Ceiling { script: crate::llm::CeilingScript },
 }
 
 impl ModelSpec {
@@ -86,6 +89,7 @@ impl ModelSpec {
             ModelSpec::Local(_) => "local model (not in this build)".into(),
             ModelSpec::Replay { dir } => format!("replay of {}", dir.display()),
             ModelSpec::Synthetic => "synthetic".into(),
+            ModelSpec::Ceiling { script } => format!("ceiling ({})", script.name()),
         }
     }
 
@@ -109,7 +113,7 @@ pub struct AvaSpec {
     /// A price table file instead of the built-in one.
     #[serde(default)]
     pub prices: Option<PathBuf>,
-    /// A folder of prompt templates instead of the built-in v1.
+    /// A folder of prompt templates instead of the built-in set of `config.prompt`.
     #[serde(default)]
     pub prompts: Option<PathBuf>,
 }
@@ -241,6 +245,7 @@ impl AvaSpec {
             ModelSpec::Local(_) => return Err(SpecError::Model(NO_LOCAL.into())),
             ModelSpec::Replay { dir } => Box::new(Replay::open(dir)?),
             ModelSpec::Synthetic => Box::new(Synthetic),
+            ModelSpec::Ceiling { script } => Box::new(crate::llm::Ceiling { script: *script }),
         })
     }
 
@@ -254,7 +259,7 @@ impl AvaSpec {
         }
         let prompts = match &self.prompts {
             Some(d) => Prompts::from_dir(d)?,
-            None => Prompts::builtin()?,
+            None => Prompts::builtin_for(config.prompt)?,
         };
         let prices = match &self.prices {
             Some(p) => {

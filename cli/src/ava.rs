@@ -73,6 +73,19 @@ pub struct AvaArgs {
     /// AVA: print what the model would be sent at the first decision and stop (no model is called).
     #[arg(long)]
     pub dry_run: bool,
+    /// AVA: the ceiling back end instead of a model: it reads only the prompt and answers as
+    /// this script would (focus-fire, kite, nearest, attack-move), measuring what the prompt
+    /// and action set allow a perfect model.
+    #[arg(long, value_enum, value_name = "SCRIPT", conflicts_with_all = ["llm_url", "llm_replay", "llm_local"])]
+    pub llm_ceiling: Option<avacraft_ava::llm::CeilingScript>,
+    /// AVA: the prompt: paper (the paper's grid cells) or rich (exact positions, ranges,
+    /// orders, enemies in range; docs/ava.md).
+    #[arg(long, value_enum)]
+    pub prompt: Option<avacraft_ava::PromptStyle>,
+    /// AVA: the action set: paper, or micro (adds attack_move, move to a point, and stances
+    /// that act every step until the unit's next order).
+    #[arg(long, value_enum)]
+    pub actions: Option<avacraft_ava::ActionSet>,
 }
 
 /// Prints requests instead of sending them (`--dry-run`).
@@ -141,6 +154,12 @@ impl AvaArgs {
         if let Some(t) = self.timing {
             cfg.timing = t;
         }
+        if let Some(p) = self.prompt {
+            cfg.prompt = p;
+        }
+        if let Some(a) = self.actions {
+            cfg.actions = a;
+        }
         if self.llm_schema == SchemaMode::None {
             cfg.schema_in_prompt = true;
         }
@@ -155,6 +174,8 @@ impl AvaArgs {
         let model = if self.dry_run {
             // The dry run's own stand-in replaces it; nothing is loaded or called.
             ModelSpec::Synthetic
+        } else if let Some(script) = self.llm_ceiling {
+            ModelSpec::Ceiling { script }
         } else if let Some(dir) = &self.llm_replay {
             ModelSpec::Replay { dir: dir.clone() }
         } else if let Some(path) = &self.llm_local {
@@ -191,6 +212,7 @@ impl AvaArgs {
             ModelSpec::Openai { .. } => "--llm-url, --llm-model, --llm-timeout",
             ModelSpec::Replay { .. } => "--llm-replay",
             ModelSpec::Synthetic => "AVA settings",
+            ModelSpec::Ceiling { .. } => "--llm-ceiling",
             // The local model: whether the AVA crate has it follows its own `local` feature,
             // which a test build turns on without this crate's.
             #[allow(unreachable_patterns)]

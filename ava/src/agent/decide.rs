@@ -5,10 +5,10 @@ use super::situation::{self, Tally};
 use super::stages::{self, Plan, Priority};
 use super::state::{AvaSetup, Episode, HistoryItem};
 use crate::config::{AvaConfig, Fallback};
-use crate::decision::{self, Item, Refused, Situation};
+use crate::decision::{self, Item, Order, Refused, Situation};
 use crate::llm::{ChatReply, ChatRequest, Message, Part, Png, Role, Stage};
+use avacraft_engine::UnitId;
 use avacraft_engine::agent::{GroupObs, view};
-use avacraft_engine::{Command, UnitId};
 use avacraft_render::{Camera, CpuBackend, FrameBuilder, VlmOptions};
 use serde::Serialize;
 use serde_json::Value;
@@ -22,6 +22,8 @@ struct SystemCtx<'a> {
     image: bool,
     text: bool,
     camera_width: f32,
+    /// A grid cell's size in world units (`2.4 x 1.7`).
+    cell: String,
 }
 
 #[derive(Serialize)]
@@ -41,6 +43,10 @@ struct DecisionCtx<'a> {
     units: String,
     image: bool,
     schema: Option<String>,
+    /// The micro action set's verbs are offered.
+    micro: bool,
+    /// When the next decision comes, in steps and game seconds.
+    next_in: String,
 }
 
 #[derive(Serialize)]
@@ -53,6 +59,7 @@ struct RepairCtx<'a> {
 /// The pipeline's state for one decision.
 struct Turn<'a> {
     setup: &'a AvaSetup,
+    camera: Camera,
     cfg: &'a AvaConfig,
     ep: &'a mut Episode,
     obs: &'a GroupObs,
@@ -60,18 +67,27 @@ struct Turn<'a> {
     model_ms: f64,
     /// Wall time spent inside calls (retry pauses included), milliseconds.
     call_ms: f64,
+    /// A grid cell's size in world units, for the system prompt.
+    cell: String,
 }
 
 impl Turn<'_> {
     fn meta(&self, attempt: u32) -> CallMeta {
         CallMeta {
             episode: self.obs.episode,
-            seed: self.ep.seed,
+            // The episode's seed, so records match `episode --seed` (the agent's own seed is
+            // derived from it).
+            seed: self.obs.seed,
             team: self.ep.team.player(),
             step: self.obs.step,
             decision: self.ep.decisions,
             attempt,
         }
+    }
+
+    /// The camera whose grid cells history names moves by, or none when positions are exact.
+    fn grid_words(&self) -> Option<&Camera> {
+        (self.cfg.prompt == crate::PromptStyle::Paper).then_some(&self.camera)
     }
 
     fn ask(&mut self, stage: Stage, messages: Vec<Message>, schema: Value, attempt: u32) -> Option<ChatReply> {
@@ -114,6 +130,7 @@ impl Turn<'_> {
                 image: self.cfg.image,
                 text: self.cfg.text,
                 camera_width: self.cfg.camera_width,
+                cell: self.cell.clone(),
             },
         );
         let mut parts = vec![Part::Text(text)];
@@ -166,28 +183,49 @@ impl Turn<'_> {
         p
     }
 
-    /// Retrieval: passages on the unit types on the field and the plan's skill.
+    /// Retrieval: passages on the unit types on the field and the plan's skill. The rich
+    /// prompt keeps only passages about the types on the field, and no profiles (its unit
+    /// block gives each type's data already): keyword ranking alone put Marine and Spine
+    /// Crawler passages into a Stalker-and-Zealot fight.
     fn knowledge(&self, skill: Option<&str>) -> Vec<Knowledge> {
-        let mut kinds: Vec<&str> = self.obs.units.iter().map(|u| u.kind.base().name()).collect();
-        kinds.sort_unstable();
+        let mut kinds: Vec<avacraft_engine::UnitKind> = self.obs.units.iter().map(|u| u.kind.base()).collect();
+        kinds.sort_unstable_by_key(|k| k.name());
         kinds.dedup();
-        let mut query = kinds.join(" ");
+        let mut query = kinds.iter().map(|k| k.name()).collect::<Vec<_>>().join(" ");
         if let Some(skill) = skill {
             query.push(' ');
             query.push_str(skill);
         }
+        let rich = self.cfg.prompt == crate::PromptStyle::Rich;
+        let wide = if rich { self.cfg.top_k * 8 } else { self.cfg.top_k };
         self.setup
             .retriever
-            .search(&query, self.cfg.top_k)
+            .search(&query, wide)
             .into_iter()
+            .filter(|h| {
+                !rich
+                    || (kinds.contains(&h.passage.kind.base())
+                        && match h.passage.topic {
+                            crate::Topic::Profile => false,
+                            // An own unit's ability only when one lists it (Blink needs an
+                            // upgrade); an enemy type's, whatever it has researched.
+                            crate::Topic::Ability(a) => {
+                                let kind = h.passage.kind.base();
+                                let own_kind = self.obs.own().any(|u| u.kind.base() == kind);
+                                !own_kind || self.obs.own().any(|u| u.abilities.iter().any(|i| i.ability == a))
+                            }
+                            _ => true,
+                        })
+            })
+            .take(self.cfg.top_k)
             .map(|h| Knowledge { title: h.passage.title.clone(), text: h.passage.text.clone() })
             .collect()
     }
 
     /// The decision stage with its repair rounds: each round's checked commands are kept,
     /// and a repair asks only for the units still without one.
-    fn decision(&mut self, mut msgs: Vec<Message>, schema: &Value, sit: &Situation<'_>, alive: &[u32]) -> Vec<(u32, Command)> {
-        let mut commands: Vec<(u32, Command)> = Vec::new();
+    fn decision(&mut self, mut msgs: Vec<Message>, schema: &Value, sit: &Situation<'_>, alive: &[u32]) -> Vec<(u32, Order)> {
+        let mut commands: Vec<(u32, Order)> = Vec::new();
         for attempt in 0..=self.cfg.max_repairs {
             let Some(reply) = self.ask(Stage::Decision, msgs.clone(), schema.clone(), attempt) else {
                 self.ep.cost.transport_failures += 1;
@@ -228,7 +266,7 @@ impl Turn<'_> {
                 break;
             }
             self.ep.cost.repairs += 1;
-            let accepted: Vec<String> = commands.iter().map(|(t, c)| situation::command_text(*t, c, sit.camera)).collect();
+            let accepted: Vec<String> = commands.iter().map(|(t, c)| situation::order_text(*t, c, self.grid_words())).collect();
             let repair = self.render("repair", &RepairCtx { refused: &refused, accepted: accepted.join(", "), pending: list(&pending) });
             msgs.push(Message::text(Role::Assistant, reply.text));
             msgs.push(Message::text(Role::User, repair));
@@ -296,7 +334,7 @@ pub(super) fn decide(
     obs: &GroupObs,
     alive: &[u32],
     mode: Mode,
-) -> (Vec<(u32, Command)>, f64) {
+) -> (Vec<(u32, Order)>, f64) {
     let t0 = Instant::now();
     let cfg = Arc::clone(&setup.config);
     let (w, h) = cfg.draw_size();
@@ -308,7 +346,10 @@ pub(super) fn decide(
 
     let (enemies, lost, new_enemies) = since_last(ep, obs);
 
-    let situation = if cfg.text {
+    let rich = cfg.prompt == crate::PromptStyle::Rich;
+    let situation = if cfg.text && rich {
+        super::rich::describe_rich(obs, &scenario.terrain, alive)
+    } else if cfg.text {
         situation::describe(obs, &camera, alive)
     } else {
         format!("Step {}. Your units have tags {}.", obs.step, list(alive))
@@ -316,7 +357,9 @@ pub(super) fn decide(
     let image = if cfg.image { screenshot(setup, frames, cpu, ep, obs, &camera, &[]) } else { None };
     let briefing = ep.briefing.clone();
     let staged = briefing.is_none();
-    let mut turn = Turn { setup, cfg: &cfg, ep, obs, model_ms: 0.0, call_ms: 0.0 };
+    let view = camera.rect();
+    let cell = format!("{:.1} x {:.1}", (view.right - view.left) / 10.0, (view.top - view.bottom) / 10.0);
+    let mut turn = Turn { setup, camera, cfg: &cfg, ep, obs, model_ms: 0.0, call_ms: 0.0, cell };
 
     let replanned = staged
         && cfg.planner
@@ -374,7 +417,14 @@ pub(super) fn decide(
         a.dedup();
         a
     };
-    let schema = decision::schema(alive, &decision::targets(obs), &abilities);
+    let micro = cfg.actions == crate::ActionSet::Micro;
+    let schema = decision::schema_for(alive, &decision::targets(obs), &abilities, micro);
+    let steps = cfg.decide_every;
+    let next_in = format!(
+        "{steps} step{} ({:.2} s of game time)",
+        if steps == 1 { "" } else { "s" },
+        avacraft_engine::loops_to_seconds(steps * turn.ep.loops_per_step)
+    );
     let ctx = DecisionCtx {
         situation: &situation,
         plan,
@@ -385,19 +435,21 @@ pub(super) fn decide(
         units: list(alive),
         image: cfg.image,
         schema: cfg.schema_in_prompt.then(|| schema.to_string()),
+        micro,
+        next_in,
     };
     let text = turn.render("decision", &ctx);
     let msgs = turn.user(text, image2.as_ref().or(image.as_ref()));
-    let sit = Situation { obs, camera: &camera, terrain: &scenario.terrain };
+    let sit = Situation { obs, camera: &camera, terrain: &scenario.terrain, micro };
     let mut commands = turn.decision(msgs, &schema, &sit, alive);
     if commands.is_empty() {
         turn.ep.cost.fallbacks += 1;
         if cfg.fallback == Fallback::AttackNearest {
-            commands = situation::attack_nearest(obs, alive);
+            commands = situation::attack_nearest(obs, alive).into_iter().map(|(t, c)| (t, Order::Do(c))).collect();
         }
     }
 
-    let actions: Vec<String> = commands.iter().map(|(t, c)| situation::command_text(*t, c, &camera)).collect();
+    let actions: Vec<String> = commands.iter().map(|(t, c)| situation::order_text(*t, c, turn.grid_words())).collect();
     turn.ep.history.push_back(HistoryItem { step: obs.step, actions: actions.join(", "), outcome: String::new() });
     while turn.ep.history.len() > cfg.history {
         turn.ep.history.pop_front();
@@ -412,6 +464,7 @@ fn close(turn: Turn<'_>, t0: Instant) -> f64 {
     ep.decisions += 1;
     ep.cost.decisions += 1;
     ep.cost.episode = obs.episode;
+    ep.cost.seed = obs.seed;
     ep.cost.overhead_ms += (t0.elapsed().as_secs_f64() * 1000.0 - call_ms).max(0.0);
     setup.run.update_episode(ep.cost_idx, &ep.cost);
     model_ms

@@ -11,12 +11,14 @@
 
 mod command;
 mod decide;
+mod rich;
 mod run;
 mod situation;
 mod stages;
 mod state;
 
 pub use command::AvaCommander;
+pub use rich::describe_rich;
 pub use run::{AvaRun, CallObserver};
 pub use situation::{Tally, describe, place};
 pub use stages::{Plan, Priority, ROLES, RoleOf, Skill};
@@ -24,6 +26,7 @@ pub use state::AvaSetup;
 
 use crate::config::Timing;
 use crate::cost::EpisodeCost;
+use crate::decision::Order;
 use avacraft_engine::agent::{Agent, AgentCtx, Briefing, GroupObs};
 use avacraft_engine::{Action, Command, LOOPS_PER_SECOND, UnitId};
 use avacraft_render::{CpuBackend, FrameBuilder};
@@ -81,27 +84,50 @@ impl Agent for AvaAgent {
         ep.last_seen = Some((obs.step, obs.game_loop));
         let mut alive: Vec<u32> = obs.controlled.iter().filter(|c| c.alive).map(|c| c.unit).collect();
         alive.sort_unstable();
-        if let Some((ready, _)) = &ep.pending {
+        let orders = if let Some((ready, _)) = &ep.pending {
             if obs.step < *ready {
-                return Vec::new();
+                Vec::new()
+            } else {
+                let (_, orders) = ep.pending.take().unwrap_or_default();
+                orders.into_iter().filter(|(t, _)| alive.contains(t)).collect()
             }
-            let (_, cmds) = ep.pending.take().unwrap_or_default();
-            return cmds.into_iter().filter(|(t, _)| alive.contains(t)).filter_map(|(t, c)| action(t, c)).collect();
-        }
-        let first = *ep.first_step.get_or_insert(obs.step);
-        let cfg = Arc::clone(&self.setup.config);
-        if alive.is_empty() || !(obs.step - first).is_multiple_of(cfg.decide_every) {
-            return Vec::new();
-        }
-        let (cmds, model_ms) = decide::decide(&self.setup, &mut self.frames, &mut self.cpu, ep, obs, &alive, decide::Mode::Full);
-        if cfg.timing == Timing::Realtime {
-            let step_ms = ep.loops_per_step.max(1) as f64 * 1000.0 / LOOPS_PER_SECOND as f64;
-            let delay = (model_ms / step_ms).ceil() as u32;
-            if delay > 0 {
-                ep.pending = Some((obs.step + delay, cmds));
-                return Vec::new();
+        } else {
+            let first = *ep.first_step.get_or_insert(obs.step);
+            let cfg = Arc::clone(&self.setup.config);
+            if alive.is_empty() || !(obs.step - first).is_multiple_of(cfg.decide_every) {
+                Vec::new()
+            } else {
+                let (orders, model_ms) = decide::decide(&self.setup, &mut self.frames, &mut self.cpu, ep, obs, &alive, decide::Mode::Full);
+                let step_ms = ep.loops_per_step.max(1) as f64 * 1000.0 / LOOPS_PER_SECOND as f64;
+                let delay = (model_ms / step_ms).ceil() as u32;
+                if cfg.timing == Timing::Realtime && delay > 0 {
+                    ep.pending = Some((obs.step + delay, orders));
+                    Vec::new()
+                } else {
+                    orders
+                }
+            }
+        };
+        let mut out = Vec::new();
+        for (t, o) in orders {
+            match o {
+                Order::Do(c) => {
+                    // A new order ends the unit's stance.
+                    ep.stances.remove(&t);
+                    out.extend(action(t, c));
+                }
+                Order::Keep(st) => {
+                    ep.stances.insert(t, st);
+                }
             }
         }
-        cmds.into_iter().filter_map(|(t, c)| action(t, c)).collect()
+        // Stances act every step, this one included, from the group's observation alone.
+        ep.stances.retain(|t, _| alive.contains(t));
+        for (&t, st) in &ep.stances {
+            if let Some(u) = obs.units.iter().find(|u| u.tag == t && u.own) {
+                out.extend(st.act(obs, &ep.scenario.terrain, u));
+            }
+        }
+        out
     }
 }

@@ -2,8 +2,9 @@
 //! the image draws over the same camera view (the paper's code described positions on a 3x3
 //! grid while its image showed 10x10), and units off screen say which way they are.
 
-use avacraft_engine::agent::{GroupObs, view};
-use avacraft_engine::{Command, UnitInfo, loops_to_seconds};
+use crate::decision::Order;
+use avacraft_engine::agent::{GroupObs, Stance, view};
+use avacraft_engine::{Command, Direction, UnitInfo, loops_to_seconds};
 use avacraft_render::Camera;
 use std::fmt::Write as _;
 
@@ -145,18 +146,44 @@ pub fn attack_nearest(obs: &GroupObs, units: &[u32]) -> Vec<(u32, Command)> {
     out
 }
 
-/// A command in the schema's words, for the history.
-pub fn command_text(tag: u32, c: &Command, camera: &Camera) -> String {
-    match c {
-        Command::Attack { target } => format!("{tag} attack {}", target.tag()),
-        Command::MoveTo { to } => match camera.cell_of(*to) {
+/// An order in words for the history. `grid` is the camera of the paper's prompt: its
+/// history keeps the wording its recorded calls were made with (moves as "move to [c, r]",
+/// directions as "move right"), so they still replay; the rich prompt (`grid` none) writes
+/// the schema's own words, with points for moves.
+pub fn order_text(tag: u32, o: &Order, grid: Option<&Camera>) -> String {
+    match o {
+        Order::Do(c) => command_text(tag, c, grid),
+        Order::Keep(Stance::Focus { target } | Stance::Kite { target: Some(target) }) => {
+            format!("{tag} stance {} {target}", if matches!(o, Order::Keep(Stance::Focus { .. })) { "focus" } else { "kite" })
+        }
+        Order::Keep(st) => format!("{tag} stance {}", st.name()),
+    }
+}
+
+fn command_text(tag: u32, c: &Command, grid: Option<&Camera>) -> String {
+    match (c, grid) {
+        (Command::Attack { target }, _) => format!("{tag} attack {}", target.tag()),
+        (Command::MoveTo { to }, Some(camera)) => match camera.cell_of(*to) {
             Some((col, row)) => format!("{tag} move to [{col}, {row}]"),
             None => format!("{tag} move"),
         },
-        Command::MoveDir { dir } => format!("{tag} move {dir:?}").to_lowercase(),
-        Command::Ability { ability, .. } => format!("{tag} {}", ability.name()),
-        Command::Hold => format!("{tag} hold"),
-        Command::Stop => format!("{tag} stop"),
-        other => format!("{tag} {other:?}"),
+        (Command::MoveTo { to }, None) => format!("{tag} move ({:.1},{:.1})", to.x, to.y),
+        (Command::MoveDir { dir }, Some(_)) => format!("{tag} move {dir:?}").to_lowercase(),
+        (Command::MoveDir { dir }, None) => format!("{tag} move_dir {}", compass(*dir)),
+        (Command::AttackMoveTo { to }, _) => format!("{tag} attack_move ({:.1},{:.1})", to.x, to.y),
+        (Command::Ability { ability, .. }, _) => format!("{tag} {}", ability.name()),
+        (Command::Hold, _) => format!("{tag} hold"),
+        (Command::Stop, _) => format!("{tag} stop"),
+        (other, _) => format!("{tag} {other:?}"),
+    }
+}
+
+/// A `move_dir` direction as the schema names it.
+pub fn compass(d: Direction) -> &'static str {
+    match d {
+        Direction::Up => "north",
+        Direction::Down => "south",
+        Direction::Right => "east",
+        Direction::Left => "west",
     }
 }

@@ -7,11 +7,13 @@ use super::situation::Tally;
 use super::stages::{Plan, Priority, RoleOf};
 use crate::config::AvaConfig;
 use crate::cost::EpisodeCost;
+use crate::decision::Order;
 use crate::kb::SharedRetriever;
 use crate::prompt::Prompts;
+use avacraft_engine::agent::Stance;
 use avacraft_engine::agent::{AgentCtx, Briefing};
-use avacraft_engine::{Command, DEFAULT_STEP_MUL, Scenario, Team};
-use std::collections::{BTreeSet, VecDeque};
+use avacraft_engine::{DEFAULT_STEP_MUL, Scenario, Team};
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::Arc;
 
 /// A past decision, for the prompt.
@@ -27,7 +29,6 @@ pub(super) struct HistoryItem {
 pub(super) struct Episode {
     pub(super) scenario: Arc<Scenario>,
     pub(super) team: Team,
-    pub(super) seed: u64,
     pub(super) first_step: Option<u32>,
     pub(super) decisions: u32,
     pub(super) plan: Option<Plan>,
@@ -40,8 +41,10 @@ pub(super) struct Episode {
     pub(super) history: VecDeque<HistoryItem>,
     pub(super) tally: Option<Tally>,
     pub(super) seen_enemies: BTreeSet<u32>,
-    /// Realtime: actions waiting for their step.
-    pub(super) pending: Option<(u32, Vec<(u32, Command)>)>,
+    /// Realtime: orders waiting for their step.
+    pub(super) pending: Option<(u32, Vec<(u32, Order)>)>,
+    /// Units' standing orders (the micro action set), by tag, until their next order.
+    pub(super) stances: BTreeMap<u32, Stance>,
     /// Game loops per environment step, as observed (for realtime delays).
     pub(super) loops_per_step: u32,
     pub(super) last_seen: Option<(u32, u32)>,
@@ -54,7 +57,6 @@ impl Episode {
         Episode {
             scenario: Arc::clone(&ctx.scenario),
             team: ctx.team,
-            seed: ctx.seed,
             first_step: None,
             decisions: 0,
             plan: None,
@@ -66,6 +68,7 @@ impl Episode {
             tally: None,
             seen_enemies: BTreeSet::new(),
             pending: None,
+            stances: BTreeMap::new(),
             loops_per_step: DEFAULT_STEP_MUL.get(),
             last_seen: None,
             cost_idx,

@@ -3,7 +3,7 @@
 //! why in words a model can act on.
 
 use super::item::{Item, Verb};
-use avacraft_engine::agent::{GroupObs, check_action, view};
+use avacraft_engine::agent::{GroupObs, Stance, check_action, view};
 use avacraft_engine::{
     Ability, AbilityTarget, Action, ActionError, Command, Direction, Inability, Refusal, TargetKind, TargetProblem, TargetRule, Terrain,
     UnitId, UnitInfo, Vec2,
@@ -20,11 +20,18 @@ pub struct Refused {
     pub reason: String,
 }
 
-/// What a decision's items come to: commands for units, and refusals.
+/// What an accepted item orders: a command now, or a stance kept until the unit's next order.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Order {
+    Do(Command),
+    Keep(Stance),
+}
+
+/// What a decision's items come to: orders for units, and refusals.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Checked {
-    /// (unit tag, command), in the model's order, at most one per unit.
-    pub commands: Vec<(u32, Command)>,
+    /// (unit tag, order), in the model's order, at most one per unit.
+    pub commands: Vec<(u32, Order)>,
     pub refused: Vec<Refused>,
 }
 
@@ -36,6 +43,8 @@ pub struct Situation<'a> {
     pub obs: &'a GroupObs,
     pub camera: &'a Camera,
     pub terrain: &'a Terrain,
+    /// The micro action set's verbs are accepted (else they are refused as unknown).
+    pub micro: bool,
 }
 
 impl Situation<'_> {
@@ -78,7 +87,7 @@ pub fn targets(obs: &GroupObs) -> Vec<u32> {
 /// Checks `items` (with their indices in the model's list). Refusals of earlier stages (items
 /// that did not parse) are passed in `refused` and kept.
 pub fn check(s: &Situation<'_>, items: &[(usize, Item)], mut refused: Vec<Refused>) -> Checked {
-    let mut commands: Vec<(u32, Command)> = Vec::new();
+    let mut commands: Vec<(u32, Order)> = Vec::new();
     for (i, item) in items {
         let tag = item.unit;
         let verdict = if !s.controls(tag) {
@@ -106,10 +115,51 @@ fn name(u: &UnitInfo) -> String {
 
 /// The item as a command, checked by the engine's rules from the observation
 /// ([`check_action`]); a refusal in words that name the units.
-fn command(s: &Situation<'_>, u: &UnitInfo, item: &Item) -> Result<Command, String> {
+fn command(s: &Situation<'_>, u: &UnitInfo, item: &Item) -> Result<Order, String> {
+    if item.action == Verb::Stance {
+        if !s.micro {
+            return Err("`stance` is not an action here (the paper's action set)".into());
+        }
+        return stance(s, u, item).map(Order::Keep);
+    }
     let cmd = build(s, u, item)?;
     check_action(s.obs, s.terrain, &Action::new(view::id(u), cmd)).map_err(|e| words(s, u, item, &cmd, e))?;
-    Ok(cmd)
+    Ok(Order::Do(cmd))
+}
+
+/// A stance item: `focus` needs a target the unit can hit; `kite` a unit with a weapon.
+fn stance(s: &Situation<'_>, u: &UnitInfo, item: &Item) -> Result<Stance, String> {
+    let raw = item.stance.as_deref().ok_or("stance needs `stance`: focus (with `target`), kite or hold")?;
+    let named = |tag: u32| -> Result<u32, String> {
+        let t = s.unit(tag).filter(|t| !t.own).ok_or_else(|| format!("target {tag} is not an enemy you can see"))?;
+        if !view::can_attack(u, t) {
+            return Err(format!("{} cannot hit {}", name(u), name(t)));
+        }
+        Ok(tag)
+    };
+    match raw {
+        "focus" => {
+            let tag = item.target.ok_or("the focus stance needs `target`: the tag of an enemy you can see")?;
+            Ok(Stance::Focus { target: named(tag)? })
+        }
+        "kite" if u.spec().weapons.is_empty() => Err(format!("{} has no weapon to kite with", name(u))),
+        "kite" => Ok(Stance::Kite { target: item.target.map(named).transpose()? }),
+        "hold" => Ok(Stance::Hold),
+        other => Err(format!("unknown stance `{other}` (focus, kite or hold)")),
+    }
+}
+
+/// A point the model wrote, on the map.
+fn exact(s: &Situation<'_>, p: [f32; 2]) -> Result<Vec2, String> {
+    let v = Vec2::new(p[0], p[1]);
+    if !(v.x.is_finite() && v.y.is_finite() && s.terrain.playable().contains(v)) {
+        let r = s.terrain.playable();
+        return Err(format!(
+            "point ({:.1}, {:.1}) is off the map (x {:.0} to {:.0}, y {:.0} to {:.0})",
+            p[0], p[1], r.left, r.right, r.bottom, r.top
+        ));
+    }
+    Ok(v)
 }
 
 /// What the item says, as a command: the camera's cells become points, names become types.
@@ -132,6 +182,18 @@ fn build(s: &Situation<'_>, u: &UnitInfo, item: &Item) -> Result<Command, String
         }
         Verb::Attack => Command::Attack { target: seen_id(s, item.target.ok_or("attack needs `target`: the tag of a unit on screen")?)? },
         Verb::Ability => ability(s, u, item)?,
+        _ if !s.micro => return Err(format!("`{}` is not an action here (the paper's action set)", item.action.name())),
+        Verb::Move => Command::MoveTo { to: exact(s, item.point.ok_or("move needs `point`: [x, y] in world units")?)? },
+        Verb::AttackMove => {
+            let to = match (item.point, item.cell) {
+                (Some(p), _) => exact(s, p)?,
+                (None, Some(c)) => s.point(c)?,
+                (None, None) => return Err("attack_move needs `point`: [x, y] (or `cell`)".into()),
+            };
+            Command::AttackMoveTo { to }
+        }
+        // Read by `stance` before a command is built.
+        Verb::Stance => return Err("stance needs `stance`: focus, kite or hold".into()),
     })
 }
 

@@ -18,10 +18,21 @@ pub enum Verb {
     Ability,
     Hold,
     Stop,
+    /// Micro action set: walk to a cell or an exact point, fighting what comes in range.
+    AttackMove,
+    /// Micro action set: walk to an exact point (world units).
+    Move,
+    /// Micro action set: a standing order carried out every step until the unit's next
+    /// order (`focus` a target, `kite`, `hold`).
+    Stance,
 }
 
 impl Verb {
+    /// The paper's action set.
     pub const ALL: [Verb; 6] = [Verb::Attack, Verb::MoveGrid, Verb::MoveDir, Verb::Ability, Verb::Hold, Verb::Stop];
+    /// The micro action set: the paper's and three more.
+    pub const MICRO: [Verb; 9] =
+        [Verb::Attack, Verb::MoveGrid, Verb::MoveDir, Verb::Ability, Verb::Hold, Verb::Stop, Verb::AttackMove, Verb::Move, Verb::Stance];
     pub fn name(self) -> &'static str {
         match self {
             Verb::Attack => "attack",
@@ -30,6 +41,9 @@ impl Verb {
             Verb::Ability => "ability",
             Verb::Hold => "hold",
             Verb::Stop => "stop",
+            Verb::AttackMove => "attack_move",
+            Verb::Move => "move",
+            Verb::Stance => "stance",
         }
     }
 }
@@ -53,6 +67,12 @@ pub struct Item {
     pub direction: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ability: Option<String>,
+    /// Micro action set: an exact point [x, y] in world units (`move`, `attack_move`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub point: Option<[f32; 2]>,
+    /// Micro action set: `focus` (with `target`), `kite` or `hold`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stance: Option<String>,
 }
 
 /// The JSON schema of a decision, for the team's alive controllable `units`, the unit tags an
@@ -71,7 +91,14 @@ pub struct Item {
 /// until `max_tokens` cut the JSON off. Verbs that cannot succeed are left out (`attack`
 /// with nothing to target, `ability` for a team without abilities).
 pub fn schema(units: &[u32], targets: &[u32], abilities: &[&str]) -> Value {
-    let verbs: Vec<&str> = Verb::ALL
+    schema_for(units, targets, abilities, false)
+}
+
+/// [`schema`], with the micro action set's verbs and fields (`point`, `stance`) when `micro`.
+/// The paper's schema is unchanged, so its recorded calls still replay.
+pub fn schema_for(units: &[u32], targets: &[u32], abilities: &[&str], micro: bool) -> Value {
+    let all: &[Verb] = if micro { &Verb::MICRO } else { &Verb::ALL };
+    let verbs: Vec<&str> = all
         .iter()
         .filter(|v| match v {
             Verb::Attack => !targets.is_empty(),
@@ -85,6 +112,24 @@ pub fn schema(units: &[u32], targets: &[u32], abilities: &[&str]) -> Value {
     let unit = if units.is_empty() { json!({"type": "integer", "minimum": 1}) } else { json!({"type": "integer", "enum": units}) };
     let target = if targets.is_empty() { json!({"type": "null"}) } else { nullable(json!({"type": "integer", "enum": targets})) };
     let ability = if abilities.is_empty() { json!({"type": "null"}) } else { nullable(json!({"type": "string", "enum": abilities})) };
+    let mut item = json!({
+        "type": "object",
+        "properties": {
+            "unit": unit,
+            "action": {"type": "string", "enum": verbs},
+            "target": target,
+            "cell": nullable(json!({"type": "array", "items": {"type": "integer", "minimum": 1, "maximum": 10}, "minItems": 2, "maxItems": 2})),
+            "direction": nullable(json!({"type": "string", "enum": DIRECTIONS})),
+            "ability": ability
+        },
+        "required": ["unit", "action", "target", "cell", "direction", "ability"],
+        "additionalProperties": false
+    });
+    if micro {
+        item["properties"]["point"] = nullable(json!({"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2}));
+        item["properties"]["stance"] = nullable(json!({"type": "string", "enum": avacraft_engine::agent::Stance::NAMES}));
+        item["required"] = json!(["unit", "action", "target", "cell", "point", "direction", "ability", "stance"]);
+    }
     json!({
         "type": "object",
         "properties": {
@@ -92,19 +137,7 @@ pub fn schema(units: &[u32], targets: &[u32], abilities: &[&str]) -> Value {
             "actions": {
                 "type": "array",
                 "maxItems": units.len(),
-                "items": {
-                    "type": "object",
-                    "properties": {
-                        "unit": unit,
-                        "action": {"type": "string", "enum": verbs},
-                        "target": target,
-                        "cell": nullable(json!({"type": "array", "items": {"type": "integer", "minimum": 1, "maximum": 10}, "minItems": 2, "maxItems": 2})),
-                        "direction": nullable(json!({"type": "string", "enum": DIRECTIONS})),
-                        "ability": ability
-                    },
-                    "required": ["unit", "action", "target", "cell", "direction", "ability"],
-                    "additionalProperties": false
-                }
+                "items": item
             }
         },
         "required": ["reasoning", "actions"],

@@ -12,6 +12,6 @@ mod check;
 mod item;
 mod parse;
 
-pub use check::{Checked, Refused, Situation, check, targets};
-pub use item::{DIRECTIONS, Item, Verb, schema};
+pub use check::{Checked, Order, Refused, Situation, check, targets};
+pub use item::{DIRECTIONS, Item, Verb, schema, schema_for};
 pub use parse::{ParseError, ParsedItems, extract_json, parse_items};

@@ -214,7 +214,9 @@ fn weapon_line(w: &Weapon) -> String {
     s
 }
 
-fn stats_line(spec: &UnitSpec) -> String {
+/// A unit type's data in one line: race, attributes, health, shields, armor, speed, sight,
+/// energy, weapons.
+pub fn stats_line(spec: &UnitSpec) -> String {
     let attrs: Vec<&str> = spec.attrs.names().collect();
     let mut s =
         format!("{:?}, {}, {} health", spec.race, if attrs.is_empty() { "no attributes".into() } else { attrs.join(", ") }, spec.hp);

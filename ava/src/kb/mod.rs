@@ -13,7 +13,7 @@ mod dense;
 mod retrieve;
 mod shared;
 
-pub use base::{KbError, KnowledgeBase, Passage, Topic, UnitDoc};
+pub use base::{KbError, KnowledgeBase, Passage, Topic, UnitDoc, stats_line};
 pub use dense::{Dense, DenseError};
 pub use retrieve::{Bm25, Hit, Retriever};
 pub use shared::{RetrieverError, SharedRetriever, retriever};

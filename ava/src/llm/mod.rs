@@ -7,12 +7,14 @@
 //! (tests, dry runs). Every call the agent makes goes through a
 //! [`Recorder`], which writes it to the run folder before the answer is used.
 
+mod ceiling;
 #[cfg(feature = "local")]
 mod local;
 mod openai;
 mod record;
 mod synthetic;
 
+pub use ceiling::{Ceiling, CeilingScript, Read, Seen, ceiling_decision, read_prompt};
 #[cfg(feature = "local")]
 pub use local::{GgufError, Local, LocalConfig, LocalStats, SMOLLM2, SMOLLM2_ENV, SMOLLM2_FILE, SMOLLM2_INSTALL, check_gguf, find_smollm2};
 pub use openai::{OpenAi, OpenAiConfig, SchemaMode};

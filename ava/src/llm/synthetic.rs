@@ -29,8 +29,9 @@ pub fn tags_under(text: &str, heading: &str) -> Vec<u32> {
 
 /// The answer for `stage` to a request whose first user message reads `prompt`.
 pub fn synthetic_answer(stage: Stage, prompt: &str) -> String {
-    let mine = tags_under(prompt, "Your units:");
-    let enemies = tags_under(prompt, "Enemies in sight:");
+    // Headings as both prompts write them ("Your units:", "Your units (tag type ...):").
+    let mine = tags_under(prompt, "Your units");
+    let enemies = tags_under(prompt, "Enemies in sight");
     match stage {
         Stage::Planner => json!({
             "primary_skill": {"name": "focus fire", "description": "all shoot one target", "steps": ["pick the weakest enemy", "all attack it"]},

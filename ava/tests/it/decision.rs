@@ -1,7 +1,7 @@
 //! Decisions checked against real observations: the reasons given, and the property that
 //! matters most: whatever a model writes, an accepted command is never refused by the engine.
 
-use avacraft_ava::decision::{Item, Situation, Verb, check, extract_json, parse_items, schema, targets};
+use avacraft_ava::decision::{Item, Order, Situation, Verb, check, extract_json, parse_items, schema, targets};
 use avacraft_engine::agent::{GroupObs, Reads};
 use avacraft_engine::{Ability, Action, Command, Controllers, Env, EnvConfig, Scenario, Team, UnitId};
 use avacraft_render::{Camera, vlm_obs_layout};
@@ -29,7 +29,7 @@ fn camera(env: &Env, obs: &GroupObs) -> Camera {
 }
 
 fn item(unit: u32, action: Verb) -> Item {
-    Item { unit, action, target: None, cell: None, direction: None, ability: None }
+    Item { unit, action, target: None, cell: None, direction: None, ability: None, point: None, stance: None }
 }
 
 #[test]
@@ -37,7 +37,7 @@ fn refusals_say_what_is_wrong() {
     let env = state("3m_vlm", 1, 6);
     let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
     let cam = camera(&env, &obs);
-    let sit = Situation { obs: &obs, camera: &cam, terrain: env.world().terrain() };
+    let sit = Situation { obs: &obs, camera: &cam, terrain: env.world().terrain(), micro: false };
     let own: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag).collect();
     let enemy = obs.units.iter().find(|u| !u.own).map(|u| u.tag).expect("an enemy in sight after 6 steps");
     let items = vec![
@@ -68,9 +68,9 @@ fn refusals_say_what_is_wrong() {
         assert!(r.contains(w), "item {i}: `{r}` should say `{w}`");
     }
     assert_eq!(c.commands.len(), 2);
-    assert_eq!(c.commands[0], (own[0], Command::Attack { target: UnitId::new((enemy - 1) as u16) }));
+    assert_eq!(c.commands[0], (own[0], Order::Do(Command::Attack { target: UnitId::new((enemy - 1) as u16) })));
     // The grid move goes to the camera's cell, the one drawn on the screenshot.
-    let Command::MoveTo { to } = c.commands[1].1 else { panic!("{:?}", c.commands[1]) };
+    let Order::Do(Command::MoveTo { to }) = c.commands[1].1 else { panic!("{:?}", c.commands[1]) };
     assert_eq!(cam.cell_of(to), Some((5, 5)));
 }
 
@@ -80,7 +80,7 @@ fn abilities_are_checked_for_energy_range_and_target_side() {
     let env = state("MMM_vs_MMM", 2, 4);
     let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
     let cam = camera(&env, &obs);
-    let sit = Situation { obs: &obs, camera: &cam, terrain: env.world().terrain() };
+    let sit = Situation { obs: &obs, camera: &cam, terrain: env.world().terrain(), micro: false };
     let medivac = obs.units.iter().find(|u| u.own && u.kind.base().name() == "Medivac").expect("a Medivac");
     let marine = obs.units.iter().find(|u| u.own && u.kind.base().name() == "Marine").expect("a Marine");
     let items = vec![
@@ -89,7 +89,7 @@ fn abilities_are_checked_for_energy_range_and_target_side() {
     ];
     let c = check(&sit, &items, Vec::new());
     assert!(c.refused.is_empty(), "{:?}", c.refused);
-    assert_eq!(c.commands[1].1, Command::Ability { ability: Ability::Stimpack, target: avacraft_engine::AbilityTarget::None });
+    assert_eq!(c.commands[1].1, Order::Do(Command::Ability { ability: Ability::Stimpack, target: avacraft_engine::AbilityTarget::None }));
     if let Some(enemy) = obs.units.iter().find(|u| !u.own) {
         let c = check(&sit, &[(0, Item { target: Some(enemy.tag), ..item(medivac.tag, Verb::Attack) })], Vec::new());
         assert!(c.refused[0].reason.contains("heals"), "{:?}", c.refused);
@@ -204,17 +204,28 @@ fn targets_are_enemies_in_sight_and_own_units_only_for_those_that_heal() {
     }
 }
 
-type RawItem = (prop::sample::Index, usize, Option<prop::sample::Index>, Option<(u8, u8)>, Option<usize>, Option<usize>);
+type RawItem = (
+    prop::sample::Index,
+    usize,
+    Option<prop::sample::Index>,
+    Option<(u8, u8)>,
+    Option<usize>,
+    Option<usize>,
+    Option<(f32, f32)>,
+    Option<usize>,
+);
 
 fn arb_items() -> impl Strategy<Value = Vec<RawItem>> {
     prop::collection::vec(
         (
             any::<prop::sample::Index>(),
-            0usize..7,
+            0usize..10,
             prop::option::of(any::<prop::sample::Index>()),
             prop::option::of((0u8..12, 0u8..12)),
             prop::option::of(0usize..5),
             prop::option::of(0usize..=Ability::COUNT),
+            prop::option::of((-5.0f32..70.0, -5.0f32..70.0)),
+            prop::option::of(0usize..4),
         ),
         1..12,
     )
@@ -223,9 +234,10 @@ fn arb_items() -> impl Strategy<Value = Vec<RawItem>> {
 /// A model's item from raw draws: tags of the observation (and 99), verbs, cells,
 /// directions and abilities, with junk among each.
 fn to_json(raw: &RawItem, tags: &[u32]) -> Value {
-    let verbs = ["attack", "move_grid", "move_dir", "ability", "hold", "stop", "charge"];
+    let verbs = ["attack", "move_grid", "move_dir", "ability", "hold", "stop", "charge", "attack_move", "move", "stance"];
     let dirs = ["north", "south", "east", "west", "sideways"];
-    let (unit, verb, target, cell, dir, ability) = raw;
+    let stances = ["focus", "kite", "hold", "dance"];
+    let (unit, verb, target, cell, dir, ability, point, stance) = raw;
     let mut v = json!({"unit": tags[unit.index(tags.len())], "action": verbs[*verb]});
     if let Some(t) = target {
         v["target"] = tags[t.index(tags.len())].into();
@@ -238,6 +250,12 @@ fn to_json(raw: &RawItem, tags: &[u32]) -> Value {
     }
     if let Some(a) = ability {
         v["ability"] = Ability::ALL.get(*a).map_or("nuke", |a| a.name()).into();
+    }
+    if let Some((x, y)) = point {
+        v["point"] = json!([x, y]);
+    }
+    if let Some(st) = stance {
+        v["stance"] = stances[*st].into();
     }
     v
 }
@@ -252,6 +270,7 @@ proptest! {
         which in 0usize..4,
         steps in 0u32..30,
         picks in arb_items(),
+        micro in any::<bool>(),
     ) {
         let scenario = ["3m_vlm", "MMM_vs_MMM", "pvz_ht", "8m3mr1mv1st_vs_5s2c"][which];
         let mut env = state(scenario, 5, steps);
@@ -265,9 +284,36 @@ proptest! {
         let (items, refused) = parse_items(&v, "actions").map_err(|e| TestCaseError::fail(e.to_string()))?;
         let cam = camera(&env, &obs);
         let terrain = env.scenario().terrain.clone();
-        let c = check(&Situation { obs: &obs, camera: &cam, terrain: &terrain }, &items, refused);
+        let c = check(&Situation { obs: &obs, camera: &cam, terrain: &terrain, micro }, &items, refused);
         prop_assert_eq!(c.commands.len() + c.refused.len(), picks.len());
-        let actions: Vec<Action> = c.commands.iter().map(|(t, cmd)| Action::new(UnitId::new((t - 1) as u16), *cmd)).collect();
+        // The paper's action set refuses the micro verbs.
+        if !micro {
+            let extra = ["attack_move", "move", "stance"];
+            prop_assert!(!c.commands.iter().any(|(t, o)| matches!(o, Order::Keep(_)) && tags.contains(t)));
+            let n = picks.iter().filter(|p| extra.contains(&["attack", "move_grid", "move_dir", "ability", "hold", "stop", "charge", "attack_move", "move", "stance"][p.1])).count();
+            prop_assert!(c.refused.len() >= n);
+        }
+        // A stance's action each step is a command the engine takes too.
+        let terrain2 = env.scenario().terrain.clone();
+        let stance_actions: Vec<Action> = c
+            .commands
+            .iter()
+            .filter_map(|(t, o)| match o {
+                Order::Keep(st) => obs.units.iter().find(|u| u.tag == *t).and_then(|u| st.act(&obs, &terrain2, u)),
+                Order::Do(_) => None,
+            })
+            .collect();
+        for (a, r) in stance_actions.iter().zip(env.submit(Team::One, &stance_actions)) {
+            prop_assert!(r.is_ok(), "stance action {:?} refused by the engine: {:?}", a, r);
+        }
+        let actions: Vec<Action> = c
+            .commands
+            .iter()
+            .filter_map(|(t, o)| match o {
+                Order::Do(cmd) => Some(Action::new(UnitId::new((t - 1) as u16), *cmd)),
+                Order::Keep(_) => None,
+            })
+            .collect();
         for (a, r) in actions.iter().zip(env.submit(Team::One, &actions)) {
             prop_assert!(r.is_ok(), "{:?} accepted by AVA but refused by the engine: {:?}", a, r);
         }

@@ -13,6 +13,7 @@ mod observe;
 mod role;
 mod runner;
 mod scripted;
+mod stance;
 pub mod view;
 
 pub use check::check_action;
@@ -28,3 +29,4 @@ pub use role::{Briefing, GroupRole};
 pub use runner::{AgentTeam, Grouping};
 pub(crate) use scripted::opponent;
 pub use scripted::{AGENTS, AttackMove, Defensive, FocusFire, Hold, NoOp, RandomActions, UnknownAgent, by_name, factory};
+pub use stance::Stance;

@@ -55,6 +55,8 @@ pub struct AgentObs {
 #[derive(Clone, Debug, PartialEq)]
 pub struct GroupObs {
     pub episode: u64,
+    /// The episode's seed (the environment's, which a deployment's messages carry).
+    pub seed: u64,
     pub step: u32,
     pub game_loop: u32,
     pub team: Team,
@@ -102,6 +104,7 @@ impl GroupObs {
         units.extend(enemies);
         Some(GroupObs {
             episode: first.episode,
+            seed: first.seed,
             step: first.step,
             game_loop: first.game_loop,
             team,

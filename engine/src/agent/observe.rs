@@ -52,6 +52,7 @@ impl GroupObs {
             .collect();
         GroupObs {
             episode,
+            seed: env.seed(),
             step: env.steps(),
             game_loop: env.world().tick(),
             team,

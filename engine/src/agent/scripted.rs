@@ -254,34 +254,41 @@ impl FocusFire {
         }
     }
 
-    fn own_target<'a>(g: &'a GroupObs, u: &UnitInfo, team_target: Option<&'a UnitInfo>) -> Option<&'a UnitInfo> {
-        if let Some(t) = team_target
-            && can_attack(u, t)
-        {
-            return Some(t);
-        }
-        let hittable: Vec<&UnitInfo> = g.enemies().filter(|e| can_attack(u, e)).collect();
-        let in_range = hittable.iter().filter(|e| range_gap(u, e).is_some_and(|gap| gap <= 0.0));
-        if let Some(t) = in_range.min_by(|a, b| ehp(a).total_cmp(&ehp(b)).then(a.tag.cmp(&b.tag))) {
-            return Some(t);
-        }
-        hittable.into_iter().min_by(|a, b| pos(a).dist_sq(pos(u)).total_cmp(&pos(b).dist_sq(pos(u))).then(a.tag.cmp(&b.tag)))
-    }
-
-    /// A melee enemy that is slower than `u` and about to reach it while `u` reloads.
     fn kite_from(&self, g: &GroupObs, u: &UnitInfo) -> Option<Vec2> {
-        // An attack in its wind-up is left to fire: stepping away would cancel it.
-        if !self.kite || max_range(u) < 3.0 || !reloading_longer_than(u, 2.0) || !mobile(u) || u.buffs.contains(Buffs::WINDING_UP) {
-            return None;
-        }
-        let threats: Vec<&UnitInfo> = g
-            .enemies()
-            .filter(|e| max_range(e) < 1.5 && e.speed < u.speed && mobile(e) && can_attack(e, u))
-            .filter(|e| edge(e, u) < max_range(e) + 1.5)
-            .collect();
-        let away = threats.iter().fold(Vec2::ZERO, |acc, e| acc + (pos(u) - pos(e)).normalized());
-        (!threats.is_empty() && away.len() > 1e-3).then(|| pos(u) + away.normalized() * 2.0)
+        if self.kite { kite_step(g, u) } else { None }
     }
+}
+
+/// The target `u` takes: the team's target when it can hit it, else the lowest HP + shields
+/// enemy in range, else the nearest enemy it can hit.
+pub(super) fn own_target<'a>(g: &'a GroupObs, u: &UnitInfo, team_target: Option<&'a UnitInfo>) -> Option<&'a UnitInfo> {
+    if let Some(t) = team_target
+        && can_attack(u, t)
+    {
+        return Some(t);
+    }
+    let hittable: Vec<&UnitInfo> = g.enemies().filter(|e| can_attack(u, e)).collect();
+    let in_range = hittable.iter().filter(|e| range_gap(u, e).is_some_and(|gap| gap <= 0.0));
+    if let Some(t) = in_range.min_by(|a, b| ehp(a).total_cmp(&ehp(b)).then(a.tag.cmp(&b.tag))) {
+        return Some(t);
+    }
+    hittable.into_iter().min_by(|a, b| pos(a).dist_sq(pos(u)).total_cmp(&pos(b).dist_sq(pos(u))).then(a.tag.cmp(&b.tag)))
+}
+
+/// Where `u` steps to get away from a melee enemy that is slower than it and about to reach
+/// it while it reloads; `None` when it should not step back.
+pub(super) fn kite_step(g: &GroupObs, u: &UnitInfo) -> Option<Vec2> {
+    // An attack in its wind-up is left to fire: stepping away would cancel it.
+    if max_range(u) < 3.0 || !reloading_longer_than(u, 2.0) || !mobile(u) || u.buffs.contains(Buffs::WINDING_UP) {
+        return None;
+    }
+    let threats: Vec<&UnitInfo> = g
+        .enemies()
+        .filter(|e| max_range(e) < 1.5 && e.speed < u.speed && mobile(e) && can_attack(e, u))
+        .filter(|e| edge(e, u) < max_range(e) + 1.5)
+        .collect();
+    let away = threats.iter().fold(Vec2::ZERO, |acc, e| acc + (pos(u) - pos(e)).normalized());
+    (!threats.is_empty() && away.len() > 1e-3).then(|| pos(u) + away.normalized() * 2.0)
 }
 
 impl Agent for FocusFire {
@@ -322,7 +329,7 @@ impl Agent for FocusFire {
                     continue;
                 }
             }
-            match Self::own_target(g, u, team_target) {
+            match own_target(g, u, team_target) {
                 Some(t) => {
                     if !attacking(u, t.tag) && (mobile(u) || range_gap(u, t).is_some_and(|gap| gap <= 0.0)) {
                         out.push(Action::new(id(u), Command::Attack { target: id(t) }));

@@ -8,7 +8,7 @@
 
 #![allow(dead_code)]
 
-use avacraft_ava::llm::{OpenAi, OpenAiConfig, SchemaMode, Stage, synthetic_answer};
+use avacraft_ava::llm::{CeilingScript, OpenAi, OpenAiConfig, SchemaMode, Stage, ceiling_decision, read_prompt, synthetic_answer};
 use avacraft_ava::{AvaAgent, AvaConfig, AvaRun, AvaSetup, Bm25, KnowledgeBase, Prompts};
 use avacraft_engine::agent::{AgentTeam, Grouping};
 use avacraft_engine::{Controllers, Env, EnvConfig, Scenario, Team};
@@ -52,6 +52,8 @@ pub struct Seen {
 struct Inner {
     faults: VecDeque<Fault>,
     seen: Vec<Seen>,
+    /// Ceiling mode: decisions are answered as this script would, from the prompt alone.
+    ceiling: Option<CeilingScript>,
 }
 
 #[derive(Clone)]
@@ -63,7 +65,17 @@ pub struct FakeServer {
 impl FakeServer {
     /// Starts a server on an ephemeral loopback port (it lives until the test process ends).
     pub fn start() -> FakeServer {
-        let inner = Arc::new(Mutex::new(Inner::default()));
+        FakeServer::serve(Inner::default())
+    }
+
+    /// A server in ceiling mode: it answers decisions as `script` would, reading only the
+    /// prompt's text (the ceiling back end's answers, over HTTP).
+    pub fn start_ceiling(script: CeilingScript) -> FakeServer {
+        FakeServer::serve(Inner { ceiling: Some(script), ..Inner::default() })
+    }
+
+    fn serve(inner: Inner) -> FakeServer {
+        let inner = Arc::new(Mutex::new(inner));
         let state = Arc::clone(&inner);
         let (tx, rx) = std::sync::mpsc::channel();
         std::thread::spawn(move || {
@@ -101,7 +113,7 @@ impl FakeServer {
 async fn chat(State(s): State<Arc<Mutex<Inner>>>, headers: HeaderMap, body: String) -> Response {
     let value: Value = serde_json::from_str(&body).unwrap_or(Value::Null);
     let header = |k: &str| headers.get(k).and_then(|v| v.to_str().ok()).map(str::to_owned);
-    let fault = {
+    let (fault, ceiling) = {
         let mut g = s.lock().expect("lock");
         g.seen.push(Seen {
             authorization: header("authorization"),
@@ -109,9 +121,9 @@ async fn chat(State(s): State<Arc<Mutex<Inner>>>, headers: HeaderMap, body: Stri
             body: value.clone(),
             raw: body.clone(),
         });
-        g.faults.pop_front()
+        (g.faults.pop_front(), g.ceiling)
     };
-    let answer = answer(&value);
+    let answer = answer(&value, ceiling);
     let completion = |content: String| {
         axum::Json(json!({
             "id": "fake", "object": "chat.completion", "model": "fake-model",
@@ -138,7 +150,7 @@ async fn chat(State(s): State<Arc<Mutex<Inner>>>, headers: HeaderMap, body: Stri
 
 /// The fake model's answer: the synthetic model's, for the stage the schema names, from
 /// the first user message (a repair re-answers for every unit; the agent keeps what it needs).
-fn answer(body: &Value) -> String {
+fn answer(body: &Value, ceiling: Option<CeilingScript>) -> String {
     let stage = match body["response_format"]["json_schema"]["name"].as_str().unwrap_or("") {
         "ava_planner" => Stage::Planner,
         "ava_priority" => Stage::Priority,
@@ -151,17 +163,21 @@ fn answer(body: &Value) -> String {
         Value::Array(parts) => parts.iter().filter_map(|p| p["text"].as_str()).collect::<Vec<_>>().join("\n"),
         _ => String::new(),
     };
-    synthetic_answer(stage, &text)
+    match (stage, ceiling) {
+        (Stage::Decision, Some(script)) => ceiling_decision(script, &read_prompt(&text)).to_string(),
+        _ => synthetic_answer(stage, &text),
+    }
 }
 
 /// An AVA setup over `model` with `cfg`, recording into `record` when given.
 pub fn setup(model: Box<dyn avacraft_ava::llm::ChatModel>, cfg: AvaConfig, record: Option<&std::path::Path>) -> AvaSetup {
     let recorder = record.map(|d| avacraft_ava::llm::Recorder::create(d).expect("recorder"));
     let kb = KnowledgeBase::builtin().expect("knowledge base");
+    let prompts = Prompts::builtin_for(cfg.prompt).expect("prompts");
     AvaSetup {
         config: Arc::new(cfg),
         run: AvaRun::new(model, recorder, avacraft_ava::cost::PriceTable::builtin()),
-        prompts: Arc::new(Prompts::builtin().expect("prompts")),
+        prompts: Arc::new(prompts),
         retriever: Arc::new(Bm25::new(&kb)),
     }
 }

@@ -1,0 +1,345 @@
+//! The ceiling back end: a stand-in for a perfect model that reads only the prompt's text and
+//! answers as a chosen scripted agent would. What it wins measures how much of a scenario AVA's
+//! prompt and action set allow, whatever the model: an order it cannot work out from the
+//! prompt, a real model could not either. It never reads the game state.
+//!
+//! It reads both prompts: the rich one's exact positions, ranges, orders and unit-type lines,
+//! and the paper's grid cells (where it can only aim by cell). Planner, roles and priorities
+//! are answered as the synthetic model does; the decision as the script:
+//!
+//! - `focus-fire`: every unit on the enemy with the lowest HP + shields it can hit;
+//! - `kite`: the same, and ranged units step back from slower melee enemies while reloading;
+//! - `nearest`: every unit on the enemy nearest the army's centre (the `aggressive` script);
+//! - `attack-move`: attack-move onto the enemies (the map's centre when none is seen).
+//!
+//! With the micro action set the answer uses stances (`focus`, `kite`) so the script's rule
+//! keeps acting between decisions; with the paper's, one order per decision.
+
+use super::synthetic::{first_user_text, synthetic_answer};
+use super::{ChatModel, ChatReply, ChatRequest, LlmError, Part, Stage, Usage};
+use serde::{Deserialize, Serialize};
+use serde_json::{Value, json};
+
+/// The script a ceiling model answers as.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum CeilingScript {
+    FocusFire,
+    Kite,
+    Nearest,
+    AttackMove,
+}
+
+impl CeilingScript {
+    pub const ALL: [CeilingScript; 4] = [CeilingScript::FocusFire, CeilingScript::Kite, CeilingScript::Nearest, CeilingScript::AttackMove];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            CeilingScript::FocusFire => "focus-fire",
+            CeilingScript::Kite => "kite",
+            CeilingScript::Nearest => "nearest",
+            CeilingScript::AttackMove => "attack-move",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<CeilingScript> {
+        CeilingScript::ALL.into_iter().find(|c| c.name() == s)
+    }
+}
+
+/// A unit as a prompt line gives it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Seen {
+    pub tag: u32,
+    pub kind: String,
+    /// Exact (rich prompt) or a grid cell's [column, row] as a point (paper prompt; y grows
+    /// downwards there, which only flips directions the same way for everyone).
+    pub at: (f32, f32),
+    /// HP plus shields.
+    pub life: f32,
+    /// Weapon ready now (own units; enemies: unknown, `true`).
+    pub ready: bool,
+    /// Weapon range when the prompt says it.
+    pub range: Option<f32>,
+}
+
+/// What the prompt says of the fight.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Read {
+    pub mine: Vec<Seen>,
+    pub enemies: Vec<Seen>,
+    /// Positions are exact world units (the rich prompt).
+    pub exact: bool,
+    /// The map's centre, when the prompt gives its extent.
+    pub centre: Option<(f32, f32)>,
+    /// Unit types the prompt calls flying, and what each type's weapons hit.
+    pub flying: Vec<String>,
+    pub hits: Vec<(String, bool, bool)>,
+    /// Melee types (weapon range under 1.5) and each type's speed.
+    pub speed: Vec<(String, f32)>,
+    /// The micro action set is offered.
+    pub micro: bool,
+}
+
+fn num(s: &str) -> Option<f32> {
+    s.trim().trim_end_matches(['s', ',', ')', ';']).parse().ok()
+}
+
+fn point(s: &str) -> Option<(f32, f32)> {
+    let inner = s.trim().strip_prefix('(')?.strip_suffix(')')?;
+    let (x, y) = inner.split_once(',')?;
+    Some((num(x)?, num(y)?))
+}
+
+/// A rich unit line: `- 1 Stalker (12.3,8.1) 80+80sh 50en | range 6 ready | ...`.
+fn rich_line(line: &str) -> Option<Seen> {
+    let rest = line.strip_prefix("- ")?;
+    let mut fields = rest.split(" | ");
+    let head = fields.next()?;
+    let mut words = head.split_whitespace();
+    let tag = words.next()?.parse().ok()?;
+    let kind = words.next()?.to_owned();
+    let at = point(words.next()?)?;
+    let life = words.next().map_or(0.0, |hp| hp.trim_end_matches("sh").split('+').filter_map(num).sum());
+    let (mut ready, mut range) = (true, None);
+    if let Some(weapon) = fields.next() {
+        if let Some(r) = weapon.strip_prefix("range ") {
+            let mut w = r.split_whitespace();
+            range = w.next().and_then(num);
+            ready = w.next() == Some("ready") && w.next().is_none();
+        } else if weapon == "no weapon" {
+            ready = false;
+        }
+    }
+    Some(Seen { tag, kind, at, life, ready, range })
+}
+
+/// A paper unit line: `- 1 Stalker at cell [6, 8]: HP 80/80, shield 80/80, weapon ready; ...`.
+fn paper_line(line: &str) -> Option<Seen> {
+    let rest = line.strip_prefix("- ")?;
+    let (head, vitals) = rest.split_once(": ")?;
+    let mut words = head.split_whitespace();
+    let tag = words.next()?.parse().ok()?;
+    let kind = words.next()?.to_owned();
+    let cell = head.split_once('[').and_then(|(_, c)| c.split_once(']')).map(|(c, _)| c)?;
+    let (c, r) = cell.split_once(',')?;
+    let at = (num(c)?, num(r)?);
+    let part = |name: &str| vitals.split(", ").find_map(|p| p.strip_prefix(name)).and_then(|v| v.split('/').next()).and_then(num);
+    let life = part("HP ").unwrap_or(0.0) + part("shield ").unwrap_or(0.0);
+    let ready = vitals.contains("weapon ready") && !vitals.contains("weapon ready in");
+    Some(Seen { tag, kind, at, life, ready, range: None })
+}
+
+/// Reads the fight out of a decision prompt's text.
+pub fn read_prompt(text: &str) -> Read {
+    let mut read = Read { micro: text.contains("\"action\": \"stance\""), ..Read::default() };
+    #[derive(PartialEq)]
+    enum Block {
+        None,
+        Mine,
+        Enemies,
+        Types,
+    }
+    let mut block = Block::None;
+    for line in text.lines() {
+        if let Some(ext) = line.split_once("Positions (x,y) in world units: x ") {
+            read.exact = true;
+            // "x 0-32 west to east, y 0-32 south to north."
+            let nums: Vec<f32> =
+                ext.1.split(|c: char| !(c.is_ascii_digit() || c == '.')).filter(|s| !s.is_empty()).filter_map(|s| s.parse().ok()).collect();
+            if let [l, r, b, t, ..] = nums[..] {
+                read.centre = Some(((l + r) / 2.0, (b + t) / 2.0));
+            }
+            continue;
+        }
+        if line.starts_with("Your units") {
+            block = Block::Mine;
+            continue;
+        }
+        if line.starts_with("Enemies in sight") {
+            block = Block::Enemies;
+            continue;
+        }
+        if line.starts_with("Unit types here") {
+            block = Block::Types;
+            continue;
+        }
+        if !line.starts_with("- ") {
+            block = Block::None;
+            continue;
+        }
+        match block {
+            Block::Mine | Block::Enemies => {
+                let seen = if read.exact { rich_line(line) } else { paper_line(line) };
+                if let Some(s) = seen {
+                    if block == Block::Mine { read.mine.push(s) } else { read.enemies.push(s) }
+                }
+            }
+            Block::Types => {
+                if let Some((kind, data)) = line[2..].split_once(": ") {
+                    if data.contains("flying") {
+                        read.flying.push(kind.to_owned());
+                    }
+                    let ground = data.contains("hits ground");
+                    let air = data.contains("hits ground and air") || data.contains("hits air");
+                    read.hits.push((kind.to_owned(), ground, air));
+                    if let Some(sp) = data.split("speed ").nth(1).and_then(|s| s.split(',').next()).and_then(num) {
+                        read.speed.push((kind.to_owned(), sp));
+                    }
+                }
+            }
+            Block::None => {}
+        }
+    }
+    read
+}
+
+impl Read {
+    /// Whether `u` can hit `t`, by the type lines (unknown types: yes).
+    fn can_hit(&self, u: &Seen, t: &Seen) -> bool {
+        let flying = self.flying.contains(&t.kind);
+        match self.hits.iter().find(|(k, _, _)| *k == u.kind) {
+            Some((_, ground, air)) => {
+                if flying {
+                    *air
+                } else {
+                    *ground
+                }
+            }
+            None => true,
+        }
+    }
+
+    fn dist(a: (f32, f32), b: (f32, f32)) -> f32 {
+        ((a.0 - b.0).powi(2) + (a.1 - b.1).powi(2)).sqrt()
+    }
+
+    fn centroid(units: &[Seen]) -> Option<(f32, f32)> {
+        let n = units.len() as f32;
+        (n > 0.0).then(|| (units.iter().map(|u| u.at.0).sum::<f32>() / n, units.iter().map(|u| u.at.1).sum::<f32>() / n))
+    }
+
+    /// The team's target: lowest HP + shields, or nearest the army's centre.
+    fn team_target(&self, nearest: bool) -> Option<&Seen> {
+        let c = Self::centroid(&self.mine)?;
+        let d = |e: &Seen| Self::dist(e.at, c);
+        if nearest {
+            self.enemies.iter().min_by(|a, b| d(a).total_cmp(&d(b)).then(a.tag.cmp(&b.tag)))
+        } else {
+            self.enemies.iter().min_by(|a, b| a.life.total_cmp(&b.life).then(d(a).total_cmp(&d(b))))
+        }
+    }
+
+    /// `u`'s target: the team's when it can hit it, else the weakest it can hit.
+    fn target_for<'a>(&'a self, u: &Seen, team: Option<&'a Seen>) -> Option<&'a Seen> {
+        team.filter(|t| self.can_hit(u, t))
+            .or_else(|| self.enemies.iter().filter(|e| self.can_hit(u, e)).min_by(|a, b| a.life.total_cmp(&b.life).then(a.tag.cmp(&b.tag))))
+    }
+
+    fn is_melee(&self, e: &Seen) -> bool {
+        self.hits.iter().any(|(k, _, _)| *k == e.kind) && e.range.is_none_or(|r| r < 1.5)
+    }
+
+    fn speed_of(&self, kind: &str) -> f32 {
+        self.speed.iter().find(|(k, _)| k == kind).map_or(0.0, |(_, s)| *s)
+    }
+}
+
+/// The decision a ceiling model gives for `read`.
+pub fn ceiling_decision(script: CeilingScript, read: &Read) -> Value {
+    let mut actions = Vec::new();
+    let item = |unit: u32| json!({"unit": unit, "action": "hold", "target": null, "cell": null, "direction": null, "ability": null});
+    let team = match script {
+        CeilingScript::Nearest => read.team_target(true),
+        _ => read.team_target(false),
+    };
+    for u in &read.mine {
+        let mut a = item(u.tag);
+        if read.micro {
+            a["point"] = Value::Null;
+            a["stance"] = Value::Null;
+        }
+        let Some(centre) = Read::centroid(&read.enemies).or(read.centre) else { continue };
+        if script == CeilingScript::AttackMove && read.micro {
+            a["action"] = json!("attack_move");
+            a["point"] = json!([centre.0, centre.1]);
+            actions.push(a);
+            continue;
+        }
+        let Some(t) = read.target_for(u, team) else {
+            if read.micro {
+                a["action"] = json!("attack_move");
+                a["point"] = json!([centre.0, centre.1]);
+                actions.push(a);
+            }
+            continue;
+        };
+        if read.micro {
+            a["action"] = json!("stance");
+            a["stance"] = json!(if script == CeilingScript::Kite && u.range.is_some_and(|r| r >= 3.0) { "kite" } else { "focus" });
+            a["target"] = json!(t.tag);
+        } else if script == CeilingScript::Kite && !u.ready && u.range.is_none_or(|r| r >= 3.0) {
+            // The paper's actions: step away from a slower melee enemy that is close.
+            let threat = read
+                .enemies
+                .iter()
+                .filter(|e| read.is_melee(e) && read.speed_of(&e.kind) < read.speed_of(&u.kind).max(0.01))
+                .min_by(|a, b| Read::dist(a.at, u.at).total_cmp(&Read::dist(b.at, u.at)));
+            match threat.filter(|e| Read::dist(e.at, u.at) < if read.exact { 3.0 } else { 1.5 }) {
+                Some(e) => {
+                    let (dx, dy) = (u.at.0 - e.at.0, u.at.1 - e.at.1);
+                    // The paper's grid counts rows downwards; the rich prompt's y grows north.
+                    let dy = if read.exact { dy } else { -dy };
+                    let dir = if dx.abs() >= dy.abs() {
+                        if dx >= 0.0 { "east" } else { "west" }
+                    } else if dy >= 0.0 {
+                        "north"
+                    } else {
+                        "south"
+                    };
+                    a["action"] = json!("move_dir");
+                    a["direction"] = json!(dir);
+                }
+                None => {
+                    a["action"] = json!("attack");
+                    a["target"] = json!(t.tag);
+                }
+            }
+        } else {
+            a["action"] = json!("attack");
+            a["target"] = json!(t.tag);
+        }
+        actions.push(a);
+    }
+    json!({"reasoning": format!("as the {} script", script.name()), "actions": actions})
+}
+
+/// The ceiling model.
+#[derive(Clone, Copy, Debug)]
+pub struct Ceiling {
+    pub script: CeilingScript,
+}
+
+impl ChatModel for Ceiling {
+    fn model(&self) -> &str {
+        match self.script {
+            CeilingScript::FocusFire => "ceiling:focus-fire",
+            CeilingScript::Kite => "ceiling:kite",
+            CeilingScript::Nearest => "ceiling:nearest",
+            CeilingScript::AttackMove => "ceiling:attack-move",
+        }
+    }
+    fn complete(&mut self, req: &ChatRequest) -> Result<ChatReply, LlmError> {
+        let prompt = first_user_text(req);
+        let text = match req.stage {
+            Stage::Decision => ceiling_decision(self.script, &read_prompt(&prompt)).to_string(),
+            other => synthetic_answer(other, &prompt),
+        };
+        let chars: usize = req.messages.iter().flat_map(|m| &m.parts).map(|p| if let Part::Text(t) = p { t.len() } else { 0 }).sum();
+        let usage = Usage { prompt_tokens: (chars / 4) as u64, completion_tokens: (text.len() / 4) as u64 };
+        Ok(ChatReply { text, usage: Some(usage), latency_ms: 0.0, model: self.model().into(), finish: Some("stop".into()) })
+    }
+    fn waits(&self) -> bool {
+        false
+    }
+}

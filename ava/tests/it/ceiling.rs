@@ -1,0 +1,157 @@
+//! The ceiling back end and the rich prompt: the prompt carries what the ceiling reads (every
+//! unit's tag, exact position, HP and readiness, as the observation has them), the paper's
+//! prompt is still read, a ceiling over HTTP plays as the in-process one, and the micro
+//! action set lets a prompt-only player kite where the paper's did not.
+
+use crate::common::{FakeServer, play, setup};
+use avacraft_ava::llm::{Ceiling, CeilingScript, ceiling_decision, read_prompt};
+use avacraft_ava::{ActionSet, AvaConfig, PromptStyle, describe};
+use avacraft_engine::agent::{GroupObs, Reads};
+use avacraft_engine::{Controllers, Env, EnvConfig, Outcome, Scenario, Team};
+use avacraft_render::{Camera, vlm_obs_layout};
+use std::sync::Arc;
+
+fn state(scenario: &str, seed: u64, steps: u32) -> Env {
+    let sc = Arc::new(Scenario::load(scenario).expect("scenario"));
+    let mut env = Env::new(Arc::clone(&sc), EnvConfig::default(), seed);
+    env.reset(seed);
+    let mut c = Controllers::named(&sc, "attack-move", Some("attack-move")).expect("agents");
+    c.reset(&env);
+    while env.steps() < steps && !env.done() {
+        c.act(&mut env);
+        env.step();
+    }
+    env
+}
+
+fn ceiling_cfg(prompt: PromptStyle, actions: ActionSet, decide_every: u32) -> AvaConfig {
+    AvaConfig { prompt, actions, decide_every, image: false, ..AvaConfig::default() }
+}
+
+/// What the rich prompt says of each unit is what the observation holds: the ceiling reads
+/// every own and enemy tag, its position to 0.05 and its HP plus shields, on scenarios with
+/// shields, energy, air units and many units, at several moments.
+#[test]
+fn the_rich_prompt_carries_every_unit_as_observed() {
+    for (scenario, steps) in [("3m_vlm", 8), ("2s3z_vlm", 20), ("pvz_ht", 30), ("mixed_units", 25), ("8m3mr1mv1st_vs_5s2c", 12)] {
+        let env = state(scenario, 3, steps);
+        let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
+        let mine: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag).collect();
+        let text = avacraft_ava::describe_rich(&obs, &env.scenario().terrain, &mine);
+        let read = read_prompt(&text);
+        assert!(read.exact, "{scenario}: exact positions");
+        assert_eq!(read.mine.len(), mine.len(), "{scenario}: own units\n{text}");
+        let enemies: Vec<_> = obs.units.iter().filter(|u| !u.own).collect();
+        assert_eq!(read.enemies.len(), enemies.len(), "{scenario}: enemies\n{text}");
+        for s in read.mine.iter().chain(&read.enemies) {
+            let u = obs.units.iter().find(|u| u.tag == s.tag).expect("a unit the observation has");
+            assert_eq!(s.kind, u.kind.name(), "{scenario} {}", s.tag);
+            assert!(
+                (s.at.0 - u.x).abs() <= 0.051 && (s.at.1 - u.y).abs() <= 0.051,
+                "{scenario} {}: {:?} vs ({}, {})",
+                s.tag,
+                s.at,
+                u.x,
+                u.y
+            );
+            assert!((s.life - (u.hp + u.shield)).abs() <= 1.0, "{scenario} {}: {} vs {}", s.tag, s.life, u.hp + u.shield);
+            if u.own && !u.spec().weapons.is_empty() {
+                assert_eq!(s.ready, u.weapon_cooldown_s <= 0.0, "{scenario} {}: readiness", s.tag);
+            }
+        }
+        // Every type on the field has its data line, with what its weapons hit.
+        for u in &obs.units {
+            assert!(read.hits.iter().any(|(k, _, _)| k == u.kind.name()), "{scenario}: a line for {}", u.kind.name());
+        }
+    }
+}
+
+/// The paper's prompt is read too: tags and HP from its lines, positions as grid cells.
+#[test]
+fn the_paper_prompt_is_read_by_cells() {
+    let env = state("2s3z_vlm", 2, 20);
+    let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
+    let mine: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag).collect();
+    let own = obs.units.iter().filter(|u| u.own).map(|u| avacraft_engine::Vec2::new(u.x, u.y));
+    let cam: Camera = vlm_obs_layout(1024, 576).camera(own, Camera::DEFAULT_WIDTH, env.world().terrain().playable());
+    let read = read_prompt(&describe(&obs, &cam, &mine));
+    assert!(!read.exact);
+    assert_eq!(read.mine.iter().map(|s| s.tag).collect::<Vec<_>>(), mine);
+    for s in &read.mine {
+        let u = obs.units.iter().find(|u| u.tag == s.tag).expect("unit");
+        let cell = cam.cell_of(avacraft_engine::Vec2::new(u.x, u.y)).expect("own units are on screen");
+        assert_eq!((s.at.0 as u8, s.at.1 as u8), cell, "{}", s.tag);
+        assert!((s.life - (u.hp + u.shield)).abs() <= 1.0);
+    }
+}
+
+/// The ceiling's decision names only the prompt's own units, one item each, and targets only
+/// enemies the prompt lists; with the micro set it keeps intent with stances.
+#[test]
+fn the_ceiling_answers_from_the_prompt_in_the_schema() {
+    let env = state("3s_vs_3z_vlm", 4, 14);
+    let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
+    let mine: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag).collect();
+    let mut read = read_prompt(&avacraft_ava::describe_rich(&obs, &env.scenario().terrain, &mine));
+    assert!(!read.enemies.is_empty(), "Zealots in sight after 14 steps");
+    read.micro = true;
+    for script in CeilingScript::ALL {
+        let d = ceiling_decision(script, &read);
+        let items = d["actions"].as_array().expect("actions");
+        let units: Vec<u64> = items.iter().filter_map(|i| i["unit"].as_u64()).collect();
+        assert_eq!(units, mine.iter().map(|&t| t as u64).collect::<Vec<_>>(), "{script:?}");
+        for i in items {
+            if let Some(t) = i["target"].as_u64() {
+                assert!(read.enemies.iter().any(|e| e.tag as u64 == t), "{script:?}: target {t}");
+            }
+            let want = if script == CeilingScript::AttackMove { "attack_move" } else { "stance" };
+            assert_eq!(i["action"], want, "{script:?}: {i}");
+        }
+    }
+}
+
+fn outcome(env: &Env) -> Option<Outcome> {
+    env.outcome()
+}
+
+/// What the action set allows a perfect player: on 3s_vs_3z_vlm, where only kiting wins (the
+/// `kite` script wins it), the ceiling answering as `kite` through the paper's prompt and
+/// actions wins none of three seeds at a decision every 2 steps, and through the rich prompt
+/// and micro actions wins all three. The same ceiling over HTTP (the fake server's ceiling
+/// mode) plays the same games as the in-process back end.
+#[test]
+fn the_micro_action_set_lets_a_perfect_player_kite() {
+    let won = |cfg: AvaConfig, seed: u64| {
+        let s = setup(Box::new(Ceiling { script: CeilingScript::Kite }), cfg, None);
+        outcome(&play("3s_vs_3z_vlm", seed, &s, 2000)) == Some(Outcome::Win)
+    };
+    for seed in [9000, 9001, 9002] {
+        assert!(!won(ceiling_cfg(PromptStyle::Paper, ActionSet::Paper, 2), seed), "seed {seed}: the paper's set does not kite");
+        assert!(won(ceiling_cfg(PromptStyle::Rich, ActionSet::Micro, 2), seed), "seed {seed}: stances kite");
+    }
+    let server = FakeServer::start_ceiling(CeilingScript::Kite);
+    let cfg = ceiling_cfg(PromptStyle::Rich, ActionSet::Micro, 2);
+    let http = play("3s_vs_3z_vlm", 9000, &setup(Box::new(server.client(10.0)), cfg.clone(), None), 2000);
+    let local = play("3s_vs_3z_vlm", 9000, &setup(Box::new(Ceiling { script: CeilingScript::Kite }), cfg, None), 2000);
+    assert_eq!(http.trajectory_hash(), local.trajectory_hash(), "the fake server's ceiling mode plays as the back end");
+    assert!(!server.seen().is_empty());
+}
+
+/// The paper's prompt and action set stay what they were: a recording made by the code
+/// before the rich prompt, the micro action set and the ceiling existed (3s_vs_3z_vlm, seed
+/// 5, a decision every 4 steps, text only, a fake model that attacks, moves by direction and
+/// by cell, so the history holds each wording) replays call for call with today's defaults.
+#[test]
+fn recordings_of_the_paper_prompt_still_replay() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/paper_v1_3s_vs_3z");
+    let replay = avacraft_ava::llm::Replay::open(&dir).expect("the fixture");
+    let calls = replay.remaining();
+    assert!(calls >= 30, "{calls} calls");
+    let cfg = AvaConfig { decide_every: 4, image: false, ..AvaConfig::default() };
+    let s = setup(Box::new(replay), cfg, None);
+    let env = play("3s_vs_3z_vlm", 5, &s, 5000);
+    assert!(env.done());
+    assert_eq!(s.run.fatal(), None, "every request is the recorded one");
+    let asked: u64 = s.run.episodes().iter().map(|e| e.total.calls).sum();
+    assert_eq!(asked as usize, calls, "every recorded call was asked");
+}
