@@ -93,6 +93,13 @@ impl ModelSpec {
         }
     }
 
+    /// Whether answers come from a model (an endpoint, a local model or a recording of one),
+    /// rather than being worked out at once from the prompt (the synthetic and ceiling back
+    /// ends, which are deterministic and need no recording to play again).
+    pub fn calls_model(&self) -> bool {
+        !matches!(self, ModelSpec::Synthetic | ModelSpec::Ceiling { .. })
+    }
+
     /// The local model's file: `path`, or SmolLM2's where `path` is `smollm2`.
     #[cfg(feature = "local")]
     fn local_file(path: &Path) -> Result<PathBuf, SpecError> {

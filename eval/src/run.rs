@@ -104,7 +104,7 @@ pub fn run(plan: &Plan, opts: &RunOptions, progress: &dyn Progress) -> Result<Ru
 /// thousands of scripted and MARL episodes waited behind them (35 minutes with nothing
 /// written, on the paper's plan).
 pub(crate) fn models_last(plan: &Plan, todo: &mut [Job]) {
-    let calls_model = |a: usize| plan.agents[a].policy.ava_spec().is_some_and(|s| s.model != avacraft_ava::ModelSpec::Synthetic);
+    let calls_model = |a: usize| plan.agents[a].policy.ava_spec().is_some_and(|s| s.model.calls_model());
     todo.sort_by_key(|j| {
         let cell = &plan.cells[j.cell];
         calls_model(cell.agent) || cell.agent2.is_some_and(calls_model)
@@ -177,7 +177,7 @@ fn side(
             };
             Calls::Replay(dir)
         }
-        Some(spec) if replay && spec.model != avacraft_ava::ModelSpec::Synthetic => {
+        Some(spec) if replay && spec.model.calls_model() => {
             return Err(EpisodeError::NotRecorded { agent: agent.name.clone() });
         }
         // Each episode records in its own folder (a failed one's is kept: a retry takes the

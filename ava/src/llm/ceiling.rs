@@ -77,6 +77,8 @@ pub struct Read {
     pub hits: Vec<(String, bool, bool)>,
     /// Melee types (weapon range under 1.5) and each type's speed.
     pub speed: Vec<(String, f32)>,
+    /// Types with no weapon (healers, casters): the scripts keep them with the army.
+    pub unarmed: Vec<String>,
     /// The micro action set is offered.
     pub micro: bool,
 }
@@ -177,6 +179,9 @@ pub fn read_prompt(text: &str) -> Read {
             }
             Block::Types => {
                 if let Some((kind, data)) = line[2..].split_once(": ") {
+                    if data.contains("No weapon") {
+                        read.unarmed.push(kind.to_owned());
+                    }
                     if data.contains("flying") {
                         read.flying.push(kind.to_owned());
                     }
@@ -260,6 +265,17 @@ pub fn ceiling_decision(script: CeilingScript, read: &Read) -> Value {
             a["stance"] = Value::Null;
         }
         let Some(centre) = Read::centroid(&read.enemies).or(read.centre) else { continue };
+        if read.unarmed.contains(&u.kind) {
+            // As the scripts do: a unit without a weapon (a Medivac heals on its own) follows
+            // the army instead of walking into the enemy.
+            let army: Vec<Seen> = read.mine.iter().filter(|m| !read.unarmed.contains(&m.kind)).cloned().collect();
+            if let (true, Some(c)) = (read.micro, Read::centroid(&army)) {
+                a["action"] = json!("attack_move");
+                a["point"] = json!([c.0, c.1]);
+                actions.push(a);
+            }
+            continue;
+        }
         if script == CeilingScript::AttackMove && read.micro {
             a["action"] = json!("attack_move");
             a["point"] = json!([centre.0, centre.1]);
