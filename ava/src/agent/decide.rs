@@ -348,7 +348,7 @@ pub(super) fn decide(
 
     let rich = cfg.prompt == crate::PromptStyle::Rich;
     let situation = if cfg.text && rich {
-        super::rich::describe_rich(obs, &scenario.terrain, alive)
+        super::rich::describe_rich(obs, &scenario.terrain, alive, Some(scenario.spawn(ep.team.other())))
     } else if cfg.text {
         situation::describe(obs, &camera, alive)
     } else {

@@ -28,7 +28,7 @@ use crate::config::Timing;
 use crate::cost::EpisodeCost;
 use crate::decision::Order;
 use avacraft_engine::agent::{Agent, AgentCtx, Briefing, GroupObs};
-use avacraft_engine::{Action, Command, LOOPS_PER_SECOND, UnitId};
+use avacraft_engine::{AbilityTarget, Action, Command, LOOPS_PER_SECOND, UnitId};
 use avacraft_render::{CpuBackend, FrameBuilder};
 use state::Episode;
 use std::sync::Arc;
@@ -112,8 +112,11 @@ impl Agent for AvaAgent {
         for (t, o) in orders {
             match o {
                 Order::Do(c) => {
-                    // A new order ends the unit's stance.
-                    ep.stances.remove(&t);
+                    // A new order ends the unit's stance; a self-cast ability (Stimpack, Siege
+                    // Mode) does not change what the unit keeps doing.
+                    if !matches!(c, Command::Ability { target: AbilityTarget::None, .. }) {
+                        ep.stances.remove(&t);
+                    }
                     out.extend(action(t, c));
                 }
                 Order::Keep(st) => {

@@ -6,11 +6,11 @@
 //! retrieval. Lines are terse on purpose: a 23-unit army must not double the prompt.
 
 use avacraft_engine::agent::{GroupObs, view};
-use avacraft_engine::{OrderInfo, Terrain, UnitInfo, UnitKind, loops_to_seconds};
+use avacraft_engine::{Buffs, OrderInfo, Terrain, UnitInfo, UnitKind, Vec2, loops_to_seconds};
 use std::fmt::Write as _;
 
 fn hp(u: &UnitInfo) -> String {
-    let mut s = format!("{:.0}", u.hp);
+    let mut s = format!("{:.0}/{:.0}", u.hp, u.max_hp);
     if u.max_shield > 0.0 {
         let _ = write!(s, "+{:.0}sh", u.shield);
     }
@@ -30,11 +30,12 @@ fn order(u: &UnitInfo) -> String {
     }
 }
 
-/// The unit block: own units, other friendly units, enemies, unit types.
-pub fn describe_rich(obs: &GroupObs, terrain: &Terrain, controlled: &[u32]) -> String {
+/// The unit block: own units, other friendly units, enemies, unit types. `enemy_start` is
+/// where the enemy army began (a player knows the map, as the scripted agents do).
+pub fn describe_rich(obs: &GroupObs, terrain: &Terrain, controlled: &[u32], enemy_start: Option<Vec2>) -> String {
     let r = terrain.playable();
     let mut s = format!(
-        "Step {}, game time {:.1} s. Positions (x,y) in world units: x {:.0}-{:.0} west to east, y {:.0}-{:.0} south to north. Distances are edge to edge, as weapon ranges are.\n",
+        "Step {}, game time {:.1} s. Positions (x,y) in world units: x {:.0}-{:.0} west to east, y {:.0}-{:.0} south to north. Distances are edge to edge, as weapon ranges are.",
         obs.step,
         loops_to_seconds(obs.game_loop),
         r.left,
@@ -42,6 +43,10 @@ pub fn describe_rich(obs: &GroupObs, terrain: &Terrain, controlled: &[u32]) -> S
         r.bottom,
         r.top
     );
+    if let Some(p) = enemy_start {
+        let _ = write!(s, " The enemy started near ({:.1},{:.1}).", p.x, p.y);
+    }
+    s.push('\n');
     let enemies: Vec<&UnitInfo> = obs.units.iter().filter(|u| !u.own).collect();
     s.push_str("Your units (tag type (x,y) hp[+shields] | weapon | order | enemies in range | nearest enemy):\n");
     for u in obs.units.iter().filter(|u| u.own && controlled.contains(&u.tag)) {
@@ -64,6 +69,9 @@ pub fn describe_rich(obs: &GroupObs, terrain: &Terrain, controlled: &[u32]) -> S
         let nearest = enemies.iter().min_by(|a, b| view::edge(u, a).total_cmp(&view::edge(u, b)).then(a.tag.cmp(&b.tag)));
         if let Some(e) = nearest {
             let _ = write!(s, " | nearest {} at {:.1}", e.tag, view::edge(u, e));
+        }
+        if u.buffs.contains(Buffs::STIMMED) {
+            s.push_str(" | stimmed");
         }
         let ready: Vec<&str> = u.abilities.iter().filter(|a| a.available).map(|a| a.ability.name()).collect();
         if !ready.is_empty() {

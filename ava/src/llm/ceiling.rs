@@ -61,6 +61,15 @@ pub struct Seen {
     pub ready: bool,
     /// Weapon range when the prompt says it.
     pub range: Option<f32>,
+    /// Rich prompt: HP at its maximum.
+    pub full: bool,
+    /// Rich prompt: no order (idle).
+    pub idle: bool,
+    /// Rich prompt: the nearest enemy's edge-to-edge distance.
+    pub nearest: Option<f32>,
+    pub stimmed: bool,
+    /// Rich prompt: abilities it can cast now.
+    pub can: Vec<String>,
 }
 
 /// What the prompt says of the fight.
@@ -72,6 +81,8 @@ pub struct Read {
     pub exact: bool,
     /// The map's centre, when the prompt gives its extent.
     pub centre: Option<(f32, f32)>,
+    /// Where the enemy started, when the prompt says.
+    pub enemy_start: Option<(f32, f32)>,
     /// Unit types the prompt calls flying, and what each type's weapons hit.
     pub flying: Vec<String>,
     pub hits: Vec<(String, bool, bool)>,
@@ -93,7 +104,8 @@ fn point(s: &str) -> Option<(f32, f32)> {
     Some((num(x)?, num(y)?))
 }
 
-/// A rich unit line: `- 1 Stalker (12.3,8.1) 80+80sh 50en | range 6 ready | ...`.
+/// A rich unit line: `- 1 Marine (12.3,8.1) 45/45 | range 5 ready | idle | in range 31 | nearest
+/// 31 at 4.2 | stimmed | can cast stimpack`.
 fn rich_line(line: &str) -> Option<Seen> {
     let rest = line.strip_prefix("- ")?;
     let mut fields = rest.split(" | ");
@@ -102,18 +114,32 @@ fn rich_line(line: &str) -> Option<Seen> {
     let tag = words.next()?.parse().ok()?;
     let kind = words.next()?.to_owned();
     let at = point(words.next()?)?;
-    let life = words.next().map_or(0.0, |hp| hp.trim_end_matches("sh").split('+').filter_map(num).sum());
-    let (mut ready, mut range) = (true, None);
-    if let Some(weapon) = fields.next() {
-        if let Some(r) = weapon.strip_prefix("range ") {
+    // "80/80+80sh": HP over its maximum, then shields.
+    let vitals = words.next().unwrap_or("");
+    let (hp, shields) = vitals.split_once('+').unwrap_or((vitals, ""));
+    let (now, max) = hp.split_once('/').unwrap_or((hp, hp));
+    let life = num(now).unwrap_or(0.0) + num(shields.trim_end_matches("sh")).unwrap_or(0.0);
+    let full = num(now).zip(num(max)).is_some_and(|(n, m)| n >= m);
+    let mut seen =
+        Seen { tag, kind, at, life, ready: true, range: None, full, idle: false, nearest: None, stimmed: false, can: Vec::new() };
+    for f in fields {
+        if let Some(r) = f.strip_prefix("range ") {
             let mut w = r.split_whitespace();
-            range = w.next().and_then(num);
-            ready = w.next() == Some("ready") && w.next().is_none();
-        } else if weapon == "no weapon" {
-            ready = false;
+            seen.range = w.next().and_then(num);
+            seen.ready = w.next() == Some("ready") && w.next().is_none();
+        } else if f == "no weapon" {
+            seen.ready = false;
+        } else if f == "idle" {
+            seen.idle = true;
+        } else if let Some(n) = f.strip_prefix("nearest ") {
+            seen.nearest = n.split(" at ").nth(1).and_then(num);
+        } else if f == "stimmed" {
+            seen.stimmed = true;
+        } else if let Some(c) = f.strip_prefix("can cast ") {
+            seen.can = c.split_whitespace().map(str::to_owned).collect();
         }
     }
-    Some(Seen { tag, kind, at, life, ready, range })
+    Some(seen)
 }
 
 /// A paper unit line: `- 1 Stalker at cell [6, 8]: HP 80/80, shield 80/80, weapon ready; ...`.
@@ -129,7 +155,7 @@ fn paper_line(line: &str) -> Option<Seen> {
     let part = |name: &str| vitals.split(", ").find_map(|p| p.strip_prefix(name)).and_then(|v| v.split('/').next()).and_then(num);
     let life = part("HP ").unwrap_or(0.0) + part("shield ").unwrap_or(0.0);
     let ready = vitals.contains("weapon ready") && !vitals.contains("weapon ready in");
-    Some(Seen { tag, kind, at, life, ready, range: None })
+    Some(Seen { tag, kind, at, life, ready, range: None, full: false, idle: false, nearest: None, stimmed: false, can: Vec::new() })
 }
 
 /// Reads the fight out of a decision prompt's text.
@@ -152,6 +178,7 @@ pub fn read_prompt(text: &str) -> Read {
             if let [l, r, b, t, ..] = nums[..] {
                 read.centre = Some(((l + r) / 2.0, (b + t) / 2.0));
             }
+            read.enemy_start = line.split_once("The enemy started near ").and_then(|(_, p)| point(p.trim_end_matches('.')));
             continue;
         }
         if line.starts_with("Your units") {
@@ -250,6 +277,24 @@ impl Read {
     }
 }
 
+/// A self-cast ability the scripts would use now, from the prompt's line: Stimpack when an
+/// enemy is within the weapon's range plus 2 at full health, Siege Mode when the nearest enemy
+/// is 3 to 13 away, Unsiege when none is within reach.
+fn self_cast(u: &Seen) -> Option<&'static str> {
+    let can = |a: &str| u.can.iter().any(|c| c == a);
+    let near = u.nearest;
+    if can("stimpack") && !u.stimmed && u.full && near.zip(u.range).is_some_and(|(d, r)| d <= r + 2.0) {
+        return Some("stimpack");
+    }
+    if can("siege_mode") && near.is_some_and(|d| (3.0..=13.0).contains(&d)) {
+        return Some("siege_mode");
+    }
+    if can("unsiege") && near.is_none_or(|d| !(2.0..=13.0).contains(&d) && (d > 15.0 || d < 2.0)) {
+        return Some("unsiege");
+    }
+    None
+}
+
 /// The decision a ceiling model gives for `read`.
 pub fn ceiling_decision(script: CeilingScript, read: &Read) -> Value {
     let mut actions = Vec::new();
@@ -258,13 +303,32 @@ pub fn ceiling_decision(script: CeilingScript, read: &Read) -> Value {
         CeilingScript::Nearest => read.team_target(true),
         _ => read.team_target(false),
     };
+    // The attack-move script's goal: the enemy nearest the army, else where the enemy started.
+    let goal = read.team_target(true).map(|e| e.at).or(read.enemy_start).or(read.centre);
     for u in &read.mine {
         let mut a = item(u.tag);
         if read.micro {
             a["point"] = Value::Null;
             a["stance"] = Value::Null;
         }
-        let Some(centre) = Read::centroid(&read.enemies).or(read.centre) else { continue };
+        if let Some(ability) = self_cast(u) {
+            // As every script does (engine/src/agent/micro.rs): self-cast abilities keep the
+            // unit's stance.
+            a["action"] = json!("ability");
+            a["ability"] = json!(ability);
+            actions.push(a);
+            continue;
+        }
+        if script == CeilingScript::AttackMove && read.micro {
+            // Idle units only, so units in a fight keep their targets.
+            if let (true, Some(g)) = (u.idle, goal) {
+                a["action"] = json!("attack_move");
+                a["point"] = json!([g.0, g.1]);
+                actions.push(a);
+            }
+            continue;
+        }
+        let Some(centre) = Read::centroid(&read.enemies).or(read.enemy_start).or(read.centre) else { continue };
         if read.unarmed.contains(&u.kind) {
             // As the scripts do: a unit without a weapon (a Medivac heals on its own) follows
             // the army instead of walking into the enemy.
@@ -274,12 +338,6 @@ pub fn ceiling_decision(script: CeilingScript, read: &Read) -> Value {
                 a["point"] = json!([c.0, c.1]);
                 actions.push(a);
             }
-            continue;
-        }
-        if script == CeilingScript::AttackMove && read.micro {
-            a["action"] = json!("attack_move");
-            a["point"] = json!([centre.0, centre.1]);
-            actions.push(a);
             continue;
         }
         let Some(t) = read.target_for(u, team) else {
