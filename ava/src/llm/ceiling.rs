@@ -289,7 +289,8 @@ fn self_cast(u: &Seen) -> Option<&'static str> {
     if can("siege_mode") && near.is_some_and(|d| (3.0..=13.0).contains(&d)) {
         return Some("siege_mode");
     }
-    if can("unsiege") && near.is_none_or(|d| !(2.0..=13.0).contains(&d) && (d > 15.0 || d < 2.0)) {
+    // Nothing within 2 to 15: too far to reach, or hugging under the minimum range.
+    if can("unsiege") && near.is_none_or(|d| !(2.0..=15.0).contains(&d)) {
         return Some("unsiege");
     }
     None
