@@ -37,11 +37,25 @@ def test_the_stand_in_plays_records_and_replays(tmp_path):
         ({}, "exactly one model"),
         ({"url": "ftp://x", "model": "m"}, "http"),
         ({"synthetic": True, "config": {"sampling": {"temperature": 9, "top_p": 0.9, "max_tokens": 10}}}, "temperature"),
+        ({"ceiling": "dance"}, "focus-fire, kite, nearest, attack-move"),
+        ({"ceiling": "kite", "synthetic": True}, "exactly one model"),
+        ({"ceiling": "kite", "config": {"prompt": "fancy"}}, "fancy"),
     ],
 )
 def test_bad_settings_are_refused_by_name(kwargs, words):
     with pytest.raises(avacraft.AvacraftError, match=words):
         avacraft.Ava(**kwargs)
+
+
+def test_the_ceiling_kites_through_the_rich_prompt_and_micro_actions():
+    # 3s_vs_3z_vlm is won by kiting only: the ceiling answering as `kite` wins it through the
+    # rich prompt and the micro action set, and not through the paper's.
+    rich = avacraft.Ava(ceiling="kite", config={"prompt": "rich", "actions": "micro", "image": False})
+    paper = avacraft.Ava(ceiling="kite", config={"image": False})
+    for seed in (9000, 9001):
+        assert rich.play(avacraft.Env("3s_vs_3z_vlm"), seed=seed)["result"] == "win"
+        assert paper.play(avacraft.Env("3s_vs_3z_vlm"), seed=seed)["result"] != "win"
+    assert rich.spec["model"] == {"kind": "ceiling", "script": "kite"}
 
 
 def tags_under(text, heading):
