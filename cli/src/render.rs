@@ -101,12 +101,9 @@ pub fn run(a: &RenderArgs, out: &mut dyn Write) -> Result<()> {
     let highlights: Vec<UnitId> = a
         .highlight
         .iter()
-        .map(|&t| {
-            if (1..=n).contains(&t) {
-                Ok(UnitId::new((t - 1) as u16))
-            } else {
-                Err(anyhow::anyhow!("--highlight {t}: no unit has that tag (1..={n})"))
-            }
+        .map(|&t| match UnitId::try_from(t) {
+            Ok(id) if t <= n => Ok(id),
+            _ => Err(anyhow::anyhow!("--highlight {t}: no unit has that tag (1..={n})")),
         })
         .collect::<Result<_>>()?;
     let mut frames = FrameBuilder::new();
