@@ -84,36 +84,37 @@ pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     if let Some(plan) = &a.plan {
         return run_plan(plan, a.shard, a.threads, out);
     }
-    let mut overrides = a.set.clone();
-    if let Some(obs) = &a.obs {
-        if !avacraft_marl::ObsKind::NAMES.contains(&obs.as_str()) {
-            bail!("--obs {obs}: expected one of {}", avacraft_marl::ObsKind::NAMES.join(", "));
-        }
-        overrides.push(format!("obs=\"{obs}\""));
-    }
-    if let Some(s) = a.steps {
-        overrides.push(format!("t_max={s}"));
-    }
-    if let Some(e) = a.envs {
-        overrides.push(format!("envs={e}"));
-    }
-    if let Some(o) = &a.opponent {
-        overrides.push(format!("opponent={o:?}"));
-    }
+    let overrides = &a.set;
     let mut start = None;
-    let cfg = match (&a.config, &a.resume) {
+    let mut cfg = match (&a.config, &a.resume) {
         (_, Some(dir)) => {
             let (cfg, state) = avacraft_marl::resume::load(dir).with_context(|| format!("--resume {}", dir.display()))?;
             start = Some(state);
-            let text = toml::to_string(&cfg).context("the resumed run's config")?;
-            Config::from_toml(&text, &overrides).with_context(|| format!("--resume {}", dir.display()))?
+            cfg.overridden(overrides).with_context(|| format!("--resume {}", dir.display()))?
         }
         (Some(path), None) => {
             let text = std::fs::read_to_string(path).with_context(|| format!("--config {}", path.display()))?;
-            Config::from_toml(&text, &overrides).with_context(|| format!("--config {}", path.display()))?
+            Config::from_toml(&text, overrides).with_context(|| format!("--config {}", path.display()))?
         }
-        (None, None) => Config::for_algo(&a.algo, &overrides)?,
+        (None, None) => Config::for_algo(&a.algo, overrides)?,
     };
+    // The flags set their fields directly, after `--set`, so they win over it.
+    if let Some(obs) = &a.obs {
+        cfg.obs = match avacraft_marl::ObsKind::from_name(obs) {
+            Some(k) => k,
+            None => bail!("--obs {obs}: expected one of {}", avacraft_marl::ObsKind::NAMES.join(", ")),
+        };
+    }
+    if let Some(s) = a.steps {
+        cfg.t_max = s;
+    }
+    if let Some(e) = a.envs {
+        cfg.envs = e;
+    }
+    if let Some(o) = &a.opponent {
+        cfg.opponent = avacraft_marl::Opponent::parse(o).with_context(|| format!("--opponent {o}"))?;
+    }
+    cfg.validate().context("the settings the flags give")?;
     let Some(out_dir) = a.out.as_ref().or(a.resume.as_ref()) else { bail!("--out DIR is needed") };
     let scenario = Arc::new(scenario_of_run(a, out_dir)?);
     let seed = match (&start, a.seed) {

@@ -100,7 +100,7 @@ pub struct Config {
     pub data: String,
     /// PvP: team 2's agent while team 1 learns (see the config files); empty: none.
     #[serde(default)]
-    pub opponent: String,
+    pub opponent: Opponent,
     /// Self-play (`opponent = "self"`): updates between snapshots of the learner joining
     /// team 2's pool.
     #[serde(default = "default_self_play_every")]
@@ -259,13 +259,13 @@ fn legacy_data() -> String {
 impl Config {
     /// Whether team 2 is the learner's own snapshot pool (`opponent = "self"`).
     pub fn self_play(&self) -> bool {
-        matches!(Opponent::parse(&self.opponent), Ok(Opponent::SelfPlay))
+        self.opponent == Opponent::SelfPlay
     }
 
     /// The fixed opponents a test round also plays: `test_opponents`, or under self-play
     /// attack-move and focus-fire when it is empty.
     pub fn fixed_test_opponents(&self) -> Vec<String> {
-        if self.test_opponents.is_empty() && self.opponent.trim() == "self" {
+        if self.test_opponents.is_empty() && self.self_play() {
             return vec!["attack-move".into(), "focus-fire".into()];
         }
         self.test_opponents.clone()
@@ -291,6 +291,19 @@ impl Config {
         // Self-play's league, off unless set.
         table.entry("self_play_scripts").or_insert(toml::Value::Array(Vec::new()));
         table.entry("self_play_script_share").or_insert(toml::Value::Float(default_script_share()));
+        Self::apply(table, overrides)
+    }
+
+    /// This config with `overrides` applied as [`Config::from_toml`] applies them, checked
+    /// (a resumed run's config with `--set`).
+    pub fn overridden(&self, overrides: &[String]) -> Result<Config, Error> {
+        let table = toml::Table::try_from(self).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
+        Self::apply(table, overrides)
+    }
+
+    /// `overrides` (`key=value`, the value in TOML syntax) applied to `table` in order, every
+    /// key checked, then the whole config.
+    fn apply(mut table: toml::Table, overrides: &[String]) -> Result<Config, Error> {
         for o in overrides {
             let Some((key, value)) = o.split_once('=') else {
                 return Err(Error::Override { text: o.clone(), message: "expected key=value".into() });
@@ -334,7 +347,7 @@ impl Config {
         Ok((Config { data: d.name().to_owned(), ..self.clone() }, scenario))
     }
 
-    fn validate(&self) -> Result<(), Error> {
+    pub fn validate(&self) -> Result<(), Error> {
         if self.data != MAP_DATA {
             self.data.parse::<DataSet>().map_err(|e| Error::ConfigParse { what: "data".into(), message: e.to_string() })?;
         }
@@ -348,12 +361,9 @@ impl Config {
             return Err(bad("num_fov_actions", self.num_fov_actions, &rule, n - n % 2));
         }
         positive("lr", self.lr, def(|c| c.lr, 5e-4))?;
-        if let Err(why) = Opponent::parse(&self.opponent) {
-            return Err(bad("opponent", format!("{:?}", self.opponent.trim()), &why, "\"focus-fire\""));
-        }
         for (i, o) in self.test_opponents.iter().enumerate() {
             if let Err(why) = Opponent::parse(o) {
-                return Err(bad(&format!("test_opponents[{i}]"), format!("{o:?}"), &why, "\"focus-fire\""));
+                return Err(bad(&format!("test_opponents[{i}]"), format!("{o:?}"), &why.to_string(), "\"focus-fire\""));
             }
             if o.trim() == "self" || o.trim().is_empty() {
                 return Err(bad(

@@ -117,8 +117,8 @@ impl<'a> Monitor<'a> {
         };
         let started = std::time::Instant::now();
         let base = opts.seed.wrapping_mul(1 << 20);
-        let pool = match Opponent::parse(&cfg.opponent) {
-            Ok(Opponent::SelfPlay) => {
+        let pool = match cfg.opponent {
+            Opponent::SelfPlay => {
                 let shape = crate::policy::team_shape(cfg, &opts.scenario)?;
                 Some(Arc::new(Pool::new(cfg, shape, &opts.scenario.name, opts.out.as_deref())))
             }
@@ -224,7 +224,9 @@ impl<'a> Monitor<'a> {
         let mut vs = Vec::with_capacity(self.fixed.len());
         let mut vs_return = Vec::with_capacity(self.fixed.len());
         for o in &self.fixed {
-            let fixed = Config { opponent: o.clone(), ..cfg.clone() };
+            let opponent =
+                Opponent::parse(o).map_err(|e| crate::config::bad("test_opponents", format!("{o:?}"), &e.to_string(), "\"focus-fire\""))?;
+            let fixed = Config { opponent, ..cfg.clone() };
             let t = test(nets, &fixed, &self.opts.scenario, &test_seeds, self.opts.threads)?;
             vs.push(t.win_rate);
             vs_return.push(t.mean_return);

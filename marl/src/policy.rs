@@ -658,10 +658,9 @@ pub(crate) fn vec_env_with(
     self_play: Option<avacraft_engine::OpponentFactory>,
 ) -> Result<VecEnv, Error> {
     let env = VecEnv::new(Arc::clone(scenario), cfg.env_config(), seeds, threads.clamp(1, seeds.len()))?;
-    let bad = |e: avacraft_engine::VecEnvError| crate::config::bad("opponent", format!("{:?}", cfg.opponent), &e.to_string(), "\"\"");
-    match Opponent::parse(&cfg.opponent)
-        .map_err(|why| crate::config::bad("opponent", format!("{:?}", cfg.opponent), &why, "\"focus-fire\""))?
-    {
+    let bad =
+        |e: avacraft_engine::VecEnvError| crate::config::bad("opponent", format!("{:?}", cfg.opponent.to_string()), &e.to_string(), "\"\"");
+    match cfg.opponent {
         Opponent::SelfPlay => match self_play {
             Some(make) => env.with_opponent(make).map_err(bad),
             None => Err(Error::Checkpoint { message: "self-play needs the learner's snapshot pool".into() }),
@@ -677,17 +676,15 @@ pub(crate) fn vec_env_with(
 /// policy (`marl:DIR`, loaded once and shared); `None` for "" (and for `self`, whose agents
 /// come from the training run's pool).
 pub fn opponent_factory(cfg: &Config) -> Result<Option<avacraft_engine::OpponentFactory>, Error> {
-    let spec = Opponent::parse(&cfg.opponent)
-        .map_err(|why| crate::config::bad("opponent", format!("{:?}", cfg.opponent), &why, "\"focus-fire\""))?;
-    match spec {
+    match &cfg.opponent {
         Opponent::Idle | Opponent::SelfPlay => Ok(None),
         Opponent::Marl(dir) => {
-            let policy = Arc::new(Policy::load(&dir)?);
-            let label = cfg.opponent.trim().to_owned();
+            let policy = Arc::new(Policy::load(dir)?);
+            let label = cfg.opponent.to_string();
             Ok(Some(Arc::new(move || Box::new(MarlAgent::new(Arc::clone(&policy), label.clone())))))
         }
         Opponent::Scripted(name) => {
-            let make = avacraft_engine::agent::factory(&name)
+            let make = avacraft_engine::agent::factory(name)
                 .map_err(|e| crate::config::bad("opponent", format!("{name:?}"), &e.to_string(), "\"focus-fire\""))?;
             Ok(Some(Arc::new(make)))
         }
@@ -720,7 +717,7 @@ pub fn test_with(
     mut source: Option<&mut ObsSource>,
 ) -> Result<TestResult, Error> {
     // Under self-play a test's team 2 is the policy under test itself.
-    let itself: Option<avacraft_engine::OpponentFactory> = if Opponent::parse(&cfg.opponent) == Ok(Opponent::SelfPlay) {
+    let itself: Option<avacraft_engine::OpponentFactory> = if cfg.self_play() {
         let policy = Arc::new(Policy::of(nets, cfg, team_shape(cfg, scenario)?, &scenario.name)?);
         Some(Arc::new(move || Box::new(MarlAgent::new(Arc::clone(&policy), "self"))))
     } else {

@@ -49,6 +49,31 @@ fn a_short_run_resumes_from_its_directory_alone() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The flags set the config's fields after `--set` (they win over it), and a bad value is
+/// refused naming the flag and what it takes, before anything is written.
+#[test]
+fn flags_win_over_set_and_bad_ones_are_refused_by_name() {
+    let dir = tmp("train-flags");
+    let _ = std::fs::remove_dir_all(&dir);
+    let d = dir.to_str().expect("utf-8 temp path");
+    let small = ["--set", "batch_size=4", "--set", "test_interval=200", "--set", "test_nepisode=2", "--set", "episode_limit=60"];
+    let mut args = vec!["--algo", "iql", "--scenario", "3m_vlm", "--set", "t_max=5000", "--steps", "200", "--envs", "2", "--out", d];
+    args.extend(small);
+    let out = train(&args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("200 steps"), "--steps wins over --set t_max");
+    for (flag, value, words) in [("--opponent", "dance", "focus-fire"), ("--obs", "pixels", "vision-text")] {
+        let bad = tmp(&format!("train-bad-{value}"));
+        let out =
+            train(&["--algo", "qmix", "--scenario", "MMM_vs_MMM", flag, value, "--steps", "10", "--out", bad.to_str().expect("utf-8")]);
+        assert!(!out.status.success(), "{flag} {value}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(&format!("{flag} {value}")) && err.contains(words), "{flag} {value}: {err}");
+        assert!(!bad.join("log.csv").exists(), "nothing trained");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `avacraft smac-report`: a run's log beside the published numbers, one row per SMAC map, the
 /// gap computed, the table written into a document's marked section, the figure drawn; a
 /// published file naming a map SMAC lacks is refused, naming it.

@@ -31,6 +31,12 @@ pub enum ObsKind {
 impl ObsKind {
     /// The names `--obs` takes.
     pub const NAMES: [&'static str; 4] = ["features", "rgb", "hybrid", "vision-text"];
+    pub const ALL: [ObsKind; 4] = [ObsKind::Features, ObsKind::Rgb, ObsKind::Hybrid, ObsKind::VisionText];
+
+    /// The mode a name of [`ObsKind::NAMES`] names.
+    pub fn from_name(name: &str) -> Option<ObsKind> {
+        ObsKind::ALL.into_iter().find(|k| k.name() == name)
+    }
 
     /// Whether the agent network reads images (every mode but `features`).
     pub fn images(self) -> bool {
