@@ -89,7 +89,16 @@ impl Agent for AvaAgent {
                 Vec::new()
             } else {
                 let (_, orders) = ep.pending.take().unwrap_or_default();
-                orders.into_iter().filter(|(t, _)| alive.contains(t)).collect()
+                // The game went on while the model thought: an order checked then may not hold
+                // now (its target died or left sight). Those are dropped and counted as
+                // refused, as the engine would refuse them.
+                let terrain = &ep.scenario.terrain;
+                let (fresh, stale): (Vec<_>, Vec<_>) = orders.into_iter().filter(|(t, _)| alive.contains(t)).partition(|(t, o)| match o {
+                    Order::Do(c) => action(*t, *c).is_some_and(|a| avacraft_engine::agent::check_action(obs, terrain, &a).is_ok()),
+                    Order::Keep(_) => true,
+                });
+                ep.cost.refused_items += stale.len() as u64;
+                fresh
             }
         } else {
             let first = *ep.first_step.get_or_insert(obs.step);
