@@ -408,23 +408,10 @@ pub(super) fn decide(
     let skill = turn.ep.plan.as_ref().filter(|_| cfg.planner && staged).map(|p| p.primary_skill.name.clone());
     let knowledge = if cfg.retrieval { turn.knowledge(skill.as_deref()) } else { Vec::new() };
 
-    // The decision, with repair rounds. The schema offers only abilities some unit can cast
-    // now: a small model held to the schema otherwise fills in one it cannot use.
-    let abilities: Vec<&str> = {
-        let mut a: Vec<&str> =
-            obs.units.iter().filter(|u| u.own).flat_map(|u| u.abilities.iter().filter(|a| a.available).map(|a| a.ability.name())).collect();
-        a.sort_unstable();
-        a.dedup();
-        a
-    };
+    // The decision, with repair rounds.
     let micro = cfg.actions == crate::ActionSet::Micro;
-    let schema = decision::schema_for(alive, &decision::targets(obs), &abilities, micro);
-    let steps = cfg.decide_every;
-    let next_in = format!(
-        "{steps} step{} ({:.2} s of game time)",
-        if steps == 1 { "" } else { "s" },
-        avacraft_engine::loops_to_seconds(steps * turn.ep.loops_per_step)
-    );
+    let schema = decision::schema_for(alive, &decision::targets(obs), &castable(obs), micro);
+    let next_in = next_decision(cfg.decide_every, turn.ep.loops_per_step);
     let ctx = DecisionCtx {
         situation: &situation,
         plan,
@@ -455,6 +442,22 @@ pub(super) fn decide(
         turn.ep.history.pop_front();
     }
     (commands, close(turn, t0))
+}
+
+/// The abilities some own unit can cast now: the schema offers only these, since a small model
+/// held to the schema otherwise fills in one it cannot use.
+fn castable(obs: &GroupObs) -> Vec<&'static str> {
+    let mut a: Vec<&str> =
+        obs.units.iter().filter(|u| u.own).flat_map(|u| u.abilities.iter().filter(|a| a.available).map(|a| a.ability.name())).collect();
+    a.sort_unstable();
+    a.dedup();
+    a
+}
+
+/// When the next decision comes, in steps and game seconds (the rich prompt says it).
+fn next_decision(steps: u32, loops_per_step: u32) -> String {
+    let s = if steps == 1 { "" } else { "s" };
+    format!("{steps} step{s} ({:.2} s of game time)", avacraft_engine::loops_to_seconds(steps * loops_per_step))
 }
 
 /// Counts the decision, adds the pipeline time besides the calls' to the episode's overhead
