@@ -207,6 +207,10 @@ fn ability(s: &Situation<'_>, u: &UnitInfo, item: &Item) -> Result<Command, Stri
     let a: Ability = raw.parse().ok().filter(|&a| view::ability(u, a).is_some()).ok_or_else(|| no_such(u, raw))?;
     let target = match (a.spec().target, item.target, item.cell) {
         (TargetKind::None, _, _) => AbilityTarget::None,
+        // The micro action set aims at exact points too.
+        (TargetKind::Point | TargetKind::PointOrUnit, None, None) if s.micro && item.point.is_some() => {
+            AbilityTarget::Point { to: exact(s, item.point.unwrap_or_default())? }
+        }
         (TargetKind::Unit | TargetKind::PointOrUnit, Some(t), _) => AbilityTarget::Unit { unit: seen_id(s, t)? },
         (TargetKind::Point | TargetKind::PointOrUnit, _, Some(c)) => AbilityTarget::Point { to: s.point(c)? },
         (TargetKind::Unit, None, _) => return Err(format!("{} needs `target`: a unit tag", a.name())),

@@ -70,6 +70,10 @@ pub struct Seen {
     pub stimmed: bool,
     /// Rich prompt: abilities it can cast now.
     pub can: Vec<String>,
+    /// Rich prompt: HP, its maximum, and shields.
+    pub hp: f32,
+    pub hp_max: f32,
+    pub shields: f32,
 }
 
 /// What the prompt says of the fight.
@@ -90,6 +94,8 @@ pub struct Read {
     pub speed: Vec<(String, f32)>,
     /// Types with no weapon (healers, casters): the scripts keep them with the army.
     pub unarmed: Vec<String>,
+    /// Each type's maximum shields.
+    pub max_shields: Vec<(String, f32)>,
     /// The micro action set is offered.
     pub micro: bool,
 }
@@ -116,12 +122,25 @@ fn rich_line(line: &str) -> Option<Seen> {
     let at = point(words.next()?)?;
     // "80/80+80sh": HP over its maximum, then shields.
     let vitals = words.next().unwrap_or("");
-    let (hp, shields) = vitals.split_once('+').unwrap_or((vitals, ""));
-    let (now, max) = hp.split_once('/').unwrap_or((hp, hp));
-    let life = num(now).unwrap_or(0.0) + num(shields.trim_end_matches("sh")).unwrap_or(0.0);
-    let full = num(now).zip(num(max)).is_some_and(|(n, m)| n >= m);
-    let mut seen =
-        Seen { tag, kind, at, life, ready: true, range: None, full, idle: false, nearest: None, stimmed: false, can: Vec::new() };
+    let (health, shield_text) = vitals.split_once('+').unwrap_or((vitals, ""));
+    let (now, max) = health.split_once('/').unwrap_or((health, health));
+    let (hp, hp_max, shields) = (num(now).unwrap_or(0.0), num(max).unwrap_or(0.0), num(shield_text.trim_end_matches("sh")).unwrap_or(0.0));
+    let mut seen = Seen {
+        tag,
+        kind,
+        at,
+        life: hp + shields,
+        ready: true,
+        range: None,
+        full: hp >= hp_max,
+        idle: false,
+        nearest: None,
+        stimmed: false,
+        can: Vec::new(),
+        hp,
+        hp_max,
+        shields,
+    };
     for f in fields {
         if let Some(r) = f.strip_prefix("range ") {
             let mut w = r.split_whitespace();
@@ -155,7 +174,25 @@ fn paper_line(line: &str) -> Option<Seen> {
     let part = |name: &str| vitals.split(", ").find_map(|p| p.strip_prefix(name)).and_then(|v| v.split('/').next()).and_then(num);
     let life = part("HP ").unwrap_or(0.0) + part("shield ").unwrap_or(0.0);
     let ready = vitals.contains("weapon ready") && !vitals.contains("weapon ready in");
-    Some(Seen { tag, kind, at, life, ready, range: None, full: false, idle: false, nearest: None, stimmed: false, can: Vec::new() })
+    let hp = part("HP ").unwrap_or(0.0);
+    let shields = part("shield ").unwrap_or(0.0);
+    let seen = Seen {
+        tag,
+        kind,
+        at,
+        life,
+        ready,
+        range: None,
+        full: false,
+        idle: false,
+        nearest: None,
+        stimmed: false,
+        can: Vec::new(),
+        hp,
+        hp_max: 0.0,
+        shields,
+    };
+    Some(seen)
 }
 
 /// Reads the fight out of a decision prompt's text.
@@ -206,6 +243,11 @@ pub fn read_prompt(text: &str) -> Read {
             }
             Block::Types => {
                 if let Some((kind, data)) = line[2..].split_once(": ") {
+                    if let Some(sh) =
+                        data.split(" shields").next().filter(|h| h.len() < data.len()).and_then(|h| h.rsplit(", ").next()).and_then(num)
+                    {
+                        read.max_shields.push((kind.to_owned(), sh));
+                    }
                     if data.contains("No weapon") {
                         read.unarmed.push(kind.to_owned());
                     }
@@ -277,6 +319,39 @@ impl Read {
     }
 }
 
+/// Where a Stalker blinks to, by the scripts' rule (engine/src/agent/micro.rs): shields under a
+/// tenth of their maximum, HP under 60%, enemies within 6; 7.5 away from them, on the map.
+/// Needs the micro action set (an exact point) and the rich prompt's extent.
+fn blink_to(read: &Read, u: &Seen) -> Option<(f32, f32)> {
+    if !read.micro || !u.can.iter().any(|c| c == "blink") || u.hp_max <= 0.0 {
+        return None;
+    }
+    let max_sh = read.max_shields.iter().find(|(k, _)| *k == u.kind).map_or(0.0, |(_, s)| *s);
+    if !(u.shields < 0.1 * max_sh && u.hp < 0.6 * u.hp_max) {
+        return None;
+    }
+    // Centre distances: edge distances plus about a unit's width.
+    let threats: Vec<&Seen> = read.enemies.iter().filter(|e| !read.unarmed.contains(&e.kind) && Read::dist(e.at, u.at) < 7.0).collect();
+    if threats.is_empty() {
+        return None;
+    }
+    let (mut ax, mut ay) = (0.0f32, 0.0f32);
+    for e in threats {
+        let (dx, dy) = (u.at.0 - e.at.0, u.at.1 - e.at.1);
+        let d = (dx * dx + dy * dy).sqrt().max(1e-3);
+        ax += dx / d;
+        ay += dy / d;
+    }
+    let n = (ax * ax + ay * ay).sqrt();
+    if n < 1e-3 {
+        return None;
+    }
+    let (cx, cy) = read.centre?;
+    let (x, y) = (u.at.0 + ax / n * 7.5, u.at.1 + ay / n * 7.5);
+    // The map's extent: the centre is its middle, and it starts at 0 on this engine's maps.
+    Some((x.clamp(0.7, 2.0 * cx - 0.7), y.clamp(0.7, 2.0 * cy - 0.7)))
+}
+
 /// A self-cast ability the scripts would use now, from the prompt's line: Stimpack when an
 /// enemy is within the weapon's range plus 2 at full health, Siege Mode when the nearest enemy
 /// is 3 to 13 away, Unsiege when none is within reach.
@@ -311,6 +386,14 @@ pub fn ceiling_decision(script: CeilingScript, read: &Read) -> Value {
         if read.micro {
             a["point"] = Value::Null;
             a["stance"] = Value::Null;
+        }
+        if let Some(to) = blink_to(read, u) {
+            // As the scripts do: a Stalker out of shields and hurt blinks away from its threats.
+            a["action"] = json!("ability");
+            a["ability"] = json!("blink");
+            a["point"] = json!([to.0, to.1]);
+            actions.push(a);
+            continue;
         }
         if let Some(ability) = self_cast(u) {
             // As every script does (engine/src/agent/micro.rs): self-cast abilities keep the

@@ -190,3 +190,32 @@ fn the_ceiling_stims_as_the_scripts_do() {
         assert_eq!(a["target"], 4, "{no}: {a}");
     }
 }
+
+/// Blink by the scripts' rule, read off the rich prompt: a Stalker out of shields and under 60%
+/// HP with an enemy close blinks 7.5 away from it (an exact point, micro set only); with
+/// shields left it does not.
+#[test]
+fn the_ceiling_blinks_hurt_stalkers_away() {
+    let text = |vitals: &str| {
+        format!(
+            "Step 9, game time 3.0 s. Positions (x,y) in world units: x 0-32 west to east, y 0-32 south to north. Distances are edge to edge, as weapon ranges are.\n\
+             Your units (tag type (x,y) hp[+shields] | weapon | order | enemies in range | nearest enemy):\n\
+             - 1 Stalker (16.0,16.0) {vitals} | range 6 ready | attacking 4 | in range 4 | nearest 4 at 2.0 | can cast blink\n\
+             Enemies in sight (tag type (x,y) hp[+shields] | target):\n\
+             - 4 Zealot (19.0,16.0) 100/100+50sh | attacking 1\n\
+             Unit types here:\n\
+             - Stalker: Protoss, Armored, Mechanical, 80 health, 80 shields, 1 armor, speed 4.13, sight 10. Weapon: 10 damage, range 6, every 1.03 s, hits ground and air.\n\
+             - Zealot: Protoss, Light, Biological, 100 health, 50 shields, 1 armor, speed 3.15, sight 9. Weapon: 8 damage x2 hits, range 0.1, every 0.86 s, hits ground only.\n\
+             - {{\"unit\": U, \"action\": \"stance\"}}"
+        )
+    };
+    let read = read_prompt(&text("40/80+0sh"));
+    assert_eq!(read.mine[0].shields, 0.0);
+    let a = ceiling_decision(CeilingScript::Kite, &read)["actions"][0].clone();
+    assert_eq!((a["action"].as_str(), a["ability"].as_str()), (Some("ability"), Some("blink")), "{a}");
+    let p = a["point"].as_array().expect("a point");
+    let (x, y) = (p[0].as_f64().expect("x"), p[1].as_f64().expect("y"));
+    assert!((x - 8.5).abs() < 0.01 && (y - 16.0).abs() < 0.01, "7.5 west, away from the Zealot: ({x}, {y})");
+    let a = ceiling_decision(CeilingScript::Kite, &read_prompt(&text("40/80+30sh")))["actions"][0].clone();
+    assert_eq!(a["action"], "stance", "shields left: {a}");
+}
