@@ -252,7 +252,7 @@ impl AvaSpec {
             ModelSpec::Local(_) => return Err(SpecError::Model(NO_LOCAL.into())),
             ModelSpec::Replay { dir } => Box::new(Replay::open(dir)?),
             ModelSpec::Synthetic => Box::new(Synthetic),
-            ModelSpec::Ceiling { script } => Box::new(crate::llm::Ceiling { script: *script }),
+            ModelSpec::Ceiling { script } => Box::new(crate::llm::Ceiling::new(*script)),
         })
     }
 

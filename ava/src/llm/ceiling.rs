@@ -41,10 +41,6 @@ impl CeilingScript {
             CeilingScript::AttackMove => "attack-move",
         }
     }
-
-    pub fn parse(s: &str) -> Option<CeilingScript> {
-        CeilingScript::ALL.into_iter().find(|c| c.name() == s)
-    }
 }
 
 /// A unit as a prompt line gives it.
@@ -475,17 +471,26 @@ pub fn ceiling_decision(script: CeilingScript, read: &Read) -> Value {
 /// The ceiling model.
 #[derive(Clone, Copy, Debug)]
 pub struct Ceiling {
-    pub script: CeilingScript,
+    script: CeilingScript,
+    /// `ceiling:<script>`, the model name its records carry.
+    label: &'static str,
 }
 
-impl ChatModel for Ceiling {
-    fn model(&self) -> &str {
-        match self.script {
+impl Ceiling {
+    pub fn new(script: CeilingScript) -> Ceiling {
+        let label = match script {
             CeilingScript::FocusFire => "ceiling:focus-fire",
             CeilingScript::Kite => "ceiling:kite",
             CeilingScript::Nearest => "ceiling:nearest",
             CeilingScript::AttackMove => "ceiling:attack-move",
-        }
+        };
+        Ceiling { script, label }
+    }
+}
+
+impl ChatModel for Ceiling {
+    fn model(&self) -> &str {
+        self.label
     }
     fn complete(&mut self, req: &ChatRequest) -> Result<ChatReply, LlmError> {
         let prompt = first_user_text(req);
@@ -495,7 +500,7 @@ impl ChatModel for Ceiling {
         };
         let chars: usize = req.messages.iter().flat_map(|m| &m.parts).map(|p| if let Part::Text(t) = p { t.len() } else { 0 }).sum();
         let usage = Usage { prompt_tokens: (chars / 4) as u64, completion_tokens: (text.len() / 4) as u64 };
-        Ok(ChatReply { text, usage: Some(usage), latency_ms: 0.0, model: self.model().into(), finish: Some("stop".into()) })
+        Ok(ChatReply { text, usage: Some(usage), latency_ms: 0.0, model: self.label.into(), finish: Some("stop".into()) })
     }
     fn waits(&self) -> bool {
         false

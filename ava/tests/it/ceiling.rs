@@ -3,26 +3,12 @@
 //! prompt is still read, a ceiling over HTTP plays as the in-process one, and the micro
 //! action set lets a prompt-only player kite where the paper's did not.
 
-use crate::common::{FakeServer, play, setup};
+use crate::common::{FakeServer, play, setup, state};
 use avacraft_ava::llm::{Ceiling, CeilingScript, ceiling_decision, read_prompt};
 use avacraft_ava::{ActionSet, AvaConfig, PromptStyle, describe};
 use avacraft_engine::agent::{GroupObs, Reads};
-use avacraft_engine::{Controllers, Env, EnvConfig, Outcome, Scenario, Team};
+use avacraft_engine::{Env, Outcome, Team};
 use avacraft_render::{Camera, vlm_obs_layout};
-use std::sync::Arc;
-
-fn state(scenario: &str, seed: u64, steps: u32) -> Env {
-    let sc = Arc::new(Scenario::load(scenario).expect("scenario"));
-    let mut env = Env::new(Arc::clone(&sc), EnvConfig::default(), seed);
-    env.reset(seed);
-    let mut c = Controllers::named(&sc, "attack-move", Some("attack-move")).expect("agents");
-    c.reset(&env);
-    while env.steps() < steps && !env.done() {
-        c.act(&mut env);
-        env.step();
-    }
-    env
-}
 
 fn ceiling_cfg(prompt: PromptStyle, actions: ActionSet, decide_every: u32) -> AvaConfig {
     AvaConfig { prompt, actions, decide_every, image: false, ..AvaConfig::default() }
@@ -130,7 +116,7 @@ fn outcome(env: &Env) -> Option<Outcome> {
 #[test]
 fn the_micro_action_set_lets_a_perfect_player_kite() {
     let won = |cfg: AvaConfig, seed: u64| {
-        let s = setup(Box::new(Ceiling { script: CeilingScript::Kite }), cfg, None);
+        let s = setup(Box::new(Ceiling::new(CeilingScript::Kite)), cfg, None);
         outcome(&play("3s_vs_3z_vlm", seed, &s, 2000)) == Some(Outcome::Win)
     };
     for seed in [9000, 9001, 9002] {
@@ -140,7 +126,7 @@ fn the_micro_action_set_lets_a_perfect_player_kite() {
     let server = FakeServer::start_ceiling(CeilingScript::Kite);
     let cfg = ceiling_cfg(PromptStyle::Rich, ActionSet::Micro, 2);
     let http = play("3s_vs_3z_vlm", 9000, &setup(Box::new(server.client(10.0)), cfg.clone(), None), 2000);
-    let local = play("3s_vs_3z_vlm", 9000, &setup(Box::new(Ceiling { script: CeilingScript::Kite }), cfg, None), 2000);
+    let local = play("3s_vs_3z_vlm", 9000, &setup(Box::new(Ceiling::new(CeilingScript::Kite)), cfg, None), 2000);
     assert_eq!(http.trajectory_hash(), local.trajectory_hash(), "the fake server's ceiling mode plays as the back end");
     assert!(!server.seen().is_empty());
 }

@@ -1,27 +1,13 @@
 //! Decisions checked against real observations: the reasons given, and the property that
 //! matters most: whatever a model writes, an accepted command is never refused by the engine.
 
+use crate::common::state;
 use avacraft_ava::decision::{Item, Order, Situation, Verb, check, extract_json, parse_items, schema, targets};
 use avacraft_engine::agent::{GroupObs, Reads};
-use avacraft_engine::{Ability, Action, Command, Controllers, Env, EnvConfig, Scenario, Team, UnitId};
+use avacraft_engine::{Ability, Action, Command, Env, Team, UnitId};
 use avacraft_render::{Camera, vlm_obs_layout};
 use proptest::prelude::*;
 use serde_json::{Value, json};
-use std::sync::Arc;
-
-/// `scenario` after `steps` steps of attack-move for both sides.
-fn state(scenario: &str, seed: u64, steps: u32) -> Env {
-    let sc = Arc::new(Scenario::load(scenario).expect("scenario"));
-    let mut env = Env::new(Arc::clone(&sc), EnvConfig::default(), seed);
-    env.reset(seed);
-    let mut c = Controllers::named(&sc, "attack-move", Some("attack-move")).expect("agents");
-    c.reset(&env);
-    while env.steps() < steps && !env.done() {
-        c.act(&mut env);
-        env.step();
-    }
-    env
-}
 
 fn camera(env: &Env, obs: &GroupObs) -> Camera {
     let own = obs.units.iter().filter(|u| u.own).map(|u| avacraft_engine::Vec2::new(u.x, u.y));

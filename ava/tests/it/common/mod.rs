@@ -202,3 +202,17 @@ pub fn play_with(scenario: &str, seed: u64, s: &AvaSetup, step_limit: u32, confi
     }
     env
 }
+
+/// `scenario` after `steps` steps of attack-move for both sides.
+pub fn state(scenario: &str, seed: u64, steps: u32) -> Env {
+    let sc = Arc::new(Scenario::load(scenario).expect("scenario"));
+    let mut env = Env::new(Arc::clone(&sc), EnvConfig::default(), seed);
+    env.reset(seed);
+    let mut c = Controllers::named(&sc, "attack-move", Some("attack-move")).expect("agents");
+    c.reset(&env);
+    while env.steps() < steps && !env.done() {
+        c.act(&mut env);
+        env.step();
+    }
+    env
+}
