@@ -151,11 +151,12 @@ fn win_rates(meta: &Meta, cells: &[CellStats], path: &Path) -> Result<(), EvalEr
 /// Row agent's win rate as team 1 against the column agent.
 fn heatmap(meta: &Meta, cells: &[CellStats], scenario: &str, path: &Path) -> Result<(), EvalError> {
     let cells: Vec<_> = cells.iter().filter(|c| c.key.scenario == scenario && !c.key.against.starts_with("opponent:")).collect();
-    let names: Vec<&str> =
-        meta.agents.iter().map(|(n, _, _)| n.as_str()).filter(|a| cells.iter().any(|c| c.key.agent == *a || c.key.against == *a)).collect();
-    let k = names.len().max(1);
-    let side = (200 + k * 90).min(2000) as u32;
-    let mut canvas = Png::new((side + 60, side));
+    // Rows are the agents that played team 1, columns those that played team 2: a plan whose
+    // agents meet only the scripts leaves no empty columns.
+    let rows: Vec<&str> = meta.agents.iter().map(|(n, _, _)| n.as_str()).filter(|a| cells.iter().any(|c| c.key.agent == *a)).collect();
+    let cols: Vec<&str> = meta.agents.iter().map(|(n, _, _)| n.as_str()).filter(|a| cells.iter().any(|c| c.key.against == *a)).collect();
+    let (kr, kc) = (rows.len().max(1), cols.len().max(1));
+    let mut canvas = Png::new(((260 + kc * 110).min(2000) as u32, (200 + kr * 60).min(2000) as u32));
     {
         let root = canvas.area();
         root.fill(&WHITE).map_err(err)?;
@@ -166,33 +167,36 @@ fn heatmap(meta: &Meta, cells: &[CellStats], scenario: &str, path: &Path) -> Res
             .y_label_area_size(120)
             // Segmented axes: a label names the cell it sits under, not the edge between two
             // (a segmented a..b has a segment for each of a to b, both included).
-            .build_cartesian_2d((0..k - 1).into_segmented(), (0..k - 1).into_segmented())
+            .build_cartesian_2d((0..kc - 1).into_segmented(), (0..kr - 1).into_segmented())
             .map_err(err)?;
-        let name = |i: usize| names.get(i).map_or(String::new(), |s| (*s).to_owned());
+        let name = |names: &[&str], i: usize| names.get(i).map_or(String::new(), |s| (*s).to_owned());
         chart
             .configure_mesh()
             .disable_mesh()
-            .x_labels(k)
-            .y_labels(k)
+            .x_labels(kc)
+            .y_labels(kr)
+            .label_style(("sans-serif", 14))
             .x_label_formatter(&|v| match v {
-                SegmentValue::CenterOf(i) => name(*i),
+                SegmentValue::CenterOf(i) => name(&cols, *i),
                 _ => String::new(),
             })
             .y_label_formatter(&|v| match v {
-                SegmentValue::CenterOf(i) => (k - 1).checked_sub(*i).map_or(String::new(), name),
+                SegmentValue::CenterOf(i) => (kr - 1).checked_sub(*i).map_or(String::new(), |r| name(&rows, r)),
                 _ => String::new(),
             })
             .x_desc("team 2")
             .y_desc("team 1")
             .draw()
             .map_err(err)?;
-        let font = ("sans-serif", 16).into_font().color(&BLACK).pos(Pos::new(HPos::Center, VPos::Center));
-        for (ri, a) in names.iter().enumerate() {
-            for (ci, b) in names.iter().enumerate() {
+        for (ri, a) in rows.iter().enumerate() {
+            for (ci, b) in cols.iter().enumerate() {
                 let Some(c) = cells.iter().find(|c| c.key.agent == *a && c.key.against == *b) else { continue };
                 let v = c.win_rate.mean.clamp(0.0, 1.0);
-                let color = RGBColor((255.0 * (1.0 - v)) as u8, (90.0 + 120.0 * v) as u8, (255.0 * v) as u8);
-                let y = k - 1 - ri;
+                // The heat map's scale, the value written in the cell in a colour that reads on it.
+                let color = blues(v);
+                let ink = if v > 0.55 { WHITE } else { BLACK };
+                let font = ("sans-serif", 16).into_font().color(&ink).pos(Pos::new(HPos::Center, VPos::Center));
+                let y = kr - 1 - ri;
                 let cell = [(SegmentValue::Exact(ci), SegmentValue::Exact(y)), (SegmentValue::Exact(ci + 1), SegmentValue::Exact(y + 1))];
                 chart.draw_series(std::iter::once(Rectangle::new(cell, color.filled()))).map_err(err)?;
                 let centre = (SegmentValue::CenterOf(ci), SegmentValue::CenterOf(y));
