@@ -86,7 +86,7 @@ struct Ours {
     final_rate: f64,
     /// Held-out greedy win rate and its episodes.
     heldout: Option<(f64, usize)>,
-    /// Still training (no `done.json` yet).
+    /// Not finished (no `done.json`): still training, or stopped short of its budget.
     running: bool,
     rows: Vec<LogRow>,
 }
@@ -126,7 +126,7 @@ fn show_ours(o: Option<&Ours>) -> String {
         None => "not run".into(),
         Some(o) => {
             let held = o.heldout.map_or_else(String::new, |(w, _)| format!(" / {}", pct(w)));
-            let running = if o.running { " (running)" } else { "" };
+            let running = if o.running { " (unfinished)" } else { "" };
             format!("{}{held} @ {:.1}M{running}", pct(o.final_rate), o.steps as f64 / 1e6)
         }
     }

@@ -36,6 +36,11 @@ pub struct TrainArgs {
     /// agent network, config, log and curves, at most 300 kB each without the curves.
     #[arg(long, value_name = "DIR", requires = "plan")]
     pub ship: Option<PathBuf>,
+    /// With --ship: also ship runs stopped short of their budget (a checkpoint, no
+    /// done.json); the table names each with the steps it trained, and its shipped log shows
+    /// them too.
+    #[arg(long, requires = "ship")]
+    pub unfinished: bool,
     /// Observation mode: features (SMAC's vectors), rgb (screen and minimap images), hybrid
     /// (both) or vision-text (images and the text description's MiniLM embedding); the
     /// config's `obs` key, `features` unless the config says otherwise. Encoder keys
@@ -79,7 +84,7 @@ pub struct TrainArgs {
 
 pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     if let (Some(plan), Some(to)) = (&a.plan, &a.ship) {
-        return ship_plan(plan, a.shard, to, out);
+        return ship_plan(plan, a.shard, to, a.unfinished, out);
     }
     if let Some(plan) = &a.plan {
         return run_plan(plan, a.shard, a.threads, out);
@@ -194,16 +199,26 @@ const SHIP_RUN_BYTES: u64 = 300 * 1024;
 const SHIP_TOTAL_BYTES: u64 = 25 * 1024 * 1024;
 
 /// `train --plan FILE --ship DIR`: the plan's finished runs' policies into `DIR`.
-fn ship_plan(path: &std::path::Path, shard: Option<avacraft_eval::Shard>, to: &std::path::Path, out: &mut dyn Write) -> Result<()> {
+fn ship_plan(
+    path: &std::path::Path,
+    shard: Option<avacraft_eval::Shard>,
+    to: &std::path::Path,
+    unfinished: bool,
+    out: &mut dyn Write,
+) -> Result<()> {
     let plan = avacraft_eval::load_train_plan(path)?;
     let mut t = comfy_table::Table::new();
-    t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header(["run", "shipped to", "kB without curves", "weights"]);
+    t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header(["run", "shipped to", "kB without curves", "weights", "trained"]);
     let (mut shipped, mut waiting) = (0, Vec::new());
     for job in plan.shard(shard) {
-        if !job.dir.join(DONE_FILE).is_file() {
+        let done = job.dir.join(DONE_FILE).is_file();
+        let started = job.dir.join("config.json").is_file();
+        let ship = done || (unfinished && started);
+        if !ship {
             waiting.push(job.id.clone());
             continue;
         }
+        let trained = if done { "to its budget".to_owned() } else { format!("unfinished: {} steps", last_t_env(&job.dir)?) };
         let name = if job.seed == 1 { job.run.clone() } else { format!("{}-s{}", job.run, job.seed) };
         let dest = to.join(&job.scenario).join(&name);
         let r = avacraft_marl::policy::ship(&job.dir, &dest, SHIP_RUN_BYTES).with_context(|| format!("shipping {}", job.id))?;
@@ -212,6 +227,7 @@ fn ship_plan(path: &std::path::Path, shard: Option<avacraft_eval::Shard>, to: &s
             dest.display().to_string(),
             format!("{:.0}", r.bytes as f64 / 1024.0),
             if r.half { "f16" } else { "f32" }.into(),
+            trained,
         ]);
         shipped += 1;
     }
@@ -228,6 +244,15 @@ fn ship_plan(path: &std::path::Path, shard: Option<avacraft_eval::Shard>, to: &s
         bail!("{} holds {total} bytes, over the {SHIP_TOTAL_BYTES} allowed for shipped baselines", to.display());
     }
     Ok(())
+}
+
+/// The environment steps of a run's last logged row.
+fn last_t_env(dir: &std::path::Path) -> Result<u64> {
+    let path = dir.join("log.csv");
+    let text = std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let last = text.lines().skip(1).filter(|l| !l.trim().is_empty()).last();
+    let steps = last.and_then(|l| l.split(',').next()).and_then(|f| f.trim().parse().ok());
+    steps.with_context(|| format!("{}: no logged row with a step count", path.display()))
 }
 
 /// Bytes of the files under `dir` (0 if it does not exist).

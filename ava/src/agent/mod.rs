@@ -28,7 +28,7 @@ use crate::config::Timing;
 use crate::cost::EpisodeCost;
 use crate::decision::Order;
 use avacraft_engine::agent::{Agent, AgentCtx, Briefing, GroupObs};
-use avacraft_engine::{AbilityTarget, Action, Command, LOOPS_PER_SECOND, UnitId};
+use avacraft_engine::{Action, Command, LOOPS_PER_SECOND, UnitId};
 use avacraft_render::{CpuBackend, FrameBuilder};
 use state::Episode;
 use std::sync::Arc;
@@ -121,9 +121,10 @@ impl Agent for AvaAgent {
         for (t, o) in orders {
             match o {
                 Order::Do(c) => {
-                    // A new order ends the unit's stance; a self-cast ability (Stimpack, Siege
-                    // Mode) does not change what the unit keeps doing.
-                    if !matches!(c, Command::Ability { target: AbilityTarget::None, .. }) {
+                    // A new order ends the unit's stance; an ability (Stimpack, Siege Mode, a
+                    // KD8 Charge thrown, a Blink) does not change what the unit keeps doing,
+                    // as the scripts go on with their rules after casting.
+                    if !matches!(c, Command::Ability { .. }) {
                         ep.stances.remove(&t);
                     }
                     out.extend(action(t, c));

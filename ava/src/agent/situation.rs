@@ -153,7 +153,7 @@ pub fn attack_nearest(obs: &GroupObs, units: &[u32]) -> Vec<(u32, Command)> {
 pub fn order_text(tag: u32, o: &Order, grid: Option<&Camera>) -> String {
     match o {
         Order::Do(c) => command_text(tag, c, grid),
-        Order::Keep(Stance::Focus { target } | Stance::Kite { target: Some(target) }) => {
+        Order::Keep(Stance::Focus { target: Some(target) } | Stance::Kite { target: Some(target) }) => {
             format!("{tag} stance {} {target}", if matches!(o, Order::Keep(Stance::Focus { .. })) { "focus" } else { "kite" })
         }
         Order::Keep(st) => format!("{tag} stance {}", st.name()),

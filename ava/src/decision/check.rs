@@ -127,9 +127,10 @@ fn command(s: &Situation<'_>, u: &UnitInfo, item: &Item) -> Result<Order, String
     Ok(Order::Do(cmd))
 }
 
-/// A stance item: `focus` needs a target the unit can hit; `kite` a unit with a weapon.
+/// A stance item: `focus` and `kite` need a unit with a weapon, and a target it can hit if
+/// they name one.
 fn stance(s: &Situation<'_>, u: &UnitInfo, item: &Item) -> Result<Stance, String> {
-    let raw = item.stance.as_deref().ok_or("stance needs `stance`: focus (with `target`), kite or hold")?;
+    let raw = item.stance.as_deref().ok_or("stance needs `stance`: focus, kite or hold")?;
     let named = |tag: u32| -> Result<u32, String> {
         let t = s.unit(tag).filter(|t| !t.own).ok_or_else(|| format!("target {tag} is not an enemy you can see"))?;
         if !view::can_attack(u, t) {
@@ -138,10 +139,8 @@ fn stance(s: &Situation<'_>, u: &UnitInfo, item: &Item) -> Result<Stance, String
         Ok(tag)
     };
     match raw {
-        "focus" => {
-            let tag = item.target.ok_or("the focus stance needs `target`: the tag of an enemy you can see")?;
-            Ok(Stance::Focus { target: named(tag)? })
-        }
+        "focus" if u.spec().weapons.is_empty() => Err(format!("{} has no weapon to focus with", name(u))),
+        "focus" => Ok(Stance::Focus { target: item.target.map(named).transpose()? }),
         "kite" if u.spec().weapons.is_empty() => Err(format!("{} has no weapon to kite with", name(u))),
         "kite" => Ok(Stance::Kite { target: item.target.map(named).transpose()? }),
         "hold" => Ok(Stance::Hold),

@@ -61,8 +61,11 @@ pub struct Seen {
     pub full: bool,
     /// Rich prompt: no order (idle).
     pub idle: bool,
-    /// Rich prompt: the nearest enemy's edge-to-edge distance.
+    /// Rich prompt: attack-moving.
+    pub advancing: bool,
+    /// Rich prompt: the nearest enemy's edge-to-edge distance, and its tag.
     pub nearest: Option<f32>,
+    pub nearest_tag: Option<u32>,
     pub stimmed: bool,
     /// Rich prompt: abilities it can cast now.
     pub can: Vec<String>,
@@ -86,14 +89,17 @@ pub struct Read {
     /// Unit types the prompt calls flying, and what each type's weapons hit.
     pub flying: Vec<String>,
     pub hits: Vec<(String, bool, bool)>,
-    /// Melee types (weapon range under 1.5) and each type's speed.
+    /// Each type's speed and weapon range.
     pub speed: Vec<(String, f32)>,
+    pub ranges: Vec<(String, f32)>,
     /// Types with no weapon (healers, casters): the scripts keep them with the army.
     pub unarmed: Vec<String>,
     /// Each type's maximum shields.
     pub max_shields: Vec<(String, f32)>,
     /// The micro action set is offered.
     pub micro: bool,
+    /// Steps to the next decision, when the prompt says (1 when it does not).
+    pub next_in: u32,
 }
 
 fn num(s: &str) -> Option<f32> {
@@ -130,7 +136,9 @@ fn rich_line(line: &str) -> Option<Seen> {
         range: None,
         full: hp >= hp_max,
         idle: false,
+        advancing: false,
         nearest: None,
+        nearest_tag: None,
         stimmed: false,
         can: Vec::new(),
         hp,
@@ -146,8 +154,12 @@ fn rich_line(line: &str) -> Option<Seen> {
             seen.ready = false;
         } else if f == "idle" {
             seen.idle = true;
+        } else if f.starts_with("attack-moving") {
+            seen.advancing = true;
         } else if let Some(n) = f.strip_prefix("nearest ") {
-            seen.nearest = n.split(" at ").nth(1).and_then(num);
+            let mut parts = n.split(" at ");
+            seen.nearest_tag = parts.next().and_then(|t| t.trim().parse().ok());
+            seen.nearest = parts.next().and_then(num);
         } else if f == "stimmed" {
             seen.stimmed = true;
         } else if let Some(c) = f.strip_prefix("can cast ") {
@@ -181,7 +193,9 @@ fn paper_line(line: &str) -> Option<Seen> {
         range: None,
         full: false,
         idle: false,
+        advancing: false,
         nearest: None,
+        nearest_tag: None,
         stimmed: false,
         can: Vec::new(),
         hp,
@@ -202,6 +216,11 @@ pub fn read_prompt(text: &str) -> Read {
         Types,
     }
     let mut block = Block::None;
+    read.next_in = text
+        .split_once("the next decision comes in ")
+        .and_then(|(_, rest)| rest.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(1);
     for line in text.lines() {
         if let Some(ext) = line.split_once("Positions (x,y) in world units: x ") {
             read.exact = true;
@@ -256,6 +275,10 @@ pub fn read_prompt(text: &str) -> Read {
                     if let Some(sp) = data.split("speed ").nth(1).and_then(|s| s.split(',').next()).and_then(num) {
                         read.speed.push((kind.to_owned(), sp));
                     }
+                    let weapon = data.split_once("Weapon: ").map(|(_, w)| w);
+                    if let Some(r) = weapon.and_then(|w| w.split(", range ").nth(1)).and_then(|r| r.split(',').next()).and_then(num) {
+                        read.ranges.push((kind.to_owned(), r));
+                    }
                 }
             }
             Block::None => {}
@@ -306,8 +329,11 @@ impl Read {
             .or_else(|| self.enemies.iter().filter(|e| self.can_hit(u, e)).min_by(|a, b| a.life.total_cmp(&b.life).then(a.tag.cmp(&b.tag))))
     }
 
+    /// A melee type: its weapon's range (the prompt's line for its type, else the unit's own
+    /// line) is under 1.5.
     fn is_melee(&self, e: &Seen) -> bool {
-        self.hits.iter().any(|(k, _, _)| *k == e.kind) && e.range.is_none_or(|r| r < 1.5)
+        let range = self.ranges.iter().find(|(k, _)| *k == e.kind).map(|(_, r)| *r).or(e.range);
+        range.is_some_and(|r| r < 1.5)
     }
 
     fn speed_of(&self, kind: &str) -> f32 {
@@ -323,7 +349,10 @@ fn blink_to(read: &Read, u: &Seen) -> Option<(f32, f32)> {
         return None;
     }
     let max_sh = read.max_shields.iter().find(|(k, _)| *k == u.kind).map_or(0.0, |(_, s)| *s);
-    if !(u.shields < 0.1 * max_sh && u.hp < 0.6 * u.hp_max) {
+    // The scripts' rule is checked every step; a model deciding every few steps blinks
+    // earlier, while the Stalker still has the life to survive until the next decision.
+    let hp_line = if read.next_in > 1 { 0.8 } else { 0.6 };
+    if !(u.shields < 0.1 * max_sh && u.hp < hp_line * u.hp_max) {
         return None;
     }
     // Centre distances: edge distances plus about a unit's width.
@@ -367,6 +396,18 @@ fn self_cast(u: &Seen) -> Option<&'static str> {
     None
 }
 
+/// The melee enemy a Reaper knocks back by the scripts' rule (engine/src/agent/micro.rs): the
+/// nearest enemy, when it is a mobile ground melee unit within 3.
+fn knock_back(read: &Read, u: &Seen) -> Option<u32> {
+    if !u.can.iter().any(|c| c == "kd8_charge") {
+        return None;
+    }
+    let (tag, d) = u.nearest_tag.zip(u.nearest)?;
+    let e = read.enemies.iter().find(|e| e.tag == tag)?;
+    let closing = read.is_melee(e) && read.speed_of(&e.kind) > 0.0 && !read.flying.contains(&e.kind);
+    (closing && d < 3.0).then_some(tag)
+}
+
 /// The decision a ceiling model gives for `read`.
 pub fn ceiling_decision(script: CeilingScript, read: &Read) -> Value {
     let mut actions = Vec::new();
@@ -388,6 +429,14 @@ pub fn ceiling_decision(script: CeilingScript, read: &Read) -> Value {
             a["action"] = json!("ability");
             a["ability"] = json!("blink");
             a["point"] = json!([to.0, to.1]);
+            actions.push(a);
+            continue;
+        }
+        if let Some(e) = knock_back(read, u) {
+            // As the scripts do: a Reaper throws KD8 Charge at a melee unit closing in.
+            a["action"] = json!("ability");
+            a["ability"] = json!("kd8_charge");
+            a["target"] = json!(e);
             actions.push(a);
             continue;
         }
@@ -413,15 +462,24 @@ pub fn ceiling_decision(script: CeilingScript, read: &Read) -> Value {
             // As the scripts do: a unit without a weapon (a Medivac heals on its own) follows
             // the army instead of walking into the enemy.
             let army: Vec<Seen> = read.mine.iter().filter(|m| !read.unarmed.contains(&m.kind)).cloned().collect();
-            if let (true, Some(c)) = (read.micro, Read::centroid(&army)) {
+            // Only when idle, as the scripts: a new order would interrupt its healing.
+            if let (true, true, Some(c)) = (read.micro, u.idle, Read::centroid(&army)) {
                 a["action"] = json!("attack_move");
                 a["point"] = json!([c.0, c.1]);
                 actions.push(a);
             }
             continue;
         }
+        let stance = if script == CeilingScript::Kite && u.range.is_some_and(|r| r >= 3.0) { "kite" } else { "focus" };
         let Some(t) = read.target_for(u, team) else {
-            if read.micro {
+            if read.micro && u.advancing && script != CeilingScript::Nearest {
+                // Already advancing: a stance with no target keeps the attack-move going and
+                // takes the script's target at the first step an enemy is seen, not at the
+                // next decision.
+                a["action"] = json!("stance");
+                a["stance"] = json!(stance);
+                actions.push(a);
+            } else if read.micro {
                 a["action"] = json!("attack_move");
                 a["point"] = json!([centre.0, centre.1]);
                 actions.push(a);
@@ -430,8 +488,11 @@ pub fn ceiling_decision(script: CeilingScript, read: &Read) -> Value {
         };
         if read.micro {
             a["action"] = json!("stance");
-            a["stance"] = json!(if script == CeilingScript::Kite && u.range.is_some_and(|r| r >= 3.0) { "kite" } else { "focus" });
-            a["target"] = json!(t.tag);
+            a["stance"] = json!(stance);
+            // Focus fire's rule is the stance's own with no target named: the weakest enemy
+            // in sight, chosen again every step, so the target moves on between decisions as
+            // the script's does. The nearest-target rule is not a stance's: name it.
+            a["target"] = if script == CeilingScript::Nearest { json!(t.tag) } else { Value::Null };
         } else if script == CeilingScript::Kite && !u.ready && u.range.is_none_or(|r| r >= 3.0) {
             // The paper's actions: step away from a slower melee enemy that is close.
             let threat = read

@@ -173,7 +173,58 @@ fn the_ceiling_stims_as_the_scripts_do() {
     ] {
         let a = act(no);
         assert_eq!(a["action"], "stance", "{no}: {a}");
-        assert_eq!(a["target"], 4, "{no}: {a}");
+        // Focus fire's rule is the stance's own: no target named, the weakest in sight each step.
+        assert!(a["target"].is_null(), "{no}: {a}");
+    }
+}
+
+/// Before contact, a unit already advancing gets a stance with no target, so it engages at the
+/// first step an enemy is seen rather than at the next decision; one standing still is sent
+/// towards where the enemy started.
+#[test]
+fn the_ceiling_holds_its_stance_ready_before_contact() {
+    let text = |order: &str| {
+        format!(
+            "Step 2, game time 0.7 s. Positions (x,y) in world units: x 0-32 west to east, y 0-32 south to north. Distances are edge to edge, as weapon ranges are. The enemy started near (23.0,16.0).\n\
+             Your units (tag type (x,y) hp[+shields] | weapon | order | enemies in range | nearest enemy):\n\
+             - 1 Marine (9.0,16.0) 45/45 | range 5 ready | {order} | none in range\n\
+             No enemy in sight.\n\
+             - {{\"unit\": U, \"action\": \"stance\"}}"
+        )
+    };
+    for script in [CeilingScript::FocusFire, CeilingScript::Kite] {
+        let a = ceiling_decision(script, &read_prompt(&text("attack-moving to (23.0,16.0)")))["actions"][0].clone();
+        assert_eq!(a["action"], "stance", "{script:?}: {a}");
+        assert!(a["target"].is_null(), "{script:?}: {a}");
+        let a = ceiling_decision(script, &read_prompt(&text("idle")))["actions"][0].clone();
+        assert_eq!(a["action"], "attack_move", "{script:?}: {a}");
+        assert_eq!(a["point"], serde_json::json!([23.0, 16.0]), "{script:?}: {a}");
+    }
+}
+
+/// KD8 Charge by the scripts' rule: a Reaper throws it at the nearest enemy when that is a
+/// mobile melee unit within 3; not at a Marine, and not at a Zealot further away.
+#[test]
+fn the_ceiling_knocks_back_melee_units_closing_in() {
+    let text = |enemy: &str, dist: f32| {
+        format!(
+            "Step 9, game time 3.0 s. Positions (x,y) in world units: x 0-32 west to east, y 0-32 south to north. Distances are edge to edge, as weapon ranges are.\n\
+             Your units (tag type (x,y) hp[+shields] | weapon | order | enemies in range | nearest enemy):\n\
+             - 1 Reaper (16.0,16.0) 50/50 | range 4.5 ready | attacking 4 | in range 4 | nearest 4 at {dist:.1} | can cast kd8_charge\n\
+             Enemies in sight (tag type (x,y) hp[+shields] | target):\n\
+             - 4 {enemy} (18.0,16.0) 45/45 | attacking 1\n\
+             Unit types here:\n\
+             - Reaper: Terran, Light, Biological, 50 health, 0 armor, speed 4.13, sight 9. Weapon: 4 damage x2 hits (+5 vs Light), range 4.5, every 0.79 s, hits ground only.\n\
+             - Zealot: Protoss, Light, Biological, 100 health, 50 shields, 1 armor, speed 3.15, sight 9. Weapon: 8 damage x2 hits, range 0.1, every 0.86 s, hits ground only.\n\
+             - Marine: Terran, Light, Biological, 45 health, 0 armor, speed 3.15, sight 9. Weapon: 6 damage, range 5, every 0.61 s, hits ground and air.\n\
+             - {{\"unit\": U, \"action\": \"stance\"}}"
+        )
+    };
+    let a = ceiling_decision(CeilingScript::Kite, &read_prompt(&text("Zealot", 1.2)))["actions"][0].clone();
+    assert_eq!((a["action"].as_str(), a["ability"].as_str(), a["target"].as_u64()), (Some("ability"), Some("kd8_charge"), Some(4)), "{a}");
+    for (enemy, dist) in [("Marine", 1.2), ("Zealot", 4.0)] {
+        let a = ceiling_decision(CeilingScript::Kite, &read_prompt(&text(enemy, dist)))["actions"][0].clone();
+        assert_eq!(a["action"], "stance", "{enemy} at {dist}: {a}");
     }
 }
 
@@ -204,4 +255,44 @@ fn the_ceiling_blinks_hurt_stalkers_away() {
     assert!((x - 8.5).abs() < 0.01 && (y - 16.0).abs() < 0.01, "7.5 west, away from the Zealot: ({x}, {y})");
     let a = ceiling_decision(CeilingScript::Kite, &read_prompt(&text("40/80+30sh")))["actions"][0].clone();
     assert_eq!(a["action"], "stance", "shields left: {a}");
+    // At 75% HP it waits while it decides every step, and blinks when the next decision is
+    // two steps away (the scripts check every step).
+    let a = ceiling_decision(CeilingScript::Kite, &read_prompt(&text("60/80+0sh")))["actions"][0].clone();
+    assert_eq!(a["action"], "stance", "decides every step: {a}");
+    let slow =
+        format!("{}\nGive one action per unit of yours (1); the next decision comes in 2 steps (0.71 s of game time).", text("60/80+0sh"));
+    let a = ceiling_decision(CeilingScript::Kite, &read_prompt(&slow))["actions"][0].clone();
+    assert_eq!(a["ability"], "blink", "decides every 2 steps: {a}");
+}
+
+/// A stance naming no target fights by the focus-fire script's rule every step: each unit
+/// attacks the group's weakest enemy in sight; with no enemy in sight it gives no order, so
+/// the unit's attack-move goes on.
+#[test]
+fn a_stance_without_a_target_takes_the_weakest_in_sight() {
+    use avacraft_engine::Command;
+    use avacraft_engine::agent::Stance;
+    let env = state("3m_vlm", 4, 0);
+    let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
+    assert_eq!(obs.units.iter().filter(|u| !u.own).count(), 0, "nothing in sight at the start");
+    for u in obs.units.iter().filter(|u| u.own) {
+        assert_eq!(Stance::Focus { target: None }.act(&obs, &env.scenario().terrain, u), None);
+    }
+    let env = state("3m_vlm", 4, 14);
+    let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
+    let weakest = obs.units.iter().filter(|u| !u.own).map(|e| e.hp + e.shield).fold(f32::INFINITY, f32::min);
+    assert!(weakest.is_finite(), "Marines in sight after 14 steps");
+    let mut attacks = 0;
+    for u in obs.units.iter().filter(|u| u.own) {
+        for stance in [Stance::Focus { target: None }, Stance::Kite { target: None }] {
+            if let Some(a) = stance.act(&obs, &env.scenario().terrain, u)
+                && let Command::Attack { target } = a.command
+            {
+                let t = obs.units.iter().find(|e| e.tag == target.tag()).expect("a seen target");
+                assert!(!t.own && t.hp + t.shield <= weakest + 1e-3, "{stance:?}: {t:?} is not the weakest");
+                attacks += 1;
+            }
+        }
+    }
+    assert!(attacks > 0, "someone is told to attack");
 }

@@ -248,7 +248,7 @@ impl FocusFire {
         let centre = centroid(g.own())?;
         let d = |u: &UnitInfo| pos(u).dist_sq(centre);
         match self.pick {
-            Pick::TeamLowest => g.enemies().min_by(|a, b| ehp(a).total_cmp(&ehp(b)).then(d(a).total_cmp(&d(b)))),
+            Pick::TeamLowest => weakest_in_sight(g),
             Pick::TeamClosest => g.enemies().min_by(|a, b| d(a).total_cmp(&d(b)).then(a.tag.cmp(&b.tag))),
             Pick::LowestInRange => None,
         }
@@ -257,6 +257,14 @@ impl FocusFire {
     fn kite_from(&self, g: &GroupObs, u: &UnitInfo) -> Option<Vec2> {
         if self.kite { kite_step(g, u) } else { None }
     }
+}
+
+/// The group's weakest enemy in sight: lowest HP + shields, ties to the one nearest the
+/// group's centre (the focus-fire script's shared target).
+pub(super) fn weakest_in_sight(g: &GroupObs) -> Option<&UnitInfo> {
+    let centre = centroid(g.own())?;
+    let d = |u: &UnitInfo| pos(u).dist_sq(centre);
+    g.enemies().min_by(|a, b| ehp(a).total_cmp(&ehp(b)).then(d(a).total_cmp(&d(b))))
 }
 
 /// The target `u` takes: the team's target when it can hit it, else the lowest HP + shields

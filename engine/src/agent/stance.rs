@@ -6,7 +6,7 @@
 //! rules as the scripted agents' ([`FocusFire`](super::FocusFire)).
 
 use super::GroupObs;
-use super::scripted::{kite_step, own_target};
+use super::scripted::{kite_step, own_target, weakest_in_sight};
 use super::view::{attacking, id, mobile, radius, range_gap};
 use crate::action::{Action, Command};
 use crate::obs::{OrderInfo, UnitInfo};
@@ -17,12 +17,13 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(tag = "stance", rename_all = "snake_case")]
 pub enum Stance {
-    /// Attack `target` while it lives and is seen; then the lowest HP + shields enemy in
-    /// range, else the nearest one it can hit.
-    Focus { target: u32 },
-    /// Attack `target` while it lives and is seen (when none is named or it is gone: the lowest
-    /// HP + shields enemy in range, else the nearest it can hit), stepping back from slower
-    /// melee units while the weapon reloads.
+    /// Attack `target` while it lives and is seen. When none is named or it is gone: the
+    /// group's weakest enemy in sight (lowest HP + shields, the focus-fire script's pick)
+    /// when the unit can hit it, else the weakest in its range, else the nearest it can hit.
+    /// With no enemy in sight the unit keeps its current order (an attack-move goes on), so a
+    /// stance given before contact engages at the first step the enemy is seen.
+    Focus { target: Option<u32> },
+    /// As `Focus`, stepping back from slower melee units while the weapon reloads.
     Kite { target: Option<u32> },
     /// Stand still and fire at what comes in range.
     Hold,
@@ -45,7 +46,7 @@ impl Stance {
     pub fn act(&self, g: &GroupObs, terrain: &Terrain, u: &UnitInfo) -> Option<Action> {
         let cmd = match *self {
             Stance::Hold => (u.order != OrderInfo::Hold).then_some(Command::Hold)?,
-            Stance::Focus { target } => attack(u, pick(g, u, Some(target))?)?,
+            Stance::Focus { target } => attack(u, pick(g, u, target)?)?,
             Stance::Kite { target } => {
                 if let Some(p) = kite_step(g, u) {
                     let to = terrain.playable().clamp(p, radius(u));
@@ -60,9 +61,9 @@ impl Stance {
     }
 }
 
-/// The named enemy while it is seen and `u` can hit it; else the scripts' own pick.
+/// The named enemy while it is seen and `u` can hit it; else the focus-fire script's pick.
 fn pick<'a>(g: &'a GroupObs, u: &UnitInfo, named: Option<u32>) -> Option<&'a UnitInfo> {
-    let named = named.and_then(|tag| g.enemies().find(|e| e.tag == tag));
+    let named = named.and_then(|tag| g.enemies().find(|e| e.tag == tag)).or_else(|| weakest_in_sight(g));
     own_target(g, u, named)
 }
 
