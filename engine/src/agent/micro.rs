@@ -22,179 +22,208 @@ use crate::units::UnitKind;
 /// Ability actions for the units the group controls this step, and the tags of the units
 /// they leave alone otherwise (casting, channelling, morphing, or running at a clump): the
 /// caller gives those no other order.
-// Long: one branch per ability the scripted micro uses, all sharing the step's storm list
-// and claimed targets; splitting it by ability would pass that state through each piece.
 pub(crate) fn ability_actions(g: &GroupObs, terrain: &Terrain) -> (Vec<Action>, Vec<u32>) {
-    let mut out = Vec::new();
-    let mut handled = Vec::new();
     // Storms already on the ground (ours) and cast this step: a new one must not overlap
     // them, as storms do not stack.
-    let mut storms: Vec<Vec2> =
+    let storms =
         g.effects.iter().filter(|e| e.kind == EffectKind::PsionicStorm && e.team == g.team.player()).map(|e| Vec2::new(e.x, e.y)).collect();
-    let mut feedbacks: Vec<u32> = Vec::new();
+    let mut s = Step { g, terrain, out: Vec::new(), handled: Vec::new(), storms, feedbacks: Vec::new() };
     for u in g.mine() {
         if busy(u) {
-            handled.push(u.tag);
+            s.handled.push(u.tag);
             continue;
         }
-        let cast = |ability: Ability, target: AbilityTarget| -> Option<Action> {
-            cast_ok(g, terrain, u, ability, target).then(|| Action::new(id(u), Command::Ability { ability, target }))
-        };
-        let mut take = |a: Option<Action>, exclusive: bool| -> bool {
-            match a {
-                Some(a) => {
-                    out.push(a);
-                    if exclusive {
-                        handled.push(u.tag);
-                    }
-                    true
-                }
-                None => false,
-            }
-        };
-        match u.kind {
-            UnitKind::Marine | UnitKind::Marauder => {
-                let engaging = nearest_enemy(g, u, |e| can_attack(u, e)).is_some_and(|(_, d)| d <= max_range(u) + 2.0);
-                if engaging && !u.buffs.contains(Buffs::STIMMED) && u.hp >= u.max_hp {
-                    take(cast(Ability::Stimpack, AbilityTarget::None), false);
-                }
-            }
-            UnitKind::Medivac if u.hp < 0.5 * u.max_hp && nearest_enemy(g, u, |_| true).is_some_and(|(_, d)| d < 8.0) => {
-                take(cast(Ability::Afterburners, AbilityTarget::None), false);
-            }
-            UnitKind::SiegeTank => {
-                let near = nearest_enemy(g, u, |e| !flying(e)).map(|(_, d)| d);
-                if near.is_some_and(|d| (3.0..=13.0).contains(&d)) {
-                    take(cast(Ability::SiegeMode, AbilityTarget::None), true);
-                }
-            }
-            UnitKind::SiegeTankSieged => {
-                // Unsiege to chase when nothing is close (with a margin over the siege
-                // rule, so a unit hovering at the edge does not toggle it), or when every
-                // enemy in reach is inside the minimum range.
-                let ground: Vec<f32> = g.enemies().filter(|e| !flying(e)).map(|e| edge(u, e)).collect();
-                let in_reach = ground.iter().any(|&d| (2.0..=13.0).contains(&d));
-                let near = ground.iter().any(|&d| d <= 15.0);
-                let hugged = ground.iter().any(|&d| d < 2.0);
-                if !in_reach && (!near || hugged) {
-                    take(cast(Ability::Unsiege, AbilityTarget::None), true);
-                }
-            }
-            UnitKind::Reaper => {
-                // Knock back a melee unit closing in.
-                if let Some((e, d)) = nearest_enemy(g, u, |e| !flying(e) && max_range(e) < 1.5 && mobile(e))
-                    && d < 3.0
-                {
-                    take(cast(Ability::Kd8Charge, AbilityTarget::Unit { unit: id(e) }), false);
-                }
-            }
-            UnitKind::Ghost => {
-                let emp = best_clump(g, u, EMP_RADIUS, |e| e.shield + e.energy.min(100.0))
-                    .filter(|(_, v)| *v >= 100.0)
-                    .and_then(|(p, _)| cast(Ability::Emp, AbilityTarget::Point { to: p }));
-                if take(emp, true) {
-                    continue;
-                }
-                let snipe = g
-                    .enemies()
-                    .filter(|e| e.flags.contains(UnitFlags::BIOLOGICAL) && e.hp >= 80.0)
-                    .max_by(|a, b| a.hp.total_cmp(&b.hp).then(b.tag.cmp(&a.tag)))
-                    .and_then(|e| cast(Ability::SteadyTargeting, AbilityTarget::Unit { unit: id(e) }));
-                if nearest_enemy(g, u, |e| can_attack(e, u)).is_none_or(|(_, d)| d > 4.0) && take(snipe, true) {
-                    continue;
-                }
-                cloak_if_engaged(g, terrain, u, &mut out);
-            }
-            UnitKind::Banshee => cloak_if_engaged(g, terrain, u, &mut out),
-            UnitKind::VikingAssault if g.enemies().any(|e| flying(e) && e.kind.can_fight()) => {
-                take(cast(Ability::FighterMode, AbilityTarget::None), true);
-            }
-            UnitKind::VikingFighter if !g.enemies().any(flying) && g.enemies().any(|e| !flying(e)) => {
-                take(cast(Ability::AssaultMode, AbilityTarget::None), true);
-            }
-            UnitKind::Stalker => {
-                // Blink a damaged Stalker back, away from the enemies close to it.
-                let threats: Vec<&UnitInfo> = g.enemies().filter(|e| can_attack(e, u) && edge(u, e) < 6.0).collect();
-                if u.shield < 0.1 * u.max_shield && u.hp < 0.6 * u.max_hp && !threats.is_empty() {
-                    let away = threats.iter().fold(Vec2::ZERO, |acc, e| acc + (pos(u) - pos(e)).normalized());
-                    let to = terrain.playable().clamp(pos(u) + away.normalized() * 7.5, radius(u));
-                    take(cast(Ability::Blink, AbilityTarget::Point { to }), true);
-                }
-            }
-            UnitKind::Sentry => {
-                let ranged = g.enemies().filter(|e| max_range(e) >= 2.0 && pos(e).dist(pos(u)) < 9.0).count();
-                let friends = g.own().filter(|o| pos(o).dist(pos(u)) < 4.5).count();
-                if ranged >= 2 && friends >= 3 {
-                    take(cast(Ability::GuardianShield, AbilityTarget::None), false);
-                }
-            }
-            UnitKind::HighTemplar => {
-                let caster = g
-                    .enemies()
-                    .filter(|e| e.energy >= 50.0 && !feedbacks.contains(&e.tag))
-                    .max_by(|a, b| a.energy.total_cmp(&b.energy).then(b.tag.cmp(&a.tag)));
-                if let Some(e) = caster
-                    && take(cast(Ability::Feedback, AbilityTarget::Unit { unit: id(e) }), true)
-                {
-                    feedbacks.push(e.tag);
-                    continue;
-                }
-                // Storm a clump of at least three enemies, clear of our own units and of
-                // our storms (on the ground or cast this step).
-                let clump = best_clump(g, u, STORM_RADIUS, |_| 1.0)
-                    .filter(|(p, n)| *n >= 3.0 && !g.own().any(|o| pos(o).dist(*p) < STORM_RADIUS + radius(o) + 0.5))
-                    .filter(|(p, _)| storms.iter().all(|s| s.dist(*p) > 2.0 * STORM_RADIUS));
-                if let Some((p, _)) = clump
-                    && take(cast(Ability::PsionicStorm, AbilityTarget::Point { to: p }), true)
-                {
-                    storms.push(p);
-                }
-            }
-            UnitKind::Phoenix => {
-                let lift = g
-                    .enemies()
-                    .filter(|e| !flying(e) && !e.flags.contains(UnitFlags::MASSIVE) && edge(u, e) <= 4.0)
-                    .max_by(|a, b| (a.max_hp + a.max_shield).total_cmp(&(b.max_hp + b.max_shield)).then(b.tag.cmp(&a.tag)));
-                if let Some(e) = lift {
-                    take(cast(Ability::GravitonBeam, AbilityTarget::Unit { unit: id(e) }), true);
-                }
-            }
-            // Running at a clump is part of the Baneling's ability use: with abilities off
-            // (Explode unavailable) it fights as the engine's own rules make it.
-            UnitKind::Baneling if ready(u, Ability::Explode) => {
-                let light = |e: &UnitInfo| e.flags.contains(UnitFlags::LIGHT) && !flying(e);
-                let around = |p: Vec2| g.enemies().filter(|e| light(e) && pos(e).dist(p) <= 2.2 + radius(e)).count();
-                if around(pos(u)) >= 3 {
-                    take(cast(Ability::Explode, AbilityTarget::None), true);
-                } else if let Some(t) = g.enemies().filter(|e| light(e)).max_by(|a, b| {
-                    around(pos(a))
-                        .cmp(&around(pos(b)))
-                        .then(pos(b).dist_sq(pos(u)).total_cmp(&pos(a).dist_sq(pos(u))))
-                        .then(b.tag.cmp(&a.tag))
-                }) && around(pos(t)) >= 2
-                {
-                    if !attacking(u, t.tag) {
-                        out.push(Action::new(id(u), Command::Attack { target: id(t) }));
-                    }
-                    handled.push(u.tag);
-                }
-            }
-            UnitKind::Queen => {
-                let patient = g
-                    .own()
-                    .filter(|o| {
-                        o.tag != u.tag && o.flags.contains(UnitFlags::BIOLOGICAL) && o.hp < 0.5 * o.max_hp && o.max_hp - o.hp >= 50.0
-                    })
-                    .filter(|o| edge(u, o) <= Ability::Transfusion.spec().range)
-                    .max_by(|a, b| a.max_hp.total_cmp(&b.max_hp).then(b.tag.cmp(&a.tag)));
-                if let Some(p) = patient {
-                    take(cast(Ability::Transfusion, AbilityTarget::Unit { unit: id(p) }), false);
-                }
-            }
-            _ => {}
-        }
+        terran(&mut s, u);
+        protoss(&mut s, u);
+        zerg(&mut s, u);
     }
-    (out, handled)
+    (s.out, s.handled)
+}
+
+/// One step's casts so far, shared by every caster's rules: the actions, the units they
+/// claim, the storms down or cast and the casters already fed back.
+struct Step<'a> {
+    g: &'a GroupObs,
+    terrain: &'a Terrain,
+    out: Vec<Action>,
+    handled: Vec<u32>,
+    storms: Vec<Vec2>,
+    feedbacks: Vec<u32>,
+}
+
+impl Step<'_> {
+    /// `u` casting `ability` on `target`, when the engine would take it.
+    fn cast(&self, u: &UnitInfo, ability: Ability, target: AbilityTarget) -> Option<Action> {
+        cast_ok(self.g, self.terrain, u, ability, target).then(|| Action::new(id(u), Command::Ability { ability, target }))
+    }
+
+    /// Keeps a cast; an exclusive one leaves the unit no other order this step.
+    fn take(&mut self, u: &UnitInfo, a: Option<Action>, exclusive: bool) -> bool {
+        let Some(a) = a else { return false };
+        self.out.push(a);
+        if exclusive {
+            self.handled.push(u.tag);
+        }
+        true
+    }
+}
+
+/// Terran casters: Stimpack, Afterburners, Siege Mode and back, KD8 Charge, EMP, Steady
+/// Targeting, cloaking, and the Viking's two modes.
+fn terran(s: &mut Step<'_>, u: &UnitInfo) {
+    let (g, terrain) = (s.g, s.terrain);
+    match u.kind {
+        UnitKind::Marine | UnitKind::Marauder => {
+            let engaging = nearest_enemy(g, u, |e| can_attack(u, e)).is_some_and(|(_, d)| d <= max_range(u) + 2.0);
+            if engaging && !u.buffs.contains(Buffs::STIMMED) && u.hp >= u.max_hp {
+                s.take(u, s.cast(u, Ability::Stimpack, AbilityTarget::None), false);
+            }
+        }
+        UnitKind::Medivac if u.hp < 0.5 * u.max_hp && nearest_enemy(g, u, |_| true).is_some_and(|(_, d)| d < 8.0) => {
+            s.take(u, s.cast(u, Ability::Afterburners, AbilityTarget::None), false);
+        }
+        UnitKind::SiegeTank => {
+            let near = nearest_enemy(g, u, |e| !flying(e)).map(|(_, d)| d);
+            if near.is_some_and(|d| (3.0..=13.0).contains(&d)) {
+                s.take(u, s.cast(u, Ability::SiegeMode, AbilityTarget::None), true);
+            }
+        }
+        UnitKind::SiegeTankSieged => {
+            // Unsiege to chase when nothing is close (with a margin over the siege
+            // rule, so a unit hovering at the edge does not toggle it), or when every
+            // enemy in reach is inside the minimum range.
+            let ground: Vec<f32> = g.enemies().filter(|e| !flying(e)).map(|e| edge(u, e)).collect();
+            let in_reach = ground.iter().any(|&d| (2.0..=13.0).contains(&d));
+            let near = ground.iter().any(|&d| d <= 15.0);
+            let hugged = ground.iter().any(|&d| d < 2.0);
+            if !in_reach && (!near || hugged) {
+                s.take(u, s.cast(u, Ability::Unsiege, AbilityTarget::None), true);
+            }
+        }
+        UnitKind::Reaper => {
+            // Knock back a melee unit closing in.
+            if let Some((e, d)) = nearest_enemy(g, u, |e| !flying(e) && max_range(e) < 1.5 && mobile(e))
+                && d < 3.0
+            {
+                s.take(u, s.cast(u, Ability::Kd8Charge, AbilityTarget::Unit { unit: id(e) }), false);
+            }
+        }
+        UnitKind::Ghost => {
+            let emp = best_clump(g, u, EMP_RADIUS, |e| e.shield + e.energy.min(100.0))
+                .filter(|(_, v)| *v >= 100.0)
+                .and_then(|(p, _)| s.cast(u, Ability::Emp, AbilityTarget::Point { to: p }));
+            if s.take(u, emp, true) {
+                return;
+            }
+            let snipe = g
+                .enemies()
+                .filter(|e| e.flags.contains(UnitFlags::BIOLOGICAL) && e.hp >= 80.0)
+                .max_by(|a, b| a.hp.total_cmp(&b.hp).then(b.tag.cmp(&a.tag)))
+                .and_then(|e| s.cast(u, Ability::SteadyTargeting, AbilityTarget::Unit { unit: id(e) }));
+            if nearest_enemy(g, u, |e| can_attack(e, u)).is_none_or(|(_, d)| d > 4.0) && s.take(u, snipe, true) {
+                return;
+            }
+            cloak_if_engaged(g, terrain, u, &mut s.out);
+        }
+        UnitKind::Banshee => cloak_if_engaged(g, terrain, u, &mut s.out),
+        UnitKind::VikingAssault if g.enemies().any(|e| flying(e) && e.kind.can_fight()) => {
+            s.take(u, s.cast(u, Ability::FighterMode, AbilityTarget::None), true);
+        }
+        UnitKind::VikingFighter if !g.enemies().any(flying) && g.enemies().any(|e| !flying(e)) => {
+            s.take(u, s.cast(u, Ability::AssaultMode, AbilityTarget::None), true);
+        }
+        _ => {}
+    }
+}
+
+/// Protoss casters: Blink, Guardian Shield, Feedback and Psionic Storm, Graviton Beam.
+fn protoss(s: &mut Step<'_>, u: &UnitInfo) {
+    let (g, terrain) = (s.g, s.terrain);
+    match u.kind {
+        UnitKind::Stalker => {
+            // Blink a damaged Stalker back, away from the enemies close to it.
+            let threats: Vec<&UnitInfo> = g.enemies().filter(|e| can_attack(e, u) && edge(u, e) < 6.0).collect();
+            if u.shield < 0.1 * u.max_shield && u.hp < 0.6 * u.max_hp && !threats.is_empty() {
+                let away = threats.iter().fold(Vec2::ZERO, |acc, e| acc + (pos(u) - pos(e)).normalized());
+                let to = terrain.playable().clamp(pos(u) + away.normalized() * 7.5, radius(u));
+                s.take(u, s.cast(u, Ability::Blink, AbilityTarget::Point { to }), true);
+            }
+        }
+        UnitKind::Sentry => {
+            let ranged = g.enemies().filter(|e| max_range(e) >= 2.0 && pos(e).dist(pos(u)) < 9.0).count();
+            let friends = g.own().filter(|o| pos(o).dist(pos(u)) < 4.5).count();
+            if ranged >= 2 && friends >= 3 {
+                s.take(u, s.cast(u, Ability::GuardianShield, AbilityTarget::None), false);
+            }
+        }
+        UnitKind::HighTemplar => {
+            let caster = g
+                .enemies()
+                .filter(|e| e.energy >= 50.0 && !s.feedbacks.contains(&e.tag))
+                .max_by(|a, b| a.energy.total_cmp(&b.energy).then(b.tag.cmp(&a.tag)));
+            if let Some(e) = caster
+                && s.take(u, s.cast(u, Ability::Feedback, AbilityTarget::Unit { unit: id(e) }), true)
+            {
+                s.feedbacks.push(e.tag);
+                return;
+            }
+            // Storm a clump of at least three enemies, clear of our own units and of
+            // our storms (on the ground or cast this step).
+            let clump = best_clump(g, u, STORM_RADIUS, |_| 1.0)
+                .filter(|(p, n)| *n >= 3.0 && !g.own().any(|o| pos(o).dist(*p) < STORM_RADIUS + radius(o) + 0.5))
+                .filter(|(p, _)| s.storms.iter().all(|s| s.dist(*p) > 2.0 * STORM_RADIUS));
+            if let Some((p, _)) = clump
+                && s.take(u, s.cast(u, Ability::PsionicStorm, AbilityTarget::Point { to: p }), true)
+            {
+                s.storms.push(p);
+            }
+        }
+        UnitKind::Phoenix => {
+            let lift = g
+                .enemies()
+                .filter(|e| !flying(e) && !e.flags.contains(UnitFlags::MASSIVE) && edge(u, e) <= 4.0)
+                .max_by(|a, b| (a.max_hp + a.max_shield).total_cmp(&(b.max_hp + b.max_shield)).then(b.tag.cmp(&a.tag)));
+            if let Some(e) = lift {
+                s.take(u, s.cast(u, Ability::GravitonBeam, AbilityTarget::Unit { unit: id(e) }), true);
+            }
+        }
+        _ => {}
+    }
+}
+
+/// Zerg casters: the Baneling's Explode (and its run at a clump), the Queen's Transfusion.
+fn zerg(s: &mut Step<'_>, u: &UnitInfo) {
+    let g = s.g;
+    match u.kind {
+        // Running at a clump is part of the Baneling's ability use: with abilities off
+        // (Explode unavailable) it fights as the engine's own rules make it.
+        UnitKind::Baneling if ready(u, Ability::Explode) => {
+            let light = |e: &UnitInfo| e.flags.contains(UnitFlags::LIGHT) && !flying(e);
+            let around = |p: Vec2| g.enemies().filter(|e| light(e) && pos(e).dist(p) <= 2.2 + radius(e)).count();
+            if around(pos(u)) >= 3 {
+                s.take(u, s.cast(u, Ability::Explode, AbilityTarget::None), true);
+            } else if let Some(t) = g.enemies().filter(|e| light(e)).max_by(|a, b| {
+                around(pos(a)).cmp(&around(pos(b))).then(pos(b).dist_sq(pos(u)).total_cmp(&pos(a).dist_sq(pos(u)))).then(b.tag.cmp(&a.tag))
+            }) && around(pos(t)) >= 2
+            {
+                if !attacking(u, t.tag) {
+                    s.out.push(Action::new(id(u), Command::Attack { target: id(t) }));
+                }
+                s.handled.push(u.tag);
+            }
+        }
+        UnitKind::Queen => {
+            let patient = g
+                .own()
+                .filter(|o| o.tag != u.tag && o.flags.contains(UnitFlags::BIOLOGICAL) && o.hp < 0.5 * o.max_hp && o.max_hp - o.hp >= 50.0)
+                .filter(|o| edge(u, o) <= Ability::Transfusion.spec().range)
+                .max_by(|a, b| a.max_hp.total_cmp(&b.max_hp).then(b.tag.cmp(&a.tag)));
+            if let Some(p) = patient {
+                s.take(u, s.cast(u, Ability::Transfusion, AbilityTarget::Unit { unit: id(p) }), false);
+            }
+        }
+        _ => {}
+    }
 }
 
 /// Whether the engine would accept `u` casting `ability` on `target`, judged from the

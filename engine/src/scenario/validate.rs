@@ -39,8 +39,7 @@ pub(crate) fn rect(p: [f32; 4]) -> Rect {
     Rect { left: p[0], bottom: p[1], right: p[2], top: p[3] }
 }
 
-// Long on purpose: one check per field of the file, in the file's order, each refusal
-// naming its field; split into pieces it would read as a list of function names.
+/// The file's checks in its order, each refusal naming its field.
 pub(super) fn validate(file: &str, raw: RawScenario, text: &str) -> Result<Scenario, ScenarioError> {
     let cx = Ctx { file };
     if raw.name.is_empty() || !raw.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
@@ -61,27 +60,7 @@ pub(super) fn validate(file: &str, raw: RawScenario, text: &str) -> Result<Scena
             return Err(cx.err(format!("map_size[{i}]"), v, "must be between 8 and 512 cells"));
         }
     }
-    let playable = match raw.playable {
-        None => Rect { left: 0.0, bottom: 0.0, right: w as f32, top: h as f32 },
-        Some(p) => {
-            let r = rect(p);
-            let ok = p.iter().all(|v| v.is_finite())
-                && r.left >= 0.0
-                && r.bottom >= 0.0
-                && r.right <= w as f32
-                && r.top <= h as f32
-                && r.right - r.left >= 4.0
-                && r.top - r.bottom >= 4.0;
-            if !ok {
-                return Err(cx.err(
-                    "playable",
-                    format!("{p:?}"),
-                    format!("must be [left, bottom, right, top] inside the {w}x{h} map, at least 4 wide and high"),
-                ));
-            }
-            r
-        }
-    };
+    let playable = playable_area(&cx, raw.playable, w, h)?;
     let time_limit_loops = match raw.time_limit_s {
         None => default_time_limit(),
         Some(t) if t.is_finite() && t > 0.0 && t <= 3600.0 => seconds_to_loops(t).max(1),
@@ -91,6 +70,80 @@ pub(super) fn validate(file: &str, raw: RawScenario, text: &str) -> Result<Scena
         None => Terrain::flat(w, h, playable),
         Some(t) => terrain(&cx, t, w, h, playable)?,
     };
+    let upgrades = upgrades(&cx, &raw)?;
+    let mut units = units(&cx, &raw, data, &terrain, playable)?;
+    let generator = match &raw.generate {
+        None => None,
+        Some(_) if !units.is_empty() => {
+            return Err(cx.err("units", format!("{} units", units.len()), "a scenario with [generate] draws its units: leave units empty"));
+        }
+        Some(g) => Some(Arc::new(super::Generator::from_raw(g, playable, data).map_err(|p| ScenarioError::Invalid {
+            file: file.to_owned(),
+            field: p.field,
+            value: p.value,
+            reason: p.reason,
+        })?)),
+    };
+    let terrain = Arc::new(terrain);
+    if let Some(g) = &generator {
+        units = g.draw(0, &terrain, data);
+    }
+    for team in Team::BOTH {
+        if !units.iter().any(|u| u.team == team) {
+            return Err(cx.err("units", format!("{} units", units.len()), format!("{team} has no units")));
+        }
+    }
+    let opponent = match &raw.opponent.policy {
+        None => OpponentKind::Builtin,
+        Some(p) => p.parse().map_err(|e: String| cx.err("opponent.policy", format!("{p:?}"), e))?,
+    };
+    let start = start_order(&cx, raw.opponent.start.as_ref(), playable)?;
+    let s = Scenario {
+        name: raw.name,
+        mode,
+        description: raw.description,
+        objective: if raw.objective.is_empty() { "Destroy every enemy unit before time runs out.".into() } else { raw.objective },
+        source: raw.source,
+        fog_of_war: raw.fog_of_war.unwrap_or(true),
+        data,
+        terrain,
+        units,
+        upgrades,
+        opponent,
+        start,
+        time_limit_loops,
+        text: Arc::from(text),
+        generator,
+    };
+    Ok(match s.generator.clone() {
+        Some(g) => s.drawn(&g, 0),
+        None => s,
+    })
+}
+
+/// `playable`: inside the map, at least 4 cells each way (the whole map when absent).
+fn playable_area(cx: &Ctx, raw: Option<[f32; 4]>, w: u32, h: u32) -> Result<Rect, ScenarioError> {
+    let Some(p) = raw else { return Ok(Rect { left: 0.0, bottom: 0.0, right: w as f32, top: h as f32 }) };
+    let r = rect(p);
+    let ok = p.iter().all(|v| v.is_finite())
+        && r.left >= 0.0
+        && r.bottom >= 0.0
+        && r.right <= w as f32
+        && r.top <= h as f32
+        && r.right - r.left >= 4.0
+        && r.top - r.bottom >= 4.0;
+    if !ok {
+        return Err(cx.err(
+            "playable",
+            format!("{p:?}"),
+            format!("must be [left, bottom, right, top] inside the {w}x{h} map, at least 4 wide and high"),
+        ));
+    }
+    Ok(r)
+}
+
+/// Each team's upgrades, once each, sorted.
+fn upgrades(cx: &Ctx, raw: &RawScenario) -> Result<[Vec<Upgrade>; 2], ScenarioError> {
     let mut upgrades: [Vec<Upgrade>; 2] = Default::default();
     for (i, u) in raw.upgrades.iter().enumerate() {
         let team = Team::from_player(u.team).ok_or_else(|| cx.err(format!("upgrades[{i}].team"), u.team, "must be 1 or 2"))?;
@@ -102,6 +155,12 @@ pub(super) fn validate(file: &str, raw: RawScenario, text: &str) -> Result<Scena
     for list in &mut upgrades {
         list.sort();
     }
+    Ok(upgrades)
+}
+
+/// The listed units, each on ground it can stand on; a `count` group is placed around its
+/// point, clear of the units already standing.
+fn units(cx: &Ctx, raw: &RawScenario, data: DataSet, terrain: &Terrain, playable: Rect) -> Result<Vec<ScenarioUnit>, ScenarioError> {
     if raw.units.len() > MAX_UNITS {
         return Err(cx.err("units", raw.units.len(), format!("at most {MAX_UNITS} units")));
     }
@@ -110,7 +169,6 @@ pub(super) fn validate(file: &str, raw: RawScenario, text: &str) -> Result<Scena
         return Err(cx.err("units", total, format!("at most {MAX_UNITS} units (counts included)")));
     }
     let mut units = Vec::with_capacity(total as usize);
-    // Where units already stand: a `count` group is placed around them.
     let mut placed: Vec<(Vec2, f32, bool)> = Vec::new();
     for (i, u) in raw.units.iter().enumerate() {
         let f = |name: &str| format!("units[{i}].{name}");
@@ -154,70 +212,29 @@ pub(super) fn validate(file: &str, raw: RawScenario, text: &str) -> Result<Scena
             Some(0) => return Err(cx.err(f("count"), 0, "at least 1 unit")),
             Some(n) => {
                 for _ in 0..n {
-                    let at = super::place::place(&terrain, &placed, spec, pos);
+                    let at = super::place::place(terrain, &placed, spec, pos);
                     placed.push((at, spec.radius, spec.flying));
                     units.push(ScenarioUnit { kind, team, pos: at, facing: u.facing, energy });
                 }
             }
         }
     }
-    let generator = match &raw.generate {
-        None => None,
-        Some(_) if !units.is_empty() => {
-            return Err(cx.err("units", format!("{} units", units.len()), "a scenario with [generate] draws its units: leave units empty"));
-        }
-        Some(g) => Some(Arc::new(super::Generator::from_raw(g, playable, data).map_err(|p| ScenarioError::Invalid {
-            file: file.to_owned(),
-            field: p.field,
-            value: p.value,
-            reason: p.reason,
-        })?)),
-    };
-    let terrain = Arc::new(terrain);
-    if let Some(g) = &generator {
-        units = g.draw(0, &terrain, data);
-    }
-    for team in Team::BOTH {
-        if !units.iter().any(|u| u.team == team) {
-            return Err(cx.err("units", format!("{} units", units.len()), format!("{team} has no units")));
-        }
-    }
-    let opponent = match &raw.opponent.policy {
-        None => OpponentKind::Builtin,
-        Some(p) => p.parse().map_err(|e: String| cx.err("opponent.policy", format!("{p:?}"), e))?,
-    };
-    let start = match &raw.opponent.start {
+    Ok(units)
+}
+
+/// The opponent's order at the start, its points on the map.
+fn start_order(cx: &Ctx, raw: Option<&RawStart>, playable: Rect) -> Result<StartOrder, ScenarioError> {
+    Ok(match raw {
         None | Some(RawStart::None) => StartOrder::None,
         Some(RawStart::AttackMove { x, y, delay_s }) => {
-            let to = point(&cx, "opponent.start", [*x, *y], playable)?;
-            StartOrder::AttackMove { to, delay_loops: delay(&cx, *delay_s)? }
+            let to = point(cx, "opponent.start", [*x, *y], playable)?;
+            StartOrder::AttackMove { to, delay_loops: delay(cx, *delay_s)? }
         }
         Some(RawStart::AttackMoveRandom { from, to, delay_s }) => StartOrder::AttackMoveRandom {
-            from: point(&cx, "opponent.start.from", *from, playable)?,
-            to: point(&cx, "opponent.start.to", *to, playable)?,
-            delay_loops: delay(&cx, *delay_s)?,
+            from: point(cx, "opponent.start.from", *from, playable)?,
+            to: point(cx, "opponent.start.to", *to, playable)?,
+            delay_loops: delay(cx, *delay_s)?,
         },
-    };
-    let s = Scenario {
-        name: raw.name,
-        mode,
-        description: raw.description,
-        objective: if raw.objective.is_empty() { "Destroy every enemy unit before time runs out.".into() } else { raw.objective },
-        source: raw.source,
-        fog_of_war: raw.fog_of_war.unwrap_or(true),
-        data,
-        terrain,
-        units,
-        upgrades,
-        opponent,
-        start,
-        time_limit_loops,
-        text: Arc::from(text),
-        generator,
-    };
-    Ok(match s.generator.clone() {
-        Some(g) => s.drawn(&g, 0),
-        None => s,
     })
 }
 
