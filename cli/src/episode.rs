@@ -260,8 +260,7 @@ fn team_agent(scenario: &Scenario, team: Team, name: &str, flag: &str) -> Result
     Ok(AgentTeam::new(team, Grouping::Team, move || make()))
 }
 
-// Long on purpose: the episode loop, then the report in its three forms (table, JSON,
-// AVA's costs), which share the loop's tallies.
+/// The episodes, then their report (a table, or JSON) with AVA's costs.
 pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
     let Setup { scenario, cfg, mut controllers, seeds, agent, agent2, opponent, ava, nodes, frames } = setup(a)?;
     let mut frames = frames.map(|p| avacraft_marl::FramesActor::new(p, &scenario)).transpose()?;
@@ -284,20 +283,7 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
         }));
     }
     let mut records = Vec::new();
-    let mut video = match &a.video {
-        Some(path) => {
-            let (w, h) = crate::render::parse_size(&a.video_size)?;
-            // One step (8 loops, 0.36 s of game time) per frame, played at about 2x.
-            Some((
-                avacraft_render::VideoWriter::create(path, 180)?,
-                avacraft_render::FrameBuilder::new(),
-                avacraft_render::CpuBackend::new(),
-                w,
-                h,
-            ))
-        }
-        None => None,
-    };
+    let mut video = video(a)?;
     for (k, &seed) in seeds.iter().enumerate() {
         env.reset(seed);
         controllers.reset(&env);
@@ -339,19 +325,7 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
             let scene = frames.vlm(env.world(), Team::One, *w, *h, &avacraft_render::VlmOptions::default());
             writer.push(&cpu.render(&scene))?;
         }
-        let w = env.world();
-        records.push(EpisodeRecord {
-            seed,
-            result: env.outcome().unwrap_or(Outcome::Draw),
-            opponent: env.opponent(),
-            game_loops: w.tick(),
-            game_seconds: loops_to_seconds(w.tick()),
-            steps: env.steps(),
-            units_left: [w.alive(Team::One).count(), w.alive(Team::Two).count()],
-            refused_actions: env.refused(),
-            abilities: Team::BOTH.map(|t| w.stats(t).abilities.clone()),
-            trajectory_hash: format!("{:016x}", env.trajectory_hash()),
-        });
+        records.push(record(&env, seed));
         bar.inc(1);
     }
     bar.finish_and_clear();
@@ -384,12 +358,44 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
         writeln!(out, "{}", serde_json::to_string_pretty(&Report { summary, episodes: records, ava: ava_costs, ava_nodes })?)?;
         return Ok(());
     }
+    table(&summary, &records, seeds[0], out)?;
+    if let Some((run, dir)) = &ava {
+        crate::ava::report(run, dir.as_deref(), out, false)?;
+    }
+    // Each node's costs.json is written by the node's run itself when it records.
+    for (id, run) in &nodes {
+        writeln!(out, "AVA node {id}:")?;
+        crate::ava::report(run, None, out, false)?;
+    }
+    let _ = team_of;
+    Ok(())
+}
+
+/// What a finished episode leaves.
+fn record(env: &Env, seed: u64) -> EpisodeRecord {
+    let w = env.world();
+    EpisodeRecord {
+        seed,
+        result: env.outcome().unwrap_or(Outcome::Draw),
+        opponent: env.opponent(),
+        game_loops: w.tick(),
+        game_seconds: loops_to_seconds(w.tick()),
+        steps: env.steps(),
+        units_left: [w.alive(Team::One).count(), w.alive(Team::Two).count()],
+        refused_actions: env.refused(),
+        abilities: Team::BOTH.map(|t| w.stats(t).abilities.clone()),
+        trajectory_hash: format!("{:016x}", env.trajectory_hash()),
+    }
+}
+
+/// The text report: the rates, then the abilities each side cast.
+fn table(summary: &Summary, records: &[EpisodeRecord], first_seed: u64, out: &mut dyn Write) -> Result<()> {
     let who = match (&summary.opponent, &summary.agent2) {
         (Some(o), _) => format!("{} vs opponent {}", summary.agent, o),
         (None, Some(b)) => format!("{} (team 1) vs {} (team 2)", summary.agent, b),
         _ => summary.agent.clone(),
     };
-    writeln!(out, "{} ({}), {}: {} episodes from seed {}", summary.scenario, summary.mode, who, summary.episodes, seeds[0])?;
+    writeln!(out, "{} ({}), {}: {} episodes from seed {}", summary.scenario, summary.mode, who, summary.episodes, first_seed)?;
     let mut t = comfy_table::Table::new();
     t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header(["", "mean", "std"]);
     for (name, r) in [("win rate", &summary.win), ("draw rate", &summary.draw), ("loss rate", &summary.loss)] {
@@ -398,7 +404,7 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
     t.add_row(["game seconds".to_owned(), format!("{:.1}", summary.game_seconds.mean), format!("{:.1}", summary.game_seconds.std)]);
     writeln!(out, "{t}")?;
     let mut casts: std::collections::BTreeMap<Ability, [u32; 2]> = Default::default();
-    for r in &records {
+    for r in records {
         for (side, m) in r.abilities.iter().enumerate() {
             for (a, n) in m {
                 casts.entry(*a).or_default()[side] += n;
@@ -413,16 +419,23 @@ pub fn run(a: &EpisodeArgs, out: &mut dyn Write) -> Result<()> {
         }
         writeln!(out, "{t}")?;
     }
-    if let Some((run, dir)) = &ava {
-        crate::ava::report(run, dir.as_deref(), out, false)?;
-    }
-    // Each node's costs.json is written by the node's run itself when it records.
-    for (id, run) in &nodes {
-        writeln!(out, "AVA node {id}:")?;
-        crate::ava::report(run, None, out, false)?;
-    }
-    let _ = team_of;
     Ok(())
+}
+
+/// The first episode's video writer, frame builder, renderer and size, when asked for.
+type Video = (avacraft_render::VideoWriter, avacraft_render::FrameBuilder, avacraft_render::CpuBackend, u32, u32);
+
+fn video(a: &EpisodeArgs) -> Result<Option<Video>> {
+    let Some(path) = &a.video else { return Ok(None) };
+    let (w, h) = crate::render::parse_size(&a.video_size)?;
+    // One step (8 loops, 0.36 s of game time) per frame, played at about 2x.
+    Ok(Some((
+        avacraft_render::VideoWriter::create(path, 180)?,
+        avacraft_render::FrameBuilder::new(),
+        avacraft_render::CpuBackend::new(),
+        w,
+        h,
+    )))
 }
 
 /// `--data`'s parser: one of the data sets, with their list in the error.

@@ -10,7 +10,8 @@
 //! - `focus-fire`: every unit on the enemy with the lowest HP + shields it can hit;
 //! - `kite`: the same, and ranged units step back from slower melee enemies while reloading;
 //! - `nearest`: every unit on the enemy nearest the army's centre (the `aggressive` script);
-//! - `attack-move`: attack-move onto the enemies (the map's centre when none is seen).
+//! - `attack-move`: attack-move onto the enemies (the map's centre when none is seen);
+//! - `hold`: every unit holds its ground and fires at what comes in range (the `hold` script).
 //!
 //! With the micro action set the answer uses stances (`focus`, `kite`) so the script's rule
 //! keeps acting between decisions; with the paper's, one order per decision.
@@ -28,10 +29,12 @@ pub enum CeilingScript {
     Kite,
     Nearest,
     AttackMove,
+    Hold,
 }
 
 impl CeilingScript {
-    pub const ALL: [CeilingScript; 4] = [CeilingScript::FocusFire, CeilingScript::Kite, CeilingScript::Nearest, CeilingScript::AttackMove];
+    pub const ALL: [CeilingScript; 5] =
+        [CeilingScript::FocusFire, CeilingScript::Kite, CeilingScript::Nearest, CeilingScript::AttackMove, CeilingScript::Hold];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -39,6 +42,7 @@ impl CeilingScript {
             CeilingScript::Kite => "kite",
             CeilingScript::Nearest => "nearest",
             CeilingScript::AttackMove => "attack-move",
+            CeilingScript::Hold => "hold",
         }
     }
 }
@@ -424,6 +428,15 @@ pub fn ceiling_decision(script: CeilingScript, read: &Read) -> Value {
             a["point"] = Value::Null;
             a["stance"] = Value::Null;
         }
+        if script == CeilingScript::Hold {
+            // Every unit stands, casting nothing, as the `hold` script.
+            a["action"] = json!(if read.micro { "stance" } else { "hold" });
+            if read.micro {
+                a["stance"] = json!("hold");
+            }
+            actions.push(a);
+            continue;
+        }
         if let Some(to) = blink_to(read, u) {
             // As the scripts do: a Stalker out of shields and hurt blinks away from its threats.
             a["action"] = json!("ability");
@@ -544,6 +557,7 @@ impl Ceiling {
             CeilingScript::Kite => "ceiling:kite",
             CeilingScript::Nearest => "ceiling:nearest",
             CeilingScript::AttackMove => "ceiling:attack-move",
+            CeilingScript::Hold => "ceiling:hold",
         };
         Ceiling { script, label }
     }
