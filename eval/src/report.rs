@@ -192,7 +192,6 @@ The win rate of each training run (PvE: against the scenario's own opponent; PvP
     }
 
     /// The paper's tables as Markdown.
-    // Long: the document's sections in their printed order, sharing the column layout.
     pub fn markdown(&self) -> String {
         self.markdown_with(&Links::none())
     }
@@ -218,14 +217,34 @@ The win rate of each training run (PvE: against the scenario's own opponent; PvP
         );
         let _ = writeln!(s, "{}\n", self.games_line());
         let agents: Vec<&str> = m.agents.iter().map(|(n, _, _)| n.as_str()).collect();
+        self.per_scenario(&mut s, &agents);
+        self.marl_against_scripted(&mut s);
+        self.training_seeds(&mut s);
+        self.ablations(&mut s, &agents);
+        self.costs(&mut s, &agents);
+        self.head_to_head(&mut s, &agents);
+        self.every_cell(&mut s);
+        if !m.unshipped.is_empty() {
+            let pairs: Vec<String> = m.unshipped.iter().map(|(a, sc)| format!("{a} on {sc}")).collect();
+            let _ = writeln!(s, "\nNo shipped baseline, so not played: {}.", pairs.join("; "));
+        }
+        if !self.missing.is_empty() {
+            let _ = writeln!(s, "\nNot played yet: {}.", self.missing.iter().map(|k| k.to_string()).collect::<Vec<_>>().join("; "));
+        }
+        s
+    }
+
+    /// One win-rate table per opponent, each with the best agent of each kind.
+    fn per_scenario(&self, s: &mut String, agents: &[&str]) {
+        let m = &self.meta;
         for against in self.opponents() {
             let _ = writeln!(s, "## Win rate per scenario ({})\n", against.trim_start_matches("opponent:"));
             let shown: Vec<&str> =
                 agents.iter().copied().filter(|a| self.pve().any(|c| c.key.agent == *a && c.key.against == against)).collect();
-            table_header(&mut s, "scenario", &shown);
+            table_header(s, "scenario", &shown);
             for sc in self.scenarios(false) {
                 let row: Vec<String> = shown.iter().map(|a| self.cell(sc, a, against).map_or("–".to_owned(), win_text)).collect();
-                table_row(&mut s, sc, &row);
+                table_row(s, sc, &row);
             }
             s.push('\n');
             // MARL against VLM: the best agent of each kind per scenario.
@@ -238,7 +257,7 @@ The win rate of each training run (PvE: against the scenario's own opponent; PvP
             if kinds.len() > 1 {
                 let _ = writeln!(s, "### Best of each kind ({})\n", against.trim_start_matches("opponent:"));
                 let names: Vec<&str> = kinds.iter().map(|k| k.name()).collect();
-                table_header(&mut s, "scenario", &names);
+                table_header(s, "scenario", &names);
                 for sc in self.scenarios(false) {
                     let row: Vec<String> = kinds
                         .iter()
@@ -256,17 +275,20 @@ The win rate of each training run (PvE: against the scenario's own opponent; PvP
                                 .map_or("–".to_owned(), |c| format!("{:.2} ({})", c.win_rate.mean, c.key.agent))
                         })
                         .collect();
-                    table_row(&mut s, sc, &row);
+                    table_row(s, sc, &row);
                 }
                 s.push('\n');
             }
         }
-        self.marl_against_scripted(&mut s);
-        self.training_seeds(&mut s);
+    }
+
+    /// The VLM agents side by side.
+    fn ablations(&self, s: &mut String, agents: &[&str]) {
+        let m = &self.meta;
         let vlm: Vec<&str> = agents.iter().copied().filter(|a| m.kind(a) == Some(AgentKind::Vlm)).collect();
         if vlm.len() > 1 {
             let _ = writeln!(s, "## Ablations (VLM agents, win rate per scenario)\n");
-            table_header(&mut s, "scenario", &vlm);
+            table_header(s, "scenario", &vlm);
             for sc in self.scenarios(false) {
                 let row: Vec<String> = vlm
                     .iter()
@@ -276,19 +298,23 @@ The win rate of each training run (PvE: against the scenario's own opponent; PvP
                             .map_or("–".to_owned(), |c| format!("{:.2}", c.win_rate.mean))
                     })
                     .collect();
-                table_row(&mut s, sc, &row);
+                table_row(s, sc, &row);
             }
             s.push('\n');
         }
+    }
+
+    /// What each VLM agent's model calls cost.
+    fn costs(&self, s: &mut String, agents: &[&str]) {
         let costed: Vec<&CellStats> = self.cells.iter().filter(|c| c.cost.is_some()).collect();
         if !costed.is_empty() {
             let _ = writeln!(s, "## Cost per agent\n");
             table_header(
-                &mut s,
+                s,
                 "agent",
                 &["decisions/episode", "calls/decision", "tokens/decision", "$/episode", "model s/decision", "failed calls", "fallbacks"],
             );
-            for a in &agents {
+            for a in agents {
                 let cs: Vec<&crate::stats::CostStats> =
                     costed.iter().filter(|c| c.key.agent == *a).filter_map(|c| c.cost.as_ref()).collect();
                 if cs.is_empty() {
@@ -306,10 +332,14 @@ The win rate of each training run (PvE: against the scenario's own opponent; PvP
                     cs.iter().map(|c| c.failed_calls).sum::<u64>().to_string(),
                     cs.iter().map(|c| c.fallbacks).sum::<u64>().to_string(),
                 ];
-                table_row(&mut s, a, &row);
+                table_row(s, a, &row);
             }
             s.push('\n');
         }
+    }
+
+    /// One matrix per PvP scenario, with only the agents that played on it.
+    fn head_to_head(&self, s: &mut String, agents: &[&str]) {
         for sc in self.scenarios(true) {
             let _ = writeln!(s, "## Head to head on {sc} (row's win rate as team 1)\n");
             let names: Vec<&str> = agents
@@ -317,17 +347,21 @@ The win rate of each training run (PvE: against the scenario's own opponent; PvP
                 .copied()
                 .filter(|a| self.cells.iter().any(|c| c.key.scenario == sc && (c.key.agent == *a || c.key.against == *a)))
                 .collect();
-            table_header(&mut s, "team 1 \\ team 2", &names);
+            table_header(s, "team 1 \\ team 2", &names);
             for a in &names {
                 let row: Vec<String> =
                     names.iter().map(|b| self.cell(sc, a, b).map_or("–".to_owned(), |c| format!("{:.2}", c.win_rate.mean))).collect();
-                table_row(&mut s, a, &row);
+                table_row(s, a, &row);
             }
             s.push('\n');
         }
+    }
+
+    /// Every cell's numbers.
+    fn every_cell(&self, s: &mut String) {
         let _ = writeln!(s, "## Every cell\n");
         table_header(
-            &mut s,
+            s,
             "scenario",
             &["agent", "against", "episodes", "W/D/L", "win rate", "game s", "damage dealt", "kills", "deaths", "refused"],
         );
@@ -344,16 +378,8 @@ The win rate of each training run (PvE: against the scenario's own opponent; PvP
                 format!("{:.1}", c.deaths.mean),
                 format!("{:.1}", c.refused_actions.mean),
             ];
-            table_row(&mut s, &c.key.scenario, &row);
+            table_row(s, &c.key.scenario, &row);
         }
-        if !m.unshipped.is_empty() {
-            let pairs: Vec<String> = m.unshipped.iter().map(|(a, sc)| format!("{a} on {sc}")).collect();
-            let _ = writeln!(s, "\nNo shipped baseline, so not played: {}.", pairs.join("; "));
-        }
-        if !self.missing.is_empty() {
-            let _ = writeln!(s, "\nNot played yet: {}.", self.missing.iter().map(|k| k.to_string()).collect::<Vec<_>>().join("; "));
-        }
-        s
     }
 
     /// Every cell as CSV.
