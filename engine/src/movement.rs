@@ -20,8 +20,6 @@ impl World {
     /// Moves every unit with a goal. Velocities are chosen from one snapshot of where
     /// everyone is and how they move at the start of the loop (as RVO2 does), then applied,
     /// so the result does not depend on the order units are processed in.
-    // Long on purpose: the movement phase's steps (snapshot, preferred velocities, ORCA,
-    // collisions, terrain) share one snapshot and run in this order; the steps are commented.
     pub(crate) fn move_units(&mut self, intents: &[Intent]) {
         let mut neighbours = std::mem::take(&mut self.scratch.neighbours);
         let mut snaps = std::mem::take(&mut self.scratch.snaps);
@@ -49,7 +47,7 @@ impl World {
             if !u.alive || u.speed <= 0.0 {
                 continue;
             }
-            let (pos, speed, radius, flying, cliff_walk) = (u.pos, u.speed, u.radius, u.flying(), u.spec().cliff_walk);
+            let (pos, speed, flying, cliff_walk) = (u.pos, u.speed, u.flying(), u.spec().cliff_walk);
             let remaining = pos.dist(goal) - stop;
             if remaining <= 0.0 {
                 self.units[i].vel = Vec2::ZERO;
@@ -66,63 +64,7 @@ impl World {
                 continue;
             };
             let pref = (wp - pos).normalized() * speed.min(remaining);
-            let vel = if flying {
-                pref
-            } else {
-                neighbours.clear();
-                let me = snaps[i];
-                let query = radius + self.units[i].collision_reach(self) + speed * TAU;
-                let closing = intents[i].closing_on.map_or(usize::MAX, |t| t.index());
-                self.grid.for_each_near(pos, query, |j| {
-                    let o = &snaps[j];
-                    if j == i || j == closing || !o.alive || !me.collides_with(o) {
-                        return;
-                    }
-                    let r = radius + o.radius + speed * TAU;
-                    if o.pos.dist_sq(pos) > r * r {
-                        return;
-                    }
-                    let n = Neighbour { pos: o.pos, vel: o.vel, radius: o.radius, responsibility: if o.moving { 0.5 } else { 1.0 } };
-                    // Keep the MAX_NEIGHBOURS closest (RVO2's maxNeighbors), replacing the
-                    // farthest kept one; ties keep the earlier, so the set is deterministic.
-                    if neighbours.len() < MAX_NEIGHBOURS {
-                        neighbours.push(n);
-                    } else {
-                        let d = n.pos.dist_sq(pos);
-                        let (far, fd) = neighbours.iter().enumerate().fold((0, f32::MIN), |acc, (k, m)| {
-                            let md = m.pos.dist_sq(pos);
-                            if md > acc.1 { (k, md) } else { acc }
-                        });
-                        if d < fd {
-                            neighbours[far] = n;
-                        }
-                    }
-                });
-                if me.body == Body::Ground {
-                    // Force fields are walls to ground units that are not massive.
-                    for f in self.force_fields() {
-                        if f.pos.dist(pos) <= f.radius + query {
-                            neighbours.push(Neighbour { pos: f.pos, vel: Vec2::ZERO, radius: f.radius, responsibility: 1.0 });
-                        }
-                    }
-                }
-                let agent = Agent { pos, vel: me.vel, radius, max_speed: speed };
-                let v = self.orca.solve(&agent, pref, TAU, &neighbours);
-                if v.len_sq() < 0.25 * pref.len_sq() && neighbours.len() <= 3 {
-                    // Blocked head-on by a few units (ORCA's symmetric deadlock): try veering
-                    // either way and keep whichever makes more progress; left wins ties, so it
-                    // is deterministic. In a crowd, waiting is what StarCraft II units do too.
-                    let (c, s) = (std::f32::consts::FRAC_1_SQRT_2, std::f32::consts::FRAC_1_SQRT_2);
-                    let left = Vec2::new(pref.x * c - pref.y * s, pref.x * s + pref.y * c);
-                    let right = Vec2::new(pref.x * c + pref.y * s, -pref.x * s + pref.y * c);
-                    let vl = self.orca.solve(&agent, left, TAU, &neighbours);
-                    let vr = self.orca.solve(&agent, right, TAU, &neighbours);
-                    let best = if vr.dot(pref) > vl.dot(pref) { vr } else { vl };
-                    if best.len_sq() > v.len_sq() && best.dot(pref) > 0.0 { best } else { v }
-                } else {
-                    v
-                }
-            };
+            let vel = if flying { pref } else { self.ground_velocity(i, pref, &snaps, intents, &mut neighbours) };
             moves.push((i, vel));
         }
         for &(i, vel) in &moves {
@@ -147,6 +89,66 @@ impl World {
         self.scratch.neighbours = neighbours;
         self.scratch.snaps = snaps;
         self.scratch.moves = moves;
+    }
+
+    /// A ground unit's velocity this loop: ORCA against its closest neighbours (and force
+    /// fields) from the loop's snapshot, veering out of a head-on deadlock.
+    fn ground_velocity(&mut self, i: usize, pref: Vec2, snaps: &[Snap], intents: &[Intent], neighbours: &mut Vec<Neighbour>) -> Vec2 {
+        let u = &self.units[i];
+        let (pos, speed, radius) = (u.pos, u.speed, u.radius);
+        neighbours.clear();
+        let me = snaps[i];
+        let query = radius + self.units[i].collision_reach(self) + speed * TAU;
+        let closing = intents[i].closing_on.map_or(usize::MAX, |t| t.index());
+        self.grid.for_each_near(pos, query, |j| {
+            let o = &snaps[j];
+            if j == i || j == closing || !o.alive || !me.collides_with(o) {
+                return;
+            }
+            let r = radius + o.radius + speed * TAU;
+            if o.pos.dist_sq(pos) > r * r {
+                return;
+            }
+            let n = Neighbour { pos: o.pos, vel: o.vel, radius: o.radius, responsibility: if o.moving { 0.5 } else { 1.0 } };
+            // Keep the MAX_NEIGHBOURS closest (RVO2's maxNeighbors), replacing the
+            // farthest kept one; ties keep the earlier, so the set is deterministic.
+            if neighbours.len() < MAX_NEIGHBOURS {
+                neighbours.push(n);
+            } else {
+                let d = n.pos.dist_sq(pos);
+                let (far, fd) = neighbours.iter().enumerate().fold((0, f32::MIN), |acc, (k, m)| {
+                    let md = m.pos.dist_sq(pos);
+                    if md > acc.1 { (k, md) } else { acc }
+                });
+                if d < fd {
+                    neighbours[far] = n;
+                }
+            }
+        });
+        if me.body == Body::Ground {
+            // Force fields are walls to ground units that are not massive.
+            for f in self.force_fields() {
+                if f.pos.dist(pos) <= f.radius + query {
+                    neighbours.push(Neighbour { pos: f.pos, vel: Vec2::ZERO, radius: f.radius, responsibility: 1.0 });
+                }
+            }
+        }
+        let agent = Agent { pos, vel: me.vel, radius, max_speed: speed };
+        let v = self.orca.solve(&agent, pref, TAU, neighbours);
+        if v.len_sq() < 0.25 * pref.len_sq() && neighbours.len() <= 3 {
+            // Blocked head-on by a few units (ORCA's symmetric deadlock): try veering
+            // either way and keep whichever makes more progress; left wins ties, so it
+            // is deterministic. In a crowd, waiting is what StarCraft II units do too.
+            let (c, s) = (std::f32::consts::FRAC_1_SQRT_2, std::f32::consts::FRAC_1_SQRT_2);
+            let left = Vec2::new(pref.x * c - pref.y * s, pref.x * s + pref.y * c);
+            let right = Vec2::new(pref.x * c + pref.y * s, -pref.x * s + pref.y * c);
+            let vl = self.orca.solve(&agent, left, TAU, neighbours);
+            let vr = self.orca.solve(&agent, right, TAU, neighbours);
+            let best = if vr.dot(pref) > vl.dot(pref) { vr } else { vl };
+            if best.len_sq() > v.len_sq() && best.dot(pref) > 0.0 { best } else { v }
+        } else {
+            v
+        }
     }
 
     fn waypoint_for(&mut self, i: usize, goal: Vec2, cliff_walk: bool) -> Option<Vec2> {

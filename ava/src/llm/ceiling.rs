@@ -412,6 +412,30 @@ fn knock_back(read: &Read, u: &Seen) -> Option<u32> {
     (closing && d < 3.0).then_some(tag)
 }
 
+/// The scripts' ability use (engine/src/agent/micro.rs), read off the prompt, written into
+/// `a`: a Stalker out of shields and hurt blinks away from its threats, a Reaper throws KD8
+/// Charge at a melee unit closing in, and the self-cast abilities. `false`: nothing to cast.
+fn cast(read: &Read, u: &Seen, a: &mut Value) -> bool {
+    if let Some(to) = blink_to(read, u) {
+        a["action"] = json!("ability");
+        a["ability"] = json!("blink");
+        a["point"] = json!([to.0, to.1]);
+        return true;
+    }
+    if let Some(e) = knock_back(read, u) {
+        a["action"] = json!("ability");
+        a["ability"] = json!("kd8_charge");
+        a["target"] = json!(e);
+        return true;
+    }
+    if let Some(ability) = self_cast(u) {
+        a["action"] = json!("ability");
+        a["ability"] = json!(ability);
+        return true;
+    }
+    false
+}
+
 /// The decision a ceiling model gives for `read`.
 pub fn ceiling_decision(script: CeilingScript, read: &Read) -> Value {
     let mut actions = Vec::new();
@@ -437,27 +461,7 @@ pub fn ceiling_decision(script: CeilingScript, read: &Read) -> Value {
             actions.push(a);
             continue;
         }
-        if let Some(to) = blink_to(read, u) {
-            // As the scripts do: a Stalker out of shields and hurt blinks away from its threats.
-            a["action"] = json!("ability");
-            a["ability"] = json!("blink");
-            a["point"] = json!([to.0, to.1]);
-            actions.push(a);
-            continue;
-        }
-        if let Some(e) = knock_back(read, u) {
-            // As the scripts do: a Reaper throws KD8 Charge at a melee unit closing in.
-            a["action"] = json!("ability");
-            a["ability"] = json!("kd8_charge");
-            a["target"] = json!(e);
-            actions.push(a);
-            continue;
-        }
-        if let Some(ability) = self_cast(u) {
-            // As every script does (engine/src/agent/micro.rs): self-cast abilities keep the
-            // unit's stance.
-            a["action"] = json!("ability");
-            a["ability"] = json!(ability);
+        if cast(read, u, &mut a) {
             actions.push(a);
             continue;
         }
