@@ -413,8 +413,8 @@ fn scenario_names(a: &BenchArgs) -> Vec<String> {
     if a.scenario.iter().any(|s| s == "all") { builtin_names().map(str::to_owned).collect() } else { a.scenario.clone() }
 }
 
-// Long on purpose: the benchmark's table, row by row, each measured against its baseline in
-// the same run; the rows' own work lives in the bench_* modules.
+/// The benchmark asked for; by default the simulator's table, each row measured against its
+/// baselines in the same run (the other benchmarks live in the bench_* modules).
 pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc<System>>) -> Result<()> {
     if !(a.seconds.is_finite() && a.seconds > 0.0 && a.seconds <= 3600.0) {
         anyhow::bail!("--seconds {}: must be a number of seconds in (0, 3600]", a.seconds);
@@ -432,25 +432,7 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
         return crate::bench_deploy::run(out);
     }
     if a.train {
-        let explicit = a.scenario != BenchArgs::DEFAULT_SCENARIOS;
-        let scenario = match (explicit, a.scenario.as_slice()) {
-            (false, _) => "3m_vlm",
-            (true, [one]) => one.as_str(),
-            (true, _) => anyhow::bail!("--train measures one scenario at a time"),
-        };
-        let algos: Vec<String> =
-            if a.algo.is_empty() { avacraft_marl::ALGOS.iter().map(|s| (*s).to_owned()).collect() } else { a.algo.clone() };
-        let b = crate::bench_train::TrainBench {
-            algos: &algos,
-            scenario,
-            steps: a.steps.unwrap_or(if a.goals { 153_600 } else { 10_000 }),
-            overrides: &a.set,
-            json: a.json,
-            goals: a.goals,
-            only: &a.only,
-            peer: a.jaxmarl.clone().map(|dir| crate::bench_train::Peer { dir, python: a.jaxmarl_python.clone() }),
-        };
-        return crate::bench_train::run(&b, out);
+        return run_train(a, out);
     }
     if a.ava {
         let explicit = a.scenario != BenchArgs::DEFAULT_SCENARIOS;
@@ -465,41 +447,7 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
         let names = if explicit { scenario_names(a) } else { vec!["3m_vlm".to_owned(), "2s3z_vlm".to_owned()] };
         return crate::bench_vec::run(&names, a.envs, a.seconds, a.json, out);
     }
-    let names = scenario_names(a);
-    let mut rows = Vec::new();
-    for name in &names {
-        let scenario = Arc::new(Scenario::load(name)?);
-        let full = Config { with_obs: true, random_actions: true, abilities: true };
-        let (steps, episodes, loops, secs) = measure(&scenario, a.seconds, a.steps, full);
-        let (base_steps, _, _, base_secs) = measure(&scenario, a.seconds / 2.0, a.steps, Config { with_obs: false, ..full });
-        let (plain_steps, _, _, plain_secs) = measure(&scenario, a.seconds / 2.0, a.steps, Config { abilities: false, ..full });
-        let legacy = Arc::new(scenario.with_data(avacraft_engine::DataSet::Legacy)?);
-        let (legacy_steps, _, _, legacy_secs) = measure(&legacy, a.seconds / 2.0, a.steps, full);
-        let legacy_sps = legacy_steps as f64 / legacy_secs;
-        let sps = steps as f64 / secs;
-        let base = base_steps as f64 / base_secs;
-        let plain = plain_steps as f64 / plain_secs;
-        rows.push(BenchRow {
-            scenario: scenario.name.clone(),
-            data: scenario.data.to_string(),
-            units: scenario.units.len(),
-            steps,
-            episodes,
-            steps_per_sec: sps,
-            sim_only_steps_per_sec: base,
-            ratio_to_sim_only: sps / base,
-            ratio_to_goal: sps / GOAL_STEPS_PER_SEC,
-            no_abilities_steps_per_sec: plain,
-            ratio_to_no_abilities: sps / plain,
-            game_loops_per_sec: loops as f64 / secs,
-            legacy_steps_per_sec: legacy_sps,
-            ratio_to_legacy: sps / legacy_sps,
-            bytes_per_env: alloc.map(|a| bytes_per_env(&scenario, a)),
-        });
-        if !a.json {
-            eprintln!("measured {name}");
-        }
-    }
+    let rows = simulator_rows(a, alloc)?;
     if a.json {
         if rows.len() == 1 {
             writeln!(out, "{}", serde_json::to_string_pretty(&rows[0])?)?;
@@ -548,6 +496,70 @@ pub fn run(a: &BenchArgs, out: &mut dyn Write, alloc: Option<&'static StatsAlloc
         "one step = 8 game loops + every agent's observation and available actions + the state; single thread, random available actions (with the ability slots; the no-abilities baseline has abilities off and SMAC's plain actions)"
     )?;
     Ok(())
+}
+
+/// `--train`: the learners' training speed on one scenario.
+fn run_train(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
+    let explicit = a.scenario != BenchArgs::DEFAULT_SCENARIOS;
+    let scenario = match (explicit, a.scenario.as_slice()) {
+        (false, _) => "3m_vlm",
+        (true, [one]) => one.as_str(),
+        (true, _) => anyhow::bail!("--train measures one scenario at a time"),
+    };
+    let algos: Vec<String> =
+        if a.algo.is_empty() { avacraft_marl::ALGOS.iter().map(|s| (*s).to_owned()).collect() } else { a.algo.clone() };
+    let b = crate::bench_train::TrainBench {
+        algos: &algos,
+        scenario,
+        steps: a.steps.unwrap_or(if a.goals { 153_600 } else { 10_000 }),
+        overrides: &a.set,
+        json: a.json,
+        goals: a.goals,
+        only: &a.only,
+        peer: a.jaxmarl.clone().map(|dir| crate::bench_train::Peer { dir, python: a.jaxmarl_python.clone() }),
+    };
+    return crate::bench_train::run(&b, out);
+}
+
+/// The simulator's rows: each scenario with observations and abilities, and its baselines
+/// (no observations, no abilities, the legacy data) measured in the same run.
+fn simulator_rows(a: &BenchArgs, alloc: Option<&'static StatsAlloc<System>>) -> Result<Vec<BenchRow>> {
+    let names = scenario_names(a);
+    let mut rows = Vec::new();
+    for name in &names {
+        let scenario = Arc::new(Scenario::load(name)?);
+        let full = Config { with_obs: true, random_actions: true, abilities: true };
+        let (steps, episodes, loops, secs) = measure(&scenario, a.seconds, a.steps, full);
+        let (base_steps, _, _, base_secs) = measure(&scenario, a.seconds / 2.0, a.steps, Config { with_obs: false, ..full });
+        let (plain_steps, _, _, plain_secs) = measure(&scenario, a.seconds / 2.0, a.steps, Config { abilities: false, ..full });
+        let legacy = Arc::new(scenario.with_data(avacraft_engine::DataSet::Legacy)?);
+        let (legacy_steps, _, _, legacy_secs) = measure(&legacy, a.seconds / 2.0, a.steps, full);
+        let legacy_sps = legacy_steps as f64 / legacy_secs;
+        let sps = steps as f64 / secs;
+        let base = base_steps as f64 / base_secs;
+        let plain = plain_steps as f64 / plain_secs;
+        rows.push(BenchRow {
+            scenario: scenario.name.clone(),
+            data: scenario.data.to_string(),
+            units: scenario.units.len(),
+            steps,
+            episodes,
+            steps_per_sec: sps,
+            sim_only_steps_per_sec: base,
+            ratio_to_sim_only: sps / base,
+            ratio_to_goal: sps / GOAL_STEPS_PER_SEC,
+            no_abilities_steps_per_sec: plain,
+            ratio_to_no_abilities: sps / plain,
+            game_loops_per_sec: loops as f64 / secs,
+            legacy_steps_per_sec: legacy_sps,
+            ratio_to_legacy: sps / legacy_sps,
+            bytes_per_env: alloc.map(|a| bytes_per_env(&scenario, a)),
+        });
+        if !a.json {
+            eprintln!("measured {name}");
+        }
+    }
+    Ok(rows)
 }
 
 /// A condensed table with a header row, as every bench report prints.

@@ -290,7 +290,7 @@ fn measure(
     })
 }
 
-// Long on purpose: the training benchmark's table and its goal rows, printed as measured.
+/// The training benchmark: its rows measured, then printed with their goals.
 pub fn run(b: &TrainBench<'_>, out: &mut dyn Write) -> Result<()> {
     if b.steps == 0 {
         bail!("--steps must be at least 1 for --train");
@@ -349,6 +349,11 @@ pub fn run(b: &TrainBench<'_>, out: &mut dyn Write) -> Result<()> {
         writeln!(out, "{}", serde_json::to_string_pretty(&rows)?)?;
         return Ok(());
     }
+    table(b, &rows, &warmed, out)
+}
+
+/// The measured rows as a table, with what the goal rows were measured against.
+fn table(b: &TrainBench<'_>, rows: &[TrainRow], warmed: &[TrainRow], out: &mut dyn Write) -> Result<()> {
     let mut t = comfy_table::Table::new();
     t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header([
         "row",
@@ -365,7 +370,7 @@ pub fn run(b: &TrainBench<'_>, out: &mut dyn Write) -> Result<()> {
         "goal: steps/s",
         "training / goal",
     ]);
-    for r in &rows {
+    for r in rows {
         t.add_row([
             r.label.clone(),
             r.scenario.clone(),
@@ -394,7 +399,7 @@ pub fn run(b: &TrainBench<'_>, out: &mut dyn Write) -> Result<()> {
             JAXMARL.join(" "),
             FAST.join(" ")
         )?;
-        for w in &warmed {
+        for w in warmed {
             writeln!(
                 out,
                 "{}: timed after an untimed run of {} steps that fills the clause-embedding cache (kept on disk, so only a machine's first run pays it): that run {:.1} s, {:.0} steps/s",
