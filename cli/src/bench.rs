@@ -518,7 +518,7 @@ fn run_train(a: &BenchArgs, out: &mut dyn Write) -> Result<()> {
         only: &a.only,
         peer: a.jaxmarl.clone().map(|dir| crate::bench_train::Peer { dir, python: a.jaxmarl_python.clone() }),
     };
-    return crate::bench_train::run(&b, out);
+    crate::bench_train::run(&b, out)
 }
 
 /// The simulator's rows: each scenario with observations and abilities, and its baselines
