@@ -87,6 +87,110 @@ pub fn train_from(
     Ok((Trained::Q(Box::new(l)), s))
 }
 
+/// A Q-learners' run's lanes as a resume needs them: the vector environment, the episodes
+/// under way, the actor's state, the episodes not yet trained on and the last update's stats.
+struct Lanes<'a> {
+    env: &'a avacraft_engine::VecEnv,
+    running: &'a [Episode],
+    actor: &'a Actor,
+    pending: u64,
+    last: &'a crate::UpdateStats,
+}
+
+/// A test round's checkpoint of the Q-learners' loop: the optimiser's state, then (features
+/// mode) the journal and the lanes, then `state.json`, what a resume starts from.
+#[allow(clippy::too_many_arguments)]
+fn checkpoint(
+    dir: &std::path::Path,
+    seed: u64,
+    (t_env, episodes): (u64, u64),
+    rngs: (u128, u128),
+    learner: &Learner,
+    monitor: &Monitor,
+    journal: Option<&mut Journal>,
+    lanes: &Lanes<'_>,
+) -> Result<(), Error> {
+    if let Some(m) = learner.moments() {
+        crate::resume::save_moments(dir, &[("q", m)])?;
+    }
+    if let Some(j) = journal {
+        j.sync()?;
+        let mut carry = Carry::new(t_env)?;
+        let since: Vec<Vec<u32>> = lanes.running.iter().map(|ep| ep.actions.clone()).collect();
+        carry.lanes(lanes.env, &since)?;
+        carry.episodes("running", lanes.running)?;
+        let (h, last_acts) = lanes.actor.state();
+        carry.f32s("actor.h", h)?;
+        carry.actions("actor.last", last_acts)?;
+        carry.u64s("pending", &[lanes.pending])?;
+        carry.stats("last", lanes.last)?;
+        carry.save(dir)?;
+    }
+    RunState::new(
+        seed,
+        t_env,
+        episodes,
+        monitor.test_round,
+        (learner.updates, learner.last_target_update),
+        rngs,
+        monitor.elapsed(),
+        &monitor.tests,
+        &monitor.curve,
+    )
+    .save(dir, Some(&learner.target))
+}
+
+/// Each lane's reward this step; the episodes that ended are closed (a truncated one with its
+/// final observation), counted by the monitor, journalled and put in the replay buffer.
+/// Returns which lanes ended, and how many.
+fn end_episodes(
+    b: &avacraft_engine::VecBuffers,
+    shape: &Shape,
+    running: &mut [Episode],
+    monitor: &mut Monitor,
+    mut journal: Option<&mut Journal>,
+    buffer: &mut ReplayBuffer,
+) -> Result<(Vec<bool>, u64), Error> {
+    let (a, o, s, na) = (shape.n_agents, shape.obs, shape.state, shape.n_actions);
+    let done: Vec<bool> = b.terminated.iter().zip(&b.truncated).map(|(t, u)| *t || *u).collect();
+    let mut ended = 0;
+    for (i, ep) in running.iter_mut().enumerate() {
+        ep.push_outcome(b.reward[i], b.terminated[i]);
+        if done[i] {
+            let mut finished = std::mem::take(ep);
+            let last = (b.truncated[i] && !b.terminated[i]).then(|| {
+                (&b.final_obs[i * a * o..(i + 1) * a * o], &b.final_state[i * s..(i + 1) * s], &b.final_avail[i * a * na..(i + 1) * a * na])
+            });
+            finished.close(shape, last);
+            monitor.episode_end(b.info[i].battle_won, finished.reward.iter().map(|&r| f64::from(r)).sum());
+            if let Some(j) = journal.as_deref_mut() {
+                j.append(&finished)?;
+            }
+            buffer.insert(finished);
+            ended += 1;
+        }
+    }
+    Ok((done, ended))
+}
+
+/// One update on a batch sampled from the replay buffer (with its frames in the image modes).
+fn learn(
+    cfg: &Config,
+    shape: &Shape,
+    learner: &mut Learner,
+    buffer: &ReplayBuffer,
+    batch: &mut Batch,
+    rng: &mut ChaCha8Rng,
+    (frames, episodes): (bool, u64),
+) -> Result<crate::UpdateStats, Error> {
+    let sample = buffer.sample(cfg.batch_size, rng);
+    batch.refill(&sample, shape, cfg.obs_agent_id, cfg.obs_last_action)?;
+    if frames {
+        batch.frames = Some(FrameBatch::new(&sample, cfg)?);
+    }
+    learner.train(batch, episodes)
+}
+
 /// The Q-learners' loop (IQL, VDN, QMIX).
 fn train_q(
     cfg: &Config,
@@ -171,39 +275,14 @@ fn train_q(
         }
         env.step(&acts.iter().map(|&x| i64::from(x)).collect::<Vec<_>>())?;
         t_env += e as u64;
-        let b = &env.buffers;
-        let done: Vec<bool> = b.terminated.iter().zip(&b.truncated).map(|(t, u)| *t || *u).collect();
-        for (i, ep) in running.iter_mut().enumerate() {
-            ep.push_outcome(b.reward[i], b.terminated[i]);
-            if done[i] {
-                let mut finished = std::mem::take(ep);
-                let last = (b.truncated[i] && !b.terminated[i]).then(|| {
-                    (
-                        &b.final_obs[i * a * o..(i + 1) * a * o],
-                        &b.final_state[i * s..(i + 1) * s],
-                        &b.final_avail[i * a * na..(i + 1) * a * na],
-                    )
-                });
-                finished.close(&shape, last);
-                monitor.episode_end(b.info[i].battle_won, finished.reward.iter().map(|&r| f64::from(r)).sum());
-                if let Some(j) = &mut journal {
-                    j.append(&finished)?;
-                }
-                buffer.insert(finished);
-                episodes += 1;
-                pending += 1;
-            }
-        }
+        let (done, ended) = end_episodes(&env.buffers, &shape, &mut running, &mut monitor, journal.as_mut(), &mut buffer)?;
+        episodes += ended;
+        pending += ended;
         actor.reset_envs(&done, a);
         while pending >= cfg.episodes_per_update {
             pending -= cfg.episodes_per_update;
             if buffer.len() >= cfg.batch_size {
-                let sample = buffer.sample(cfg.batch_size, &mut sample_rng);
-                batch.refill(&sample, &shape, cfg.obs_agent_id, cfg.obs_last_action)?;
-                if source.is_some() {
-                    batch.frames = Some(FrameBatch::new(&sample, cfg)?);
-                }
-                last = learner.train(&batch, episodes)?;
+                last = learn(cfg, &shape, &mut learner, &buffer, &mut batch, &mut sample_rng, (source.is_some(), episodes))?;
             }
         }
         let nets = &learner.nets;
@@ -211,35 +290,8 @@ fn train_q(
         let tested = monitor.after_step(t_env, (episodes, learner.updates), eps, &last, nets, &mut save)?;
         if tested && let Some(dir) = &opts.out {
             let rngs = (act_rng.get_word_pos(), sample_rng.get_word_pos());
-            // The optimiser's state first: `state.json` is what a resume starts from.
-            if let Some(m) = learner.moments() {
-                crate::resume::save_moments(dir, &[("q", m)])?;
-            }
-            if let Some(j) = &mut journal {
-                j.sync()?;
-                let mut carry = Carry::new(t_env)?;
-                let since: Vec<Vec<u32>> = running.iter().map(|ep| ep.actions.clone()).collect();
-                carry.lanes(&env, &since)?;
-                carry.episodes("running", &running)?;
-                let (h, last_acts) = actor.state();
-                carry.f32s("actor.h", h)?;
-                carry.actions("actor.last", last_acts)?;
-                carry.u64s("pending", &[pending])?;
-                carry.stats("last", &last)?;
-                carry.save(dir)?;
-            }
-            RunState::new(
-                opts.seed,
-                t_env,
-                episodes,
-                monitor.test_round,
-                (learner.updates, learner.last_target_update),
-                rngs,
-                monitor.elapsed(),
-                &monitor.tests,
-                &monitor.curve,
-            )
-            .save(dir, Some(&learner.target))?;
+            let lanes = Lanes { env: &env, running: &running, actor: &actor, pending, last: &last };
+            checkpoint(dir, opts.seed, (t_env, episodes), rngs, &learner, &monitor, journal.as_mut(), &lanes)?;
         }
         on_progress(&Progress {
             t_env,
