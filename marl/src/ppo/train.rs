@@ -32,8 +32,6 @@ pub fn train(cfg: &Config, opts: &RunOptions, on_progress: &mut dyn FnMut(&Progr
 
 /// [`train`], going on from `start` (see [`crate::resume`]): the checkpoint and state in
 /// `opts.out`.
-// Long on purpose: the PPO loop (rollout, update, test round, checkpoint, resume state) in
-// the order it runs; each phase calls into its own module.
 pub fn train_from(
     cfg: &Config,
     opts: &RunOptions,
@@ -75,43 +73,29 @@ pub fn train_from(
     let (rows, hidden) = (e * a, cfg.rnn_hidden_dim);
     let (id, la) = (cfg.obs_agent_id, cfg.obs_last_action);
     let agents: Vec<usize> = (0..rows).map(|r| r % a.max(1)).collect();
-    let mut last: Vec<Option<u32>> = vec![None; rows];
     let shared = learner.shared();
-    let (mut h_actor, mut h_critic) = (vec![0f32; rows * hidden], vec![0f32; if shared { 0 } else { rows * hidden }]);
-    // The run starts an episode everywhere.
-    let mut keep = vec![0f32; rows];
+    let mut lanes = Lanes::new(rows, hidden, shared, e);
     let mut roll = Rollout { rows, n_agents: a, ..Rollout::default() };
     let mut last_stats = UpdateStats::default();
-    // Each environment's return so far this episode (the log's training return).
-    let mut returns = vec![0f32; e];
-    // Team 1's actions since each environment's episode began (what a resume replays).
-    let mut since: Vec<Vec<u32>> = vec![Vec::new(); e];
     if let Some(c) = &kept {
-        since = c.restore_lanes(&mut env)?;
+        lanes = Lanes::kept(c, &mut env, (rows, hidden, e))?;
         roll = Rollout::kept(c)?;
-        (h_actor, h_critic) = (c.get_f32s("h_actor")?, c.get_f32s("h_critic")?);
-        last = c.get_actions("last")?;
-        keep = c.get_f32s("keep")?;
-        returns = c.get_f32s("returns")?;
         last_stats = c.get_stats("last_stats")?;
-        if (h_actor.len(), last.len(), keep.len(), returns.len()) != (rows * hidden, rows, rows, e) {
-            return Err(Error::Checkpoint { message: "resume/carry.safetensors: its sizes are not this run's".into() });
-        }
     }
     // Wall-clock per phase, for the summary only: nothing learned depends on it.
     let mut time = [Duration::ZERO; 5];
     while t_env < cfg.t_max {
         let clock = Instant::now();
         let b = &env.buffers;
-        let x_actor = act_inputs(&b.obs, &agents, &last, &shape, id, la);
+        let x_actor = act_inputs(&b.obs, &agents, &lanes.last, &shape, id, la);
         // A shared trunk's critic reads the actor's rows: no rows or states of its own.
         let x_critic = if shared { CriticRows::default() } else { learner.critic_input.rows(&shape, &b.obs, &b.state, e) };
         if roll.t.is_multiple_of(cfg.data_chunk_length) {
-            roll.h_actor.extend_from_slice(&h_actor);
-            roll.h_critic.extend_from_slice(&h_critic);
+            roll.h_actor.extend_from_slice(&lanes.h_actor);
+            roll.h_critic.extend_from_slice(&lanes.h_critic);
         }
         let frames = source.as_mut().map(|s| s.observe(env.envs())).transpose()?;
-        let out = learner.act_with(&x_actor, &h_actor, x_critic.input(), &h_critic, frames.as_ref())?;
+        let out = learner.act_with(&x_actor, &lanes.h_actor, x_critic.input(), &lanes.h_critic, frames.as_ref())?;
         roll.frames.extend(frames);
         let (acts, logp) = sample_actions(&out.logits, &b.avail, na, &mut act_rng);
         roll.actor_in.extend(x_actor);
@@ -121,60 +105,22 @@ pub fn train_from(
         roll.logp.extend(logp);
         roll.values.extend(out.values);
         roll.active.extend(b.avail.chunks_exact(na.max(1)).map(|m| if m.iter().filter(|&&x| x != 0).count() > 1 { 1.0 } else { 0.0 }));
-        roll.keep.extend_from_slice(&keep);
+        roll.keep.extend_from_slice(&lanes.keep);
         let t_act = clock.elapsed();
-
         env.step(&acts.iter().map(|&x| i64::from(x)).collect::<Vec<_>>())?;
         let t_env_step = clock.elapsed();
         t_env += e as u64;
         let b = &env.buffers;
         let done: Vec<bool> = b.terminated.iter().zip(&b.truncated).map(|(t, u)| *t || *u).collect();
         roll.reward.extend_from_slice(&b.reward);
-        for (r, x) in returns.iter_mut().zip(&b.reward) {
-            *r += x;
-        }
         roll.done.extend(done.iter().map(|&d| if d { 1.0 } else { 0.0 }));
         roll.t += 1;
-        for (i, &d) in done.iter().enumerate() {
-            if d {
-                episodes += 1;
-                monitor.episode_end(b.info[i].battle_won, f64::from(std::mem::take(&mut returns[i])));
-                since[i].clear();
-            } else if exact.is_some() {
-                since[i].extend_from_slice(&acts[i * a..(i + 1) * a]);
-            }
-        }
-        for (r, k) in keep.iter_mut().enumerate() {
-            *k = if done[r / a.max(1)] { 0.0 } else { 1.0 };
-        }
-        (h_actor, h_critic) = (out.h_actor, out.h_critic);
-        for h in [&mut h_actor, &mut h_critic] {
-            for (row, &k) in h.chunks_exact_mut(hidden.max(1)).zip(&keep) {
-                if k == 0.0 {
-                    row.fill(0.0);
-                }
-            }
-        }
-        for ((l, &act), &k) in last.iter_mut().zip(&acts).zip(&keep) {
-            *l = if k > 0.0 { Some(act) } else { None };
-        }
+        episodes += lanes.end_step(b, &done, &acts, exact.is_some(), &mut monitor);
+        lanes.advance(&done, &acts, (out.h_actor, out.h_critic), a, hidden);
         let t_record = clock.elapsed();
-
         if roll.t == cfg.rollout_len {
-            let x_critic = if shared { CriticRows::default() } else { learner.critic_input.rows(&shape, &b.obs, &b.state, e) };
-            let x_actor = if shared { act_inputs(&b.obs, &agents, &last, &shape, id, la) } else { Vec::new() };
-            roll.values.extend(learner.values(&x_actor, &h_actor, x_critic.input(), &h_critic));
-            let st = learner.update(&roll, &mut update_rng)?;
-            last_stats = UpdateStats {
-                loss: st.loss,
-                grad_norm: st.actor_grad_norm,
-                td_abs: st.value_loss,
-                q_taken: st.value_mean,
-                entropy: Some(st.entropy),
-                policy_loss: Some(st.policy_loss),
-                critic_grad_norm: Some(st.critic_grad_norm),
-            };
-            roll.clear();
+            let rows = Inputs { obs: &b.obs, state: &b.state, agents: &agents, shape: &shape, envs: e };
+            last_stats = update(cfg, &mut learner, &mut roll, &lanes, &rows, &mut update_rng)?;
         }
         let t_update = clock.elapsed();
         let mut save = |dir: &std::path::Path| -> Result<(), Error> {
@@ -184,33 +130,8 @@ pub fn train_from(
         let tested = monitor.after_step(t_env, (episodes, learner.updates), 0.0, &last_stats, &learner.actor, &mut save)?;
         if tested && let Some(dir) = &opts.out {
             let rngs = (act_rng.get_word_pos(), update_rng.get_word_pos());
-            let mut state = RunState::new(
-                opts.seed,
-                t_env,
-                episodes,
-                monitor.test_round,
-                (learner.updates, 0),
-                rngs,
-                monitor.elapsed(),
-                &monitor.tests,
-                &monitor.curve,
-            );
-            state.value_norm = Some(learner.value_norm.clone());
-            // The optimisers' state first: `state.json` is what a resume starts from.
-            crate::resume::save_moments(dir, &learner.moments())?;
-            if exact.is_some() {
-                let mut c = Carry::new(t_env)?;
-                c.lanes(&env, &since)?;
-                roll.keep(&mut c)?;
-                c.f32s("h_actor", &h_actor)?;
-                c.f32s("h_critic", &h_critic)?;
-                c.actions("last", &last)?;
-                c.f32s("keep", &keep)?;
-                c.f32s("returns", &returns)?;
-                c.stats("last_stats", &last_stats)?;
-                c.save(dir)?;
-            }
-            state.save(dir, None)?;
+            let carry = exact.is_some().then_some((&env, &roll, &lanes));
+            checkpoint(dir, opts.seed, (t_env, episodes), rngs, &learner, &monitor, carry, &last_stats)?;
         }
         let t_test = clock.elapsed();
         for (acc, d) in time.iter_mut().zip([t_act, t_env_step - t_act, t_record - t_env_step, t_update - t_record, t_test - t_update]) {
@@ -229,4 +150,170 @@ pub fn train_from(
     let phases = ["act", "env", "record", "update", "test"].iter().zip(time).map(|(n, d)| (n.to_string(), d.as_secs_f64())).collect();
     let summary = Summary { t_env, episodes, updates: learner.updates, last_loss: last_stats.loss, tests: monitor.tests, phases };
     Ok((learner, summary))
+}
+
+/// Each row's recurrent state and each environment's episode so far, as a resume keeps them.
+struct Lanes {
+    h_actor: Vec<f32>,
+    /// Empty with a shared trunk: its critic reads the actor's rows.
+    h_critic: Vec<f32>,
+    /// Each row's previous action (none at an episode's start).
+    last: Vec<Option<u32>>,
+    /// 0 where a row's episode starts this step: the run starts an episode everywhere.
+    keep: Vec<f32>,
+    /// Each environment's return so far this episode (the log's training return).
+    returns: Vec<f32>,
+    /// Team 1's actions since each environment's episode began (what a resume replays).
+    since: Vec<Vec<u32>>,
+}
+
+impl Lanes {
+    fn new(rows: usize, hidden: usize, shared: bool, envs: usize) -> Lanes {
+        Lanes {
+            h_actor: vec![0f32; rows * hidden],
+            h_critic: vec![0f32; if shared { 0 } else { rows * hidden }],
+            last: vec![None; rows],
+            keep: vec![0f32; rows],
+            returns: vec![0f32; envs],
+            since: vec![Vec::new(); envs],
+        }
+    }
+
+    /// The lanes a checkpoint kept, its environments replayed into `env`.
+    fn kept(c: &Carry, env: &mut avacraft_engine::VecEnv, (rows, hidden, envs): (usize, usize, usize)) -> Result<Lanes, Error> {
+        let lanes = Lanes {
+            since: c.restore_lanes(env)?,
+            h_actor: c.get_f32s("h_actor")?,
+            h_critic: c.get_f32s("h_critic")?,
+            last: c.get_actions("last")?,
+            keep: c.get_f32s("keep")?,
+            returns: c.get_f32s("returns")?,
+        };
+        if (lanes.h_actor.len(), lanes.last.len(), lanes.keep.len(), lanes.returns.len()) != (rows * hidden, rows, rows, envs) {
+            return Err(Error::Checkpoint { message: "resume/carry.safetensors: its sizes are not this run's".into() });
+        }
+        Ok(lanes)
+    }
+
+    fn keep_in(&self, c: &mut Carry, env: &avacraft_engine::VecEnv) -> Result<(), Error> {
+        c.lanes(env, &self.since)?;
+        c.f32s("h_actor", &self.h_actor)?;
+        c.f32s("h_critic", &self.h_critic)?;
+        c.actions("last", &self.last)?;
+        c.f32s("keep", &self.keep)?;
+        c.f32s("returns", &self.returns)
+    }
+
+    /// The step's rewards into each environment's return; an episode that ended goes to the
+    /// monitor, one going on keeps its actions (when a resume is to replay them). Returns the
+    /// episodes that ended.
+    fn end_step(&mut self, b: &avacraft_engine::VecBuffers, done: &[bool], acts: &[u32], replay: bool, monitor: &mut Monitor) -> u64 {
+        for (r, x) in self.returns.iter_mut().zip(&b.reward) {
+            *r += x;
+        }
+        let a = acts.len() / done.len().max(1);
+        let mut ended = 0;
+        for (i, &d) in done.iter().enumerate() {
+            if d {
+                ended += 1;
+                monitor.episode_end(b.info[i].battle_won, f64::from(std::mem::take(&mut self.returns[i])));
+                self.since[i].clear();
+            } else if replay {
+                self.since[i].extend_from_slice(&acts[i * a..(i + 1) * a]);
+            }
+        }
+        ended
+    }
+
+    /// After a step: rows whose episode ended start the next one with zero state and no
+    /// previous action.
+    fn advance(&mut self, done: &[bool], acts: &[u32], (h_actor, h_critic): (Vec<f32>, Vec<f32>), a: usize, hidden: usize) {
+        for (r, k) in self.keep.iter_mut().enumerate() {
+            *k = if done[r / a.max(1)] { 0.0 } else { 1.0 };
+        }
+        (self.h_actor, self.h_critic) = (h_actor, h_critic);
+        for h in [&mut self.h_actor, &mut self.h_critic] {
+            for (row, &k) in h.chunks_exact_mut(hidden.max(1)).zip(&self.keep) {
+                if k == 0.0 {
+                    row.fill(0.0);
+                }
+            }
+        }
+        for ((l, &act), &k) in self.last.iter_mut().zip(acts).zip(&self.keep) {
+            *l = if k > 0.0 { Some(act) } else { None };
+        }
+    }
+}
+
+/// What the actor's and the critic's input rows are built from this step.
+struct Inputs<'a> {
+    obs: &'a [f32],
+    state: &'a [f32],
+    agents: &'a [usize],
+    shape: &'a Shape,
+    envs: usize,
+}
+
+/// A full rollout's update: the values of the states it ended in, then PPO's epochs; the
+/// rollout is emptied for the next one.
+fn update(
+    cfg: &Config,
+    learner: &mut PpoLearner,
+    roll: &mut Rollout,
+    lanes: &Lanes,
+    x: &Inputs<'_>,
+    rng: &mut ChaCha8Rng,
+) -> Result<UpdateStats, Error> {
+    let shared = learner.shared();
+    let x_critic = if shared { CriticRows::default() } else { learner.critic_input.rows(x.shape, x.obs, x.state, x.envs) };
+    let x_actor =
+        if shared { act_inputs(x.obs, x.agents, &lanes.last, x.shape, cfg.obs_agent_id, cfg.obs_last_action) } else { Vec::new() };
+    roll.values.extend(learner.values(&x_actor, &lanes.h_actor, x_critic.input(), &lanes.h_critic));
+    let st = learner.update(roll, rng)?;
+    roll.clear();
+    Ok(UpdateStats {
+        loss: st.loss,
+        grad_norm: st.actor_grad_norm,
+        td_abs: st.value_loss,
+        q_taken: st.value_mean,
+        entropy: Some(st.entropy),
+        policy_loss: Some(st.policy_loss),
+        critic_grad_norm: Some(st.critic_grad_norm),
+    })
+}
+
+/// A test round's checkpoint: the optimisers' state, then (features mode) the environments,
+/// the rollout under way and the lanes, then `state.json`, what a resume starts from.
+#[allow(clippy::too_many_arguments)]
+fn checkpoint(
+    dir: &std::path::Path,
+    seed: u64,
+    (t_env, episodes): (u64, u64),
+    rngs: (u128, u128),
+    learner: &PpoLearner,
+    monitor: &Monitor,
+    carry: Option<(&avacraft_engine::VecEnv, &Rollout, &Lanes)>,
+    last_stats: &UpdateStats,
+) -> Result<(), Error> {
+    let mut state = RunState::new(
+        seed,
+        t_env,
+        episodes,
+        monitor.test_round,
+        (learner.updates, 0),
+        rngs,
+        monitor.elapsed(),
+        &monitor.tests,
+        &monitor.curve,
+    );
+    state.value_norm = Some(learner.value_norm.clone());
+    crate::resume::save_moments(dir, &learner.moments())?;
+    if let Some((env, roll, lanes)) = carry {
+        let mut c = Carry::new(t_env)?;
+        lanes.keep_in(&mut c, env)?;
+        roll.keep(&mut c)?;
+        c.stats("last_stats", last_stats)?;
+        c.save(dir)?;
+    }
+    state.save(dir, None)
 }
