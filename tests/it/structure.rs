@@ -1,4 +1,5 @@
-//! No import circle between the files of a crate. A file that names another module's items
+//! No import circle between the files of a crate, and no function outside tests over 120
+//! lines (the last test). No import circle between the files of a crate. A file that names another module's items
 //! (`crate::a::b`, `super::x`, `use crate::{a, b}`) depends on that module's file; two files
 //! that depend on each other, directly or through others, can only be read and changed
 //! together, which the structure issue asked to end (world <-> sim <-> combat and six more
@@ -219,4 +220,145 @@ fn the_reader_finds_a_planted_circle() {
     let c = circles(&g);
     std::fs::remove_dir_all(&dir).ok();
     assert_eq!(c, vec![vec![vec!["obs".to_owned(), "smac".to_owned()], vec!["world".to_owned()]]], "graph: {g:?}");
+}
+
+/// Longest a function outside tests may be: past it, a function does several things that read
+/// better as functions of their own (the structure issue's mark).
+const MAX_FN_LINES: usize = 120;
+
+/// `text` without its test module, comments, and string and char literals (so their braces do
+/// not count), lines kept.
+fn without_literals(text: &str) -> String {
+    let text: String = text.lines().take_while(|l| l.trim() != "#[cfg(test)]").flat_map(|l| [l, "\n"]).collect();
+    let c: Vec<char> = text.chars().collect();
+    let mut out = String::with_capacity(text.len());
+    let mut i = 0;
+    while i < c.len() {
+        if c[i] == '/' && c.get(i + 1) == Some(&'/') {
+            while i < c.len() && c[i] != '\n' {
+                i += 1;
+            }
+            continue;
+        }
+        if c[i] == '/' && c.get(i + 1) == Some(&'*') {
+            let rest: String = c[i..].iter().collect();
+            let end = rest.find("*/").map_or(c.len(), |k| i + rest[..k].chars().count() + 2);
+            out.extend(c[i..end].iter().filter(|&&ch| ch == '\n'));
+            i = end;
+            continue;
+        }
+        // Raw strings: r"..", r#".."#, br#".."#.
+        if c[i] == 'r' && (i == 0 || !is_ident(c[i - 1]) || c[i - 1] == 'b') {
+            let mut j = i + 1;
+            while j < c.len() && c[j] == '#' {
+                j += 1;
+            }
+            if j < c.len() && c[j] == '"' {
+                let hashes = j - i - 1;
+                let close: String = std::iter::once('"').chain(std::iter::repeat_n('#', hashes)).collect();
+                let rest: String = c[j + 1..].iter().collect();
+                let end = rest.find(&close).map_or(c.len(), |k| j + 1 + rest[..k].chars().count() + close.len());
+                out.extend(c[i..end].iter().filter(|&&ch| ch == '\n'));
+                i = end;
+                continue;
+            }
+        }
+        if c[i] == '"' {
+            let mut j = i + 1;
+            while j < c.len() && c[j] != '"' {
+                j += if c[j] == '\\' { 2 } else { 1 };
+            }
+            out.extend(c[i..(j + 1).min(c.len())].iter().filter(|&&ch| ch == '\n'));
+            i = j + 1;
+            continue;
+        }
+        // Char literals ('{', '\''), not lifetimes ('a).
+        if c[i] == '\'' {
+            let end = if c.get(i + 1) == Some(&'\\') {
+                c[i + 2..].iter().position(|&ch| ch == '\'').map(|k| i + 3 + k)
+            } else {
+                (c.get(i + 2) == Some(&'\'')).then_some(i + 3)
+            };
+            if let Some(end) = end {
+                i = end;
+                continue;
+            }
+        }
+        out.push(c[i]);
+        i += 1;
+    }
+    out
+}
+
+/// Functions longer than `max` lines in `text`: (line, name, lines).
+fn long_functions(text: &str, max: usize) -> Vec<(usize, String, usize)> {
+    let code = without_literals(text);
+    let lines: Vec<&str> = code.lines().collect();
+    let mut found = Vec::new();
+    let mut i = 0;
+    while i < lines.len() {
+        let words: Vec<&str> = lines[i].split(|ch: char| !is_ident(ch)).filter(|w| !w.is_empty()).collect();
+        let Some(at) = words.iter().position(|w| *w == "fn") else {
+            i += 1;
+            continue;
+        };
+        let name = words.get(at + 1).map_or(String::new(), |w| (*w).to_owned());
+        // The body: from the first `{` after the signature to its matching `}`; a `;` first
+        // means a declaration without one.
+        let (mut depth, mut opened, mut j) = (0i64, false, i);
+        'scan: while j < lines.len() {
+            for ch in lines[j].chars() {
+                match ch {
+                    ';' if !opened => break 'scan,
+                    '{' => {
+                        depth += 1;
+                        opened = true;
+                    }
+                    '}' => depth -= 1,
+                    _ => {}
+                }
+                if opened && depth == 0 {
+                    break 'scan;
+                }
+            }
+            j += 1;
+        }
+        let n = j.min(lines.len() - 1) - i + 1;
+        if opened && n > max {
+            found.push((i + 1, name, n));
+        }
+        i = if opened { j + 1 } else { i + 1 };
+    }
+    found
+}
+
+#[test]
+fn no_function_outside_tests_is_over_120_lines() {
+    let mut found = Vec::new();
+    for krate in crates() {
+        let mut files = Vec::new();
+        rust_files(&krate.join("src"), &mut files);
+        for f in files {
+            let text = std::fs::read_to_string(&f).expect("a source file");
+            for (line, name, n) in long_functions(&text, MAX_FN_LINES) {
+                found.push(format!("{}:{line} {name}: {n} lines", f.strip_prefix(repo()).unwrap_or(&f).display()));
+            }
+        }
+    }
+    assert!(found.is_empty(), "functions over {MAX_FN_LINES} lines:\n{}", found.join("\n"));
+}
+
+/// The length check counts a function's lines and is not fooled by braces in strings (a `//`
+/// in one too), char literals, comments or a test module.
+#[test]
+fn the_length_check_finds_a_planted_long_function() {
+    let body =
+        |n: usize| (0..n).map(|k| format!("    let _x{k} = \"{{\"; let _u = \"http://{{}}\"; let _c = '{{'; // }}\n")).collect::<String>();
+    let text = format!(
+        "fn short() {{\n{}}}\nfn long<'a>(x: &'a str) {{\n{}}}\n#[cfg(test)]\nmod tests {{\nfn huge() {{\n{}}}\n}}\n",
+        body(10),
+        body(130),
+        body(300)
+    );
+    assert_eq!(long_functions(&text, 120), vec![(13, "long".to_owned(), 132)]);
 }
