@@ -1,6 +1,5 @@
 //! No import circle between the files of a crate, and no function outside tests over 120
-//! lines (the last test). No import circle between the files of a crate. A file that names another module's items
-//! (`crate::a::b`, `super::x`, `use crate::{a, b}`) depends on that module's file; two files
+//! lines (the last tests). A file that names another module's items (`crate::a::b`, `super::x`, `use crate::{a, b}`) depends on that module's file; two files
 //! that depend on each other, directly or through others, can only be read and changed
 //! together, which the structure issue asked to end (world <-> sim <-> combat and six more
 //! were found by review). This reads every crate's sources, so a new circle fails here,
