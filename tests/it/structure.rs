@@ -1,6 +1,7 @@
 //! No import circle between the files of a crate, and no function outside tests over 120
-//! lines (the last tests). A file that names another module's items (`crate::a::b`, `super::x`, `use crate::{a, b}`) depends on that module's file; two files
-//! that depend on each other, directly or through others, can only be read and changed
+//! lines (the last tests). A file that names another module's items (`crate::a::b`,
+//! `super::x`, `use crate::{a, b}`) depends on that module's file; two files that depend on
+//! each other, directly or through others, can only be read and changed
 //! together, which the structure issue asked to end (world <-> sim <-> combat and six more
 //! were found by review). This reads every crate's sources, so a new circle fails here,
 //! naming its files, instead of waiting for the next review.
