@@ -70,7 +70,7 @@ fn write(bytes: &[u8], rec: &crate::replay::Recording, out: &Path) -> Result<Add
     for c in LiveChannel::ALL {
         let (name, encoding, data) = c.schema();
         let schema = w.add_schema(&name, &encoding, &data)?;
-        ids.insert(c, w.add_channel(schema, c.topic(), &c.encoding(), &BTreeMap::new())?);
+        ids.insert(c, w.add_channel(schema, c.topic().as_str(), &c.encoding(), &BTreeMap::new())?);
     }
     let mut framer = Framer::new(RECORDED_VIEW);
     let mut added = Added::default();

@@ -2,6 +2,7 @@
 //! are written down, for the WebSocket server's advertisement and for recordings (MCAP
 //! channels beside the ROS 2 topics), so that a layout made for one opens the other.
 
+use avacraft_nodes::{LiveTopic, Topic, TopicKind, Topics};
 use foxglove::Encode;
 use foxglove::schemas::{ImageAnnotations, Log, RawImage, SceneUpdate};
 
@@ -26,22 +27,27 @@ impl LiveChannel {
     pub const ALL: [LiveChannel; 6] =
         [LiveChannel::Screen, LiveChannel::Minimap, LiveChannel::Scene, LiveChannel::Annotations, LiveChannel::Log, LiveChannel::Status];
 
-    /// The channel's topic name (also its MCAP topic). The last parts differ from every ROS 2
-    /// topic's (`avacraft_nodes::Topics`), so no reader of recordings takes one for the other.
-    pub fn topic(self) -> &'static str {
+    /// The channel's topic name (also its MCAP topic), from the deployment's topic module
+    /// under the default namespace.
+    pub fn topic(self) -> Topic {
+        Topics::default().live(self.live_topic())
+    }
+
+    fn live_topic(self) -> LiveTopic {
         match self {
-            LiveChannel::Screen => "/avacraft/live/screen_image",
-            LiveChannel::Minimap => "/avacraft/live/minimap_image",
-            LiveChannel::Scene => "/avacraft/live/scene_update",
-            LiveChannel::Annotations => "/avacraft/live/screen_annotations",
-            LiveChannel::Log => "/avacraft/live/log_lines",
-            LiveChannel::Status => "/avacraft/live/episode_status",
+            LiveChannel::Screen => LiveTopic::ScreenImage,
+            LiveChannel::Minimap => LiveTopic::MinimapImage,
+            LiveChannel::Scene => LiveTopic::SceneUpdate,
+            LiveChannel::Annotations => LiveTopic::ScreenAnnotations,
+            LiveChannel::Log => LiveTopic::LogLines,
+            LiveChannel::Status => LiveTopic::EpisodeStatus,
         }
     }
 
     /// The channel with this topic name.
     pub fn from_topic(topic: &str) -> Option<LiveChannel> {
-        LiveChannel::ALL.into_iter().find(|c| c.topic() == topic)
+        let kind = Topics::default().classify(&Topic::parse(topic).ok()?)?;
+        LiveChannel::ALL.into_iter().find(|c| kind == TopicKind::Live(c.live_topic()))
     }
 
     /// Its id on the WebSocket server (stable: a layout or a client may keep it).
@@ -97,9 +103,9 @@ mod tests {
     fn names_ids_and_schemas_are_distinct_and_round_trip() {
         let mut topics = std::collections::BTreeSet::new();
         for c in LiveChannel::ALL {
-            assert_eq!(LiveChannel::from_topic(c.topic()), Some(c));
+            assert_eq!(LiveChannel::from_topic(c.topic().as_str()), Some(c));
             assert_eq!(LiveChannel::from_id(c.id()), Some(c));
-            assert!(topics.insert(c.topic()));
+            assert!(topics.insert(c.topic().as_str().to_owned()));
             let (name, enc, data) = c.schema();
             assert!(!data.is_empty(), "{c:?}");
             match c {

@@ -119,10 +119,11 @@ impl LiveServer {
         let local = listener.local_addr().map_err(|source| LiveError::Bind { addr, source })?;
         listener.set_nonblocking(true).map_err(|source| LiveError::Bind { addr, source })?;
         let mut channels = Vec::new();
-        for c in LiveChannel::ALL {
+        let topics = LiveChannel::ALL.map(LiveChannel::topic);
+        for (c, topic) in LiveChannel::ALL.into_iter().zip(&topics) {
             let (schema_name, schema_encoding, data) = c.schema();
             let schema = foxglove::ws_protocol::schema::Schema::new(schema_name, schema_encoding, data);
-            channels.push(Channel::builder(c.id(), c.topic(), c.encoding()).with_schema(schema).build().map_err(LiveError::Schema)?);
+            channels.push(Channel::builder(c.id(), topic.as_str(), c.encoding()).with_schema(schema).build().map_err(LiveError::Schema)?);
         }
         let hello = [ServerInfo::new(name).to_string(), Advertise::new(channels).to_string()];
         let shared = Arc::new(Shared {

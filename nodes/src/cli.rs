@@ -51,7 +51,7 @@ pub struct NodeArgs {
     #[arg(long)]
     pub multicast: bool,
     /// ROS namespace of every topic.
-    #[arg(long, default_value = "/avacraft")]
+    #[arg(long, default_value = crate::topics::DEFAULT_NAMESPACE)]
     pub namespace: String,
     /// Mutual TLS for `tls/` endpoints: the PEM certificate of the deployment's authority
     /// (as made by `avacraft certs`). Needs --tls-cert and --tls-key.
@@ -92,7 +92,7 @@ impl Default for NodeArgs {
             listen: Vec::new(),
             domain: 0,
             multicast: false,
-            namespace: "/avacraft".to_owned(),
+            namespace: crate::topics::DEFAULT_NAMESPACE.to_owned(),
             tls_ca: None,
             tls_cert: None,
             tls_key: None,

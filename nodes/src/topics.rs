@@ -202,9 +202,12 @@ pub struct Topics {
     ns: String,
 }
 
+/// The namespace every topic is under unless a deployment names another.
+pub const DEFAULT_NAMESPACE: &str = "/avacraft";
+
 impl Default for Topics {
     fn default() -> Self {
-        Self { ns: "/avacraft".to_owned() }
+        Self { ns: DEFAULT_NAMESPACE.to_owned() }
     }
 }
 
@@ -283,6 +286,10 @@ impl Topics {
     pub fn session(&self) -> Topic {
         self.make("session")
     }
+    /// A live-view channel (Foxglove's messages), recorded beside the ROS 2 topics.
+    pub fn live(&self, channel: LiveTopic) -> Topic {
+        self.make(&format!("live/{}", channel.name()))
+    }
     /// The iceoryx2 service a frame topic's images also go through (same path, no leading
     /// '/': iceoryx2 names are not ROS names).
     pub fn frame_service(&self, team: TeamNo, kind: FrameKind) -> String {
@@ -309,6 +316,7 @@ impl Topics {
             ["applied"] => TopicKind::Applied,
             ["roles"] => TopicKind::Roles,
             ["session"] => TopicKind::Session,
+            ["live", name] => TopicKind::Live(LiveTopic::ALL.into_iter().find(|c| c.name() == *name)?),
             ["agents", agent, "actions"] => TopicKind::Actions(AgentId::parse(agent).ok()?),
             ["agents", agent, "model_calls"] => TopicKind::ModelCalls(AgentId::parse(agent).ok()?),
             [t, "obs"] => TopicKind::TeamObs(team(t)?),
@@ -338,6 +346,42 @@ pub enum TopicKind {
     TeamRoles(TeamNo),
     Orders(TeamNo),
     Session,
+    Live(LiveTopic),
+}
+
+/// The live view's channels. Their last parts differ from every ROS 2 topic's, so no reader of
+/// recordings takes one for the other.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum LiveTopic {
+    ScreenImage,
+    MinimapImage,
+    SceneUpdate,
+    ScreenAnnotations,
+    LogLines,
+    EpisodeStatus,
+}
+
+impl LiveTopic {
+    pub const ALL: [LiveTopic; 6] = [
+        LiveTopic::ScreenImage,
+        LiveTopic::MinimapImage,
+        LiveTopic::SceneUpdate,
+        LiveTopic::ScreenAnnotations,
+        LiveTopic::LogLines,
+        LiveTopic::EpisodeStatus,
+    ];
+
+    /// The topic's last part.
+    pub fn name(self) -> &'static str {
+        match self {
+            LiveTopic::ScreenImage => "screen_image",
+            LiveTopic::MinimapImage => "minimap_image",
+            LiveTopic::SceneUpdate => "scene_update",
+            LiveTopic::ScreenAnnotations => "screen_annotations",
+            LiveTopic::LogLines => "log_lines",
+            LiveTopic::EpisodeStatus => "episode_status",
+        }
+    }
 }
 
 /// A subscription pattern: a topic name in which a `*` segment stands for any one segment.
@@ -393,6 +437,10 @@ mod tests {
         assert_eq!(t.classify(&t.actions(&a)), Some(TopicKind::Actions(a.clone())));
         assert_eq!(t.any_actions().as_str(), "/avacraft/agents/*/actions");
         assert_eq!(t.any_model_calls().as_str(), "/avacraft/agents/*/model_calls");
+        for c in LiveTopic::ALL {
+            assert_eq!(t.classify(&t.live(c)), Some(TopicKind::Live(c)), "{c:?}");
+        }
+        assert_eq!(t.live(LiveTopic::ScreenImage).as_str(), "/avacraft/live/screen_image");
         let nested = Topics::new("/lab/match_3").expect("namespace");
         let found = Topics::find(&nested.model_calls(&a)).expect("a deployment's topic");
         assert_eq!((found.0.namespace(), found.1), ("/lab/match_3", TopicKind::ModelCalls(a.clone())));

@@ -362,3 +362,26 @@ fn the_length_check_finds_a_planted_long_function() {
     );
     assert_eq!(long_functions(&text, 120), vec![(13, "long".to_owned(), 132)]);
 }
+
+/// Topic names are built and parsed in one typed module (nodes/src/topics.rs); a name spelt
+/// out elsewhere (`"/avacraft/..."` outside a test module) would drift from it unseen.
+#[test]
+fn no_raw_topic_string_outside_the_topic_module() {
+    let mut found = Vec::new();
+    for krate in crates() {
+        let mut files = Vec::new();
+        rust_files(&krate.join("src"), &mut files);
+        for f in files {
+            if f.ends_with("nodes/src/topics.rs") {
+                continue;
+            }
+            let text = std::fs::read_to_string(&f).expect("a source file");
+            for (i, line) in code(&text).lines().enumerate() {
+                if line.contains("\"/avacraft/") {
+                    found.push(format!("{}:{}: {}", f.strip_prefix(repo()).unwrap_or(&f).display(), i + 1, line.trim()));
+                }
+            }
+        }
+    }
+    assert!(found.is_empty(), "topic names spelt out of the topic module:\n{}", found.join("\n"));
+}

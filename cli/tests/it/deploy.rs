@@ -627,7 +627,7 @@ fn an_ava_commander_and_its_role_groups_play_the_same_game_deployed_and_in_proce
     let mut shown: std::collections::BTreeMap<String, usize> = Default::default();
     for m in mcap::MessageStream::new(&bytes).expect("an MCAP file") {
         let m = m.expect("a message");
-        if m.channel.topic == avacraft_live::LiveChannel::Log.topic() {
+        if m.channel.topic == avacraft_live::LiveChannel::Log.topic().as_str() {
             let line = <foxglove::schemas::Log as foxglove::Decode>::decode(&m.data[..]).expect("a foxglove.Log");
             if let Some(node) = line.name.strip_prefix("ava/").and_then(|n| n.split('/').next()) {
                 *shown.entry(node.to_owned()).or_default() += 1;

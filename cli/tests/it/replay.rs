@@ -156,7 +156,8 @@ pub fn check_live_channels(bytes: &[u8]) {
     use foxglove::Decode;
     let summary = mcap::Summary::read(bytes).expect("summary").expect("summary present");
     for c in LiveChannel::ALL {
-        let ch = summary.channels.values().find(|ch| ch.topic == c.topic()).unwrap_or_else(|| panic!("{} not recorded", c.topic()));
+        let ch =
+            summary.channels.values().find(|ch| ch.topic == c.topic().as_str()).unwrap_or_else(|| panic!("{} not recorded", c.topic()));
         let (name, encoding, _) = c.schema();
         let s = ch.schema.as_ref().expect("a schema");
         assert_eq!((s.name.as_str(), s.encoding.as_str(), ch.message_encoding.clone()), (name.as_str(), encoding.as_str(), c.encoding()));
@@ -165,7 +166,7 @@ pub fn check_live_channels(bytes: &[u8]) {
     let steps: usize = replay_recording(&rec, None).expect("replays").iter().map(|r| r.steps as usize).sum();
     let status_times: std::collections::BTreeSet<u64> = rec.episodes.values().flat_map(|e| e.status_times.values().copied()).collect();
     let msgs: Vec<_> = mcap::MessageStream::new(bytes).expect("stream").filter_map(Result::ok).collect();
-    let on = |c: LiveChannel| msgs.iter().filter(move |m| m.channel.topic == c.topic());
+    let on = |c: LiveChannel| msgs.iter().filter(move |m| m.channel.topic == c.topic().as_str());
     for c in [LiveChannel::Screen, LiveChannel::Scene, LiveChannel::Status] {
         assert_eq!(on(c).count(), steps, "{}: one message per re-simulated step", c.topic());
         assert!(on(c).all(|m| status_times.contains(&m.log_time)), "{}: at the recorded steps' times", c.topic());
