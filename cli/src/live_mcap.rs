@@ -9,7 +9,8 @@
 use crate::replay::{read_recording, replay_episode};
 use anyhow::{Context, Result, bail};
 use avacraft_engine::Env;
-use avacraft_live::{Framer, LiveChannel, ViewSize};
+use avacraft_live::{Framer, LiveChannel, ViewSize, Wire};
+use avacraft_nodes::Qos;
 use std::collections::BTreeMap;
 use std::io::BufWriter;
 use std::path::Path;
@@ -68,11 +69,18 @@ fn write(bytes: &[u8], rec: &crate::replay::Recording, out: &Path) -> Result<Add
     }
     let mut ids = BTreeMap::new();
     for c in LiveChannel::ALL {
-        let (name, encoding, data) = c.schema();
-        let schema = w.add_schema(&name, &encoding, &data)?;
-        ids.insert(c, w.add_channel(schema, c.topic().as_str(), &c.encoding(), &BTreeMap::new())?);
+        // As ROS 2 topics, like the rest of the file: rosbag2's profile and QoS metadata.
+        let (type_name, schema, hash) = avacraft_live::ros2_type(c);
+        let schema = w.add_schema(type_name, "ros2msg", schema.as_bytes())?;
+        let qos = if matches!(c, LiveChannel::Screen | LiveChannel::Minimap) {
+            Qos::BestEffort { depth: 1 }
+        } else {
+            Qos::Reliable { depth: 10 }
+        };
+        let meta = BTreeMap::from([("offered_qos_profiles".to_owned(), qos.mcap_yaml()), ("topic_type_hash".to_owned(), hash.to_owned())]);
+        ids.insert(c, w.add_channel(schema, c.topic().as_str(), "cdr", &meta)?);
     }
-    let mut framer = Framer::new(RECORDED_VIEW);
+    let mut framer = Framer::with_wire(RECORDED_VIEW, Wire::Ros2);
     let mut added = Added::default();
     let mut seq = 0u32;
     for (&episode, ep) in &rec.episodes {
@@ -102,7 +110,7 @@ fn write(bytes: &[u8], rec: &crate::replay::Recording, out: &Path) -> Result<Add
     for (t, (level, name, text)) in calls {
         seq = seq.wrapping_add(1);
         let header = mcap::records::MessageHeader { channel_id: ids[&LiveChannel::Log], sequence: seq, log_time: t, publish_time: t };
-        w.write_to_known_channel(&header, &avacraft_live::log_bytes(t, level, &name, &text))?;
+        w.write_to_known_channel(&header, &avacraft_live::log_bytes(Wire::Ros2, t, level, &name, &text))?;
         added.messages += 1;
         added.calls += 1;
     }

@@ -6,8 +6,10 @@
 //! stamps what the live run stamped.
 
 use crate::channels::LiveChannel;
+use crate::ros2;
 use crate::server::LiveServer;
 use avacraft_engine::{Env, Order, Outcome, Team, UnitId, World, loops_to_seconds};
+use avacraft_msgs::encode;
 use avacraft_render::{CpuBackend, FrameBuilder, MapView};
 use foxglove::Encode;
 use foxglove::schemas::{
@@ -74,6 +76,7 @@ fn order_text(world: &World, order: &Order) -> String {
 #[derive(Debug)]
 pub struct Framer {
     size: ViewSize,
+    wire: Wire,
     frames: FrameBuilder,
     cpu: CpuBackend,
     /// Session time at the current episode's loop 0.
@@ -85,9 +88,16 @@ pub struct Framer {
 }
 
 impl Framer {
+    /// A framer of Foxglove's protobuf messages, as the live server sends them.
     pub fn new(size: ViewSize) -> Framer {
+        Framer::with_wire(size, Wire::Foxglove)
+    }
+
+    /// A framer whose messages go out on `wire`.
+    pub fn with_wire(size: ViewSize, wire: Wire) -> Framer {
         Framer {
             size,
+            wire,
             frames: FrameBuilder::new(),
             cpu: CpuBackend::new(),
             base: NS_PER_LOOP * 22,
@@ -132,28 +142,31 @@ impl Framer {
         let (w, h) = self.size.screen;
         if want(LiveChannel::Screen) {
             let img = self.cpu.render(&self.frames.screen(world, Team::One, w, h));
-            out.push((LiveChannel::Screen, t, encoded(&raw_image(t, "screen", img))));
+            out.push((LiveChannel::Screen, t, self.wire.image(&raw_image(t, "screen", img))));
         }
         if want(LiveChannel::Minimap) {
             let m = self.size.minimap;
             let img = self.cpu.render(&self.frames.minimap(world, Team::One, m, m));
-            out.push((LiveChannel::Minimap, t, encoded(&raw_image(t, "minimap", img))));
+            out.push((LiveChannel::Minimap, t, self.wire.image(&raw_image(t, "minimap", img))));
         }
         if want(LiveChannel::Annotations) {
-            out.push((LiveChannel::Annotations, t, encoded(&annotations(world, t, (w, h), &acting))));
+            let a = annotations(world, t, (w, h), &acting);
+            out.push((LiveChannel::Annotations, t, if self.wire == Wire::Ros2 { encode(&ros2::annotations(&a)) } else { encoded(&a) }));
         }
         if want(LiveChannel::Scene) {
-            out.push((LiveChannel::Scene, t, encoded(&scene(world, t, &acting))));
+            let s = scene(world, t, &acting);
+            out.push((LiveChannel::Scene, t, if self.wire == Wire::Ros2 { encode(&ros2::scene(&s)) } else { encoded(&s) }));
         }
         if want(LiveChannel::Log) {
             for (id, text) in &acting {
                 let team = world.unit(*id).map_or(Team::One, |u| u.team);
                 let name = format!("team{}/{}", team.index() + 1, world.unit(*id).map_or_else(String::new, |u| u.name()));
-                out.push((LiveChannel::Log, t, encoded(&log(t, Level::Info, &name, text))));
+                out.push((LiveChannel::Log, t, self.wire.log(&log(t, Level::Info, &name, text))));
             }
         }
         if want(LiveChannel::Status) {
-            out.push((LiveChannel::Status, t, status(env, self.episode).into_bytes()));
+            let json = status(env, self.episode);
+            out.push((LiveChannel::Status, t, if self.wire == Wire::Ros2 { ros2::status(json) } else { json.into_bytes() }));
         }
         out
     }
@@ -194,9 +207,35 @@ pub fn log(t: u64, level: Level, name: &str, text: &str) -> Log {
     Log { timestamp: Some(stamp(t)), level: level as i32, message: text.into(), name: name.into(), file: String::new(), line: 0 }
 }
 
-/// A log line as the log channel's bytes, for writers other than the server (recordings).
-pub fn log_bytes(t: u64, level: Level, name: &str, text: &str) -> Vec<u8> {
-    encoded(&log(t, level, name, text))
+/// A log line as the log channel's bytes on `wire`, for writers other than the server
+/// (recordings).
+pub fn log_bytes(wire: Wire, t: u64, level: Level, name: &str, text: &str) -> Vec<u8> {
+    wire.log(&log(t, level, name, text))
+}
+
+/// How the live view's messages are encoded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Wire {
+    /// Foxglove's protobuf messages (and the status as JSON): the live server's.
+    Foxglove,
+    /// ROS 2 messages in CDR (see [`crate::ros2_type`]): recordings'.
+    Ros2,
+}
+
+impl Wire {
+    fn image(self, m: &RawImage) -> Vec<u8> {
+        match self {
+            Wire::Foxglove => encoded(m),
+            Wire::Ros2 => encode(&ros2::image(m)),
+        }
+    }
+
+    fn log(self, m: &Log) -> Vec<u8> {
+        match self {
+            Wire::Foxglove => encoded(m),
+            Wire::Ros2 => encode(&ros2::log(m)),
+        }
+    }
 }
 
 /// The episode's status as JSON (the status channel's schema).
@@ -395,6 +434,43 @@ mod tests {
         // Only wanted channels are framed.
         let only = framer.frame(&env, &|c| c == LiveChannel::Status);
         assert!(only.iter().all(|(c, ..)| *c == LiveChannel::Status) && only.len() == 1);
+        Ok(())
+    }
+
+    /// Recordings' wire: the same step as ROS 2 messages, each decoding as its channel's ROS 2
+    /// type with what the protobuf one carries.
+    #[test]
+    fn the_ros2_wire_carries_the_same_step() -> R {
+        use avacraft_msgs::foxglove_msgs as fm;
+        use avacraft_msgs::{Image, StdString, decode};
+        let scenario = Arc::new(Scenario::load("3m_vlm")?);
+        let mut env = Env::new(Arc::clone(&scenario), EnvConfig::default(), 3);
+        env.step();
+        let size = ViewSize { screen: (160, 120), minimap: 64 };
+        let fox = Framer::new(size).frame(&env, &|_| true);
+        let ros = Framer::with_wire(size, Wire::Ros2).frame(&env, &|_| true);
+        assert_eq!(fox.iter().map(|(c, t, _)| (*c, *t)).collect::<Vec<_>>(), ros.iter().map(|(c, t, _)| (*c, *t)).collect::<Vec<_>>());
+        let on = |f: &Frame, c: LiveChannel| f.iter().find(|(ch, ..)| *ch == c).map(|(_, t, d)| (*t, d.clone())).ok_or("missing");
+        let (t, img) = on(&ros, LiveChannel::Screen)?;
+        let img: Image = decode(&img)?;
+        let want = RawImage::decode(&on(&fox, LiveChannel::Screen)?.1[..])?;
+        assert_eq!((img.width, img.height, img.step, img.encoding.as_str()), (want.width, want.height, want.step, "rgb8"));
+        assert_eq!(img.data, want.data.to_vec());
+        assert_eq!(u64::try_from(img.header.stamp.sec)? * 1_000_000_000 + u64::from(img.header.stamp.nanosec), t);
+        let scene: fm::SceneUpdate = decode(&on(&ros, LiveChannel::Scene)?.1)?;
+        let want = SceneUpdate::decode(&on(&fox, LiveChannel::Scene)?.1[..])?;
+        assert_eq!(scene.entities.len(), want.entities.len());
+        for (a, b) in scene.entities.iter().zip(&want.entities) {
+            assert_eq!((a.id.as_str(), a.cylinders.len(), a.texts.len()), (b.id.as_str(), b.cylinders.len(), b.texts.len()));
+            assert_eq!(a.texts[0].text, b.texts[0].text);
+        }
+        let ann: fm::ImageAnnotations = decode(&on(&ros, LiveChannel::Annotations)?.1)?;
+        let want = ImageAnnotations::decode(&on(&fox, LiveChannel::Annotations)?.1[..])?;
+        assert_eq!((ann.circles.len(), ann.texts.len()), (want.circles.len(), want.texts.len()));
+        let line: fm::Log = decode(&on(&ros, LiveChannel::Log)?.1)?;
+        assert_eq!(line.level, fm::Log::INFO);
+        let st: StdString = decode(&on(&ros, LiveChannel::Status)?.1)?;
+        assert_eq!(st.data.as_bytes(), &on(&fox, LiveChannel::Status)?.1[..]);
         Ok(())
     }
 

@@ -8,6 +8,7 @@
 #![forbid(unsafe_code)]
 
 mod cdr;
+mod foxglove;
 mod message;
 mod parser;
 mod registry;
@@ -27,7 +28,23 @@ pub use types::{
 
 /// `builtin_interfaces` types, under their ROS names.
 pub mod builtin_interfaces {
+    pub use crate::foxglove::Duration;
     pub use crate::types::Time;
+}
+
+/// `geometry_msgs` types, under their ROS names.
+pub mod geometry_msgs {
+    pub use crate::foxglove::{Point, Pose, Quaternion, Vector3};
+}
+
+/// `foxglove_msgs` types (the live view's, recorded as ROS 2 messages), under their ROS names
+/// (`Log` is [`crate::foxglove_msgs::Log`]).
+pub mod foxglove_msgs {
+    pub use crate::foxglove::{
+        ArrowPrimitive, CircleAnnotation, Color, CubePrimitive, CylinderPrimitive, ImageAnnotations, KeyValuePair, LinePrimitive,
+        LogLine as Log, ModelPrimitive, Point2, PointsAnnotation, SceneEntity, SceneEntityDeletion, SceneUpdate, SpherePrimitive,
+        TextAnnotation, TextPrimitive, TriangleListPrimitive,
+    };
 }
 
 /// `std_msgs` types, under their ROS names.

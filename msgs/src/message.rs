@@ -96,6 +96,7 @@ macro_rules! ros_messages {
     };
 }
 
+use crate::foxglove::*;
 use crate::types::*;
 
 ros_messages! {
@@ -103,6 +104,30 @@ ros_messages! {
     Header => "std_msgs", "Header", "../std/std_msgs/msg/Header.msg";
     StdString => "std_msgs", "String", "../std/std_msgs/msg/String.msg";
     Image => "sensor_msgs", "Image", "../std/sensor_msgs/msg/Image.msg";
+    Duration => "builtin_interfaces", "Duration", "../std/builtin_interfaces/msg/Duration.msg";
+    Point => "geometry_msgs", "Point", "../std/geometry_msgs/msg/Point.msg";
+    Vector3 => "geometry_msgs", "Vector3", "../std/geometry_msgs/msg/Vector3.msg";
+    Quaternion => "geometry_msgs", "Quaternion", "../std/geometry_msgs/msg/Quaternion.msg";
+    Pose => "geometry_msgs", "Pose", "../std/geometry_msgs/msg/Pose.msg";
+    Color => "foxglove_msgs", "Color", "../std/foxglove_msgs/msg/Color.msg";
+    KeyValuePair => "foxglove_msgs", "KeyValuePair", "../std/foxglove_msgs/msg/KeyValuePair.msg";
+    Point2 => "foxglove_msgs", "Point2", "../std/foxglove_msgs/msg/Point2.msg";
+    ArrowPrimitive => "foxglove_msgs", "ArrowPrimitive", "../std/foxglove_msgs/msg/ArrowPrimitive.msg";
+    CubePrimitive => "foxglove_msgs", "CubePrimitive", "../std/foxglove_msgs/msg/CubePrimitive.msg";
+    SpherePrimitive => "foxglove_msgs", "SpherePrimitive", "../std/foxglove_msgs/msg/SpherePrimitive.msg";
+    CylinderPrimitive => "foxglove_msgs", "CylinderPrimitive", "../std/foxglove_msgs/msg/CylinderPrimitive.msg";
+    LinePrimitive => "foxglove_msgs", "LinePrimitive", "../std/foxglove_msgs/msg/LinePrimitive.msg";
+    TriangleListPrimitive => "foxglove_msgs", "TriangleListPrimitive", "../std/foxglove_msgs/msg/TriangleListPrimitive.msg";
+    TextPrimitive => "foxglove_msgs", "TextPrimitive", "../std/foxglove_msgs/msg/TextPrimitive.msg";
+    ModelPrimitive => "foxglove_msgs", "ModelPrimitive", "../std/foxglove_msgs/msg/ModelPrimitive.msg";
+    SceneEntity => "foxglove_msgs", "SceneEntity", "../std/foxglove_msgs/msg/SceneEntity.msg";
+    SceneEntityDeletion => "foxglove_msgs", "SceneEntityDeletion", "../std/foxglove_msgs/msg/SceneEntityDeletion.msg";
+    SceneUpdate => "foxglove_msgs", "SceneUpdate", "../std/foxglove_msgs/msg/SceneUpdate.msg";
+    CircleAnnotation => "foxglove_msgs", "CircleAnnotation", "../std/foxglove_msgs/msg/CircleAnnotation.msg";
+    PointsAnnotation => "foxglove_msgs", "PointsAnnotation", "../std/foxglove_msgs/msg/PointsAnnotation.msg";
+    TextAnnotation => "foxglove_msgs", "TextAnnotation", "../std/foxglove_msgs/msg/TextAnnotation.msg";
+    ImageAnnotations => "foxglove_msgs", "ImageAnnotations", "../std/foxglove_msgs/msg/ImageAnnotations.msg";
+    LogLine => "foxglove_msgs", "Log", "../std/foxglove_msgs/msg/Log.msg";
     UnitState => "avacraft_msgs", "UnitState", "../msg/UnitState.msg";
     AbilityState => "avacraft_msgs", "AbilityState", "../msg/AbilityState.msg";
     AreaEffect => "avacraft_msgs", "AreaEffect", "../msg/AreaEffect.msg";

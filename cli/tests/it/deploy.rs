@@ -61,13 +61,11 @@ fn launch_3m_with_three_agent_processes_finishes_episodes_and_records_them() {
     ] {
         assert!(topics.contains(&t), "{t} missing from {topics:?}");
     }
+    // Every channel, the live view's too, is a ROS 2 topic.
     for c in summary.channels.values() {
         let s = c.schema.as_ref().expect("every channel has a schema");
-        if avacraft_live::LiveChannel::from_topic(&c.topic).is_some() {
-            continue;
-        }
-        assert_eq!((s.encoding.as_str(), c.message_encoding.as_str()), ("ros2msg", "cdr"));
-        assert!(c.metadata.contains_key("offered_qos_profiles"));
+        assert_eq!((s.encoding.as_str(), c.message_encoding.as_str()), ("ros2msg", "cdr"), "{}", c.topic);
+        assert!(c.metadata.contains_key("offered_qos_profiles"), "{}", c.topic);
     }
     crate::replay::check_live_channels(&bytes);
     // Frames: sensor_msgs/Image, 160x120 rgb8 screens with pixels.
@@ -95,6 +93,24 @@ fn launch_3m_with_three_agent_processes_finishes_episodes_and_records_them() {
     let parts: Vec<&str> = text.split_whitespace().collect();
     assert!(parts.first().and_then(|n| n.parse::<u32>().ok()).is_some_and(|n| n > 10), "{text}");
     assert_eq!(parts.get(1), Some(&"3m_vlm"), "{text}");
+    // Opened whole by rosbags' AnyReader with the ROS 2 Jazzy type store (its own CDR reader
+    // and type system, installed by .ci/run): every message of every topic decodes.
+    let py = "import sys\nfrom pathlib import Path\nfrom rosbags.highlevel import AnyReader\nfrom rosbags.typesys import Stores, get_typestore\n\
+              n = {}\nwith AnyReader([Path(sys.argv[1])], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as r:\n\
+              \x20   for c, _, raw in r.messages(connections=r.connections):\n\
+              \x20       r.deserialize(raw, c.msgtype); n[c.topic] = n.get(c.topic, 0) + 1\n\
+              print(len(n), sum(n.values()), n.get('/avacraft/live/scene_update', 0))\n";
+    let out = Command::new("python3").args(["-c", py]).arg(&mcap).output().expect("python3");
+    assert!(
+        out.status.success(),
+        "rosbags could not read the recording (is rosbags installed? .ci/run installs it): {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    let n: Vec<u64> = text.split_whitespace().filter_map(|x| x.parse().ok()).collect();
+    assert_eq!(n.first().copied(), Some(summary.channels.len() as u64), "every channel read: {text}");
+    assert_eq!(n.get(1).copied(), Some(stats.message_count), "every message decoded: {text}");
+    assert!(n.get(2).is_some_and(|&k| k > 10), "the scene too: {text}");
     // Replay from the recording alone, and tampered copies of it.
     crate::replay::check_recording(&mcap);
 }
@@ -628,7 +644,7 @@ fn an_ava_commander_and_its_role_groups_play_the_same_game_deployed_and_in_proce
     for m in mcap::MessageStream::new(&bytes).expect("an MCAP file") {
         let m = m.expect("a message");
         if m.channel.topic == avacraft_live::LiveChannel::Log.topic().as_str() {
-            let line = <foxglove::schemas::Log as foxglove::Decode>::decode(&m.data[..]).expect("a foxglove.Log");
+            let line: avacraft_msgs::foxglove_msgs::Log = avacraft_msgs::decode(&m.data).expect("a foxglove_msgs/Log");
             if let Some(node) = line.name.strip_prefix("ava/").and_then(|n| n.split('/').next()) {
                 *shown.entry(node.to_owned()).or_default() += 1;
             }

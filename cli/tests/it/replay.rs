@@ -148,19 +148,22 @@ pub fn check_recording(mcap: &Path) {
     assert!(!ok && text.contains("not an MCAP file"), "{text}");
 }
 
-/// The live view's channels a launch adds to its recording: each with Foxglove's schema,
-/// one screen, scene and status per re-simulated step, at the log time of that step's
-/// recorded status, and decodable.
+/// The live view's channels a launch adds to its recording: each a ROS 2 topic (ros2msg
+/// schema, CDR, its type hash), one screen, scene and status per re-simulated step, at the log
+/// time of that step's recorded status, and decodable as its ROS 2 type.
 pub fn check_live_channels(bytes: &[u8]) {
     use avacraft_live::LiveChannel;
-    use foxglove::Decode;
+    use avacraft_msgs::foxglove_msgs::SceneUpdate;
+    use avacraft_msgs::{Image, StdString, decode};
     let summary = mcap::Summary::read(bytes).expect("summary").expect("summary present");
     for c in LiveChannel::ALL {
         let ch =
             summary.channels.values().find(|ch| ch.topic == c.topic().as_str()).unwrap_or_else(|| panic!("{} not recorded", c.topic()));
-        let (name, encoding, _) = c.schema();
+        let (name, schema, hash) = avacraft_live::ros2_type(c);
         let s = ch.schema.as_ref().expect("a schema");
-        assert_eq!((s.name.as_str(), s.encoding.as_str(), ch.message_encoding.clone()), (name.as_str(), encoding.as_str(), c.encoding()));
+        assert_eq!((s.name.as_str(), s.encoding.as_str(), ch.message_encoding.as_str()), (name, "ros2msg", "cdr"), "{}", c.topic());
+        assert_eq!(s.data.as_ref(), schema.as_bytes());
+        assert_eq!(ch.metadata.get("topic_type_hash").map(String::as_str), Some(hash));
     }
     let rec = read_recording(bytes).expect("readable");
     let steps: usize = replay_recording(&rec, None).expect("replays").iter().map(|r| r.steps as usize).sum();
@@ -171,11 +174,14 @@ pub fn check_live_channels(bytes: &[u8]) {
         assert_eq!(on(c).count(), steps, "{}: one message per re-simulated step", c.topic());
         assert!(on(c).all(|m| status_times.contains(&m.log_time)), "{}: at the recorded steps' times", c.topic());
     }
-    let img = foxglove::schemas::RawImage::decode(&on(LiveChannel::Screen).next().expect("a screen").data[..]).expect("a RawImage");
+    let img: Image = decode(&on(LiveChannel::Screen).next().expect("a screen").data).expect("an Image");
     let (w, h) = avacraft_cli::RECORDED_VIEW.screen;
     assert_eq!((img.width, img.height, img.encoding.as_str(), img.data.len() as u32), (w, h, "rgb8", w * h * 3));
-    let scene = foxglove::schemas::SceneUpdate::decode(&on(LiveChannel::Scene).next().expect("a scene").data[..]).expect("a SceneUpdate");
-    assert!(!scene.entities.is_empty());
+    let scene: SceneUpdate = decode(&on(LiveChannel::Scene).next().expect("a scene").data).expect("a SceneUpdate");
+    assert!(!scene.entities.is_empty() && scene.entities.iter().all(|e| !e.cylinders.is_empty()));
+    let status: StdString = decode(&on(LiveChannel::Status).next().expect("a status").data).expect("a String");
+    let json: serde_json::Value = serde_json::from_str(&status.data).expect("the status's JSON");
+    assert!(json["scenario"].is_string(), "{json}");
     // Adding them again is refused, and the file stays as it was.
     let copy = tmp("live_twice.mcap");
     std::fs::write(&copy, bytes).expect("copy");

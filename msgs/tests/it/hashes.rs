@@ -14,6 +14,20 @@ const HEADER_HASH: &str = "RIHS01_f49fb3ae2cf070f793645ff749683ac6b06203e41c891e
 /// From rosidl-generated `*__description.c` files (`builtin_interfaces__msg__Time__EXPECTED_HASH`).
 const TIME_HASH: &str = "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197";
 
+/// The geometry types the live view's recordings carry, as rosbags' ROS 2 Jazzy type store
+/// hashes them (`Typestore.hash_rihs01`, rosbags 0.11); Pose's is also in rosidl's
+/// `geometry_msgs__msg__Pose__EXPECTED_HASH`.
+#[test]
+fn geometry_types_match_jazzy_hashes() {
+    use avacraft_msgs::builtin_interfaces::Duration;
+    use avacraft_msgs::geometry_msgs::{Point, Pose, Quaternion, Vector3};
+    assert_eq!(Pose::type_hash(), "RIHS01_d501954e9476cea2996984e812054b68026ae0bfae789d9a10b23daf35cc90fa");
+    assert_eq!(Point::type_hash(), "RIHS01_6963084842a9b04494d6b2941d11444708d892da2f4b09843b9c43f42a7f6881");
+    assert_eq!(Quaternion::type_hash(), "RIHS01_8a765f66778c8ff7c8ab94afcc590a2ed5325a1d9a076ffff38fbce36f458684");
+    assert_eq!(Vector3::type_hash(), "RIHS01_cc12fe83e4c02719f1ce8070bfd14aecd40f75a96696a67a2a1f37f7dbb0765d");
+    assert_eq!(Duration::type_hash(), "RIHS01_e8d009f659816f758b75334ee1a9ca5b5c0b859843261f14c7f937349599d93b");
+}
+
 #[test]
 fn standard_types_match_published_hashes() {
     assert_eq!(StdString::type_hash(), STRING_HASH);

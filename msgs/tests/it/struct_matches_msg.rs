@@ -344,3 +344,75 @@ fn session_info_constants_match_msg() {
     let rust: Vec<(String, u8)> = SessionInfo::CONSTANTS.iter().map(|(n, v)| ((*n).to_owned(), *v)).collect();
     assert_eq!(rust, msg);
 }
+
+/// The geometry and `foxglove_msgs` types the live view records, each sample with one element
+/// in every sequence so the element types are checked too.
+#[test]
+fn the_recorded_live_view_types_match_their_msgs() {
+    use avacraft_msgs::builtin_interfaces::{Duration, Time};
+    use avacraft_msgs::foxglove_msgs::*;
+    use avacraft_msgs::geometry_msgs::{Point, Pose, Vector3};
+    let t = Time { sec: 1, nanosec: 2 };
+    let c = Color { r: 0.1, g: 0.2, b: 0.3, a: 1.0 };
+    let pose = Pose::default();
+    let v = Vector3 { x: 1.0, y: 2.0, z: 3.0 };
+    let p2 = Point2 { x: 1.0, y: 2.0 };
+    let p = Point { x: 1.0, y: 2.0, z: 3.0 };
+    let entity = SceneEntity {
+        timestamp: t,
+        frame_id: "map".into(),
+        id: "u1".into(),
+        lifetime: Duration { sec: 0, nanosec: 5 },
+        frame_locked: true,
+        metadata: vec![KeyValuePair { key: "k".into(), value: "v".into() }],
+        arrows: vec![ArrowPrimitive { pose, shaft_length: 1.0, shaft_diameter: 0.1, head_length: 0.2, head_diameter: 0.3, color: c }],
+        cubes: vec![CubePrimitive { pose, size: v, color: c }],
+        spheres: vec![SpherePrimitive { pose, size: v, color: c }],
+        cylinders: vec![CylinderPrimitive { pose, size: v, bottom_scale: 1.0, top_scale: 0.5, color: c }],
+        lines: vec![LinePrimitive {
+            r#type: 1,
+            pose,
+            thickness: 0.1,
+            scale_invariant: true,
+            points: vec![p],
+            color: c,
+            colors: vec![c],
+            indices: vec![0],
+        }],
+        triangles: vec![TriangleListPrimitive { pose, points: vec![p], color: c, colors: vec![c], indices: vec![0] }],
+        texts: vec![TextPrimitive { pose, billboard: true, font_size: 12.0, scale_invariant: false, color: c, text: "x".into() }],
+        models: vec![ModelPrimitive {
+            pose,
+            scale: v,
+            color: c,
+            override_color: false,
+            url: "u".into(),
+            media_type: "m".into(),
+            data: vec![1],
+        }],
+    };
+    let deletion = SceneEntityDeletion { timestamp: t, r#type: SceneEntityDeletion::ALL, id: String::new() };
+    check(Just(SceneUpdate { deletions: vec![deletion], entities: vec![entity] }));
+    check(Just(ImageAnnotations {
+        circles: vec![CircleAnnotation { timestamp: t, position: p2, diameter: 3.0, thickness: 1.0, fill_color: c, outline_color: c }],
+        points: vec![PointsAnnotation {
+            timestamp: t,
+            r#type: 1,
+            points: vec![p2],
+            outline_color: c,
+            outline_colors: vec![c],
+            fill_color: c,
+            thickness: 1.0,
+        }],
+        texts: vec![TextAnnotation { timestamp: t, position: p2, text: "t".into(), font_size: 9.0, text_color: c, background_color: c }],
+    }));
+    check(Just(Log { timestamp: t, level: Log::INFO, message: "m".into(), name: "n".into(), file: "f".into(), line: 3 }));
+    // The constants the Rust side names are the .msg's.
+    let constants = |type_name: &str| -> Vec<(String, String)> {
+        let spec = embedded_registry().get(type_name).expect("embedded");
+        spec.constants.iter().map(|c| (c.name.clone(), c.value.clone())).collect()
+    };
+    assert!(constants(SceneEntityDeletion::TYPE_NAME).contains(&("ALL".into(), SceneEntityDeletion::ALL.to_string())));
+    assert!(constants(Log::TYPE_NAME).contains(&("INFO".into(), Log::INFO.to_string())));
+    assert!(constants(Log::TYPE_NAME).contains(&("ERROR".into(), Log::ERROR.to_string())));
+}
