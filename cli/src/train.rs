@@ -221,7 +221,7 @@ fn ship_plan(
         let trained = if done { "to its budget".to_owned() } else { format!("unfinished: {} steps", last_t_env(&job.dir)?) };
         let name = if job.seed == 1 { job.run.clone() } else { format!("{}-s{}", job.run, job.seed) };
         let dest = to.join(&job.scenario).join(&name);
-        let r = avacraft_marl::policy::ship(&job.dir, &dest, SHIP_RUN_BYTES).with_context(|| format!("shipping {}", job.id))?;
+        let r = avacraft_marl::ship::ship(&job.dir, &dest, SHIP_RUN_BYTES).with_context(|| format!("shipping {}", job.id))?;
         t.add_row([
             job.id.clone(),
             dest.display().to_string(),

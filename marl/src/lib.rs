@@ -53,6 +53,7 @@ pub mod optim;
 pub mod params;
 pub mod plot;
 pub mod policy;
+pub mod ship;
 pub mod ppo;
 pub mod qtran;
 pub mod resume;

@@ -364,7 +364,7 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
     // Shipped, it keeps the best checkpoint and the last one (`baseline:NAME@last`) apart.
     let root = dir.with_extension("baselines");
     let _ = std::fs::remove_dir_all(&root);
-    avacraft_marl::policy::ship(&dir, &root.join("3m_vlm/qmix"), 10_000_000)?;
+    avacraft_marl::ship::ship(&dir, &root.join("3m_vlm/qmix"), 10_000_000)?;
     let best = avacraft_marl::baselines::dir(&root, "3m_vlm", "qmix")?;
     let last = avacraft_marl::baselines::dir(&root, "3m_vlm", "qmix@last")?;
     assert_eq!(std::fs::read(best.join("config.json"))?, std::fs::read(dir.join("best/config.json"))?);

@@ -1,0 +1,111 @@
+//! Shipping a trained run: its best checkpoint's agent network (and its last one's), config,
+//! log and curves, into `baselines/` under a size budget, read back before it replaces what was
+//! there.
+
+use crate::Error;
+use crate::policy::Policy;
+use candle_core::Tensor;
+use std::path::Path;
+
+/// What [`ship`] wrote.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Shipped {
+    /// Bytes of everything but the curves (the checkpoint, its config and the log).
+    pub bytes: u64,
+    /// Whether the weights were stored as 16-bit floats to fit the budget.
+    pub half: bool,
+}
+
+/// The shipped curves' width and height: the training run's 900x900 PNG took about 450 kB, so
+/// 42 runs' curves alone would have come near the 25 MB all baselines may take.
+const SHIPPED_CURVES_SIZE: u32 = 600;
+
+/// `from` scaled to at most `size` pixels a side and written with the PNG encoder's best
+/// compression.
+fn small_png(from: &Path, to: &Path, size: u32) -> Result<(), Error> {
+    let bad = |e: image::ImageError| Error::Plot { message: format!("{}: {e}", from.display()) };
+    let img = image::open(from).map_err(bad)?.into_rgb8();
+    let (w, h) = img.dimensions();
+    let scale = (size as f32 / w.max(h) as f32).min(1.0);
+    let (nw, nh) = (((w as f32 * scale).round() as u32).max(1), ((h as f32 * scale).round() as u32).max(1));
+    let img = image::imageops::resize(&img, nw, nh, image::imageops::FilterType::Triangle);
+    let file = std::fs::File::create(to).map_err(|source| Error::Io { path: to.to_path_buf(), source })?;
+    let enc = image::codecs::png::PngEncoder::new_with_quality(
+        std::io::BufWriter::new(file),
+        image::codecs::png::CompressionType::Best,
+        image::codecs::png::FilterType::Adaptive,
+    );
+    img.write_with_encoder(enc).map_err(bad)
+}
+
+/// Copies what plays a trained run in `run` (its `best/` checkpoint if it has one, else the
+/// last) into `to`: the agent network's weights (the mixer and critic are not needed to act),
+/// `config.json`, and the run's `log.csv` and `curves.png`; with a `best/` checkpoint, the last
+/// one's weights and config too, in `last/`. Past `max_bytes` (curves aside)
+/// the weights are stored as 16-bit floats; still past it, nothing is left half-written and
+/// the error names the run.
+pub fn ship(run: &Path, to: &Path, max_bytes: u64) -> Result<Shipped, Error> {
+    let ckpt = if run.join("best").join("config.json").is_file() { run.join("best") } else { run.to_path_buf() };
+    // Loads as a check: a checkpoint that does not load is not shipped.
+    let policy = Policy::load(&ckpt)?;
+    let io = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| Error::Io { path, source }
+    };
+    let tmp = to.with_extension("partial");
+    let _ = std::fs::remove_dir_all(&tmp);
+    std::fs::create_dir_all(&tmp).map_err(io(&tmp))?;
+    std::fs::copy(ckpt.join("config.json"), tmp.join("config.json")).map_err(io(&ckpt.join("config.json")))?;
+    if run.join("log.csv").is_file() {
+        std::fs::copy(run.join("log.csv"), tmp.join("log.csv")).map_err(io(&run.join("log.csv")))?;
+    }
+    if run.join("curves.png").is_file() {
+        small_png(&run.join("curves.png"), &tmp.join("curves.png"), SHIPPED_CURVES_SIZE)?;
+    }
+    let weights = policy.nets.agent_params.to_map();
+    let size_without_curves = |dir: &Path| -> u64 {
+        ["agent.safetensors", "config.json", "log.csv"].iter().filter_map(|f| std::fs::metadata(dir.join(f)).ok()).map(|m| m.len()).sum()
+    };
+    // The run's last checkpoint too, where the best one is another (`baseline:NAME@last`):
+    // a table can then show what training ended with beside the best of its tests.
+    let last = (ckpt != run && run.join("config.json").is_file()).then(|| Policy::load(run)).transpose()?;
+    let last_dir = tmp.join(crate::baselines::LAST_DIR);
+    if last.is_some() {
+        std::fs::create_dir_all(&last_dir).map_err(io(&last_dir))?;
+        std::fs::copy(run.join("config.json"), last_dir.join("config.json")).map_err(io(&run.join("config.json")))?;
+    }
+    let last_weights = last.as_ref().map(|p| p.nets.agent_params.to_map());
+    let size = |dir: &Path| size_without_curves(dir) + size_without_curves(&dir.join(crate::baselines::LAST_DIR));
+    let write = |half: bool| -> Result<(), Error> {
+        let conv =
+            |w: &std::collections::HashMap<String, Tensor>| -> Result<std::collections::HashMap<String, Tensor>, candle_core::Error> {
+                w.iter().map(|(k, t)| Ok((k.clone(), if half { t.to_dtype(candle_core::DType::F16)? } else { t.clone() }))).collect()
+            };
+        candle_core::safetensors::save(&conv(&weights)?, tmp.join("agent.safetensors"))?;
+        if let Some(w) = &last_weights {
+            candle_core::safetensors::save(&conv(w)?, last_dir.join("agent.safetensors"))?;
+        }
+        Ok(())
+    };
+    write(false)?;
+    let mut half = false;
+    if size(&tmp) > max_bytes {
+        write(true)?;
+        half = true;
+    }
+    let bytes = size(&tmp);
+    if bytes > max_bytes {
+        let _ = std::fs::remove_dir_all(&tmp);
+        return Err(Error::Checkpoint {
+            message: format!("{}: {bytes} bytes without the curves even in 16-bit floats, over the {max_bytes} allowed", run.display()),
+        });
+    }
+    // The loaded copy must play: a shipped checkpoint is read back before it replaces one.
+    Policy::load(&tmp)?;
+    if last.is_some() {
+        Policy::load(&last_dir)?;
+    }
+    let _ = std::fs::remove_dir_all(to);
+    std::fs::rename(&tmp, to).map_err(io(to))?;
+    Ok(Shipped { bytes, half })
+}
