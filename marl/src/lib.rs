@@ -53,12 +53,12 @@ pub mod optim;
 pub mod params;
 pub mod plot;
 pub mod policy;
-pub mod ship;
 pub mod ppo;
 pub mod qtran;
 pub mod resume;
 pub mod runlog;
 pub mod selfplay;
+pub mod ship;
 pub mod td;
 pub mod tensorboard;
 pub mod train;
@@ -128,12 +128,7 @@ pub enum Error {
     Observation { message: String },
     #[error("text model all-MiniLM-L6-v2: {message}")]
     TextModel { message: String },
-    #[error("{}", path.display())]
-    Zip {
-        path: std::path::PathBuf,
-        #[source]
-        source: zip::result::ZipError,
-    },
-    #[error("tokenizer")]
-    Tokenizer(#[source] tokenizers::Error),
+    /// all-MiniLM-L6-v2, the vision-text mode's text model.
+    #[error(transparent)]
+    Text(#[from] avacraft_minilm::Error),
 }

@@ -8,7 +8,7 @@
 
 use super::base::{KnowledgeBase, Passage};
 use super::retrieve::{Hit, Retriever};
-use avacraft_marl::encoders::text::MiniLm;
+use avacraft_minilm::MiniLm;
 use std::collections::BTreeMap;
 use std::sync::Mutex;
 
@@ -18,7 +18,7 @@ use std::sync::Mutex;
 pub struct DenseError {
     what: String,
     #[source]
-    source: avacraft_marl::Error,
+    source: avacraft_minilm::Error,
 }
 
 /// Cosine-similarity retrieval over MiniLM embeddings.
@@ -36,7 +36,7 @@ impl std::fmt::Debug for Dense {
     }
 }
 
-fn embed(model: &MiniLm, text: &str) -> Result<Vec<f32>, avacraft_marl::Error> {
+fn embed(model: &MiniLm, text: &str) -> Result<Vec<f32>, avacraft_minilm::Error> {
     Ok(model.embed(text)?.to_vec1::<f32>()?)
 }
 
