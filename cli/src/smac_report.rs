@@ -132,6 +132,23 @@ fn show_ours(o: Option<&Ours>) -> String {
     }
 }
 
+/// Maps where more than one seed of a learner ran: each seed's result, so a reader sees how far
+/// one seed is from another.
+fn seeds_line(runs: &Path) -> Result<String> {
+    let mut parts = Vec::new();
+    for map in smac_names() {
+        for r in RUNS {
+            let seeds: Vec<Option<Ours>> = (1..=3).map(|k| ours(&runs.join(map).join(format!("{r}-s{k}")))).collect::<Result<_>>()?;
+            if seeds.iter().filter(|o| o.is_some()).count() < 2 {
+                continue;
+            }
+            let shown: Vec<String> = seeds.iter().map(|o| o.as_ref().map_or_else(|| "–".to_owned(), |o| show_ours(Some(o)))).collect();
+            parts.push(format!("{map} {r}: {}", shown.join("; ")));
+        }
+    }
+    Ok(if parts.is_empty() { String::new() } else { format!("Seeds 1, 2 and 3 (test / held-out @ steps): {}.\n", parts.join(" | ")) })
+}
+
 pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
     let text = std::fs::read_to_string(&a.published).with_context(|| format!("{}", a.published.display()))?;
     let published: Published = toml::from_str(&text).with_context(|| format!("{}", a.published.display()))?;
@@ -194,6 +211,7 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
     let easy_held: Vec<String> =
         easy.iter().map(|(m, h)| if h.is_finite() { format!("{m} {}", pct(*h)) } else { format!("{m} –") }).collect();
     table.push_str(&format!("Easy maps, best held-out win rate (%): {}.\n", easy_held.join(", ")));
+    table.push_str(&seeds_line(&a.runs)?);
     std::fs::create_dir_all(&a.out).with_context(|| format!("{}", a.out.display()))?;
     std::fs::write(a.out.join("table.md"), &table).with_context(|| format!("{}/table.md", a.out.display()))?;
     let names: Vec<&str> = RUNS.to_vec();

@@ -36,11 +36,11 @@ pub struct TrainArgs {
     /// agent network, config, log and curves, at most 300 kB each without the curves.
     #[arg(long, value_name = "DIR", requires = "plan")]
     pub ship: Option<PathBuf>,
-    /// With --ship: also ship runs stopped short of their budget (a checkpoint, no
-    /// done.json); the table names each with the steps it trained, and its shipped log shows
-    /// them too.
-    #[arg(long, requires = "ship")]
-    pub unfinished: bool,
+    /// With --ship: also ship these runs (plan ids such as `bane_vs_bane/qmix-s1`), stopped
+    /// short of their budget (a checkpoint, no done.json); the table names each with the steps
+    /// it trained, and its shipped log shows them too.
+    #[arg(long, value_name = "RUN", num_args = 1.., requires = "ship")]
+    pub unfinished: Vec<String>,
     /// Observation mode: features (SMAC's vectors), rgb (screen and minimap images), hybrid
     /// (both) or vision-text (images and the text description's MiniLM embedding); the
     /// config's `obs` key, `features` unless the config says otherwise. Encoder keys
@@ -84,7 +84,7 @@ pub struct TrainArgs {
 
 pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     if let (Some(plan), Some(to)) = (&a.plan, &a.ship) {
-        return ship_plan(plan, a.shard, to, a.unfinished, out);
+        return ship_plan(plan, a.shard, to, &a.unfinished, out);
     }
     if let Some(plan) = &a.plan {
         return run_plan(plan, a.shard, a.threads, out);
@@ -203,17 +203,22 @@ fn ship_plan(
     path: &std::path::Path,
     shard: Option<avacraft_eval::Shard>,
     to: &std::path::Path,
-    unfinished: bool,
+    unfinished: &[String],
     out: &mut dyn Write,
 ) -> Result<()> {
     let plan = avacraft_eval::load_train_plan(path)?;
+    let jobs = plan.shard(shard);
+    if let Some(bad) = unfinished.iter().find(|u| !jobs.iter().any(|j| &j.id == *u)) {
+        let ids: Vec<&str> = jobs.iter().map(|j| j.id.as_str()).collect();
+        bail!("--unfinished {bad}: not one of the plan's runs ({})", ids.join(", "));
+    }
     let mut t = comfy_table::Table::new();
     t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header(["run", "shipped to", "kB without curves", "weights", "trained"]);
     let (mut shipped, mut waiting) = (0, Vec::new());
-    for job in plan.shard(shard) {
+    for job in jobs {
         let done = job.dir.join(DONE_FILE).is_file();
         let started = job.dir.join("config.json").is_file();
-        let ship = done || (unfinished && started);
+        let ship = done || (unfinished.contains(&job.id) && started);
         if !ship {
             waiting.push(job.id.clone());
             continue;
