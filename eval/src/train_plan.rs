@@ -335,7 +335,13 @@ opponent = "focus-fire"
         );
         // SMAC's 23 maps: QMIX and MAPPO on each at SMAC's budgets (10M on the super-hard ones).
         let smac = load_train_plan(&dir.join("smac.toml")).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(smac.jobs.len(), 2 * 23);
+        // Seeds 2 and 3 of QMIX on five maps beside them.
+        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 5);
+        for name in ["3m", "2s3z", "3s_vs_5z", "5m_vs_6m", "MMM"] {
+            for seed in [2, 3] {
+                assert!(smac.jobs.iter().any(|j| j.id == format!("{name}/qmix-s{seed}")), "{name} seed {seed}");
+            }
+        }
         for name in smac_names() {
             for run in ["qmix", "mappo"] {
                 let job = smac.jobs.iter().find(|j| j.id == format!("{name}/{run}-s1")).unwrap_or_else(|| panic!("{name} {run}"));

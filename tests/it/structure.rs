@@ -222,6 +222,20 @@ fn the_reader_finds_a_planted_circle() {
     assert_eq!(c, vec![vec![vec!["obs".to_owned(), "smac".to_owned()], vec!["world".to_owned()]]], "graph: {g:?}");
 }
 
+/// Every crate's source files (under `src/`), named from the repository's root, with their text.
+fn sources() -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    for krate in crates() {
+        let mut files = Vec::new();
+        rust_files(&krate.join("src"), &mut files);
+        for f in files {
+            let text = std::fs::read_to_string(&f).expect("a source file");
+            out.push((f.strip_prefix(repo()).unwrap_or(&f).display().to_string(), text));
+        }
+    }
+    out
+}
+
 /// Longest a function outside tests may be: past it, a function does several things that read
 /// better as functions of their own (the structure issue's mark).
 const MAX_FN_LINES: usize = 120;
@@ -335,14 +349,9 @@ fn long_functions(text: &str, max: usize) -> Vec<(usize, String, usize)> {
 #[test]
 fn no_function_outside_tests_is_over_120_lines() {
     let mut found = Vec::new();
-    for krate in crates() {
-        let mut files = Vec::new();
-        rust_files(&krate.join("src"), &mut files);
-        for f in files {
-            let text = std::fs::read_to_string(&f).expect("a source file");
-            for (line, name, n) in long_functions(&text, MAX_FN_LINES) {
-                found.push(format!("{}:{line} {name}: {n} lines", f.strip_prefix(repo()).unwrap_or(&f).display()));
-            }
+    for (f, text) in sources() {
+        for (line, name, n) in long_functions(&text, MAX_FN_LINES) {
+            found.push(format!("{f}:{line} {name}: {n} lines"));
         }
     }
     assert!(found.is_empty(), "functions over {MAX_FN_LINES} lines:\n{}", found.join("\n"));
@@ -368,18 +377,10 @@ fn the_length_check_finds_a_planted_long_function() {
 #[test]
 fn no_raw_topic_string_outside_the_topic_module() {
     let mut found = Vec::new();
-    for krate in crates() {
-        let mut files = Vec::new();
-        rust_files(&krate.join("src"), &mut files);
-        for f in files {
-            if f.ends_with("nodes/src/topics.rs") {
-                continue;
-            }
-            let text = std::fs::read_to_string(&f).expect("a source file");
-            for (i, line) in code(&text).lines().enumerate() {
-                if line.contains("\"/avacraft/") {
-                    found.push(format!("{}:{}: {}", f.strip_prefix(repo()).unwrap_or(&f).display(), i + 1, line.trim()));
-                }
+    for (f, text) in sources().into_iter().filter(|(f, _)| !f.ends_with("nodes/src/topics.rs")) {
+        for (i, line) in code(&text).lines().enumerate() {
+            if line.contains("\"/avacraft/") {
+                found.push(format!("{f}:{}: {}", i + 1, line.trim()));
             }
         }
     }

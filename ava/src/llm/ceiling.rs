@@ -67,6 +67,8 @@ pub struct Seen {
     pub idle: bool,
     /// Rich prompt: attack-moving.
     pub advancing: bool,
+    /// Rich prompt: the enemies within the weapon's range.
+    pub in_range: Vec<u32>,
     /// Rich prompt: the nearest enemy's edge-to-edge distance, and its tag.
     pub nearest: Option<f32>,
     pub nearest_tag: Option<u32>,
@@ -141,6 +143,7 @@ fn rich_line(line: &str) -> Option<Seen> {
         full: hp >= hp_max,
         idle: false,
         advancing: false,
+        in_range: Vec::new(),
         nearest: None,
         nearest_tag: None,
         stimmed: false,
@@ -160,6 +163,8 @@ fn rich_line(line: &str) -> Option<Seen> {
             seen.idle = true;
         } else if f.starts_with("attack-moving") {
             seen.advancing = true;
+        } else if let Some(tags) = f.strip_prefix("in range ") {
+            seen.in_range = tags.split_whitespace().filter_map(|t| t.parse().ok()).collect();
         } else if let Some(n) = f.strip_prefix("nearest ") {
             let mut parts = n.split(" at ");
             seen.nearest_tag = parts.next().and_then(|t| t.trim().parse().ok());
@@ -198,6 +203,7 @@ fn paper_line(line: &str) -> Option<Seen> {
         full: false,
         idle: false,
         advancing: false,
+        in_range: Vec::new(),
         nearest: None,
         nearest_tag: None,
         stimmed: false,
@@ -383,7 +389,7 @@ fn blink_to(read: &Read, u: &Seen) -> Option<(f32, f32)> {
 
 /// A self-cast ability the scripts would use now, from the prompt's line: Stimpack when an
 /// enemy is within the weapon's range plus 2 at full health, Siege Mode when the nearest enemy
-/// is 3 to 13 away, Unsiege when none is within reach.
+/// is 3 to 13 away, Unsiege when none is within reach and none is near, or one hugs it.
 fn self_cast(u: &Seen) -> Option<&'static str> {
     let can = |a: &str| u.can.iter().any(|c| c == a);
     let near = u.nearest;
@@ -393,8 +399,12 @@ fn self_cast(u: &Seen) -> Option<&'static str> {
     if can("siege_mode") && near.is_some_and(|d| (3.0..=13.0).contains(&d)) {
         return Some("siege_mode");
     }
-    // Nothing within 2 to 15: too far to reach, or hugging under the minimum range.
-    if can("unsiege") && near.is_none_or(|d| !(2.0..=15.0).contains(&d)) {
+    // As the script: nothing to shoot between the minimum range and the range, and either
+    // nothing within 15 or an enemy hugging under the minimum range. The prompt lists who is in
+    // range (the minimum range aside) and the nearest one's distance: a lone enemy in range
+    // that is the nearest and closer than 2 is a hugger.
+    let in_reach = u.in_range.len() >= 2 || (u.in_range.len() == 1 && near.is_some_and(|d| d >= 2.0));
+    if can("unsiege") && !in_reach && near.is_none_or(|d| d > 15.0 || d < 2.0) {
         return Some("unsiege");
     }
     None
@@ -466,8 +476,9 @@ pub fn ceiling_decision(script: CeilingScript, read: &Read) -> Value {
             continue;
         }
         if script == CeilingScript::AttackMove && read.micro {
-            // Idle units only, so units in a fight keep their targets.
-            if let (true, Some(g)) = (u.idle, goal) {
+            // Idle units that can move only, as the script: units in a fight keep their
+            // targets, and a sieged tank cannot walk.
+            if let (true, true, Some(g)) = (u.idle, read.speed_of(&u.kind) > 0.0, goal) {
                 a["action"] = json!("attack_move");
                 a["point"] = json!([g.0, g.1]);
                 actions.push(a);

@@ -296,3 +296,35 @@ fn a_stance_without_a_target_takes_the_weakest_in_sight() {
     }
     assert!(attacks > 0, "someone is told to attack");
 }
+
+/// Unsiege by the script's rule, from the prompt's in-range list and nearest distance: a lone
+/// enemy hugging the tank under its minimum range makes it unsiege, not when another enemy is in
+/// range too; and the attack-move answer sends no sieged (immobile) tank walking.
+#[test]
+fn the_ceiling_unsieges_as_the_script_and_moves_only_what_can_move() {
+    let text = |fields: &str| {
+        format!(
+            "Step 9, game time 3.0 s. Positions (x,y) in world units: x 0-32 west to east, y 0-32 south to north. Distances are edge to edge, as weapon ranges are.\n\
+             Your units (tag type (x,y) hp[+shields] | weapon | order | enemies in range | nearest enemy):\n\
+             - 1 SiegeTankSieged (16.0,16.0) 175/175 | range 13 ready | idle | {fields} | can cast unsiege\n\
+             Enemies in sight (tag type (x,y) hp[+shields] | target):\n\
+             - 4 Zealot (17.5,16.0) 100/100+50sh | attacking 1\n\
+             - 5 Zealot (22.0,16.0) 100/100+50sh\n\
+             Unit types here:\n\
+             - SiegeTankSieged: Terran, Armored, Mechanical, 175 health, 1 armor, sight 11. Weapon: 40 damage (+30 vs Armored), range 13, every 2.14 s, hits ground only.\n\
+             - Zealot: Protoss, Light, Biological, 100 health, 50 shields, 1 armor, speed 3.15, sight 9. Weapon: 8 damage x2 hits, range 0.1, every 0.86 s, hits ground only.\n\
+             - {{\"unit\": U, \"action\": \"stance\"}}"
+        )
+    };
+    let act =
+        |script, fields: &str| ceiling_decision(script, &read_prompt(&text(fields)))["actions"].as_array().cloned().unwrap_or_default();
+    let hugged = act(CeilingScript::FocusFire, "in range 4 | nearest 4 at 0.4");
+    assert_eq!(hugged[0]["ability"], "unsiege", "{hugged:?}");
+    let two = act(CeilingScript::FocusFire, "in range 4 5 | nearest 4 at 0.4");
+    assert_ne!(two[0]["ability"], "unsiege", "{two:?}");
+    let far = act(CeilingScript::FocusFire, "none in range | nearest 4 at 16.0");
+    assert_eq!(far[0]["ability"], "unsiege", "{far:?}");
+    // Idle but unable to walk: the attack-move answer leaves it be.
+    let am = act(CeilingScript::AttackMove, "in range 4 5 | nearest 4 at 2.5");
+    assert!(am.iter().all(|a| a["action"] != "attack_move"), "{am:?}");
+}

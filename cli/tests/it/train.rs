@@ -121,7 +121,7 @@ fn smac_report_sets_runs_beside_published_results() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let table = String::from_utf8_lossy(&out.stdout);
     // Still training: shown, not compared.
-    assert!(table.contains("| 3m | easy | 90 @ 0.1M (running) | not run | – | – | 100 ᵘ | – |"), "{table}");
+    assert!(table.contains("| 3m | easy | 90 @ 0.1M (unfinished) | not run | – | – | 100 ᵘ | – |"), "{table}");
     assert!(table.contains("maps with a finished run and a published number: none yet"), "{table}");
     std::fs::write(run.join("done.json"), "{}").expect("done");
     let out = args(&published);
