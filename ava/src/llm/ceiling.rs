@@ -404,7 +404,7 @@ fn self_cast(u: &Seen) -> Option<&'static str> {
     // range (the minimum range aside) and the nearest one's distance: a lone enemy in range
     // that is the nearest and closer than 2 is a hugger.
     let in_reach = u.in_range.len() >= 2 || (u.in_range.len() == 1 && near.is_some_and(|d| d >= 2.0));
-    if can("unsiege") && !in_reach && near.is_none_or(|d| d > 15.0 || d < 2.0) {
+    if can("unsiege") && !in_reach && near.is_none_or(|d| !(2.0..=15.0).contains(&d)) {
         return Some("unsiege");
     }
     None
