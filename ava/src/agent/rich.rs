@@ -21,6 +21,13 @@ fn hp(u: &UnitInfo) -> String {
 }
 
 fn order(u: &UnitInfo) -> String {
+    // A unit that takes no order now says so: a model would otherwise order it and be refused.
+    if u.buffs.contains(Buffs::MORPHING) {
+        return "morphing, takes no order until done".into();
+    }
+    if u.buffs.contains(Buffs::CHANNELLING) {
+        return "channelling".into();
+    }
     match u.order {
         OrderInfo::Idle => "idle".into(),
         OrderInfo::Hold => "holding".into(),

@@ -133,7 +133,8 @@ impl Tally {
 /// The fallback's commands: idle units attack the nearest enemy they can hit.
 pub fn attack_nearest(obs: &GroupObs, units: &[u32]) -> Vec<(u32, Command)> {
     let mut out = Vec::new();
-    for u in obs.units.iter().filter(|u| u.own && units.contains(&u.tag) && view::is_idle(u)) {
+    // Not a unit that is morphing or channelling: the engine would refuse it.
+    for u in obs.units.iter().filter(|u| u.own && units.contains(&u.tag) && view::is_idle(u) && !view::busy(u)) {
         let nearest = obs
             .units
             .iter()

@@ -67,6 +67,8 @@ pub struct Seen {
     pub idle: bool,
     /// Rich prompt: attack-moving.
     pub advancing: bool,
+    /// Rich prompt: morphing or channelling, taking no order.
+    pub busy: bool,
     /// Rich prompt: the enemies within the weapon's range.
     pub in_range: Vec<u32>,
     /// Rich prompt: the nearest enemy's edge-to-edge distance, and its tag.
@@ -143,6 +145,7 @@ fn rich_line(line: &str) -> Option<Seen> {
         full: hp >= hp_max,
         idle: false,
         advancing: false,
+        busy: false,
         in_range: Vec::new(),
         nearest: None,
         nearest_tag: None,
@@ -163,6 +166,8 @@ fn rich_line(line: &str) -> Option<Seen> {
             seen.idle = true;
         } else if f.starts_with("attack-moving") {
             seen.advancing = true;
+        } else if f.starts_with("morphing") || f == "channelling" {
+            seen.busy = true;
         } else if let Some(tags) = f.strip_prefix("in range ") {
             seen.in_range = tags.split_whitespace().filter_map(|t| t.parse().ok()).collect();
         } else if let Some(n) = f.strip_prefix("nearest ") {
@@ -203,6 +208,7 @@ fn paper_line(line: &str) -> Option<Seen> {
         full: false,
         idle: false,
         advancing: false,
+        busy: false,
         in_range: Vec::new(),
         nearest: None,
         nearest_tag: None,
@@ -456,7 +462,8 @@ pub fn ceiling_decision(script: CeilingScript, read: &Read) -> Value {
     };
     // The attack-move script's goal: the enemy nearest the army, else where the enemy started.
     let goal = read.team_target(true).map(|e| e.at).or(read.enemy_start).or(read.centre);
-    for u in &read.mine {
+    // A unit that takes no order now gets none, as the scripts leave it be.
+    for u in read.mine.iter().filter(|u| !u.busy) {
         let mut a = item(u.tag);
         if read.micro {
             a["point"] = Value::Null;

@@ -328,3 +328,28 @@ fn the_ceiling_unsieges_as_the_script_and_moves_only_what_can_move() {
     let am = act(CeilingScript::AttackMove, "in range 4 5 | nearest 4 at 2.5");
     assert!(am.iter().all(|a| a["action"] != "attack_move"), "{am:?}");
 }
+
+/// A unit that takes no order says so in the rich prompt (a tank packing up from siege mode is
+/// "morphing"), so a model, and the ceiling, leave it alone instead of being refused.
+#[test]
+fn the_rich_prompt_says_when_a_unit_takes_no_order() {
+    use avacraft_engine::{Ability, AbilityTarget, Action, Command};
+    let mut env = state("8m2st_vs_35zg4b", 4, 0);
+    let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
+    let tank = obs.units.iter().find(|u| u.own && u.kind.base().name() == "SiegeTank").expect("a tank").tag;
+    let id = avacraft_engine::UnitId::new((tank - 1) as u16);
+    let r = env.submit(Team::One, &[Action::new(id, Command::Ability { ability: Ability::Unsiege, target: AbilityTarget::None })]);
+    assert!(r[0].is_ok(), "the scenario's tanks start sieged: {r:?}");
+    env.step();
+    let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
+    let mine: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag).collect();
+    let text = avacraft_ava::describe_rich(&obs, &env.scenario().terrain, &mine, None);
+    let line = text.lines().find(|l| l.starts_with(&format!("- {tank} "))).expect("the tank's line");
+    assert!(line.contains("morphing, takes no order"), "{line}");
+    let read = read_prompt(&format!("{text}\n- {{\"unit\": U, \"action\": \"stance\"}}"));
+    for script in CeilingScript::ALL {
+        let d = ceiling_decision(script, &read);
+        let items = d["actions"].as_array().cloned().unwrap_or_default();
+        assert!(items.iter().all(|i| i["unit"] != tank || i["action"] == "ability"), "{script:?}: {items:?}");
+    }
+}
