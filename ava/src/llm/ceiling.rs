@@ -48,7 +48,7 @@ impl CeilingScript {
 }
 
 /// A unit as a prompt line gives it.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Seen {
     pub tag: u32,
     pub kind: String,
@@ -135,26 +135,7 @@ fn rich_line(line: &str) -> Option<Seen> {
     let (health, shield_text) = vitals.split_once('+').unwrap_or((vitals, ""));
     let (now, max) = health.split_once('/').unwrap_or((health, health));
     let (hp, hp_max, shields) = (num(now).unwrap_or(0.0), num(max).unwrap_or(0.0), num(shield_text.trim_end_matches("sh")).unwrap_or(0.0));
-    let mut seen = Seen {
-        tag,
-        kind,
-        at,
-        life: hp + shields,
-        ready: true,
-        range: None,
-        full: hp >= hp_max,
-        idle: false,
-        advancing: false,
-        busy: false,
-        in_range: Vec::new(),
-        nearest: None,
-        nearest_tag: None,
-        stimmed: false,
-        can: Vec::new(),
-        hp,
-        hp_max,
-        shields,
-    };
+    let mut seen = Seen { tag, kind, at, life: hp + shields, ready: true, full: hp >= hp_max, hp, hp_max, shields, ..Seen::default() };
     for f in fields {
         if let Some(r) = f.strip_prefix("range ") {
             let mut w = r.split_whitespace();
@@ -198,26 +179,7 @@ fn paper_line(line: &str) -> Option<Seen> {
     let ready = vitals.contains("weapon ready") && !vitals.contains("weapon ready in");
     let hp = part("HP ").unwrap_or(0.0);
     let shields = part("shield ").unwrap_or(0.0);
-    let seen = Seen {
-        tag,
-        kind,
-        at,
-        life,
-        ready,
-        range: None,
-        full: false,
-        idle: false,
-        advancing: false,
-        busy: false,
-        in_range: Vec::new(),
-        nearest: None,
-        nearest_tag: None,
-        stimmed: false,
-        can: Vec::new(),
-        hp,
-        hp_max: 0.0,
-        shields,
-    };
+    let seen = Seen { tag, kind, at, life, ready, hp, shields, ..Seen::default() };
     Some(seen)
 }
 
