@@ -358,10 +358,14 @@ fn blink_to(read: &Read, u: &Seen) -> Option<(f32, f32)> {
 /// A self-cast ability the scripts would use now, from the prompt's line: Stimpack when an
 /// enemy is within the weapon's range plus 2 at full health, Siege Mode when the nearest enemy
 /// is 3 to 13 away, Unsiege when none is within reach and none is near, or one hugs it.
-fn self_cast(u: &Seen) -> Option<&'static str> {
+fn self_cast(read: &Read, u: &Seen) -> Option<&'static str> {
     let can = |a: &str| u.can.iter().any(|c| c == a);
     let near = u.nearest;
-    if can("stimpack") && !u.stimmed && u.full && near.zip(u.range).is_some_and(|(d, r)| d <= r + 2.0) {
+    // The scripts check every step; a model deciding every few steps would stim a step or more
+    // after the enemy crossed the script's line, so it looks as far ahead as two armies close
+    // (about 2.3 world units a step) before its next decision.
+    let ahead = 2.3 * read.next_in.saturating_sub(1) as f32;
+    if can("stimpack") && !u.stimmed && u.full && near.zip(u.range).is_some_and(|(d, r)| d <= r + 2.0 + ahead) {
         return Some("stimpack");
     }
     if can("siege_mode") && near.is_some_and(|d| (3.0..=13.0).contains(&d)) {
@@ -406,7 +410,7 @@ fn cast(read: &Read, u: &Seen, a: &mut Value) -> bool {
         a["target"] = json!(e);
         return true;
     }
-    if let Some(ability) = self_cast(u) {
+    if let Some(ability) = self_cast(read, u) {
         a["action"] = json!("ability");
         a["ability"] = json!(ability);
         return true;

@@ -176,6 +176,18 @@ fn the_ceiling_stims_as_the_scripts_do() {
         // Focus fire's rule is the stance's own: no target named, the weakest in sight each step.
         assert!(a["target"].is_null(), "{no}: {a}");
     }
+    // An enemy 9.0 away is past the script's line (range 5 + 2), but with the next decision two
+    // steps off the armies close about 2.3 a step before then: stim now, not a step late.
+    let far = "45/45 | range 5 ready | idle | none in range | nearest 4 at 9.0 | can cast stimpack";
+    let slow = format!("{}\nGive one action per unit of yours (1); the next decision comes in 2 steps (0.71 s of game time).", line(far));
+    let a = ceiling_decision(CeilingScript::FocusFire, &read_prompt(&slow))["actions"][0].clone();
+    assert_eq!(a["ability"], "stimpack", "decides every 2 steps: {a}");
+    let farther = format!(
+        "{}\nGive one action per unit of yours (1); the next decision comes in 2 steps (0.71 s of game time).",
+        line(&far.replace("9.0", "9.6"))
+    );
+    let a = ceiling_decision(CeilingScript::FocusFire, &read_prompt(&farther))["actions"][0].clone();
+    assert_eq!(a["action"], "stance", "beyond the look-ahead: {a}");
 }
 
 /// Before contact, a unit already advancing gets a stance with no target, so it engages at the
