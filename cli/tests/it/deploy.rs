@@ -44,6 +44,13 @@ fn launch_3m_with_three_agent_processes_finishes_episodes_and_records_them() {
         assert_eq!(e["missing_actions"][0], 0, "lockstep: every action arrived: {e}");
         assert_eq!(e["foreign_actions"][0], 0);
         assert_eq!(e["malformed_messages"], 0);
+        // The round trip's legs: each measured, the answer's two legs no longer than a
+        // whole step's worst round trip (the wall clock is shared on one host).
+        let legs = &e["round_trip_parts_us"];
+        let leg = |k: &str| legs[k].as_u64().unwrap_or_else(|| panic!("leg {k} missing: {e}"));
+        let worst = e["round_trip_us"][1].as_u64().expect("round trip");
+        assert!(leg("to_agents") > 0 && leg("back") > 0, "{e}");
+        assert!(leg("publish") <= worst && leg("to_agents") + leg("back") <= 2 * worst, "{e}");
     }
     // The same seed in-process gives the same trajectory only with the same actions; here
     // we check the recording instead: readable, ros2 profile, every topic present.

@@ -15,5 +15,5 @@ mod session;
 
 pub use config::{Clock, FrameSpec, SimConfig, TeamCommand};
 pub use convert::{BadAction, action_from_msg, header, unit_state};
-pub use node::{EpisodeSummary, SimError, result_code, run, run_watched};
+pub use node::{EpisodeSummary, RoundTripParts, SimError, result_code, run, run_watched};
 pub use session::{SessionError, env_config, scenario, session_info};

@@ -40,6 +40,37 @@ pub struct EpisodeSummary {
     /// Observation-to-action round trip per step (publishing every observation until the
     /// last owned unit's action arrived), 50th and 99th percentile, microseconds.
     pub round_trip_us: [u64; 2],
+    /// Where the round trip goes, 50th percentiles over the steps, microseconds.
+    #[serde(default)]
+    pub round_trip_parts_us: RoundTripParts,
+}
+
+/// A step's round trip in three legs, timed by the wall clock every process on a host shares
+/// (each message carries its publisher's send time, rmw_zenoh's attachment).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct RoundTripParts {
+    /// The simulator encoding and publishing the step: orders, observations, frames, status.
+    pub publish: u64,
+    /// From the first observation sent to the last answering agent node sending its actions:
+    /// delivery, the node's wake-up and gathering, the policy's act, encoding.
+    pub to_agents: u64,
+    /// From that node's send to the simulator holding the batch: delivery and its wake-up.
+    pub back: u64,
+}
+
+/// The legs of every step of an episode.
+#[derive(Default)]
+struct Legs {
+    publish: Vec<u64>,
+    to_agents: Vec<u64>,
+    back: Vec<u64>,
+}
+
+impl Legs {
+    fn parts(&self) -> RoundTripParts {
+        let p50 = |v: &Vec<u64>| percentiles(v.clone())[0];
+        RoundTripParts { publish: p50(&self.publish), to_agents: p50(&self.to_agents), back: p50(&self.back) }
+    }
 }
 
 fn percentiles(mut v: Vec<u64>) -> [u64; 2] {
@@ -135,19 +166,27 @@ pub fn run_watched(
         let episode = episode as u64;
         let started = Instant::now();
         let mut trips = Vec::new();
+        let mut legs = Legs::default();
         tracing::info!(episode, seed, scenario = %cfg.scenario.name, "episode starts");
         session_pub.put(&session_info(cfg, episode, header(env.world(), "map")))?;
         roles_pub.put(&roles(&env, &owners, episode))?;
         loop {
             let t0 = Instant::now();
             command.publish(&env, &owners, episode)?;
+            let obs_ns = avacraft_nodes::now_ns();
             publish_step(&env, &teams, episode, &mut unit_pubs, &mut team_pubs)?;
             frames.publish(&env)?;
             status_pub.put(&status(&env, cfg, episode, seed, &counts))?;
+            legs.publish.push(t0.elapsed().as_micros() as u64);
             watch(&env);
-            let mut wait = Wait { cfg, topics, owners: &owners, command: &mut command, orders: &mut orders, episode, shutdown, started };
+            let mut wait =
+                Wait { cfg, topics, owners: &owners, command: &mut command, orders: &mut orders, episode, shutdown, started, last: None };
             let applied = collect_actions(&mut env, &teams, &actions, &mut wait, &mut counts)?;
             trips.push(t0.elapsed().as_micros() as u64);
+            if let Some((sent, arrived)) = wait.last {
+                legs.to_agents.push(((sent - obs_ns).max(0) / 1000) as u64);
+                legs.back.push(((arrived - sent).max(0) / 1000) as u64);
+            }
             applied_pub.put(&ActionBatch {
                 header: header(env.world(), "map"),
                 episode,
@@ -188,6 +227,7 @@ pub fn run_watched(
             role_changes: orders.changes,
             wall_seconds: started.elapsed().as_secs_f64(),
             round_trip_us: percentiles(trips),
+            round_trip_parts_us: legs.parts(),
         };
         tracing::info!(episode, result = ?s.result, steps = s.steps, missing = ?s.missing_actions, foreign = ?s.foreign_actions, malformed = s.malformed_messages, "episode ends");
         out.push(s);
@@ -338,6 +378,9 @@ struct Wait<'a> {
     episode: u64,
     shutdown: &'a Shutdown,
     started: Instant,
+    /// The last action batch of this step that counted: its send time and arrival (wall
+    /// clock, nanoseconds).
+    last: Option<(i64, i64)>,
 }
 
 /// Gathers the actions of this step from the wire and submits them; returns the ones the
@@ -382,6 +425,7 @@ fn collect_actions(
         // Orders come on their own topics: look there often while any is awaited.
         let slice = if w.command.waiting() { Duration::from_millis(2) } else { Duration::from_millis(50) };
         let Some(r) = sub.recv_timeout((deadline - now).min(slice))? else { continue };
+        let arrived = avacraft_nodes::now_ns();
         let Some(TopicKind::Actions(agent)) = topics.classify(&r.topic) else {
             c.malformed += 1;
             continue;
@@ -408,6 +452,9 @@ fn collect_actions(
         let current = batch.episode == episode && (batch.step == step || (realtime && batch.step < step));
         if !current {
             continue;
+        }
+        if let Some(att) = &r.attachment {
+            w.last = Some((att.source_ns, arrived));
         }
         for a in mine {
             let Some(unit) = unit_of(env, a.unit_tag).map(|u| (u.id, u.team)) else { continue };
