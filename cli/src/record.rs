@@ -30,6 +30,9 @@ pub struct RecordArgs {
 /// Channels the recorder opens at most (a hostile publisher cannot exhaust the file's ids).
 const MAX_CHANNELS: usize = 4096;
 
+/// How long the recorder lets messages gather between passes while they keep coming.
+const BATCH: Duration = Duration::from_millis(5);
+
 /// What the recorder wrote.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct RecordStats {
@@ -97,6 +100,8 @@ pub fn run(a: &RecordArgs, shutdown: &Shutdown) -> Result<RecordStats> {
     tracing::info!(out = %a.out.display(), %pattern, "recording");
     // After a stop request, keep taking what is already on its way until 200 ms pass quietly.
     let mut quiet_since: Option<std::time::Instant> = None;
+    // Whether the last pass took a message: then the next empty queue means a batch ended.
+    let mut drained = false;
     while a.max_messages == 0 || stats.messages < a.max_messages {
         if shutdown.requested() && quiet_since.is_none() {
             quiet_since = Some(std::time::Instant::now());
@@ -104,11 +109,24 @@ pub fn run(a: &RecordArgs, shutdown: &Shutdown) -> Result<RecordStats> {
         if quiet_since.is_some_and(|t| t.elapsed() > Duration::from_millis(200)) {
             break;
         }
-        let sample = match sub.recv_timeout(Duration::from_millis(50)) {
+        // One wake-up per batch, not per message: under lockstep the simulator sends tens of
+        // thousands of messages a second, and a recorder woken for each took a core's share
+        // from the processes it records. The first message of a lull is taken at once.
+        let sample = match sub.try_recv() {
             Ok(Some(s)) => s,
-            Ok(None) => continue,
+            Ok(None) if drained => {
+                drained = false;
+                std::thread::sleep(BATCH);
+                continue;
+            }
+            Ok(None) => match sub.recv_timeout(Duration::from_millis(50)) {
+                Ok(Some(s)) => s,
+                Ok(None) => continue,
+                Err(_) => break,
+            },
             Err(_) => break,
         };
+        drained = true;
         if quiet_since.is_some() {
             quiet_since = Some(std::time::Instant::now());
         }
