@@ -43,6 +43,7 @@ fn sim_config(plan: &Plan, startup: Duration) -> SimConfig {
         startup_timeout: startup,
         wait_for_recorder: plan.record.is_some(),
         dds_agents: plan.agents.iter().filter(|a| a.is_dds()).map(|a| a.id.clone()).collect(),
+        reads: plan.agents.iter().map(|a| (a.id.clone(), a.policy.reads())).collect(),
         launch_file: plan.file.clone(),
         commands: plan
             .commanders

@@ -153,6 +153,16 @@ impl PolicySpec {
         matches!(self, PolicySpec::Dds)
     }
 
+    /// What the policy reads of its observations ([`avacraft_engine::agent::Agent::reads`]),
+    /// known without loading anything: a scripted agent says; trained networks, AVA and DDS
+    /// agents (which are not ours to ask) get everything.
+    pub fn reads(&self) -> avacraft_engine::agent::Reads {
+        match self {
+            PolicySpec::Scripted(name) => avacraft_engine::agent::by_name(name).map_or(avacraft_engine::agent::Reads::ALL, |a| a.reads()),
+            PolicySpec::Marl(_) | PolicySpec::Baseline(_) | PolicySpec::Ava(_) | PolicySpec::Dds => avacraft_engine::agent::Reads::ALL,
+        }
+    }
+
     /// The unit data a trained network learned on (`None` for scripted agents, AVA and DDS,
     /// which play any). A network played on another set still plays, a different game.
     pub fn trained_data(&self, scenario: &Scenario) -> Result<Option<avacraft_engine::DataSet>, PolicyError> {

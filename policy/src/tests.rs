@@ -143,3 +143,22 @@ fn fingerprints_follow_the_files_acting_reads_and_ava_s_settings() {
     assert_ne!(ava(4), ava(8), "AVA's settings are part of what it plays");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// What a deployment sends a node: a scripted agent's own `reads`, everything for the rest.
+#[test]
+fn a_policy_says_what_it_reads_without_loading_anything() {
+    use avacraft_engine::agent::Reads;
+    for name in ["focus-fire", "kite", "attack-move", "hold"] {
+        let p = PolicySpec::parse(name, None).expect("scripted");
+        let own = avacraft_engine::agent::by_name(name).expect("an engine agent").reads();
+        assert_eq!(p.reads(), own, "{name}");
+    }
+    assert_eq!(PolicySpec::parse("focus-fire", None).expect("scripted").reads(), Reads::UNITS);
+    for p in [
+        PolicySpec::parse(&format!("marl:{}", shipped().display()), None).expect("marl"),
+        PolicySpec::resolve(AVA_POLICY, Some(synthetic()), Resolve::default()).expect("ava"),
+        PolicySpec::parse(DDS_POLICY, None).expect("dds"),
+    ] {
+        assert_eq!(p.reads(), Reads::ALL, "{p}");
+    }
+}

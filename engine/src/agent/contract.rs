@@ -27,7 +27,8 @@ pub trait Agent: Send {
     /// Actions for the group's units this step; units without one keep their orders.
     fn act(&mut self, obs: &GroupObs) -> Vec<Action>;
     /// What the agent reads of its observation besides the units and effects. In-process
-    /// runs build only that; a deployment's messages carry everything whatever it says.
+    /// runs build only that; a deployment's messages carry what any node of the team reads
+    /// (everything when a node's policy cannot be asked before it runs: networks, AVA, DDS).
     fn reads(&self) -> Reads {
         Reads::ALL
     }

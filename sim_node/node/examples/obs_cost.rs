@@ -39,6 +39,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "{name}: {} units; building {build:.0} us (describe {describe:.0} us), encoding {encoding:.0} us, {bytes} bytes a step",
         obs.len()
     );
+    // What a team of scripted nodes is sent: the units and effects only.
+    let units: Vec<u32> = env.agents(Team::One).iter().map(|id| id.tag()).collect();
+    let lean = env.agent_observations_of(Team::One, 0, &units, avacraft_engine::agent::Reads::UNITS);
+    let lean_bytes: usize = lean.iter().map(|o| encode(&unit_observation(o, Header::default())).len()).sum();
+    let lean_build =
+        time(|| drop(std::hint::black_box(env.agent_observations_of(Team::One, 0, &units, avacraft_engine::agent::Reads::UNITS))));
+    println!("units and effects only (what scripted nodes read): building {lean_build:.0} us, {lean_bytes} bytes a step");
     let Some(one) = msgs.first() else { return Ok(()) };
     let size = |m: &UnitObservation| encode(m).len();
     let (mut no_text, mut no_lists) = (one.clone(), one.clone());

@@ -1,7 +1,7 @@
 //! What the simulator node is told to run, from a launch file or the command line. A leaf
 //! of its own: the node loop, the commanders' side and the session description all read it.
 
-use avacraft_engine::agent::GroupRole;
+use avacraft_engine::agent::{GroupRole, Reads};
 use avacraft_engine::{EnvConfig, Scenario};
 use avacraft_nodes::{AgentId, FrameKind, TeamNo, UnitTag};
 use std::collections::{BTreeMap, BTreeSet};
@@ -40,9 +40,27 @@ pub struct SimConfig {
     pub launch_file: String,
     /// Teams under a commander: ownership of their units follows the commander's orders.
     pub commands: Vec<TeamCommand>,
+    /// What each agent node's policy reads of its observations. A team's messages carry what
+    /// any of its nodes reads (SMAC's features and masks, the text), as an in-process run
+    /// builds for the same policies; a team with a node not listed here, or a commander,
+    /// gets everything.
+    pub reads: BTreeMap<AgentId, Reads>,
 }
 
 impl SimConfig {
+    /// What the messages of `team`'s units carry: what any of its agent nodes reads.
+    pub fn team_reads(&self, team: TeamNo) -> Reads {
+        if self.commands.iter().any(|c| c.team == team) {
+            return Reads::ALL;
+        }
+        let mut agents: BTreeSet<&AgentId> = self.owners.values().collect();
+        agents.retain(|a| self.team_of(a) == Some(team));
+        agents.into_iter().fold(Reads::UNITS, |acc, a| {
+            let r = self.reads.get(a).copied().unwrap_or(Reads::ALL);
+            Reads { smac: acc.smac || r.smac, text: acc.text || r.text }
+        })
+    }
+
     /// The team an agent node plays for (from the units it owns at the start), or a
     /// commander's team.
     pub fn team_of(&self, agent: &AgentId) -> Option<TeamNo> {

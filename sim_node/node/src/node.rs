@@ -5,6 +5,7 @@ use crate::command::{Command, OrderCounts};
 use crate::config::{Clock, FrameSpec, SimConfig};
 use crate::convert::{action_from_msg, header, unit_of, unit_state};
 use crate::session::session_info;
+use avacraft_engine::agent::Reads;
 use avacraft_engine::{Env, Outcome, Team, UnitId};
 use avacraft_msgs::{ActionBatch, EpisodeStatus, TeamObservation};
 use avacraft_nodes::{AgentId, FrameKind, Node, NodeError, NodeName, Qos, Shutdown, TeamNo, TopicKind, Topics, UnitTag};
@@ -152,6 +153,8 @@ pub fn run_watched(
     let mut roles_pub = node.publisher::<avacraft_msgs::RoleAssignment>(&topics.roles(), reliable)?;
     let actions = node.subscriber::<ActionBatch>(topics.any_actions(), reliable)?;
     let mut command = Command::new(node, topics, cfg)?;
+    // Each team's messages carry what its nodes read, as in-process runs build for them.
+    let reads: BTreeMap<Team, Reads> = teams.iter().map(|&t| (t, cfg.team_reads(TeamNo::from(t)))).collect();
     wait_for_agents(node, topics, cfg, shutdown)?;
     let mut out = Vec::new();
     for (episode, &seed) in cfg.seeds.iter().enumerate() {
@@ -174,7 +177,7 @@ pub fn run_watched(
             let t0 = Instant::now();
             command.publish(&env, &owners, episode)?;
             let obs_ns = avacraft_nodes::now_ns();
-            publish_step(&env, &teams, episode, &mut unit_pubs, &mut team_pubs)?;
+            publish_step(&env, &reads, episode, &mut unit_pubs, &mut team_pubs)?;
             frames.publish(&env)?;
             status_pub.put(&status(&env, cfg, episode, seed, &counts))?;
             legs.publish.push(t0.elapsed().as_micros() as u64);
@@ -207,7 +210,7 @@ pub fn run_watched(
             }
         }
         // Final observations (units see the end) and the final status.
-        publish_step(&env, &teams, episode, &mut unit_pubs, &mut team_pubs)?;
+        publish_step(&env, &reads, episode, &mut unit_pubs, &mut team_pubs)?;
         status_pub.put(&status(&env, cfg, episode, seed, &counts))?;
         watch(&env);
         let refused = env.refused();
@@ -282,15 +285,17 @@ fn status(env: &Env, cfg: &SimConfig, episode: u64, seed: u64, c: &Counts) -> Ep
 
 fn publish_step(
     env: &Env,
-    teams: &[Team],
+    reads: &BTreeMap<Team, Reads>,
     episode: u64,
     unit_pubs: &mut BTreeMap<UnitId, avacraft_nodes::Publisher<avacraft_msgs::UnitObservation>>,
     team_pubs: &mut BTreeMap<Team, avacraft_nodes::Publisher<TeamObservation>>,
 ) -> Result<(), NodeError> {
-    for &team in teams {
-        // The units' observations are the engine's own (what in-process agents get), so a
-        // deployed policy sees exactly what it would see in-process.
-        let obs = env.agent_observations(team, episode);
+    for (&team, &reads) in reads {
+        // The units' observations are the engine's own, built with what the team's nodes
+        // read (what in-process agents get), so a deployed policy sees exactly what it
+        // would see in-process.
+        let units: Vec<u32> = env.agents(team).iter().map(|id| id.tag()).collect();
+        let obs = env.agent_observations_of(team, episode, &units, reads);
         let w = env.world();
         if let Some(p) = team_pubs.get_mut(&team) {
             let units = avacraft_engine::unit_list(w, team).iter().map(unit_state).collect();
@@ -302,7 +307,11 @@ fn publish_step(
                 team: team.player(),
                 units,
                 effects: avacraft_engine::agent::effects(env, team).iter().map(avacraft_nodes::wire::area_effect).collect(),
-                text: obs.first().map(|o| o.text.to_string()).unwrap_or_else(|| avacraft_engine::describe(env, team)),
+                text: obs
+                    .first()
+                    .map(|o| o.text.to_string())
+                    .filter(|t| !t.is_empty())
+                    .unwrap_or_else(|| avacraft_engine::describe(env, team)),
             };
             p.put(&msg)?;
         }

@@ -144,7 +144,31 @@ mod tests {
             dds_agents: Default::default(),
             launch_file: "launch/pvz.yaml".into(),
             commands: Vec::new(),
+            reads: Default::default(),
         }
+    }
+
+    /// A team's messages carry what any of its nodes reads; a node the simulator was not told
+    /// about, or a commander, gets everything.
+    #[test]
+    fn a_teams_messages_carry_what_its_nodes_read() {
+        use avacraft_engine::agent::Reads;
+        use avacraft_nodes::{AgentId, TeamNo, UnitTag};
+        let mut cfg = config(EnvConfig::default());
+        let id = |s: &str| AgentId::parse(s).expect("an id");
+        let (one, two) = (TeamNo::new(1).expect("team"), TeamNo::new(2).expect("team"));
+        // pvz_ht: units 1-23 are team 1's.
+        cfg.owners = (1..=23).map(|t| (UnitTag::new(t).expect("tag"), id(if t < 12 { "a" } else { "b" }))).collect();
+        cfg.reads = [(id("a"), Reads::UNITS), (id("b"), Reads::UNITS)].into();
+        assert_eq!(cfg.team_reads(one), Reads::UNITS);
+        cfg.reads.insert(id("b"), Reads { smac: true, text: false });
+        assert_eq!(cfg.team_reads(one), Reads { smac: true, text: false });
+        cfg.reads.remove(&id("b"));
+        assert_eq!(cfg.team_reads(one), Reads::ALL, "a node not listed gets everything");
+        cfg.reads.insert(id("b"), Reads::UNITS);
+        cfg.commands.push(crate::TeamCommand { team: one, commander: id("boss"), groups: Vec::new() });
+        assert_eq!(cfg.team_reads(one), Reads::ALL, "a commander's team gets everything");
+        assert_eq!(cfg.team_reads(two), Reads::UNITS, "no node on team 2: nothing to build beyond the units");
     }
 
     #[test]
