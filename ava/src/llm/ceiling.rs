@@ -307,6 +307,19 @@ impl Read {
             .or_else(|| self.enemies.iter().filter(|e| self.can_hit(u, e)).min_by(|a, b| a.life.total_cmp(&b.life).then(a.tag.cmp(&b.tag))))
     }
 
+    /// The edge distance to the nearest enemy `u` can hit, as the scripts measure theirs: the
+    /// prompt's nearest when `u` can hit it, else the nearest it can hit by centre distance
+    /// less about a unit's width (the prompt's scale: a Marine is about 0.75 wide).
+    fn nearest_hittable(&self, u: &Seen) -> Option<f32> {
+        let listed = u.nearest_tag.and_then(|t| self.enemies.iter().find(|e| e.tag == t));
+        match listed {
+            Some(e) if !self.can_hit(u, e) => {
+                self.enemies.iter().filter(|e| self.can_hit(u, e)).map(|e| (Self::dist(e.at, u.at) - 1.0).max(0.0)).min_by(f32::total_cmp)
+            }
+            _ => u.nearest,
+        }
+    }
+
     /// A melee type: its weapon's range (the prompt's line for its type, else the unit's own
     /// line) is under 1.5.
     fn is_melee(&self, e: &Seen) -> bool {
@@ -360,7 +373,7 @@ fn blink_to(read: &Read, u: &Seen) -> Option<(f32, f32)> {
 /// is 3 to 13 away, Unsiege when none is within reach and none is near, or one hugs it.
 fn self_cast(read: &Read, u: &Seen) -> Option<&'static str> {
     let can = |a: &str| u.can.iter().any(|c| c == a);
-    let near = u.nearest;
+    let near = read.nearest_hittable(u);
     // The scripts check every step; a model deciding every few steps would stim a step or more
     // after the enemy crossed the script's line, so it looks as far ahead as two armies close
     // (about 2.3 world units a step) before its next decision.

@@ -190,6 +190,25 @@ fn the_ceiling_stims_as_the_scripts_do() {
     assert_eq!(a["action"], "stance", "beyond the look-ahead: {a}");
 }
 
+/// The scripts measure their stim and siege lines to the nearest enemy the unit can hit: a
+/// Marauder (ground only) with an enemy Medivac nearest does not stim for it, and does when a
+/// ground unit comes within its range plus 2.
+#[test]
+fn the_ceiling_measures_to_what_a_unit_can_hit() {
+    let prompt = |marine_at: f32| {
+        format!(
+            "Step 3, game time 1.0 s. Positions (x,y) in world units: x 0-32 west to east, y 0-32 south to north. Distances are edge to edge, as weapon ranges are. The enemy started near (23.0,16.0).\nYour units (tag type (x,y) hp[+shields] | weapon | order | enemies in range | nearest enemy):\n- 1 Marauder (9.0,16.0) 125/125 | range 6 ready | attack-moving to (23.0,16.0) | none in range | nearest 5 at 3.0 | can cast stimpack\nEnemies in sight (tag type (x,y) hp[+shields] | target):\n- 4 Marine ({marine_at:.1},16.0) 45/45\n- 5 Medivac (12.5,16.0) 150/150\nUnit types here:\n- Marauder: Terran, Armored, Biological, 125 health, 1 armor, speed 3.15, sight 10. Weapon: 10 damage (+10 vs Armored), range 6, every 1.07 s, hits ground only.\n- Marine: Terran, Light, Biological, 45 health, 0 armor, speed 3.15, sight 9. Weapon: 6 damage, range 5, every 0.61 s, hits ground and air.\n- Medivac: Terran, Armored, Mechanical, 150 health, 1 armor, speed 3.85, sight 11, flying (only anti-air weapons hit it). No weapon.\n- {{\"unit\": U, \"action\": \"stance\"}}"
+        )
+    };
+    let act = |marine_at: f32| ceiling_decision(CeilingScript::AttackMove, &read_prompt(&prompt(marine_at)))["actions"][0].clone();
+    // The Marine 11 away (about 10 edge to edge): beyond 6 + 2, whatever the Medivac does.
+    let a = act(20.0);
+    assert_ne!(a["ability"], "stimpack", "the Medivac is not what it fights: {a}");
+    // The Marine 8 away (about 7): within the line.
+    let a = act(17.0);
+    assert_eq!(a["ability"], "stimpack", "{a}");
+}
+
 /// Before contact, a unit already advancing gets a stance with no target, so it engages at the
 /// first step an enemy is seen rather than at the next decision; one standing still is sent
 /// towards where the enemy started.
