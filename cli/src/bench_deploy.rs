@@ -53,24 +53,42 @@ fn launch(scenario: &str, episodes: u32, record: bool) -> Result<Launched> {
     Ok(Launched { steps_per_s: steps as f64 / secs.max(1e-9), round_trip: [p50.get(p50.len() / 2).copied().unwrap_or(0), p99], parts })
 }
 
+/// How the two sessions of a ping-pong reach each other.
+#[derive(Clone, Copy)]
+enum Path {
+    /// One listens, the other connects to it.
+    Direct,
+    /// Both are peers connected to a router, as a launch connects its nodes (they may then
+    /// find each other and talk directly).
+    PeersOfARouter,
+    /// Both are clients of a router: every message goes through it.
+    ThroughARouter,
+}
+
 /// Zenoh's own floor on this host: one small message there and one back between two
-/// sessions (the size of a unit's observation), `n` times, directly between two peers or
-/// through a router with both sides in client mode. Returns the round trip's p50 and p99 (us).
-fn ping_pong(via_router: bool, n: usize) -> Result<[u64; 2]> {
+/// sessions (the size of a few units' actions), `n` times. Returns the round trip's p50 and
+/// p99 (us).
+fn ping_pong(path: Path, n: usize) -> Result<[u64; 2]> {
     let port = free_port()?;
     let endpoint = format!("tcp/127.0.0.1:{port}");
     let name = |n: &str| avacraft_nodes::NodeName::tool(n);
-    let (_router, a_args, b_args) = if via_router {
-        let r = Node::open(
-            &NodeArgs { mode: SessionMode::Router, listen: vec![endpoint.clone()], ..NodeArgs::default() },
-            "/bench",
-            &name("router")?,
-        )?;
-        let c = NodeArgs { mode: SessionMode::Client, connect: vec![endpoint], ..NodeArgs::default() };
-        (Some(r), c.clone(), c)
-    } else {
-        let a = NodeArgs { listen: vec![endpoint.clone()], ..NodeArgs::default() };
-        (None, a, NodeArgs { connect: vec![endpoint], ..NodeArgs::default() })
+    let router = || -> Result<Node> {
+        let args = NodeArgs { mode: SessionMode::Router, listen: vec![endpoint.clone()], ..NodeArgs::default() };
+        Ok(Node::open(&args, "/bench", &name("router")?)?)
+    };
+    let (_router, a_args, b_args) = match path {
+        Path::Direct => {
+            let a = NodeArgs { listen: vec![endpoint.clone()], ..NodeArgs::default() };
+            (None, a, NodeArgs { connect: vec![endpoint.clone()], ..NodeArgs::default() })
+        }
+        Path::PeersOfARouter => {
+            let p = NodeArgs { connect: vec![endpoint.clone()], ..NodeArgs::default() };
+            (Some(router()?), p.clone(), p)
+        }
+        Path::ThroughARouter => {
+            let c = NodeArgs { mode: SessionMode::Client, connect: vec![endpoint.clone()], ..NodeArgs::default() };
+            (Some(router()?), c.clone(), c)
+        }
     };
     let (a, b) = (Node::open(&a_args, "/bench", &name("ping")?)?, Node::open(&b_args, "/bench", &name("pong")?)?);
     let (ping, pong) = (Topic::parse("/bench/ping")?, Topic::parse("/bench/pong")?);
@@ -189,8 +207,9 @@ pub fn run(out: &mut dyn Write) -> Result<()> {
     let m3 = launch("3m_vlm", 30, false)?;
     let m3_rec = launch("3m_vlm", 30, true)?;
     let pvz = launch("pvz_ht", 1, false)?;
-    let direct = ping_pong(false, 2000)?;
-    let routed = ping_pong(true, 2000)?;
+    let direct = ping_pong(Path::Direct, 2000)?;
+    let peers = ping_pong(Path::PeersOfARouter, 2000)?;
+    let routed = ping_pong(Path::ThroughARouter, 2000)?;
     let small = frame_latency(160, 120, 300)?;
     let large = frame_latency(1920, 1080, 40)?;
     let small_shm = frame_latency_shm(160, 120, 500)?;
@@ -209,6 +228,7 @@ pub fn run(out: &mut dyn Write) -> Result<()> {
     row(&mut t, "pvz_ht round trip p50 / p99 (us)", format!("{} / {}", pvz.round_trip[0], pvz.round_trip[1]), "-", f64::NAN);
     row(&mut t, "  its legs: publish / to agents / back (p50, us)", legs(&pvz.parts), "-", f64::NAN);
     row(&mut t, "Zenoh ping-pong, two peers (p50 / p99, us)", format!("{} / {}", direct[0], direct[1]), "-", f64::NAN);
+    row(&mut t, "Zenoh ping-pong, two peers of a router (p50 / p99, us)", format!("{} / {}", peers[0], peers[1]), "-", f64::NAN);
     row(&mut t, "Zenoh ping-pong through a router (p50 / p99, us)", format!("{} / {}", routed[0], routed[1]), "-", f64::NAN);
     row(
         &mut t,
