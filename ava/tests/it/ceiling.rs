@@ -150,15 +150,46 @@ fn recordings_of_the_paper_prompt_still_replay() {
     assert_eq!(asked as usize, calls, "every recorded call was asked");
 }
 
+/// A rich prompt as AVA writes it, for the ceiling to read: the header (with where the enemy
+/// started, when given), the unit lines, the enemies in sight, the unit types, and the
+/// answer's shape the ceiling looks for.
+fn rich(enemy_start: Option<(f32, f32)>, mine: &[&str], enemies: &[&str], types: &[&str]) -> String {
+    let mut s = String::from(
+        "Step 9, game time 3.0 s. Positions (x,y) in world units: x 0-32 west to east, y 0-32 south to north. Distances are edge to edge, as weapon ranges are.",
+    );
+    if let Some((x, y)) = enemy_start {
+        s.push_str(&format!(" The enemy started near ({x:.1},{y:.1})."));
+    }
+    s.push_str("\nYour units (tag type (x,y) hp[+shields] | weapon | order | enemies in range | nearest enemy):\n");
+    mine.iter().for_each(|l| s.push_str(&format!("- {l}\n")));
+    if enemies.is_empty() {
+        s.push_str("No enemy in sight.\n");
+    } else {
+        s.push_str("Enemies in sight (tag type (x,y) hp[+shields] | target):\n");
+        enemies.iter().for_each(|l| s.push_str(&format!("- {l}\n")));
+    }
+    if !types.is_empty() {
+        s.push_str("Unit types here:\n");
+        types.iter().for_each(|l| s.push_str(&format!("- {l}\n")));
+    }
+    s.push_str("- {\"unit\": U, \"action\": \"stance\"}");
+    s
+}
+
+/// `prompt` as it reads when the next decision is two steps away.
+fn deciding_every_2(prompt: &str) -> String {
+    format!("{prompt}\nGive one action per unit of yours (1); the next decision comes in 2 steps (0.71 s of game time).")
+}
+
+const MARINE: &str = "Marine: Terran, Light, Biological, 45 health, 0 armor, speed 3.15, sight 9. Weapon: 6 damage, range 5, every 0.61 s, hits ground and air.";
+const ZEALOT: &str = "Zealot: Protoss, Light, Biological, 100 health, 50 shields, 1 armor, speed 3.15, sight 9. Weapon: 8 damage x2 hits, range 0.1, every 0.86 s, hits ground only.";
+
 /// Self-cast abilities, read off the rich prompt's lines: a Marine at full health with an
 /// enemy within its range plus 2 and Stimpack ready stims; once stimmed, or hurt, it does not.
 #[test]
 fn the_ceiling_stims_as_the_scripts_do() {
-    let line = |extra: &str| {
-        format!(
-            "Step 3, game time 1.0 s. Positions (x,y) in world units: x 0-32 west to east, y 0-32 south to north. Distances are edge to edge, as weapon ranges are. The enemy started near (23.0,16.0).\nYour units (tag type (x,y) hp[+shields] | weapon | order | enemies in range | nearest enemy):\n- 1 Marine (9.0,16.0) {extra}\nEnemies in sight (tag type (x,y) hp[+shields] | target):\n- 4 Marine (15.0,16.0) 45/45\nUnit types here:\n- Marine: Terran, Light, Biological, 45 health, 0 armor, speed 3.15, sight 9. Weapon: 6 damage, range 5, every 0.61 s, hits ground and air.\n- {{\"unit\": U, \"action\": \"stance\"}}"
-        )
-    };
+    let line =
+        |extra: &str| rich(Some((23.0, 16.0)), &[&format!("1 Marine (9.0,16.0) {extra}")], &["4 Marine (15.0,16.0) 45/45"], &[MARINE]);
     let act = |extra: &str| {
         let read = read_prompt(&line(extra));
         assert_eq!(read.enemy_start, Some((23.0, 16.0)));
@@ -179,13 +210,9 @@ fn the_ceiling_stims_as_the_scripts_do() {
     // An enemy 9.0 away is past the script's line (range 5 + 2), but with the next decision two
     // steps off the armies close about 2.3 a step before then: stim now, not a step late.
     let far = "45/45 | range 5 ready | idle | none in range | nearest 4 at 9.0 | can cast stimpack";
-    let slow = format!("{}\nGive one action per unit of yours (1); the next decision comes in 2 steps (0.71 s of game time).", line(far));
-    let a = ceiling_decision(CeilingScript::FocusFire, &read_prompt(&slow))["actions"][0].clone();
+    let a = ceiling_decision(CeilingScript::FocusFire, &read_prompt(&deciding_every_2(&line(far))))["actions"][0].clone();
     assert_eq!(a["ability"], "stimpack", "decides every 2 steps: {a}");
-    let farther = format!(
-        "{}\nGive one action per unit of yours (1); the next decision comes in 2 steps (0.71 s of game time).",
-        line(&far.replace("9.0", "9.6"))
-    );
+    let farther = deciding_every_2(&line(&far.replace("9.0", "9.6")));
     let a = ceiling_decision(CeilingScript::FocusFire, &read_prompt(&farther))["actions"][0].clone();
     assert_eq!(a["action"], "stance", "beyond the look-ahead: {a}");
 }
@@ -196,8 +223,17 @@ fn the_ceiling_stims_as_the_scripts_do() {
 #[test]
 fn the_ceiling_measures_to_what_a_unit_can_hit() {
     let prompt = |marine_at: f32| {
-        format!(
-            "Step 3, game time 1.0 s. Positions (x,y) in world units: x 0-32 west to east, y 0-32 south to north. Distances are edge to edge, as weapon ranges are. The enemy started near (23.0,16.0).\nYour units (tag type (x,y) hp[+shields] | weapon | order | enemies in range | nearest enemy):\n- 1 Marauder (9.0,16.0) 125/125 | range 6 ready | attack-moving to (23.0,16.0) | none in range | nearest 5 at 3.0 | can cast stimpack\nEnemies in sight (tag type (x,y) hp[+shields] | target):\n- 4 Marine ({marine_at:.1},16.0) 45/45\n- 5 Medivac (12.5,16.0) 150/150\nUnit types here:\n- Marauder: Terran, Armored, Biological, 125 health, 1 armor, speed 3.15, sight 10. Weapon: 10 damage (+10 vs Armored), range 6, every 1.07 s, hits ground only.\n- Marine: Terran, Light, Biological, 45 health, 0 armor, speed 3.15, sight 9. Weapon: 6 damage, range 5, every 0.61 s, hits ground and air.\n- Medivac: Terran, Armored, Mechanical, 150 health, 1 armor, speed 3.85, sight 11, flying (only anti-air weapons hit it). No weapon.\n- {{\"unit\": U, \"action\": \"stance\"}}"
+        rich(
+            Some((23.0, 16.0)),
+            &[
+                "1 Marauder (9.0,16.0) 125/125 | range 6 ready | attack-moving to (23.0,16.0) | none in range | nearest 5 at 3.0 | can cast stimpack",
+            ],
+            &[&format!("4 Marine ({marine_at:.1},16.0) 45/45"), "5 Medivac (12.5,16.0) 150/150"],
+            &[
+                "Marauder: Terran, Armored, Biological, 125 health, 1 armor, speed 3.15, sight 10. Weapon: 10 damage (+10 vs Armored), range 6, every 1.07 s, hits ground only.",
+                MARINE,
+                "Medivac: Terran, Armored, Mechanical, 150 health, 1 armor, speed 3.85, sight 11, flying (only anti-air weapons hit it). No weapon.",
+            ],
         )
     };
     let act = |marine_at: f32| ceiling_decision(CeilingScript::AttackMove, &read_prompt(&prompt(marine_at)))["actions"][0].clone();
@@ -215,13 +251,7 @@ fn the_ceiling_measures_to_what_a_unit_can_hit() {
 #[test]
 fn the_ceiling_holds_its_stance_ready_before_contact() {
     let text = |order: &str| {
-        format!(
-            "Step 2, game time 0.7 s. Positions (x,y) in world units: x 0-32 west to east, y 0-32 south to north. Distances are edge to edge, as weapon ranges are. The enemy started near (23.0,16.0).\n\
-             Your units (tag type (x,y) hp[+shields] | weapon | order | enemies in range | nearest enemy):\n\
-             - 1 Marine (9.0,16.0) 45/45 | range 5 ready | {order} | none in range\n\
-             No enemy in sight.\n\
-             - {{\"unit\": U, \"action\": \"stance\"}}"
-        )
+        rich(Some((23.0, 16.0)), &[&format!("1 Marine (9.0,16.0) 45/45 | range 5 ready | {order} | none in range")], &[], &[])
     };
     for script in [CeilingScript::FocusFire, CeilingScript::Kite] {
         let a = ceiling_decision(script, &read_prompt(&text("attack-moving to (23.0,16.0)")))["actions"][0].clone();
@@ -238,17 +268,17 @@ fn the_ceiling_holds_its_stance_ready_before_contact() {
 #[test]
 fn the_ceiling_knocks_back_melee_units_closing_in() {
     let text = |enemy: &str, dist: f32| {
-        format!(
-            "Step 9, game time 3.0 s. Positions (x,y) in world units: x 0-32 west to east, y 0-32 south to north. Distances are edge to edge, as weapon ranges are.\n\
-             Your units (tag type (x,y) hp[+shields] | weapon | order | enemies in range | nearest enemy):\n\
-             - 1 Reaper (16.0,16.0) 50/50 | range 4.5 ready | attacking 4 | in range 4 | nearest 4 at {dist:.1} | can cast kd8_charge\n\
-             Enemies in sight (tag type (x,y) hp[+shields] | target):\n\
-             - 4 {enemy} (18.0,16.0) 45/45 | attacking 1\n\
-             Unit types here:\n\
-             - Reaper: Terran, Light, Biological, 50 health, 0 armor, speed 4.13, sight 9. Weapon: 4 damage x2 hits (+5 vs Light), range 4.5, every 0.79 s, hits ground only.\n\
-             - Zealot: Protoss, Light, Biological, 100 health, 50 shields, 1 armor, speed 3.15, sight 9. Weapon: 8 damage x2 hits, range 0.1, every 0.86 s, hits ground only.\n\
-             - Marine: Terran, Light, Biological, 45 health, 0 armor, speed 3.15, sight 9. Weapon: 6 damage, range 5, every 0.61 s, hits ground and air.\n\
-             - {{\"unit\": U, \"action\": \"stance\"}}"
+        rich(
+            None,
+            &[&format!(
+                "1 Reaper (16.0,16.0) 50/50 | range 4.5 ready | attacking 4 | in range 4 | nearest 4 at {dist:.1} | can cast kd8_charge"
+            )],
+            &[&format!("4 {enemy} (18.0,16.0) 45/45 | attacking 1")],
+            &[
+                "Reaper: Terran, Light, Biological, 50 health, 0 armor, speed 4.13, sight 9. Weapon: 4 damage x2 hits (+5 vs Light), range 4.5, every 0.79 s, hits ground only.",
+                ZEALOT,
+                MARINE,
+            ],
         )
     };
     let a = ceiling_decision(CeilingScript::Kite, &read_prompt(&text("Zealot", 1.2)))["actions"][0].clone();
@@ -265,16 +295,14 @@ fn the_ceiling_knocks_back_melee_units_closing_in() {
 #[test]
 fn the_ceiling_blinks_hurt_stalkers_away() {
     let text = |vitals: &str| {
-        format!(
-            "Step 9, game time 3.0 s. Positions (x,y) in world units: x 0-32 west to east, y 0-32 south to north. Distances are edge to edge, as weapon ranges are.\n\
-             Your units (tag type (x,y) hp[+shields] | weapon | order | enemies in range | nearest enemy):\n\
-             - 1 Stalker (16.0,16.0) {vitals} | range 6 ready | attacking 4 | in range 4 | nearest 4 at 2.0 | can cast blink\n\
-             Enemies in sight (tag type (x,y) hp[+shields] | target):\n\
-             - 4 Zealot (19.0,16.0) 100/100+50sh | attacking 1\n\
-             Unit types here:\n\
-             - Stalker: Protoss, Armored, Mechanical, 80 health, 80 shields, 1 armor, speed 4.13, sight 10. Weapon: 10 damage, range 6, every 1.03 s, hits ground and air.\n\
-             - Zealot: Protoss, Light, Biological, 100 health, 50 shields, 1 armor, speed 3.15, sight 9. Weapon: 8 damage x2 hits, range 0.1, every 0.86 s, hits ground only.\n\
-             - {{\"unit\": U, \"action\": \"stance\"}}"
+        rich(
+            None,
+            &[&format!("1 Stalker (16.0,16.0) {vitals} | range 6 ready | attacking 4 | in range 4 | nearest 4 at 2.0 | can cast blink")],
+            &["4 Zealot (19.0,16.0) 100/100+50sh | attacking 1"],
+            &[
+                "Stalker: Protoss, Armored, Mechanical, 80 health, 80 shields, 1 armor, speed 4.13, sight 10. Weapon: 10 damage, range 6, every 1.03 s, hits ground and air.",
+                ZEALOT,
+            ],
         )
     };
     let read = read_prompt(&text("40/80+0sh"));
@@ -290,9 +318,7 @@ fn the_ceiling_blinks_hurt_stalkers_away() {
     // two steps away (the scripts check every step).
     let a = ceiling_decision(CeilingScript::Kite, &read_prompt(&text("60/80+0sh")))["actions"][0].clone();
     assert_eq!(a["action"], "stance", "decides every step: {a}");
-    let slow =
-        format!("{}\nGive one action per unit of yours (1); the next decision comes in 2 steps (0.71 s of game time).", text("60/80+0sh"));
-    let a = ceiling_decision(CeilingScript::Kite, &read_prompt(&slow))["actions"][0].clone();
+    let a = ceiling_decision(CeilingScript::Kite, &read_prompt(&deciding_every_2(&text("60/80+0sh"))))["actions"][0].clone();
     assert_eq!(a["ability"], "blink", "decides every 2 steps: {a}");
 }
 
@@ -334,17 +360,14 @@ fn a_stance_without_a_target_takes_the_weakest_in_sight() {
 #[test]
 fn the_ceiling_unsieges_as_the_script_and_moves_only_what_can_move() {
     let text = |fields: &str| {
-        format!(
-            "Step 9, game time 3.0 s. Positions (x,y) in world units: x 0-32 west to east, y 0-32 south to north. Distances are edge to edge, as weapon ranges are.\n\
-             Your units (tag type (x,y) hp[+shields] | weapon | order | enemies in range | nearest enemy):\n\
-             - 1 SiegeTankSieged (16.0,16.0) 175/175 | range 13 ready | idle | {fields} | can cast unsiege\n\
-             Enemies in sight (tag type (x,y) hp[+shields] | target):\n\
-             - 4 Zealot (17.5,16.0) 100/100+50sh | attacking 1\n\
-             - 5 Zealot (22.0,16.0) 100/100+50sh\n\
-             Unit types here:\n\
-             - SiegeTankSieged: Terran, Armored, Mechanical, 175 health, 1 armor, sight 11. Weapon: 40 damage (+30 vs Armored), range 13, every 2.14 s, hits ground only.\n\
-             - Zealot: Protoss, Light, Biological, 100 health, 50 shields, 1 armor, speed 3.15, sight 9. Weapon: 8 damage x2 hits, range 0.1, every 0.86 s, hits ground only.\n\
-             - {{\"unit\": U, \"action\": \"stance\"}}"
+        rich(
+            None,
+            &[&format!("1 SiegeTankSieged (16.0,16.0) 175/175 | range 13 ready | idle | {fields} | can cast unsiege")],
+            &["4 Zealot (17.5,16.0) 100/100+50sh | attacking 1", "5 Zealot (22.0,16.0) 100/100+50sh"],
+            &[
+                "SiegeTankSieged: Terran, Armored, Mechanical, 175 health, 1 armor, sight 11. Weapon: 40 damage (+30 vs Armored), range 13, every 2.14 s, hits ground only.",
+                ZEALOT,
+            ],
         )
     };
     let act =
