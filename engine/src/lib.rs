@@ -25,15 +25,31 @@
 //! # Ok(())
 //! # }
 //! ```
+//!
+//! # Layers
+//!
+//! Each module uses only modules of its own layer or a lower one, and no two modules use each
+//! other, directly or around a circle (`tests/it/structure.rs` checks both, from this list):
+//!
+//! 1. data: `time`, `geom`, `ids`, `flags`, `units`, `damage`, `terrain`, `spatial`, `orca`, `pathing`, `scenario`
+//! 2. state: `ability`, `world`, `movement`, `hash`
+//! 3. rules: `action`, `rules`, `combat`, `cast`, `sim`, `builtin_ai`
+//! 4. observations: `obs`
+//! 5. policies: `policy` (the agent contract and the scripted agents; an episode plays its
+//!    scenario's scripted opponent, so they sit below it)
+//! 6. episodes: `env`, `learn`
+//! 7. agents: `agent` (agents running in an environment, and the contract's public face), `vec_env`
 #![forbid(unsafe_code)]
 
 mod ability;
 mod action;
 pub mod agent;
 mod builtin_ai;
+mod cast;
 mod combat;
 mod damage;
 mod env;
+mod flags;
 mod geom;
 mod hash;
 mod ids;
@@ -42,6 +58,7 @@ mod movement;
 mod obs;
 mod orca;
 mod pathing;
+mod policy;
 mod rules;
 mod scenario;
 mod sim;
@@ -61,7 +78,7 @@ pub use agent::{
     AGENTS as POLICIES, Agent, AgentCtx, Controllers, ForkAgent, GroupObs, Reads, UnknownAgent as UnknownPolicy, by_name as agent_by_name,
 };
 pub use damage::{Dealt, apply_hits, hit_damage};
-pub use env::{BadFovActions, Env, EnvConfig, MAX_FOV_ACTIONS, Outcome, RewardMode, StepResult, check_fov_actions};
+pub use env::{BadFovActions, Env, EnvConfig, MAX_FOV_ACTIONS, Outcome, RewardMode, StepResult, check_fov_actions, describe};
 pub use geom::Vec2;
 pub use hash::Fnv;
 pub use ids::{BadTag, Team, Tick, UnitId};
@@ -69,7 +86,7 @@ pub use learn::{LearnError, StepInfo};
 pub use obs::{AbilitySlots, slot_abilities};
 pub use obs::{
     Buffs, EnvInfo, IndexError, N_ACTIONS_NO_ATTACK, OrderInfo, SHOOT_RANGE, SIGHT_RANGE, SmacLayout, UnitFlags, UnitInfo, UnknownBits,
-    ability_infos, describe, unit_list,
+    ability_infos, unit_list,
 };
 pub use scenario::{
     BUILTIN, Generator, Mode, OpponentKind, PROCEDURAL, RENAMED, RawGenerate, RawOpponent, RawScenario, RawStart, RawTerrain, RawUnit,

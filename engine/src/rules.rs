@@ -1,6 +1,6 @@
 //! Who may do what to whom, written once. The simulator checks an action against the world
 //! ([`World::validate`]); an agent checks it against its group's observation
-//! ([`crate::agent::check_action`]) before the action leaves it (AVA turns the answer into
+//! ([`crate::policy::check_action`]) before the action leaves it (AVA turns the answer into
 //! words for its model, an agent node counts what it sends in vain). Both run [`check`] over
 //! a [`Sight`]: the world's units and visibility, or the units an observation carries. So
 //! the two can only disagree where the observation lacks a fact (fog, the exact cooldown),
@@ -10,13 +10,12 @@ use crate::ability::{Ability, AbilityTarget, PendingCast, Refusal, TargetRule};
 use crate::action::{Action, ActionError, Command, GRID, Inability, MOVE_AMOUNT, TargetProblem, grid_cell_center};
 use crate::geom::Vec2;
 use crate::ids::{Team, UnitId};
-use crate::obs::{Buffs, UnitFlags, UnitInfo};
 use crate::terrain::Terrain;
 use crate::units::{Attrs, UnitKind, UnitSpec, Weapon};
 use crate::world::{Order, Unit, World};
 
 /// What the rules read of a unit: the same facts whether it is the world's [`Unit`] or an
-/// observation's [`UnitInfo`] (plus its type's data, which a player knows).
+/// observation's `UnitInfo` (plus its type's data, which a player knows; `obs` implements it).
 pub(crate) trait Facts {
     fn tag(&self) -> u32;
     fn kind(&self) -> UnitKind;
@@ -62,45 +61,6 @@ impl Facts for Unit {
     }
     fn morphing(&self) -> bool {
         self.status.morph.is_some()
-    }
-    fn energy(&self) -> f32 {
-        self.energy
-    }
-    fn hp(&self) -> f32 {
-        self.hp
-    }
-    fn max_hp(&self) -> f32 {
-        self.max_hp
-    }
-}
-
-impl Facts for UnitInfo {
-    fn tag(&self) -> u32 {
-        self.tag
-    }
-    fn kind(&self) -> UnitKind {
-        self.kind
-    }
-    fn spec(&self) -> &'static UnitSpec {
-        UnitInfo::spec(self)
-    }
-    fn pos(&self) -> Vec2 {
-        Vec2::new(self.x, self.y)
-    }
-    fn radius(&self) -> f32 {
-        UnitInfo::spec(self).radius
-    }
-    fn speed(&self) -> f32 {
-        self.speed
-    }
-    fn on_air(&self) -> bool {
-        self.flags.contains(UnitFlags::FLYING) || self.buffs.contains(Buffs::LIFTED)
-    }
-    fn heals(&self) -> bool {
-        self.flags.contains(UnitFlags::HEALER)
-    }
-    fn morphing(&self) -> bool {
-        self.buffs.contains(Buffs::MORPHING)
     }
     fn energy(&self) -> f32 {
         self.energy

@@ -332,7 +332,7 @@ impl Read {
     }
 }
 
-/// Where a Stalker blinks to, by the scripts' rule (engine/src/agent/micro.rs): shields under a
+/// Where a Stalker blinks to, by the scripts' rule (engine/src/policy/micro.rs): shields under a
 /// tenth of their maximum, HP under 60%, enemies within 6; 7.5 away from them, on the map.
 /// Needs the micro action set (an exact point) and the rich prompt's extent.
 fn blink_to(read: &Read, u: &Seen) -> Option<(f32, f32)> {
@@ -395,7 +395,7 @@ fn self_cast(read: &Read, u: &Seen) -> Option<&'static str> {
     None
 }
 
-/// The melee enemy a Reaper knocks back by the scripts' rule (engine/src/agent/micro.rs): the
+/// The melee enemy a Reaper knocks back by the scripts' rule (engine/src/policy/micro.rs): the
 /// nearest enemy, when it is a mobile ground melee unit within 3.
 fn knock_back(read: &Read, u: &Seen) -> Option<u32> {
     if !u.can.iter().any(|c| c == "kd8_charge") {
@@ -407,7 +407,7 @@ fn knock_back(read: &Read, u: &Seen) -> Option<u32> {
     (closing && d < 3.0).then_some(tag)
 }
 
-/// The scripts' ability use (engine/src/agent/micro.rs), read off the prompt, written into
+/// The scripts' ability use (engine/src/policy/micro.rs), read off the prompt, written into
 /// `a`: a Stalker out of shields and hurt blinks away from its threats, a Reaper throws KD8
 /// Charge at a melee unit closing in, and the self-cast abilities. `false`: nothing to cast.
 fn cast(read: &Read, u: &Seen, a: &mut Value) -> bool {

@@ -8,11 +8,8 @@
 //! game loop together with every other cast of both teams, in unit order, so neither side
 //! reacts to a cast before the loop in which it happens.
 
-mod cast;
 mod status;
-mod tick;
 
-pub(crate) use cast::stim_cost;
 pub(crate) use status::PendingCast;
 pub use status::{AreaEffect, Channel, EffectKind, Status};
 
@@ -24,6 +21,11 @@ use crate::units::UnitKind;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
+
+/// HP a Stimpack costs this unit type.
+pub(crate) fn stim_cost(kind: UnitKind) -> f32 {
+    if kind == UnitKind::Marauder { STIM_HP_MARAUDER } else { STIM_HP_MARINE }
+}
 
 /// Every castable ability. Passive ones (Combat Shield, Concussive Shells, cloak drain,
 /// detection, cliff walking) are not here: they have no command.

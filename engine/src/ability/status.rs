@@ -4,9 +4,9 @@
 //! kept here too: the world holds them, and its file must not depend on casting's.
 
 use super::{Ability, AbilityTarget, SLOW_FACTOR, STIM_FACTOR};
+use crate::flags::Buffs;
 use crate::geom::Vec2;
 use crate::ids::{Team, UnitId};
-use crate::obs::Buffs;
 use crate::units::UnitKind;
 use serde::Serialize;
 

@@ -1,10 +1,10 @@
 //! The agents driving an environment's agent teams (team 1; team 2 too in PvP) as one
 //! value, so every tool (episodes, rendering, tests) plays episodes the same way.
 
-use super::scripted::factory;
-use super::{AgentTeam, CommandedTeam, FrameNeed, FrameSource, Grouping, TeamFrames, UnknownAgent};
+use super::{AgentTeam, CommandedTeam, Grouping};
 use crate::env::Env;
 use crate::ids::Team;
+use crate::policy::{FrameNeed, FrameSource, TeamFrames, UnknownAgent, factory};
 use crate::scenario::{Mode, Scenario};
 
 pub struct Controllers {

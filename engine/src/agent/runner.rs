@@ -1,10 +1,11 @@
 //! Agents driving a team in-process, grouped exactly as a deployment's agent nodes are, so
 //! an in-process run and a lockstep deployment of the same grouping play the same game.
 
-use super::{Agent, AgentCtx, GroupObs, agent_seed};
 use crate::action::Action;
 use crate::env::Env;
 use crate::ids::Team;
+use crate::obs::GroupObs;
+use crate::policy::{Agent, AgentCtx, agent_seed};
 
 /// How a team's units are split among agents.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -4,11 +4,11 @@
 
 use super::epo::Epo;
 use crate::action::{Action, ActionError, Command};
-use crate::agent::{self, AgentCtx, agent_seed};
 use crate::builtin_ai::BuiltinAi;
 use crate::hash::Fnv;
 use crate::ids::{Team, UnitId};
 use crate::obs::{EnvInfo, IndexError, SmacLayout};
+use crate::policy::{self, AgentCtx, agent_seed};
 use crate::scenario::{Mode, OpponentKind, Scenario};
 use crate::time::DEFAULT_STEP_MUL;
 use crate::world::{Rules, World};
@@ -184,7 +184,7 @@ pub struct Env {
     pub(super) world: World,
     pub(super) seed: u64,
     pub(super) agents: [Vec<UnitId>; 2],
-    pub(super) opponent: Option<Box<dyn agent::ForkAgent>>,
+    pub(super) opponent: Option<Box<dyn policy::ForkAgent>>,
     pub(super) opponent_kind: Option<OpponentKind>,
     pub(super) policy_rng: ChaCha8Rng,
     pub(super) builtin: Option<BuiltinAi>,
@@ -322,7 +322,7 @@ impl Env {
             }
             self.opponent_kind = Some(kind);
             if kind != OpponentKind::Builtin {
-                let mut p = agent::opponent(kind);
+                let mut p = policy::opponent(kind);
                 // One agent for the whole team, seeded as an agent team of it would be.
                 let units: Vec<u32> = self.agents[Team::Two.index()].iter().map(|id| id.tag()).collect();
                 let seed = agent_seed(seed, Team::Two, units.first().copied().unwrap_or(0));

@@ -3,6 +3,10 @@
 
 mod episode;
 mod epo;
+mod observe;
 mod step;
+mod text;
 
 pub use episode::{BadFovActions, Env, EnvConfig, MAX_FOV_ACTIONS, Outcome, RewardMode, StepResult, check_fov_actions};
+pub use observe::effects;
+pub use text::describe;

@@ -2,8 +2,9 @@
 //! scored. Above the observations, which are built from an `Env` and for its opponent here.
 
 use super::episode::{Env, Outcome, RewardMode, StepResult};
-use crate::agent::{self, GroupObs};
 use crate::ids::Team;
+use crate::obs::{GroupObs, Reads};
+use crate::policy;
 
 impl Env {
     /// Runs the opponent (PvE), then `step_mul` game loops, and scores the step. Stepping a
@@ -21,7 +22,7 @@ impl Env {
         }
         if self.builtin.as_ref().is_some_and(|ai| ai.started(self.world.tick())) && self.builtin_may_cast() {
             // The built-in AI's abilities, as the scripted agents use them.
-            actions = agent::micro::ability_actions(&GroupObs::team(self, Team::Two, 0, agent::Reads::UNITS), &self.scenario.terrain).0;
+            actions = policy::micro::ability_actions(&GroupObs::team(self, Team::Two, 0, Reads::UNITS), &self.scenario.terrain).0;
         }
         for a in &actions {
             // A scripted opponent's invalid action is its own bug, not the agent's: it is

@@ -4,9 +4,9 @@
 //! of SMAC's own sight rule; the state is SMAC's privileged global state for centralised
 //! training and does not.
 
+use super::group::GroupObs;
 use super::slots::AbilitySlots;
 use crate::action::{ActionError, Command, Direction};
-use crate::agent::GroupObs;
 use crate::geom::Vec2;
 use crate::ids::{Team, UnitId};
 use crate::rules::Facts;

@@ -1,9 +1,11 @@
 //! The structured unit list (the paper's U_t): one record per unit a team knows of.
 
-use super::flags::{Buffs, UnitFlags};
 use crate::ability::AbilityInfo;
 use crate::action::grid_cell_of;
+use crate::flags::{Buffs, UnitFlags};
+use crate::geom::Vec2;
 use crate::ids::Team;
+use crate::rules::Facts;
 use crate::time::LOOPS_PER_SECOND;
 use crate::units::{Attrs, DataSet, UnitKind, UnitSpec};
 use crate::world::{Activity, Order, Unit, World};
@@ -166,4 +168,44 @@ pub fn unit_list(w: &World, team: Team) -> Vec<UnitInfo> {
     let own = w.alive(team);
     let seen = w.alive(team.other()).filter(|u| w.visible_to(team, u.id));
     own.chain(seen).map(|u| UnitInfo::from_unit(w, team, u)).collect()
+}
+
+/// The rules read an observed unit as they read the world's.
+impl Facts for UnitInfo {
+    fn tag(&self) -> u32 {
+        self.tag
+    }
+    fn kind(&self) -> UnitKind {
+        self.kind
+    }
+    fn spec(&self) -> &'static UnitSpec {
+        UnitInfo::spec(self)
+    }
+    fn pos(&self) -> Vec2 {
+        Vec2::new(self.x, self.y)
+    }
+    fn radius(&self) -> f32 {
+        UnitInfo::spec(self).radius
+    }
+    fn speed(&self) -> f32 {
+        self.speed
+    }
+    fn on_air(&self) -> bool {
+        self.flags.contains(UnitFlags::FLYING) || self.buffs.contains(Buffs::LIFTED)
+    }
+    fn heals(&self) -> bool {
+        self.flags.contains(UnitFlags::HEALER)
+    }
+    fn morphing(&self) -> bool {
+        self.buffs.contains(Buffs::MORPHING)
+    }
+    fn energy(&self) -> f32 {
+        self.energy
+    }
+    fn hp(&self) -> f32 {
+        self.hp
+    }
+    fn max_hp(&self) -> f32 {
+        self.max_hp
+    }
 }

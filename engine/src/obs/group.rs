@@ -144,3 +144,19 @@ impl GroupObs {
         self.game_loop
     }
 }
+
+/// Parts of an observation an agent may not need: SMAC's features and masks, and the text.
+/// They cost more to build than the rest (the text most), and scripted agents read neither.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Reads {
+    /// The controlled units' SMAC masks and features.
+    pub smac: bool,
+    /// The team's text description.
+    pub text: bool,
+}
+
+impl Reads {
+    pub const ALL: Reads = Reads { smac: true, text: true };
+    /// The units and effects only.
+    pub const UNITS: Reads = Reads { smac: false, text: false };
+}

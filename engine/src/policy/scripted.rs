@@ -7,11 +7,12 @@ use super::view::{
     attacking, busy, can_attack, centroid, edge, ehp, flying, hp_fraction, id, is_idle, max_range, mobile, moving_to, pos, radius,
     range_gap, reloading_longer_than, support,
 };
-use super::{Agent, AgentCtx, GroupObs};
+use super::{Agent, AgentCtx};
 use crate::action::{Action, Command};
 use crate::geom::Vec2;
 use crate::ids::Team;
 use crate::obs::{Buffs, OrderInfo, SmacLayout, UnitInfo};
+use crate::obs::{GroupObs, Reads};
 use crate::scenario::{OpponentKind, Scenario};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -56,7 +57,7 @@ pub fn by_name(name: &str) -> Result<Box<dyn Agent>, UnknownAgent> {
     factory(name).map(|make| make())
 }
 
-/// What makes a fresh agent of a named policy (for [`AgentTeam`](super::AgentTeam)s, which
+/// What makes a fresh agent of a named policy (for `crate::agent::AgentTeam`s, which
 /// make one per group).
 pub fn factory(name: &str) -> Result<MakeAgent, UnknownAgent> {
     SCRIPTED.iter().find(|(n, _, _)| *n == name).map(|(_, _, make)| *make).ok_or_else(|| UnknownAgent(name.to_owned()))
@@ -96,8 +97,8 @@ pub struct AttackMove {
 }
 
 impl Agent for AttackMove {
-    fn reads(&self) -> super::Reads {
-        super::Reads::UNITS
+    fn reads(&self) -> Reads {
+        Reads::UNITS
     }
     fn name(&self) -> &str {
         "attack-move"
@@ -124,8 +125,8 @@ impl Agent for AttackMove {
 pub struct NoOp;
 
 impl Agent for NoOp {
-    fn reads(&self) -> super::Reads {
-        super::Reads::UNITS
+    fn reads(&self) -> Reads {
+        Reads::UNITS
     }
     fn name(&self) -> &str {
         "noop"
@@ -142,8 +143,8 @@ impl Agent for NoOp {
 pub struct Hold;
 
 impl Agent for Hold {
-    fn reads(&self) -> super::Reads {
-        super::Reads::UNITS
+    fn reads(&self) -> Reads {
+        Reads::UNITS
     }
     fn name(&self) -> &str {
         "hold"
@@ -170,8 +171,8 @@ impl Default for RandomActions {
 }
 
 impl Agent for RandomActions {
-    fn reads(&self) -> super::Reads {
-        super::Reads { smac: true, text: false }
+    fn reads(&self) -> Reads {
+        Reads { smac: true, text: false }
     }
     fn name(&self) -> &str {
         "random"
@@ -300,8 +301,8 @@ pub(super) fn kite_step(g: &GroupObs, u: &UnitInfo) -> Option<Vec2> {
 }
 
 impl Agent for FocusFire {
-    fn reads(&self) -> super::Reads {
-        super::Reads::UNITS
+    fn reads(&self) -> Reads {
+        Reads::UNITS
     }
     fn name(&self) -> &str {
         self.name
@@ -386,8 +387,8 @@ impl Defensive {
 }
 
 impl Agent for Defensive {
-    fn reads(&self) -> super::Reads {
-        super::Reads::UNITS
+    fn reads(&self) -> Reads {
+        Reads::UNITS
     }
     fn name(&self) -> &str {
         "defensive"

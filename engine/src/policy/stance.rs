@@ -5,10 +5,10 @@
 //! doing instead. Each step's command comes from the group's observation alone, by the same
 //! rules as the scripted agents' ([`FocusFire`](super::FocusFire)).
 
-use super::GroupObs;
 use super::scripted::{kite_step, own_target, weakest_in_sight};
 use super::view::{attacking, id, mobile, radius, range_gap};
 use crate::action::{Action, Command};
+use crate::obs::GroupObs;
 use crate::obs::{OrderInfo, UnitInfo};
 use crate::terrain::Terrain;
 use serde::{Deserialize, Serialize};

@@ -1,10 +1,10 @@
 //! The natural-language battlefield description (the paper's T_t): what a player would read
 //! off the screen, with the exact numbers a screenshot leaves unclear.
 
-use super::flags::UnitFlags;
-use super::units::{OrderInfo, UnitInfo, unit_list};
-use crate::env::Env;
+use super::Env;
+use crate::flags::UnitFlags;
 use crate::ids::Team;
+use crate::obs::{OrderInfo, UnitInfo, unit_list};
 use crate::time::{LOOPS_PER_SECOND, loops_to_seconds};
 use std::fmt::Write;
 

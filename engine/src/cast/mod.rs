@@ -1,15 +1,17 @@
-//! Checking a cast (every refusal reason) and carrying it out at the start of a loop.
+//! What abilities do to the world: checking a cast (every refusal reason) and carrying it out
+//! at the start of a loop, and (`tick`) their per-loop side. The ability data these read and
+//! leave behind (`ability`) sits below the world; this sits above it and the combat rules.
 
-use super::status::{AreaEffect, Channel, EffectKind};
-use super::*;
+mod tick;
+
+use crate::ability::*;
 use crate::combat::PendingHit;
+use crate::geom::Vec2;
 use crate::ids::Team;
+use crate::ids::UnitId;
+use crate::time::LOOPS_PER_SECOND;
+use crate::units::UnitKind;
 use crate::world::{Order, Unit, World};
-
-/// HP a Stimpack costs this unit type.
-pub(crate) fn stim_cost(kind: UnitKind) -> f32 {
-    if kind == UnitKind::Marauder { STIM_HP_MARAUDER } else { STIM_HP_MARINE }
-}
 
 impl World {
     /// Checks everything about a cast except its target: whether `u` could cast `ability`

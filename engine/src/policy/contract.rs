@@ -1,11 +1,11 @@
 //! The contract itself: what every agent kind implements and is given. The runners, the
 //! scripted agents and `Env` (whose opponent is a [`ForkAgent`]) all build on it, so it
-//! depends on none of them, only on the observation types.
+//! depends on none of them, only on the observation types (`crate::obs`).
 
-use super::obs::GroupObs;
 use super::role::Briefing;
 use crate::action::Action;
 use crate::ids::Team;
+use crate::obs::{GroupObs, Reads};
 use crate::scenario::Scenario;
 use std::sync::Arc;
 
@@ -73,22 +73,6 @@ impl TeamFrames {
 /// renderer implements it; the engine has none).
 pub trait FrameSource: Send {
     fn draw(&mut self, world: &crate::World, team: Team, need: FrameNeed) -> TeamFrames;
-}
-
-/// Parts of an observation an agent may not need: SMAC's features and masks, and the text.
-/// They cost more to build than the rest (the text most), and scripted agents read neither.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Reads {
-    /// The controlled units' SMAC masks and features.
-    pub smac: bool,
-    /// The team's text description.
-    pub text: bool,
-}
-
-impl Reads {
-    pub const ALL: Reads = Reads { smac: true, text: true };
-    /// The units and effects only.
-    pub const UNITS: Reads = Reads { smac: false, text: false };
 }
 
 /// An agent whose whole state can be copied mid-episode: what an environment needs of its

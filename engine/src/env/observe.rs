@@ -1,12 +1,11 @@
-//! Observations built from an environment. Apart from their types (`obs.rs`): `Env` holds its
-//! opponent as an agent and the agent contract names those types, so they cannot depend on
+//! Observations built from an environment. Apart from their types (`crate::obs`): `Env` holds
+//! its opponent as an agent and the agent contract names those types, so they cannot depend on
 //! `Env`, while building them must.
 
-use super::contract::Reads;
-use super::obs::{AgentObs, Controlled, EffectInfo, GroupObs};
-use crate::env::Env;
+use super::Env;
+use super::text::describe;
 use crate::ids::Team;
-use crate::obs::{UnitInfo, describe, unit_list};
+use crate::obs::{AgentObs, Controlled, EffectInfo, GroupObs, Reads, UnitInfo, unit_list};
 use crate::time::LOOPS_PER_SECOND;
 use std::sync::Arc;
 

@@ -10,11 +10,11 @@
 //! range from what the team sees, so a scripted side does not have casts refused. The engine
 //! still validates every cast it is given.
 
-use super::GroupObs;
 use super::view::{attacking, busy, can_attack, edge, flying, id, max_range, mobile, pos, radius, ready, sees_point};
 use crate::ability::{Ability, AbilityTarget, DETECTION_RADIUS, EMP_RADIUS, EffectKind, STORM_RADIUS, TargetKind, TargetRule};
 use crate::action::{Action, Command};
 use crate::geom::Vec2;
+use crate::obs::GroupObs;
 use crate::obs::{Buffs, UnitFlags, UnitInfo};
 use crate::terrain::Terrain;
 use crate::units::UnitKind;

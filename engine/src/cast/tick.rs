@@ -1,10 +1,12 @@
 //! The per-loop side of abilities: timers, morphs, channels, cloak drain, heal over time,
 //! and the area effects on the ground (storms, force fields, shields, charges).
 
-use super::status::{Channel, EffectKind};
-use super::*;
+use crate::ability::*;
 use crate::combat::edge_dist;
+use crate::geom::Vec2;
+use crate::ids::UnitId;
 use crate::units::Attrs;
+use crate::units::UnitKind;
 use crate::world::{Body, Order, World};
 
 impl World {

@@ -3,11 +3,11 @@
 //! taken. Where the observation lacks a fact the world has (an enemy out of sight, vision of
 //! high ground), this check refuses and the world's might not; never the reverse.
 
-use super::GroupObs;
 use crate::ability::{Ability, AbilityInfo, Refusal, RefusalCode};
 use crate::action::{Action, ActionError};
 use crate::geom::Vec2;
 use crate::ids::{Team, UnitId};
+use crate::obs::GroupObs;
 use crate::obs::{Buffs, UnitInfo};
 use crate::rules::{self, Sight};
 use crate::terrain::Terrain;
