@@ -9,11 +9,10 @@
 //! Apart from [`crate::observe`], which draws them: the replay buffer, the networks and the
 //! encoders hold frames, and drawing needs none of those.
 
-use crate::encoders::layers::pixels_to_tensor;
-use crate::encoders::text::TEXT_DIM;
 use crate::kernels::Pixels;
 use crate::{Config, Error};
-use candle_core::{Device, Tensor};
+use avacraft_minilm::TEXT_DIM;
+use candle_core::{DType, Device, Tensor};
 
 /// Frame sizes `(width, height)` of the screen and the minimap.
 pub type Sizes = ((usize, usize), (usize, usize));
@@ -157,4 +156,10 @@ pub struct FrameTensors {
     pub minimap: Tensor,
     /// `(N, slots x 384)`: [`crate::encoders::clause_cache`]'s slot embeddings.
     pub text: Option<Tensor>,
+}
+
+/// u8 pixels `(N, H, W, 3)` (the renderer's layout) as floats in [0, 1] `(N, 3, H, W)`.
+pub fn pixels_to_tensor(pixels: &[u8], n: usize, (w, h): (usize, usize)) -> Result<Tensor, Error> {
+    let t = Tensor::from_slice(pixels, (n, h, w, 3), &Device::Cpu)?.to_dtype(DType::F32)?;
+    Ok((t.permute((0, 3, 1, 2))?.contiguous()? / 255.0)?)
 }

@@ -31,6 +31,19 @@
 //! replay samples) draws from seeded streams, so a run is a function of its config and seed.
 //!
 //! [`Agent`]: avacraft_engine::Agent
+//!
+//! # Layers
+//!
+//! Each module uses only modules of its own layer or a lower one, and no two modules use each
+//! other, directly or around a circle (`tests/it/structure.rs` checks both, from this list):
+//!
+//! 1. foundations: `error`, `params`, `optim`, `opponent`, `value_norm`, `plot`, `tensorboard`, `runlog`, `baselines`
+//! 2. configuration: `config`
+//! 3. data: `kernels`, `frames`, `buffer`, `journal`, `td`
+//! 4. networks: `encoders`, `nets`, `qtran`, `observe`
+//! 5. acting: `policy`, `selfplay`
+//! 6. learning: `learner`, `carry`, `resume`, `monitor`, `ppo`
+//! 7. training: `train`, `ship`
 
 // Denied (not forbidden) so that `kernels::gemm`, the one call into a matrix-product kernel
 // by pointer, can allow it behind a bounds-checked safe function.
@@ -41,6 +54,7 @@ pub mod buffer;
 mod carry;
 pub mod config;
 pub mod encoders;
+mod error;
 pub mod frames;
 mod journal;
 pub mod kernels;
@@ -62,10 +76,12 @@ pub mod ship;
 pub mod td;
 pub mod tensorboard;
 pub mod train;
+mod value_norm;
 
 pub use buffer::{Batch, Episode, ReplayBuffer, Shape};
 pub use config::{ALGOS, Config, MixerKind, Opponent};
 pub use encoders::{Backbone, ObsEncoder, ObsKind};
+pub use error::{Error, Refused};
 pub use learner::{Learner, UpdateStats};
 pub use monitor::{Progress, RunOptions, Summary};
 pub use nets::Nets;
@@ -75,60 +91,3 @@ pub use policy::{FramesActor, MarlAgent, Policy, TestResult, select_actions};
 pub use ppo::PpoLearner;
 pub use td::QGrads;
 pub use train::{Trained, train, train_from};
-
-/// A config value refused: its key, the value, the rule it breaks and the nearest valid value
-/// (boxed in [`Error`] to keep the error small).
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("`{key} = {value}`: {rule}; nearest valid value: {nearest}")]
-pub struct Refused {
-    pub key: String,
-    pub value: String,
-    pub rule: String,
-    pub nearest: String,
-}
-
-/// What can go wrong configuring, training, saving or loading.
-#[derive(Debug, thiserror::Error)]
-pub enum Error {
-    #[error("unknown algorithm `{algo}` (known: {known})")]
-    UnknownAlgo { algo: String, known: String },
-    #[error("unknown config key `{key}` (known: {known})")]
-    UnknownKey { key: String, known: String },
-    #[error("override `{text}`: {message}")]
-    Override { text: String, message: String },
-    #[error("{what}: {message}")]
-    ConfigParse { what: String, message: String },
-    #[error("{0}")]
-    BadValue(Box<Refused>),
-    #[error("tensor operation failed")]
-    Tensor(#[from] candle_core::Error),
-    #[error("environment")]
-    Env(#[from] avacraft_engine::VecEnvError),
-    #[error("{}", path.display())]
-    Io {
-        path: std::path::PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error("{}", path.display())]
-    Json {
-        path: std::path::PathBuf,
-        #[source]
-        source: serde_json::Error,
-    },
-    #[error("learning-curve plot: {message}")]
-    Plot { message: String },
-    #[error("checkpoint: {message}")]
-    Checkpoint { message: String },
-    #[error("training diverged at update {update}: loss {loss}")]
-    Diverged { update: u64, loss: f64 },
-    #[error("training diverged: the gradients' norm is {norm}")]
-    NonFiniteGradient { norm: f64 },
-    #[error("observation: {message}")]
-    Observation { message: String },
-    #[error("text model all-MiniLM-L6-v2: {message}")]
-    TextModel { message: String },
-    /// all-MiniLM-L6-v2, the vision-text mode's text model.
-    #[error(transparent)]
-    Text(#[from] avacraft_minilm::Error),
-}

@@ -24,7 +24,7 @@ use crate::learner::Learner;
 use crate::nets::Nets;
 use crate::plot::CurvePoint;
 use crate::policy::TestResult;
-use crate::ppo::{PpoLearner, ValueNorm};
+use crate::value_norm::ValueNorm;
 use crate::{Config, Error};
 use candle_core::Device;
 use serde::{Deserialize, Serialize};
@@ -54,7 +54,7 @@ pub(crate) fn save_moments(dir: &Path, moments: &[(&str, Moments)]) -> Result<()
 
 /// The optimiser states saved in `dir/resume`, by name, shaped like `like`'s; `None` for a
 /// run saved before they were kept.
-fn load_moments(dir: &Path, like: &[(&str, Moments)]) -> Result<Option<Vec<Moments>>, Error> {
+pub(crate) fn load_moments(dir: &Path, like: &[(&str, Moments)]) -> Result<Option<Vec<Moments>>, Error> {
     let path = dir.join("resume").join(OPTIM_FILE);
     if !path.is_file() {
         return Ok(None);
@@ -174,34 +174,14 @@ pub fn load(dir: &Path) -> Result<(Config, RunState), Error> {
     Ok((policy.cfg, state))
 }
 
-fn load_tensors(path: &Path) -> Result<std::collections::HashMap<String, candle_core::Tensor>, Error> {
+pub(crate) fn load_tensors(path: &Path) -> Result<std::collections::HashMap<String, candle_core::Tensor>, Error> {
     if !path.is_file() {
         return Err(Error::Checkpoint { message: format!("{} is missing", path.display()) });
     }
     Ok(candle_core::safetensors::load(path, &Device::Cpu)?)
 }
 
-/// Loads the checkpoint's actor and critic and the state's value statistics into `learner`.
-pub(crate) fn restore_ppo(dir: &Path, learner: &mut PpoLearner, state: &RunState) -> Result<(), Error> {
-    let policy = crate::Policy::load(dir)?;
-    learner.actor.agent_params.copy_from(&policy.nets.agent_params)?;
-    learner.critic_params.load_map(&load_tensors(&dir.join("critic.safetensors"))?, "critic.safetensors")?;
-    learner.value_norm = state
-        .value_norm
-        .clone()
-        .ok_or_else(|| Error::Checkpoint { message: format!("{}: no value statistics to resume from", dir.display()) })?;
-    learner.updates = state.updates;
-    learner.load_weights()?;
-    let like = learner.moments();
-    if let Some(saved) = load_moments(dir, &like)? {
-        for ((name, _), m) in like.iter().zip(saved) {
-            learner.set_moments(name, m).map_err(|e| optim_mismatch(dir, name, &e))?;
-        }
-    }
-    Ok(())
-}
-
-fn optim_mismatch(dir: &Path, name: &str, why: &str) -> Error {
+pub(crate) fn optim_mismatch(dir: &Path, name: &str, why: &str) -> Error {
     Error::Checkpoint { message: format!("{}: the `{name}` optimiser's state: {why}", dir.join("resume").join(OPTIM_FILE).display()) }
 }
 

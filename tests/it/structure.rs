@@ -64,15 +64,45 @@ fn module_of(src: &Path, file: &Path) -> Module {
     m
 }
 
-/// The code of a file without its test module and comments.
+/// The code of a file without its test module and comments. A test module in a file of its
+/// own (`#[cfg(test)]` over `mod tests;`) leaves the lines after it in (see [`test_files`]).
 fn code(text: &str) -> String {
     let mut out = String::new();
-    for line in text.lines() {
+    let mut lines = text.lines().peekable();
+    while let Some(line) = lines.next() {
         if line.trim() == "#[cfg(test)]" {
+            if lines.peek().and_then(|l| test_file_decl(l)).is_some() {
+                lines.next();
+                continue;
+            }
             break;
         }
         out.push_str(line.split("//").next().unwrap_or_default());
         out.push('\n');
+    }
+    out
+}
+
+/// `tests` from `mod tests;`: a module declared in a file of its own.
+fn test_file_decl(line: &str) -> Option<&str> {
+    let name = line.trim().strip_prefix("mod ")?.strip_suffix(';')?;
+    name.chars().all(is_ident).then_some(name)
+}
+
+/// The modules of a crate that are test modules in files of their own.
+fn test_files(src: &Path, files: &[PathBuf]) -> BTreeSet<Module> {
+    let mut out = BTreeSet::new();
+    for f in files {
+        let m = module_of(src, f);
+        let text = std::fs::read_to_string(f).unwrap_or_default();
+        let mut lines = text.lines().peekable();
+        while let Some(line) = lines.next() {
+            if line.trim() == "#[cfg(test)]"
+                && let Some(name) = lines.peek().and_then(|l| test_file_decl(l))
+            {
+                out.insert(m.iter().cloned().chain([name.to_owned()]).collect());
+            }
+        }
     }
     out
 }
@@ -123,7 +153,9 @@ fn graph(krate: &Path) -> BTreeMap<Module, BTreeSet<Module>> {
     let src = krate.join("src");
     let mut files = Vec::new();
     rust_files(&src, &mut files);
-    let modules: BTreeMap<Module, PathBuf> = files.iter().map(|f| (module_of(&src, f), f.clone())).collect();
+    let tests = test_files(&src, &files);
+    let modules: BTreeMap<Module, PathBuf> =
+        files.iter().map(|f| (module_of(&src, f), f.clone())).filter(|(m, _)| !tests.contains(m)).collect();
     let resolve =
         |path: &Module| -> Option<Module> { (1..=path.len()).rev().map(|n| path[..n].to_vec()).find(|p| modules.contains_key(p)) };
     let mut g = BTreeMap::new();
@@ -385,4 +417,192 @@ fn no_raw_topic_string_outside_the_topic_module() {
         }
     }
     assert!(found.is_empty(), "topic names spelt out of the topic module:\n{}", found.join("\n"));
+}
+
+/// The layers a crate's `lib.rs` doc names, bottom first: lines such as
+/// ``//! 3. rules: `action`, `rules`, `combat` ``.
+fn layers(krate: &Path) -> Vec<(String, Vec<String>)> {
+    let lib = std::fs::read_to_string(krate.join("src/lib.rs")).expect("lib.rs");
+    lib.lines()
+        .filter_map(|l| {
+            let (num, rest) = l.strip_prefix("//! ")?.split_once(". ")?;
+            num.parse::<usize>().ok()?;
+            let (name, mods) = rest.split_once(": ")?;
+            let mods: Vec<String> = mods.split('`').skip(1).step_by(2).map(str::to_owned).collect();
+            (!mods.is_empty() && mods.iter().all(|m| m.chars().all(is_ident))).then(|| (name.to_owned(), mods))
+        })
+        .collect()
+}
+
+/// What `lib.rs` re-exports at the crate root, by name: `pub use m::{A, b::C as D};` maps A, C
+/// and D to `m`.
+fn root_exports(lib_code: &str) -> BTreeMap<String, String> {
+    let mut out = BTreeMap::new();
+    let mut rest = lib_code;
+    while let Some(i) = rest.find("pub use ") {
+        rest = &rest[i + "pub use ".len()..];
+        let end = rest.find(';').unwrap_or(rest.len());
+        let (stmt, after) = rest.split_at(end);
+        rest = after;
+        let Some((m, items)) = stmt.split_once("::") else { continue };
+        for item in items.split([',', '{', '}']) {
+            for name in item.split(" as ") {
+                let name = name.trim().rsplit("::").next().unwrap_or_default();
+                if !name.is_empty() && name.chars().all(is_ident) {
+                    out.insert(name.to_owned(), m.trim().to_owned());
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Each file's uses of the crate's top-level modules: (the file's module, the top-level module
+/// a path of it names). A root re-export (`crate::Env`) counts as the module it comes from; an
+/// item `lib.rs` defines itself counts as `lib`, above every layer.
+fn top_uses(krate: &Path) -> Vec<(Module, String)> {
+    let src = krate.join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    let tops: BTreeSet<String> = files.iter().filter_map(|f| module_of(&src, f).first().cloned()).collect();
+    let lib = std::fs::read_to_string(src.join("lib.rs")).unwrap_or_default();
+    let exports = root_exports(&code(&lib));
+    let tests = test_files(&src, &files);
+    let mut out = Vec::new();
+    for f in &files {
+        let m = module_of(&src, f);
+        let Some(own) = m.first().filter(|_| !tests.contains(&m)) else { continue };
+        let text = std::fs::read_to_string(f).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+        for p in named_paths(&code(&text), &m) {
+            let Some(first) = p.first() else { continue };
+            let top = if tops.contains(first) { first.clone() } else { exports.get(first).cloned().unwrap_or_else(|| "lib".to_owned()) };
+            if &top != own {
+                out.push((m.clone(), top));
+            }
+        }
+    }
+    out
+}
+
+/// Where a crate's files break its layers: a use of a higher layer, of an item `lib.rs`
+/// defines, or a module no layer names.
+fn layer_breaks(krate: &Path) -> Vec<String> {
+    let layers = layers(krate);
+    let level: BTreeMap<&str, usize> = layers.iter().enumerate().flat_map(|(i, (_, ms))| ms.iter().map(move |m| (m.as_str(), i))).collect();
+    let name_of = |i: usize| format!("{}. {}", i + 1, layers[i].0);
+    let mut out = BTreeSet::new();
+    if layers.is_empty() {
+        out.insert("lib.rs names no layers".to_owned());
+    }
+    for (m, top) in top_uses(krate) {
+        let Some(&own) = level.get(m[0].as_str()) else {
+            out.insert(format!("module `{}` is in no layer", m[0]));
+            continue;
+        };
+        match level.get(top.as_str()) {
+            _ if top == "lib" => out.insert(format!("{} names an item lib.rs defines", name(&m))),
+            None => out.insert(format!("module `{top}` (used by {}) is in no layer", name(&m))),
+            Some(&l) if l > own => out.insert(format!("{} (layer {}) uses `{top}` (layer {})", name(&m), name_of(own), name_of(l))),
+            Some(_) => false,
+        };
+    }
+    out.into_iter().collect()
+}
+
+/// A crate's top-level modules and the ones each uses, with one file per use (the evidence).
+fn module_graph(krate: &Path) -> BTreeMap<Module, BTreeMap<Module, Module>> {
+    let mut g: BTreeMap<Module, BTreeMap<Module, Module>> = BTreeMap::new();
+    for (m, top) in top_uses(krate) {
+        g.entry(vec![top.clone()]).or_default();
+        g.entry(vec![m[0].clone()]).or_default().entry(vec![top]).or_insert(m);
+    }
+    g
+}
+
+/// A path around a circle of modules, naming the file behind each step:
+/// `env (env/step) -> agent (agent/runner) -> env`.
+fn circle_path(g: &BTreeMap<Module, BTreeMap<Module, Module>>, members: &[Module]) -> String {
+    let start = &members[0];
+    // Breadth-first inside the circle's modules, back to the start.
+    let mut came: BTreeMap<&Module, &Module> = BTreeMap::new();
+    let mut queue = std::collections::VecDeque::from([start]);
+    'search: while let Some(v) = queue.pop_front() {
+        for w in g[v].keys().filter(|w| members.contains(w)) {
+            if w == start {
+                came.insert(start, v);
+                break 'search;
+            }
+            if !came.contains_key(w) {
+                came.insert(w, v);
+                queue.push_back(w);
+            }
+        }
+    }
+    let mut path = vec![start];
+    let mut at = came[start];
+    while at != start {
+        path.push(at);
+        at = came[at];
+    }
+    path.push(start);
+    path.reverse();
+    let steps: Vec<String> = path.windows(2).map(|s| format!("{} ({})", name(s[0]), name(&g[s[0]][s[1]]))).collect();
+    format!("{} -> {}", steps.join(" -> "), name(start))
+}
+
+fn module_circles(krate: &Path) -> Vec<String> {
+    let g = module_graph(krate);
+    let plain: BTreeMap<Module, BTreeSet<Module>> = g.iter().map(|(k, v)| (k.clone(), v.keys().cloned().collect())).collect();
+    circles(&plain).iter().map(|c| circle_path(&g, c)).collect()
+}
+
+/// Inside the engine and marl, every file uses only modules of its own layer or lower, as
+/// their lib.rs docs name the layers.
+#[test]
+fn engine_and_marl_files_use_only_their_own_layer_or_lower() {
+    for krate in ["engine", "marl"] {
+        let breaks = layer_breaks(&repo().join(krate));
+        assert!(breaks.is_empty(), "{krate}/src breaks its layers:\n{}", breaks.join("\n"));
+    }
+}
+
+/// No two top-level modules of any crate use each other, directly or around a circle.
+#[test]
+fn no_crate_has_an_import_circle_between_its_modules() {
+    let mut found = Vec::new();
+    for krate in crates() {
+        for c in module_circles(&krate) {
+            found.push(format!("{}: {c}", krate.strip_prefix(repo()).unwrap_or(&krate).display()));
+        }
+    }
+    assert!(found.is_empty(), "import circles between modules:\n{}", found.join("\n"));
+}
+
+/// The module checks find what they look for: a circle between two modules whose files do
+/// not form one (named with its files), an upward use, a use of an item lib.rs defines, and
+/// a module in no layer.
+#[test]
+fn the_module_checks_find_planted_breaks() {
+    let dir = std::env::temp_dir().join(format!("avacraft-layers-{}", std::process::id()));
+    let src = dir.join("src");
+    std::fs::create_dir_all(src.join("obs")).expect("temp dir");
+    let lib = "//! 1. state: `world`\n//! 2. observations: `obs`\nmod world;\nmod obs;\nmod extra;\npub use obs::units::Info;\npub struct Error;\n";
+    std::fs::write(src.join("lib.rs"), lib).expect("write");
+    std::fs::write(src.join("world.rs"), "use crate::Info;\nfn f() -> crate::Error { todo!() }\n").expect("write");
+    std::fs::write(src.join("obs/mod.rs"), "pub mod smac;\npub mod units;\n").expect("write");
+    std::fs::write(src.join("obs/smac.rs"), "fn f() -> crate::world::World { todo!() }\n").expect("write");
+    std::fs::write(src.join("obs/units.rs"), "pub struct Info;\n").expect("write");
+    std::fs::write(src.join("extra.rs"), "use crate::world;\n").expect("write");
+    let (files, modules, breaks) = (circles(&graph(&dir)), module_circles(&dir), layer_breaks(&dir));
+    std::fs::remove_dir_all(&dir).ok();
+    assert!(files.is_empty(), "no file circle: {files:?}");
+    assert_eq!(modules, vec!["obs (obs/smac) -> world (world) -> obs".to_owned()]);
+    assert_eq!(
+        breaks,
+        vec![
+            "module `extra` is in no layer".to_owned(),
+            "world (layer 1. state) uses `obs` (layer 2. observations)".to_owned(),
+            "world names an item lib.rs defines".to_owned(),
+        ]
+    );
 }

@@ -8,21 +8,23 @@
 //! uses, and an override of a key the file lacks is refused like a typo.
 
 use crate::Error;
-use crate::encoders::settings::{self as obs, Backbone, ObsKind, SwinSizes};
+mod obs;
+
 pub use crate::opponent::Opponent;
 use avacraft_engine::{DataSet, EnvConfig, RewardMode, Rules, Scenario};
+pub use obs::{Backbone, ObsKind, SwinSizes};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
 /// The algorithms with a built-in config.
 pub const ALGOS: &[&str] = &["iql", "vdn", "qmix", "qtran", "ippo", "mappo"];
 
-const IQL: &str = include_str!("../configs/iql.toml");
-const VDN: &str = include_str!("../configs/vdn.toml");
-const QMIX: &str = include_str!("../configs/qmix.toml");
-const QTRAN: &str = include_str!("../configs/qtran.toml");
-const IPPO: &str = include_str!("../configs/ippo.toml");
-const MAPPO: &str = include_str!("../configs/mappo.toml");
+const IQL: &str = include_str!("../../configs/iql.toml");
+const VDN: &str = include_str!("../../configs/vdn.toml");
+const QMIX: &str = include_str!("../../configs/qmix.toml");
+const QTRAN: &str = include_str!("../../configs/qtran.toml");
+const IPPO: &str = include_str!("../../configs/ippo.toml");
+const MAPPO: &str = include_str!("../../configs/mappo.toml");
 
 /// How the agents' Q-values combine into the team's.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

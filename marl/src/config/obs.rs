@@ -4,8 +4,8 @@
 //! `--set obs=rgb` works whatever file a run starts from, and they have serde defaults so
 //! checkpoints written before these keys existed still load (as `features` runs).
 //!
-//! Their checks and the Swin sizes a config selects ([`SwinSizes::of`]) are in
-//! [`crate::config`]: the config holds this module's types, so this module reads no config.
+//! Their checks and the Swin sizes a config selects ([`SwinSizes::of`]) are in the config
+//! (`super`); the encoders (`crate::encoders`) build on these types.
 
 use crate::Error;
 use serde::{Deserialize, Serialize};

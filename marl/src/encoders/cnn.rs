@@ -10,15 +10,10 @@
 
 use super::layers::{Conv2d, adaptive_avg_pool2d};
 use crate::Error;
+use crate::kernels::conv::geometry;
 use crate::params::Params;
 use candle_core::Tensor;
 use rand_chacha::ChaCha8Rng;
-
-/// Kernel size, stride and padding of convolution `i` of a stream (shared with the fused
-/// encoder, [`crate::kernels::conv`], so the two cannot drift apart).
-pub(crate) fn geometry(i: usize) -> (usize, usize, usize) {
-    if i == 0 { (4, 4, 0) } else { (3, 2, 1) }
-}
 
 #[derive(Debug, Clone)]
 pub struct CnnStream {

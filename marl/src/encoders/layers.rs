@@ -6,7 +6,7 @@
 
 use crate::Error;
 use crate::params::{Linear, Params};
-use candle_core::{D, DType, Device, Tensor};
+use candle_core::{D, Device, Tensor};
 use rand_chacha::ChaCha8Rng;
 
 impl Params {
@@ -140,12 +140,6 @@ pub fn adaptive_avg_pool2d(x: &Tensor, oh: usize, ow: usize) -> Result<Tensor, E
     let y = x.reshape((n * c * h, w))?.matmul(&pw)?.reshape((n * c, h, ow))?; // rows pooled
     let y = ph.unsqueeze(0)?.broadcast_as((n * c, oh, h))?.contiguous()?.matmul(&y)?;
     Ok(y.reshape((n, c, oh, ow))?)
-}
-
-/// u8 pixels `(N, H, W, 3)` (the renderer's layout) as floats in [0, 1] `(N, 3, H, W)`.
-pub fn pixels_to_tensor(pixels: &[u8], n: usize, (w, h): (usize, usize)) -> Result<Tensor, Error> {
-    let t = Tensor::from_slice(pixels, (n, h, w, 3), &Device::Cpu)?.to_dtype(DType::F32)?;
-    Ok((t.permute((0, 3, 1, 2))?.contiguous()? / 255.0)?)
 }
 
 /// Softmax over the last dimension from basic operations (so it has gradients).

@@ -34,11 +34,10 @@ pub mod clause_store;
 pub mod clauses;
 pub mod cnn;
 pub mod layers;
-pub mod settings;
 pub mod swin;
 pub mod text;
 
-pub use settings::{Backbone, ObsKind, SwinSizes};
+pub use crate::config::{Backbone, ObsKind, SwinSizes};
 
 // `FrameTensors` was defined here; its old path stays valid.
 pub use crate::frames::FrameTensors;

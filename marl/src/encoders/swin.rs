@@ -17,8 +17,8 @@
 //! without dropout).
 
 use super::layers::{LayerNorm, linear_nd, matmul_nd, softmax_last};
-use super::settings::SwinSizes;
 use crate::Error;
+use crate::config::SwinSizes;
 use crate::params::{Linear, Params};
 use candle_core::{D, DType, Device, Tensor};
 use rand_chacha::ChaCha8Rng;

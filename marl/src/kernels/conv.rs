@@ -39,8 +39,13 @@
 use super::gemm::{Mat, matmul};
 use super::net::{col_sums, relu_grad, simd};
 use crate::Error;
-use crate::encoders::cnn::geometry;
 use rayon::prelude::*;
+
+/// Kernel size, stride and padding of convolution `i` of a stream (shared with candle's
+/// encoder, `crate::encoders::cnn`, so the two cannot drift apart).
+pub(crate) fn geometry(i: usize) -> (usize, usize, usize) {
+    if i == 0 { (4, 4, 0) } else { (3, 2, 1) }
+}
 
 /// One convolution of a stream, its input and output maps `(h, w, channels)`, and where
 /// its kernel and bias sit in the flat vector.

@@ -4,13 +4,13 @@
 //! sequences, with MAPPO's value normalisation and active masks.
 
 use super::rollout::{CriticRows, FlatBatch, MASKED, PpoBatch, Rollout, gae};
-use super::value_norm::ValueNorm;
 use crate::buffer::Shape;
 use crate::frames::StepFrames;
 use crate::kernels::ppo_loss::{LossGrads, LossRows, LossSettings, ppo_loss};
 use crate::kernels::{Adam, EncoderForward, EncoderLayout, Input, Moments, NetLayout, Pixels, Want, clip_global_norm};
 use crate::nets::{AgentNet, Nets};
 use crate::params::{Linear, Params};
+use crate::value_norm::ValueNorm;
 use crate::{Config, Error};
 use candle_core::backprop::GradStore;
 use candle_core::{D, Device, Tensor, Var};

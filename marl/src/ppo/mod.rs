@@ -5,7 +5,8 @@
 //!
 //! - [`rollout`]: on-policy rollouts, GAE, the chunks the recurrent nets learn on;
 //! - [`learner`]: losses, Adam with global-norm clipping, the update, masked sampling;
-//! - [`value_norm`]: MAPPO's running normalisation of the value targets;
+//! - `crate::value_norm`: MAPPO's running normalisation of the value targets (below the
+//!   run state, which saves it);
 //! - [`train`](train()): the loop.
 //!
 //! Speed: the actor and critic train through the fused kernels ([`crate::kernels`]: the
@@ -19,9 +20,8 @@
 pub mod learner;
 pub mod rollout;
 mod train;
-pub mod value_norm;
 
+pub use crate::value_norm::ValueNorm;
 pub use learner::{CriticInput, Gradients, Losses, PpoLearner, PpoStats, StepReport, masked_log_softmax, sample_actions};
 pub use rollout::{CriticRows, FlatBatch, MASKED, PpoBatch, Rollout, gae, to_chunks};
 pub use train::{train, train_from};
-pub use value_norm::ValueNorm;

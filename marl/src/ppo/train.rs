@@ -19,7 +19,7 @@ use super::rollout::{CriticRows, Rollout};
 use crate::buffer::{Shape, act_inputs};
 use crate::carry::Carry;
 use crate::monitor::{Monitor, Progress, RunOptions, Summary};
-use crate::resume::RunState;
+use crate::resume::{self, RunState};
 use crate::{Config, Error, UpdateStats, policy};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -63,7 +63,7 @@ pub fn train_from(
         let Some(dir) = &opts.out else {
             return Err(Error::Checkpoint { message: "resuming needs the run's directory".into() });
         };
-        crate::resume::restore_ppo(dir, &mut learner, st)?;
+        restore(dir, &mut learner, st)?;
         let (ap, up) = st.rng_positions()?;
         act_rng.set_word_pos(ap);
         update_rng.set_word_pos(up);
@@ -307,7 +307,7 @@ fn checkpoint(
         &monitor.curve,
     );
     state.value_norm = Some(learner.value_norm.clone());
-    crate::resume::save_moments(dir, &learner.moments())?;
+    resume::save_moments(dir, &learner.moments())?;
     if let Some((env, roll, lanes)) = carry {
         let mut c = Carry::new(t_env)?;
         lanes.keep_in(&mut c, env)?;
@@ -316,4 +316,24 @@ fn checkpoint(
         c.save(dir)?;
     }
     state.save(dir, None)
+}
+
+/// Loads the checkpoint's actor and critic and the state's value statistics into `learner`.
+fn restore(dir: &std::path::Path, learner: &mut PpoLearner, state: &RunState) -> Result<(), Error> {
+    let policy = crate::Policy::load(dir)?;
+    learner.actor.agent_params.copy_from(&policy.nets.agent_params)?;
+    learner.critic_params.load_map(&resume::load_tensors(&dir.join("critic.safetensors"))?, "critic.safetensors")?;
+    learner.value_norm = state
+        .value_norm
+        .clone()
+        .ok_or_else(|| Error::Checkpoint { message: format!("{}: no value statistics to resume from", dir.display()) })?;
+    learner.updates = state.updates;
+    learner.load_weights()?;
+    let like = learner.moments();
+    if let Some(saved) = resume::load_moments(dir, &like)? {
+        for ((name, _), m) in like.iter().zip(saved) {
+            learner.set_moments(name, m).map_err(|e| resume::optim_mismatch(dir, name, &e))?;
+        }
+    }
+    Ok(())
 }
