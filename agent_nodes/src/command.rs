@@ -11,7 +11,7 @@
 
 use crate::{AgentStats, GATHER};
 use avacraft_engine::agent::{Agent, AgentCtx, AgentObs, Assignment, Briefing, Commander, GroupObs, GroupRole, agent_seed, commander_seed};
-use avacraft_engine::{Scenario, Team};
+use avacraft_engine::{Scenario, Team, UnitId};
 use avacraft_msgs::{ActionBatch, RoleAssignment, RoleGroup, UnitObservation};
 use avacraft_nodes::{AgentId, Node, NodeError, Qos, Shutdown, Subscriber, TeamNo, TopicKind, Topics, UnitTag, wire};
 use std::collections::BTreeMap;
@@ -113,7 +113,7 @@ impl Inputs {
             stats.malformed += 1;
             return;
         }
-        match wire::agent_obs(&o, cfg.team.get()) {
+        match wire::agent_obs(&o, Team::from(cfg.team)) {
             Ok(obs) => {
                 if let Some(s) = self.fresh((o.episode, o.step)) {
                     s.obs.insert(o.unit_tag, obs);
@@ -143,8 +143,8 @@ impl Inputs {
         Some((key, roles, s.obs.into_iter().filter(|(t, _)| want.contains(t)).map(|(_, o)| o).collect()))
     }
 
-    fn index(&self) -> impl Fn(u32) -> usize + '_ {
-        |tag| self.order.iter().position(|&t| t == tag).unwrap_or(0)
+    fn index(&self) -> impl Fn(UnitId) -> usize + '_ {
+        |id| self.order.iter().position(|&t| t == id.tag()).unwrap_or(0)
     }
 }
 
@@ -182,7 +182,12 @@ pub fn run_role_group(
         if episode != Some((first.episode, first.seed)) {
             let seed = agent_seed(first.seed, team, initial.first().copied().unwrap_or(0));
             scenario = cfg.scenario.episode(first.seed);
-            agent.reset(&AgentCtx { scenario: Arc::clone(&scenario), team, units: initial.clone(), seed });
+            agent.reset(&AgentCtx {
+                scenario: Arc::clone(&scenario),
+                team,
+                units: cfg.initial.iter().map(|&u| UnitId::from(u)).collect(),
+                seed,
+            });
             episode = Some((first.episode, first.seed));
         }
         let role =
@@ -217,8 +222,12 @@ pub fn run_commander(
         let Some((key, roles, obs)) = inputs.ready(|_| all.clone()) else { continue };
         let Some(first) = obs.first() else { continue };
         if episode != Some((first.episode, first.seed)) {
-            let ctx =
-                AgentCtx { scenario: cfg.scenario.episode(first.seed), team, units: all.clone(), seed: commander_seed(first.seed, team) };
+            let ctx = AgentCtx {
+                scenario: cfg.scenario.episode(first.seed),
+                team,
+                units: cfg.scenario.agent_order(team),
+                seed: commander_seed(first.seed, team),
+            };
             commander.reset(&ctx, &cfg.groups);
             episode = Some((first.episode, first.seed));
         }

@@ -11,7 +11,7 @@ mod frames;
 pub use command::{CommandedConfig, run_commander, run_role_group};
 
 use avacraft_engine::agent::{Agent, AgentCtx, AgentObs, GroupObs, agent_seed, check_action, complete};
-use avacraft_engine::{Action, Scenario, Team};
+use avacraft_engine::{Action, Scenario, Team, UnitId};
 use avacraft_msgs::{ActionBatch, UnitObservation};
 use avacraft_nodes::{AgentId, Node, NodeError, Qos, Shutdown, TeamNo, TopicKind, Topics, UnitTag, wire};
 use std::collections::BTreeMap;
@@ -123,14 +123,14 @@ pub fn run(
             pending.retain(|k, _| *k > key);
             let Some(first) = obs.first() else { continue };
             if episode != Some((first.episode, first.seed)) {
-                let units = tags.clone();
-                let seed = agent_seed(first.seed, team, units[0]);
+                let units: Vec<UnitId> = cfg.units.iter().map(|&u| UnitId::from(u)).collect();
+                let seed = agent_seed(first.seed, team, tags[0]);
                 scenario = cfg.scenario.episode(first.seed);
                 agent.reset(&AgentCtx { scenario: Arc::clone(&scenario), team, units, seed });
                 episode = Some((first.episode, first.seed));
             }
             let header = avacraft_msgs::Header::default();
-            let index = |tag: u32| order.iter().position(|&t| t == tag).unwrap_or(0);
+            let index = |id: UnitId| order.iter().position(|&t| t == id.tag()).unwrap_or(0);
             if let Some(f) = &shown {
                 agent.see(f);
             }
@@ -179,7 +179,7 @@ fn accept(
         stats.malformed += 1;
         return;
     }
-    let obs = match wire::agent_obs(&o, cfg.team.get()) {
+    let obs = match wire::agent_obs(&o, Team::from(cfg.team)) {
         Ok(obs) => obs,
         Err(e) => {
             stats.malformed += 1;

@@ -101,27 +101,27 @@ impl Action {
 #[derive(Clone, Debug, PartialEq, thiserror::Error, Serialize, Deserialize)]
 #[serde(tag = "reason", rename_all = "snake_case")]
 pub enum ActionError {
-    #[error("unit {unit} does not exist")]
+    #[error("unit #{} does not exist", unit.tag())]
     UnknownUnit { unit: UnitId },
-    #[error("unit {unit} belongs to {owner}, not to {team}")]
+    #[error("unit #{} belongs to {owner}, not to {team}", unit.tag())]
     NotYourUnit { unit: UnitId, owner: Team, team: Team },
-    #[error("unit {unit} is dead")]
+    #[error("unit #{} is dead", unit.tag())]
     DeadUnit { unit: UnitId },
-    #[error("target {target} does not exist")]
+    #[error("target #{} does not exist", target.tag())]
     UnknownTarget { target: UnitId },
-    #[error("target {target} is dead")]
+    #[error("target #{} is dead", target.tag())]
     TargetDead { target: UnitId },
-    #[error("target {target} is not visible to {team}")]
+    #[error("target #{} is not visible to {team}", target.tag())]
     TargetNotVisible { target: UnitId, team: Team },
-    #[error("unit {unit} cannot attack target {target} ({why})")]
+    #[error("unit #{} cannot attack target #{} ({why})", unit.tag(), target.tag())]
     InvalidTarget { unit: UnitId, target: UnitId, why: TargetProblem },
     #[error("grid cell ({x}, {y}) is off the 1..=10 grid")]
     OffGrid { x: u8, y: u8 },
     #[error("point ({x}, {y}) is outside the playable area")]
     OffMap { x: f32, y: f32 },
-    #[error("unit {unit} cannot do that: {why}")]
+    #[error("unit #{} cannot do that: {why}", unit.tag())]
     Unavailable { unit: UnitId, why: Inability },
-    #[error("unit {unit} cannot use {ability}: {refusal}")]
+    #[error("unit #{} cannot use {ability}: {refusal}", unit.tag())]
     AbilityRefused { unit: UnitId, ability: Ability, refusal: Refusal },
     #[error("look sector {sector} of {sectors}: the sector must be below the number of sectors, which must be 1 or more")]
     BadLook { sector: u8, sectors: u8 },

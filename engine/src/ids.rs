@@ -35,9 +35,45 @@ impl TryFrom<u32> for UnitId {
     }
 }
 
-impl fmt::Display for UnitId {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "#{}", self.tag())
+// No `Display`: text shows a unit by its tag (`id.tag()`), and a formatted id that
+// compiled silently could print something else.
+
+/// Serde forms for the numbers people and programs read: a unit as its tag (1-based, as on
+/// screen and on the wire) and a team as its player number, so typed fields serialise as the
+/// plain numbers JSON, prompts and recordings have always carried.
+pub mod serde_as {
+    /// A unit as its tag.
+    pub mod tag {
+        use crate::ids::UnitId;
+        use serde::Serializer;
+
+        pub fn serialize<S: Serializer>(id: &UnitId, s: S) -> Result<S::Ok, S::Error> {
+            s.serialize_u32(id.tag())
+        }
+    }
+    /// An optional unit as its tag or null.
+    pub mod tag_opt {
+        use crate::ids::UnitId;
+        use serde::{Deserialize, Deserializer, Serializer, de::Error};
+
+        pub fn serialize<S: Serializer>(id: &Option<UnitId>, s: S) -> Result<S::Ok, S::Error> {
+            match id {
+                Some(id) => s.serialize_some(&id.tag()),
+                None => s.serialize_none(),
+            }
+        }
+        pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<UnitId>, D::Error> {
+            Option::<u32>::deserialize(d)?.map(|t| UnitId::try_from(t).map_err(D::Error::custom)).transpose()
+        }
+    }
+    /// A team as its player number.
+    pub mod player {
+        use crate::ids::Team;
+        use serde::Serializer;
+
+        pub fn serialize<S: Serializer>(team: &Team, s: S) -> Result<S::Ok, S::Error> {
+            s.serialize_u8(team.player())
+        }
     }
 }
 

@@ -17,7 +17,7 @@ use crate::world::{Order, Unit, World};
 /// What the rules read of a unit: the same facts whether it is the world's [`Unit`] or an
 /// observation's `UnitInfo` (plus its type's data, which a player knows; `obs` implements it).
 pub(crate) trait Facts {
-    fn tag(&self) -> u32;
+    fn id(&self) -> UnitId;
     fn kind(&self) -> UnitKind;
     /// The kind's row in the game's data set.
     fn spec(&self) -> &'static UnitSpec;
@@ -35,8 +35,8 @@ pub(crate) trait Facts {
 }
 
 impl Facts for Unit {
-    fn tag(&self) -> u32 {
-        self.id.tag()
+    fn id(&self) -> UnitId {
+        self.id
     }
     fn kind(&self) -> UnitKind {
         self.kind
@@ -95,7 +95,7 @@ pub(crate) fn in_weapon_range(u: &impl Facts, t: &impl Facts) -> bool {
 /// Whether `u` may attack `t` (heal it, for a healer); `friendly`: same team.
 pub(crate) fn attack(u: &impl Facts, t: &impl Facts, friendly: bool) -> Result<(), TargetProblem> {
     if u.heals() {
-        if !friendly || t.tag() == u.tag() {
+        if !friendly || t.id() == u.id() {
             return Err(TargetProblem::HealerNeedsFriend);
         }
         if !t.spec().attrs.has(Attrs::BIOLOGICAL) {
@@ -125,7 +125,7 @@ pub(crate) fn cast_on(ability: Ability, u: &impl Facts, t: &impl Facts, friendly
     let spec = ability.spec();
     match spec.rule {
         TargetRule::Enemy if friendly => return Err(invalid("needs an enemy unit")),
-        TargetRule::Ally if !friendly || t.tag() == u.tag() => return Err(invalid("needs another friendly unit")),
+        TargetRule::Ally if !friendly || t.id() == u.id() => return Err(invalid("needs another friendly unit")),
         _ => {}
     }
     let distance = edge(u, t);
@@ -196,7 +196,7 @@ pub(crate) fn cast<S: Sight>(s: &S, team: Team, u: &S::U, ability: Ability, targ
         (K::Unit | K::PointOrUnit, AbilityTarget::Unit { unit }) => {
             // Unknown, dead and unseen units get the same answer, so a refusal never tells
             // whether a hidden enemy lives.
-            let (t, friendly) = s.seen(team, unit).map_err(|_| invalid(format!("unit {unit} is not visible")))?;
+            let (t, friendly) = s.seen(team, unit).map_err(|_| invalid(format!("unit #{} is not visible", unit.tag())))?;
             cast_on(ability, u, t, friendly)
         }
         (expected, _) => Err(Refusal::WrongTargetKind { expected }),

@@ -25,7 +25,6 @@ use crate::kernels::Want;
 use crate::nets::Nets;
 use crate::observe::ObsSource;
 use crate::{Config, Error};
-use avacraft_engine::agent::view::id_of;
 use avacraft_engine::agent::{FrameNeed, TeamFrames};
 use avacraft_engine::{Action, Agent, AgentCtx, Env, GroupObs, Reads, Scenario, SmacLayout, Team, VecBuffers, VecEnv};
 use candle_core::{Device, Tensor};
@@ -380,7 +379,7 @@ impl Agent for MarlAgent {
             if c.alive
                 && let Some(command) = layout.command_for_obs(g, c.agent, a)
             {
-                out.push(Action::new(id_of(c.unit), command));
+                out.push(Action::new(c.unit, command));
             }
         }
         out

@@ -6,7 +6,7 @@
 use avacraft_engine::agent::{AgentObs, EffectInfo};
 use avacraft_engine::{
     Ability, AbilityInfo, AbilityTarget, Action, Activity, Buffs, Command, DataSet, Direction, EffectKind, OrderInfo, RefusalCode,
-    TargetKind, UnitFlags, UnitId, UnitInfo, UnitKind, UnknownBits, Vec2,
+    TargetKind, Team, UnitFlags, UnitId, UnitInfo, UnitKind, UnknownBits, Vec2,
 };
 use avacraft_msgs::{AbilityState, AreaEffect, Header, UnitAction, UnitObservation, UnitState};
 use std::sync::Arc;
@@ -22,6 +22,10 @@ pub enum WireError {
     OwnTag { tag: u32, own: u32 },
     #[error("UnitAction: unit_tag is 0 or past 65536 (tags start at 1)")]
     ZeroTag,
+    #[error("{msg}.{field} = {value}: not a unit tag (tags run from 1 to 65536)")]
+    Tag { msg: &'static str, field: &'static str, value: u32 },
+    #[error("{msg}.{field} = {value}: not a team (1 or 2)")]
+    Team { msg: &'static str, field: &'static str, value: u8 },
     #[error("UnitAction: point ({0}, {1}) is not finite")]
     Point(f32, f32),
 }
@@ -57,13 +61,23 @@ pub fn effect_from(code: u8) -> Result<EffectKind, WireError> {
 const TARGETS: [TargetKind; 4] = [TargetKind::None, TargetKind::Point, TargetKind::Unit, TargetKind::PointOrUnit];
 const ACTIVITIES: [Activity; 5] = [Activity::Idle, Activity::Moving, Activity::Attacking, Activity::Healing, Activity::Dead];
 
+/// A unit named on the wire: its tag, checked.
+fn tag_in(msg: &'static str, field: &'static str, value: u32) -> Result<UnitId, WireError> {
+    UnitId::try_from(value).map_err(|_| WireError::Tag { msg, field, value })
+}
+
+/// A team named on the wire: its player number, checked.
+fn team_in(msg: &'static str, field: &'static str, value: u8) -> Result<Team, WireError> {
+    Team::from_player(value.into()).ok_or(WireError::Team { msg, field, value })
+}
+
 fn order_parts(o: &OrderInfo) -> (u8, f32, f32, u32) {
     match *o {
         OrderInfo::Idle => (UnitState::ORDER_IDLE, 0.0, 0.0, 0),
         OrderInfo::Hold => (UnitState::ORDER_HOLD, 0.0, 0.0, 0),
         OrderInfo::Move { x, y } => (UnitState::ORDER_MOVE, x, y, 0),
         OrderInfo::AttackMove { x, y } => (UnitState::ORDER_ATTACK_MOVE, x, y, 0),
-        OrderInfo::Attack { target } => (UnitState::ORDER_ATTACK, 0.0, 0.0, target),
+        OrderInfo::Attack { target } => (UnitState::ORDER_ATTACK, 0.0, 0.0, target.tag()),
     }
 }
 
@@ -73,7 +87,7 @@ fn order_from(s: &UnitState) -> Result<OrderInfo, WireError> {
         UnitState::ORDER_HOLD => OrderInfo::Hold,
         UnitState::ORDER_MOVE => OrderInfo::Move { x: s.order_x, y: s.order_y },
         UnitState::ORDER_ATTACK_MOVE => OrderInfo::AttackMove { x: s.order_x, y: s.order_y },
-        UnitState::ORDER_ATTACK => OrderInfo::Attack { target: s.order_target },
+        UnitState::ORDER_ATTACK => OrderInfo::Attack { target: tag_in("UnitState", "order_target", s.order_target)? },
         v => return Err(WireError::Unknown { msg: "UnitState", field: "order", value: v as u32 }),
     })
 }
@@ -82,10 +96,10 @@ fn order_from(s: &UnitState) -> Result<OrderInfo, WireError> {
 pub fn unit_state(u: &UnitInfo) -> UnitState {
     let (order, order_x, order_y, order_target) = order_parts(&u.order);
     UnitState {
-        tag: u.tag,
+        tag: u.tag.tag(),
         name: u.name.clone(),
         unit_type: unit_type_code(u.kind),
-        team: u.team,
+        team: u.team.player(),
         own: u.own,
         x: u.x,
         y: u.y,
@@ -104,7 +118,7 @@ pub fn unit_state(u: &UnitInfo) -> UnitState {
         order_y,
         order_target,
         activity: code_of(&ACTIVITIES, &u.activity) - 1,
-        target_tag: u.target.unwrap_or(0),
+        target_tag: u.target.map_or(0, UnitId::tag),
         flags: u.flags.bits(),
         buffs: u.buffs.bits(),
         data_set: u.data.code(),
@@ -124,11 +138,11 @@ fn data_set_from(s: &UnitState) -> Result<DataSet, WireError> {
 /// The inverse of [`unit_state`]: `abilities` are the unit's own (empty for others).
 pub fn unit_info(s: &UnitState, abilities: &[AbilityState]) -> Result<UnitInfo, WireError> {
     Ok(UnitInfo {
-        tag: s.tag,
+        tag: tag_in("UnitState", "tag", s.tag)?,
         name: s.name.clone(),
         kind: unit_type_from(s.unit_type)?,
         data: data_set_from(s)?,
-        team: s.team,
+        team: team_in("UnitState", "team", s.team)?,
         own: s.own,
         x: s.x,
         y: s.y,
@@ -143,7 +157,7 @@ pub fn unit_info(s: &UnitState, abilities: &[AbilityState]) -> Result<UnitInfo, 
         weapon_cooldown_s: s.weapon_cooldown_s,
         order: order_from(s)?,
         activity: from_code(&ACTIVITIES, s.activity.saturating_add(1), "UnitState", "activity")?,
-        target: (s.target_tag != 0).then_some(s.target_tag),
+        target: (s.target_tag != 0).then(|| tag_in("UnitState", "target_tag", s.target_tag)).transpose()?,
         flags: UnitFlags::from_bits(s.flags)?,
         buffs: Buffs::from_bits(s.buffs)?,
         abilities: abilities.iter().map(ability_info).collect::<Result<_, _>>()?,
@@ -178,11 +192,18 @@ pub fn ability_info(a: &AbilityState) -> Result<AbilityInfo, WireError> {
 }
 
 pub fn area_effect(e: &EffectInfo) -> AreaEffect {
-    AreaEffect { kind: effect_code(e.kind), team: e.team, x: e.x, y: e.y, radius: e.radius, remaining_s: e.remaining_s }
+    AreaEffect { kind: effect_code(e.kind), team: e.team.player(), x: e.x, y: e.y, radius: e.radius, remaining_s: e.remaining_s }
 }
 
 pub fn effect_info(e: &AreaEffect) -> Result<EffectInfo, WireError> {
-    Ok(EffectInfo { kind: effect_from(e.kind)?, team: e.team, x: e.x, y: e.y, radius: e.radius, remaining_s: e.remaining_s })
+    Ok(EffectInfo {
+        kind: effect_from(e.kind)?,
+        team: team_in("AreaEffect", "team", e.team)?,
+        x: e.x,
+        y: e.y,
+        radius: e.radius,
+        remaining_s: e.remaining_s,
+    })
 }
 
 /// One unit's observation as the simulator node publishes it.
@@ -193,7 +214,7 @@ pub fn unit_observation(o: &AgentObs, header: Header) -> UnitObservation {
         seed: o.seed,
         step: o.step,
         game_loop: o.game_loop,
-        unit_tag: o.unit,
+        unit_tag: o.unit.tag(),
         alive: o.alive,
         own: o.own.as_ref().map(unit_state).unwrap_or_default(),
         allies: o.allies.iter().map(unit_state).collect(),
@@ -208,7 +229,7 @@ pub fn unit_observation(o: &AgentObs, header: Header) -> UnitObservation {
 
 /// The inverse of [`unit_observation`]: what an agent node hands its policy. `team` is the
 /// node's (an observation of a dead unit carries no unit to read it from).
-pub fn agent_obs(m: &UnitObservation, team: u8) -> Result<AgentObs, WireError> {
+pub fn agent_obs(m: &UnitObservation, team: Team) -> Result<AgentObs, WireError> {
     let own = if m.alive {
         if m.own.tag != m.unit_tag {
             return Err(WireError::OwnTag { tag: m.unit_tag, own: m.own.tag });
@@ -222,7 +243,7 @@ pub fn agent_obs(m: &UnitObservation, team: u8) -> Result<AgentObs, WireError> {
         seed: m.seed,
         step: m.step,
         game_loop: m.game_loop,
-        unit: m.unit_tag,
+        unit: tag_in("UnitObservation", "unit_tag", m.unit_tag)?,
         team,
         alive: m.alive,
         own,
@@ -468,12 +489,25 @@ mod tests {
 
     #[test]
     fn unknown_values_are_errors() {
-        let s = UnitState { unit_type: 200, ..UnitState::default() };
+        // A unit named by a valid tag of a valid team; each case breaks one field.
+        let ok = UnitState { tag: 1, team: 1, unit_type: 1, ..UnitState::default() };
+        assert!(unit_info(&ok, &[]).is_ok());
+        let s = UnitState { unit_type: 200, ..ok.clone() };
         assert_eq!(unit_info(&s, &[]), Err(WireError::Unknown { msg: "UnitState", field: "unit_type", value: 200 }));
-        let s = UnitState { unit_type: 1, order: 9, ..UnitState::default() };
+        let s = UnitState { order: 9, ..ok.clone() };
         assert!(matches!(unit_info(&s, &[]), Err(WireError::Unknown { field: "order", .. })));
-        let s = UnitState { unit_type: 1, flags: 1 << 30, ..UnitState::default() };
+        let s = UnitState { flags: 1 << 30, ..ok.clone() };
         assert!(matches!(unit_info(&s, &[]), Err(WireError::Bits(_))));
+        // Ids are typed past the wire: tag 0 and team 3 name nothing.
+        assert_eq!(unit_info(&UnitState { tag: 0, ..ok.clone() }, &[]), Err(WireError::Tag { msg: "UnitState", field: "tag", value: 0 }));
+        assert_eq!(
+            unit_info(&UnitState { team: 3, ..ok.clone() }, &[]),
+            Err(WireError::Team { msg: "UnitState", field: "team", value: 3 })
+        );
+        let attack = UnitState { order: UnitState::ORDER_ATTACK, order_target: 0, ..ok.clone() };
+        assert!(matches!(unit_info(&attack, &[]), Err(WireError::Tag { field: "order_target", .. })));
+        let e = AreaEffect { kind: 1, team: 0, ..AreaEffect::default() };
+        assert!(matches!(effect_info(&e), Err(WireError::Team { field: "team", .. })));
         let a = AbilityState { ability: 1, target_kind: 7, ..AbilityState::default() };
         assert!(matches!(ability_info(&a), Err(WireError::Unknown { field: "target_kind", .. })));
         assert!(matches!(ability_info(&AbilityState::default()), Err(WireError::Unknown { field: "ability", .. })));

@@ -94,7 +94,7 @@ impl FrameBuilder {
         let br = v.px(Vec2::new(rect.right, rect.bottom));
         units(obs, camera, &v, [tl[0], tl[1], br[0], br[1]], (layout.label.max(2) - 1).max(1), &mut scene);
         for id in &opts.highlights {
-            if let Some(u) = obs.unit(id.tag()).filter(|u| touches(rect, view::pos(u), view::radius(u))) {
+            if let Some(u) = obs.unit(*id).filter(|u| touches(rect, view::pos(u), view::radius(u))) {
                 let r = view::radius(u) * v.scale() + 6.0 * layout.label as f32;
                 scene.push(Prim::Ring { c: v.px(view::pos(u)), r, width: 2.0 * layout.label as f32, color: style::HIGHLIGHT });
             }
@@ -219,7 +219,7 @@ fn units(obs: &GroupObs, camera: &Camera, v: &MapView, bounds: [f32; 4], label: 
         if camera.contains(view::pos(u)) {
             let frac = |a: f32, max: f32| (max > 0.0).then(|| finite(a / max));
             draw::bars(c, r, finite(view::hp_fraction(u)), frac(u.shield, u.max_shield), frac(u.energy, u.max_energy), scene);
-            labels.place(c, r, u.tag, u.kind, label);
+            labels.place(c, r, u.tag.tag(), u.kind, label);
         }
     }
     labels.draw(scene);

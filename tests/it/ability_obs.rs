@@ -16,11 +16,11 @@ fn observations_show_abilities_buffs_and_area_effects() {
     env.submit(Team::One, &[Action::new(uid(0), storm), Action::new(uid(1), stim)]);
     env.step();
     let list = unit_list(env.world(), Team::One);
-    let ht = list.iter().find(|u| u.tag == uid(0).tag()).expect("templar");
+    let ht = list.iter().find(|u| u.tag == uid(0)).expect("templar");
     let storm_info = ht.abilities.iter().find(|a| a.ability == Ability::PsionicStorm).expect("storm listed");
     assert!(!storm_info.available && storm_info.cooldown_s > 1.3, "{storm_info:?}");
     assert!(ht.abilities.iter().any(|a| a.ability == Ability::Feedback));
-    let marine = list.iter().find(|u| u.tag == uid(1).tag()).expect("marine");
+    let marine = list.iter().find(|u| u.tag == uid(1)).expect("marine");
     assert!(marine.buffs.contains(avacraft_engine::Buffs::STIMMED));
     let enemy = list.iter().find(|u| !u.own).expect("zealot");
     assert!(enemy.abilities.is_empty(), "enemy cooldowns are not shown");

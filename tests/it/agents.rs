@@ -4,13 +4,13 @@
 
 use crate::helpers::{arena_units, load};
 use avacraft_engine::agent::{AGENTS, AgentCtx, AgentTeam, GroupObs, Grouping, agent_seed, by_name, factory};
-use avacraft_engine::{Buffs, Controllers, Env, EnvConfig, Scenario, Team, builtin};
+use avacraft_engine::{Buffs, Controllers, Env, EnvConfig, Scenario, Team, UnitId, builtin};
 use std::sync::Arc;
 
 /// The position of each tag in its team's agent order.
-fn index_of(env: &Env, team: Team) -> impl Fn(u32) -> usize {
-    let order: Vec<u32> = env.agents(team).iter().map(|id| id.tag()).collect();
-    move |tag| order.iter().position(|&t| t == tag).unwrap_or(usize::MAX)
+fn index_of(env: &Env, team: Team) -> impl Fn(UnitId) -> usize {
+    let order: Vec<UnitId> = env.agents(team).to_vec();
+    move |id| order.iter().position(|&t| t == id).unwrap_or(usize::MAX)
 }
 
 #[test]
@@ -73,11 +73,12 @@ fn every_policy_acts_only_for_the_units_it_controls() {
             let team = Team::One;
             let mine: Vec<u32> = env.agents(team).iter().step_by(2).map(|id| id.tag()).collect();
             let mut agent = by_name(policy).expect("policy");
-            let ctx = AgentCtx { scenario: Arc::clone(&s), team, units: mine.clone(), seed: agent_seed(seed, team, mine[0]) };
+            let ids: Vec<UnitId> = env.agents(team).iter().step_by(2).copied().collect();
+            let ctx = AgentCtx { scenario: Arc::clone(&s), team, units: ids, seed: agent_seed(seed, team, mine[0]) };
             agent.reset(&ctx);
             let mut given = 0;
             while !env.done() && env.steps() < 120 {
-                let obs: Vec<_> = env.agent_observations(team, 0).into_iter().filter(|o| mine.contains(&o.unit)).collect();
+                let obs: Vec<_> = env.agent_observations(team, 0).into_iter().filter(|o| mine.contains(&o.unit.tag())).collect();
                 let g = GroupObs::fold(&obs, index_of(&env, team)).expect("observations");
                 for a in agent.act(&g) {
                     assert!(mine.contains(&a.unit.tag()), "{name}: {policy} gave {a:?} for a unit it does not control");

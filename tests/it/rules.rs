@@ -97,23 +97,23 @@ fn refusals_carry_the_simulators_typed_reason() {
     let w = env.world();
     let find = |name: &str, own: bool| obs.units.iter().find(|u| u.own == own && u.kind.base().name() == name).expect(name);
     let (medivac, marine) = (find("Medivac", true), find("Marine", true));
-    let id = |tag: u32| UnitId::try_from(tag).expect("a tag");
+    let next = UnitId::try_from(marine.tag.tag() + 1).expect("a tag");
     let cases = [
-        (Action::new(id(marine.tag), Command::Attack { target: id(marine.tag + 1) }), "friendly"),
-        (Action::new(id(medivac.tag), Command::MoveTo { to: Vec2::new(-3.0, 5.0) }), "off map"),
+        (Action::new(marine.tag, Command::Attack { target: next }), "friendly"),
+        (Action::new(medivac.tag, Command::MoveTo { to: Vec2::new(-3.0, 5.0) }), "off map"),
     ];
     for (a, what) in cases {
         let (o, s) = (check_action(&obs, w.terrain(), &a), w.validate(Team::One, &a).map(|_| ()));
         assert_eq!(o, s, "{what}");
     }
-    let heal_enemy = obs.units.iter().find(|u| !u.own).map(|e| Action::new(id(medivac.tag), Command::Attack { target: id(e.tag) }));
+    let heal_enemy = obs.units.iter().find(|u| !u.own).map(|e| Action::new(medivac.tag, Command::Attack { target: e.tag }));
     if let Some(a) = heal_enemy {
         let e = check_action(&obs, w.terrain(), &a).expect_err("a Medivac cannot heal an enemy");
         assert!(matches!(e, ActionError::InvalidTarget { why: TargetProblem::HealerNeedsFriend, .. }), "{e:?}");
     }
     // A Marine is mobile: an immobile unit's move names its kind.
     assert!(!matches!(
-        check_action(&obs, w.terrain(), &Action::new(id(marine.tag), Command::MoveDir { dir: Direction::Up })),
+        check_action(&obs, w.terrain(), &Action::new(marine.tag, Command::MoveDir { dir: Direction::Up })),
         Err(ActionError::Unavailable { why: Inability::Immobile { .. }, .. })
     ));
 }

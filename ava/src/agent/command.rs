@@ -52,7 +52,7 @@ impl Commander for AvaCommander {
     fn command(&mut self, obs: &GroupObs, current: &Assignment) -> Orders {
         let keep = Orders { owners: current.pairs(), briefing: self.briefing.clone() };
         let Some(ep) = self.ep.as_mut() else { return keep };
-        let mut alive: Vec<u32> = obs.controlled.iter().filter(|c| c.alive).map(|c| c.unit).collect();
+        let mut alive: Vec<u32> = obs.controlled.iter().filter(|c| c.alive).map(|c| c.unit.tag()).collect();
         alive.sort_unstable();
         let first = *ep.first_step.get_or_insert(obs.step);
         if alive.is_empty() || !(obs.step - first).is_multiple_of(self.setup.config.decide_every) {

@@ -285,7 +285,7 @@ fn since_last(ep: &mut Episode, obs: &GroupObs) -> (Vec<u32>, bool, bool) {
         last.outcome = prev.outcome(&tally);
     }
     let lost = ep.tally.is_some_and(|p| tally.own_units < p.own_units);
-    let enemies: Vec<u32> = obs.units.iter().filter(|u| !u.own).map(|u| u.tag).collect();
+    let enemies: Vec<u32> = obs.units.iter().filter(|u| !u.own).map(|u| u.tag.tag()).collect();
     let new_enemies = enemies.iter().any(|t| !ep.seen_enemies.contains(t));
     ep.seen_enemies.extend(enemies.iter().copied());
     ep.tally = Some(tally);
@@ -340,7 +340,7 @@ pub(super) fn decide(
     let (w, h) = cfg.draw_size();
     let scenario = Arc::clone(&ep.scenario);
     let playable = scenario.terrain.playable();
-    let own = obs.units.iter().filter(|u| u.own && alive.contains(&u.tag)).map(view::pos);
+    let own = obs.units.iter().filter(|u| u.own && alive.contains(&u.tag.tag())).map(view::pos);
     // The camera fills the screenshot's map area, so its grid is the one drawn.
     let camera = avacraft_render::vlm_obs_layout(w, h).camera(own, cfg.camera_width, playable);
 

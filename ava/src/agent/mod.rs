@@ -82,7 +82,7 @@ impl Agent for AvaAgent {
             ep.loops_per_step = (obs.game_loop - lp) / (obs.step - step);
         }
         ep.last_seen = Some((obs.step, obs.game_loop));
-        let mut alive: Vec<u32> = obs.controlled.iter().filter(|c| c.alive).map(|c| c.unit).collect();
+        let mut alive: Vec<u32> = obs.controlled.iter().filter(|c| c.alive).map(|c| c.unit.tag()).collect();
         alive.sort_unstable();
         let orders = if let Some((ready, _)) = &ep.pending {
             if obs.step < *ready {
@@ -137,7 +137,7 @@ impl Agent for AvaAgent {
         // Stances act every step, this one included, from the group's observation alone.
         ep.stances.retain(|t, _| alive.contains(t));
         for (&t, st) in &ep.stances {
-            if let Some(u) = obs.units.iter().find(|u| u.tag == t && u.own) {
+            if let Some(u) = obs.units.iter().find(|u| u.tag.tag() == t && u.own) {
                 out.extend(st.act(obs, &ep.scenario.terrain, u));
             }
         }

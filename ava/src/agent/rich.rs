@@ -33,7 +33,7 @@ fn order(u: &UnitInfo) -> String {
         OrderInfo::Hold => "holding".into(),
         OrderInfo::Move { x, y } => format!("moving to ({x:.1},{y:.1})"),
         OrderInfo::AttackMove { x, y } => format!("attack-moving to ({x:.1},{y:.1})"),
-        OrderInfo::Attack { target } => format!("attacking {target}"),
+        OrderInfo::Attack { target } => format!("attacking {}", target.tag()),
     }
 }
 
@@ -56,8 +56,8 @@ pub fn describe_rich(obs: &GroupObs, terrain: &Terrain, controlled: &[u32], enem
     s.push('\n');
     let enemies: Vec<&UnitInfo> = obs.units.iter().filter(|u| !u.own).collect();
     s.push_str("Your units (tag type (x,y) hp[+shields] | weapon | order | enemies in range | nearest enemy):\n");
-    for u in obs.units.iter().filter(|u| u.own && controlled.contains(&u.tag)) {
-        let _ = write!(s, "- {} {} ({:.1},{:.1}) {} | ", u.tag, u.kind.name(), u.x, u.y, hp(u));
+    for u in obs.units.iter().filter(|u| u.own && controlled.contains(&u.tag.tag())) {
+        let _ = write!(s, "- {} {} ({:.1},{:.1}) {} | ", u.tag.tag(), u.kind.name(), u.x, u.y, hp(u));
         if u.spec().weapons.is_empty() {
             s.push_str("no weapon");
         } else if u.weapon_cooldown_s > 0.0 {
@@ -67,7 +67,7 @@ pub fn describe_rich(obs: &GroupObs, terrain: &Terrain, controlled: &[u32], enem
         }
         let _ = write!(s, " | {} | ", order(u));
         let in_range: Vec<String> =
-            enemies.iter().filter(|e| view::range_gap(u, e).is_some_and(|g| g <= 0.0)).map(|e| e.tag.to_string()).collect();
+            enemies.iter().filter(|e| view::range_gap(u, e).is_some_and(|g| g <= 0.0)).map(|e| e.tag.tag().to_string()).collect();
         if in_range.is_empty() {
             s.push_str("none in range");
         } else {
@@ -75,7 +75,7 @@ pub fn describe_rich(obs: &GroupObs, terrain: &Terrain, controlled: &[u32], enem
         }
         let nearest = enemies.iter().min_by(|a, b| view::edge(u, a).total_cmp(&view::edge(u, b)).then(a.tag.cmp(&b.tag)));
         if let Some(e) = nearest {
-            let _ = write!(s, " | nearest {} at {:.1}", e.tag, view::edge(u, e));
+            let _ = write!(s, " | nearest {} at {:.1}", e.tag.tag(), view::edge(u, e));
         }
         if u.buffs.contains(Buffs::STIMMED) {
             s.push_str(" | stimmed");
@@ -86,11 +86,11 @@ pub fn describe_rich(obs: &GroupObs, terrain: &Terrain, controlled: &[u32], enem
         }
         s.push('\n');
     }
-    let others: Vec<&UnitInfo> = obs.units.iter().filter(|u| u.own && !controlled.contains(&u.tag)).collect();
+    let others: Vec<&UnitInfo> = obs.units.iter().filter(|u| u.own && !controlled.contains(&u.tag.tag())).collect();
     if !others.is_empty() {
         s.push_str("Other friendly units (not yours to command):\n");
         for u in others {
-            let _ = writeln!(s, "- {} {} ({:.1},{:.1}) {} | {}", u.tag, u.kind.name(), u.x, u.y, hp(u), order(u));
+            let _ = writeln!(s, "- {} {} ({:.1},{:.1}) {} | {}", u.tag.tag(), u.kind.name(), u.x, u.y, hp(u), order(u));
         }
     }
     if enemies.is_empty() {
@@ -98,9 +98,9 @@ pub fn describe_rich(obs: &GroupObs, terrain: &Terrain, controlled: &[u32], enem
     } else {
         s.push_str("Enemies in sight (tag type (x,y) hp[+shields] | target):\n");
         for u in &enemies {
-            let _ = write!(s, "- {} {} ({:.1},{:.1}) {}", u.tag, u.kind.name(), u.x, u.y, hp(u));
+            let _ = write!(s, "- {} {} ({:.1},{:.1}) {}", u.tag.tag(), u.kind.name(), u.x, u.y, hp(u));
             if let Some(t) = u.target {
-                let _ = write!(s, " | attacking {t}");
+                let _ = write!(s, " | attacking {}", t.tag());
             }
             s.push('\n');
         }

@@ -48,8 +48,8 @@ fn vitals(u: &UnitInfo) -> String {
 /// The unit block of a prompt: own units with weapons and abilities, then the enemies seen.
 pub fn describe(obs: &GroupObs, camera: &Camera, controlled: &[u32]) -> String {
     let mut s = format!("Step {}, game time {:.1} s.\nYour units:\n", obs.step, loops_to_seconds(obs.game_loop));
-    for u in obs.units.iter().filter(|u| u.own && controlled.contains(&u.tag)) {
-        let _ = write!(s, "- {} {} at {}: {}", u.tag, u.kind.name(), place(camera, u), vitals(u));
+    for u in obs.units.iter().filter(|u| u.own && controlled.contains(&u.tag.tag())) {
+        let _ = write!(s, "- {} {} at {}: {}", u.tag.tag(), u.kind.name(), place(camera, u), vitals(u));
         if !u.spec().weapons.is_empty() {
             if u.weapon_cooldown_s > 0.0 {
                 let _ = write!(s, ", weapon ready in {:.1} s", u.weapon_cooldown_s);
@@ -73,11 +73,11 @@ pub fn describe(obs: &GroupObs, camera: &Camera, controlled: &[u32]) -> String {
         }
         s.push('\n');
     }
-    let others: Vec<&UnitInfo> = obs.units.iter().filter(|u| u.own && !controlled.contains(&u.tag)).collect();
+    let others: Vec<&UnitInfo> = obs.units.iter().filter(|u| u.own && !controlled.contains(&u.tag.tag())).collect();
     if !others.is_empty() {
         s.push_str("Other friendly units (not yours to command):\n");
         for u in others {
-            let _ = writeln!(s, "- {} {} at {}: {}", u.tag, u.kind.name(), place(camera, u), vitals(u));
+            let _ = writeln!(s, "- {} {} at {}: {}", u.tag.tag(), u.kind.name(), place(camera, u), vitals(u));
         }
     }
     let enemies: Vec<&UnitInfo> = obs.units.iter().filter(|u| !u.own).collect();
@@ -86,7 +86,7 @@ pub fn describe(obs: &GroupObs, camera: &Camera, controlled: &[u32]) -> String {
     } else {
         s.push_str("Enemies in sight:\n");
         for u in enemies {
-            let _ = writeln!(s, "- {} {} at {}: {}", u.tag, u.kind.name(), place(camera, u), vitals(u));
+            let _ = writeln!(s, "- {} {} at {}: {}", u.tag.tag(), u.kind.name(), place(camera, u), vitals(u));
         }
     }
     s
@@ -134,14 +134,14 @@ impl Tally {
 pub fn attack_nearest(obs: &GroupObs, units: &[u32]) -> Vec<(u32, Command)> {
     let mut out = Vec::new();
     // Not a unit that is morphing or channelling: the engine would refuse it.
-    for u in obs.units.iter().filter(|u| u.own && units.contains(&u.tag) && view::is_idle(u) && !view::busy(u)) {
+    for u in obs.units.iter().filter(|u| u.own && units.contains(&u.tag.tag()) && view::is_idle(u) && !view::busy(u)) {
         let nearest = obs
             .units
             .iter()
             .filter(|t| !t.own && view::can_attack(u, t))
             .min_by(|a, b| view::edge(u, a).total_cmp(&view::edge(u, b)).then(a.tag.cmp(&b.tag)));
         if let Some(t) = nearest {
-            out.push((u.tag, Command::Attack { target: view::id(t) }));
+            out.push((u.tag.tag(), Command::Attack { target: view::id(t) }));
         }
     }
     out
@@ -155,7 +155,7 @@ pub fn order_text(tag: u32, o: &Order, grid: Option<&Camera>) -> String {
     match o {
         Order::Do(c) => command_text(tag, c, grid),
         Order::Keep(Stance::Focus { target: Some(target) } | Stance::Kite { target: Some(target) }) => {
-            format!("{tag} stance {} {target}", if matches!(o, Order::Keep(Stance::Focus { .. })) { "focus" } else { "kite" })
+            format!("{tag} stance {} {}", if matches!(o, Order::Keep(Stance::Focus { .. })) { "focus" } else { "kite" }, target.tag())
         }
         Order::Keep(st) => format!("{tag} stance {}", st.name()),
     }

@@ -75,7 +75,9 @@ pub fn read_priorities(v: &Value, obs: &GroupObs) -> (Vec<Priority>, usize) {
     let mut dropped = 0;
     for raw in list {
         match serde_json::from_value::<Priority>(raw) {
-            Ok(p) if obs.units.iter().any(|u| !u.own && u.tag == p.unit) && !out.iter().any(|q| q.unit == p.unit) && out.len() < 3 => {
+            Ok(p)
+                if obs.units.iter().any(|u| !u.own && u.tag.tag() == p.unit) && !out.iter().any(|q| q.unit == p.unit) && out.len() < 3 =>
+            {
                 out.push(p)
             }
             _ => dropped += 1,

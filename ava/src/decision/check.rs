@@ -49,13 +49,13 @@ pub struct Situation<'a> {
 
 impl Situation<'_> {
     fn unit(&self, tag: u32) -> Option<&UnitInfo> {
-        self.obs.units.iter().find(|u| u.tag == tag)
+        self.obs.units.iter().find(|u| u.tag.tag() == tag)
     }
     fn controls(&self, tag: u32) -> bool {
-        self.obs.controlled.iter().any(|c| c.unit == tag && c.alive)
+        self.obs.controlled.iter().any(|c| c.unit.tag() == tag && c.alive)
     }
     fn mine(&self) -> String {
-        let tags: Vec<String> = self.obs.controlled.iter().filter(|c| c.alive).map(|c| c.unit.to_string()).collect();
+        let tags: Vec<String> = self.obs.controlled.iter().filter(|c| c.alive).map(|c| c.unit.tag().to_string()).collect();
         tags.join(", ")
     }
     fn point(&self, cell: [u8; 2]) -> Result<Vec2, String> {
@@ -78,7 +78,7 @@ pub fn targets(obs: &GroupObs) -> Vec<u32> {
     let helps = obs.units.iter().filter(|u| u.own && obs.controlled.iter().any(|c| c.unit == u.tag && c.alive)).any(|u| {
         u.flags.contains(avacraft_engine::UnitFlags::HEALER) || u.abilities.iter().any(|a| a.ability.spec().rule == TargetRule::Ally)
     });
-    let mut tags: Vec<u32> = obs.units.iter().filter(|u| helps || !u.own).map(|u| u.tag).collect();
+    let mut tags: Vec<u32> = obs.units.iter().filter(|u| helps || !u.own).map(|u| u.tag.tag()).collect();
     tags.sort_unstable();
     tags.dedup();
     tags
@@ -110,7 +110,7 @@ pub fn check(s: &Situation<'_>, items: &[(usize, Item)], mut refused: Vec<Refuse
 }
 
 fn name(u: &UnitInfo) -> String {
-    format!("{} {}", u.kind.base().name(), u.tag)
+    format!("{} {}", u.kind.base().name(), u.tag.tag())
 }
 
 /// The item as a command, checked by the engine's rules from the observation
@@ -131,12 +131,12 @@ fn command(s: &Situation<'_>, u: &UnitInfo, item: &Item) -> Result<Order, String
 /// they name one.
 fn stance(s: &Situation<'_>, u: &UnitInfo, item: &Item) -> Result<Stance, String> {
     let raw = item.stance.as_deref().ok_or("stance needs `stance`: focus, kite or hold")?;
-    let named = |tag: u32| -> Result<u32, String> {
+    let named = |tag: u32| -> Result<UnitId, String> {
         let t = s.unit(tag).filter(|t| !t.own).ok_or_else(|| format!("target {tag} is not an enemy you can see"))?;
         if !view::can_attack(u, t) {
             return Err(format!("{} cannot hit {}", name(u), name(t)));
         }
-        Ok(tag)
+        Ok(t.tag)
     };
     match raw {
         "focus" if u.spec().weapons.is_empty() => Err(format!("{} has no weapon to focus with", name(u))),

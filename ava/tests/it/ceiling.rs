@@ -22,7 +22,7 @@ fn the_rich_prompt_carries_every_unit_as_observed() {
     for (scenario, steps) in [("3m_vlm", 8), ("2s3z_vlm", 20), ("pvz_ht", 30), ("mixed_units", 25), ("8m3mr1mv1st_vs_5s2c", 12)] {
         let env = state(scenario, 3, steps);
         let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
-        let mine: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag).collect();
+        let mine: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag.tag()).collect();
         let text = avacraft_ava::describe_rich(&obs, &env.scenario().terrain, &mine, None);
         let read = read_prompt(&text);
         assert!(read.exact, "{scenario}: exact positions");
@@ -30,7 +30,7 @@ fn the_rich_prompt_carries_every_unit_as_observed() {
         let enemies: Vec<_> = obs.units.iter().filter(|u| !u.own).collect();
         assert_eq!(read.enemies.len(), enemies.len(), "{scenario}: enemies\n{text}");
         for s in read.mine.iter().chain(&read.enemies) {
-            let u = obs.units.iter().find(|u| u.tag == s.tag).expect("a unit the observation has");
+            let u = obs.units.iter().find(|u| u.tag.tag() == s.tag).expect("a unit the observation has");
             assert_eq!(s.kind, u.kind.name(), "{scenario} {}", s.tag);
             assert!(
                 (s.at.0 - u.x).abs() <= 0.051 && (s.at.1 - u.y).abs() <= 0.051,
@@ -57,14 +57,14 @@ fn the_rich_prompt_carries_every_unit_as_observed() {
 fn the_paper_prompt_is_read_by_cells() {
     let env = state("2s3z_vlm", 2, 20);
     let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
-    let mine: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag).collect();
+    let mine: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag.tag()).collect();
     let own = obs.units.iter().filter(|u| u.own).map(|u| avacraft_engine::Vec2::new(u.x, u.y));
     let cam: Camera = vlm_obs_layout(1024, 576).camera(own, Camera::DEFAULT_WIDTH, env.world().terrain().playable());
     let read = read_prompt(&describe(&obs, &cam, &mine));
     assert!(!read.exact);
     assert_eq!(read.mine.iter().map(|s| s.tag).collect::<Vec<_>>(), mine);
     for s in &read.mine {
-        let u = obs.units.iter().find(|u| u.tag == s.tag).expect("unit");
+        let u = obs.units.iter().find(|u| u.tag.tag() == s.tag).expect("unit");
         let cell = cam.cell_of(avacraft_engine::Vec2::new(u.x, u.y)).expect("own units are on screen");
         assert_eq!((s.at.0 as u8, s.at.1 as u8), cell, "{}", s.tag);
         assert!((s.life - (u.hp + u.shield)).abs() <= 1.0);
@@ -77,7 +77,7 @@ fn the_paper_prompt_is_read_by_cells() {
 fn the_ceiling_answers_from_the_prompt_in_the_schema() {
     let env = state("3s_vs_3z_vlm", 4, 14);
     let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
-    let mine: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag).collect();
+    let mine: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag.tag()).collect();
     let mut read = read_prompt(&avacraft_ava::describe_rich(&obs, &env.scenario().terrain, &mine, None));
     assert!(!read.enemies.is_empty(), "Zealots in sight after 14 steps");
     read.micro = true;
@@ -345,7 +345,7 @@ fn a_stance_without_a_target_takes_the_weakest_in_sight() {
             if let Some(a) = stance.act(&obs, &env.scenario().terrain, u)
                 && let Command::Attack { target } = a.command
             {
-                let t = obs.units.iter().find(|e| e.tag == target.tag()).expect("a seen target");
+                let t = obs.units.iter().find(|e| e.tag == target).expect("a seen target");
                 assert!(!t.own && t.hp + t.shield <= weakest + 1e-3, "{stance:?}: {t:?} is not the weakest");
                 attacks += 1;
             }
@@ -390,13 +390,13 @@ fn the_rich_prompt_says_when_a_unit_takes_no_order() {
     use avacraft_engine::{Ability, AbilityTarget, Action, Command};
     let mut env = state("8m2st_vs_35zg4b", 4, 0);
     let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
-    let tank = obs.units.iter().find(|u| u.own && u.kind.base().name() == "SiegeTank").expect("a tank").tag;
-    let id = avacraft_engine::UnitId::new((tank - 1) as u16);
+    let id = obs.units.iter().find(|u| u.own && u.kind.base().name() == "SiegeTank").expect("a tank").tag;
+    let tank = id.tag();
     let r = env.submit(Team::One, &[Action::new(id, Command::Ability { ability: Ability::Unsiege, target: AbilityTarget::None })]);
     assert!(r[0].is_ok(), "the scenario's tanks start sieged: {r:?}");
     env.step();
     let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
-    let mine: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag).collect();
+    let mine: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag.tag()).collect();
     let text = avacraft_ava::describe_rich(&obs, &env.scenario().terrain, &mine, None);
     let line = text.lines().find(|l| l.starts_with(&format!("- {tank} "))).expect("the tank's line");
     assert!(line.contains("morphing, takes no order"), "{line}");

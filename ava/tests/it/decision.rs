@@ -24,8 +24,9 @@ fn refusals_say_what_is_wrong() {
     let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
     let cam = camera(&env, &obs);
     let sit = Situation { obs: &obs, camera: &cam, terrain: env.world().terrain(), micro: false };
-    let own: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag).collect();
-    let enemy = obs.units.iter().find(|u| !u.own).map(|u| u.tag).expect("an enemy in sight after 6 steps");
+    let own: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag.tag()).collect();
+    let enemy_id = obs.units.iter().find(|u| !u.own).map(|u| u.tag).expect("an enemy in sight after 6 steps");
+    let enemy = enemy_id.tag();
     let items = vec![
         (0, Item { target: Some(enemy), ..item(own[0], Verb::Attack) }),
         (1, Item { target: Some(enemy), ..item(own[0], Verb::Attack) }),
@@ -54,7 +55,7 @@ fn refusals_say_what_is_wrong() {
         assert!(r.contains(w), "item {i}: `{r}` should say `{w}`");
     }
     assert_eq!(c.commands.len(), 2);
-    assert_eq!(c.commands[0], (own[0], Order::Do(Command::Attack { target: UnitId::new((enemy - 1) as u16) })));
+    assert_eq!(c.commands[0], (own[0], Order::Do(Command::Attack { target: enemy_id })));
     // The grid move goes to the camera's cell, the one drawn on the screenshot.
     let Order::Do(Command::MoveTo { to }) = c.commands[1].1 else { panic!("{:?}", c.commands[1]) };
     assert_eq!(cam.cell_of(to), Some((5, 5)));
@@ -70,14 +71,14 @@ fn abilities_are_checked_for_energy_range_and_target_side() {
     let medivac = obs.units.iter().find(|u| u.own && u.kind.base().name() == "Medivac").expect("a Medivac");
     let marine = obs.units.iter().find(|u| u.own && u.kind.base().name() == "Marine").expect("a Marine");
     let items = vec![
-        (0, Item { target: Some(marine.tag), ..item(medivac.tag, Verb::Attack) }),
-        (1, Item { ability: Some("stimpack".into()), ..item(marine.tag, Verb::Ability) }),
+        (0, Item { target: Some(marine.tag.tag()), ..item(medivac.tag.tag(), Verb::Attack) }),
+        (1, Item { ability: Some("stimpack".into()), ..item(marine.tag.tag(), Verb::Ability) }),
     ];
     let c = check(&sit, &items, Vec::new());
     assert!(c.refused.is_empty(), "{:?}", c.refused);
     assert_eq!(c.commands[1].1, Order::Do(Command::Ability { ability: Ability::Stimpack, target: avacraft_engine::AbilityTarget::None }));
     if let Some(enemy) = obs.units.iter().find(|u| !u.own) {
-        let c = check(&sit, &[(0, Item { target: Some(enemy.tag), ..item(medivac.tag, Verb::Attack) })], Vec::new());
+        let c = check(&sit, &[(0, Item { target: Some(enemy.tag.tag()), ..item(medivac.tag.tag(), Verb::Attack) })], Vec::new());
         assert!(c.refused[0].reason.contains("heals"), "{:?}", c.refused);
     }
 }
@@ -178,7 +179,7 @@ fn the_schema_names_the_tags_there_are_and_bounds_the_list() {
 fn targets_are_enemies_in_sight_and_own_units_only_for_those_that_heal() {
     let env = state("3m_vlm", 1, 8);
     let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
-    let enemies: Vec<u32> = obs.units.iter().filter(|u| !u.own).map(|u| u.tag).collect();
+    let enemies: Vec<u32> = obs.units.iter().filter(|u| !u.own).map(|u| u.tag.tag()).collect();
     assert!(!enemies.is_empty(), "3m_vlm's enemies are in sight after 8 steps of attack-move");
     assert_eq!(targets(&obs), enemies, "Marines act on enemies only");
     // MMM: Medivacs heal other units of theirs.
@@ -186,7 +187,7 @@ fn targets_are_enemies_in_sight_and_own_units_only_for_those_that_heal() {
     let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
     let t = targets(&obs);
     for u in &obs.units {
-        assert!(t.contains(&u.tag), "{} {} is a target", if u.own { "own" } else { "enemy" }, u.tag);
+        assert!(t.contains(&u.tag.tag()), "{} {} is a target", if u.own { "own" } else { "enemy" }, u.tag.tag());
     }
 }
 
@@ -262,7 +263,7 @@ proptest! {
         let mut env = state(scenario, 5, steps);
         prop_assume!(!env.done());
         let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
-        let mut tags: Vec<u32> = obs.units.iter().map(|u| u.tag).collect();
+        let mut tags: Vec<u32> = obs.units.iter().map(|u| u.tag.tag()).collect();
         tags.push(99);
         let raw: Vec<Value> = picks.iter().map(|p| to_json(p, &tags)).collect();
         let text = json!({"reasoning": "", "actions": raw}).to_string();
@@ -285,7 +286,7 @@ proptest! {
             .commands
             .iter()
             .filter_map(|(t, o)| match o {
-                Order::Keep(st) => obs.units.iter().find(|u| u.tag == *t).and_then(|u| st.act(&obs, &terrain2, u)),
+                Order::Keep(st) => obs.units.iter().find(|u| u.tag.tag() == *t).and_then(|u| st.act(&obs, &terrain2, u)),
                 Order::Do(_) => None,
             })
             .collect();

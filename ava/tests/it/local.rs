@@ -282,7 +282,7 @@ fn a_whole_3m_episode_is_played_by_the_local_model() {
         env.reset(5);
         avacraft_engine::agent::GroupObs::team(&env, avacraft_engine::Team::One, 0, avacraft_engine::agent::Reads::ALL)
     };
-    let own: Vec<u32> = start.controlled.iter().map(|c| c.unit).collect();
+    let own: Vec<u32> = start.controlled.iter().map(|c| c.unit.tag()).collect();
     // 3m_vlm's six units have tags 1 to 6.
     let enemies: Vec<u32> = (1..=6).filter(|t| !own.contains(t)).collect();
     assert_eq!(own.len(), 3, "{own:?}");

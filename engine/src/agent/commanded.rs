@@ -4,7 +4,7 @@
 
 use crate::action::Action;
 use crate::env::Env;
-use crate::ids::Team;
+use crate::ids::{Team, UnitId};
 use crate::obs::{GroupObs, Reads};
 use crate::policy::{
     Agent, AgentCtx, Assignment, Briefing, Commander, GroupRole, MakeCommander, OrdersError, RoleGroupSpec, agent_seed, commander_seed,
@@ -74,14 +74,17 @@ impl CommandedTeam {
                 a.reset(&AgentCtx {
                     scenario: scenario.clone(),
                     team: self.team,
-                    units: s.initial.clone(),
+                    units: ids_of(env, self.team, &s.initial),
                     seed: agent_seed(env.seed(), self.team, first),
                 });
                 a
             })
             .collect();
         let mut c = (self.make_commander)();
-        c.reset(&AgentCtx { scenario, team: self.team, units: tags.clone(), seed: commander_seed(env.seed(), self.team) }, &roles);
+        c.reset(
+            &AgentCtx { scenario, team: self.team, units: env.agents(self.team).to_vec(), seed: commander_seed(env.seed(), self.team) },
+            &roles,
+        );
         self.commander = Some(c);
         self.assignment =
             Assignment::new(self.specs.iter().map(|s| s.initial.iter().copied().filter(|t| tags.contains(t)).collect()).collect());
@@ -92,7 +95,7 @@ impl CommandedTeam {
     /// This step's actions of every group, then the commander's orders for the next step.
     pub fn act(&mut self, env: &Env, episode: u64) -> Vec<Action> {
         let order: Vec<u32> = env.agents(self.team).iter().map(|id| id.tag()).collect();
-        let index = |tag: u32| order.iter().position(|&t| t == tag).unwrap_or(0);
+        let index = |id: UnitId| order.iter().position(|&t| t == id.tag()).unwrap_or(0);
         let living: Vec<u32> = env.world().alive(self.team).map(|u| u.id.tag()).filter(|t| order.contains(t)).collect();
         self.assignment = self.assignment.living(&living);
         let mut out = Vec::new();
@@ -101,7 +104,7 @@ impl CommandedTeam {
                 continue;
             }
             agent.brief(&Briefing { role: spec.role, ..self.briefing.clone() });
-            let mine = env.agent_observations_of(self.team, episode, units, agent.reads());
+            let mine = env.agent_observations_of(self.team, episode, &ids_of(env, self.team, units), agent.reads());
             if let Some(g) = GroupObs::fold(&mine, index) {
                 out.extend(complete(agent.act(&g), &g));
             }
@@ -119,4 +122,10 @@ impl CommandedTeam {
         }
         out
     }
+}
+
+/// The team's units that `tags` name, in their order (orders and role groups name units by
+/// tag, as commanders and launch files write them); a tag of no unit of the team names none.
+fn ids_of(env: &Env, team: Team, tags: &[u32]) -> Vec<UnitId> {
+    tags.iter().filter_map(|&t| env.agents(team).iter().copied().find(|id| id.tag() == t)).collect()
 }

@@ -3,7 +3,7 @@
 
 use crate::action::Action;
 use crate::env::Env;
-use crate::ids::Team;
+use crate::ids::{Team, UnitId};
 use crate::obs::GroupObs;
 use crate::policy::{Agent, AgentCtx, agent_seed};
 
@@ -24,7 +24,7 @@ pub struct AgentTeam {
     team: Team,
     grouping: Grouping,
     make: Box<dyn Fn() -> Box<dyn Agent> + Send>,
-    groups: Vec<(Vec<u32>, Box<dyn Agent>)>,
+    groups: Vec<(Vec<UnitId>, Box<dyn Agent>)>,
 }
 
 impl std::fmt::Debug for AgentTeam {
@@ -47,21 +47,24 @@ impl AgentTeam {
 
     /// Starts an episode: one fresh agent per group, each seeded by [`agent_seed`].
     pub fn reset(&mut self, env: &Env) {
-        let tags: Vec<u32> = env.agents(self.team).iter().map(|id| id.tag()).collect();
-        let groups: Vec<Vec<u32>> = match &self.grouping {
-            Grouping::Team => vec![tags],
-            Grouping::PerUnit => tags.iter().map(|&t| vec![t]).collect(),
-            Grouping::Groups(g) => g.iter().map(|g| g.iter().copied().filter(|t| tags.contains(t)).collect()).collect(),
+        let ids = env.agents(self.team);
+        let groups: Vec<Vec<UnitId>> = match &self.grouping {
+            Grouping::Team => vec![ids.to_vec()],
+            Grouping::PerUnit => ids.iter().map(|&id| vec![id]).collect(),
+            // A listed tag names one of the team's units or nothing.
+            Grouping::Groups(g) => {
+                g.iter().map(|g| g.iter().filter_map(|&t| ids.iter().copied().find(|id| id.tag() == t)).collect()).collect()
+            }
         };
         self.groups = groups
             .into_iter()
-            .filter(|g: &Vec<u32>| !g.is_empty())
+            .filter(|g: &Vec<UnitId>| !g.is_empty())
             .map(|units| {
                 let mut agent = (self.make)();
                 let ctx = AgentCtx {
                     scenario: std::sync::Arc::clone(env.scenario()),
                     team: self.team,
-                    seed: agent_seed(env.seed(), self.team, units[0]),
+                    seed: agent_seed(env.seed(), self.team, units[0].tag()),
                     units: units.clone(),
                 };
                 agent.reset(&ctx);
@@ -88,8 +91,8 @@ impl AgentTeam {
 
     /// Every group's actions for this step, from its units' observations.
     pub fn act(&mut self, env: &Env, episode: u64) -> Vec<Action> {
-        let order: Vec<u32> = env.agents(self.team).iter().map(|id| id.tag()).collect();
-        let index = |tag: u32| order.iter().position(|&t| t == tag).unwrap_or(0);
+        let order = env.agents(self.team);
+        let index = |id: UnitId| order.iter().position(|&t| t == id).unwrap_or(0);
         let mut out = Vec::new();
         if let [(_, agent)] = self.groups.as_mut_slice()
             && self.grouping == Grouping::Team

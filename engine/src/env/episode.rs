@@ -324,8 +324,8 @@ impl Env {
             if kind != OpponentKind::Builtin {
                 let mut p = policy::opponent(kind);
                 // One agent for the whole team, seeded as an agent team of it would be.
-                let units: Vec<u32> = self.agents[Team::Two.index()].iter().map(|id| id.tag()).collect();
-                let seed = agent_seed(seed, Team::Two, units.first().copied().unwrap_or(0));
+                let units = self.agents[Team::Two.index()].clone();
+                let seed = agent_seed(seed, Team::Two, units.first().map_or(0, |id| id.tag()));
                 p.reset(&AgentCtx { scenario: Arc::clone(&self.scenario), team: Team::Two, units, seed });
                 self.opponent = Some(p);
             }

@@ -4,7 +4,7 @@
 
 use super::Env;
 use super::text::describe;
-use crate::ids::Team;
+use crate::ids::{Team, UnitId};
 use crate::obs::{AgentObs, Controlled, EffectInfo, GroupObs, Reads, UnitInfo, unit_list};
 use crate::time::LOOPS_PER_SECOND;
 use std::sync::Arc;
@@ -18,7 +18,7 @@ pub fn effects(env: &Env, team: Team) -> Vec<EffectInfo> {
         .filter(|e| e.active(tick) && (e.team == team || w.team_sees_point(team, e.pos)))
         .map(|e| EffectInfo {
             kind: e.kind,
-            team: e.team.player(),
+            team: e.team,
             x: e.pos.x,
             y: e.pos.y,
             radius: e.radius,
@@ -46,7 +46,7 @@ impl GroupObs {
                     features = vec![0f32; l.obs_size];
                     env.obs_agent(team, agent, &mut features);
                 }
-                Controlled { unit: id.tag(), alive: units.iter().any(|u| u.tag == id.tag()), agent, avail_actions, features }
+                Controlled { unit: *id, alive: units.iter().any(|u| u.tag == *id), agent, avail_actions, features }
             })
             .collect();
         GroupObs {
@@ -74,17 +74,18 @@ impl Env {
 
     /// The observations of the agents of `team` whose units are in `units`, in agent order,
     /// built with only what `reads` asks for (empty masks, features or text otherwise).
-    pub fn agent_observations_of(&self, team: Team, episode: u64, units: &[u32], reads: Reads) -> Vec<AgentObs> {
+    pub fn agent_observations_of(&self, team: Team, episode: u64, units: &[UnitId], reads: Reads) -> Vec<AgentObs> {
         let text: Arc<str> = if reads.text { describe(self, team).into() } else { Arc::from("") };
         let list = unit_list(self.world(), team);
         let fx = effects(self, team);
         (0..self.agents(team).len())
-            .filter(|&agent| units.contains(&self.agents(team)[agent].tag()))
+            .filter(|&agent| units.contains(&self.agents(team)[agent]))
             .map(|agent| self.agent_obs_with(team, agent, episode, &list, &fx, &text, reads.smac))
             .collect()
     }
 
-    /// One agent's observation (see [`Env::agent_observations`] for all of a team's).
+    /// One agent's observation (see [`Env::agent_observations`] for all of a team's). Panics
+    /// unless `agent` indexes the team's agents.
     pub fn agent_obs(&self, team: Team, agent: usize, episode: u64) -> AgentObs {
         let text: Arc<str> = describe(self, team).into();
         self.agent_obs_with(team, agent, episode, &unit_list(self.world(), team), &effects(self, team), &text, true)
@@ -101,7 +102,7 @@ impl Env {
         text: &Arc<str>,
         smac: bool,
     ) -> AgentObs {
-        let tag = self.agents(team).get(agent).map_or(0, |id| id.tag());
+        let tag = self.agents(team)[agent];
         let l = self.smac_layout(team);
         let (mut avail_actions, mut features) = (Vec::new(), Vec::new());
         if smac {
@@ -118,7 +119,7 @@ impl Env {
             step: self.steps(),
             game_loop: self.world().tick(),
             unit: tag,
-            team: team.player(),
+            team,
             alive: own.is_some(),
             own,
             allies: list.iter().filter(|u| u.own && u.tag != tag).map(strip).collect(),

@@ -3,13 +3,13 @@
 
 use super::Env;
 use crate::flags::UnitFlags;
-use crate::ids::Team;
+use crate::ids::{Team, UnitId};
 use crate::obs::{OrderInfo, UnitInfo, unit_list};
 use crate::time::{LOOPS_PER_SECOND, loops_to_seconds};
 use std::fmt::Write;
 
-fn line(u: &UnitInfo, names: &dyn Fn(u32) -> String) -> String {
-    let mut s = format!("- {} (tag {}, {}): HP {:.0}/{:.0}", u.name, u.tag, u.kind.display_name(), u.hp.ceil(), u.max_hp);
+fn line(u: &UnitInfo, names: &dyn Fn(UnitId) -> String) -> String {
+    let mut s = format!("- {} (tag {}, {}): HP {:.0}/{:.0}", u.name, u.tag.tag(), u.kind.display_name(), u.hp.ceil(), u.max_hp);
     if u.max_shield > 0.0 {
         let _ = write!(s, ", shields {:.0}/{:.0}", u.shield.ceil(), u.max_shield);
     }
@@ -69,11 +69,11 @@ fn line(u: &UnitInfo, names: &dyn Fn(u32) -> String) -> String {
 pub fn describe(env: &Env, team: Team) -> String {
     let w = env.world();
     let units = unit_list(w, team);
-    let tags: Vec<(u32, String, bool)> = units.iter().map(|u| (u.tag, u.name.clone(), u.own)).collect();
-    let names = |tag: u32| match tags.iter().find(|t| t.0 == tag) {
+    let tags: Vec<(UnitId, String, bool)> = units.iter().map(|u| (u.tag, u.name.clone(), u.own)).collect();
+    let names = |id: UnitId| match tags.iter().find(|t| t.0 == id) {
         Some((_, n, true)) => format!("own {n}"),
-        Some((_, n, false)) => format!("enemy {n} (tag {tag})"),
-        None => format!("unit tag {tag}"),
+        Some((_, n, false)) => format!("enemy {n} (tag {})", id.tag()),
+        None => format!("unit tag {}", id.tag()),
     };
     let limit = env.time_limit_loops();
     let mut s = String::new();

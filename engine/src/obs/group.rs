@@ -4,7 +4,7 @@
 //! the simulator node publishes, so a policy cannot tell where it runs.
 
 use crate::ability::EffectKind;
-use crate::ids::Team;
+use crate::ids::{Team, UnitId, serde_as};
 use crate::obs::UnitInfo;
 use serde::Serialize;
 use std::sync::Arc;
@@ -13,8 +13,9 @@ use std::sync::Arc;
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct EffectInfo {
     pub kind: EffectKind,
-    /// The caster's team, 1 or 2.
-    pub team: u8,
+    /// The caster's team (1 or 2 in JSON).
+    #[serde(serialize_with = "serde_as::player::serialize")]
+    pub team: Team,
     pub x: f32,
     pub y: f32,
     pub radius: f32,
@@ -29,10 +30,12 @@ pub struct AgentObs {
     pub seed: u64,
     pub step: u32,
     pub game_loop: u32,
-    /// The observed unit's tag (1-based).
-    pub unit: u32,
-    /// Its team, 1 or 2.
-    pub team: u8,
+    /// The observed unit (its tag in JSON).
+    #[serde(serialize_with = "serde_as::tag::serialize")]
+    pub unit: UnitId,
+    /// Its team (1 or 2 in JSON).
+    #[serde(serialize_with = "serde_as::player::serialize")]
+    pub team: Team,
     pub alive: bool,
     /// The unit itself with its abilities (`None` once dead).
     pub own: Option<UnitInfo>,
@@ -71,7 +74,7 @@ pub struct GroupObs {
 /// What only a unit's own observation holds: its SMAC mask and features.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Controlled {
-    pub unit: u32,
+    pub unit: UnitId,
     pub alive: bool,
     /// Index of the unit among its team's SMAC agents.
     pub agent: usize,
@@ -82,10 +85,9 @@ pub struct Controlled {
 impl GroupObs {
     /// Folds the observations of one group's units at one step (all the same step, same team).
     /// `None` when given none.
-    pub fn fold(obs: &[AgentObs], agent_index: impl Fn(u32) -> usize) -> Option<GroupObs> {
+    pub fn fold(obs: &[AgentObs], agent_index: impl Fn(UnitId) -> usize) -> Option<GroupObs> {
         let first = obs.first()?;
-        // `AgentObs::team` is the player number the simulator wrote (1 or 2).
-        let team = Team::from_player(first.team.into()).unwrap_or(Team::One);
+        let team = first.team;
         let mut units: Vec<UnitInfo> = Vec::new();
         // Own units: the controlled ones carry their abilities; allies come without.
         for o in obs {
@@ -136,9 +138,9 @@ impl GroupObs {
     pub fn mine(&self) -> impl Iterator<Item = &UnitInfo> {
         self.units.iter().filter(|u| u.own && self.controlled.iter().any(|c| c.unit == u.tag))
     }
-    /// A unit the team knows of, by tag.
-    pub fn unit(&self, tag: u32) -> Option<&UnitInfo> {
-        self.units.iter().find(|u| u.tag == tag)
+    /// A unit the team knows of.
+    pub fn unit(&self, id: UnitId) -> Option<&UnitInfo> {
+        self.units.iter().find(|u| u.tag == id)
     }
     pub fn tick(&self) -> u32 {
         self.game_loop

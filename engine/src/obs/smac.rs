@@ -570,7 +570,7 @@ impl Known for World {
 impl Known for GroupObs {
     type U = super::UnitInfo;
     fn body(&self, id: UnitId) -> Option<&super::UnitInfo> {
-        self.unit(id.tag())
+        self.unit(id)
     }
 }
 

@@ -4,7 +4,7 @@ use crate::ability::AbilityInfo;
 use crate::action::grid_cell_of;
 use crate::flags::{Buffs, UnitFlags};
 use crate::geom::Vec2;
-use crate::ids::Team;
+use crate::ids::{Team, UnitId, serde_as};
 use crate::rules::Facts;
 use crate::time::LOOPS_PER_SECOND;
 use crate::units::{Attrs, DataSet, UnitKind, UnitSpec};
@@ -17,15 +17,25 @@ use serde::Serialize;
 pub enum OrderInfo {
     Idle,
     Hold,
-    Move { x: f32, y: f32 },
-    AttackMove { x: f32, y: f32 },
-    Attack { target: u32 },
+    Move {
+        x: f32,
+        y: f32,
+    },
+    AttackMove {
+        x: f32,
+        y: f32,
+    },
+    Attack {
+        #[serde(serialize_with = "serde_as::tag::serialize")]
+        target: UnitId,
+    },
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct UnitInfo {
     /// Permanent numeric tag (also drawn on screenshots).
-    pub tag: u32,
+    #[serde(serialize_with = "serde_as::tag::serialize")]
+    pub tag: UnitId,
     /// `Marine_1`: base type and number within its team, kept for the whole episode.
     pub name: String,
     #[serde(rename = "type")]
@@ -34,7 +44,8 @@ pub struct UnitInfo {
     /// game, not of the unit: left out of the JSON that prompts, unit lists and recordings carry.
     #[serde(skip_serializing)]
     pub data: DataSet,
-    pub team: u8,
+    #[serde(serialize_with = "serde_as::player::serialize")]
+    pub team: Team,
     pub own: bool,
     pub x: f32,
     pub y: f32,
@@ -53,7 +64,8 @@ pub struct UnitInfo {
     pub weapon_cooldown_s: f32,
     pub order: OrderInfo,
     pub activity: Activity,
-    pub target: Option<u32>,
+    #[serde(serialize_with = "serde_as::tag_opt::serialize")]
+    pub target: Option<UnitId>,
     pub flags: UnitFlags,
     /// Active buffs and states: stimmed, slowed, cloaked, guardian-shielded, lifted,
     /// morphing, ...
@@ -98,11 +110,11 @@ impl UnitInfo {
         }
         let (gx, gy) = grid_cell_of(w.terrain().playable(), u.pos);
         UnitInfo {
-            tag: u.id.tag(),
+            tag: u.id,
             name: u.name(),
             kind: u.kind,
             data: w.data(),
-            team: u.team.player(),
+            team: u.team,
             own: u.team == team,
             x: u.pos.x,
             y: u.pos.y,
@@ -120,10 +132,10 @@ impl UnitInfo {
                 Order::Hold => OrderInfo::Hold,
                 Order::Move { to } => OrderInfo::Move { x: to.x, y: to.y },
                 Order::AttackMove { to } => OrderInfo::AttackMove { x: to.x, y: to.y },
-                Order::Attack { target } => OrderInfo::Attack { target: target.tag() },
+                Order::Attack { target } => OrderInfo::Attack { target },
             },
             activity: u.activity,
-            target: u.target.map(|t| t.tag()),
+            target: u.target,
             flags,
             buffs: {
                 let mut b = u.status.buffs(w.tick());
@@ -172,7 +184,7 @@ pub fn unit_list(w: &World, team: Team) -> Vec<UnitInfo> {
 
 /// The rules read an observed unit as they read the world's.
 impl Facts for UnitInfo {
-    fn tag(&self) -> u32 {
+    fn id(&self) -> UnitId {
         self.tag
     }
     fn kind(&self) -> UnitKind {

@@ -30,16 +30,16 @@ impl Sight for Observed<'_> {
         self.terrain
     }
     fn actor(&self, team: Team, unit: UnitId) -> Result<Option<&UnitInfo>, ActionError> {
-        match self.obs.unit(unit.tag()) {
+        match self.obs.unit(unit) {
             Some(u) if u.own => Ok(Some(u)),
             Some(_) => Err(ActionError::NotYourUnit { unit, owner: team.other(), team }),
             // Observations list living units; the group's dead ones are in `controlled`.
-            None if self.obs.controlled.iter().any(|c| c.unit == unit.tag()) => Ok(None),
+            None if self.obs.controlled.iter().any(|c| c.unit == unit) => Ok(None),
             None => Err(ActionError::UnknownUnit { unit }),
         }
     }
     fn seen(&self, team: Team, target: UnitId) -> Result<(&UnitInfo, bool), ActionError> {
-        self.obs.unit(target.tag()).map(|t| (t, t.own)).ok_or(ActionError::TargetNotVisible { target, team })
+        self.obs.unit(target).map(|t| (t, t.own)).ok_or(ActionError::TargetNotVisible { target, team })
     }
     fn sees(&self, _team: Team, p: Vec2) -> bool {
         super::view::sees_point(self.terrain, self.obs.units.iter().filter(|u| u.own), p)

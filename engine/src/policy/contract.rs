@@ -4,7 +4,7 @@
 
 use super::role::Briefing;
 use crate::action::Action;
-use crate::ids::Team;
+use crate::ids::{Team, UnitId};
 use crate::obs::{GroupObs, Reads};
 use crate::scenario::Scenario;
 use std::sync::Arc;
@@ -15,8 +15,8 @@ use std::sync::Arc;
 pub struct AgentCtx {
     pub scenario: Arc<Scenario>,
     pub team: Team,
-    /// Tags of the units it controls.
-    pub units: Vec<u32>,
+    /// The units it controls.
+    pub units: Vec<UnitId>,
     pub seed: u64,
 }
 
@@ -93,12 +93,10 @@ impl<T: Agent + Clone + 'static> ForkAgent for T {
 /// node must answer for every unit it owns (the simulator waits for each), and an in-process
 /// run submits the same, so both leave the same last actions in the state.
 pub fn complete(actions: Vec<Action>, g: &GroupObs) -> Vec<Action> {
-    let mut out: Vec<Action> = actions.into_iter().filter(|a| g.controlled.iter().any(|c| c.unit == a.unit.tag())).collect();
+    let mut out: Vec<Action> = actions.into_iter().filter(|a| g.controlled.iter().any(|c| c.unit == a.unit)).collect();
     for c in g.controlled.iter().filter(|c| c.alive) {
-        if let Ok(unit) = crate::ids::UnitId::try_from(c.unit)
-            && !out.iter().any(|a| a.unit == unit)
-        {
-            out.push(Action::new(unit, crate::action::Command::NoOp));
+        if !out.iter().any(|a| a.unit == c.unit) {
+            out.push(Action::new(c.unit, crate::action::Command::NoOp));
         }
     }
     out

@@ -14,6 +14,7 @@ use super::view::{attacking, busy, can_attack, edge, flying, id, max_range, mobi
 use crate::ability::{Ability, AbilityTarget, DETECTION_RADIUS, EMP_RADIUS, EffectKind, STORM_RADIUS, TargetKind, TargetRule};
 use crate::action::{Action, Command};
 use crate::geom::Vec2;
+use crate::ids::UnitId;
 use crate::obs::GroupObs;
 use crate::obs::{Buffs, UnitFlags, UnitInfo};
 use crate::terrain::Terrain;
@@ -22,11 +23,10 @@ use crate::units::UnitKind;
 /// Ability actions for the units the group controls this step, and the tags of the units
 /// they leave alone otherwise (casting, channelling, morphing, or running at a clump): the
 /// caller gives those no other order.
-pub(crate) fn ability_actions(g: &GroupObs, terrain: &Terrain) -> (Vec<Action>, Vec<u32>) {
+pub(crate) fn ability_actions(g: &GroupObs, terrain: &Terrain) -> (Vec<Action>, Vec<UnitId>) {
     // Storms already on the ground (ours) and cast this step: a new one must not overlap
     // them, as storms do not stack.
-    let storms =
-        g.effects.iter().filter(|e| e.kind == EffectKind::PsionicStorm && e.team == g.team.player()).map(|e| Vec2::new(e.x, e.y)).collect();
+    let storms = g.effects.iter().filter(|e| e.kind == EffectKind::PsionicStorm && e.team == g.team).map(|e| Vec2::new(e.x, e.y)).collect();
     let mut s = Step { g, terrain, out: Vec::new(), handled: Vec::new(), storms, feedbacks: Vec::new() };
     for u in g.mine() {
         if busy(u) {
@@ -46,9 +46,9 @@ struct Step<'a> {
     g: &'a GroupObs,
     terrain: &'a Terrain,
     out: Vec<Action>,
-    handled: Vec<u32>,
+    handled: Vec<UnitId>,
     storms: Vec<Vec2>,
-    feedbacks: Vec<u32>,
+    feedbacks: Vec<UnitId>,
 }
 
 impl Step<'_> {
@@ -245,7 +245,7 @@ fn cast_ok(g: &GroupObs, terrain: &Terrain, u: &UnitInfo, ability: Ability, targ
         }
         (TargetKind::Unit | TargetKind::PointOrUnit, AbilityTarget::Unit { unit }) => {
             // The group's observation lists exactly the living units its team sees.
-            let Some(t) = g.unit(unit.tag()) else { return false };
+            let Some(t) = g.unit(unit) else { return false };
             let rule_ok = match spec.rule {
                 TargetRule::Enemy => !t.own,
                 TargetRule::Ally => t.own && t.tag != u.tag,
@@ -293,7 +293,7 @@ fn nearest_enemy<'a>(g: &'a GroupObs, u: &UnitInfo, keep: impl Fn(&UnitInfo) -> 
 /// surroundings within `radius` hold the most `value`; ties to the lower tag.
 fn best_clump(g: &GroupObs, u: &UnitInfo, r: f32, value: impl Fn(&UnitInfo) -> f32) -> Option<(Vec2, f32)> {
     let enemies: Vec<&UnitInfo> = g.enemies().collect();
-    let mut best: Option<(Vec2, f32, u32)> = None;
+    let mut best: Option<(Vec2, f32, UnitId)> = None;
     for c in enemies.iter().filter(|c| pos(c).dist(pos(u)) - radius(u) <= 9.0) {
         let v: f32 = enemies.iter().filter(|e| pos(e).dist(pos(c)) <= r + radius(e)).map(|e| value(e)).sum();
         if best.is_none_or(|(_, bv, bt)| v > bv || (v == bv && c.tag < bt)) {

@@ -203,7 +203,7 @@ impl Agent for RandomActions {
             }
             let idx = choices[self.rng.random_range(0..choices.len())];
             if let Some(command) = layout.command_for_obs(g, c.agent, idx) {
-                out.push(Action::new(super::view::id_of(c.unit), command));
+                out.push(Action::new(c.unit, command));
             }
         }
         out

@@ -8,6 +8,7 @@
 use super::scripted::{kite_step, own_target, weakest_in_sight};
 use super::view::{attacking, id, mobile, radius, range_gap};
 use crate::action::{Action, Command};
+use crate::ids::{UnitId, serde_as};
 use crate::obs::GroupObs;
 use crate::obs::{OrderInfo, UnitInfo};
 use crate::terrain::Terrain;
@@ -22,9 +23,15 @@ pub enum Stance {
     /// when the unit can hit it, else the weakest in its range, else the nearest it can hit.
     /// With no enemy in sight the unit keeps its current order (an attack-move goes on), so a
     /// stance given before contact engages at the first step the enemy is seen.
-    Focus { target: Option<u32> },
+    Focus {
+        #[serde(default, with = "serde_as::tag_opt")]
+        target: Option<UnitId>,
+    },
     /// As `Focus`, stepping back from slower melee units while the weapon reloads.
-    Kite { target: Option<u32> },
+    Kite {
+        #[serde(default, with = "serde_as::tag_opt")]
+        target: Option<UnitId>,
+    },
     /// Stand still and fire at what comes in range.
     Hold,
 }
@@ -62,8 +69,8 @@ impl Stance {
 }
 
 /// The named enemy while it is seen and `u` can hit it; else the focus-fire script's pick.
-fn pick<'a>(g: &'a GroupObs, u: &UnitInfo, named: Option<u32>) -> Option<&'a UnitInfo> {
-    let named = named.and_then(|tag| g.enemies().find(|e| e.tag == tag)).or_else(|| weakest_in_sight(g));
+fn pick<'a>(g: &'a GroupObs, u: &UnitInfo, named: Option<UnitId>) -> Option<&'a UnitInfo> {
+    let named = named.and_then(|id| g.enemies().find(|e| e.tag == id)).or_else(|| weakest_in_sight(g));
     own_target(g, u, named)
 }
 

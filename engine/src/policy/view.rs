@@ -87,8 +87,8 @@ pub fn centroid<'a>(units: impl Iterator<Item = &'a UnitInfo>) -> Option<Vec2> {
     (n > 0.0).then(|| s * (1.0 / n))
 }
 
-pub fn attacking(u: &UnitInfo, tag: u32) -> bool {
-    u.order == OrderInfo::Attack { target: tag }
+pub fn attacking(u: &UnitInfo, target: UnitId) -> bool {
+    u.order == OrderInfo::Attack { target }
 }
 
 pub fn moving_to(u: &UnitInfo, to: Vec2) -> bool {
@@ -121,12 +121,7 @@ pub fn sees_point<'a>(terrain: &Terrain, mut team_units: impl Iterator<Item = &'
     })
 }
 
-/// The unit's id for an [`Action`](crate::Action). Tags are 1-based; a tag no unit can have
-/// maps to an id the engine refuses.
+/// The unit's id for an [`Action`](crate::Action).
 pub fn id(u: &UnitInfo) -> UnitId {
-    id_of(u.tag)
-}
-
-pub fn id_of(tag: u32) -> UnitId {
-    UnitId::try_from(tag).unwrap_or(UnitId::new(u16::MAX))
+    u.tag
 }

@@ -56,9 +56,9 @@ fn own_units_are_blue_and_seen_enemies_red_at_both_sizes() {
         let v = vlm_obs_layout(w, h).view(&cam);
         let mut seen = [0, 0];
         for u in &o.units {
-            assert!(cam.contains(view::pos(u)), "{w}x{h}: {} out of view {:?}", u.tag, cam.rect());
+            assert!(cam.contains(view::pos(u)), "{w}x{h}: {} out of view {:?}", u.tag.tag(), cam.rect());
             let want = if u.own { OWN } else { ENEMY };
-            assert_eq!(pixel(&img, v.px(view::pos(u))), rgb(want), "{w}x{h}: unit {} (own: {})", u.tag, u.own);
+            assert_eq!(pixel(&img, v.px(view::pos(u))), rgb(want), "{w}x{h}: unit {} (own: {})", u.tag.tag(), u.own);
             seen[u.own as usize] += 1;
         }
         assert_eq!(seen, [3, 3]);
@@ -185,10 +185,11 @@ fn units_outside_the_view_are_not_drawn() {
     let cam = camera(&e, &o, w, h);
     // Move one enemy far outside the view.
     let far = o.units.iter_mut().find(|u| !u.own).expect("an enemy");
-    let (tag, out) = (far.tag, Vec2::new(cam.rect().right + 5.0, cam.rect().bottom - 5.0));
+    let (id, out) = (far.tag, Vec2::new(cam.rect().right + 5.0, cam.rect().bottom - 5.0));
     (far.x, far.y) = (out.x, out.y);
     assert!(!cam.contains(out));
-    let (scene, img) = render(&e, &o, &cam, w, h, &VlmOptions { highlights: vec![UnitId::new(tag as u16 - 1)] });
+    let (scene, img) = render(&e, &o, &cam, w, h, &VlmOptions { highlights: vec![id] });
+    let tag = id.tag();
     let v = vlm_obs_layout(w, h).view(&cam);
     let enemy_discs = scene.prims.iter().filter(|p| matches!(p, Prim::Disc { color, .. } if *color == ENEMY)).count();
     assert_eq!(enemy_discs, o.enemies().count() - 1);
@@ -216,7 +217,7 @@ fn units_outside_the_view_are_not_drawn() {
     // Nothing red where it would be were the image larger; the others still drawn.
     let p = v.px(out);
     assert!(p[0] as u32 >= w || p[1] as u32 >= h || pixel(&img, p) != rgb(ENEMY));
-    for u in o.enemies().filter(|u| u.tag != tag) {
+    for u in o.enemies().filter(|u| u.tag != id) {
         assert_eq!(pixel(&img, v.px(view::pos(u))), rgb(ENEMY));
     }
 }
@@ -238,12 +239,12 @@ fn effects_intents_and_highlights_come_from_the_observation() {
         } else if u.tag == ally {
             OrderInfo::Attack { target: mine }
         } else {
-            OrderInfo::Attack { target: 999 }
+            OrderInfo::Attack { target: UnitId::new(998) }
         };
     }
-    let fx = |x: f32, y: f32| EffectInfo { kind: EffectKind::PsionicStorm, team: 2, x, y, radius: 1.5, remaining_s: 2.0 };
+    let fx = |x: f32, y: f32| EffectInfo { kind: EffectKind::PsionicStorm, team: Team::Two, x, y, radius: 1.5, remaining_s: 2.0 };
     o.effects = vec![fx(cam.center().x, cam.center().y), fx(cam.rect().right + 10.0, cam.center().y)];
-    let opts = VlmOptions { highlights: vec![UnitId::new(mine as u16 - 1)] };
+    let opts = VlmOptions { highlights: vec![mine] };
     let (scene, _) = render(&e, &o, &cam, w, h, &opts);
     let count = |f: &dyn Fn(&Prim) -> bool| scene.prims.iter().filter(|p| f(p)).count();
     let yellow = Rgba([255, 230, 60, 200]);
@@ -253,7 +254,7 @@ fn effects_intents_and_highlights_come_from_the_observation() {
     assert_eq!(count(&|p| matches!(p, Prim::Line { color, .. } if *color == green)), 1, "one heal line to an ally");
     assert_eq!(count(&|p| matches!(p, Prim::Disc { color, .. } if *color == storm)), 1, "the storm in view only");
     assert_eq!(count(&|p| matches!(p, Prim::Ring { color, .. } if *color == Rgba::rgb(255, 230, 0))), 1, "highlight");
-    assert!(scene.prims.iter().any(|p| matches!(p, Prim::Text { text, .. } if text.starts_with(&format!("{mine} Mar")))));
+    assert!(scene.prims.iter().any(|p| matches!(p, Prim::Text { text, .. } if text.starts_with(&format!("{} Mar", mine.tag())))));
     assert!(scene.prims.iter().any(|p| matches!(p, Prim::Text { text, .. } if *text == format!("team 1, loop {}", o.game_loop))));
 }
 
@@ -266,7 +267,7 @@ fn same_observation_same_pixels_in_process_or_folded_from_agent_messages() {
     let team = obs(&e);
     // What an agent node gets: one observation per unit, folded.
     let per_unit = e.agent_observations(Team::One, 0);
-    let folded = GroupObs::fold(&per_unit, |tag| tag as usize).expect("observations");
+    let folded = GroupObs::fold(&per_unit, |id| id.index()).expect("observations");
     let (w, h) = (960, 540);
     let cam = camera(&e, &team, w, h);
     assert_eq!(cam, camera(&e, &folded, w, h));

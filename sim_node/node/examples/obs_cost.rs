@@ -40,7 +40,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         obs.len()
     );
     // What a team of scripted nodes is sent: the units and effects only.
-    let units: Vec<u32> = env.agents(Team::One).iter().map(|id| id.tag()).collect();
+    let units = env.agents(Team::One).to_vec();
     let lean = env.agent_observations_of(Team::One, 0, &units, avacraft_engine::agent::Reads::UNITS);
     let lean_bytes: usize = lean.iter().map(|o| encode(&unit_observation(o, Header::default())).len()).sum();
     let lean_build =

@@ -294,8 +294,7 @@ fn publish_step(
         // The units' observations are the engine's own, built with what the team's nodes
         // read (what in-process agents get), so a deployed policy sees exactly what it
         // would see in-process.
-        let units: Vec<u32> = env.agents(team).iter().map(|id| id.tag()).collect();
-        let obs = env.agent_observations_of(team, episode, &units, reads);
+        let obs = env.agent_observations_of(team, episode, env.agents(team), reads);
         let w = env.world();
         if let Some(p) = team_pubs.get_mut(&team) {
             let units = avacraft_engine::unit_list(w, team).iter().map(unit_state).collect();
@@ -316,7 +315,7 @@ fn publish_step(
             p.put(&msg)?;
         }
         for o in &obs {
-            if let Some(p) = UnitTag::new(o.unit).ok().and_then(|t| unit_pubs.get_mut(&UnitId::from(t))) {
+            if let Some(p) = unit_pubs.get_mut(&o.unit) {
                 p.put(&avacraft_nodes::wire::unit_observation(o, header(w, "map")))?;
             }
         }
