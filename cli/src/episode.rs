@@ -4,7 +4,7 @@ use crate::flags::team_of;
 use anyhow::{Context, Result, bail};
 use avacraft_engine::agent::{AgentTeam, Grouping};
 use avacraft_engine::{
-    Ability, Controllers, Env, EnvConfig, Mode, OpponentKind, Outcome, RewardMode, Rules, Scenario, Team, loops_to_seconds,
+    Ability, Controllers, Env, EnvConfig, EnvOptions, Mode, OpponentKind, Outcome, RewardMode, Scenario, Team, loops_to_seconds,
 };
 use avacraft_policy::{AVA_POLICY, PolicySpec};
 use clap::Args;
@@ -215,17 +215,17 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
         teams.push(side(Team::Two, &agent2, if a.agent2.is_some() { "--agent2" } else { "--agent (for team 2)" })?);
     }
     let controllers = Controllers::new(&scenario, teams);
-    let cfg = EnvConfig {
-        rules: Rules {
-            full_vision: a.full_vision,
-            cooldown_jitter: !a.no_jitter,
-            auto_acquire: [!a.passive_agents, true],
-            abilities: !a.no_abilities,
-        },
+    let cfg = EnvOptions {
+        full_vision: a.full_vision,
+        cooldown_jitter: !a.no_jitter,
+        passive_allies: a.passive_agents,
+        abilities: !a.no_abilities,
         reward: RewardMode::Sparse,
         opponent,
-        ..EnvConfig::default()
-    };
+        ..EnvOptions::default()
+    }
+    .config()
+    .context("the episode's options")?;
     let seeds = (0..a.episodes as u64).map(|k| a.seed.wrapping_add(k)).collect();
     let ava = ava.map(|(made, dir)| (made.run.unwrap_or_else(|| unreachable!("an AVA policy is made with its run")), dir));
     Ok(Setup {

@@ -78,7 +78,9 @@ pub use agent::{
     AGENTS as POLICIES, Agent, AgentCtx, Controllers, ForkAgent, GroupObs, Reads, UnknownAgent as UnknownPolicy, by_name as agent_by_name,
 };
 pub use damage::{Dealt, apply_hits, hit_damage};
-pub use env::{BadFovActions, Env, EnvConfig, MAX_FOV_ACTIONS, Outcome, RewardMode, StepResult, check_fov_actions, describe};
+pub use env::{
+    BadFovActions, BadOption, Env, EnvConfig, EnvOptions, MAX_FOV_ACTIONS, Outcome, RewardMode, StepResult, check_fov_actions, describe,
+};
 pub use geom::Vec2;
 pub use hash::Fnv;
 pub use ids::{BadTag, Team, Tick, UnitId};

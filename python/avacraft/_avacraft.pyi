@@ -15,6 +15,10 @@ class AvacraftError(ValueError):
 _Indices = Union[Sequence[int], npt.NDArray[np.integer[Any]]]
 
 def scenario_names() -> list[str]: ...
+def env_options() -> tuple[list[str], str]:
+    """The options `Env` and `VecEnv` take after their leading arguments, in order, and their
+    defaults as a JSON object (the engine's `EnvOptions`)."""
+
 def baseline_dir(scenario: str, name: str = "qmix") -> str:
     """The folder of the shipped baseline `name` of `scenario` (what `baseline:NAME` names).
     Raises `AvacraftError` naming the shipped runs when there is none."""

@@ -3,7 +3,7 @@
 
 use crate::convert::{image, indices, matrix, to_py};
 use crate::error::{AvacraftError, Error};
-use crate::options::{Options, load_scenario};
+use crate::options::Options;
 use avacraft_engine::{Action, Env, LearnError, Mode, Team, UnitId, describe, unit_list};
 use avacraft_render::{ObsMode, Observer, RenderConfig, RgbImage, VideoWriter, VlmOptions};
 use numpy::PyArray1;
@@ -175,8 +175,8 @@ impl PyEnv {
             fov_actions,
             data,
         };
-        let cfg = opts.config()?;
-        let env = Env::new(opts.scenario(load_scenario(scenario)?)?, cfg, seed);
+        let (scenario, cfg) = opts.build(scenario)?;
+        let env = Env::new(scenario, cfg, seed);
         let observer = Observer::new(ObsMode::Features, RenderConfig::default());
         Ok(Self { inner: Mutex::new(Inner { env, observer, recording: Recording::default() }) })
     }

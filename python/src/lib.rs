@@ -41,6 +41,14 @@ fn scenario_names() -> Vec<&'static str> {
     avacraft_engine::all_names().collect()
 }
 
+/// The environment options both constructors take, in order, and their defaults (JSON): the
+/// engine's `EnvOptions`, which the constructors' keyword arguments must match.
+#[pyfunction]
+fn env_options() -> (Vec<&'static str>, String) {
+    let defaults = serde_json::to_string(&avacraft_engine::EnvOptions::default()).unwrap_or_default();
+    (avacraft_engine::EnvOptions::NAMES.to_vec(), defaults)
+}
+
 /// A scenario's summary: name, mode ("pve"/"pvp"), units per team, time limit in loops.
 #[pyfunction]
 fn scenario_info(py: Python<'_>, scenario: &str) -> PyResult<Py<PyAny>> {
@@ -67,6 +75,7 @@ fn _avacraft(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<ava::PyAva>()?;
     m.add_function(wrap_pyfunction!(scenario_names, m)?)?;
     m.add_function(wrap_pyfunction!(scenario_info, m)?)?;
+    m.add_function(wrap_pyfunction!(env_options, m)?)?;
     m.add_function(wrap_pyfunction!(baseline_dir, m)?)?;
     m.add_function(wrap_pyfunction!(vec::rust_loop_steps_per_s, m)?)?;
     Ok(())

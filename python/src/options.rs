@@ -1,9 +1,9 @@
-//! What an environment is made from: the scenario and the engine options Python passes,
-//! shared by the single and the vector environment.
+//! What an environment is made from: the scenario and the engine's [`EnvOptions`], which both
+//! constructors (the single and the vector environment) take as keyword arguments named as its
+//! fields (`env_option_names()`; a Python test holds both signatures to it).
 
 use crate::error::Error;
-use avacraft_engine::{DataSet, EnvConfig, OpponentKind, RewardMode, Scenario, ScenarioError, all_names};
-use std::num::NonZeroU32;
+use avacraft_engine::{BadOption, EnvConfig, EnvOptions, Scenario, ScenarioError, all_names};
 use std::sync::Arc;
 
 /// A built-in scenario by name, a scenario TOML file by path, or a scenario's TOML text (what
@@ -20,21 +20,8 @@ pub(crate) fn load_scenario(name: &str) -> Result<Arc<Scenario>, Error> {
     }
 }
 
-impl Options {
-    /// The scenario on the data set asked for.
-    pub(crate) fn scenario(&self, s: Arc<Scenario>) -> Result<Arc<Scenario>, Error> {
-        let Some(name) = &self.data else { return Ok(s) };
-        let d: DataSet = name.parse().map_err(|_| Error::Option {
-            option: "data",
-            value: name.clone(),
-            supported: "one of liberty, void, ladder, legacy (or None: the scenario's own)".into(),
-        })?;
-        Ok(Arc::new(s.with_data(d)?))
-    }
-}
-
-/// The engine options Python passes (already named and checked by the wrapper; checked
-/// again here, since `_avacraft` can be used directly).
+/// The keyword arguments of both constructors, as Python passes them (names, strings and plain
+/// numbers), before they are checked into [`EnvOptions`].
 #[derive(Clone, Debug)]
 pub(crate) struct Options {
     pub step_mul: u32,
@@ -48,60 +35,39 @@ pub(crate) struct Options {
     pub time_limit_loops: Option<u32>,
     pub prob_obs_enemy: f64,
     pub action_mask: bool,
-    /// SMACv2's conic fields of view: the number of look actions (0: off).
     pub fov_actions: i64,
-    /// The unit data to play on (`liberty`, `void`, `ladder`, `legacy`); `None`: the
-    /// scenario's own.
     pub data: Option<String>,
 }
 
+impl From<BadOption> for Error {
+    fn from(b: BadOption) -> Error {
+        Error::Option { option: b.option, value: b.value, supported: b.supported }
+    }
+}
+
 impl Options {
-    pub fn config(&self) -> Result<EnvConfig, Error> {
-        let mut cfg = if self.passive_allies { EnvConfig::smac() } else { EnvConfig::default() };
-        cfg.step_mul = NonZeroU32::new(self.step_mul).ok_or_else(|| Error::Option {
-            option: "step_mul",
-            value: self.step_mul.to_string(),
-            supported: "game loops per step: 1 or more".into(),
-        })?;
-        cfg.reward = match self.reward.as_str() {
-            "dense" => RewardMode::Dense,
-            "sparse" => RewardMode::Sparse,
-            other => {
-                return Err(Error::Option { option: "reward", value: other.into(), supported: "one of: dense, sparse".into() });
-            }
-        };
-        cfg.opponent = match self.opponent.as_deref() {
-            None => None,
-            Some(o) => {
-                Some(o.parse::<OpponentKind>().map_err(|why| Error::Option { option: "opponent", value: o.into(), supported: why })?)
-            }
-        };
-        cfg.rules.full_vision = self.full_vision;
-        cfg.rules.cooldown_jitter = self.cooldown_jitter;
-        cfg.rules.abilities = self.abilities;
-        cfg.ability_actions = self.ability_actions;
-        cfg.time_limit_loops = match self.time_limit_loops {
-            None => None,
-            Some(t) => Some(NonZeroU32::new(t).ok_or_else(|| Error::Option {
-                option: "time_limit_loops",
-                value: t.to_string(),
-                supported: "a time limit of 1 game loop or more".into(),
-            })?),
-        };
-        if !(0.0..=1.0).contains(&self.prob_obs_enemy) {
-            return Err(Error::Option {
-                option: "prob_obs_enemy",
-                value: self.prob_obs_enemy.to_string(),
-                supported: "a probability in [0, 1] (1: extended partial observability off)".into(),
-            });
-        }
-        cfg.prob_obs_enemy = self.prob_obs_enemy as f32;
-        cfg.action_mask = self.action_mask;
-        cfg.fov_actions = avacraft_engine::check_fov_actions(self.fov_actions).map_err(|why| Error::Option {
-            option: "num_fov_actions",
-            value: self.fov_actions.to_string(),
-            supported: format!("with conic_fov, {why}"),
-        })?;
-        Ok(cfg)
+    /// The engine's options, the names parsed (each refusal names its option).
+    pub(crate) fn env_options(&self) -> Result<EnvOptions, Error> {
+        Ok(EnvOptions {
+            step_mul: self.step_mul,
+            reward: EnvOptions::reward_named(&self.reward)?,
+            opponent: self.opponent.as_deref().map(EnvOptions::opponent_named).transpose()?,
+            full_vision: self.full_vision,
+            passive_allies: self.passive_allies,
+            cooldown_jitter: self.cooldown_jitter,
+            abilities: self.abilities,
+            ability_actions: self.ability_actions,
+            time_limit_loops: self.time_limit_loops,
+            prob_obs_enemy: self.prob_obs_enemy,
+            action_mask: self.action_mask,
+            fov_actions: self.fov_actions,
+            data: self.data.as_deref().map(EnvOptions::data_named).transpose()?,
+        })
+    }
+
+    /// The scenario, on the data set asked for, and the engine's configuration.
+    pub(crate) fn build(&self, scenario: &str) -> Result<(Arc<Scenario>, EnvConfig), Error> {
+        let o = self.env_options()?;
+        Ok((o.scenario(load_scenario(scenario)?)?, o.config()?))
     }
 }

@@ -66,9 +66,9 @@ impl PyVecEnv {
             fov_actions,
             data,
         };
-        let cfg = opts.config()?;
+        let (scenario, cfg) = opts.build(scenario)?;
         let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-        let inner = VecEnv::new(opts.scenario(load_scenario(scenario)?)?, cfg, &seeds, threads).map_err(Error::from)?;
+        let inner = VecEnv::new(scenario, cfg, &seeds, threads).map_err(Error::from)?;
         Ok(Self { inner: Mutex::new(inner) })
     }
 

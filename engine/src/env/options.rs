@@ -1,0 +1,180 @@
+//! The environment's options as people and files write them: one serde struct that the Python
+//! constructors, the command line and configuration files all fill, checked into an
+//! [`EnvConfig`] in one place, so an option means the same and is refused with the same words
+//! wherever it is given.
+
+use super::episode::{EnvConfig, RewardMode, check_fov_actions};
+use crate::scenario::{OpponentKind, Scenario, ScenarioError};
+use crate::units::DataSet;
+use serde::{Deserialize, Serialize};
+use std::num::NonZeroU32;
+use std::sync::Arc;
+
+/// Every environment option, with the defaults of `avacraft.Env` (SMAC's passive allies, dense
+/// reward, 8 loops a step). Field names are the Python keyword names.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct EnvOptions {
+    /// Game loops per environment step.
+    pub step_mul: u32,
+    pub reward: RewardMode,
+    /// The PvE opponent; `None`: the scenario's own.
+    pub opponent: Option<OpponentKind>,
+    pub full_vision: bool,
+    /// SMAC's agents: team 1's units fire only when told (no auto-acquire).
+    pub passive_allies: bool,
+    /// StarCraft II's random delay after each attack.
+    pub cooldown_jitter: bool,
+    pub abilities: bool,
+    /// Ability slots appended to SMAC's discrete actions.
+    pub ability_actions: bool,
+    /// Overrides the scenario's time limit (game loops).
+    pub time_limit_loops: Option<u32>,
+    /// SMACv2's extended partial observability (1: off).
+    pub prob_obs_enemy: f64,
+    /// SMAC's range mask on attack actions.
+    pub action_mask: bool,
+    /// SMACv2's conic fields of view: the number of look actions (0: off).
+    pub fov_actions: i64,
+    /// The unit data to play on; `None`: the scenario's own.
+    pub data: Option<DataSet>,
+}
+
+impl Default for EnvOptions {
+    fn default() -> Self {
+        EnvOptions {
+            step_mul: 8,
+            reward: RewardMode::Dense,
+            opponent: None,
+            full_vision: false,
+            passive_allies: true,
+            cooldown_jitter: true,
+            abilities: true,
+            ability_actions: false,
+            time_limit_loops: None,
+            prob_obs_enemy: 1.0,
+            action_mask: true,
+            fov_actions: 0,
+            data: None,
+        }
+    }
+}
+
+/// An option refused: its name, the value given and what is accepted.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{option}={value}: {supported}")]
+pub struct BadOption {
+    pub option: &'static str,
+    pub value: String,
+    pub supported: String,
+}
+
+impl EnvOptions {
+    /// The options' names, in the order of the Python constructors' keyword arguments (a test
+    /// holds both constructors' signatures to it).
+    pub const NAMES: [&'static str; 13] = [
+        "step_mul",
+        "reward",
+        "opponent",
+        "full_vision",
+        "passive_allies",
+        "cooldown_jitter",
+        "abilities",
+        "ability_actions",
+        "time_limit_loops",
+        "prob_obs_enemy",
+        "action_mask",
+        "fov_actions",
+        "data",
+    ];
+
+    /// The engine's configuration, every option checked.
+    pub fn config(&self) -> Result<EnvConfig, BadOption> {
+        let bad = |option, value: String, supported: &str| BadOption { option, value, supported: supported.to_owned() };
+        let mut cfg = if self.passive_allies { EnvConfig::smac() } else { EnvConfig::default() };
+        cfg.step_mul =
+            NonZeroU32::new(self.step_mul).ok_or_else(|| bad("step_mul", self.step_mul.to_string(), "game loops per step: 1 or more"))?;
+        cfg.reward = self.reward;
+        cfg.opponent = self.opponent;
+        cfg.rules.full_vision = self.full_vision;
+        cfg.rules.cooldown_jitter = self.cooldown_jitter;
+        cfg.rules.abilities = self.abilities;
+        cfg.ability_actions = self.ability_actions;
+        cfg.time_limit_loops = match self.time_limit_loops {
+            None => None,
+            Some(t) => {
+                Some(NonZeroU32::new(t).ok_or_else(|| bad("time_limit_loops", t.to_string(), "a time limit of 1 game loop or more"))?)
+            }
+        };
+        if !(0.0..=1.0).contains(&self.prob_obs_enemy) {
+            let why = "a probability in [0, 1] (1: extended partial observability off)";
+            return Err(bad("prob_obs_enemy", self.prob_obs_enemy.to_string(), why));
+        }
+        cfg.prob_obs_enemy = self.prob_obs_enemy as f32;
+        cfg.action_mask = self.action_mask;
+        cfg.fov_actions = check_fov_actions(self.fov_actions)
+            .map_err(|why| bad("num_fov_actions", self.fov_actions.to_string(), &format!("with conic_fov, {why}")))?;
+        Ok(cfg)
+    }
+
+    /// `s` on the unit data asked for (itself when none is).
+    pub fn scenario(&self, s: Arc<Scenario>) -> Result<Arc<Scenario>, ScenarioError> {
+        match self.data {
+            None => Ok(s),
+            Some(d) => Ok(Arc::new(s.with_data(d)?)),
+        }
+    }
+
+    /// Parses the options' text forms (what Python and command lines pass): the reward mode,
+    /// the opponent and the data set by name.
+    pub fn reward_named(name: &str) -> Result<RewardMode, BadOption> {
+        match name {
+            "dense" => Ok(RewardMode::Dense),
+            "sparse" => Ok(RewardMode::Sparse),
+            other => Err(BadOption { option: "reward", value: other.into(), supported: "one of: dense, sparse".into() }),
+        }
+    }
+    pub fn opponent_named(name: &str) -> Result<OpponentKind, BadOption> {
+        name.parse::<OpponentKind>().map_err(|why| BadOption { option: "opponent", value: name.into(), supported: why })
+    }
+    pub fn data_named(name: &str) -> Result<DataSet, BadOption> {
+        name.parse::<DataSet>().map_err(|_| BadOption {
+            option: "data",
+            value: name.into(),
+            supported: "one of liberty, void, ladder, legacy (or None: the scenario's own)".into(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_are_the_serde_fields_in_order() {
+        let v = serde_json::to_value(EnvOptions::default()).expect("json");
+        let keys: Vec<&str> = v.as_object().expect("an object").keys().map(String::as_str).collect();
+        let mut names = EnvOptions::NAMES.to_vec();
+        names.sort_unstable();
+        let mut sorted = keys.clone();
+        sorted.sort_unstable();
+        assert_eq!(sorted, names);
+    }
+
+    #[test]
+    fn defaults_give_the_smac_config_and_bad_values_name_the_option() {
+        let d = EnvOptions::default().config().expect("defaults");
+        assert_eq!(d, EnvConfig { reward: RewardMode::Dense, ..EnvConfig::smac() });
+        let e = EnvOptions { step_mul: 0, ..EnvOptions::default() }.config().expect_err("0 loops");
+        assert_eq!(e.option, "step_mul");
+        let e = EnvOptions { prob_obs_enemy: 1.5, ..EnvOptions::default() }.config().expect_err("p > 1");
+        assert_eq!(e.option, "prob_obs_enemy");
+        let e = EnvOptions { fov_actions: 3, ..EnvOptions::default() }.config().expect_err("odd");
+        assert_eq!(e.option, "num_fov_actions");
+        assert_eq!(EnvOptions::reward_named("shaped").expect_err("no such").option, "reward");
+        assert_eq!(EnvOptions::data_named("brood_war").expect_err("no such").option, "data");
+        // A file naming an unknown option is refused with the name.
+        let err = serde_json::from_str::<EnvOptions>(r#"{"step_mull": 8}"#).expect_err("unknown key");
+        assert!(err.to_string().contains("step_mull"), "{err}");
+    }
+}
