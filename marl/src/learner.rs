@@ -20,8 +20,8 @@ use candle_core::{D, Tensor};
 use fused::FlatState;
 
 // These were defined here; their old paths stay valid.
+pub use crate::acting::select_actions;
 pub use crate::nets::Nets;
-pub use crate::policy::select_actions;
 pub use crate::td::{QGrads, td_targets, td_targets_flat};
 
 /// Statistics of one update.

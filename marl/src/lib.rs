@@ -41,7 +41,7 @@
 //! 2. configuration: `config`
 //! 3. data: `kernels`, `frames`, `buffer`, `journal`, `td`
 //! 4. networks: `encoders`, `nets`, `qtran`, `observe`
-//! 5. acting: `policy`, `selfplay`
+//! 5. acting: `acting`, `checkpoint`, `evaluation`, `selfplay`
 //! 6. learning: `learner`, `carry`, `resume`, `monitor`, `ppo`
 //! 7. training: `train`, `ship`
 
@@ -49,12 +49,15 @@
 // by pointer, can allow it behind a bounds-checked safe function.
 #![deny(unsafe_code)]
 
+pub mod acting;
 pub mod baselines;
 pub mod buffer;
 mod carry;
+pub mod checkpoint;
 pub mod config;
 pub mod encoders;
 mod error;
+pub mod evaluation;
 pub mod frames;
 mod journal;
 pub mod kernels;
@@ -66,7 +69,6 @@ mod opponent;
 pub mod optim;
 pub mod params;
 pub mod plot;
-pub mod policy;
 pub mod ppo;
 pub mod qtran;
 pub mod resume;
@@ -78,16 +80,18 @@ pub mod tensorboard;
 pub mod train;
 mod value_norm;
 
+pub use acting::select_actions;
 pub use buffer::{Batch, Episode, ReplayBuffer, Shape};
+pub use checkpoint::{MarlAgent, Policy};
 pub use config::{ALGOS, Config, MixerKind, Opponent};
 pub use encoders::{Backbone, ObsEncoder, ObsKind};
 pub use error::{Error, Refused};
+pub use evaluation::{FramesActor, TestResult};
 pub use learner::{Learner, UpdateStats};
 pub use monitor::{Progress, RunOptions, Summary};
 pub use nets::Nets;
 pub use observe::ObsSource;
 pub use optim::{Optimizer, OptimizerKind};
-pub use policy::{FramesActor, MarlAgent, Policy, TestResult, select_actions};
 pub use ppo::PpoLearner;
 pub use td::QGrads;
 pub use train::{Trained, train, train_from};

@@ -5,9 +5,9 @@
 //! PPO's loop need not import it.
 
 use crate::config::Opponent;
+use crate::evaluation::{TestResult, test, vec_env_with};
 use crate::nets::Nets;
 use crate::plot::CurvePoint;
-use crate::policy::{TestResult, test, vec_env_with};
 use crate::resume::RunState;
 use crate::selfplay::Pool;
 use crate::tensorboard::EventWriter;
@@ -119,7 +119,7 @@ impl<'a> Monitor<'a> {
         let base = opts.seed.wrapping_mul(1 << 20);
         let pool = match cfg.opponent {
             Opponent::SelfPlay => {
-                let shape = crate::policy::team_shape(cfg, &opts.scenario)?;
+                let shape = crate::evaluation::team_shape(cfg, &opts.scenario)?;
                 Some(Arc::new(Pool::new(cfg, shape, &opts.scenario.name, opts.out.as_deref())))
             }
             _ => None,

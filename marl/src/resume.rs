@@ -19,11 +19,11 @@
 //! (the buffer refills, the episodes under way start afresh), and the optimisers of QTRAN and
 //! of PPO's Swin encoder (candle's).
 
+use crate::evaluation::TestResult;
 use crate::kernels::Moments;
 use crate::learner::Learner;
 use crate::nets::Nets;
 use crate::plot::CurvePoint;
-use crate::policy::TestResult;
 use crate::value_norm::ValueNorm;
 use crate::{Config, Error};
 use candle_core::Device;

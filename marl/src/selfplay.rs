@@ -14,8 +14,8 @@
 //! no checkpoint can need any more are deleted, but the first (the run's start).
 
 use crate::buffer::Shape;
+use crate::checkpoint::{MarlAgent, Policy};
 use crate::nets::Nets;
-use crate::policy::{MarlAgent, Policy};
 use crate::{Config, Error};
 use avacraft_engine::{Action, Agent, AgentCtx, GroupObs, Reads};
 use rand::{Rng, SeedableRng};
@@ -73,7 +73,7 @@ impl Pool {
         }
         let policy = Policy::of(nets, &self.cfg, self.shape, &self.scenario)?;
         if let Some(dir) = &self.dir {
-            crate::policy::save(&dir.join(format!("u{updates:010}")), &policy.nets, &self.cfg, &self.shape, &self.scenario)?;
+            crate::checkpoint::save(&dir.join(format!("u{updates:010}")), &policy.nets, &self.cfg, &self.shape, &self.scenario)?;
         }
         let mut s = self.write()?;
         s.push((updates, Arc::new(policy)));

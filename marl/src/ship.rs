@@ -3,7 +3,7 @@
 //! there.
 
 use crate::Error;
-use crate::policy::Policy;
+use crate::checkpoint::Policy;
 use candle_core::Tensor;
 use std::path::Path;
 

@@ -14,6 +14,7 @@
 //! environment's results depend on its seeds only, not on its threads); the clock is read
 //! for the log's `elapsed_s` column only.
 
+use crate::acting::Actor;
 use crate::buffer::{Batch, Episode, FrameBatch, ReplayBuffer, Shape};
 use crate::carry::Carry;
 use crate::journal::Journal;
@@ -21,16 +22,15 @@ use crate::learner::Learner;
 use crate::monitor::Monitor;
 use crate::nets::Nets;
 use crate::observe::ObsSource;
-use crate::policy::Actor;
 use crate::ppo::PpoLearner;
 use crate::resume::RunState;
-use crate::{Config, Error, policy};
+use crate::{Config, Error, checkpoint};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 // These were defined here; their old paths stay valid.
+pub use crate::evaluation::{TestResult, opponent_factory, shape_of, test, test_with};
 pub use crate::monitor::{Progress, RunOptions, Summary};
-pub use crate::policy::{TestResult, opponent_factory, shape_of, test, test_with};
 
 /// What a run trained.
 #[derive(Debug)]
@@ -286,7 +286,7 @@ fn train_q(
             }
         }
         let nets = &learner.nets;
-        let mut save = |dir: &std::path::Path| policy::save(dir, nets, cfg, &shape, &opts.scenario.name);
+        let mut save = |dir: &std::path::Path| checkpoint::save(dir, nets, cfg, &shape, &opts.scenario.name);
         let tested = monitor.after_step(t_env, (episodes, learner.updates), eps, &last, nets, &mut save)?;
         if tested && let Some(dir) = &opts.out {
             let rngs = (act_rng.get_word_pos(), sample_rng.get_word_pos());

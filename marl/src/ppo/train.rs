@@ -20,7 +20,7 @@ use crate::buffer::{Shape, act_inputs};
 use crate::carry::Carry;
 use crate::monitor::{Monitor, Progress, RunOptions, Summary};
 use crate::resume::{self, RunState};
-use crate::{Config, Error, UpdateStats, policy};
+use crate::{Config, Error, UpdateStats, checkpoint};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::time::{Duration, Instant};
@@ -124,7 +124,7 @@ pub fn train_from(
         }
         let t_update = clock.elapsed();
         let mut save = |dir: &std::path::Path| -> Result<(), Error> {
-            policy::save(dir, &learner.actor, cfg, &shape, &opts.scenario.name)?;
+            checkpoint::save(dir, &learner.actor, cfg, &shape, &opts.scenario.name)?;
             learner.save_critic(dir)
         };
         let tested = monitor.after_step(t_env, (episodes, learner.updates), 0.0, &last_stats, &learner.actor, &mut save)?;

@@ -230,7 +230,7 @@ fn a_saved_checkpoint_loads_with_identical_q_values() -> R {
         let refs: Vec<&Episode> = eps.iter().collect();
         let batch = Batch::new(&refs, &SMALL, true, true)?;
         l.train(&batch, 0)?;
-        avacraft_marl::policy::save(&dir, &l.nets, &c, &SMALL, "small")?;
+        avacraft_marl::checkpoint::save(&dir, &l.nets, &c, &SMALL, "small")?;
         let p = Policy::load(&dir)?;
         assert_eq!(p.cfg, c);
         let q1: Vec<f32> = l.nets.unroll(&batch)?.flatten_all()?.to_vec1()?;

@@ -178,7 +178,7 @@ fn a_saved_ppo_checkpoint_loads_and_acts_identically() -> R {
     let r = random_rollout(&c, 2, 8, &mut rng);
     let mut l = PpoLearner::new(&c, SMALL, 2)?;
     l.update(&r, &mut rng)?;
-    avacraft_marl::policy::save(&dir, &l.actor, &c, &SMALL, "small")?;
+    avacraft_marl::checkpoint::save(&dir, &l.actor, &c, &SMALL, "small")?;
     l.save_critic(&dir)?;
     assert!(dir.join("critic.safetensors").is_file() && !dir.join("mixer.safetensors").exists());
     let p = Policy::load(&dir)?;
