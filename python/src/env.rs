@@ -3,7 +3,8 @@
 
 use crate::convert::{image, indices, matrix, to_py};
 use crate::error::{AvacraftError, Error};
-use crate::options::Options;
+use crate::options;
+use avacraft_engine::EnvOptions;
 use avacraft_engine::{Action, Env, LearnError, Mode, Team, UnitId, describe, unit_list};
 use avacraft_render::{ObsMode, Observer, RenderConfig, RgbImage, VideoWriter, VlmOptions};
 use numpy::PyArray1;
@@ -160,9 +161,11 @@ impl PyEnv {
         fov_actions: i64,
         data: Option<String>,
     ) -> PyResult<Self> {
-        let opts = Options {
+        // Both constructors take EnvOptions' fields, in its order (a Python test holds them to it).
+        let (reward, opponent, data) = options::named(reward, opponent.as_deref(), data.as_deref())?;
+        let opts = EnvOptions {
             step_mul,
-            reward: reward.to_owned(),
+            reward,
             opponent,
             full_vision,
             passive_allies,
@@ -175,7 +178,7 @@ impl PyEnv {
             fov_actions,
             data,
         };
-        let (scenario, cfg) = opts.build(scenario)?;
+        let (scenario, cfg) = options::build(scenario, &opts)?;
         let env = Env::new(scenario, cfg, seed);
         let observer = Observer::new(ObsMode::Features, RenderConfig::default());
         Ok(Self { inner: Mutex::new(Inner { env, observer, recording: Recording::default() }) })

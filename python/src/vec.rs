@@ -2,7 +2,8 @@
 
 use crate::convert::indices;
 use crate::error::Error;
-use crate::options::{Options, load_scenario};
+use crate::options::{self, load_scenario};
+use avacraft_engine::EnvOptions;
 use avacraft_engine::{Env, EnvConfig, RewardMode, Team, VecEnv};
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
@@ -51,9 +52,11 @@ impl PyVecEnv {
         fov_actions: i64,
         data: Option<String>,
     ) -> PyResult<Self> {
-        let opts = Options {
+        // Both constructors take EnvOptions' fields, in its order (a Python test holds them to it).
+        let (reward, opponent, data) = options::named(reward, opponent.as_deref(), data.as_deref())?;
+        let opts = EnvOptions {
             step_mul,
-            reward: reward.to_owned(),
+            reward,
             opponent,
             full_vision,
             passive_allies,
@@ -66,7 +69,7 @@ impl PyVecEnv {
             fov_actions,
             data,
         };
-        let (scenario, cfg) = opts.build(scenario)?;
+        let (scenario, cfg) = options::build(scenario, &opts)?;
         let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
         let inner = VecEnv::new(scenario, cfg, &seeds, threads).map_err(Error::from)?;
         Ok(Self { inner: Mutex::new(inner) })
