@@ -168,6 +168,27 @@ pub struct Panel {
     pub budget: u64,
 }
 
+/// At most this many points a run draws in a [`grid`] panel: a longer run draws the median of
+/// each stretch of consecutive test rounds, so a 10M-step run (1,000 rounds) reads as well as
+/// a 2M-step one instead of filling its panel with noise.
+pub const MAX_PANEL_POINTS: usize = 200;
+
+/// `pts` (in step order) with at most [`MAX_PANEL_POINTS`]: each stretch of `k` consecutive
+/// points becomes its last step and the median of its values.
+pub fn thin(pts: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
+    let k = pts.len().div_ceil(MAX_PANEL_POINTS).max(1);
+    if k == 1 {
+        return pts;
+    }
+    pts.chunks(k)
+        .filter_map(|c| {
+            let mut ys: Vec<f64> = c.iter().map(|p| p.1).collect();
+            ys.sort_by(f64::total_cmp);
+            Some((c.last()?.0, ys[ys.len() / 2]))
+        })
+        .collect()
+}
+
 /// Small multiples: each panel's greedy test win rates against environment steps, `cols`
 /// panels a row, one legend of run names under the title. For many maps at a glance.
 pub fn grid(path: &Path, title: &str, names: &[&str], panels: &[Panel], cols: usize) -> Result<(), Error> {
@@ -218,7 +239,7 @@ pub fn grid(path: &Path, title: &str, names: &[&str], panels: &[Panel], cols: us
             for (name, rows) in &p.runs {
                 let c = COLORS[names.iter().position(|n| n == name).unwrap_or(names.len()) % COLORS.len()];
                 let pts: Vec<(f64, f64)> = rows.iter().map(|r| (r.t_env as f64, r.test_win_rate)).filter(|(_, v)| v.is_finite()).collect();
-                chart.draw_series(LineSeries::new(pts, c.stroke_width(2))).map_err(err)?;
+                chart.draw_series(LineSeries::new(thin(pts), c.stroke_width(2))).map_err(err)?;
             }
         }
         root.present().map_err(err)?;
@@ -250,6 +271,20 @@ fn mean_curve(runs: &[(PathBuf, Vec<LogRow>)], x: fn(&LogRow) -> f64, y: fn(&Log
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn long_runs_are_thinned_to_medians_and_short_ones_kept() {
+        let short: Vec<(f64, f64)> = (0..150).map(|i| (i as f64, (i % 2) as f64)).collect();
+        assert_eq!(thin(short.clone()), short);
+        // 1,000 rounds: stretches of 5, each its last step and its median.
+        let long: Vec<(f64, f64)> = (0..1000).map(|i| (i as f64, if i % 5 == 0 { 1.0 } else { 0.0 })).collect();
+        let t = thin(long);
+        assert_eq!(t.len(), 200);
+        assert_eq!(t[0], (4.0, 0.0));
+        assert_eq!(t[199], (999.0, 0.0));
+        let noisy: Vec<(f64, f64)> = (0..1000).map(|i| (i as f64, if i % 5 < 3 { 0.8 } else { 0.2 })).collect();
+        assert!(thin(noisy).iter().all(|p| p.1 == 0.8));
+    }
 
     fn text(rows: &[LogRow]) -> String {
         let mut s =
