@@ -231,7 +231,7 @@ pub struct TrainBench<'a> {
 /// Steps per second of `cfg`'s vector environment with uniformly random available actions.
 fn env_rate(cfg: &Config, scenario: &Arc<Scenario>, threads: usize, steps: u64) -> Result<f64> {
     let seeds: Vec<u64> = (1..=cfg.envs as u64).collect();
-    let mut v = VecEnv::new(Arc::clone(scenario), cfg.env_config(), &seeds, threads.clamp(1, seeds.len()))?;
+    let mut v = VecEnv::new(Arc::clone(scenario), cfg.env_config()?, &seeds, threads.clamp(1, seeds.len()))?;
     let n_actions = v.shape().3.max(1);
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let mut actions = vec![0i64; v.buffers.avail.len() / n_actions];

@@ -38,7 +38,7 @@ fn main() -> R<()> {
     let file = dir.map(|d| avacraft_marl::encoders::clause_store::file_in(&d, model.hash()));
     let mut emb = TextEmbedder::new(Arc::new(model), cfg.text_cache, file);
     let seeds: Vec<u64> = (1..=envs as u64).collect();
-    let mut v = VecEnv::new(Arc::clone(&scenario), cfg.env_config(), &seeds, 1)?;
+    let mut v = VecEnv::new(Arc::clone(&scenario), cfg.env_config()?, &seeds, 1)?;
     let n_actions = v.shape().3.max(1);
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let (mut done, mut step) = (0u64, 0u64);
@@ -131,7 +131,7 @@ fn batch(n: usize) -> R<()> {
     let model = MiniLm::load()?;
     let scenario = Arc::new(Scenario::load("2s3z_vlm")?);
     let cfg = Config::for_algo("mappo", &[])?;
-    let mut v = VecEnv::new(Arc::clone(&scenario), cfg.env_config(), &[1, 2, 3, 4], 1)?;
+    let mut v = VecEnv::new(Arc::clone(&scenario), cfg.env_config()?, &[1, 2, 3, 4], 1)?;
     let mut texts: Vec<String> = Vec::new();
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let n_actions = v.shape().3.max(1);

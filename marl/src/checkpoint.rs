@@ -156,7 +156,7 @@ impl Policy {
     /// `team`'s SMAC layout on `scenario` under the options this policy was trained with
     /// (SMACv2's look actions among them): the features and actions its network reads.
     pub fn layout(&self, scenario: &Scenario, team: Team) -> SmacLayout {
-        SmacLayout::new(scenario, team).with_fov(self.cfg.env_config().fov_actions)
+        SmacLayout::new(scenario, team).with_fov(u8::try_from(self.cfg.env_options().fov_actions).unwrap_or(0))
     }
 
     /// Why an engine agent cannot play this policy (`None`: it can).

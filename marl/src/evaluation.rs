@@ -124,7 +124,7 @@ pub(crate) fn vec_env_with(
     threads: usize,
     self_play: Option<avacraft_engine::OpponentFactory>,
 ) -> Result<VecEnv, Error> {
-    let env = VecEnv::new(Arc::clone(scenario), cfg.env_config(), seeds, threads.clamp(1, seeds.len()))?;
+    let env = VecEnv::new(Arc::clone(scenario), cfg.env_config()?, seeds, threads.clamp(1, seeds.len()))?;
     let bad =
         |e: avacraft_engine::VecEnvError| crate::config::bad("opponent", format!("{:?}", cfg.opponent.to_string()), &e.to_string(), "\"\"");
     match cfg.opponent {
@@ -161,7 +161,7 @@ pub fn opponent_factory(cfg: &Config) -> Result<Option<avacraft_engine::Opponent
 /// Team 1's sizes in `scenario` under `cfg`, whoever plays team 2 (self-play's pool is made
 /// from them before any environment has an opponent).
 pub(crate) fn team_shape(cfg: &Config, scenario: &Arc<Scenario>) -> Result<Shape, Error> {
-    Ok(Shape::of(&VecEnv::new(Arc::clone(scenario), cfg.env_config(), &[0], 1)?))
+    Ok(Shape::of(&VecEnv::new(Arc::clone(scenario), cfg.env_config()?, &[0], 1)?))
 }
 
 /// The team's sizes in `scenario` under `cfg`.

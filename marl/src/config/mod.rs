@@ -11,7 +11,7 @@ use crate::Error;
 mod obs;
 
 pub use crate::opponent::Opponent;
-use avacraft_engine::{DataSet, EnvConfig, RewardMode, Rules, Scenario};
+use avacraft_engine::{DataSet, EnvConfig, EnvOptions, RewardMode, Scenario};
 pub use obs::{Backbone, ObsKind, SwinSizes};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -495,18 +495,25 @@ impl Config {
         self.epsilon_start + (self.epsilon_finish - self.epsilon_start) * frac
     }
 
-    /// The engine settings the runs use.
-    pub fn env_config(&self) -> EnvConfig {
-        let base = if self.passive_agents { EnvConfig::smac() } else { EnvConfig { rules: Rules::default(), ..EnvConfig::default() } };
-        let time_limit_loops = std::num::NonZeroU32::new(self.episode_limit.saturating_mul(base.step_mul.get()));
-        EnvConfig {
+    /// The environment options the runs use: the config's PyMARL keys as the engine's
+    /// [`EnvOptions`], the same options Python and the command line give.
+    pub fn env_options(&self) -> EnvOptions {
+        let step_mul = EnvOptions::default().step_mul;
+        EnvOptions {
+            passive_allies: self.passive_agents,
             reward: self.reward,
-            time_limit_loops,
-            prob_obs_enemy: self.prob_obs_enemy as f32,
+            time_limit_loops: (self.episode_limit > 0).then(|| self.episode_limit.saturating_mul(step_mul)),
+            prob_obs_enemy: self.prob_obs_enemy,
             action_mask: self.action_mask,
-            fov_actions: if self.conic_fov { u8::try_from(self.num_fov_actions).unwrap_or(0) } else { 0 },
-            ..base
+            fov_actions: if self.conic_fov { self.num_fov_actions } else { 0 },
+            ..EnvOptions::default()
         }
+    }
+
+    /// The engine settings the runs use, checked by [`EnvOptions::config`] (`validate` refuses
+    /// every value it would, so only a config built around `validate` gets the error).
+    pub fn env_config(&self) -> Result<EnvConfig, Error> {
+        self.env_options().config().map_err(|b| bad(b.option, b.value, &b.supported, "see the rule"))
     }
 }
 
@@ -700,27 +707,27 @@ mod tests {
         }
         let c = Config::for_algo("qmix", &["lr=0.001".into(), "envs=2".into(), "mixer=vdn".into(), "gamma=1".into()])?;
         assert_eq!((c.lr, c.envs, c.mixer, c.gamma), (0.001, 2, MixerKind::Vdn, 1.0));
-        assert_eq!(c.env_config().time_limit_loops, None);
+        assert_eq!(c.env_config()?.time_limit_loops, None);
         let c = Config::for_algo("qmix", &["episode_limit=60".into()])?;
-        assert_eq!(c.env_config().time_limit_loops.map(|l| l.get()), Some(60 * c.env_config().step_mul.get()));
+        assert_eq!(c.env_config()?.time_limit_loops.map(|l| l.get()), Some(60 * c.env_config()?.step_mul.get()));
         // SMACv2's EPO options: off by default, settable, kept out of the saved config when off.
         let c = Config::for_algo("mappo", &[])?;
-        assert!(!c.env_config().epo() && c.env_config().action_mask);
+        assert!(!c.env_config()?.epo() && c.env_config()?.action_mask);
         assert!(
             !toml::to_string(&c)
                 .map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?
                 .contains("prob_obs_enemy")
         );
         let c = Config::for_algo("mappo", &["prob_obs_enemy=0".into(), "action_mask=false".into()])?;
-        assert!(c.env_config().epo() && !c.env_config().action_mask && c.env_config().prob_obs_enemy == 0.0);
+        assert!(c.env_config()?.epo() && !c.env_config()?.action_mask && c.env_config()?.prob_obs_enemy == 0.0);
         let text = toml::to_string(&c).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
-        assert_eq!(Config::from_toml(&text, &[])?.env_config(), c.env_config());
+        assert_eq!(Config::from_toml(&text, &[])?.env_config()?, c.env_config()?);
         // SMACv2's conic fields of view: off by default, 12 look actions when on.
-        assert_eq!(Config::for_algo("qmix", &[])?.env_config().fov_actions, 0);
+        assert_eq!(Config::for_algo("qmix", &[])?.env_config()?.fov_actions, 0);
         let c = Config::for_algo("qmix", &["conic_fov=true".into()])?;
-        assert_eq!(c.env_config().fov_actions, 12);
+        assert_eq!(c.env_config()?.fov_actions, 12);
         let text = toml::to_string(&c).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
-        assert_eq!(Config::from_toml(&text, &[])?.env_config().fov_actions, 12);
+        assert_eq!(Config::from_toml(&text, &[])?.env_config()?.fov_actions, 12);
         Ok(())
     }
 

@@ -162,7 +162,7 @@ fn parallel_frames_are_the_observers() -> R {
     use avacraft_render::{ObsMode, Observer, RenderConfig};
     let c = cfg(&["obs=rgb", "screen_size=[40, 30]", "minimap_size=[16, 12]"])?;
     let scenario = Arc::new(Scenario::load("3m_vlm")?);
-    let mut env = VecEnv::new(scenario, c.env_config(), &[1, 2, 3, 4, 5], 1)?;
+    let mut env = VecEnv::new(scenario, c.env_config()?, &[1, 2, 3, 4, 5], 1)?;
     let mut source = avacraft_marl::ObsSource::with_text(&c, None);
     let mut observer = Observer::new(ObsMode::Rgb, RenderConfig::default().with_screen(40, 30).with_minimap(16, 12));
     for _ in 0..3 {

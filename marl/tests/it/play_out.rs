@@ -24,13 +24,13 @@ fn play_out_plays_the_game_the_engine_agent_plays() -> R {
             &scenario,
             vec![AgentTeam::new(Team::One, Grouping::Team, move || Box::new(MarlAgent::new(Arc::clone(&p), "marl")))],
         );
-        let mut by_agent = Env::new(Arc::clone(&scenario), policy.cfg.env_config(), seed);
+        let mut by_agent = Env::new(Arc::clone(&scenario), policy.cfg.env_config()?, seed);
         controllers.reset(&by_agent);
         while !by_agent.done() {
             controllers.act(&mut by_agent);
             by_agent.step();
         }
-        let mut played = Env::new(Arc::clone(&scenario), policy.cfg.env_config(), seed);
+        let mut played = Env::new(Arc::clone(&scenario), policy.cfg.env_config()?, seed);
         let mut seen = 0;
         policy.play_out(&mut played, &mut |_| seen += 1)?;
         assert_eq!(played.trajectory_hash(), by_agent.trajectory_hash(), "seed {seed}");
@@ -47,7 +47,7 @@ fn an_rgb_policy_plays_out_the_episodes_its_tests_play() -> R {
     let seeds = [4001, 4002];
     let mut won = 0;
     for seed in seeds {
-        let mut env = Env::new(Arc::clone(&scenario), policy.cfg.env_config(), seed);
+        let mut env = Env::new(Arc::clone(&scenario), policy.cfg.env_config()?, seed);
         policy.play_out(&mut env, &mut |_| {})?;
         won += usize::from(env.outcome() == Some(Outcome::Win));
     }
@@ -72,7 +72,7 @@ fn an_rgb_agent_shown_frames_plays_the_game_play_out_plays() -> R {
         Controllers::new(&scenario, vec![AgentTeam::new(Team::One, grouping, move || Box::new(MarlAgent::new(Arc::clone(&p), "marl")))])
     };
     let play = |controllers: &mut Controllers, seed: u64| {
-        let mut env = Env::new(Arc::clone(&scenario), policy.cfg.env_config(), seed);
+        let mut env = Env::new(Arc::clone(&scenario), policy.cfg.env_config().expect("a validated config"), seed);
         controllers.reset(&env);
         let mut worlds = Vec::new();
         while !env.done() {
@@ -87,7 +87,7 @@ fn an_rgb_agent_shown_frames_plays_the_game_play_out_plays() -> R {
     for (seed, grouping) in [(4001, Grouping::Team), (4002, Grouping::PerUnit)] {
         let mut seeing = agents(grouping).with_frames(Box::new(avacraft_render::FramePainter::new()));
         let (by_agent, outcome) = play(&mut seeing, seed);
-        let mut env = Env::new(Arc::clone(&scenario), policy.cfg.env_config(), seed);
+        let mut env = Env::new(Arc::clone(&scenario), policy.cfg.env_config()?, seed);
         let mut played = Vec::new();
         policy.play_out(&mut env, &mut |e| played.push(e.world().state_hash()))?;
         assert_eq!(played, by_agent, "seed {seed}");

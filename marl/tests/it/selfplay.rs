@@ -90,7 +90,7 @@ fn self_play_runs_are_a_function_of_config_and_seed() -> R {
 fn the_pool_keeps_copies_draws_uniformly_and_restores() -> R {
     let scenario = arena()?;
     let cfg = config(&[])?;
-    let probe = avacraft_engine::VecEnv::new(Arc::clone(&scenario), cfg.env_config(), &[0], 1)?;
+    let probe = avacraft_engine::VecEnv::new(Arc::clone(&scenario), cfg.env_config()?, &[0], 1)?;
     let shape = Shape::of(&probe);
     let dir = std::env::temp_dir().join(format!("avacraft-pool-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
@@ -151,7 +151,7 @@ fn a_league_mixes_scripted_agents_with_snapshots() -> R {
     use avacraft_marl::selfplay::Pick;
     let scenario = arena()?;
     let cfg = config(&["self_play_scripts=[\"kite\", \"attack-move\"]", "self_play_script_share=0.25"])?;
-    let probe = avacraft_engine::VecEnv::new(Arc::clone(&scenario), cfg.env_config(), &[0], 1)?;
+    let probe = avacraft_engine::VecEnv::new(Arc::clone(&scenario), cfg.env_config()?, &[0], 1)?;
     let shape = Shape::of(&probe);
     let pool = Pool::new(&cfg, shape, &scenario.name, None);
     let scripts = |pool: &Pool| (0..400u64).filter(|s| matches!(pool.pick(*s), Some(Pick::Script(_)))).count();

@@ -28,7 +28,7 @@ fn play(scenario: &str, envs: u64, steps: usize, seed: u64) -> Result<(Steps, Sl
     let scenario = Arc::new(Scenario::load(scenario)?);
     let cfg = Config::for_algo("mappo", &[])?;
     let seeds: Vec<u64> = (0..envs).map(|i| seed + i).collect();
-    let mut v = VecEnv::new(scenario, cfg.env_config(), &seeds, 1)?;
+    let mut v = VecEnv::new(scenario, cfg.env_config()?, &seeds, 1)?;
     let layout = SlotLayout::of(&v.envs()[0], Team::One);
     let n_actions = v.shape().3.max(1);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);

@@ -25,7 +25,7 @@ pub fn play(policy: &Arc<Policy>, scenario: &Arc<Scenario>, cfg: &Config, seed: 
         scenario,
         vec![AgentTeam::new(Team::One, Grouping::Team, move || Box::new(MarlAgent::new(Arc::clone(&policy), "marl")))],
     );
-    let mut env = Env::new(Arc::clone(scenario), cfg.env_config(), seed);
+    let mut env = Env::new(Arc::clone(scenario), cfg.env_config().expect("a validated config"), seed);
     controllers.reset(&env);
     let mut ret = 0.0;
     while !env.done() {
