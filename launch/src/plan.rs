@@ -173,6 +173,9 @@ pub struct Plan {
     pub deadline: Duration,
     pub seeds: Vec<u64>,
     pub opponent: Option<OpponentKind>,
+    /// The environment the simulator node runs: the engine's `EnvOptions` with the plan's
+    /// opponent and the engine's default rules (sparse reward, no passive side), checked.
+    pub env: EnvConfig,
     pub router: String,
     pub record: Option<PathBuf>,
     pub frames: Option<FramePlan>,
@@ -202,7 +205,7 @@ impl Plan {
     /// The environment the simulator node runs: the engine's default rules and the plan's
     /// opponent. In-process runs of the plan use the same, so their games are the deployment's.
     pub fn env_config(&self) -> EnvConfig {
-        EnvConfig { opponent: self.opponent, ..EnvConfig::default() }
+        self.env.clone()
     }
 
     /// The plan's agent nodes as in-process agents: one agent per node, owning the node's

@@ -7,7 +7,7 @@ use crate::deploy;
 use crate::error::{Cx, LaunchError};
 use crate::plan::{AgentPlan, ClockMode, CommanderPlan, FramePlan, Plan, RawAgent, RawFrames, RawLaunch};
 use avacraft_engine::agent::FrameNeed;
-use avacraft_engine::{Env, EnvConfig, Mode, OpponentKind, Scenario, Team, UnitId};
+use avacraft_engine::{Env, EnvConfig, EnvOptions, Mode, OpponentKind, RewardMode, Scenario, Team, UnitId};
 use avacraft_nodes::{AgentId, FrameKind, TeamNo, UnitTag};
 use avacraft_policy::{AVA_POLICY, CommanderPolicy, DDS_POLICY, PolicyError, PolicySpec, Resolve, Weights};
 use std::collections::BTreeMap;
@@ -87,6 +87,8 @@ pub(crate) fn validate(file: &str, raw: RawLaunch, how: Resolve<'_>) -> Result<P
             Some(plan)
         }
     };
+    let options = EnvOptions { opponent, passive_allies: false, reward: RewardMode::Sparse, ..EnvOptions::default() };
+    let env = options.config().map_err(|b| cx.err(b.option, b.value, b.supported))?;
     Ok(Plan {
         file: file.to_owned(),
         scenario_arg,
@@ -95,6 +97,7 @@ pub(crate) fn validate(file: &str, raw: RawLaunch, how: Resolve<'_>) -> Result<P
         deadline: Duration::from_millis(raw.deadline_ms),
         seeds: (0..raw.episodes).map(|k| raw.seed + k).collect(),
         opponent,
+        env,
         router: raw.router,
         record: raw.record,
         frames,
