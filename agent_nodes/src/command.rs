@@ -31,11 +31,36 @@ pub struct CommandedConfig {
     pub scenario: Arc<Scenario>,
 }
 
+/// A `RoleAssignment` off the wire, its tags checked once.
+struct Roles {
+    groups: Vec<GroupIn>,
+    plan: String,
+    priorities: Vec<UnitId>,
+}
+
+struct GroupIn {
+    role: u8,
+    agent_id: String,
+    units: Vec<UnitId>,
+}
+
+impl Roles {
+    fn from_wire(m: RoleAssignment) -> Result<Roles, wire::WireError> {
+        let tags = |field, v: &[u32]| v.iter().map(|&t| wire::tag_in("RoleAssignment", field, t)).collect::<Result<Vec<_>, _>>();
+        let groups = m
+            .groups
+            .into_iter()
+            .map(|g| Ok(GroupIn { units: tags("groups.unit_tags", &g.unit_tags)?, role: g.role, agent_id: g.agent_id }))
+            .collect::<Result<_, wire::WireError>>()?;
+        Ok(Roles { groups, priorities: tags("priority_tags", &m.priority_tags)?, plan: m.plan })
+    }
+}
+
 /// One step being gathered: the roles in force and the observations so far.
 struct Step {
     since: Instant,
-    roles: Option<RoleAssignment>,
-    obs: BTreeMap<u32, AgentObs>,
+    roles: Option<Roles>,
+    obs: BTreeMap<UnitId, AgentObs>,
 }
 
 struct Inputs {
@@ -44,15 +69,15 @@ struct Inputs {
     steps: BTreeMap<(u64, u32), Step>,
     last_done: Option<(u64, u32)>,
     /// Every unit of the team, in agent order.
-    order: Vec<u32>,
+    order: Vec<UnitId>,
 }
 
 impl Inputs {
     fn open(node: &Node, topics: &Topics, cfg: &CommandedConfig) -> Result<Inputs, NodeError> {
         let reliable = Qos::Reliable { depth: 10 };
-        let order: Vec<u32> = cfg.scenario.agent_order(cfg.team.team()).iter().map(|id| id.tag()).collect();
+        let order = cfg.scenario.agent_order(cfg.team.team());
         let mut subs = Vec::new();
-        for id in cfg.scenario.agent_order(cfg.team.team()) {
+        for &id in &order {
             subs.push(node.subscriber::<UnitObservation>(&topics.unit_obs(cfg.team, UnitTag::from(id)), reliable)?);
         }
         let roles = node.subscriber::<RoleAssignment>(&topics.team_roles(cfg.team), reliable)?;
@@ -75,14 +100,8 @@ impl Inputs {
         let mut got = false;
         while let Some(r) = self.roles.try_recv()? {
             got = true;
-            match r.msg {
-                Ok(m) if m.team == cfg.team.get() && topics.classify(&r.topic) == Some(TopicKind::TeamRoles(cfg.team)) => {
-                    if let Some(s) = self.fresh((m.episode, m.step)) {
-                        s.roles = Some(m);
-                    }
-                }
-                _ => stats.malformed += 1,
-            }
+            let on_topic = topics.classify(&r.topic) == Some(TopicKind::TeamRoles(cfg.team));
+            self.take_roles(cfg, r.msg.ok().filter(|_| on_topic), stats);
         }
         for i in 0..self.subs.len() {
             while let Some(r) = self.subs[i].try_recv()? {
@@ -91,16 +110,28 @@ impl Inputs {
             }
         }
         if !got && let Some(r) = self.roles.recv_timeout(Duration::from_millis(1))? {
-            match r.msg {
-                Ok(m) if m.team == cfg.team.get() => {
-                    if let Some(s) = self.fresh((m.episode, m.step)) {
-                        s.roles = Some(m);
-                    }
-                }
-                _ => stats.malformed += 1,
-            }
+            self.take_roles(cfg, r.msg.ok(), stats);
         }
         Ok(())
+    }
+
+    fn take_roles(&mut self, cfg: &CommandedConfig, m: Option<RoleAssignment>, stats: &mut AgentStats) {
+        let Some(m) = m.filter(|m| m.team == cfg.team.get()) else {
+            stats.malformed += 1;
+            return;
+        };
+        let key = (m.episode, m.step);
+        match Roles::from_wire(m) {
+            Ok(roles) => {
+                if let Some(s) = self.fresh(key) {
+                    s.roles = Some(roles);
+                }
+            }
+            Err(e) => {
+                stats.malformed += 1;
+                tracing::warn!(agent = %cfg.id, error = %e, "roles refused");
+            }
+        }
     }
 
     fn accept(&mut self, cfg: &CommandedConfig, topics: &Topics, r: avacraft_nodes::Received<UnitObservation>, stats: &mut AgentStats) {
@@ -116,7 +147,7 @@ impl Inputs {
         match wire::agent_obs(&o, Team::from(cfg.team)) {
             Ok(obs) => {
                 if let Some(s) = self.fresh((o.episode, o.step)) {
-                    s.obs.insert(o.unit_tag, obs);
+                    s.obs.insert(obs.unit, obs);
                 }
             }
             Err(e) => {
@@ -128,7 +159,7 @@ impl Inputs {
 
     /// The newest step that has its roles and the observations `needed` says it needs (or
     /// has waited long enough), removed with everything older.
-    fn ready(&mut self, needed: impl Fn(&RoleAssignment) -> Vec<u32>) -> Option<((u64, u32), RoleAssignment, Vec<AgentObs>)> {
+    fn ready(&mut self, needed: impl Fn(&Roles) -> Vec<UnitId>) -> Option<((u64, u32), Roles, Vec<AgentObs>)> {
         let key = self
             .steps
             .iter()
@@ -144,13 +175,13 @@ impl Inputs {
     }
 
     fn index(&self) -> impl Fn(UnitId) -> usize + '_ {
-        |id| self.order.iter().position(|&t| t == id.tag()).unwrap_or(0)
+        |id| self.order.iter().position(|&o| o == id).unwrap_or(0)
     }
 }
 
 /// The units `roles` gives the group `id`.
-fn owned(roles: &RoleAssignment, id: &AgentId) -> Vec<u32> {
-    roles.groups.iter().filter(|g| g.agent_id == id.as_str()).flat_map(|g| g.unit_tags.iter().copied()).collect()
+fn owned(roles: &Roles, id: &AgentId) -> Vec<UnitId> {
+    roles.groups.iter().filter(|g| g.agent_id == id.as_str()).flat_map(|g| g.units.iter().copied()).collect()
 }
 
 fn team_of(no: TeamNo) -> Team {
@@ -169,7 +200,7 @@ pub fn run_role_group(
     let mut inputs = Inputs::open(node, topics, cfg)?;
     let mut out = node.publisher::<ActionBatch>(&topics.actions(&cfg.id), Qos::Reliable { depth: 10 })?;
     let team = team_of(cfg.team);
-    let initial: Vec<u32> = cfg.initial.iter().map(|u| u.get()).collect();
+    let initial: Vec<UnitId> = cfg.initial.iter().map(|&u| UnitId::from(u)).collect();
     let mut stats = AgentStats::default();
     let mut episode: Option<(u64, u64)> = None;
     // The episode's scenario (a procedural scenario's draw for its seed).
@@ -180,19 +211,14 @@ pub fn run_role_group(
         let Some((key, roles, obs)) = inputs.ready(|r| owned(r, &cfg.id)) else { continue };
         let Some(first) = obs.first() else { continue };
         if episode != Some((first.episode, first.seed)) {
-            let seed = agent_seed(first.seed, team, initial.first().copied().unwrap_or(0));
+            let seed = agent_seed(first.seed, team, initial.first().map_or(0, |id| id.tag()));
             scenario = cfg.scenario.episode(first.seed);
-            agent.reset(&AgentCtx {
-                scenario: Arc::clone(&scenario),
-                team,
-                units: cfg.initial.iter().map(|&u| UnitId::from(u)).collect(),
-                seed,
-            });
+            agent.reset(&AgentCtx { scenario: Arc::clone(&scenario), team, units: initial.clone(), seed });
             episode = Some((first.episode, first.seed));
         }
         let role =
             roles.groups.iter().find(|g| g.agent_id == cfg.id.as_str()).and_then(|g| GroupRole::from_code(g.role)).unwrap_or_default();
-        agent.brief(&Briefing { role, plan: roles.plan.clone(), priorities: roles.priority_tags.clone() });
+        agent.brief(&Briefing { role, plan: roles.plan.clone(), priorities: roles.priorities.clone() });
         let actions = GroupObs::fold(&obs, inputs.index()).map(|g| super::act(agent, &g, &scenario, &mut stats)).unwrap_or_default();
         let actions = actions.iter().map(wire::unit_action).collect();
         out.put(&ActionBatch { header: Default::default(), episode: key.0, step: key.1, agent_id: cfg.id.to_string(), actions })?;
@@ -232,16 +258,16 @@ pub fn run_commander(
             episode = Some((first.episode, first.seed));
         }
         // The groups in force, by index.
-        let current = Assignment::new(roles.groups.iter().map(|g| g.unit_tags.clone()).collect());
+        let current = Assignment::new(roles.groups.iter().map(|g| g.units.clone()).collect());
         let Some(g) = GroupObs::fold(&obs, inputs.index()) else { continue };
         let orders = commander.command(&g, &current);
         let mut groups: Vec<RoleGroup> =
             roles.groups.iter().map(|r| RoleGroup { role: r.role, agent_id: r.agent_id.clone(), unit_tags: Vec::new() }).collect();
         for (unit, i) in orders.owners {
             match groups.get_mut(i) {
-                Some(gr) => gr.unit_tags.push(unit),
+                Some(gr) => gr.unit_tags.push(unit.tag()),
                 // An index past the groups: say so on the wire, where the simulator refuses it.
-                None => groups.push(RoleGroup { role: 0, agent_id: format!("group_{i}"), unit_tags: vec![unit] }),
+                None => groups.push(RoleGroup { role: 0, agent_id: format!("group_{i}"), unit_tags: vec![unit.tag()] }),
             }
         }
         out.put(&RoleAssignment {
@@ -251,7 +277,7 @@ pub fn run_commander(
             team: cfg.team.get(),
             groups,
             plan: orders.briefing.plan,
-            priority_tags: orders.briefing.priorities,
+            priority_tags: orders.briefing.priorities.iter().map(|id| id.tag()).collect(),
         })?;
         stats.batches += 1;
     }

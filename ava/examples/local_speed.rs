@@ -25,7 +25,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let req = |schema: bool, max_tokens| ChatRequest {
         stage: Stage::Decision,
         messages: vec![Message::text(Role::System, "You command units in a StarCraft II battle."), Message::text(Role::User, user.clone())],
-        schema: schema.then(|| ("ava_decision".to_owned(), avacraft_ava::decision::schema(&[1, 2, 3], &[4, 5, 6], &["stimpack"]))),
+        schema: schema
+            .then(|| ("ava_decision".to_owned(), avacraft_ava::decision::schema(&ids(&[1, 2, 3]), &ids(&[4, 5, 6]), &["stimpack"]))),
         sampling: Sampling { temperature: 0.7, top_p: 0.95, max_tokens },
     };
     for (label, schema) in [("free text", false), ("decision schema", true)] {
@@ -47,4 +48,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("{label}: prompt {:.0} tokens/s, answer {:.1} tokens/s", pt as f64 * 1000.0 / pm, ct as f64 * 1000.0 / cm);
     }
     Ok(())
+}
+
+fn ids(tags: &[u32]) -> Vec<avacraft_engine::UnitId> {
+    tags.iter().filter_map(|&t| avacraft_engine::UnitId::try_from(t).ok()).collect()
 }

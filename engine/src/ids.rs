@@ -45,10 +45,13 @@ pub mod serde_as {
     /// A unit as its tag.
     pub mod tag {
         use crate::ids::UnitId;
-        use serde::Serializer;
+        use serde::{Deserialize, Deserializer, Serializer, de::Error};
 
         pub fn serialize<S: Serializer>(id: &UnitId, s: S) -> Result<S::Ok, S::Error> {
             s.serialize_u32(id.tag())
+        }
+        pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<UnitId, D::Error> {
+            UnitId::try_from(u32::deserialize(d)?).map_err(D::Error::custom)
         }
     }
     /// An optional unit as its tag or null.

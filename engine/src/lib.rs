@@ -83,7 +83,7 @@ pub use env::{
 };
 pub use geom::Vec2;
 pub use hash::Fnv;
-pub use ids::{BadTag, Team, Tick, UnitId};
+pub use ids::{BadTag, Team, Tick, UnitId, serde_as};
 pub use learn::{LearnError, StepInfo};
 pub use obs::{AbilitySlots, slot_abilities};
 pub use obs::{

@@ -5,7 +5,7 @@
 use crate::error::{Cx, LaunchError};
 use avacraft_ava::AvaRun;
 use avacraft_engine::agent::{AgentTeam, CommandedTeam, GroupRole, Grouping, RoleGroupSpec};
-use avacraft_engine::{Controllers, EnvConfig, OpponentKind, Scenario};
+use avacraft_engine::{Controllers, EnvConfig, OpponentKind, Scenario, UnitId};
 use avacraft_nodes::{AgentId, TeamNo, UnitTag};
 use avacraft_policy::{Calls, CommanderPolicy, PolicySpec};
 use serde::Deserialize;
@@ -233,7 +233,7 @@ impl Plan {
                 runs.extend(run.map(|r| (a.id.clone(), r)));
                 groups.push(RoleGroupSpec {
                     role: a.role.unwrap_or_default(),
-                    initial: a.units.iter().map(|u| u.get()).collect(),
+                    initial: a.units.iter().map(|&u| UnitId::from(u)).collect(),
                     make: Box::new(move || make()),
                 });
             }
@@ -242,7 +242,11 @@ impl Plan {
         for (i, a) in self.agents.iter().enumerate().filter(|(_, a)| !self.commanders.iter().any(|c| c.team == a.team)) {
             let (make, run) = a.make(&cx, i)?;
             runs.extend(run.map(|r| (a.id.clone(), r)));
-            teams.push(AgentTeam::new(a.team.team(), Grouping::Groups(vec![a.units.iter().map(|u| u.get()).collect()]), move || make()));
+            teams.push(AgentTeam::new(
+                a.team.team(),
+                Grouping::Groups(vec![a.units.iter().map(|&u| UnitId::from(u)).collect()]),
+                move || make(),
+            ));
         }
         let mut controllers = Controllers::new(&self.scenario, teams).with_commanded(&self.scenario, commanded);
         if self.frames.as_ref().is_some_and(|f| f.for_agents) {

@@ -62,7 +62,7 @@ const TARGETS: [TargetKind; 4] = [TargetKind::None, TargetKind::Point, TargetKin
 const ACTIVITIES: [Activity; 5] = [Activity::Idle, Activity::Moving, Activity::Attacking, Activity::Healing, Activity::Dead];
 
 /// A unit named on the wire: its tag, checked.
-fn tag_in(msg: &'static str, field: &'static str, value: u32) -> Result<UnitId, WireError> {
+pub fn tag_in(msg: &'static str, field: &'static str, value: u32) -> Result<UnitId, WireError> {
     UnitId::try_from(value).map_err(|_| WireError::Tag { msg, field, value })
 }
 

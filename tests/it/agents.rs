@@ -109,7 +109,7 @@ fn focus_fire_plays_the_same_game_per_unit_and_per_team() {
     for seed in [1, 2, 3] {
         let team = focus_fire_hash(&s, seed, Grouping::Team);
         assert_eq!(focus_fire_hash(&s, seed, Grouping::PerUnit), team, "seed {seed}");
-        let groups = Grouping::Groups(vec![vec![1], vec![2, 3]]);
+        let groups = Grouping::Groups(vec![vec![UnitId::new(0)], vec![UnitId::new(1), UnitId::new(2)]]);
         assert_eq!(focus_fire_hash(&s, seed, groups), team, "seed {seed}");
     }
 }

@@ -6,6 +6,7 @@
 use super::decide::{self, Mode};
 use super::state::{AvaSetup, Episode};
 use crate::cost::EpisodeCost;
+use avacraft_engine::UnitId;
 use avacraft_engine::agent::{AgentCtx, Assignment, Briefing, Commander, GroupObs, GroupRole, Orders};
 use avacraft_render::{CpuBackend, FrameBuilder};
 
@@ -52,7 +53,7 @@ impl Commander for AvaCommander {
     fn command(&mut self, obs: &GroupObs, current: &Assignment) -> Orders {
         let keep = Orders { owners: current.pairs(), briefing: self.briefing.clone() };
         let Some(ep) = self.ep.as_mut() else { return keep };
-        let mut alive: Vec<u32> = obs.controlled.iter().filter(|c| c.alive).map(|c| c.unit.tag()).collect();
+        let mut alive: Vec<UnitId> = obs.controlled.iter().filter(|c| c.alive).map(|c| c.unit).collect();
         alive.sort_unstable();
         let first = *ep.first_step.get_or_insert(obs.step);
         if alive.is_empty() || !(obs.step - first).is_multiple_of(self.setup.config.decide_every) {

@@ -159,7 +159,7 @@ impl Turn<'_> {
     }
 
     /// The roles stage: the living units' roles, kept when the model names none.
-    fn roles(&mut self, situation: &str, plan: Option<&str>, image: Option<&Png>, alive: &[u32]) {
+    fn roles(&mut self, situation: &str, plan: Option<&str>, image: Option<&Png>, alive: &[UnitId]) {
         let text = self.render("roles", &serde_json::json!({"situation": situation, "plan": plan}));
         let msgs = self.user(text, image);
         if let Some(r) = self.ask(Stage::Roles, msgs, stages::roles_schema(), 0) {
@@ -224,14 +224,14 @@ impl Turn<'_> {
 
     /// The decision stage with its repair rounds: each round's checked commands are kept,
     /// and a repair asks only for the units still without one.
-    fn decision(&mut self, mut msgs: Vec<Message>, schema: &Value, sit: &Situation<'_>, alive: &[u32]) -> Vec<(u32, Order)> {
-        let mut commands: Vec<(u32, Order)> = Vec::new();
+    fn decision(&mut self, mut msgs: Vec<Message>, schema: &Value, sit: &Situation<'_>, alive: &[UnitId]) -> Vec<(UnitId, Order)> {
+        let mut commands: Vec<(UnitId, Order)> = Vec::new();
         for attempt in 0..=self.cfg.max_repairs {
             let Some(reply) = self.ask(Stage::Decision, msgs.clone(), schema.clone(), attempt) else {
                 self.ep.cost.transport_failures += 1;
                 break;
             };
-            let pending: Vec<u32> = alive.iter().copied().filter(|t| !commands.iter().any(|(c, _)| c == t)).collect();
+            let pending: Vec<UnitId> = alive.iter().copied().filter(|t| !commands.iter().any(|(c, _)| c == t)).collect();
             let refused = match decision::extract_json(&reply.text).and_then(|v| decision::parse_items(&v, "actions")) {
                 Ok((items, refused)) => {
                     // A repair may only give actions to the units still waiting.
@@ -239,7 +239,9 @@ impl Turn<'_> {
                     let items: Vec<(usize, Item)> = items
                         .into_iter()
                         .filter(|(i, it)| {
-                            let done = attempt > 0 && !pending.contains(&it.unit) && alive.contains(&it.unit);
+                            // `it.unit` is the number the model wrote.
+                            let id = UnitId::try_from(it.unit).ok();
+                            let done = attempt > 0 && id.is_some_and(|id| !pending.contains(&id) && alive.contains(&id));
                             if done {
                                 refused.push(Refused {
                                     item: *i,
@@ -261,7 +263,7 @@ impl Turn<'_> {
                 Err(e) => vec![Refused { item: 0, unit: None, reason: e.to_string() }],
             };
             self.ep.cost.refused_items += refused.len() as u64;
-            let pending: Vec<u32> = alive.iter().copied().filter(|t| !commands.iter().any(|(c, _)| c == t)).collect();
+            let pending: Vec<UnitId> = alive.iter().copied().filter(|t| !commands.iter().any(|(c, _)| c == t)).collect();
             if refused.is_empty() || pending.is_empty() || attempt == self.cfg.max_repairs {
                 break;
             }
@@ -277,7 +279,7 @@ impl Turn<'_> {
 
 /// What happened since the last decision (written into the last history item), the
 /// enemies in sight, and whether the plan is stale: a unit lost, or an enemy never seen.
-fn since_last(ep: &mut Episode, obs: &GroupObs) -> (Vec<u32>, bool, bool) {
+fn since_last(ep: &mut Episode, obs: &GroupObs) -> (Vec<UnitId>, bool, bool) {
     let tally = Tally::of(obs);
     if let (Some(prev), Some(last)) = (ep.tally, ep.history.back_mut())
         && last.outcome.is_empty()
@@ -285,7 +287,7 @@ fn since_last(ep: &mut Episode, obs: &GroupObs) -> (Vec<u32>, bool, bool) {
         last.outcome = prev.outcome(&tally);
     }
     let lost = ep.tally.is_some_and(|p| tally.own_units < p.own_units);
-    let enemies: Vec<u32> = obs.units.iter().filter(|u| !u.own).map(|u| u.tag.tag()).collect();
+    let enemies: Vec<UnitId> = obs.units.iter().filter(|u| !u.own).map(|u| u.tag).collect();
     let new_enemies = enemies.iter().any(|t| !ep.seen_enemies.contains(t));
     ep.seen_enemies.extend(enemies.iter().copied());
     ep.tally = Some(tally);
@@ -299,10 +301,10 @@ fn screenshot(
     ep: &Episode,
     obs: &GroupObs,
     camera: &Camera,
-    hl: &[u32],
+    hl: &[UnitId],
 ) -> Option<Png> {
     let (w, h) = setup.config.draw_size();
-    let opts = VlmOptions { highlights: hl.iter().filter_map(|&t| UnitId::try_from(t).ok()).collect() };
+    let opts = VlmOptions { highlights: hl.to_vec() };
     let scene = frames.vlm_obs(&ep.scenario.terrain, obs, camera, w, h, &opts);
     match Png::encode(&cpu.render(&scene)) {
         Ok(p) => Some(p),
@@ -332,15 +334,15 @@ pub(super) fn decide(
     cpu: &mut CpuBackend,
     ep: &mut Episode,
     obs: &GroupObs,
-    alive: &[u32],
+    alive: &[UnitId],
     mode: Mode,
-) -> (Vec<(u32, Order)>, f64) {
+) -> (Vec<(UnitId, Order)>, f64) {
     let t0 = Instant::now();
     let cfg = Arc::clone(&setup.config);
     let (w, h) = cfg.draw_size();
     let scenario = Arc::clone(&ep.scenario);
     let playable = scenario.terrain.playable();
-    let own = obs.units.iter().filter(|u| u.own && alive.contains(&u.tag.tag())).map(view::pos);
+    let own = obs.units.iter().filter(|u| u.own && alive.contains(&u.tag)).map(view::pos);
     // The camera fills the screenshot's map area, so its grid is the one drawn.
     let camera = avacraft_render::vlm_obs_layout(w, h).camera(own, cfg.camera_width, playable);
 
@@ -392,12 +394,12 @@ pub(super) fn decide(
     } else if cfg.priority && !enemies.is_empty() {
         priorities = turn.priorities(&situation, image.as_ref());
         if cfg.image && !priorities.is_empty() {
-            let hl: Vec<u32> = priorities.iter().map(|p| p.unit).collect();
+            let hl: Vec<UnitId> = priorities.iter().map(|p| p.unit).collect();
             image2 = screenshot(setup, frames, cpu, turn.ep, obs, &camera, &hl);
         }
     }
     if cfg.image && briefing.is_some() && !priorities.is_empty() {
-        let hl: Vec<u32> = priorities.iter().map(|p| p.unit).collect();
+        let hl: Vec<UnitId> = priorities.iter().map(|p| p.unit).collect();
         image2 = screenshot(setup, frames, cpu, turn.ep, obs, &camera, &hl);
     }
     if mode == Mode::Command {
@@ -475,6 +477,6 @@ fn close(turn: Turn<'_>, t0: Instant) -> f64 {
 
 use std::sync::Arc;
 
-fn list(tags: &[u32]) -> String {
-    tags.iter().map(u32::to_string).collect::<Vec<_>>().join(", ")
+fn list(units: &[UnitId]) -> String {
+    units.iter().map(|id| id.tag().to_string()).collect::<Vec<_>>().join(", ")
 }

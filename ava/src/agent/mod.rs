@@ -50,12 +50,6 @@ impl AvaAgent {
     }
 }
 
-/// The tags here are the alive units' own (the decision's schema allows no other), so a tag
-/// that is not one is dropped rather than wrapped round to another unit.
-fn action(tag: u32, c: Command) -> Option<Action> {
-    UnitId::try_from(tag).ok().map(|id| Action::new(id, c))
-}
-
 impl Agent for AvaAgent {
     fn name(&self) -> &str {
         &self.name
@@ -82,7 +76,7 @@ impl Agent for AvaAgent {
             ep.loops_per_step = (obs.game_loop - lp) / (obs.step - step);
         }
         ep.last_seen = Some((obs.step, obs.game_loop));
-        let mut alive: Vec<u32> = obs.controlled.iter().filter(|c| c.alive).map(|c| c.unit.tag()).collect();
+        let mut alive: Vec<UnitId> = obs.controlled.iter().filter(|c| c.alive).map(|c| c.unit).collect();
         alive.sort_unstable();
         let orders = if let Some((ready, _)) = &ep.pending {
             if obs.step < *ready {
@@ -94,7 +88,7 @@ impl Agent for AvaAgent {
                 // refused, as the engine would refuse them.
                 let terrain = &ep.scenario.terrain;
                 let (fresh, stale): (Vec<_>, Vec<_>) = orders.into_iter().filter(|(t, _)| alive.contains(t)).partition(|(t, o)| match o {
-                    Order::Do(c) => action(*t, *c).is_some_and(|a| avacraft_engine::agent::check_action(obs, terrain, &a).is_ok()),
+                    Order::Do(c) => avacraft_engine::agent::check_action(obs, terrain, &Action::new(*t, *c)).is_ok(),
                     Order::Keep(_) => true,
                 });
                 ep.cost.refused_items += stale.len() as u64;
@@ -127,7 +121,7 @@ impl Agent for AvaAgent {
                     if !matches!(c, Command::Ability { .. }) {
                         ep.stances.remove(&t);
                     }
-                    out.extend(action(t, c));
+                    out.push(Action::new(t, c));
                 }
                 Order::Keep(st) => {
                     ep.stances.insert(t, st);
@@ -137,7 +131,7 @@ impl Agent for AvaAgent {
         // Stances act every step, this one included, from the group's observation alone.
         ep.stances.retain(|t, _| alive.contains(t));
         for (&t, st) in &ep.stances {
-            if let Some(u) = obs.units.iter().find(|u| u.tag.tag() == t && u.own) {
+            if let Some(u) = obs.units.iter().find(|u| u.tag == t && u.own) {
                 out.extend(st.act(obs, &ep.scenario.terrain, u));
             }
         }

@@ -6,7 +6,7 @@
 //! retrieval. Lines are terse on purpose: a 23-unit army must not double the prompt.
 
 use avacraft_engine::agent::{GroupObs, view};
-use avacraft_engine::{Buffs, OrderInfo, Terrain, UnitInfo, UnitKind, Vec2, loops_to_seconds};
+use avacraft_engine::{Buffs, OrderInfo, Terrain, UnitId, UnitInfo, UnitKind, Vec2, loops_to_seconds};
 use std::fmt::Write as _;
 
 fn hp(u: &UnitInfo) -> String {
@@ -39,7 +39,7 @@ fn order(u: &UnitInfo) -> String {
 
 /// The unit block: own units, other friendly units, enemies, unit types. `enemy_start` is
 /// where the enemy army began (a player knows the map, as the scripted agents do).
-pub fn describe_rich(obs: &GroupObs, terrain: &Terrain, controlled: &[u32], enemy_start: Option<Vec2>) -> String {
+pub fn describe_rich(obs: &GroupObs, terrain: &Terrain, controlled: &[UnitId], enemy_start: Option<Vec2>) -> String {
     let r = terrain.playable();
     let mut s = format!(
         "Step {}, game time {:.1} s. Positions (x,y) in world units: x {:.0}-{:.0} west to east, y {:.0}-{:.0} south to north. Distances are edge to edge, as weapon ranges are.",
@@ -56,7 +56,7 @@ pub fn describe_rich(obs: &GroupObs, terrain: &Terrain, controlled: &[u32], enem
     s.push('\n');
     let enemies: Vec<&UnitInfo> = obs.units.iter().filter(|u| !u.own).collect();
     s.push_str("Your units (tag type (x,y) hp[+shields] | weapon | order | enemies in range | nearest enemy):\n");
-    for u in obs.units.iter().filter(|u| u.own && controlled.contains(&u.tag.tag())) {
+    for u in obs.units.iter().filter(|u| u.own && controlled.contains(&u.tag)) {
         let _ = write!(s, "- {} {} ({:.1},{:.1}) {} | ", u.tag.tag(), u.kind.name(), u.x, u.y, hp(u));
         if u.spec().weapons.is_empty() {
             s.push_str("no weapon");
@@ -86,7 +86,7 @@ pub fn describe_rich(obs: &GroupObs, terrain: &Terrain, controlled: &[u32], enem
         }
         s.push('\n');
     }
-    let others: Vec<&UnitInfo> = obs.units.iter().filter(|u| u.own && !controlled.contains(&u.tag.tag())).collect();
+    let others: Vec<&UnitInfo> = obs.units.iter().filter(|u| u.own && !controlled.contains(&u.tag)).collect();
     if !others.is_empty() {
         s.push_str("Other friendly units (not yours to command):\n");
         for u in others {

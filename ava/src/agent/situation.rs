@@ -4,7 +4,7 @@
 
 use crate::decision::Order;
 use avacraft_engine::agent::{GroupObs, Stance, view};
-use avacraft_engine::{Command, Direction, UnitInfo, loops_to_seconds};
+use avacraft_engine::{Command, Direction, UnitId, UnitInfo, loops_to_seconds};
 use avacraft_render::Camera;
 use std::fmt::Write as _;
 
@@ -46,9 +46,9 @@ fn vitals(u: &UnitInfo) -> String {
 }
 
 /// The unit block of a prompt: own units with weapons and abilities, then the enemies seen.
-pub fn describe(obs: &GroupObs, camera: &Camera, controlled: &[u32]) -> String {
+pub fn describe(obs: &GroupObs, camera: &Camera, controlled: &[UnitId]) -> String {
     let mut s = format!("Step {}, game time {:.1} s.\nYour units:\n", obs.step, loops_to_seconds(obs.game_loop));
-    for u in obs.units.iter().filter(|u| u.own && controlled.contains(&u.tag.tag())) {
+    for u in obs.units.iter().filter(|u| u.own && controlled.contains(&u.tag)) {
         let _ = write!(s, "- {} {} at {}: {}", u.tag.tag(), u.kind.name(), place(camera, u), vitals(u));
         if !u.spec().weapons.is_empty() {
             if u.weapon_cooldown_s > 0.0 {
@@ -73,7 +73,7 @@ pub fn describe(obs: &GroupObs, camera: &Camera, controlled: &[u32]) -> String {
         }
         s.push('\n');
     }
-    let others: Vec<&UnitInfo> = obs.units.iter().filter(|u| u.own && !controlled.contains(&u.tag.tag())).collect();
+    let others: Vec<&UnitInfo> = obs.units.iter().filter(|u| u.own && !controlled.contains(&u.tag)).collect();
     if !others.is_empty() {
         s.push_str("Other friendly units (not yours to command):\n");
         for u in others {
@@ -131,17 +131,17 @@ impl Tally {
 }
 
 /// The fallback's commands: idle units attack the nearest enemy they can hit.
-pub fn attack_nearest(obs: &GroupObs, units: &[u32]) -> Vec<(u32, Command)> {
+pub fn attack_nearest(obs: &GroupObs, units: &[UnitId]) -> Vec<(UnitId, Command)> {
     let mut out = Vec::new();
     // Not a unit that is morphing or channelling: the engine would refuse it.
-    for u in obs.units.iter().filter(|u| u.own && units.contains(&u.tag.tag()) && view::is_idle(u) && !view::busy(u)) {
+    for u in obs.units.iter().filter(|u| u.own && units.contains(&u.tag) && view::is_idle(u) && !view::busy(u)) {
         let nearest = obs
             .units
             .iter()
             .filter(|t| !t.own && view::can_attack(u, t))
             .min_by(|a, b| view::edge(u, a).total_cmp(&view::edge(u, b)).then(a.tag.cmp(&b.tag)));
         if let Some(t) = nearest {
-            out.push((u.tag.tag(), Command::Attack { target: view::id(t) }));
+            out.push((u.tag, Command::Attack { target: view::id(t) }));
         }
     }
     out
@@ -151,7 +151,8 @@ pub fn attack_nearest(obs: &GroupObs, units: &[u32]) -> Vec<(u32, Command)> {
 /// history keeps the wording its recorded calls were made with (moves as "move to [c, r]",
 /// directions as "move right"), so they still replay; the rich prompt (`grid` none) writes
 /// the schema's own words, with points for moves.
-pub fn order_text(tag: u32, o: &Order, grid: Option<&Camera>) -> String {
+pub fn order_text(unit: UnitId, o: &Order, grid: Option<&Camera>) -> String {
+    let tag = unit.tag();
     match o {
         Order::Do(c) => command_text(tag, c, grid),
         Order::Keep(Stance::Focus { target: Some(target) } | Stance::Kite { target: Some(target) }) => {

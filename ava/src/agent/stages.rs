@@ -2,6 +2,7 @@
 //! same care as decisions (what names units is checked against the observation; what does
 //! not fit is dropped and counted, never guessed).
 
+use avacraft_engine::UnitId;
 use avacraft_engine::agent::GroupObs;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
@@ -56,7 +57,9 @@ impl Plan {
 /// An enemy the model named as important.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Priority {
-    pub unit: u32,
+    /// Written and read as the unit's tag; a number that is no tag does not parse.
+    #[serde(with = "avacraft_engine::serde_as::tag")]
+    pub unit: UnitId,
     pub reason: String,
 }
 
@@ -75,9 +78,7 @@ pub fn read_priorities(v: &Value, obs: &GroupObs) -> (Vec<Priority>, usize) {
     let mut dropped = 0;
     for raw in list {
         match serde_json::from_value::<Priority>(raw) {
-            Ok(p)
-                if obs.units.iter().any(|u| !u.own && u.tag.tag() == p.unit) && !out.iter().any(|q| q.unit == p.unit) && out.len() < 3 =>
-            {
+            Ok(p) if obs.units.iter().any(|u| !u.own && u.tag == p.unit) && !out.iter().any(|q| q.unit == p.unit) && out.len() < 3 => {
                 out.push(p)
             }
             _ => dropped += 1,
@@ -91,7 +92,8 @@ pub const ROLES: [&str; 4] = ["attacker", "defender", "scout", "support"];
 /// A unit's role and task.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RoleOf {
-    pub unit: u32,
+    #[serde(with = "avacraft_engine::serde_as::tag")]
+    pub unit: UnitId,
     pub role: String,
     #[serde(default)]
     pub task: String,
@@ -106,7 +108,7 @@ pub fn roles_schema() -> Value {
 }
 
 /// Roles for controlled units (one each, known role names), and how many were dropped.
-pub fn read_roles(v: &Value, controlled: &[u32]) -> (Vec<RoleOf>, usize) {
+pub fn read_roles(v: &Value, controlled: &[UnitId]) -> (Vec<RoleOf>, usize) {
     let list = v.get("roles").and_then(Value::as_array).cloned().unwrap_or_default();
     let mut out: Vec<RoleOf> = Vec::new();
     let mut dropped = 0;

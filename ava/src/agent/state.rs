@@ -12,7 +12,7 @@ use crate::kb::SharedRetriever;
 use crate::prompt::Prompts;
 use avacraft_engine::agent::Stance;
 use avacraft_engine::agent::{AgentCtx, Briefing};
-use avacraft_engine::{DEFAULT_STEP_MUL, Scenario, Team};
+use avacraft_engine::{DEFAULT_STEP_MUL, Scenario, Team, UnitId};
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::Arc;
 
@@ -40,11 +40,11 @@ pub(super) struct Episode {
     pub(super) briefing: Option<Briefing>,
     pub(super) history: VecDeque<HistoryItem>,
     pub(super) tally: Option<Tally>,
-    pub(super) seen_enemies: BTreeSet<u32>,
+    pub(super) seen_enemies: BTreeSet<UnitId>,
     /// Realtime: orders waiting for their step.
-    pub(super) pending: Option<(u32, Vec<(u32, Order)>)>,
-    /// Units' standing orders (the micro action set), by tag, until their next order.
-    pub(super) stances: BTreeMap<u32, Stance>,
+    pub(super) pending: Option<(u32, Vec<(UnitId, Order)>)>,
+    /// Units' standing orders (the micro action set) until their next order.
+    pub(super) stances: BTreeMap<UnitId, Stance>,
     /// Game loops per environment step, as observed (for realtime delays).
     pub(super) loops_per_step: u32,
     pub(super) last_seen: Option<(u32, u32)>,

@@ -30,8 +30,8 @@ pub enum Order {
 /// What a decision's items come to: orders for units, and refusals.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Checked {
-    /// (unit tag, order), in the model's order, at most one per unit.
-    pub commands: Vec<(u32, Order)>,
+    /// (unit, order), in the model's order, at most one per unit.
+    pub commands: Vec<(UnitId, Order)>,
     pub refused: Vec<Refused>,
 }
 
@@ -74,11 +74,11 @@ impl Situation<'_> {
 /// one of the group's units can act on them (a healer, an ability cast on allies). [`check`]
 /// would refuse an attack on any other tag, so the schema leaves them out (an ability aimed
 /// at the ground under an own unit takes a `cell` instead).
-pub fn targets(obs: &GroupObs) -> Vec<u32> {
+pub fn targets(obs: &GroupObs) -> Vec<UnitId> {
     let helps = obs.units.iter().filter(|u| u.own && obs.controlled.iter().any(|c| c.unit == u.tag && c.alive)).any(|u| {
         u.flags.contains(avacraft_engine::UnitFlags::HEALER) || u.abilities.iter().any(|a| a.ability.spec().rule == TargetRule::Ally)
     });
-    let mut tags: Vec<u32> = obs.units.iter().filter(|u| helps || !u.own).map(|u| u.tag.tag()).collect();
+    let mut tags: Vec<UnitId> = obs.units.iter().filter(|u| helps || !u.own).map(|u| u.tag).collect();
     tags.sort_unstable();
     tags.dedup();
     tags
@@ -87,21 +87,22 @@ pub fn targets(obs: &GroupObs) -> Vec<u32> {
 /// Checks `items` (with their indices in the model's list). Refusals of earlier stages (items
 /// that did not parse) are passed in `refused` and kept.
 pub fn check(s: &Situation<'_>, items: &[(usize, Item)], mut refused: Vec<Refused>) -> Checked {
-    let mut commands: Vec<(u32, Order)> = Vec::new();
+    let mut commands: Vec<(UnitId, Order)> = Vec::new();
     for (i, item) in items {
+        // The number the model wrote; a unit it names is one of the observation's.
         let tag = item.unit;
         let verdict = if !s.controls(tag) {
             Err(format!("unit {tag} is not one of yours that is alive (yours: {})", s.mine()))
-        } else if commands.iter().any(|(t, _)| *t == tag) {
+        } else if commands.iter().any(|(t, _)| t.tag() == tag) {
             Err(format!("unit {tag} already has an action in this decision"))
         } else {
             match s.unit(tag) {
-                Some(u) => command(s, u, item),
+                Some(u) => command(s, u, item).map(|c| (u.tag, c)),
                 None => Err(format!("unit {tag} is not in the observation")),
             }
         };
         match verdict {
-            Ok(c) => commands.push((tag, c)),
+            Ok(c) => commands.push(c),
             Err(reason) => refused.push(Refused { item: *i, unit: Some(tag), reason }),
         }
     }

@@ -1,6 +1,7 @@
 //! What the model writes: the items of a decision and the JSON schema they are held to. A
 //! leaf, so parsing and checking both read items without depending on each other.
 
+use avacraft_engine::UnitId;
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
@@ -90,13 +91,15 @@ pub struct Item {
 /// one item per unit, so it ends: with an unbounded list SmolLM2-135M went on listing actions
 /// until `max_tokens` cut the JSON off. Verbs that cannot succeed are left out (`attack`
 /// with nothing to target, `ability` for a team without abilities).
-pub fn schema(units: &[u32], targets: &[u32], abilities: &[&str]) -> Value {
+pub fn schema(units: &[UnitId], targets: &[UnitId], abilities: &[&str]) -> Value {
     schema_for(units, targets, abilities, false)
 }
 
 /// [`schema`], with the micro action set's verbs and fields (`point`, `stance`) when `micro`.
 /// The paper's schema is unchanged, so its recorded calls still replay.
-pub fn schema_for(units: &[u32], targets: &[u32], abilities: &[&str], micro: bool) -> Value {
+pub fn schema_for(units: &[UnitId], targets: &[UnitId], abilities: &[&str], micro: bool) -> Value {
+    let tags = |ids: &[UnitId]| ids.iter().map(|id| id.tag()).collect::<Vec<u32>>();
+    let (units, targets) = (&tags(units)[..], &tags(targets)[..]);
     let all: &[Verb] = if micro { &Verb::MICRO } else { &Verb::ALL };
     let verbs: Vec<&str> = all
         .iter()

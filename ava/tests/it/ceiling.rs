@@ -7,7 +7,7 @@ use crate::common::{FakeServer, play, setup, state};
 use avacraft_ava::llm::{Ceiling, CeilingScript, ceiling_decision, read_prompt};
 use avacraft_ava::{ActionSet, AvaConfig, PromptStyle, describe};
 use avacraft_engine::agent::{GroupObs, Reads};
-use avacraft_engine::{Env, Outcome, Team};
+use avacraft_engine::{Env, Outcome, Team, UnitId};
 use avacraft_render::{Camera, vlm_obs_layout};
 
 fn ceiling_cfg(prompt: PromptStyle, actions: ActionSet, decide_every: u32) -> AvaConfig {
@@ -22,7 +22,7 @@ fn the_rich_prompt_carries_every_unit_as_observed() {
     for (scenario, steps) in [("3m_vlm", 8), ("2s3z_vlm", 20), ("pvz_ht", 30), ("mixed_units", 25), ("8m3mr1mv1st_vs_5s2c", 12)] {
         let env = state(scenario, 3, steps);
         let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
-        let mine: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag.tag()).collect();
+        let mine: Vec<UnitId> = obs.units.iter().filter(|u| u.own).map(|u| u.tag).collect();
         let text = avacraft_ava::describe_rich(&obs, &env.scenario().terrain, &mine, None);
         let read = read_prompt(&text);
         assert!(read.exact, "{scenario}: exact positions");
@@ -57,12 +57,12 @@ fn the_rich_prompt_carries_every_unit_as_observed() {
 fn the_paper_prompt_is_read_by_cells() {
     let env = state("2s3z_vlm", 2, 20);
     let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
-    let mine: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag.tag()).collect();
+    let mine: Vec<UnitId> = obs.units.iter().filter(|u| u.own).map(|u| u.tag).collect();
     let own = obs.units.iter().filter(|u| u.own).map(|u| avacraft_engine::Vec2::new(u.x, u.y));
     let cam: Camera = vlm_obs_layout(1024, 576).camera(own, Camera::DEFAULT_WIDTH, env.world().terrain().playable());
     let read = read_prompt(&describe(&obs, &cam, &mine));
     assert!(!read.exact);
-    assert_eq!(read.mine.iter().map(|s| s.tag).collect::<Vec<_>>(), mine);
+    assert_eq!(read.mine.iter().map(|s| s.tag).collect::<Vec<_>>(), mine.iter().map(|id| id.tag()).collect::<Vec<_>>());
     for s in &read.mine {
         let u = obs.units.iter().find(|u| u.tag.tag() == s.tag).expect("unit");
         let cell = cam.cell_of(avacraft_engine::Vec2::new(u.x, u.y)).expect("own units are on screen");
@@ -77,7 +77,7 @@ fn the_paper_prompt_is_read_by_cells() {
 fn the_ceiling_answers_from_the_prompt_in_the_schema() {
     let env = state("3s_vs_3z_vlm", 4, 14);
     let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
-    let mine: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag.tag()).collect();
+    let mine: Vec<UnitId> = obs.units.iter().filter(|u| u.own).map(|u| u.tag).collect();
     let mut read = read_prompt(&avacraft_ava::describe_rich(&obs, &env.scenario().terrain, &mine, None));
     assert!(!read.enemies.is_empty(), "Zealots in sight after 14 steps");
     read.micro = true;
@@ -85,7 +85,7 @@ fn the_ceiling_answers_from_the_prompt_in_the_schema() {
         let d = ceiling_decision(script, &read);
         let items = d["actions"].as_array().expect("actions");
         let units: Vec<u64> = items.iter().filter_map(|i| i["unit"].as_u64()).collect();
-        let all: Vec<u64> = mine.iter().map(|&t| t as u64).collect();
+        let all: Vec<u64> = mine.iter().map(|id| u64::from(id.tag())).collect();
         if script == CeilingScript::AttackMove {
             // Only idle units get the order, as the script gives it.
             assert!(units.iter().all(|u| all.contains(u)), "{script:?}: {units:?}");
@@ -396,7 +396,7 @@ fn the_rich_prompt_says_when_a_unit_takes_no_order() {
     assert!(r[0].is_ok(), "the scenario's tanks start sieged: {r:?}");
     env.step();
     let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
-    let mine: Vec<u32> = obs.units.iter().filter(|u| u.own).map(|u| u.tag.tag()).collect();
+    let mine: Vec<UnitId> = obs.units.iter().filter(|u| u.own).map(|u| u.tag).collect();
     let text = avacraft_ava::describe_rich(&obs, &env.scenario().terrain, &mine, None);
     let line = text.lines().find(|l| l.starts_with(&format!("- {tank} "))).expect("the tank's line");
     assert!(line.contains("morphing, takes no order"), "{line}");

@@ -14,6 +14,14 @@ fn camera(env: &Env, obs: &GroupObs) -> Camera {
     vlm_obs_layout(1024, 576).camera(own, Camera::DEFAULT_WIDTH, env.world().terrain().playable())
 }
 
+fn id(tag: u32) -> UnitId {
+    UnitId::try_from(tag).expect("a tag")
+}
+
+fn ids(tags: &[u32]) -> Vec<UnitId> {
+    tags.iter().map(|&t| id(t)).collect()
+}
+
 fn item(unit: u32, action: Verb) -> Item {
     Item { unit, action, target: None, cell: None, direction: None, ability: None, point: None, stance: None }
 }
@@ -55,7 +63,7 @@ fn refusals_say_what_is_wrong() {
         assert!(r.contains(w), "item {i}: `{r}` should say `{w}`");
     }
     assert_eq!(c.commands.len(), 2);
-    assert_eq!(c.commands[0], (own[0], Order::Do(Command::Attack { target: enemy_id })));
+    assert_eq!(c.commands[0], (id(own[0]), Order::Do(Command::Attack { target: enemy_id })));
     // The grid move goes to the camera's cell, the one drawn on the screenshot.
     let Order::Do(Command::MoveTo { to }) = c.commands[1].1 else { panic!("{:?}", c.commands[1]) };
     assert_eq!(cam.cell_of(to), Some((5, 5)));
@@ -141,7 +149,7 @@ fn verbs(s: &Value) -> Vec<&str> {
 
 #[test]
 fn the_schema_names_the_tags_there_are_and_bounds_the_list() {
-    let s = schema(&[1, 2, 3], &[4, 5, 6], &["stimpack", "heal"]);
+    let s = schema(&ids(&[1, 2, 3]), &ids(&[4, 5, 6]), &["stimpack", "heal"]);
     assert_strict(&s, "decision");
     let actions = &s["properties"]["actions"];
     assert_eq!(actions["maxItems"], 3, "at most one item per unit: the list ends");
@@ -157,14 +165,14 @@ fn the_schema_names_the_tags_there_are_and_bounds_the_list() {
     }
     // Nothing in sight and no abilities: the verbs that would be refused are left out, and
     // their fields can only be null.
-    let s = schema(&[7], &[], &[]);
+    let s = schema(&ids(&[7]), &[], &[]);
     assert_strict(&s, "decision without targets");
     assert_eq!(verbs(&s), ["move_grid", "move_dir", "hold", "stop"]);
     let props = &s["properties"]["actions"]["items"]["properties"];
     assert_eq!(props["target"], json!({"type": "null"}));
     assert_eq!(props["ability"], json!({"type": "null"}));
     // No unit left: an empty list is the only answer (and no enum is empty).
-    let s = schema(&[], &[4], &[]);
+    let s = schema(&[], &ids(&[4]), &[]);
     assert_strict(&s, "decision without units");
     assert_eq!(s["properties"]["actions"]["maxItems"], 0);
     // What the schema makes a model write (unused fields null) parses into items.
@@ -179,7 +187,7 @@ fn the_schema_names_the_tags_there_are_and_bounds_the_list() {
 fn targets_are_enemies_in_sight_and_own_units_only_for_those_that_heal() {
     let env = state("3m_vlm", 1, 8);
     let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
-    let enemies: Vec<u32> = obs.units.iter().filter(|u| !u.own).map(|u| u.tag.tag()).collect();
+    let enemies: Vec<UnitId> = obs.units.iter().filter(|u| !u.own).map(|u| u.tag).collect();
     assert!(!enemies.is_empty(), "3m_vlm's enemies are in sight after 8 steps of attack-move");
     assert_eq!(targets(&obs), enemies, "Marines act on enemies only");
     // MMM: Medivacs heal other units of theirs.
@@ -187,7 +195,7 @@ fn targets_are_enemies_in_sight_and_own_units_only_for_those_that_heal() {
     let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
     let t = targets(&obs);
     for u in &obs.units {
-        assert!(t.contains(&u.tag.tag()), "{} {} is a target", if u.own { "own" } else { "enemy" }, u.tag.tag());
+        assert!(t.contains(&u.tag), "{} {} is a target", if u.own { "own" } else { "enemy" }, u.tag.tag());
     }
 }
 
@@ -276,7 +284,7 @@ proptest! {
         // The paper's action set refuses the micro verbs.
         if !micro {
             let extra = ["attack_move", "move", "stance"];
-            prop_assert!(!c.commands.iter().any(|(t, o)| matches!(o, Order::Keep(_)) && tags.contains(t)));
+            prop_assert!(!c.commands.iter().any(|(t, o)| matches!(o, Order::Keep(_)) && tags.contains(&t.tag())));
             let n = picks.iter().filter(|p| extra.contains(&["attack", "move_grid", "move_dir", "ability", "hold", "stop", "charge", "attack_move", "move", "stance"][p.1])).count();
             prop_assert!(c.refused.len() >= n);
         }
@@ -286,7 +294,7 @@ proptest! {
             .commands
             .iter()
             .filter_map(|(t, o)| match o {
-                Order::Keep(st) => obs.units.iter().find(|u| u.tag.tag() == *t).and_then(|u| st.act(&obs, &terrain2, u)),
+                Order::Keep(st) => obs.units.iter().find(|u| u.tag == *t).and_then(|u| st.act(&obs, &terrain2, u)),
                 Order::Do(_) => None,
             })
             .collect();
@@ -297,7 +305,7 @@ proptest! {
             .commands
             .iter()
             .filter_map(|(t, o)| match o {
-                Order::Do(cmd) => Some(Action::new(UnitId::new((t - 1) as u16), *cmd)),
+                Order::Do(cmd) => Some(Action::new(*t, *cmd)),
                 Order::Keep(_) => None,
             })
             .collect();

@@ -31,7 +31,10 @@ fn requests_carry_the_image_the_schema_and_the_key() {
                 parts: vec![Part::Text("Your units:\n- 1 Marine at cell [1, 1]\n".into()), Part::Image(png.clone())],
             },
         ],
-        schema: Some(("ava_decision".into(), avacraft_ava::decision::schema(&[1], &[4], &["stimpack"]))),
+        schema: Some((
+            "ava_decision".into(),
+            avacraft_ava::decision::schema(&[avacraft_engine::UnitId::new(0)], &[avacraft_engine::UnitId::new(3)], &["stimpack"]),
+        )),
         sampling: Sampling::default(),
     };
     let reply = client.complete(&req).expect("reply");

@@ -31,6 +31,10 @@ fn load(seed: u64, n_ctx: u32) -> Local {
 
 const SYSTEM: &str = "You command a team of units in a StarCraft II battle. You answer with one JSON object.";
 
+fn ids(tags: &[u32]) -> Vec<avacraft_engine::UnitId> {
+    tags.iter().map(|&t| avacraft_engine::UnitId::try_from(t).expect("a tag")).collect()
+}
+
 fn decision(units: &[u32], enemies: &[u32], sampling: Sampling) -> ChatRequest {
     let mut user = String::from("Your units:\n");
     for (i, u) in units.iter().enumerate() {
@@ -49,7 +53,7 @@ fn decision(units: &[u32], enemies: &[u32], sampling: Sampling) -> ChatRequest {
     ChatRequest {
         stage: Stage::Decision,
         messages: vec![Message::text(Role::System, SYSTEM), Message::text(Role::User, user)],
-        schema: Some(("ava_decision".into(), schema(units, enemies, &["stimpack"]))),
+        schema: Some(("ava_decision".into(), schema(&ids(units), &ids(enemies), &["stimpack"]))),
         sampling,
     }
 }

@@ -62,7 +62,7 @@ impl CommandedTeam {
     }
 
     pub fn reset(&mut self, env: &Env) {
-        let tags: Vec<u32> = env.agents(self.team).iter().map(|id| id.tag()).collect();
+        let ids = env.agents(self.team);
         let scenario = std::sync::Arc::clone(env.scenario());
         let roles: Vec<GroupRole> = self.specs.iter().map(|s| s.role).collect();
         self.agents = self
@@ -70,11 +70,11 @@ impl CommandedTeam {
             .iter()
             .map(|s| {
                 let mut a = (s.make)();
-                let first = s.initial.first().copied().unwrap_or(0);
+                let first = s.initial.first().map_or(0, |id| id.tag());
                 a.reset(&AgentCtx {
                     scenario: scenario.clone(),
                     team: self.team,
-                    units: ids_of(env, self.team, &s.initial),
+                    units: s.initial.iter().copied().filter(|id| ids.contains(id)).collect(),
                     seed: agent_seed(env.seed(), self.team, first),
                 });
                 a
@@ -87,16 +87,16 @@ impl CommandedTeam {
         );
         self.commander = Some(c);
         self.assignment =
-            Assignment::new(self.specs.iter().map(|s| s.initial.iter().copied().filter(|t| tags.contains(t)).collect()).collect());
+            Assignment::new(self.specs.iter().map(|s| s.initial.iter().copied().filter(|id| ids.contains(id)).collect()).collect());
         self.briefing = Briefing::default();
         self.refused.clear();
     }
 
     /// This step's actions of every group, then the commander's orders for the next step.
     pub fn act(&mut self, env: &Env, episode: u64) -> Vec<Action> {
-        let order: Vec<u32> = env.agents(self.team).iter().map(|id| id.tag()).collect();
-        let index = |id: UnitId| order.iter().position(|&t| t == id.tag()).unwrap_or(0);
-        let living: Vec<u32> = env.world().alive(self.team).map(|u| u.id.tag()).filter(|t| order.contains(t)).collect();
+        let order = env.agents(self.team);
+        let index = |id: UnitId| order.iter().position(|&o| o == id).unwrap_or(0);
+        let living: Vec<UnitId> = env.world().alive(self.team).map(|u| u.id).filter(|id| order.contains(id)).collect();
         self.assignment = self.assignment.living(&living);
         let mut out = Vec::new();
         for ((agent, units), spec) in self.agents.iter_mut().zip(self.assignment.groups()).zip(&self.specs) {
@@ -104,7 +104,7 @@ impl CommandedTeam {
                 continue;
             }
             agent.brief(&Briefing { role: spec.role, ..self.briefing.clone() });
-            let mine = env.agent_observations_of(self.team, episode, &ids_of(env, self.team, units), agent.reads());
+            let mine = env.agent_observations_of(self.team, episode, units, agent.reads());
             if let Some(g) = GroupObs::fold(&mine, index) {
                 out.extend(complete(agent.act(&g), &g));
             }
@@ -122,10 +122,4 @@ impl CommandedTeam {
         }
         out
     }
-}
-
-/// The team's units that `tags` name, in their order (orders and role groups name units by
-/// tag, as commanders and launch files write them); a tag of no unit of the team names none.
-fn ids_of(env: &Env, team: Team, tags: &[u32]) -> Vec<UnitId> {
-    tags.iter().filter_map(|&t| env.agents(team).iter().copied().find(|id| id.tag() == t)).collect()
 }

@@ -14,9 +14,9 @@ pub enum Grouping {
     Team,
     /// One agent per unit (a launch file's `per_unit: true`).
     PerUnit,
-    /// One agent per listed group of unit tags (a launch file's role groups); units in no
-    /// group get no agent.
-    Groups(Vec<Vec<u32>>),
+    /// One agent per listed group of units (a launch file's role groups); units in no group
+    /// get no agent.
+    Groups(Vec<Vec<UnitId>>),
 }
 
 /// A team's agents: one per group, each made by the same factory.
@@ -51,10 +51,8 @@ impl AgentTeam {
         let groups: Vec<Vec<UnitId>> = match &self.grouping {
             Grouping::Team => vec![ids.to_vec()],
             Grouping::PerUnit => ids.iter().map(|&id| vec![id]).collect(),
-            // A listed tag names one of the team's units or nothing.
-            Grouping::Groups(g) => {
-                g.iter().map(|g| g.iter().filter_map(|&t| ids.iter().copied().find(|id| id.tag() == t)).collect()).collect()
-            }
+            // A listed unit is one of the team's or is left out.
+            Grouping::Groups(g) => g.iter().map(|g| g.iter().copied().filter(|id| ids.contains(id)).collect()).collect(),
         };
         self.groups = groups
             .into_iter()

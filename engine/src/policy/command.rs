@@ -13,14 +13,14 @@
 
 use super::contract::{Agent, AgentCtx, agent_seed};
 use super::role::{Briefing, GroupRole};
-use crate::ids::Team;
+use crate::ids::{Team, UnitId};
 use crate::obs::GroupObs;
 
 /// A commander's answer for one step: each living unit's group (an index into the team's
 /// groups) from the next step on, and the briefing.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Orders {
-    pub owners: Vec<(u32, usize)>,
+    pub owners: Vec<(UnitId, usize)>,
     pub briefing: Briefing,
 }
 
@@ -33,33 +33,33 @@ pub trait Commander: Send {
     fn command(&mut self, obs: &GroupObs, current: &Assignment) -> Orders;
 }
 
-/// Which group owns each unit: per group, its units' tags in ascending order.
+/// Which group owns each unit: per group, its units in ascending order.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Assignment {
-    groups: Vec<Vec<u32>>,
+    groups: Vec<Vec<UnitId>>,
 }
 
 impl Assignment {
-    pub fn new(mut groups: Vec<Vec<u32>>) -> Assignment {
+    pub fn new(mut groups: Vec<Vec<UnitId>>) -> Assignment {
         for g in &mut groups {
             g.sort_unstable();
             g.dedup();
         }
         Assignment { groups }
     }
-    pub fn groups(&self) -> &[Vec<u32>] {
+    pub fn groups(&self) -> &[Vec<UnitId>] {
         &self.groups
     }
-    pub fn owner(&self, tag: u32) -> Option<usize> {
-        self.groups.iter().position(|g| g.contains(&tag))
+    pub fn owner(&self, unit: UnitId) -> Option<usize> {
+        self.groups.iter().position(|g| g.contains(&unit))
     }
     /// The same ownership with the units that are not `living` dropped.
-    pub fn living(&self, living: &[u32]) -> Assignment {
+    pub fn living(&self, living: &[UnitId]) -> Assignment {
         Assignment { groups: self.groups.iter().map(|g| g.iter().copied().filter(|t| living.contains(t)).collect()).collect() }
     }
     /// As `(unit, group)` pairs in unit order (what [`Orders::owners`] holds).
-    pub fn pairs(&self) -> Vec<(u32, usize)> {
-        let mut v: Vec<(u32, usize)> = self.groups.iter().enumerate().flat_map(|(i, g)| g.iter().map(move |&t| (t, i))).collect();
+    pub fn pairs(&self) -> Vec<(UnitId, usize)> {
+        let mut v: Vec<(UnitId, usize)> = self.groups.iter().enumerate().flat_map(|(i, g)| g.iter().map(move |&t| (t, i))).collect();
         v.sort_unstable();
         v
     }
@@ -68,18 +68,18 @@ impl Assignment {
 /// Why orders were refused.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum OrdersError {
-    #[error("unit {unit} is given to group {group}, but the team has {groups} groups")]
-    NoSuchGroup { unit: u32, group: usize, groups: usize },
-    #[error("unit {unit} is not a living unit of the team")]
-    NotLiving { unit: u32 },
-    #[error("unit {unit} is given twice")]
-    Twice { unit: u32 },
-    #[error("living unit {unit} is given to no group")]
-    Unassigned { unit: u32 },
+    #[error("unit {} is given to group {group}, but the team has {groups} groups", unit.tag())]
+    NoSuchGroup { unit: UnitId, group: usize, groups: usize },
+    #[error("unit {} is not a living unit of the team", unit.tag())]
+    NotLiving { unit: UnitId },
+    #[error("unit {} is given twice", unit.tag())]
+    Twice { unit: UnitId },
+    #[error("living unit {} is given to no group", unit.tag())]
+    Unassigned { unit: UnitId },
 }
 
 /// Checks orders against the team's living units and its number of groups.
-pub fn validate(owners: &[(u32, usize)], living: &[u32], groups: usize) -> Result<Assignment, OrdersError> {
+pub fn validate(owners: &[(UnitId, usize)], living: &[UnitId], groups: usize) -> Result<Assignment, OrdersError> {
     let mut out = vec![Vec::new(); groups];
     let mut seen = Vec::with_capacity(owners.len());
     for &(unit, group) in owners {
@@ -109,7 +109,7 @@ pub type MakeCommander = Box<dyn Fn() -> Box<dyn Commander> + Send>;
 pub struct RoleGroupSpec {
     pub role: GroupRole,
     /// The units it owns at the start of an episode (not empty: its first unit seeds it).
-    pub initial: Vec<u32>,
+    pub initial: Vec<UnitId>,
     pub make: MakeAgent,
 }
 
@@ -157,14 +157,31 @@ impl Commander for Rotate {
 mod tests {
     use super::*;
 
+    fn ids(tags: &[u32]) -> Vec<UnitId> {
+        tags.iter().map(|&t| UnitId::try_from(t).expect("a tag")).collect()
+    }
+    fn u(tag: u32) -> UnitId {
+        UnitId::try_from(tag).expect("a tag")
+    }
+    fn pairs(p: &[(u32, usize)]) -> Vec<(UnitId, usize)> {
+        p.iter().map(|&(t, g)| (u(t), g)).collect()
+    }
+
     #[test]
     fn validation_names_what_is_wrong() {
-        let living = [1, 2, 3];
-        assert_eq!(validate(&[(1, 0), (2, 1), (3, 1)], &living, 2), Ok(Assignment::new(vec![vec![1], vec![2, 3]])));
-        assert_eq!(validate(&[(1, 0), (2, 2), (3, 1)], &living, 2), Err(OrdersError::NoSuchGroup { unit: 2, group: 2, groups: 2 }));
-        assert_eq!(validate(&[(1, 0), (2, 0), (3, 0), (4, 0)], &living, 2), Err(OrdersError::NotLiving { unit: 4 }));
-        assert_eq!(validate(&[(1, 0), (1, 1), (3, 0)], &living, 2), Err(OrdersError::Twice { unit: 1 }));
-        assert_eq!(validate(&[(1, 0), (3, 0)], &living, 2), Err(OrdersError::Unassigned { unit: 2 }));
+        let living = ids(&[1, 2, 3]);
+        assert_eq!(validate(&pairs(&[(1, 0), (2, 1), (3, 1)]), &living, 2), Ok(Assignment::new(vec![ids(&[1]), ids(&[2, 3])])));
+        assert_eq!(
+            validate(&pairs(&[(1, 0), (2, 2), (3, 1)]), &living, 2),
+            Err(OrdersError::NoSuchGroup { unit: u(2), group: 2, groups: 2 })
+        );
+        assert_eq!(validate(&pairs(&[(1, 0), (2, 0), (3, 0), (4, 0)]), &living, 2), Err(OrdersError::NotLiving { unit: u(4) }));
+        assert_eq!(validate(&pairs(&[(1, 0), (1, 1), (3, 0)]), &living, 2), Err(OrdersError::Twice { unit: u(1) }));
+        assert_eq!(validate(&pairs(&[(1, 0), (3, 0)]), &living, 2), Err(OrdersError::Unassigned { unit: u(2) }));
+        assert_eq!(
+            OrdersError::NoSuchGroup { unit: u(2), group: 2, groups: 2 }.to_string(),
+            "unit 2 is given to group 2, but the team has 2 groups"
+        );
     }
 
     proptest::proptest! {
@@ -172,11 +189,12 @@ mod tests {
         /// exactly one known group, and refused ones say which unit is wrong.
         #[test]
         fn accepted_orders_cover_the_living_exactly_once(
-            owners in proptest::collection::vec((0u32..8, 0usize..4), 0..10),
+            owners in proptest::collection::vec((1u32..9, 0usize..4), 0..10),
             living in proptest::collection::btree_set(1u32..8, 0..6),
             groups in 1usize..4,
         ) {
-            let living: Vec<u32> = living.into_iter().collect();
+            let living: Vec<UnitId> = living.into_iter().map(u).collect();
+            let owners = pairs(&owners);
             match validate(&owners, &living, groups) {
                 Ok(a) => {
                     proptest::prop_assert_eq!(a.groups().len(), groups);

@@ -2,6 +2,8 @@
 //! contract carries briefings (`Agent::brief`) while the commanders' machinery is built on
 //! that contract.
 
+use crate::ids::UnitId;
+
 /// A role group's role. The codes are `RoleGroup.msg`'s `ROLE_*` constants.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum GroupRole {
@@ -52,8 +54,8 @@ pub struct Briefing {
     pub role: GroupRole,
     /// The plan in words (empty: none).
     pub plan: String,
-    /// Enemy units that matter most, by tag, most important first.
-    pub priorities: Vec<u32>,
+    /// Enemy units that matter most, most important first.
+    pub priorities: Vec<UnitId>,
 }
 
 #[cfg(test)]

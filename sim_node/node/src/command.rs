@@ -8,9 +8,10 @@
 
 use crate::config::{SimConfig, TeamCommand};
 use crate::convert::{header, unit_of};
-use avacraft_engine::Env;
 use avacraft_engine::agent::{Assignment, validate_orders};
+use avacraft_engine::{Env, UnitId};
 use avacraft_msgs::{RoleAssignment, RoleGroup};
+use avacraft_nodes::wire::tag_in;
 use avacraft_nodes::{AgentId, Node, NodeError, Publisher, Qos, Subscriber, TopicKind, Topics, UnitTag};
 use std::collections::BTreeMap;
 
@@ -157,8 +158,7 @@ impl Command {
             for (i, units) in a.groups().iter().enumerate() {
                 let id = &t.spec.groups[i].0;
                 for &u in units {
-                    let Ok(tag) = UnitTag::new(u) else { continue };
-                    if owners.insert(tag, id.clone()).as_ref() != Some(id) {
+                    if owners.insert(UnitTag::from(u), id.clone()).as_ref() != Some(id) {
                         n.changes[t.spec.team.team().index()] += 1;
                         changed = true;
                     }
@@ -181,9 +181,48 @@ fn check(spec: &TeamCommand, env: &Env, msg: &RoleAssignment) -> Result<Assignme
         let Some(i) = spec.groups.iter().position(|(id, _)| id.as_str() == g.agent_id) else {
             return Err(format!("`{}` is not a role group of team {}", g.agent_id, spec.team.get()));
         };
-        pairs.extend(g.unit_tags.iter().map(|&u| (u, i)));
+        for &u in &g.unit_tags {
+            pairs.push((tag_in("RoleAssignment", "groups.unit_tags", u).map_err(|e| e.to_string())?, i));
+        }
     }
     let team = spec.team.team();
-    let living: Vec<u32> = env.world().alive(team).filter(|u| env.agents(team).contains(&u.id)).map(|u| u.id.tag()).collect();
+    let living: Vec<UnitId> = env.world().alive(team).filter(|u| env.agents(team).contains(&u.id)).map(|u| u.id).collect();
     validate_orders(&pairs, &living, spec.groups.len()).map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use avacraft_engine::agent::GroupRole;
+    use avacraft_engine::{EnvConfig, builtin};
+    use avacraft_nodes::{AgentId, TeamNo};
+    use std::sync::Arc;
+
+    /// Orders off the wire are checked once: a number that is no tag names the message and
+    /// field, and good orders become the engine's assignment.
+    #[test]
+    fn orders_off_the_wire_are_checked_tags_first() {
+        let env = Env::new(Arc::new(builtin("3m_vlm").expect("built in")), EnvConfig::default(), 1);
+        let id = |s: &str| AgentId::parse(s).expect("an id");
+        let spec = TeamCommand {
+            team: TeamNo::new(1).expect("team"),
+            commander: id("boss"),
+            groups: vec![(id("a"), GroupRole::Attacker), (id("b"), GroupRole::Defender)],
+        };
+        let msg = |a: Vec<u32>, b: Vec<u32>| RoleAssignment {
+            team: 1,
+            groups: vec![
+                RoleGroup { role: 1, agent_id: "a".into(), unit_tags: a },
+                RoleGroup { role: 2, agent_id: "b".into(), unit_tags: b },
+            ],
+            ..RoleAssignment::default()
+        };
+        let a = check(&spec, &env, &msg(vec![1], vec![2, 3])).expect("good orders");
+        let ids = |t: &[u32]| t.iter().map(|&t| UnitId::try_from(t).expect("a tag")).collect::<Vec<_>>();
+        assert_eq!(a.groups(), &[ids(&[1]), ids(&[2, 3])]);
+        let e = check(&spec, &env, &msg(vec![0, 1], vec![2, 3])).expect_err("tag 0");
+        assert!(e.contains("RoleAssignment.groups.unit_tags = 0"), "{e}");
+        let e = check(&spec, &env, &msg(vec![1], vec![2])).expect_err("unit 3 left out");
+        assert_eq!(e, "living unit 3 is given to no group");
+    }
 }
