@@ -44,6 +44,10 @@ pub struct Meta {
     /// played before SMAC's maps took SMAC's names.
     #[serde(default = "old_names")]
     pub names: u32,
+    /// The environment options the cells played with (their opponents aside); folders
+    /// written before plans could set them played the evaluation's defaults.
+    #[serde(default = "crate::plan::eval_env")]
+    pub env: avacraft_engine::EnvOptions,
 }
 
 pub const META_FILE: &str = "plan.json";
@@ -72,6 +76,7 @@ impl Meta {
             seed_of: plan.agents.iter().filter_map(|a| a.seed_of.clone().map(|b| (a.name.clone(), b))).collect(),
             games: plan.cells.iter().map(|c| (c.key.clone(), c.scenario.data.name().to_owned())).collect(),
             names: NAMES,
+            env: plan.env.clone(),
         }
     }
 
@@ -209,6 +214,14 @@ pub fn cannot_extend(old: &Meta, new: &Meta) -> Option<String> {
     if old.shard != new.shard {
         let name = |s: Option<Shard>| s.map_or_else(|| "the whole plan".to_owned(), |s| format!("shard {s}"));
         return Some(format!("its results are {}'s, not {}'s", name(old.shard), name(new.shard)));
+    }
+    if old.env != new.env {
+        let json = |o: &avacraft_engine::EnvOptions| serde_json::to_string(o).unwrap_or_default();
+        return Some(format!(
+            "its results were played with the environment options {}, this plan's are {}",
+            json(&old.env),
+            json(&new.env)
+        ));
     }
     if old.seeds != new.seeds {
         return Some(format!("its results were played on seeds {}, this plan's are {}", seed_list(&old.seeds), seed_list(&new.seeds)));

@@ -4,7 +4,7 @@
 //! of a plan is the same set of episodes on every machine.
 
 use avacraft_ava::AvaSpec;
-use avacraft_engine::{OpponentKind, Scenario};
+use avacraft_engine::{EnvOptions, OpponentKind, Scenario};
 use avacraft_policy::{PolicyError, PolicySpec};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
@@ -38,6 +38,11 @@ pub(crate) struct RawPlan {
     /// in a `<stem>/` folder beside it: e.g. `../../docs/results.md`.
     #[serde(default)]
     pub(crate) document: Option<String>,
+    /// Environment options besides the opponent and the unit data (`step_mul`,
+    /// `full_vision`, ...: the Python keyword names) over the evaluation's defaults (sparse
+    /// reward, no passive side).
+    #[serde(default)]
+    pub(crate) env: Option<serde_json::Value>,
     /// Markdown put at the head of the report: the protocol (budget, seeds, opponents).
     #[serde(default)]
     pub(crate) protocol: Option<String>,
@@ -178,6 +183,14 @@ pub struct Plan {
     /// Where the report is also written (resolved against the plan's folder).
     pub document: Option<PathBuf>,
     pub protocol: String,
+    /// The environment every cell plays in (its own opponent aside).
+    pub env: EnvOptions,
+}
+
+/// The options an evaluation plays with unless its plan says otherwise: whole games (sparse
+/// reward), both sides acquiring targets by themselves.
+pub fn eval_env() -> EnvOptions {
+    EnvOptions { passive_allies: false, reward: avacraft_engine::RewardMode::Sparse, ..EnvOptions::default() }
 }
 
 /// A shipped baseline with nothing for this scenario: its cell is left out and reported.

@@ -2,7 +2,9 @@
 //! naming the file, the field and the value. Relative paths (`marl:DIR`, scenario files,
 //! curve folders, the document) are resolved against the plan's folder.
 
-use crate::plan::{AgentDef, AgentKind, Cell, CellKey, CurveDef, Plan, PlanError, RawAgent, RawCurve, RawHeadToHead, RawPlan, unshipped};
+use crate::plan::{
+    AgentDef, AgentKind, Cell, CellKey, CurveDef, Plan, PlanError, RawAgent, RawCurve, RawHeadToHead, RawPlan, eval_env, unshipped,
+};
 use avacraft_engine::{DataSet, Mode, OpponentKind, Scenario, Team, builtin_names, smac_names};
 use avacraft_policy::{PolicyError, PolicySpec, Resolve};
 use std::path::{Path, PathBuf};
@@ -28,6 +30,11 @@ pub fn parse(file: &str, text: &str, base: Option<&Path>) -> Result<Plan, PlanEr
         })?),
     };
     let cx = Cx { file, base, data };
+    let env = match &raw.env {
+        None => eval_env(),
+        Some(over) => eval_env().overlay(over, &["opponent", "data"]).map_err(|why| cx.err("env", over.to_string(), why))?,
+    };
+    env.config().map_err(|b| cx.err(format!("env.{}", b.option), b.value, b.supported))?;
     let seeds = cx.seeds(&raw.seeds)?;
     let scenarios = cx.scenarios(&raw.scenarios)?;
     let opponents = cx.opponents(&raw.opponents)?;
@@ -69,6 +76,7 @@ pub fn parse(file: &str, text: &str, base: Option<&Path>) -> Result<Plan, PlanEr
         unshipped: skipped,
         document,
         protocol: raw.protocol.unwrap_or_default(),
+        env,
     })
 }
 
@@ -393,5 +401,19 @@ mod tests {
         let chained = format!("{}[[agents]]\nname = \"q3\"\npolicy = \"baseline:qmix-s3\"\nseed_of = \"q2\"\n", seed("q"));
         let e = parse("bad.toml", &chained, None).expect_err("a seed of a seed").to_string();
         assert!(e.contains("agents[3].seed_of") && e.contains("itself another agent's training seed"), "{e}");
+    }
+
+    /// A plan's `[env]` table sets options over the evaluation's defaults; a name that is no
+    /// option, one set elsewhere in the plan or a bad value is refused, naming the field.
+    #[test]
+    fn the_env_table_sets_the_other_environment_options() {
+        let head = "seeds = [1]\nscenarios = [\"3m_vlm\"]\n[[agents]]\nname = \"h\"\npolicy = \"hold\"\n";
+        let plan = parse("ok.toml", &format!("{head}[env]\nstep_mul = 4\nfull_vision = true\n"), None).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(plan.env, avacraft_engine::EnvOptions { step_mul: 4, full_vision: true, ..eval_env() });
+        assert_eq!(parse("ok.toml", head, None).unwrap_or_else(|e| panic!("{e}")).env, eval_env());
+        for (table, want) in [("step_mull = 4", "step_mull"), ("opponent = \"focus\"", "`opponent`"), ("step_mul = 0", "env.step_mul")] {
+            let e = parse("bad.toml", &format!("{head}[env]\n{table}\n"), None).expect_err(table).to_string();
+            assert!(e.contains("bad.toml") && e.contains(want), "{table}: {e}");
+        }
     }
 }

@@ -22,6 +22,7 @@ fn plan(agents: &[(&str, &str)], fingerprints: &[(&str, &str, &str)]) -> Meta {
         seed_of: Vec::new(),
         games: Vec::new(),
         names: crate::meta::NAMES,
+        env: crate::plan::eval_env(),
     }
 }
 
@@ -166,4 +167,21 @@ fn a_folder_of_another_game_is_not_resumed() {
     let liberty = Meta { games: old.cells.iter().map(|c| (c.clone(), "liberty".to_owned())).collect(), ..old };
     let why = refused(dir, &liberty);
     assert!(why.contains("was played on the legacy unit data and is liberty here"), "{why}");
+}
+
+#[test]
+fn a_folder_played_with_other_environment_options_is_refused_and_old_folders_read_the_defaults() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let dir = tmp.path();
+    let old = plan(&[("qmix", "baseline:qmix")], &[]);
+    // Written before plans could set environment options: no `env` field.
+    let mut json = serde_json::to_value(&old).expect("json");
+    json.as_object_mut().map(|o| o.remove("env"));
+    std::fs::write(dir.join("plan.json"), json.to_string()).expect("write");
+    assert_eq!(read_meta(dir).expect("an old plan.json reads").env, crate::plan::eval_env());
+    write_meta(dir, &old).expect("the same plan resumes");
+    let mut fast = old.clone();
+    fast.env.step_mul = 4;
+    let why = refused(dir, &fast);
+    assert!(why.contains("environment options") && why.contains("\"step_mul\":4"), "{why}");
 }

@@ -6,7 +6,7 @@
 use crate::plan::{AgentDef, Cell, Job, Plan, Shard};
 use crate::results::{Appender, EpisodeResult, ModelUse, ResultsError};
 use avacraft_engine::agent::{AgentTeam, Grouping};
-use avacraft_engine::{Controllers, Env, EnvOptions, LOOPS_PER_SECOND, Outcome, RewardMode, Team};
+use avacraft_engine::{Controllers, Env, EnvOptions, LOOPS_PER_SECOND, Outcome, Team};
 use avacraft_policy::Calls;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -242,7 +242,7 @@ pub fn replay_job(plan: &Plan, job: Job, out: &Path, on_step: &mut dyn FnMut(&En
 
 fn play(plan: &Plan, cell: &Cell, seed: u64, out: &Path, mut on_step: Option<&mut dyn FnMut(&Env)>) -> Result<EpisodeResult, EpisodeError> {
     let replay = on_step.is_some();
-    let options = EnvOptions { opponent: cell.opponent, passive_allies: false, reward: RewardMode::Sparse, ..EnvOptions::default() };
+    let options = EnvOptions { opponent: cell.opponent, ..plan.env.clone() };
     let cfg = options.config()?;
     let mut env = Env::new(Arc::clone(&cell.scenario), cfg, seed);
     let team1 = &plan.agents[cell.agent];

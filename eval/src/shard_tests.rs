@@ -18,6 +18,7 @@ fn meta(name: &str, shard: Option<(usize, usize)>) -> Meta {
         names: crate::meta::NAMES,
         seed_of: Vec::new(),
         games: Vec::new(),
+        env: crate::plan::eval_env(),
     }
 }
 

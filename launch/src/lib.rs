@@ -102,11 +102,29 @@ mod tests {
                 "planer",
             ),
             ("scenario: 3m_vlm\nava: {model: {kind: gpt}}\nagents:\n  - {id: a, units: [1], policy: ava}\n", "gpt"),
+            ("scenario: 3m_vlm\nenv: {step_mull: 4}\nagents:\n  - {id: a, units: [1], policy: noop}\n", "step_mull"),
+            ("scenario: 3m_vlm\nenv: {opponent: kite}\nagents:\n  - {id: a, units: [1], policy: noop}\n", "env"),
+            ("scenario: 3m_vlm\nenv: {step_mul: 0}\nagents:\n  - {id: a, units: [1], policy: noop}\n", "env.step_mul"),
+            ("scenario: 3m_vlm\nenv: [1]\nagents:\n  - {id: a, units: [1], policy: noop}\n", "env"),
         ];
         for (text, field) in cases {
             let e = chain(&parse("bad.yaml", text, None).expect_err(text));
             assert!(e.starts_with("bad.yaml") && e.contains(field), "{text}: {e}");
         }
+    }
+
+    #[test]
+    fn the_env_section_sets_the_other_environment_options() {
+        let text = "scenario: 3m_vlm\nopponent: focus\nenv: {step_mul: 4, full_vision: true, time_limit_loops: 500}\nagents:\n  - {id: a, units: [1], policy: noop}\n";
+        let p = parse("env.yaml", text, None).expect("plan");
+        let env = p.env_config();
+        assert_eq!(env.step_mul.get(), 4);
+        assert!(env.rules.full_vision);
+        assert_eq!(env.time_limit_loops.map(|t| t.get()), Some(500));
+        assert_eq!(env.reward, avacraft_engine::RewardMode::Sparse, "the deployment's defaults stay under the section");
+        assert_eq!(env.opponent.map(|o| o.to_string()), Some("focus".into()));
+        let plain = parse("env.yaml", "scenario: 3m_vlm\nagents:\n  - {id: a, units: [1], policy: noop}\n", None).expect("plan");
+        assert_eq!(plain.env_config().step_mul.get(), 8);
     }
 
     #[test]

@@ -32,6 +32,11 @@ pub struct RawLaunch {
     pub seed: u64,
     #[serde(default)]
     pub opponent: Option<String>,
+    /// Environment options besides `opponent` and `data` (`step_mul`, `full_vision`,
+    /// `time_limit_loops`, ...: the Python keyword names), over a deployment's defaults
+    /// (sparse reward, no passive side).
+    #[serde(default)]
+    pub env: Option<serde_json::Value>,
     #[serde(default = "router")]
     pub router: String,
     #[serde(default)]

@@ -87,8 +87,11 @@ pub(crate) fn validate(file: &str, raw: RawLaunch, how: Resolve<'_>) -> Result<P
             Some(plan)
         }
     };
-    let options = EnvOptions { opponent, passive_allies: false, reward: RewardMode::Sparse, ..EnvOptions::default() };
-    let env = options.config().map_err(|b| cx.err(b.option, b.value, b.supported))?;
+    let mut options = EnvOptions { opponent, passive_allies: false, reward: RewardMode::Sparse, ..EnvOptions::default() };
+    if let Some(over) = &raw.env {
+        options = options.overlay(over, &["opponent", "data"]).map_err(|why| cx.err("env", over, why))?;
+    }
+    let env = options.config().map_err(|b| cx.err(format!("env.{}", b.option), b.value, b.supported))?;
     Ok(Plan {
         file: file.to_owned(),
         scenario_arg,

@@ -117,6 +117,24 @@ impl EnvOptions {
         Ok(cfg)
     }
 
+    /// These options with a file's section put over them: `over` names options by their
+    /// names, in their serde forms (`{step_mul: 4, full_vision: true}`); an unknown name or a
+    /// value of the wrong form is refused with the name. `fixed` are options the file sets
+    /// elsewhere (a launch file's top-level `opponent` and `data`), refused here.
+    pub fn overlay(&self, over: &serde_json::Value, fixed: &[&str]) -> Result<EnvOptions, String> {
+        let Some(over) = over.as_object() else { return Err(format!("{over}: a mapping of option names to values")) };
+        let serde_json::Value::Object(mut merged) = serde_json::to_value(self).map_err(|e| e.to_string())? else {
+            return Err("options that are not a mapping".into());
+        };
+        for (k, v) in over {
+            if fixed.contains(&k.as_str()) {
+                return Err(format!("`{k}` is set on its own here, not among the environment options"));
+            }
+            merged.insert(k.clone(), v.clone());
+        }
+        serde_json::from_value(serde_json::Value::Object(merged)).map_err(|e| e.to_string())
+    }
+
     /// `s` on the unit data asked for (itself when none is).
     pub fn scenario(&self, s: Arc<Scenario>) -> Result<Arc<Scenario>, ScenarioError> {
         match self.data {
@@ -176,5 +194,20 @@ mod tests {
         // A file naming an unknown option is refused with the name.
         let err = serde_json::from_str::<EnvOptions>(r#"{"step_mull": 8}"#).expect_err("unknown key");
         assert!(err.to_string().contains("step_mull"), "{err}");
+    }
+
+    #[test]
+    fn a_section_overlays_the_options_it_names_and_refuses_the_rest() {
+        let base = EnvOptions { passive_allies: false, reward: RewardMode::Sparse, ..EnvOptions::default() };
+        let o = base.overlay(&serde_json::json!({"step_mul": 4, "full_vision": true}), &[]).expect("two options");
+        assert_eq!(o, EnvOptions { step_mul: 4, full_vision: true, ..base.clone() });
+        assert_eq!(base.overlay(&serde_json::json!({}), &[]).expect("nothing"), base);
+        let e = base.overlay(&serde_json::json!({"step_mull": 4}), &[]).expect_err("unknown");
+        assert!(e.contains("step_mull"), "{e}");
+        let e = base.overlay(&serde_json::json!({"step_mul": "fast"}), &[]).expect_err("a word");
+        assert!(e.contains("fast"), "{e}");
+        let e = base.overlay(&serde_json::json!({"opponent": "kite"}), &["opponent", "data"]).expect_err("fixed");
+        assert!(e.contains("`opponent`"), "{e}");
+        assert!(base.overlay(&serde_json::json!([1, 2]), &[]).is_err(), "not a mapping");
     }
 }
