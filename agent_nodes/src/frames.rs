@@ -57,6 +57,14 @@ impl FrameFeed {
         self.latest.iter().all(|l| l.as_ref().is_some_and(|(s, _)| *s == stamp))
     }
 
+    /// The stamp of the newest step both frames are here for.
+    pub(crate) fn newest(&self) -> Option<Time> {
+        match &self.latest {
+            [Some((s1, _)), Some((s2, _))] if s1 == s2 => Some(*s1),
+            _ => None,
+        }
+    }
+
     /// Both frames of the step stamped `stamp`, once they are here.
     pub(crate) fn at(&self, stamp: Time) -> Option<TeamFrames> {
         match &self.latest {

@@ -7,8 +7,10 @@
 #![forbid(unsafe_code)]
 
 mod command;
+mod features;
 mod frames;
 pub use command::{CommandedConfig, run_commander, run_role_group};
+pub use features::{EncoderError, EncoderStats, run_encoder};
 
 use avacraft_engine::agent::{Agent, AgentCtx, AgentObs, GroupObs, agent_seed, check_action, complete};
 use avacraft_engine::{Action, Scenario, Team, UnitId};
@@ -27,6 +29,9 @@ pub struct AgentConfig {
     pub units: Vec<UnitTag>,
     /// The scenario being played (a player knows the map).
     pub scenario: Arc<Scenario>,
+    /// The team's encoder node serves this node's network ([`run_encoder`]): it acts on the
+    /// encodings on `team_<n>/features` instead of running the encoder on the frames.
+    pub encoded: bool,
 }
 
 /// Counters of a run, for logs and tests.
@@ -39,6 +44,8 @@ pub struct AgentStats {
     /// [`check_action`]) says the simulator will refuse them: the policy's mistakes. They are
     /// sent all the same, as an in-process run submits them, so both play the same game.
     pub doomed: u64,
+    /// Steps acted on with the team encoder node's encoding instead of frames.
+    pub encoded: u64,
 }
 
 /// The policy's actions for `g`, completed with no-ops, and counted in `stats.doomed` where
@@ -81,8 +88,11 @@ pub fn run(
         .map(|&u| node.subscriber::<UnitObservation>(&topics.unit_obs(cfg.team, u), reliable))
         .collect::<Result<Vec<_>, _>>()?;
     let mut out = node.publisher::<ActionBatch>(&topics.actions(&cfg.id), reliable)?;
-    // An image-mode network also reads its team's frames of the step.
-    let mut feed = frames::FrameFeed::open(node, topics, cfg.team, agent.frames())?;
+    // An image-mode network also reads its team's frames of the step, or the team encoder
+    // node's encoding of them.
+    let encoded = if cfg.encoded { features::FeatureFeed::open(node, topics, cfg.team, agent.encoder())? } else { None };
+    let mut feed = if encoded.is_some() { None } else { frames::FrameFeed::open(node, topics, cfg.team, agent.frames())? };
+    let mut encoded = encoded;
     let team = Team::from(cfg.team);
     let order: Vec<u32> = cfg.scenario.agent_order(team).iter().map(|id| id.tag()).collect();
     let tags: Vec<u32> = cfg.units.iter().map(|u| u.get()).collect();
@@ -103,22 +113,30 @@ pub fn run(
                 accept(cfg, topics, r, &mut pending, &mut last_done, &mut stats);
             }
         }
-        if let Some(f) = feed.as_mut() {
+        if let Some(f) = encoded.as_mut() {
             got |= f.poll(topics, &mut stats)?;
+        }
+        if encoded.is_some() || feed.is_some() {
+            if let Some(f) = feed.as_mut() {
+                got |= f.poll(topics, &mut stats)?;
+            }
             if !warned && pending.values().any(|(t0, _, _)| t0.elapsed() >= 4 * GATHER) {
                 warned = true;
-                tracing::warn!(agent = %cfg.id, "observations wait for their frames: does the launch file's simulator draw them?");
+                tracing::warn!(agent = %cfg.id, "observations wait for their frames (or the team encoder node's encoding of them): does the simulator draw them, is the encoder node up?");
             }
         }
         // Act on the newest complete step (or one gathered for long enough) whose frames are
         // here if the network reads some; older ones are stale.
-        let framed = |stamp: &avacraft_msgs::Time| feed.as_ref().is_none_or(|f| f.has(*stamp));
+        let framed = |stamp: &avacraft_msgs::Time| {
+            feed.as_ref().is_none_or(|f| f.has(*stamp)) && encoded.as_ref().is_none_or(|f| f.at(*stamp).is_some())
+        };
         let ready = pending
             .iter()
             .rev()
             .find(|(_, (t0, stamp, m))| (m.len() == cfg.units.len() || t0.elapsed() >= GATHER) && framed(stamp))
-            .map(|(k, (_, stamp, _))| (*k, feed.as_ref().and_then(|f| f.at(*stamp))));
-        if let Some((key, shown)) = ready {
+            .map(|(k, (_, stamp, _))| (*k, *stamp));
+        if let Some((key, stamp)) = ready {
+            let shown = feed.as_ref().and_then(|f| f.at(stamp));
             let obs: Vec<AgentObs> = pending.remove(&key).map(|(_, _, m)| m.into_values().collect()).unwrap_or_default();
             pending.retain(|k, _| *k > key);
             let Some(first) = obs.first() else { continue };
@@ -134,6 +152,10 @@ pub fn run(
             if let Some(f) = &shown {
                 agent.see(f);
             }
+            if let Some(e) = encoded.as_ref().and_then(|f| f.at(stamp)) {
+                agent.see_encoded(e);
+                stats.encoded += 1;
+            }
             let actions = GroupObs::fold(&obs, index).map(|g| act(agent, &g, &scenario, &mut stats)).unwrap_or_default();
             let actions = actions.iter().map(wire::unit_action).collect();
             out.put(&ActionBatch { header, episode: key.0, step: key.1, agent_id: cfg.id.to_string(), actions })?;
@@ -145,7 +167,7 @@ pub fn run(
             // between steps instead of waking every millisecond (23 such nodes on 2 cores
             // spent a fifth of the machine on those wake-ups). A node of several units, or
             // one waiting for frames, looks at its other inputs every millisecond.
-            let nap = if subs.len() == 1 && feed.is_none() { IDLE } else { Duration::from_millis(1) };
+            let nap = if subs.len() == 1 && feed.is_none() && encoded.is_none() { IDLE } else { Duration::from_millis(1) };
             if let Some(first) = subs.first()
                 && let Some(r) = first.recv_timeout(nap)?
             {

@@ -59,8 +59,21 @@ pub struct AgentNodeArgs {
 
 /// What one agent node runs, from its launch file's entry or from its flags.
 enum Job {
-    Agent { units: Vec<UnitTag>, role: Option<GroupRole>, policy: PolicySpec },
-    Commander { groups: Vec<GroupRole>, policy: CommanderPolicy },
+    /// `encoded`: the team's encoder node serves it (act on its encodings, not the frames).
+    Agent {
+        units: Vec<UnitTag>,
+        role: Option<GroupRole>,
+        policy: PolicySpec,
+        encoded: bool,
+    },
+    Commander {
+        groups: Vec<GroupRole>,
+        policy: CommanderPolicy,
+    },
+    /// A team's encoder node: the network's image encoder on the team's frames, once a step.
+    Encoder {
+        policy: PolicySpec,
+    },
 }
 
 /// The node's id, team, scenario and job.
@@ -80,16 +93,25 @@ impl NodeJob {
             let groups = c.groups.iter().map(|(_, r)| *r).collect();
             return Ok(NodeJob { id, team: c.team, scenario: plan.scenario, job: Job::Commander { groups, policy: c.policy.clone() } });
         }
+        if let Some(e) = plan.encoders.iter().find(|e| e.id == id) {
+            e.policy.check_seeing(&plan.scenario, e.team.team()).with_context(|| format!("agent-node: {} encoder `{id}`", plan.file))?;
+            return Ok(NodeJob { id, team: e.team, scenario: plan.scenario, job: Job::Encoder { policy: e.policy.clone() } });
+        }
         let Some(a) = plan.agents.iter().find(|a| a.id == id) else {
-            let ids: Vec<String> =
-                plan.commanders.iter().map(|c| c.id.to_string()).chain(plan.agents.iter().map(|a| a.id.to_string())).collect();
+            let ids: Vec<String> = plan
+                .commanders
+                .iter()
+                .map(|c| c.id.to_string())
+                .chain(plan.agents.iter().map(|a| a.id.to_string()))
+                .chain(plan.encoders.iter().map(|e| e.id.to_string()))
+                .collect();
             bail!("agent-node: --node-id {node}: {} has no such agent node (it has {})", plan.file, ids.join(", "));
         };
         // Only here, in the node that acts, are a checkpoint's weights read.
         a.policy
             .check_seeing(&plan.scenario, a.team.team())
             .with_context(|| format!("agent-node: {} agent `{id}`: policy {}", plan.file, a.policy))?;
-        let job = Job::Agent { units: a.units.clone(), role: a.role, policy: a.policy.clone() };
+        let job = Job::Agent { units: a.units.clone(), role: a.role, policy: a.policy.clone(), encoded: a.encoded };
         Ok(NodeJob { id, team: a.team, scenario: plan.scenario, job })
     }
 
@@ -122,7 +144,7 @@ impl NodeJob {
             if role.is_some() && policy.frames_need(&scenario)?.is_some() {
                 bail!("agent-node: --policy {}: a role group reads no frames; this checkpoint does", a.policy);
             }
-            Job::Agent { units, role, policy }
+            Job::Agent { units, role, policy, encoded: false }
         };
         Ok(NodeJob { id, team, scenario, job })
     }
@@ -147,7 +169,13 @@ pub fn agent_node(a: &AgentNodeArgs) -> Result<()> {
             let stats = avacraft_agent_nodes::run_commander(&node, &topics, &cfg, commander.as_mut(), &shutdown, None)?;
             tracing::info!(orders = stats.batches, malformed = stats.malformed, "commander node stops");
         }
-        Job::Agent { units, role, policy } => {
+        Job::Encoder { policy } => {
+            let agent = (policy.make(&calls, None).with_context(|| format!("agent-node {id}: policy {policy}"))?.factory)();
+            let stats = avacraft_agent_nodes::run_encoder(&node, &topics, team, agent.as_ref(), &shutdown, None)
+                .with_context(|| format!("agent-node {id}"))?;
+            tracing::info!(encoded = stats.encoded, malformed = stats.malformed, "encoder node stops");
+        }
+        Job::Agent { units, role, policy, encoded } => {
             let observer = policy.ava_spec().is_some().then(|| call_observer(&node, &topics, &id)).transpose()?;
             let mut agent = (policy.make(&calls, observer).with_context(|| format!("agent-node {id}: policy {policy}"))?.factory)();
             let stats = match role {
@@ -156,11 +184,17 @@ pub fn agent_node(a: &AgentNodeArgs) -> Result<()> {
                     avacraft_agent_nodes::run_role_group(&node, &topics, &cfg, agent.as_mut(), &shutdown, None)?
                 }
                 None => {
-                    let cfg = avacraft_agent_nodes::AgentConfig { id, team, units, scenario };
+                    let cfg = avacraft_agent_nodes::AgentConfig { id, team, units, scenario, encoded };
                     avacraft_agent_nodes::run(&node, &topics, &cfg, agent.as_mut(), &shutdown, None)?
                 }
             };
-            tracing::info!(batches = stats.batches, malformed = stats.malformed, doomed = stats.doomed, "agent node stops");
+            tracing::info!(
+                batches = stats.batches,
+                malformed = stats.malformed,
+                doomed = stats.doomed,
+                encoded = stats.encoded,
+                "agent node stops"
+            );
         }
     }
     Ok(())

@@ -20,8 +20,13 @@ struct Launched {
     parts: RoundTripParts,
 }
 
-/// Runs `avacraft launch` on a generated file.
+/// Runs `avacraft launch` on a generated file: one focus-fire node per unit of team 1.
 fn launch(scenario: &str, episodes: u32, record: bool) -> Result<Launched> {
+    launch_with(scenario, episodes, record, "", "focus-fire")
+}
+
+/// [`launch`] with `extra` lines in the file and each node's `policy`.
+fn launch_with(scenario: &str, episodes: u32, record: bool, extra: &str, policy: &str) -> Result<Launched> {
     let dir = std::env::temp_dir().join(format!("avacraft-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     let port = free_port()?;
@@ -30,7 +35,7 @@ fn launch(scenario: &str, episodes: u32, record: bool) -> Result<Launched> {
     std::fs::write(
         &file,
         format!(
-            "scenario: {scenario}\nepisodes: {episodes}\nseed: 1\nrouter: tcp/127.0.0.1:{port}\n{rec}agents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n"
+            "scenario: {scenario}\nepisodes: {episodes}\nseed: 1\nrouter: tcp/127.0.0.1:{port}\n{rec}{extra}agents:\n  - per_unit: true\n    team: 1\n    policy: {policy}\n"
         ),
     )?;
     let exe = std::env::current_exe()?;
@@ -207,6 +212,10 @@ pub fn run(out: &mut dyn Write) -> Result<()> {
     let m3 = launch("3m_vlm", 30, false)?;
     let m3_rec = launch("3m_vlm", 30, true)?;
     let pvz = launch("pvz_ht", 1, false)?;
+    // The shipped rgb MAPPO on its own data, a node per Marine: the team's encoder node
+    // encodes the frames once a step, or each node does.
+    let rgb_shared = launch_with("3m_vlm", 10, false, "data: legacy\n", "baseline:mappo-rgb")?;
+    let rgb_own = launch_with("3m_vlm", 10, false, "data: legacy\nshare_encoder: false\n", "baseline:mappo-rgb")?;
     let direct = ping_pong(Path::Direct, 2000)?;
     let peers = ping_pong(Path::PeersOfARouter, 2000)?;
     let routed = ping_pong(Path::ThroughARouter, 2000)?;
@@ -222,6 +231,14 @@ pub fn run(out: &mut dyn Write) -> Result<()> {
     let legs = |p: &RoundTripParts| format!("{} / {} / {}", p.publish, p.to_agents, p.back);
     row(&mut t, "3m_vlm lockstep steps/s (3 agent processes)", format!("{:.0}", m3.steps_per_s), "-", f64::NAN);
     row(&mut t, "pvz_ht lockstep steps/s (23 agent processes)", format!("{:.0}", pvz.steps_per_s), ">= 500", pvz.steps_per_s / 500.0);
+    row(
+        &mut t,
+        "3m_vlm rgb MAPPO steps/s: one encoder node / one encoder per node",
+        format!("{:.0} / {:.0}", rgb_shared.steps_per_s, rgb_own.steps_per_s),
+        "-",
+        f64::NAN,
+    );
+    row(&mut t, "  shared encoder, of one per node", format!("{:.2}", rgb_shared.steps_per_s / rgb_own.steps_per_s), "-", f64::NAN);
     let rt = m3.round_trip;
     row(&mut t, "3m_vlm round trip p50 / p99 (us)", format!("{} / {}", rt[0], rt[1]), "p50 <= 100", 100.0 / rt[0].max(1) as f64);
     row(&mut t, "  its legs: publish / to agents / back (p50, us)", legs(&m3.parts), "-", f64::NAN);

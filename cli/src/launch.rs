@@ -138,7 +138,8 @@ fn spawn_host_nodes(a: &LaunchArgs, plan: &Plan, host: &str, common: &[String], 
     let file = std::fs::canonicalize(&a.file).with_context(|| format!("launch: {}", a.file.display()))?;
     let agents = plan.agents.iter().filter(|ag| ag.host == host && !ag.is_dds()).map(|ag| (format!("agent {}", ag.id), &ag.id));
     let commanders = plan.commanders.iter().filter(|c| c.host == host).map(|c| (format!("commander {}", c.id), &c.id));
-    for (what, id) in agents.chain(commanders) {
+    let encoders = plan.encoders.iter().filter(|e| e.host == host).map(|e| (format!("encoder {}", e.id), &e.id));
+    for (what, id) in encoders.chain(agents).chain(commanders) {
         let mut args = vec!["agent-node".to_owned(), "--launch".into(), file.display().to_string(), "--node-id".into(), id.to_string()];
         args.extend(common.iter().cloned());
         procs.0.push(spawn(&what, &args)?);

@@ -250,8 +250,11 @@ pub fn access_control(plan: &Plan, topics: &Topics, domain: u32) -> serde_json::
                 .filter(|c| matches!(c.policy, avacraft_policy::CommanderPolicy::Ava(_)))
                 .map(|c| key(&topics.model_calls(&c.id))),
         );
-        // A commander sends its team's orders (the simulator checks them).
+        // A commander sends its team's orders (the simulator checks them); an encoder node
+        // its team's encodings.
         sends.extend(commanders.iter().map(|c| key(&topics.orders(c.team))));
+        let encoders: Vec<_> = plan.encoders.iter().filter(|e| &e.host == host).collect();
+        sends.extend(encoders.iter().map(|e| key(&topics.features(e.team))));
         let mut reads: Vec<String> = teams.iter().map(|t| key(&topics.team_prefix(*t))).collect();
         reads.push(key(&topics.status()));
         if bridged.is_some_and(|b| b.topics.contains(&BridgeTopic::Roles)) {
@@ -270,6 +273,7 @@ pub fn access_control(plan: &Plan, topics: &Topics, domain: u32) -> serde_json::
         if !sends.is_empty() {
             let mut matching = vec![avacraft_nodes::ros::pattern_space(domain, &topics.any_actions())];
             matching.extend(commanders.iter().map(|c| key(&topics.orders(c.team))));
+            matching.extend(encoders.iter().map(|e| key(&topics.features(e.team))));
             rule(format!("{host}_matching"), &["declare_subscriber"], &["egress"], &matching);
         }
         rule(format!("{host}_subscribe"), &["declare_subscriber"], &["ingress"], &reads);
@@ -279,6 +283,7 @@ pub fn access_control(plan: &Plan, topics: &Topics, domain: u32) -> serde_json::
         let mut own: Vec<String> = Vec::new();
         let mut names_on_host: Vec<NodeName> = agents.iter().map(|a| NodeName::agent(&a.id)).collect();
         names_on_host.extend(commanders.iter().map(|c| NodeName::agent(&c.id)));
+        names_on_host.extend(encoders.iter().map(|e| NodeName::agent(&e.id)));
         names_on_host.push(NodeName::launch_on(host));
         if bridged.is_some() {
             names_on_host.push(NodeName::bridge());

@@ -24,8 +24,8 @@ pub use deploy::{CertError, access_control, write_certs};
 pub(crate) use error::Cx;
 pub use error::LaunchError;
 pub use plan::{
-    AgentPlan, BridgePlan, BridgeTopic, ClockMode, CommanderPlan, FramePlan, NodeRuns, Plan, RawAgent, RawBridge, RawFrames, RawLaunch,
-    RawSecurity, Security,
+    AgentPlan, BridgePlan, BridgeTopic, ClockMode, CommanderPlan, EncoderPlan, FramePlan, NodeRuns, Plan, RawAgent, RawBridge, RawFrames,
+    RawLaunch, RawSecurity, Security,
 };
 
 use avacraft_policy::{Resolve, Weights};
@@ -125,6 +125,30 @@ mod tests {
         assert_eq!(env.opponent.map(|o| o.to_string()), Some("focus".into()));
         let plain = parse("env.yaml", "scenario: 3m_vlm\nagents:\n  - {id: a, units: [1], policy: noop}\n", None).expect("plan");
         assert_eq!(plain.env_config().step_mul.get(), 8);
+    }
+
+    /// Per-unit nodes of one image network on a team share an encoder node, unless the file
+    /// says `share_encoder: false`; a network that reads no frames gets none.
+    #[test]
+    fn per_unit_image_networks_share_their_teams_encoder_node() {
+        let body = "scenario: 3m_vlm\nagents:\n  - {per_unit: true, team: 1, policy: baseline:mappo-rgb}\n";
+        let p = parse_with("rgb.yaml", body, None, Weights::Later).expect("plan");
+        assert_eq!(p.encoders.len(), 1);
+        assert_eq!((p.encoders[0].id.as_str(), p.encoders[0].team.get()), ("encoder_1", 1));
+        assert!(p.agents.iter().all(|a| a.encoded), "every Marine's node is served");
+        let own = parse_with("rgb.yaml", &format!("share_encoder: false\n{body}"), None, Weights::Later).expect("plan");
+        assert!(own.encoders.is_empty() && own.agents.iter().all(|a| !a.encoded));
+        let features = parse_with(
+            "f.yaml",
+            "scenario: 3m_vlm\nagents:\n  - {per_unit: true, team: 1, policy: baseline:mappo}\n",
+            None,
+            Weights::Later,
+        )
+        .expect("plan");
+        assert!(features.encoders.is_empty(), "a features network reads no frames");
+        let taken = "scenario: 3m_vlm\nagents:\n  - {id: encoder_1, units: [1], policy: baseline:mappo-rgb}\n  - {id: b, units: [2, 3], policy: baseline:mappo-rgb}\n";
+        let p = parse_with("rgb.yaml", taken, None, Weights::Later).expect("plan");
+        assert_eq!(p.encoders.iter().map(|e| e.id.as_str()).collect::<Vec<_>>(), ["encoder_1_1"], "an id the file uses is not taken");
     }
 
     #[test]

@@ -37,6 +37,10 @@ pub struct RawLaunch {
     /// (sparse reward, no passive side).
     #[serde(default)]
     pub env: Option<serde_json::Value>,
+    /// Agent nodes of one image network on a team share an encoder node, which runs the
+    /// network's image encoder once a step for all of them (`false`: each runs it).
+    #[serde(default = "yes")]
+    pub share_encoder: bool,
     #[serde(default = "router")]
     pub router: String,
     #[serde(default)]
@@ -73,6 +77,9 @@ pub struct RawFrames {
     pub every: u32,
 }
 
+fn yes() -> bool {
+    true
+}
 fn screen_size() -> [u32; 2] {
     [160, 120]
 }
@@ -149,6 +156,19 @@ pub struct AgentPlan {
     pub host: String,
     /// Under a commander: the group's role (its `units` are those it starts with).
     pub role: Option<GroupRole>,
+    /// An image network served by its team's encoder node ([`EncoderPlan`]): it acts on the
+    /// encoder's output instead of running the encoder on the frames itself.
+    pub encoded: bool,
+}
+
+/// A team's encoder node: it runs an image network's encoder on the team's frames once a
+/// step, for the team's agent nodes of that network, which would otherwise run it each.
+#[derive(Clone, Debug)]
+pub struct EncoderPlan {
+    pub id: AgentId,
+    pub team: TeamNo,
+    pub policy: PolicySpec,
+    pub host: String,
 }
 
 impl AgentPlan {
@@ -187,6 +207,9 @@ pub struct Plan {
     pub agents: Vec<AgentPlan>,
     /// Teams under a commander (at most one per team).
     pub commanders: Vec<CommanderPlan>,
+    /// Encoder nodes (`share_encoder`, on by default): one per team, network and host that
+    /// has two or more agent nodes of an image network.
+    pub encoders: Vec<EncoderPlan>,
     /// Never empty; the first runs the router, the simulator and the recorder.
     pub hosts: Vec<String>,
     pub security: Option<Security>,

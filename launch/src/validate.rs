@@ -5,7 +5,7 @@
 use crate::command;
 use crate::deploy;
 use crate::error::{Cx, LaunchError};
-use crate::plan::{AgentPlan, ClockMode, CommanderPlan, FramePlan, Plan, RawAgent, RawFrames, RawLaunch};
+use crate::plan::{AgentPlan, ClockMode, CommanderPlan, EncoderPlan, FramePlan, Plan, RawAgent, RawFrames, RawLaunch};
 use avacraft_engine::agent::FrameNeed;
 use avacraft_engine::{Env, EnvConfig, EnvOptions, Mode, OpponentKind, RewardMode, Scenario, Team, UnitId};
 use avacraft_nodes::{AgentId, FrameKind, TeamNo, UnitTag};
@@ -66,7 +66,8 @@ pub(crate) fn validate(file: &str, raw: RawLaunch, how: Resolve<'_>) -> Result<P
         nodes.entry(i, a, raw.ava.as_ref())?;
     }
     let frames = agent_frames(&cx, frames, &nodes.needs)?;
-    let Nodes { agents, fields, mut commanders, .. } = nodes;
+    let Nodes { mut agents, fields, mut commanders, .. } = nodes;
+    let encoders = if raw.share_encoder { encoders(&mut agents, &commanders, &scenario) } else { Vec::new() };
     command::link(&cx, &mut commanders, &agents, &fields)?;
     let bridge = match &raw.bridge {
         None => {
@@ -106,6 +107,7 @@ pub(crate) fn validate(file: &str, raw: RawLaunch, how: Resolve<'_>) -> Result<P
         frames,
         agents,
         commanders,
+        encoders,
         hosts,
         security,
         bridge,
@@ -399,9 +401,37 @@ impl<'a> Nodes<'a> {
             return Err(cx.err(field, format!("{id:?}"), "two agent nodes share this id"));
         }
         let team = team.map(TeamNo::from).ok_or_else(|| cx.err(&units_field, "[]", "an agent node needs at least one unit"))?;
-        self.agents.push(AgentPlan { id: agent, team, units, policy: policy.clone(), host: host.to_owned(), role: None });
+        self.agents.push(AgentPlan { id: agent, team, units, policy: policy.clone(), host: host.to_owned(), role: None, encoded: false });
         Ok(())
     }
+}
+
+/// One encoder node per team, image network and host with two or more agent nodes of that
+/// network (their encoder would run that many times a step); those nodes are `encoded`.
+fn encoders(agents: &mut [AgentPlan], commanders: &[CommanderPlan], scenario: &Scenario) -> Vec<EncoderPlan> {
+    let mut groups: BTreeMap<(TeamNo, String, String), Vec<usize>> = BTreeMap::new();
+    for (i, a) in agents.iter().enumerate() {
+        if a.role.is_none() && !a.is_dds() && a.policy.frames_need(scenario).ok().flatten().is_some() {
+            groups.entry((a.team, a.policy.to_string(), a.host.clone())).or_default().push(i);
+        }
+    }
+    let ids: Vec<AgentId> = agents.iter().map(|a| a.id.clone()).chain(commanders.iter().map(|c| c.id.clone())).collect();
+    let taken = |id: &AgentId, made: &[EncoderPlan]| ids.contains(id) || made.iter().any(|e| e.id == *id);
+    let mut out: Vec<EncoderPlan> = Vec::new();
+    for ((team, _, host), members) in groups.into_iter().filter(|(_, m)| m.len() >= 2) {
+        let Some(id) = (0..)
+            .map(|k| if k == 0 { format!("encoder_{}", team.get()) } else { format!("encoder_{}_{k}", team.get()) })
+            .filter_map(|s| AgentId::parse(&s).ok())
+            .find(|id| !taken(id, &out))
+        else {
+            continue;
+        };
+        for &i in &members {
+            agents[i].encoded = true;
+        }
+        out.push(EncoderPlan { id, team, policy: agents[members[0]].policy.clone(), host });
+    }
+    out
 }
 
 /// An entry's `team`: 1 or 2.

@@ -207,30 +207,61 @@ impl Policy {
         self.q_values_seeing(features, agents, last, hidden, None)
     }
 
+    /// What the image encoder makes of one team observation's frames: what every row of the
+    /// team reads ([`Policy::q_values_seeing`]), so a deployment computes it once per team and
+    /// step (the team's encoder node) and hands it to each agent node.
+    pub fn encode_team(&self, frames: &StepFrames) -> Result<Vec<f32>, Error> {
+        let Some(e) = &self.nets.encoder else {
+            return Err(Error::Observation { message: "this network has no image encoder".into() });
+        };
+        if frames.n != 1 {
+            return Err(Error::Observation { message: "an image encoder needs one team observation's frames".into() });
+        }
+        if self.cfg.obs.text() {
+            return Err(Error::Observation { message: self.seeing_refusal(Team::One).unwrap_or_default() });
+        }
+        let theta = e.kernel().map(|_| self.nets.encoder_weights()).transpose()?;
+        e.encode_pixels(theta.as_deref(), frames)
+    }
+
+    /// A name for the image encoder's weights: two checkpoints' team encodings are
+    /// interchangeable when their names are equal ([`Agent::encoder`]).
+    pub fn encoder_name(&self) -> Option<String> {
+        let e = self.nets.encoder.as_ref()?;
+        let theta = self.nets.encoder_weights().ok()?;
+        // FNV-1a over the weights' bits and the output width.
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        for b in theta.iter().flat_map(|w| w.to_bits().to_le_bytes()).chain((e.out as u64).to_le_bytes()) {
+            h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+        }
+        Some(format!("{}-{h:016x}", self.cfg.obs.name()))
+    }
+
     /// [`Policy::q_values`] in any mode but `vision-text`: an image mode's rows also read
-    /// the encoder's features of `frames` (one team observation, which every row sees, as
-    /// each agent of a team sees its team's frames in training).
+    /// the encoder's features of its team's frames (one team observation, which every row
+    /// sees, as each agent of a team sees its team's frames in training), given as the frames
+    /// or as their encoding ([`Policy::encode_team`]).
     pub fn q_values_seeing(
         &self,
         features: &[f32],
         agents: &[usize],
         last: &[Option<u32>],
         hidden: &[f32],
-        frames: Option<&StepFrames>,
+        seen: Option<&Seen>,
     ) -> Result<(Vec<f32>, Vec<f32>), Error> {
         let (id, la) = (self.cfg.obs_agent_id, self.cfg.obs_last_action);
         let rows = agents.len();
         let mut x = act_inputs(features, agents, last, &self.shape, id, la);
         if let Some(e) = &self.nets.encoder {
-            let Some(f) = frames.filter(|f| f.n == 1) else {
-                return Err(Error::Observation { message: "an image encoder needs one team observation's frames".into() });
+            let encoded = match seen {
+                Some(Seen::Frames(f)) => self.encode_team(f)?,
+                Some(Seen::Encoded(v)) if v.len() == e.out => v.clone(),
+                Some(Seen::Encoded(v)) => {
+                    return Err(Error::Observation { message: format!("an encoding {} wide; the encoder gives {}", v.len(), e.out) });
+                }
+                None => return Err(Error::Observation { message: "an image encoder needs one team observation's frames".into() }),
             };
-            if self.cfg.obs.text() {
-                return Err(Error::Observation { message: self.seeing_refusal(Team::One).unwrap_or_default() });
-            }
-            let theta = e.kernel().map(|_| self.nets.encoder_weights()).transpose()?;
-            let feats = e.encode_pixels(theta.as_deref(), f)?;
-            let feats = Tensor::from_vec(feats, (1, e.out), &Device::Cpu)?.broadcast_as((rows, e.out))?.contiguous()?;
+            let feats = Tensor::from_vec(encoded, (1, e.out), &Device::Cpu)?.broadcast_as((rows, e.out))?.contiguous()?;
             let base = Tensor::from_vec(x, (rows, self.shape.input(id, la)), &Device::Cpu)?;
             x = e.fuse_rows(feats, &base)?.flatten_all()?.to_vec1()?;
         }
@@ -244,6 +275,14 @@ impl Policy {
         // A feed-forward network's "hidden state" is its core layer's output, as candle's step gives it.
         Ok((f.out, f.hidden))
     }
+}
+
+/// What an image network is shown of its team's frames for one step.
+#[derive(Clone, Debug)]
+pub enum Seen {
+    Frames(StepFrames),
+    /// Their encoding ([`Policy::encode_team`]), computed elsewhere.
+    Encoded(Vec<f32>),
 }
 
 fn need_of(cfg: &Config) -> Option<FrameNeed> {
@@ -266,8 +305,9 @@ pub struct MarlAgent {
     /// Playing team 2: the network, trained as team 1, sees and acts in the mirror image
     /// (east and west swapped, x reflected), as on a left-right mirrored map team 1 would.
     mirror: bool,
-    /// An image mode's frames of this step ([`Agent::see`]), used by the next `act` only.
-    seen: Option<StepFrames>,
+    /// An image mode's frames of this step, or their encoding ([`Agent::see`],
+    /// [`Agent::see_encoded`]), used by the next `act` only.
+    seen: Option<Seen>,
 }
 
 impl MarlAgent {
@@ -285,6 +325,16 @@ impl MarlAgent {
     }
     pub fn policy(&self) -> &Arc<Policy> {
         &self.policy
+    }
+}
+
+impl MarlAgent {
+    /// `frames` as the network reads them, if they are of its sizes.
+    fn step_frames(&self, frames: &TeamFrames) -> Option<StepFrames> {
+        self.policy.frames_need().filter(|&need| frames.fits(need)).map(|need| {
+            let size = |(w, h): (u32, u32)| (w as usize, h as usize);
+            StepFrames::from_pixels(1, (size(need.screen), size(need.minimap)), frames.screen.clone(), frames.minimap.clone())
+        })
     }
 }
 
@@ -312,10 +362,16 @@ impl Agent for MarlAgent {
         self.policy.frames_need().filter(|_| !self.policy.cfg.obs.text())
     }
     fn see(&mut self, frames: &TeamFrames) {
-        self.seen = self.policy.frames_need().filter(|&need| frames.fits(need)).map(|need| {
-            let size = |(w, h): (u32, u32)| (w as usize, h as usize);
-            StepFrames::from_pixels(1, (size(need.screen), size(need.minimap)), frames.screen.clone(), frames.minimap.clone())
-        });
+        self.seen = self.step_frames(frames).map(Seen::Frames);
+    }
+    fn encoder(&self) -> Option<String> {
+        self.frames().and(self.policy.encoder_name())
+    }
+    fn encode(&self, frames: &TeamFrames) -> Option<Vec<f32>> {
+        self.policy.encode_team(&self.step_frames(frames)?).ok()
+    }
+    fn see_encoded(&mut self, features: &[f32]) {
+        self.seen = Some(Seen::Encoded(features.to_vec()));
     }
     fn act(&mut self, g: &GroupObs) -> Vec<Action> {
         let seen = self.seen.take();

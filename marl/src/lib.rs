@@ -82,7 +82,7 @@ mod value_norm;
 
 pub use acting::select_actions;
 pub use buffer::{Batch, Episode, ReplayBuffer, Shape};
-pub use checkpoint::{MarlAgent, Policy};
+pub use checkpoint::{MarlAgent, Policy, Seen};
 pub use config::{ALGOS, Config, MixerKind, Opponent};
 pub use encoders::{Backbone, ObsEncoder, ObsKind};
 pub use error::{Error, Refused};

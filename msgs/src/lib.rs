@@ -23,7 +23,7 @@ pub use parser::{
 pub use registry::{Registry, RegistryError};
 pub use types::{
     AbilityState, ActionBatch, AreaEffect, EpisodeStatus, Header, Image, ModelCall, RoleAssignment, RoleGroup, SessionInfo, StdString,
-    TeamObservation, Time, UnitAction, UnitObservation, UnitState,
+    TeamFeatures, TeamObservation, Time, UnitAction, UnitObservation, UnitState,
 };
 
 /// `builtin_interfaces` types, under their ROS names.

@@ -140,4 +140,5 @@ ros_messages! {
     RoleAssignment => "avacraft_msgs", "RoleAssignment", "../msg/RoleAssignment.msg";
     SessionInfo => "avacraft_msgs", "SessionInfo", "../msg/SessionInfo.msg";
     ModelCall => "avacraft_msgs", "ModelCall", "../msg/ModelCall.msg";
+    TeamFeatures => "avacraft_msgs", "TeamFeatures", "../msg/TeamFeatures.msg";
 }

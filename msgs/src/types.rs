@@ -370,6 +370,16 @@ impl SessionInfo {
     ];
 }
 
+/// `avacraft_msgs/msg/TeamFeatures`: an image-mode network's encoding of its team's frames of
+/// one step.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct TeamFeatures {
+    pub header: Header,
+    pub team: u8,
+    pub encoder: String,
+    pub data: Vec<f32>,
+}
+
 /// `avacraft_msgs/msg/ModelCall`: one model call of an AVA agent node.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct ModelCall {

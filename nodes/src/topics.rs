@@ -276,6 +276,11 @@ impl Topics {
     pub fn team_roles(&self, team: TeamNo) -> Topic {
         self.make(&format!("team_{}/roles", team.0))
     }
+    /// An image network's encoding of the team's frames (`TeamFeatures`, every step), from the
+    /// team's encoder node for its per-unit agent nodes.
+    pub fn features(&self, team: TeamNo) -> Topic {
+        self.make(&format!("team_{}/features", team.0))
+    }
     /// A team commander's orders (`RoleAssignment` for the next step), which the simulator
     /// checks before ownership follows them.
     pub fn orders(&self, team: TeamNo) -> Topic {
@@ -322,6 +327,7 @@ impl Topics {
             [t, "obs"] => TopicKind::TeamObs(team(t)?),
             [t, "roles"] => TopicKind::TeamRoles(team(t)?),
             [t, "orders"] => TopicKind::Orders(team(t)?),
+            [t, "features"] => TopicKind::Features(team(t)?),
             [t, u, "obs"] => {
                 let unit = u.strip_prefix("unit_").and_then(|n| n.parse::<u32>().ok()).and_then(|n| UnitTag::new(n).ok())?;
                 TopicKind::UnitObs(team(t)?, unit)
@@ -345,6 +351,7 @@ pub enum TopicKind {
     Roles,
     TeamRoles(TeamNo),
     Orders(TeamNo),
+    Features(TeamNo),
     Session,
     Live(LiveTopic),
 }
@@ -469,6 +476,7 @@ mod tests {
             (t.roles(), TopicKind::Roles),
             (t.team_roles(two), TopicKind::TeamRoles(two)),
             (t.orders(one), TopicKind::Orders(one)),
+            (t.features(two), TopicKind::Features(two)),
             (t.session(), TopicKind::Session),
         ];
         built.extend(FrameKind::ALL.map(|k| (t.frames(one, k), TopicKind::Frames(one, k))));

@@ -450,7 +450,12 @@ fn deployed_and_in_process_marl_policies_have_equal_trajectory_hashes() {
 fn deployed_image_policies_read_the_simulators_frames_and_play_as_in_process() {
     let _frames = shm_frames();
     let body = "scenario: 3m_vlm\nepisodes: 2\nseed: 11\nagents:\n  - {per_unit: true, team: 1, policy: baseline:mappo-rgb}\n";
-    let file = write_launch("rgb.yaml", &format!("router: tcp/127.0.0.1:{}\n{body}", free_port()));
+    // The three Marines' nodes share the team's encoder node (the default), or each runs
+    // the encoder on the frames itself: the same games either way, and in process.
+    let mcap = tmp("rgb_shared.mcap");
+    let _ = std::fs::remove_file(&mcap);
+    let file = write_launch("rgb.yaml", &format!("router: tcp/127.0.0.1:{}\nrecord: {}\n{body}", free_port(), mcap.display()));
+    let own = write_launch("rgb_own.yaml", &format!("router: tcp/127.0.0.1:{}\nshare_encoder: false\n{body}", free_port()));
     let deployed_raw = launch_json(&file);
     for e in deployed_raw.as_array().expect("episodes") {
         assert_eq!((e["missing_actions"][0].as_u64(), e["malformed_messages"].as_u64()), (Some(0), Some(0)), "{e}");
@@ -458,6 +463,20 @@ fn deployed_image_policies_read_the_simulators_frames_and_play_as_in_process() {
     let deployed = outcomes(&deployed_raw);
     assert_eq!(deployed.len(), 2);
     assert_eq!(deployed, outcomes(&in_process(&file)), "deployed vs in-process (seed, result, trajectory hash)");
+    assert_eq!(deployed, outcomes(&launch_json(&own)), "a shared encoder vs one in each node");
+    // The encoder node published one encoding a step, on the team's features topic.
+    let bytes = std::fs::read(&mcap).expect("the recording");
+    let mut encodings = Vec::new();
+    for m in mcap::MessageStream::new(&bytes).expect("an MCAP file") {
+        let m = m.expect("a message");
+        if m.channel.topic == "/avacraft/team_1/features" {
+            assert_eq!(m.channel.schema.as_ref().map(|s| s.name.as_str()), Some("avacraft_msgs/msg/TeamFeatures"));
+            encodings.push(avacraft_msgs::decode::<avacraft_msgs::TeamFeatures>(&m.data).expect("a TeamFeatures"));
+        }
+    }
+    let steps: u64 = deployed_raw.as_array().expect("episodes").iter().map(|e| e["steps"].as_u64().expect("steps") + 1).sum();
+    assert!(!encodings.is_empty() && encodings.len() as u64 <= steps, "{} encodings for {steps} observed steps", encodings.len());
+    assert!(encodings.iter().all(|f| f.team == 1 && !f.data.is_empty() && f.encoder.starts_with("rgb-")), "{:?}", encodings.first());
     let out = Command::new(exe())
         .args(["episode", "--json", "--scenario", "3m_vlm", "--agent", "baseline:mappo-rgb", "--seed", "11", "--episodes", "2"])
         .output()

@@ -44,6 +44,21 @@ pub trait Agent: Send {
     }
     /// This step's frames, before `act`, for an agent whose [`Agent::frames`] asks for some.
     fn see(&mut self, _frames: &TeamFrames) {}
+    /// The name of the team-level encoding of its frames this agent can act on instead of the
+    /// frames (an image network's encoder: the same for every unit of the team, so a
+    /// deployment computes it once per step, in the team's encoder node, and hands it to the
+    /// team's agent nodes of the same network). `None`: the agent reads frames only.
+    fn encoder(&self) -> Option<String> {
+        None
+    }
+    /// The team-level encoding of `frames` ([`Agent::encoder`]); what [`Agent::see`] followed
+    /// by `act` would compute itself.
+    fn encode(&self, _frames: &TeamFrames) -> Option<Vec<f32>> {
+        None
+    }
+    /// This step's encoding, before `act`, instead of [`Agent::see`]: `act` then plays as it
+    /// would have on the frames.
+    fn see_encoded(&mut self, _features: &[f32]) {}
 }
 
 /// The frames an agent reads: its team's screen and minimap at these (width, height).

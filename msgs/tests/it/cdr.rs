@@ -128,6 +128,8 @@ proptest! {
     fn session_info_round_trips(v in session_info(0)) { round_trip(&v)?; }
     #[test]
     fn model_call_round_trips(v in model_call(0)) { round_trip(&v)?; }
+    #[test]
+    fn team_features_round_trip(v in team_features(0)) { round_trip(&v)?; }
 
     /// Any bytes, with or without a valid header, give a value or an error, never a panic.
     #[test]
@@ -142,6 +144,7 @@ proptest! {
         let _ = decode::<RoleAssignment>(&bytes);
         let _ = decode::<SessionInfo>(&bytes);
         let _ = decode::<avacraft_msgs::ModelCall>(&bytes);
+        let _ = decode::<avacraft_msgs::TeamFeatures>(&bytes);
         let _ = decode::<Image>(&bytes);
         let _ = decode::<AreaEffect>(&bytes);
         let _ = decode::<UnitState>(&bytes);

@@ -8,7 +8,7 @@
 
 use avacraft_msgs::{
     AbilityState, ActionBatch, AreaEffect, EpisodeStatus, Header, Image, ModelCall, RoleAssignment, RoleGroup, SessionInfo, StdString,
-    TeamObservation, Time, UnitAction, UnitObservation, UnitState,
+    TeamFeatures, TeamObservation, Time, UnitAction, UnitObservation, UnitState,
 };
 use proptest::collection::vec;
 use proptest::prelude::*;
@@ -282,6 +282,15 @@ pub fn role_assignment(min_len: usize) -> impl Strategy<Value = RoleAssignment> 
             plan,
             priority_tags,
         })
+}
+
+pub fn team_features(min_len: usize) -> impl Strategy<Value = TeamFeatures> {
+    (header(), any::<u8>(), text(), vec(-1e6..1e6f32, min_len..32)).prop_map(|(header, team, encoder, data)| TeamFeatures {
+        header,
+        team,
+        encoder,
+        data,
+    })
 }
 
 pub fn model_call(min_len: usize) -> impl Strategy<Value = ModelCall> {

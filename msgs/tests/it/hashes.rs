@@ -134,6 +134,7 @@ fn every_type_has_consistent_names_and_distinct_hashes() {
     check_names::<RoleAssignment>("avacraft_msgs", "RoleAssignment");
     check_names::<SessionInfo>("avacraft_msgs", "SessionInfo");
     check_names::<avacraft_msgs::ModelCall>("avacraft_msgs", "ModelCall");
+    check_names::<avacraft_msgs::TeamFeatures>("avacraft_msgs", "TeamFeatures");
     check_names::<Image>("sensor_msgs", "Image");
     let mut hashes: Vec<String> = avacraft_msgs::EMBEDDED_TYPES
         .iter()

@@ -285,6 +285,7 @@ fn every_struct_matches_its_msg() {
     check(role_assignment(1));
     check(session_info(1));
     check(model_call(1));
+    check(team_features(1));
 }
 
 /// The checker itself must catch a swapped field, or the test above proves nothing.
