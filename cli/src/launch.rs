@@ -182,7 +182,7 @@ pub fn launch(a: &LaunchArgs, out: &mut dyn Write) -> Result<()> {
     let _router = Node::open(&router_args, &router_args.namespace, &avacraft_nodes::NodeName::launch())
         .with_context(|| format!("launch: hosting the router on {}", plan.router))?;
     let mut procs = Procs(Vec::new());
-    if let Some(path) = &plan.record {
+    if let Some(path) = plan.record.as_ref().filter(|_| plan.record_by == avacraft_launch::RecordBy::Recorder) {
         let mut rec = vec!["record".to_owned(), "--out".to_owned(), path.display().to_string()];
         rec.extend(common.clone());
         procs.0.push(spawn("record", &rec)?);
@@ -198,6 +198,9 @@ pub fn launch(a: &LaunchArgs, out: &mut dyn Write) -> Result<()> {
         "--startup-timeout".into(),
         a.startup_timeout.to_string(),
     ];
+    if let Some(path) = plan.record.as_ref().filter(|_| plan.record_by == avacraft_launch::RecordBy::Simulator) {
+        sim_args.extend(["--record".to_owned(), path.display().to_string()]);
+    }
     sim_args.extend(common);
     sim_args.extend(a.live.args());
     let mut sim = Procs(vec![spawn("sim", &sim_args)?]);

@@ -74,12 +74,120 @@ fn split_key<'a>(types: &'a [TypeInfo], key: &str) -> Option<(Topic, &'a TypeInf
     Some((k.topic, ty))
 }
 
+/// An MCAP file being written with the ros2 profile: channels opened as their topics first
+/// appear, from the messages' data keys. The recorder node and a simulator recording its
+/// own traffic ([`record_tapped`]) write through it, so their files are alike.
+pub struct McapSink {
+    w: mcap::Writer<BufWriter<std::fs::File>>,
+    path: PathBuf,
+    types: Vec<TypeInfo>,
+    topics: Topics,
+    channels: BTreeMap<String, u16>,
+    schemas: BTreeMap<String, u16>,
+    seq: u32,
+    stats: RecordStats,
+}
+
+impl McapSink {
+    pub fn create(path: &std::path::Path, namespace: &str) -> Result<McapSink> {
+        let file = std::fs::File::create(path).with_context(|| format!("recorder: creating {}", path.display()))?;
+        let opts = mcap::WriteOptions::new().profile("ros2").compression(Some(mcap::Compression::Zstd)).chunk_size(Some(64 * 1024));
+        let w = opts.create(BufWriter::new(file)).with_context(|| format!("recorder: starting {}", path.display()))?;
+        Ok(McapSink {
+            w,
+            path: path.to_path_buf(),
+            types: known_types()?,
+            topics: Topics::new(namespace)?,
+            channels: BTreeMap::new(),
+            schemas: BTreeMap::new(),
+            seq: 0,
+            stats: RecordStats::default(),
+        })
+    }
+
+    /// Writes one message by its data key (skipped, and counted, when the key names no
+    /// topic and type of ours or the file has all the channels it may open).
+    pub fn write(&mut self, key: &str, payload: &[u8], sent_ns: Option<i64>) -> Result<()> {
+        let Some((topic, ty)) = split_key(&self.types, key) else {
+            self.stats.skipped += 1;
+            return Ok(());
+        };
+        let channel = match self.channels.get(key) {
+            Some(&c) => c,
+            None if self.channels.len() >= MAX_CHANNELS => {
+                self.stats.skipped += 1;
+                return Ok(());
+            }
+            None => {
+                let schema = match self.schemas.get(&ty.type_name) {
+                    Some(&s) => s,
+                    None => {
+                        let s = self.w.add_schema(&ty.type_name, "ros2msg", ty.schema.as_bytes())?;
+                        self.schemas.insert(ty.type_name.clone(), s);
+                        s
+                    }
+                };
+                // As the simulator offers them: frames best effort, everything else reliable.
+                let qos = match self.topics.classify(&topic) {
+                    Some(TopicKind::Frames(..)) => Qos::BestEffort { depth: 1 },
+                    _ => Qos::Reliable { depth: 10 },
+                };
+                let meta =
+                    BTreeMap::from([("offered_qos_profiles".to_owned(), qos.mcap_yaml()), ("topic_type_hash".to_owned(), ty.hash.clone())]);
+                let c = self.w.add_channel(schema, topic.as_str(), "cdr", &meta)?;
+                self.channels.insert(key.to_owned(), c);
+                c
+            }
+        };
+        let t = now_ns().max(0) as u64;
+        // rosbag2's publish time is the sender's timestamp, from rmw_zenoh's attachment.
+        let sent = sent_ns.map_or(t, |s| s.max(0) as u64);
+        self.seq = self.seq.wrapping_add(1);
+        self.w.write_to_known_channel(
+            &mcap::records::MessageHeader { channel_id: channel, sequence: self.seq, log_time: t, publish_time: sent },
+            payload,
+        )?;
+        self.stats.messages += 1;
+        Ok(())
+    }
+
+    pub fn messages(&self) -> u64 {
+        self.stats.messages
+    }
+
+    /// Writes the summary and closes the file.
+    pub fn finish(mut self) -> Result<RecordStats> {
+        self.stats.channels = self.channels.len();
+        self.w.finish().with_context(|| format!("recorder: finishing {}", self.path.display()))?;
+        tracing::info!(messages = self.stats.messages, channels = self.stats.channels, "recording closed");
+        Ok(self.stats)
+    }
+}
+
+/// Writes what a node's tap hands over ([`avacraft_nodes::Node::with_tap`]) until every
+/// sender is gone, then closes the file: the simulator recording its own traffic.
+pub fn record_tapped(
+    path: &std::path::Path,
+    namespace: &str,
+    taps: std::sync::mpsc::Receiver<avacraft_nodes::Tapped>,
+) -> Result<RecordStats> {
+    let mut sink = McapSink::create(path, namespace)?;
+    // Drained in batches: a writer blocked on the channel would be woken by every send, a
+    // wake-up per message on the simulator's cores.
+    loop {
+        match taps.try_recv() {
+            Ok(t) => sink.write(&t.key, &t.payload, Some(t.sent_ns))?,
+            Err(std::sync::mpsc::TryRecvError::Empty) => std::thread::sleep(BATCH),
+            Err(std::sync::mpsc::TryRecvError::Disconnected) => break,
+        }
+    }
+    sink.finish()
+}
+
 pub fn run(a: &RecordArgs, shutdown: &Shutdown) -> Result<RecordStats> {
     let node =
         Node::open(&a.node, &a.node.namespace, &avacraft_nodes::NodeName::recorder()).context("recorder: opening the Zenoh session")?;
-    let file = std::fs::File::create(&a.out).with_context(|| format!("recorder: creating {}", a.out.display()))?;
-    let opts = mcap::WriteOptions::new().profile("ros2").compression(Some(mcap::Compression::Zstd)).chunk_size(Some(64 * 1024));
-    let mut w = opts.create(BufWriter::new(file)).with_context(|| format!("recorder: starting {}", a.out.display()))?;
+    let mut sink = McapSink::create(&a.out, &a.node.namespace)?;
     let pattern = format!("{}/{}/**", a.node.domain, a.node.namespace.trim_matches('/'));
     let sub = node
         .session()
@@ -87,22 +195,17 @@ pub fn run(a: &RecordArgs, shutdown: &Shutdown) -> Result<RecordStats> {
         .with(zenoh::handlers::FifoChannel::new(16384))
         .wait()
         .map_err(|e| anyhow::anyhow!("recorder: subscribing to {pattern}: {e}"))?;
-    let types = known_types()?;
     // Announced after subscribing, so a simulator waiting for it misses nothing.
     let topics = Topics::new(&a.node.namespace)?;
     let status = topics.status();
     let _token =
         node.announce_subscription(&status, "avacraft_msgs::msg::dds_::EpisodeStatus_", avacraft_msgs::EpisodeStatus::type_hash())?;
-    let mut channels: BTreeMap<String, u16> = BTreeMap::new();
-    let mut schemas: BTreeMap<String, u16> = BTreeMap::new();
-    let mut stats = RecordStats::default();
-    let mut seq = 0u32;
     tracing::info!(out = %a.out.display(), %pattern, "recording");
     // After a stop request, keep taking what is already on its way until 200 ms pass quietly.
     let mut quiet_since: Option<std::time::Instant> = None;
     // Whether the last pass took a message: then the next empty queue means a batch ended.
     let mut drained = false;
-    while a.max_messages == 0 || stats.messages < a.max_messages {
+    while a.max_messages == 0 || sink.messages() < a.max_messages {
         if shutdown.requested() && quiet_since.is_none() {
             quiet_since = Some(std::time::Instant::now());
         }
@@ -130,56 +233,10 @@ pub fn run(a: &RecordArgs, shutdown: &Shutdown) -> Result<RecordStats> {
         if quiet_since.is_some() {
             quiet_since = Some(std::time::Instant::now());
         }
-        let key = sample.key_expr().as_str().to_owned();
-        let Some((topic, ty)) = split_key(&types, &key) else {
-            stats.skipped += 1;
-            continue;
-        };
-        let channel = match channels.get(&key) {
-            Some(&c) => c,
-            None if channels.len() >= MAX_CHANNELS => {
-                stats.skipped += 1;
-                continue;
-            }
-            None => {
-                let schema = match schemas.get(&ty.type_name) {
-                    Some(&s) => s,
-                    None => {
-                        let s = w.add_schema(&ty.type_name, "ros2msg", ty.schema.as_bytes())?;
-                        schemas.insert(ty.type_name.clone(), s);
-                        s
-                    }
-                };
-                // As the simulator offers them: frames best effort, everything else reliable.
-                let qos = match topics.classify(&topic) {
-                    Some(TopicKind::Frames(..)) => Qos::BestEffort { depth: 1 },
-                    _ => Qos::Reliable { depth: 10 },
-                };
-                let meta =
-                    BTreeMap::from([("offered_qos_profiles".to_owned(), qos.mcap_yaml()), ("topic_type_hash".to_owned(), ty.hash.clone())]);
-                let c = w.add_channel(schema, topic.as_str(), "cdr", &meta)?;
-                channels.insert(key.clone(), c);
-                c
-            }
-        };
-        let t = now_ns().max(0) as u64;
-        // rosbag2's publish time is the sender's timestamp, from rmw_zenoh's attachment.
-        let sent = sample
-            .attachment()
-            .and_then(|b| avacraft_nodes::ros::parse_attachment(&b.to_bytes()))
-            .map_or(t, |att| att.source_ns.max(0) as u64);
-        seq = seq.wrapping_add(1);
-        let payload = sample.payload().to_bytes();
-        w.write_to_known_channel(
-            &mcap::records::MessageHeader { channel_id: channel, sequence: seq, log_time: t, publish_time: sent },
-            &payload,
-        )?;
-        stats.messages += 1;
+        let sent = sample.attachment().and_then(|b| avacraft_nodes::ros::parse_attachment(&b.to_bytes())).map(|att| att.source_ns);
+        sink.write(sample.key_expr().as_str(), &sample.payload().to_bytes(), sent)?;
     }
-    stats.channels = channels.len();
-    w.finish().with_context(|| format!("recorder: finishing {}", a.out.display()))?;
-    tracing::info!(messages = stats.messages, channels = stats.channels, "recording closed");
-    Ok(stats)
+    sink.finish()
 }
 
 /// `avacraft record`: records until stopped (SIGINT, SIGTERM).

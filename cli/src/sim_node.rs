@@ -26,6 +26,10 @@ pub struct SimNodeArgs {
     /// Seconds to wait for every agent node to appear.
     #[arg(long, default_value_t = 30.0)]
     pub startup_timeout: f64,
+    /// Write the session's MCAP here from the simulator's own traffic (what it sends and
+    /// receives, the agent nodes' model calls among it) instead of a recorder node's.
+    #[arg(long)]
+    pub record: Option<PathBuf>,
     #[command(flatten)]
     pub live: crate::live::LiveArgs,
 }
@@ -41,7 +45,7 @@ fn sim_config(plan: &Plan, startup: Duration) -> SimConfig {
         seeds: plan.seeds.clone(),
         owners: plan.owners(),
         startup_timeout: startup,
-        wait_for_recorder: plan.record.is_some(),
+        wait_for_recorder: plan.record.is_some() && plan.record_by == avacraft_launch::RecordBy::Recorder,
         dds_agents: plan.agents.iter().filter(|a| a.is_dds()).map(|a| a.id.clone()).collect(),
         reads: plan.agents.iter().map(|a| (a.id.clone(), a.policy.reads())).collect(),
         launch_file: plan.file.clone(),
@@ -71,8 +75,20 @@ pub fn sim_node(a: &SimNodeArgs, out: &mut dyn Write) -> Result<()> {
     }
     let topics = Topics::new(&a.node.namespace)?;
     let node = Node::open(&a.node, &a.node.namespace, &NodeName::sim()).context("sim-node: opening the Zenoh session")?;
+    // Recording its own traffic: every message its publishers and subscribers handle goes to
+    // a writer thread, which closes the file once the node is gone.
+    let (node, recorder) = match &a.record {
+        None => (node, None),
+        Some(path) => {
+            let (tx, rx) = std::sync::mpsc::channel();
+            let (path, ns) = (path.clone(), a.node.namespace.clone());
+            let writer = std::thread::spawn(move || crate::record::record_tapped(&path, &ns, rx));
+            (node.with_tap(tx), Some(writer))
+        }
+    };
     let mut live = a.live.start("launch")?;
-    let forward = live.as_ref().map(|l| forward_calls(&node, &topics, l.logger())).transpose()?;
+    let forward =
+        (live.is_some() || recorder.is_some()).then(|| forward_calls(&node, &topics, live.as_ref().map(|l| l.logger()))).transpose()?;
     let mut watch = |env: &avacraft_engine::Env| {
         if let Some(l) = live.as_mut() {
             l.step(env);
@@ -82,6 +98,11 @@ pub fn sim_node(a: &SimNodeArgs, out: &mut dyn Write) -> Result<()> {
     let summaries = avacraft_sim_node::run_watched(&node, &topics, &cfg, &shutdown, &mut watch)?;
     if let Some(f) = forward {
         f.stop();
+    }
+    drop(node);
+    if let Some(r) = recorder {
+        let stats = r.join().map_err(|_| anyhow::anyhow!("sim-node: the recording thread panicked"))??;
+        tracing::info!(messages = stats.messages, channels = stats.channels, "the simulator's recording is closed");
     }
     if let Some(l) = &live {
         eprintln!("{}", l.summary());
@@ -95,7 +116,8 @@ pub fn sim_node(a: &SimNodeArgs, out: &mut dyn Write) -> Result<()> {
 }
 
 /// The thread that puts AVA agent nodes' model calls (their `model_calls` topics) into the
-/// live view's log, as `episode` does with in-process calls.
+/// live view's log, as `episode` does with in-process calls (and, taking them, into the
+/// simulator's own recording).
 struct Forward {
     stop: Arc<AtomicBool>,
     thread: std::thread::JoinHandle<()>,
@@ -110,7 +132,7 @@ impl Forward {
     }
 }
 
-fn forward_calls(node: &Node, topics: &Topics, log: avacraft_live::LiveLog) -> Result<Forward> {
+fn forward_calls(node: &Node, topics: &Topics, log: Option<avacraft_live::LiveLog>) -> Result<Forward> {
     let sub = node
         .subscriber::<ModelCall>(topics.any_model_calls(), Qos::Reliable { depth: 64 })
         .context("sim-node: subscribing to the agent nodes' model calls")?;
@@ -124,7 +146,7 @@ fn forward_calls(node: &Node, topics: &Topics, log: avacraft_live::LiveLog) -> R
                     let Some(TopicKind::ModelCalls(agent)) = topics.classify(&r.topic) else { continue };
                     match r.msg {
                         Ok(c) => {
-                            if let Some((level, name, text)) = crate::live::model_call_line(agent.as_str(), &c) {
+                            if let (Some(log), Some((level, name, text))) = (&log, crate::live::model_call_line(agent.as_str(), &c)) {
                                 log.line(level, &name, &text);
                             }
                         }

@@ -325,9 +325,12 @@ opponent = "focus-fire"
         let ids: Vec<&str> = v2.jobs.iter().map(|j| j.id.as_str()).collect();
         assert_eq!(ids, ["protoss_5_vs_5/mappo-s1", "protoss_5_vs_5/mappo-s2", "protoss_5_vs_5/qmix-s1"]);
         assert!(v2.jobs.iter().all(|j| j.overrides.contains(&"passive_agents=false".to_owned())));
-        // The PvP league: both learners on the six PvP scenarios, self-play with scripts.
+        // The PvP league: both learners on the six PvP scenarios, self-play with scripts, and
+        // MAPPO's with units that acquire targets by themselves.
         let league = load_train_plan(&dir.join("pvp_league.toml")).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(league.jobs.len(), 12);
+        assert_eq!(league.jobs.len(), 18);
+        let active = league.jobs.iter().filter(|j| j.overrides.contains(&"passive_agents=false".to_owned())).count();
+        assert_eq!(active, 6, "mappo-league-active on each PvP scenario");
         assert!(
             league.jobs.iter().all(|j| j.overrides.iter().any(|o| o.starts_with("self_play_scripts=[\"focus-fire\""))),
             "{:?}",

@@ -25,7 +25,7 @@ pub(crate) use error::Cx;
 pub use error::LaunchError;
 pub use plan::{
     AgentPlan, BridgePlan, BridgeTopic, ClockMode, CommanderPlan, EncoderPlan, FramePlan, NodeRuns, Plan, RawAgent, RawBridge, RawFrames,
-    RawLaunch, RawSecurity, Security,
+    RawLaunch, RawSecurity, RecordBy, Security,
 };
 
 use avacraft_policy::{Resolve, Weights};

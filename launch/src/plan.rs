@@ -45,6 +45,11 @@ pub struct RawLaunch {
     pub router: String,
     #[serde(default)]
     pub record: Option<PathBuf>,
+    /// Who writes `record`: `recorder`, a node of its own subscribed to every topic (what
+    /// survives a killed simulator), or `simulator`, the simulator writing what it sends and
+    /// receives (no second subscriber to each of its messages, so nearly free).
+    #[serde(default)]
+    pub record_by: RecordBy,
     #[serde(default)]
     pub frames: Option<RawFrames>,
     pub agents: Vec<RawAgent>,
@@ -59,6 +64,15 @@ pub struct RawLaunch {
     /// Settings of the agents whose policy is `ava` (an agent entry may have its own).
     #[serde(default)]
     pub ava: Option<avacraft_ava::AvaSpec>,
+}
+
+/// Who writes a launch's recording.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RecordBy {
+    #[default]
+    Recorder,
+    Simulator,
 }
 
 /// Rendered frames the simulator publishes (`sensor_msgs/Image` per agent team).
@@ -203,6 +217,7 @@ pub struct Plan {
     pub env: EnvConfig,
     pub router: String,
     pub record: Option<PathBuf>,
+    pub record_by: RecordBy,
     pub frames: Option<FramePlan>,
     pub agents: Vec<AgentPlan>,
     /// Teams under a commander (at most one per team).

@@ -104,6 +104,7 @@ pub(crate) fn validate(file: &str, raw: RawLaunch, how: Resolve<'_>) -> Result<P
         env,
         router: raw.router,
         record: raw.record,
+        record_by: raw.record_by,
         frames,
         agents,
         commanders,

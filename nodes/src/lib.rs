@@ -14,7 +14,7 @@ mod topics;
 pub mod wire;
 
 pub use cli::{NodeArgs, SessionMode, Shutdown, init_logging};
-pub use node::{Node, NodeError, Publisher, Received, Subscriber, now_ns, zenoh_config};
+pub use node::{Node, NodeError, Publisher, Received, Subscriber, Tap, Tapped, now_ns, zenoh_config};
 pub use ros::Qos;
 pub use topics::{
     AgentId, DEFAULT_NAMESPACE, FrameKind, LiveTopic, NameError, NodeName, TeamNo, Topic, TopicKind, TopicPattern, Topics, UnitTag,

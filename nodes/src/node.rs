@@ -53,11 +53,24 @@ fn cfg_err(key: &str, value: &str, e: impl Into<zenoh::Error>) -> NodeError {
     NodeError::Config { key: key.to_owned(), value: value.to_owned(), source: e.into() }
 }
 
+/// A copy of a message a node sent or received, for a recorder in the same process: its data
+/// key (topic, type and hash, as on the wire), its bytes and when its sender sent it.
+#[derive(Debug)]
+pub struct Tapped {
+    pub key: String,
+    pub payload: Vec<u8>,
+    pub sent_ns: i64,
+}
+
+/// Where a node's taps go ([`Node::with_tap`]).
+pub type Tap = std::sync::mpsc::Sender<Tapped>;
+
 /// An open node.
 pub struct Node {
     session: zenoh::Session,
     id: NodeIdentity,
     next_entity: AtomicU32,
+    tap: Option<Tap>,
     _token: LivelinessToken,
 }
 
@@ -134,7 +147,15 @@ impl Node {
             key,
             source: e,
         })?;
-        Ok(Node { session, id, next_entity: AtomicU32::new(1), _token: token })
+        Ok(Node { session, id, next_entity: AtomicU32::new(1), tap: None, _token: token })
+    }
+
+    /// Every message this node's publishers and subscribers made from now on send or take is
+    /// also handed to `tap` (the simulator recording its own traffic, instead of a second
+    /// subscriber to each of its messages in another process).
+    pub fn with_tap(mut self, tap: Tap) -> Node {
+        self.tap = Some(tap);
+        self
     }
 
     pub fn identity(&self) -> &NodeIdentity {
@@ -206,7 +227,16 @@ impl Node {
             key: key.clone(),
             source: e,
         })?;
-        Ok(Publisher { inner, key, topic: topic.clone(), seq: 0, gid: ros::gid(&token_key), _token: token, _t: PhantomData })
+        Ok(Publisher {
+            inner,
+            key,
+            topic: topic.clone(),
+            seq: 0,
+            gid: ros::gid(&token_key),
+            tap: self.tap.clone(),
+            _token: token,
+            _t: PhantomData,
+        })
     }
 
     /// A subscription to `T` on a topic or a pattern of topics (every agent's actions);
@@ -233,7 +263,14 @@ impl Node {
                     .map_err(err)?,
             ),
         };
-        Ok(Subscriber { inner, key, foreign_keys: std::sync::atomic::AtomicU64::new(0), _token: token, _t: PhantomData })
+        Ok(Subscriber {
+            inner,
+            key,
+            foreign_keys: std::sync::atomic::AtomicU64::new(0),
+            tap: self.tap.clone(),
+            _token: token,
+            _t: PhantomData,
+        })
     }
 }
 
@@ -244,6 +281,7 @@ pub struct Publisher<T> {
     topic: Topic,
     seq: i64,
     gid: [u8; 16],
+    tap: Option<Tap>,
     _token: LivelinessToken,
     _t: PhantomData<fn(T)>,
 }
@@ -267,7 +305,12 @@ impl<T: RosMessage> Publisher<T> {
     /// Publishes already encoded bytes (the recorder and tests of malformed input use it).
     pub fn put_bytes(&mut self, payload: Vec<u8>) -> Result<(), NodeError> {
         self.seq += 1;
-        let att = ros::attachment(self.seq, now_ns(), &self.gid);
+        let sent_ns = now_ns();
+        let att = ros::attachment(self.seq, sent_ns, &self.gid);
+        if let Some(tap) = &self.tap {
+            // A recorder that has stopped takes nothing more; the message still goes out.
+            let _ = tap.send(Tapped { key: self.key.clone(), payload: payload.clone(), sent_ns });
+        }
         self.inner.put(payload).attachment(att.to_vec()).wait().map_err(|e| NodeError::Put { key: self.key.clone(), source: e })
     }
     pub fn key(&self) -> &str {
@@ -315,6 +358,7 @@ pub struct Subscriber<T> {
     /// Samples whose key was not a valid data key (a segment a pattern matched that is not a
     /// ROS name): dropped, never handed out.
     foreign_keys: std::sync::atomic::AtomicU64,
+    tap: Option<Tap>,
     _token: LivelinessToken,
     _t: PhantomData<fn() -> T>,
 }
@@ -333,6 +377,10 @@ impl<T: RosMessage> Subscriber<T> {
         };
         let payload = s.payload().to_bytes().into_owned();
         let attachment = s.attachment().and_then(|a| ros::parse_attachment(&a.to_bytes()));
+        if let Some(tap) = &self.tap {
+            let sent_ns = attachment.as_ref().map_or_else(now_ns, |a| a.source_ns);
+            let _ = tap.send(Tapped { key: s.key_expr().as_str().to_owned(), payload: payload.clone(), sent_ns });
+        }
         Some(Received { topic: key.topic, msg: decode(&payload), payload, attachment })
     }
     /// Waits up to `timeout` for a sample; `Ok(None)` on timeout.

@@ -122,6 +122,50 @@ fn launch_3m_with_three_agent_processes_finishes_episodes_and_records_them() {
     crate::replay::check_recording(&mcap);
 }
 
+/// `record_by: simulator`: the simulator writes what it sends and receives, with no recorder
+/// node; the file has the same topics (the agents' actions among them), every message reads
+/// with rosbags, and the session replays from it alone.
+#[test]
+fn the_simulator_records_its_own_traffic() {
+    let mcap = tmp("3m_by_sim.mcap");
+    let _ = std::fs::remove_file(&mcap);
+    let file = write_launch(
+        "3m_by_sim.yaml",
+        &format!(
+            "scenario: 3m_vlm\nepisodes: 2\nseed: 5\nrouter: tcp/127.0.0.1:{}\nrecord: {}\nrecord_by: simulator\nagents:\n  - per_unit: true\n    team: 1\n    policy: focus-fire\n",
+            free_port(),
+            mcap.display()
+        ),
+    );
+    let v = launch_json(&file);
+    let steps: u64 = v.as_array().expect("episodes").iter().map(|e| e["steps"].as_u64().expect("steps")).sum();
+    let bytes = std::fs::read(&mcap).expect("mcap written");
+    let summary = mcap::Summary::read(&bytes).expect("summary").expect("summary present");
+    let topics: Vec<&str> = summary.channels.values().map(|c| c.topic.as_str()).collect();
+    for t in
+        ["/avacraft/team_1/unit_1/obs", "/avacraft/status", "/avacraft/agents/unit_2/actions", "/avacraft/applied", "/avacraft/session"]
+    {
+        assert!(topics.contains(&t), "{t} missing from {topics:?}");
+    }
+    let actions = mcap::MessageStream::new(&bytes)
+        .expect("stream")
+        .filter_map(Result::ok)
+        .filter(|m| m.channel.topic.starts_with("/avacraft/agents/") && m.channel.topic.ends_with("/actions"))
+        .count() as u64;
+    // Every step's batches, as the simulator received them (a unit's node stops once it is dead).
+    assert!(actions >= steps && actions <= 3 * (steps + 2), "{actions} action batches for {steps} steps");
+    let py = "import sys\nfrom pathlib import Path\nfrom rosbags.highlevel import AnyReader\nfrom rosbags.typesys import Stores, get_typestore\n\
+              n = 0\nwith AnyReader([Path(sys.argv[1])], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as r:\n\
+              \x20   for c, _, raw in r.messages(connections=r.connections):\n\
+              \x20       r.deserialize(raw, c.msgtype); n += 1\n\
+              print(n)\n";
+    let out = Command::new("python3").args(["-c", py]).arg(&mcap).output().expect("python3");
+    assert!(out.status.success(), "rosbags: {}", String::from_utf8_lossy(&out.stderr));
+    let n: u64 = String::from_utf8_lossy(&out.stdout).trim().parse().expect("a count");
+    assert_eq!(Some(n), summary.stats.map(|s| s.message_count), "every message decoded");
+    crate::replay::check_recording(&mcap);
+}
+
 fn start(args: &[&str]) -> Child {
     Child(Command::new(exe()).args(args).stdout(Stdio::null()).stderr(Stdio::null()).spawn().expect("spawn a node"))
 }
