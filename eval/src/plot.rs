@@ -156,7 +156,12 @@ fn heatmap(meta: &Meta, cells: &[CellStats], scenario: &str, path: &Path) -> Res
     let rows: Vec<&str> = meta.agents.iter().map(|(n, _, _)| n.as_str()).filter(|a| cells.iter().any(|c| c.key.agent == *a)).collect();
     let cols: Vec<&str> = meta.agents.iter().map(|(n, _, _)| n.as_str()).filter(|a| cells.iter().any(|c| c.key.against == *a)).collect();
     let (kr, kc) = (rows.len().max(1), cols.len().max(1));
-    let mut canvas = Png::new(((260 + kc * 110).min(2000) as u32, (200 + kr * 60).min(2000) as u32));
+    // Room for the longest names at 14 px (about 8 px a character): a row label must not run
+    // off the left edge, nor column labels into each other.
+    let chars = |names: &[&str]| names.iter().map(|n| n.chars().count()).max().unwrap_or(0);
+    let label_w = (chars(&rows) * 8 + 40).max(120);
+    let col_w = (chars(&cols) * 8 + 16).max(110);
+    let mut canvas = Png::new(((140 + label_w + kc * col_w).min(2400) as u32, (200 + kr * 60).min(2000) as u32));
     {
         let root = canvas.area();
         root.fill(&WHITE).map_err(err)?;
@@ -164,7 +169,7 @@ fn heatmap(meta: &Meta, cells: &[CellStats], scenario: &str, path: &Path) -> Res
             .caption(format!("Head to head on {scenario}: team 1's win rate"), ("sans-serif", 20))
             .margin(12)
             .x_label_area_size(90)
-            .y_label_area_size(120)
+            .y_label_area_size(label_w as u32)
             // Segmented axes: a label names the cell it sits under, not the edge between two
             // (a segmented a..b has a segment for each of a to b, both included).
             .build_cartesian_2d((0..kc - 1).into_segmented(), (0..kr - 1).into_segmented())
