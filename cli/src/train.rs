@@ -231,7 +231,12 @@ fn ship_plan(
             job.id.clone(),
             dest.display().to_string(),
             format!("{:.0}", r.bytes as f64 / 1024.0),
-            if r.half { "f16" } else { "f32" }.into(),
+            match (r.half, r.last_half) {
+                (true, _) => "f16",
+                (false, true) => "f32 (last/ f16)",
+                (false, false) => "f32",
+            }
+            .into(),
             trained,
         ]);
         shipped += 1;

@@ -99,8 +99,9 @@ fn win_rates(meta: &Meta, cells: &[CellStats], path: &Path) -> Result<(), EvalEr
     let (cw, ch) = (66i32, 26i32);
     let left = 16 + 9 * scenarios.iter().map(|(s, p)| s.chars().count() as i32 + if *p { 6 } else { 0 }).max().unwrap_or(8);
     let top = 44 + 8 * agents.iter().map(|a| a.chars().count() as i32).max().unwrap_or(6);
-    let (w, h) = (left + cw * agents.len() as i32 + 16, top + ch * scenarios.len() as i32 + 40);
-    let mut canvas = Png::new((w.max(400) as u32, h as u32));
+    let (w, h) = (left + cw * agents.len() as i32 + 16, top + ch * scenarios.len() as i32 + 60);
+    // The note below takes two lines of about 60 characters: a narrow table still shows it whole.
+    let mut canvas = Png::new((w.max(480) as u32, h as u32));
     {
         let root = canvas.area();
         root.fill(&WHITE).map_err(err)?;
@@ -141,8 +142,9 @@ fn win_rates(meta: &Meta, cells: &[CellStats], path: &Path) -> Result<(), EvalEr
             }
         }
         let note = ("sans-serif", 14).into_font().color(&RGBColor(60, 60, 60));
-        let text = "PvE: against the scenario's own opponent. PvP: mean over the scripted agents on team 2. Grey: not played.";
-        root.draw(&Text::new(text, (12, top + ch * scenarios.len() as i32 + 12), note)).map_err(err)?;
+        let y = top + ch * scenarios.len() as i32 + 12;
+        root.draw(&Text::new("PvE: against the scenario's own opponent.", (12, y), note.clone())).map_err(err)?;
+        root.draw(&Text::new("PvP: mean over the scripted agents on team 2. Grey: not played.", (12, y + 18), note)).map_err(err)?;
         root.present().map_err(err)?;
     }
     canvas.save(path).map_err(err)

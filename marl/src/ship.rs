@@ -12,8 +12,11 @@ use std::path::Path;
 pub struct Shipped {
     /// Bytes of everything but the curves (the checkpoint, its config and the log).
     pub bytes: u64,
-    /// Whether the weights were stored as 16-bit floats to fit the budget.
+    /// Whether the weights that play (`best/`'s, else the last's) were stored as 16-bit floats
+    /// to fit the budget.
     pub half: bool,
+    /// Whether the last checkpoint's, in `last/`, were.
+    pub last_half: bool,
 }
 
 /// The shipped curves' width and height: the training run's 900x900 PNG took about 450 kB, so
@@ -41,9 +44,10 @@ fn small_png(from: &Path, to: &Path, size: u32) -> Result<(), Error> {
 /// Copies what plays a trained run in `run` (its `best/` checkpoint if it has one, else the
 /// last) into `to`: the agent network's weights (the mixer and critic are not needed to act),
 /// `config.json`, and the run's `log.csv` and `curves.png`; with a `best/` checkpoint, the last
-/// one's weights and config too, in `last/`. Past `max_bytes` (curves aside)
-/// the weights are stored as 16-bit floats; still past it, nothing is left half-written and
-/// the error names the run.
+/// one's weights and config too, in `last/`. Past `max_bytes` (curves aside) the last
+/// checkpoint's weights are stored as 16-bit floats, then the best one's too (rounding can
+/// change a greedy policy's games, so the one that plays keeps full precision as long as
+/// it can); still past it, nothing is left half-written and the error names the run.
 pub fn ship(run: &Path, to: &Path, max_bytes: u64) -> Result<Shipped, Error> {
     let ckpt = if run.join("best").join("config.json").is_file() { run.join("best") } else { run.to_path_buf() };
     // Loads as a check: a checkpoint that does not load is not shipped.
@@ -76,22 +80,26 @@ pub fn ship(run: &Path, to: &Path, max_bytes: u64) -> Result<Shipped, Error> {
     }
     let last_weights = last.as_ref().map(|p| p.nets.agent_params.to_map());
     let size = |dir: &Path| size_without_curves(dir) + size_without_curves(&dir.join(crate::baselines::LAST_DIR));
-    let write = |half: bool| -> Result<(), Error> {
-        let conv =
-            |w: &std::collections::HashMap<String, Tensor>| -> Result<std::collections::HashMap<String, Tensor>, candle_core::Error> {
-                w.iter().map(|(k, t)| Ok((k.clone(), if half { t.to_dtype(candle_core::DType::F16)? } else { t.clone() }))).collect()
-            };
-        candle_core::safetensors::save(&conv(&weights)?, tmp.join("agent.safetensors"))?;
+    let write = |half: bool, last_half: bool| -> Result<(), Error> {
+        let conv = |w: &std::collections::HashMap<String, Tensor>,
+                    half: bool|
+         -> Result<std::collections::HashMap<String, Tensor>, candle_core::Error> {
+            w.iter().map(|(k, t)| Ok((k.clone(), if half { t.to_dtype(candle_core::DType::F16)? } else { t.clone() }))).collect()
+        };
+        candle_core::safetensors::save(&conv(&weights, half)?, tmp.join("agent.safetensors"))?;
         if let Some(w) = &last_weights {
-            candle_core::safetensors::save(&conv(w)?, last_dir.join("agent.safetensors"))?;
+            candle_core::safetensors::save(&conv(w, last_half)?, last_dir.join("agent.safetensors"))?;
         }
         Ok(())
     };
-    write(false)?;
-    let mut half = false;
-    if size(&tmp) > max_bytes {
-        write(true)?;
-        half = true;
+    let (mut half, mut last_half) = (false, false);
+    write(half, last_half)?;
+    for (h, lh) in [(false, true), (true, true)] {
+        if size(&tmp) <= max_bytes {
+            break;
+        }
+        (half, last_half) = (h, lh && last_weights.is_some());
+        write(half, last_half)?;
     }
     let bytes = size(&tmp);
     if bytes > max_bytes {
@@ -107,5 +115,5 @@ pub fn ship(run: &Path, to: &Path, max_bytes: u64) -> Result<Shipped, Error> {
     }
     let _ = std::fs::remove_dir_all(to);
     std::fs::rename(&tmp, to).map_err(io(to))?;
-    Ok(Shipped { bytes, half })
+    Ok(Shipped { bytes, half, last_half })
 }

@@ -364,8 +364,18 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
     // Shipped, it keeps the best checkpoint and the last one (`baseline:NAME@last`) apart.
     let root = dir.with_extension("baselines");
     let _ = std::fs::remove_dir_all(&root);
-    avacraft_marl::ship::ship(&dir, &root.join("3m_vlm/qmix"), 10_000_000)?;
+    let full = avacraft_marl::ship::ship(&dir, &root.join("3m_vlm/qmix"), 10_000_000)?;
+    assert!(!full.half && !full.last_half, "{full:?}");
     let best = avacraft_marl::baselines::dir(&root, "3m_vlm", "qmix")?;
+    // Short of room, the last checkpoint is halved first: the one that plays keeps its
+    // precision (rounding can change a greedy policy's games) as long as it can.
+    let agent_bytes = std::fs::metadata(best.join("agent.safetensors"))?.len();
+    let tight = avacraft_marl::ship::ship(&dir, &root.join("3m_vlm/tight"), full.bytes - agent_bytes / 4)?;
+    assert!(!tight.half && tight.last_half && tight.bytes <= full.bytes - agent_bytes / 4, "{tight:?}");
+    let half = avacraft_marl::ship::ship(&dir, &root.join("3m_vlm/half"), full.bytes - agent_bytes * 3 / 4)?;
+    assert!(half.half && half.last_half, "{half:?}");
+    assert!(avacraft_marl::ship::ship(&dir, &root.join("3m_vlm/none"), 100).is_err(), "nothing fits 100 bytes");
+    assert!(!root.join("3m_vlm/none").exists(), "nothing half-written is left");
     let last = avacraft_marl::baselines::dir(&root, "3m_vlm", "qmix@last")?;
     assert_eq!(std::fs::read(best.join("config.json"))?, std::fs::read(dir.join("best/config.json"))?);
     assert_eq!(std::fs::read(last.join("config.json"))?, std::fs::read(dir.join("config.json"))?);
