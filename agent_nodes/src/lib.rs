@@ -90,9 +90,8 @@ pub fn run(
     let mut out = node.publisher::<ActionBatch>(&topics.actions(&cfg.id), reliable)?;
     // An image-mode network also reads its team's frames of the step, or the team encoder
     // node's encoding of them.
-    let encoded = if cfg.encoded { features::FeatureFeed::open(node, topics, cfg.team, agent.encoder())? } else { None };
+    let mut encoded = if cfg.encoded { features::FeatureFeed::open(node, topics, cfg.team, agent.encoder())? } else { None };
     let mut feed = if encoded.is_some() { None } else { frames::FrameFeed::open(node, topics, cfg.team, agent.frames())? };
-    let mut encoded = encoded;
     let team = Team::from(cfg.team);
     let order: Vec<u32> = cfg.scenario.agent_order(team).iter().map(|id| id.tag()).collect();
     let tags: Vec<u32> = cfg.units.iter().map(|u| u.get()).collect();

@@ -229,12 +229,10 @@ impl Policy {
     pub fn encoder_name(&self) -> Option<String> {
         let e = self.nets.encoder.as_ref()?;
         let theta = self.nets.encoder_weights().ok()?;
-        // FNV-1a over the weights' bits and the output width.
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        for b in theta.iter().flat_map(|w| w.to_bits().to_le_bytes()).chain((e.out as u64).to_le_bytes()) {
-            h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
-        }
-        Some(format!("{}-{h:016x}", self.cfg.obs.name()))
+        let mut h = xxhash_rust::xxh3::Xxh3::new();
+        theta.iter().for_each(|w| h.update(&w.to_le_bytes()));
+        h.update(&(e.out as u64).to_le_bytes());
+        Some(format!("{}-{:016x}", self.cfg.obs.name(), h.digest()))
     }
 
     /// [`Policy::q_values`] in any mode but `vision-text`: an image mode's rows also read
@@ -254,14 +252,14 @@ impl Policy {
         let mut x = act_inputs(features, agents, last, &self.shape, id, la);
         if let Some(e) = &self.nets.encoder {
             let encoded = match seen {
-                Some(Seen::Frames(f)) => self.encode_team(f)?,
-                Some(Seen::Encoded(v)) if v.len() == e.out => v.clone(),
+                Some(Seen::Frames(f)) => std::borrow::Cow::Owned(self.encode_team(f)?),
+                Some(Seen::Encoded(v)) if v.len() == e.out => std::borrow::Cow::Borrowed(v.as_slice()),
                 Some(Seen::Encoded(v)) => {
                     return Err(Error::Observation { message: format!("an encoding {} wide; the encoder gives {}", v.len(), e.out) });
                 }
                 None => return Err(Error::Observation { message: "an image encoder needs one team observation's frames".into() }),
             };
-            let feats = Tensor::from_vec(encoded, (1, e.out), &Device::Cpu)?.broadcast_as((rows, e.out))?.contiguous()?;
+            let feats = Tensor::from_slice(&encoded, (1, e.out), &Device::Cpu)?.broadcast_as((rows, e.out))?.contiguous()?;
             let base = Tensor::from_vec(x, (rows, self.shape.input(id, la)), &Device::Cpu)?;
             x = e.fuse_rows(feats, &base)?.flatten_all()?.to_vec1()?;
         }
@@ -326,9 +324,6 @@ impl MarlAgent {
     pub fn policy(&self) -> &Arc<Policy> {
         &self.policy
     }
-}
-
-impl MarlAgent {
     /// `frames` as the network reads them, if they are of its sizes.
     fn step_frames(&self, frames: &TeamFrames) -> Option<StepFrames> {
         self.policy.frames_need().filter(|&need| frames.fits(need)).map(|need| {
