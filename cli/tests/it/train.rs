@@ -49,6 +49,22 @@ fn a_short_run_resumes_from_its_directory_alone() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Runs are kept in folders named after their scenarios (`runs/<plan>/<scenario>/<run>`): such
+/// a folder in the working directory does not hide the built-in scenario of that name.
+#[test]
+fn a_folder_named_like_a_scenario_does_not_hide_it() {
+    let dir = tmp("named-folder");
+    std::fs::create_dir_all(dir.join("3m_vlm")).expect("folder");
+    let out = Command::new(exe())
+        .args(["episode", "--scenario", "3m_vlm", "--agent", "focus-fire", "--episodes", "1", "--json"])
+        .current_dir(&dir)
+        .output()
+        .expect("avacraft runs");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("\"scenario\": \"3m_vlm\""));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// The flags set the config's fields after `--set` (they win over it), and a bad value is
 /// refused naming the flag and what it takes, before anything is written.
 #[test]

@@ -139,7 +139,10 @@ impl Scenario {
     /// Loads a scenario file, or a built-in scenario by name when no such file exists.
     pub fn load(name_or_path: &str) -> Result<Scenario, ScenarioError> {
         let p = Path::new(name_or_path);
-        if p.extension().is_some_and(|e| e == "toml") || p.exists() {
+        // A file by that name, not a folder: runs are kept in folders named after their
+        // scenarios (`runs/<plan>/<scenario>/...`), and a built-in name must still mean
+        // the built-in from inside such a tree.
+        if p.extension().is_some_and(|e| e == "toml") || p.is_file() {
             let text =
                 std::fs::read_to_string(p).map_err(|e| ScenarioError::Io { file: name_or_path.to_owned(), message: e.to_string() })?;
             return Scenario::from_toml(name_or_path, &text);
