@@ -29,6 +29,15 @@ fn launch(scenario: &str, episodes: u32, record: bool) -> Result<Launched> {
 fn launch_with(scenario: &str, episodes: u32, record: bool, extra: &str, policy: &str) -> Result<Launched> {
     let dir = std::env::temp_dir().join(format!("avacraft-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
+    // The launch file and its recording go when the run does, however it ends: a benchmark
+    // run leaves nothing in the temporary folder.
+    struct Gone(std::path::PathBuf);
+    impl Drop for Gone {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+    let _gone = Gone(dir.clone());
     let port = free_port()?;
     let rec = if record { format!("record: {}\n", dir.join("bench.mcap").display()) } else { String::new() };
     let file = dir.join(format!("{scenario}.yaml"));
