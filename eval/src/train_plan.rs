@@ -328,9 +328,14 @@ opponent = "focus-fire"
         // The PvP league: both learners on the six PvP scenarios, self-play with scripts, and
         // MAPPO's with units that acquire targets by themselves.
         let league = load_train_plan(&dir.join("pvp_league.toml")).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(league.jobs.len(), 18);
+        assert_eq!(league.jobs.len(), 18 + 3);
         let active = league.jobs.iter().filter(|j| j.overrides.contains(&"passive_agents=false".to_owned())).count();
-        assert_eq!(active, 6, "mappo-league-active on each PvP scenario");
+        assert_eq!(active, 6 + 3, "mappo-league-active on each PvP scenario, mappo-league-pfsp on three");
+        let pfsp: Vec<&TrainJob> = league.jobs.iter().filter(|j| j.run == "mappo-league-pfsp").collect();
+        assert_eq!(pfsp.len(), 3);
+        assert!(pfsp.iter().all(
+            |j| j.overrides.contains(&"self_play_script_draw=\"pfsp\"".to_owned()) && j.overrides.contains(&"t_max=2000000".to_owned())
+        ));
         assert!(
             league.jobs.iter().all(|j| j.overrides.iter().any(|o| o.starts_with("self_play_scripts=[\"focus-fire\""))),
             "{:?}",

@@ -83,7 +83,7 @@ mod value_norm;
 pub use acting::select_actions;
 pub use buffer::{Batch, Episode, ReplayBuffer, Shape};
 pub use checkpoint::{MarlAgent, Policy, Seen};
-pub use config::{ALGOS, Config, MixerKind, Opponent};
+pub use config::{ALGOS, Config, MixerKind, Opponent, ScriptDraw};
 pub use encoders::{Backbone, ObsEncoder, ObsKind};
 pub use error::{Error, Refused};
 pub use evaluation::{FramesActor, TestResult};

@@ -179,6 +179,10 @@ impl<'a> Monitor<'a> {
         let Some(pool) = &self.pool else { return Ok(()) };
         if resumed {
             pool.restore(updates)?;
+            // The draw's weights as the last test round left them (PFSP).
+            if let Some(last) = self.curve.last() {
+                pool.reweight(&self.fixed, &last.vs)?;
+            }
         }
         if pool.updates().is_empty() {
             pool.maybe_snapshot(nets, updates)?;
@@ -237,6 +241,7 @@ impl<'a> Monitor<'a> {
                 pool.prune_files(below)?;
             }
             self.prune_below = pool.updates().first().copied();
+            pool.reweight(&self.fixed, &vs)?;
         }
         let elapsed = self.elapsed();
         if let Some((f, path)) = self.csv.as_mut() {

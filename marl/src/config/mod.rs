@@ -118,6 +118,11 @@ pub struct Config {
     /// uniformly) instead of a snapshot; every episode before the first snapshot does.
     #[serde(default = "default_script_share", skip_serializing_if = "is_default_script_share")]
     pub self_play_script_share: f64,
+    /// How team 2 draws among `self_play_scripts`: `uniform`, or `pfsp` (prioritised
+    /// fictitious self-play: each script weighted by how often the learner's last greedy test
+    /// round lost to it, so the scripts it cannot beat come up most).
+    #[serde(default, skip_serializing_if = "ScriptDraw::is_uniform")]
+    pub self_play_script_draw: ScriptDraw,
     /// PvP: fixed opponents every test round also plays (greedy), logged as
     /// `test_win_rate_vs_<name>` and drawn in the curves; under self-play, empty means
     /// attack-move and focus-fire.
@@ -293,13 +298,18 @@ impl Config {
         // Self-play's league, off unless set.
         table.entry("self_play_scripts").or_insert(toml::Value::Array(Vec::new()));
         table.entry("self_play_script_share").or_insert(toml::Value::Float(default_script_share()));
+        table.entry("self_play_script_draw").or_insert(toml::Value::String("uniform".to_owned()));
         Self::apply(table, overrides)
     }
 
     /// This config with `overrides` applied as [`Config::from_toml`] applies them, checked
     /// (a resumed run's config with `--set`).
     pub fn overridden(&self, overrides: &[String]) -> Result<Config, Error> {
-        let table = toml::Table::try_from(self).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
+        let mut table = toml::Table::try_from(self).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
+        // Keys a config leaves out at their defaults, which `--set` may still name.
+        table.entry("self_play_scripts").or_insert(toml::Value::Array(Vec::new()));
+        table.entry("self_play_script_share").or_insert(toml::Value::Float(default_script_share()));
+        table.entry("self_play_script_draw").or_insert(toml::Value::String("uniform".to_owned()));
         Self::apply(table, overrides)
     }
 
@@ -669,6 +679,24 @@ fn default_self_play_pool() -> usize {
 
 fn default_script_share() -> f64 {
     0.5
+}
+
+/// How a self-play league draws its scripted opponents ([`Config::self_play_script_draw`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ScriptDraw {
+    /// Every script equally often.
+    #[default]
+    Uniform,
+    /// Weighted by `(1 - w)^2 + 0.05`, `w` the learner's win rate against the script in its
+    /// last greedy test round (scripts not tested yet weigh 1).
+    Pfsp,
+}
+
+impl ScriptDraw {
+    fn is_uniform(&self) -> bool {
+        *self == ScriptDraw::Uniform
+    }
 }
 
 fn is_default_script_share(v: &f64) -> bool {
