@@ -216,7 +216,9 @@ fn ship_plan(
     t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header(["run", "shipped to", "kB without curves", "weights", "trained"]);
     let (mut shipped, mut waiting) = (0, Vec::new());
     for job in jobs {
-        let done = job.dir.join(DONE_FILE).is_file();
+        // Finished: through the plan (its summary written), or resumed by hand to the plan's
+        // budget (`train --resume DIR --steps N`).
+        let done = job.dir.join(DONE_FILE).is_file() || reached_budget(&job.dir, job.steps);
         let started = job.dir.join("config.json").is_file();
         let ship = done || (unfinished.contains(&job.id) && started);
         if !ship {
@@ -254,6 +256,11 @@ fn ship_plan(
         bail!("{} holds {total} bytes, over the {SHIP_TOTAL_BYTES} allowed for shipped baselines", to.display());
     }
     Ok(())
+}
+
+/// Whether the run in `dir` saved its state at `steps` environment steps or later.
+fn reached_budget(dir: &std::path::Path, steps: u64) -> bool {
+    dir.join("resume").join("state.json").is_file() && avacraft_marl::resume::load(dir).is_ok_and(|(_, state)| state.t_env >= steps)
 }
 
 /// The environment steps of a run's last logged row.

@@ -87,6 +87,8 @@ pub struct TrainJob {
     pub seed: u64,
     /// The config overrides, budget (`t_max`), observation mode and opponent included.
     pub overrides: Vec<String>,
+    /// The run's budget of environment steps (its config's `t_max`).
+    pub steps: u64,
     pub dir: PathBuf,
 }
 
@@ -185,6 +187,7 @@ pub fn parse_train_plan(file: &str, text: &str, base: Option<&Path>) -> Result<T
                     algo: r.algo.clone(),
                     seed,
                     overrides: overrides.clone(),
+                    steps,
                 });
             }
         }
@@ -333,9 +336,10 @@ opponent = "focus-fire"
         assert_eq!(active, 6 + 3, "mappo-league-active on each PvP scenario, mappo-league-pfsp on three");
         let pfsp: Vec<&TrainJob> = league.jobs.iter().filter(|j| j.run == "mappo-league-pfsp").collect();
         assert_eq!(pfsp.len(), 3);
-        assert!(pfsp.iter().all(
-            |j| j.overrides.contains(&"self_play_script_draw=\"pfsp\"".to_owned()) && j.overrides.contains(&"t_max=2000000".to_owned())
-        ));
+        assert!(pfsp.iter().all(|j| j.overrides.contains(&"self_play_script_draw=\"pfsp\"".to_owned())));
+        let budget = |id: &str| pfsp.iter().find(|j| j.id == id).map(|j| (j.steps, j.overrides.contains(&format!("t_max={}", j.steps))));
+        assert_eq!(budget("7s_vs_11m1mv1st/mappo-league-pfsp-s1"), Some((3_000_000, true)));
+        assert_eq!(budget("8s_vs_8m3mr1mv1st_pvp/mappo-league-pfsp-s1"), Some((2_000_000, true)));
         assert!(
             league.jobs.iter().all(|j| j.overrides.iter().any(|o| o.starts_with("self_play_scripts=[\"focus-fire\""))),
             "{:?}",

@@ -90,6 +90,43 @@ fn flags_win_over_set_and_bad_ones_are_refused_by_name() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `train --plan P --ship DIR` ships a plan's run resumed by hand (`train --resume`) once it
+/// reaches the plan's budget, and not before.
+#[test]
+fn a_run_resumed_by_hand_ships_at_the_plans_budget() {
+    let dir = tmp("ship-by-hand");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("dir");
+    let small = "\"batch_size=4\", \"test_interval=200\", \"test_nepisode=2\", \"episode_limit=60\", \"envs=2\"";
+    let plan = dir.join("plan.toml");
+    std::fs::write(
+        &plan,
+        format!("name = \"p\"\nout = \"runs\"\nsteps = 400\nseeds = [1]\n[[runs]]\nname = \"vdn\"\nalgo = \"vdn\"\nscenarios = [\"3m_vlm\"]\nset = [{small}]\n"),
+    )
+    .expect("plan");
+    let run = dir.join("runs/3m_vlm/vdn-s1");
+    let r = run.to_str().expect("utf-8");
+    let set = ["--set", "batch_size=4", "--set", "test_interval=200", "--set", "test_nepisode=2", "--set", "episode_limit=60"];
+    let mut first = vec!["--algo", "vdn", "--scenario", "3m_vlm", "--steps", "200", "--envs", "2", "--out", r];
+    first.extend(set);
+    let out = train(&first);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let ship = || {
+        let out = train(&["--plan", plan.to_str().expect("utf-8"), "--ship", dir.join("shipped").to_str().expect("utf-8")]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let text = ship();
+    assert!(text.contains("not finished yet: 3m_vlm/vdn-s1"), "200 of 400 steps: {text}");
+    assert!(!dir.join("shipped/3m_vlm/vdn").exists());
+    let out = train(&["--resume", r, "--steps", "400"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = ship();
+    assert!(text.contains("to its budget") && text.contains("not finished yet: none"), "{text}");
+    assert!(dir.join("shipped/3m_vlm/vdn/config.json").is_file());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `avacraft smac-report`: a run's log beside the published numbers, one row per SMAC map, the
 /// gap computed, the table written into a document's marked section, the figure drawn; a
 /// published file naming a map SMAC lacks is refused, naming it.
