@@ -339,7 +339,8 @@ opponent = "focus-fire"
         assert!(pfsp.iter().all(|j| j.overrides.contains(&"self_play_script_draw=\"pfsp\"".to_owned())));
         let budget = |id: &str| pfsp.iter().find(|j| j.id == id).map(|j| (j.steps, j.overrides.contains(&format!("t_max={}", j.steps))));
         assert_eq!(budget("7s_vs_11m1mv1st/mappo-league-pfsp-s1"), Some((3_000_000, true)));
-        assert_eq!(budget("8s_vs_8m3mr1mv1st_pvp/mappo-league-pfsp-s1"), Some((2_000_000, true)));
+        assert_eq!(budget("8s_vs_8m3mr1mv1st_pvp/mappo-league-pfsp-s1"), Some((3_000_000, true)));
+        assert_eq!(budget("8m3mr1mv1st_mirror_pvp/mappo-league-pfsp-s1"), Some((2_000_000, true)));
         assert!(
             league.jobs.iter().all(|j| j.overrides.iter().any(|o| o.starts_with("self_play_scripts=[\"focus-fire\""))),
             "{:?}",
