@@ -14,9 +14,27 @@ pub fn free_port() -> u16 {
 }
 
 pub fn tmp(name: &str) -> PathBuf {
+    static SWEPT: OnceLock<()> = OnceLock::new();
+    SWEPT.get_or_init(sweep_old_folders);
     let d = std::env::temp_dir().join(format!("avacraft-it-{}", std::process::id()));
     std::fs::create_dir_all(&d).expect("temp dir");
     d.join(name)
+}
+
+/// The folder [`tmp`] makes lives as long as the test process (a static is never dropped), so
+/// each run removes those of earlier runs whose process is gone (Linux: no `/proc/<pid>`).
+fn sweep_old_folders() {
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(std::env::temp_dir()) else { return };
+    for e in entries.filter_map(Result::ok) {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let Some(pid) = name.strip_prefix("avacraft-it-").and_then(|p| p.parse::<u32>().ok()) else { continue };
+        if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
 }
 
 /// Held by tests whose simulators publish frames of team 1 in the default namespace: the
