@@ -194,7 +194,10 @@ impl Pool {
 }
 
 /// The index `u` (uniform in [0, 1)) falls on when each index takes its weight's share of
-/// the unit interval; the last index when the weights are empty or sum to nothing.
+/// the unit interval; the last index when the weights are empty or sum to nothing. One
+/// uniform number mapped over the cumulative weights, kept as written (not rand's
+/// `WeightedIndex`, which draws its number another way): the shipped PFSP runs' opponents
+/// are these draws, and a rerun of their config and seed must meet the same ones.
 fn weighted(weights: &[f64], u: f64) -> usize {
     let total: f64 = weights.iter().filter(|w| w.is_finite() && **w > 0.0).sum();
     let mut left = u * total;

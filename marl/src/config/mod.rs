@@ -8,10 +8,12 @@
 //! uses, and an override of a key the file lacks is refused like a typo.
 
 use crate::Error;
+mod league;
 mod obs;
 
 pub use crate::opponent::Opponent;
 use avacraft_engine::{DataSet, EnvConfig, EnvOptions, RewardMode, Scenario};
+pub use league::ScriptDraw;
 pub use obs::{Backbone, ObsKind, SwinSizes};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -105,10 +107,10 @@ pub struct Config {
     pub opponent: Opponent,
     /// Self-play (`opponent = "self"`): updates between snapshots of the learner joining
     /// team 2's pool.
-    #[serde(default = "default_self_play_every")]
+    #[serde(default = "league::default_self_play_every")]
     pub self_play_every: u64,
     /// Self-play: snapshots kept in the pool (team 2 draws one per episode).
-    #[serde(default = "default_self_play_pool")]
+    #[serde(default = "league::default_self_play_pool")]
     pub self_play_pool: usize,
     /// Self-play as a small league: scripted agents that join the snapshots in team 2's pool
     /// (e.g. `["focus-fire", "kite", "attack-move", "random"]`); empty: snapshots only.
@@ -116,7 +118,7 @@ pub struct Config {
     pub self_play_scripts: Vec<String>,
     /// The share of episodes in which team 2 plays one of `self_play_scripts` (drawn
     /// uniformly) instead of a snapshot; every episode before the first snapshot does.
-    #[serde(default = "default_script_share", skip_serializing_if = "is_default_script_share")]
+    #[serde(default = "league::default_script_share", skip_serializing_if = "league::is_default_script_share")]
     pub self_play_script_share: f64,
     /// How team 2 draws among `self_play_scripts`: `uniform`, or `pfsp` (prioritised
     /// fictitious self-play: each script weighted by how often the learner's last greedy test
@@ -295,10 +297,7 @@ impl Config {
         table.entry("conic_fov").or_insert(toml::Value::Boolean(false));
         table.entry("num_fov_actions").or_insert(toml::Value::Integer(12));
         table.entry("data").or_insert(toml::Value::String(MAP_DATA.to_owned()));
-        // Self-play's league, off unless set.
-        table.entry("self_play_scripts").or_insert(toml::Value::Array(Vec::new()));
-        table.entry("self_play_script_share").or_insert(toml::Value::Float(default_script_share()));
-        table.entry("self_play_script_draw").or_insert(toml::Value::String("uniform".to_owned()));
+        league::add_default_keys(&mut table);
         Self::apply(table, overrides)
     }
 
@@ -306,10 +305,8 @@ impl Config {
     /// (a resumed run's config with `--set`).
     pub fn overridden(&self, overrides: &[String]) -> Result<Config, Error> {
         let mut table = toml::Table::try_from(self).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
-        // Keys a config leaves out at their defaults, which `--set` may still name.
-        table.entry("self_play_scripts").or_insert(toml::Value::Array(Vec::new()));
-        table.entry("self_play_script_share").or_insert(toml::Value::Float(default_script_share()));
-        table.entry("self_play_script_draw").or_insert(toml::Value::String("uniform".to_owned()));
+        // A saved config leaves the league's keys out at their defaults; `--set` may name them.
+        league::add_default_keys(&mut table);
         Self::apply(table, overrides)
     }
 
@@ -667,40 +664,6 @@ fn parse_value(text: &str, old: &toml::Value) -> Result<toml::Value, String> {
         return Err(format!("expected a {}, got a {}", old.type_str(), v.type_str()));
     }
     Ok(v)
-}
-
-fn default_self_play_every() -> u64 {
-    20
-}
-
-fn default_self_play_pool() -> usize {
-    5
-}
-
-fn default_script_share() -> f64 {
-    0.5
-}
-
-/// How a self-play league draws its scripted opponents ([`Config::self_play_script_draw`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ScriptDraw {
-    /// Every script equally often.
-    #[default]
-    Uniform,
-    /// Weighted by `(1 - w)^2 + 0.05`, `w` the learner's win rate against the script in its
-    /// last greedy test round (scripts not tested yet weigh 1).
-    Pfsp,
-}
-
-impl ScriptDraw {
-    fn is_uniform(&self) -> bool {
-        *self == ScriptDraw::Uniform
-    }
-}
-
-fn is_default_script_share(v: &f64) -> bool {
-    *v == default_script_share()
 }
 
 #[cfg(test)]
