@@ -215,7 +215,17 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
         teams.push(side(Team::Two, &agent2, if a.agent2.is_some() { "--agent2" } else { "--agent (for team 2)" })?);
     }
     let controllers = Controllers::new(&scenario, teams);
+    // A network trained with the ability slots needs them in the game; every other agent
+    // plays the same with or without them.
+    let mut ability_actions = false;
+    for (name, flag) in std::iter::once((&a.agent, "--agent")).chain(pvp.then_some((&agent2, "--agent2"))) {
+        if name != AVA_POLICY {
+            let spec = PolicySpec::parse(name, None).and_then(|p| p.on(&scenario)).with_context(|| format!("{flag} {name}"))?;
+            ability_actions |= spec.ability_actions(&scenario).with_context(|| format!("{flag} {name}"))?;
+        }
+    }
     let cfg = EnvOptions {
+        ability_actions,
         full_vision: a.full_vision,
         cooldown_jitter: !a.no_jitter,
         passive_allies: a.passive_agents,

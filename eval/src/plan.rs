@@ -160,6 +160,9 @@ pub struct Cell {
     pub opponent: Option<OpponentKind>,
     /// PvP: team 2's agent.
     pub agent2: Option<usize>,
+    /// The game has the ability slots (`EnvOptions::ability_actions`) because a network of
+    /// the cell reads them; the other side plays with or without them alike.
+    pub ability_actions: bool,
 }
 
 /// One episode to play: a cell and a seed.

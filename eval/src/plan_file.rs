@@ -124,6 +124,17 @@ impl Cx<'_> {
         }
     }
 
+    /// Whether a cell of `policies` on `sc` needs the ability slots: one of its networks
+    /// reads them.
+    fn ability_actions(&self, field: String, sc: &Scenario, policies: &[&PolicySpec]) -> Result<bool, PlanError> {
+        for p in policies {
+            if p.ability_actions(sc).map_err(|e| self.policy_err(field.clone(), format!("{p} on {}", sc.name), e))? {
+                return Ok(true);
+            }
+        }
+        Ok(false)
+    }
+
     /// A built-in scenario by name, or a scenario file relative to the plan.
     fn scenario(&self, field: String, name: &str) -> Result<Arc<Scenario>, PlanError> {
         let arg = match self.base.map(|b| b.join(name)) {
@@ -269,6 +280,7 @@ impl Cx<'_> {
                     }
                 }
                 let played = self.played_on(format!("agents[{ai}].policy"), sc, &a.policy)?;
+                let ability_actions = self.ability_actions(format!("agents[{ai}].policy"), sc, &[&a.policy])?;
                 for o in opponents {
                     let against = format!("opponent:{}", o.map_or("default", |k| k.name()));
                     cells.push(Cell {
@@ -277,6 +289,7 @@ impl Cx<'_> {
                         agent: ai,
                         opponent: *o,
                         agent2: None,
+                        ability_actions,
                     });
                 }
             }
@@ -346,7 +359,9 @@ impl Cx<'_> {
                     }
                     // Team 1's agent decides the game (a network plays the one it learned).
                     let played = self.played_on(format!("headtohead[{h}].agents"), &sc, &agents[a].policy)?;
-                    cells.push(Cell { key, scenario: played, agent: a, opponent: None, agent2: Some(b) });
+                    let policies = [&agents[a].policy, &agents[b].policy];
+                    let ability_actions = self.ability_actions(format!("headtohead[{h}].agents"), &sc, &policies)?;
+                    cells.push(Cell { key, scenario: played, agent: a, opponent: None, agent2: Some(b), ability_actions });
                 }
             }
         }
@@ -415,5 +430,37 @@ mod tests {
             let e = parse("bad.toml", &format!("{head}[env]\n{table}\n"), None).expect_err(table).to_string();
             assert!(e.contains("bad.toml") && e.contains(want), "{table}: {e}");
         }
+    }
+
+    /// A cell whose network was trained with the ability slots plays a game that has them
+    /// (its network gives orders there); the other agents' cells are left as the plan says.
+    #[test]
+    fn a_network_with_ability_slots_plays_its_cells_with_them() {
+        let dir = std::env::temp_dir().join(format!("avacraft-eval-abilities-{}", std::process::id()));
+        let cfg = avacraft_marl::Config::for_algo(
+            "mappo",
+            &["t_max=100", "envs=2", "rollout_len=50", "test_interval=100", "test_nepisode=1", "episode_limit=10", "ability_actions=true"]
+                .map(String::from),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let scenario = Arc::new(Scenario::load("8s_vs_8m3mr1mv1st").unwrap_or_else(|e| panic!("{e}")));
+        let opts = avacraft_marl::RunOptions { scenario, seed: 1, threads: 1, out: Some(dir.clone()) };
+        avacraft_marl::train(&cfg, &opts, &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));
+        let text = format!(
+            "seeds = [1]\nscenarios = [\"8s_vs_8m3mr1mv1st\"]\n[[agents]]\nname = \"a\"\npolicy = \"marl:{}\"\n[[agents]]\nname = \"h\"\npolicy = \"hold\"\n",
+            dir.join("best").display()
+        );
+        let plan = parse("a.toml", &text, None).unwrap_or_else(|e| panic!("{e}"));
+        let slots: Vec<(&str, bool)> = plan.cells.iter().map(|c| (c.key.agent.as_str(), c.ability_actions)).collect();
+        assert_eq!(slots, [("a", true), ("h", false)]);
+        assert!(!plan.env.ability_actions);
+        let out = dir.join("eval");
+        let played = crate::run::play_job(&plan, crate::Job { cell: 0, seed: 1 }, &out);
+        assert!(played.error.is_none(), "{:?}", played.error);
+        let held = crate::run::play_job(&plan, crate::Job { cell: 1, seed: 1 }, &out);
+        // (Their trajectory hashes differ by the games' settings alone.)
+        let game = |r: &crate::results::EpisodeResult| format!("{:?} {} {:?} {:?}", r.result, r.steps, r.damage_dealt, r.units_left);
+        assert_ne!(game(&played), game(&held), "the network gives orders");
+        let _ = std::fs::remove_dir_all(dir);
     }
 }

@@ -242,7 +242,8 @@ pub fn replay_job(plan: &Plan, job: Job, out: &Path, on_step: &mut dyn FnMut(&En
 
 fn play(plan: &Plan, cell: &Cell, seed: u64, out: &Path, mut on_step: Option<&mut dyn FnMut(&Env)>) -> Result<EpisodeResult, EpisodeError> {
     let replay = on_step.is_some();
-    let options = EnvOptions { opponent: cell.opponent, ..plan.env.clone() };
+    let options =
+        EnvOptions { opponent: cell.opponent, ability_actions: plan.env.ability_actions || cell.ability_actions, ..plan.env.clone() };
     let cfg = options.config()?;
     let mut env = Env::new(Arc::clone(&cell.scenario), cfg, seed);
     let team1 = &plan.agents[cell.agent];

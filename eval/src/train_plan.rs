@@ -331,9 +331,13 @@ opponent = "focus-fire"
         // The PvP league: both learners on the six PvP scenarios, self-play with scripts, and
         // MAPPO's with units that acquire targets by themselves.
         let league = load_train_plan(&dir.join("pvp_league.toml")).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(league.jobs.len(), 18 + 3);
+        assert_eq!(league.jobs.len(), 18 + 3 + 2);
         let active = league.jobs.iter().filter(|j| j.overrides.contains(&"passive_agents=false".to_owned())).count();
-        assert_eq!(active, 6 + 3, "mappo-league-active on each PvP scenario, mappo-league-pfsp on three");
+        assert_eq!(active, 6 + 3 + 2, "mappo-league-active on each PvP scenario, mappo-league-pfsp on three, the two with abilities");
+        // The Stalkers with Blink as an action: both learners, over the scripts alone.
+        let abilities: Vec<&str> =
+            league.jobs.iter().filter(|j| j.overrides.contains(&"ability_actions=true".to_owned())).map(|j| j.id.as_str()).collect();
+        assert_eq!(abilities, ["8s_vs_8m3mr1mv1st_pvp/mappo-league-abilities-s1", "8s_vs_8m3mr1mv1st_pvp/qmix-league-abilities-s1"]);
         let pfsp: Vec<&TrainJob> = league.jobs.iter().filter(|j| j.run == "mappo-league-pfsp").collect();
         assert_eq!(pfsp.len(), 3);
         assert!(pfsp.iter().all(|j| j.overrides.contains(&"self_play_script_draw=\"pfsp\"".to_owned())));

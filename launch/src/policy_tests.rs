@@ -159,3 +159,29 @@ fn frames_that_do_not_fit_an_image_checkpoint_name_the_field() {
         assert!(msg.starts_with(&format!("bad.yaml: field `{field}`")) && msg.contains(why), "{text}: {msg}");
     }
 }
+
+/// A network trained with the ability slots (a short run: only its sizes and config matter)
+/// needs a game that has them: refused without, naming the setting, and played with.
+#[test]
+fn a_network_with_ability_slots_needs_them_in_the_launch() {
+    let dir = tmp("abilities");
+    let cfg = avacraft_marl::Config::for_algo(
+        "mappo",
+        &["t_max=100", "envs=2", "rollout_len=50", "test_interval=100", "test_nepisode=1", "episode_limit=10", "ability_actions=true"]
+            .map(String::from),
+    )
+    .expect("config");
+    let scenario = Arc::new(avacraft_engine::Scenario::load("8s_vs_8m3mr1mv1st").expect("scenario"));
+    let opts = avacraft_marl::RunOptions { scenario, seed: 1, threads: 1, out: Some(dir.clone()) };
+    avacraft_marl::train(&cfg, &opts, &mut |_| {}).expect("a short run");
+    let policy = format!("marl:{}", dir.join("best").display());
+    let e = parse("a.yaml", &launch("8s_vs_8m3mr1mv1st", &policy), None).expect_err("no ability slots in the game");
+    let msg = chain(&e);
+    assert!(msg.contains("field `agents[0].policy`") && msg.contains("ability slots") && msg.contains("ability_actions: true"), "{msg}");
+    let text = format!("{}env: {{ability_actions: true}}\n", launch("8s_vs_8m3mr1mv1st", &policy));
+    let plan = parse("a.yaml", &text, None).unwrap_or_else(|e| panic!("{}", chain(&e)));
+    assert!(plan.env_config().ability_actions);
+    let noop = parse("n.yaml", &launch("8s_vs_8m3mr1mv1st", "noop"), None).expect("plan");
+    assert_ne!(played(&plan, 3).world().state_hash(), played(&noop, 3).world().state_hash(), "the network gives orders");
+    let _ = std::fs::remove_dir_all(dir);
+}

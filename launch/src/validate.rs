@@ -93,6 +93,19 @@ pub(crate) fn validate(file: &str, raw: RawLaunch, how: Resolve<'_>) -> Result<P
         options = options.overlay(over, &["opponent", "data"]).map_err(|why| cx.err("env", over, why))?;
     }
     let env = options.config().map_err(|b| cx.err(format!("env.{}", b.option), b.value, b.supported))?;
+    // A network trained with the ability slots reads an observation only a game with them
+    // gives: without, its node would give no orders at all.
+    if !env.ability_actions {
+        for (i, a) in agents.iter().enumerate() {
+            if a.policy.ability_actions(&scenario).map_err(|e| cx.policy_err(format!("agents[{i}].policy"), &a.policy.to_string(), e))? {
+                return Err(cx.err(
+                    format!("agents[{i}].policy"),
+                    a.policy.to_string(),
+                    "this network was trained with the ability slots: the launch needs `env: {ability_actions: true}`",
+                ));
+            }
+        }
+    }
     Ok(Plan {
         file: file.to_owned(),
         scenario_arg,

@@ -131,6 +131,15 @@ impl Policy {
         meta.config.data.parse().map_err(|e: avacraft_engine::UnknownDataSet| Error::Checkpoint { message: e.to_string() })
     }
 
+    /// Whether the network in `dir` reads the ability slots (its `config.json` alone): a
+    /// game it plays must have them (`EnvConfig::ability_actions`).
+    pub fn ability_actions_in(dir: &Path) -> Result<bool, Error> {
+        let path = dir.join("config.json");
+        let text = std::fs::read_to_string(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
+        let meta: Meta = serde_json::from_str(&text).map_err(|source| Error::Json { path, source })?;
+        Ok(meta.config.ability_actions)
+    }
+
     /// A copy of `nets`' agent network as a policy (a self-play snapshot): later updates of
     /// `nets` do not reach it.
     pub fn of(nets: &Nets, cfg: &Config, shape: Shape, scenario: &str) -> Result<Policy, Error> {
@@ -156,7 +165,14 @@ impl Policy {
     /// `team`'s SMAC layout on `scenario` under the options this policy was trained with
     /// (SMACv2's look actions among them): the features and actions its network reads.
     pub fn layout(&self, scenario: &Scenario, team: Team) -> SmacLayout {
-        SmacLayout::new(scenario, team).with_fov(u8::try_from(self.cfg.env_options().fov_actions).unwrap_or(0))
+        let o = self.cfg.env_options();
+        SmacLayout::with_abilities(scenario, team, o.ability_actions).with_fov(u8::try_from(o.fov_actions).unwrap_or(0))
+    }
+
+    /// Whether this policy's network reads the ability slots (`ability_actions`): a game
+    /// without them cannot give it its observation.
+    pub fn ability_actions(&self) -> bool {
+        self.cfg.ability_actions
     }
 
     /// Why an engine agent cannot play this policy (`None`: it can).
@@ -372,17 +388,24 @@ impl Agent for MarlAgent {
         let seen = self.seen.take();
         let (Some(layout), true) = (&self.layout, self.fits) else { return Vec::new() };
         let sh = self.policy.shape;
+        // A game with the ability slots appends them to SMAC's actions and their readiness to
+        // the observation: a policy trained without them reads the part before (its own
+        // layout exactly), and acts as it does in a game without them.
+        let plain = !self.policy.ability_actions();
         let rows: Vec<_> = g
             .controlled
             .iter()
-            .filter(|c| c.agent < sh.n_agents && c.features.len() == sh.obs && c.avail_actions.len() == sh.n_actions)
+            .filter(|c| {
+                let (f, a) = (c.features.len(), c.avail_actions.len());
+                c.agent < sh.n_agents && (f == sh.obs || plain && f > sh.obs) && (a == sh.n_actions || plain && a > sh.n_actions)
+            })
             .collect();
         if rows.is_empty() {
             return Vec::new();
         }
         let agents: Vec<usize> = rows.iter().map(|c| c.agent).collect();
-        let mut features: Vec<f32> = rows.iter().flat_map(|c| c.features.iter().copied()).collect();
-        let mut avail: Vec<u8> = rows.iter().flat_map(|c| c.avail_actions.iter().copied()).collect();
+        let mut features: Vec<f32> = rows.iter().flat_map(|c| c.features[..sh.obs].iter().copied()).collect();
+        let mut avail: Vec<u8> = rows.iter().flat_map(|c| c.avail_actions[..sh.n_actions].iter().copied()).collect();
         if self.mirror {
             features.chunks_exact_mut(sh.obs.max(1)).for_each(|f| layout.mirror_obs(f));
             avail.chunks_exact_mut(sh.n_actions.max(1)).for_each(SmacLayout::mirror_avail);

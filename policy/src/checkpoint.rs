@@ -51,6 +51,11 @@ impl MarlCheckpoint {
         Policy::data_in(&self.dir).map_err(|source| PolicyError::Checkpoint { dir: self.dir.clone(), source })
     }
 
+    /// Whether the network reads the ability slots ([`Policy::ability_actions_in`]).
+    pub fn ability_actions(&self) -> Result<bool, PolicyError> {
+        Policy::ability_actions_in(&self.dir).map_err(|source| PolicyError::Checkpoint { dir: self.dir.clone(), source })
+    }
+
     /// Loads the checkpoint in `dir` now.
     pub fn load(dir: &Path) -> Result<MarlCheckpoint, PolicyError> {
         Self::open(dir, Weights::Load)

@@ -173,6 +173,17 @@ impl PolicySpec {
         }
     }
 
+    /// Whether the policy's network reads the ability slots, so that the game it plays in
+    /// must have them (`EnvConfig::ability_actions`); every other policy plays with or
+    /// without them.
+    pub fn ability_actions(&self, scenario: &Scenario) -> Result<bool, PolicyError> {
+        match self {
+            PolicySpec::Marl(m) => m.ability_actions(),
+            PolicySpec::Baseline(b) => b.for_scenario(&scenario.name)?.ability_actions(),
+            PolicySpec::Scripted(_) | PolicySpec::Dds | PolicySpec::Ava(_) => Ok(false),
+        }
+    }
+
     /// Refuses a policy that cannot play `team` in `scenario` (a checkpoint of another
     /// scenario or size); scripted agents, AVA and DDS agents play anything.
     pub fn check(&self, scenario: &Scenario, team: Team) -> Result<(), PolicyError> {

@@ -150,6 +150,11 @@ pub struct Config {
     pub conic_fov: bool,
     #[serde(default = "twelve", skip_serializing_if = "is_twelve")]
     pub num_fov_actions: i64,
+    /// The ability slots after SMAC's actions (`EnvConfig::ability_actions`): Blink, Stim,
+    /// Siege and the rest of the units' abilities as actions of their own, and their
+    /// readiness in the observation. Off: SMAC's actions only.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub ability_actions: bool,
     // PPO (ippo, mappo) only; see configs/mappo.toml.
     #[serde(default)]
     pub critic_lr: f64,
@@ -296,6 +301,7 @@ impl Config {
         table.entry("action_mask").or_insert(toml::Value::Boolean(true));
         table.entry("conic_fov").or_insert(toml::Value::Boolean(false));
         table.entry("num_fov_actions").or_insert(toml::Value::Integer(12));
+        table.entry("ability_actions").or_insert(toml::Value::Boolean(false));
         table.entry("data").or_insert(toml::Value::String(MAP_DATA.to_owned()));
         league::add_default_keys(&mut table);
         Self::apply(table, overrides)
@@ -513,6 +519,7 @@ impl Config {
             prob_obs_enemy: self.prob_obs_enemy,
             action_mask: self.action_mask,
             fov_actions: if self.conic_fov { self.num_fov_actions } else { 0 },
+            ability_actions: self.ability_actions,
             ..EnvOptions::default()
         }
     }
