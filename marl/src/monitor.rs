@@ -284,9 +284,15 @@ impl<'a> Monitor<'a> {
 }
 
 /// What `best/` keeps the highest of: the greedy test win rate, or with fixed test
-/// opponents the lowest win rate against them.
-fn best_score(p: &CurvePoint) -> f64 {
-    if p.vs.is_empty() { p.test_win_rate } else { p.vs.iter().copied().fold(f64::INFINITY, f64::min) }
+/// opponents the lowest win rate against them, then (where the lowest ties, as when one
+/// script beats every checkpoint) the mean over them: otherwise every round of such a run
+/// ties and `best/` is just the latest.
+fn best_score(p: &CurvePoint) -> (f64, f64) {
+    if p.vs.is_empty() {
+        (p.test_win_rate, p.test_win_rate)
+    } else {
+        (p.vs.iter().copied().fold(f64::INFINITY, f64::min), p.vs.iter().sum::<f64>() / p.vs.len() as f64)
+    }
 }
 
 /// Keeps the header and the rows of `log.csv` up to step `t_env` (the state a run resumes
@@ -377,10 +383,15 @@ mod tests {
     #[test]
     fn a_league_keeps_the_checkpoint_whose_worst_script_result_is_best() {
         let p = |test: f64, vs: &[f64]| CurvePoint { test_win_rate: test, vs: vs.to_vec(), ..CurvePoint::default() };
-        assert_eq!(best_score(&p(0.7, &[])), 0.7);
+        assert_eq!(best_score(&p(0.7, &[])), (0.7, 0.7));
         // Beating three scripts every time and losing to the fourth is worse than winning
         // half the games against each.
         assert!(best_score(&p(1.0, &[1.0, 1.0, 1.0, 0.0])) < best_score(&p(0.5, &[0.5, 0.6, 0.5, 0.5])));
+        // Where one script beats them all, the rest decide: a checkpoint that wins some games
+        // against two scripts is not replaced by a later one that wins only against random.
+        let some = best_score(&p(0.4, &[0.4, 0.4, 0.0, 1.0]));
+        assert!(best_score(&p(0.0, &[0.0, 0.0, 0.0, 1.0])) < some);
+        assert!(some < best_score(&p(0.5, &[0.5, 0.4, 0.0, 1.0])));
     }
 
     #[test]
