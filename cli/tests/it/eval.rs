@@ -526,6 +526,36 @@ fn shipped_baselines_win_as_often_as_the_results_table_says() {
     assert_eq!(checked, cases.len());
 }
 
+/// The shipped league policy with the ability slots plays through `episode` (which gives its
+/// games the slots) the games the league page reports, against each script.
+#[test]
+fn the_ability_league_plays_the_games_its_page_reports() {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let json = std::fs::read_to_string(repo.join("docs/pvp_league/report.json"))
+        .expect("docs/pvp_league/report.json (avacraft eval eval/plans/pvp_league_eval.toml)");
+    let report: avacraft_eval::Report = serde_json::from_str(&json).expect("the report");
+    for against in ["focus-fire", "attack-move"] {
+        let cell = report
+            .cells
+            .iter()
+            .find(|c| c.key.scenario == "8s_vs_8m3mr1mv1st_pvp" && c.key.agent == "qmix-league-abilities" && c.key.against == against)
+            .unwrap_or_else(|| panic!("docs/pvp_league has no qmix-league-abilities against {against}"));
+        let o = Command::new(exe())
+            .env("AVACRAFT_BASELINES", repo.join("baselines"))
+            .args(["episode", "--scenario", "8s_vs_8m3mr1mv1st_pvp", "--agent", "baseline:qmix-league-abilities", "--agent2", against])
+            .args(["--seed", "9000", "--episodes", "20", "--json"])
+            .output()
+            .expect("episode");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
+        let eps = v["episodes"].as_array().expect("episodes");
+        let wins = eps.iter().filter(|e| e["result"] == "win").count();
+        assert_eq!((eps.len(), wins), (20, cell.wins), "against {against}");
+        // It blinks: the slots were there.
+        assert!(eps.iter().any(|e| e["abilities"][0]["blink"].as_u64().unwrap_or(0) > 0), "against {against}");
+    }
+}
+
 /// Without a plan-wide `data`, a trained network's cells play the unit data it learned on
 /// (the shipped 3m_vlm QMIX: `legacy`), a script's the scenario's own (Liberty); with one, every
 /// cell plays it.
