@@ -116,28 +116,21 @@ impl Policy {
     /// The frames the checkpoint in `dir` reads ([`Policy::frames_need`]), from its
     /// `config.json` alone.
     pub fn frames_need_in(dir: &Path) -> Result<Option<FrameNeed>, Error> {
-        let path = dir.join("config.json");
-        let text = std::fs::read_to_string(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
-        let meta: Meta = serde_json::from_str(&text).map_err(|source| Error::Json { path, source })?;
+        let meta = meta_in(dir)?;
         Ok(need_of(&meta.config))
     }
 
     /// The unit data the checkpoint in `dir` trained on, from its `config.json` alone (one
     /// written before data sets existed trained on `legacy`).
     pub fn data_in(dir: &Path) -> Result<avacraft_engine::DataSet, Error> {
-        let path = dir.join("config.json");
-        let text = std::fs::read_to_string(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
-        let meta: Meta = serde_json::from_str(&text).map_err(|source| Error::Json { path, source })?;
+        let meta = meta_in(dir)?;
         meta.config.data.parse().map_err(|e: avacraft_engine::UnknownDataSet| Error::Checkpoint { message: e.to_string() })
     }
 
     /// Whether the network in `dir` reads the ability slots (its `config.json` alone): a
     /// game it plays must have them (`EnvConfig::ability_actions`).
     pub fn ability_actions_in(dir: &Path) -> Result<bool, Error> {
-        let path = dir.join("config.json");
-        let text = std::fs::read_to_string(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
-        let meta: Meta = serde_json::from_str(&text).map_err(|source| Error::Json { path, source })?;
-        Ok(meta.config.ability_actions)
+        Ok(meta_in(dir)?.config.ability_actions)
     }
 
     /// A copy of `nets`' agent network as a policy (a self-play snapshot): later updates of
@@ -304,6 +297,13 @@ fn need_of(cfg: &Config) -> Option<FrameNeed> {
     cfg.obs.images().then_some(FrameNeed { screen: (sw as u32, sh as u32), minimap: (mw as u32, mh as u32) })
 }
 
+/// The `config.json` of the checkpoint in `dir`, read without its weights.
+fn meta_in(dir: &Path) -> Result<Meta, Error> {
+    let path = dir.join("config.json");
+    let text = std::fs::read_to_string(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
+    serde_json::from_str(&text).map_err(|source| Error::Json { path, source })
+}
+
 /// A trained policy acting greedily for the units of its group. On team 2 it plays in the
 /// mirror image of the map (policies train as team 1: east and west swap, x is reflected),
 /// which is the same game on the left-right mirrored PvP scenarios.
@@ -315,6 +315,9 @@ pub struct MarlAgent {
     hidden: Vec<Vec<f32>>,
     last: Vec<Option<u32>>,
     layout: Option<SmacLayout>,
+    /// For a network trained without the ability slots: the (observation, actions) sizes of
+    /// its layout with them, which a game with the slots hands it ([`Agent::act`]).
+    slotted: Option<(usize, usize)>,
     fits: bool,
     /// Playing team 2: the network, trained as team 1, sees and acts in the mirror image
     /// (east and west swapped, x reflected), as on a left-right mirrored map team 1 would.
@@ -326,7 +329,17 @@ pub struct MarlAgent {
 
 impl MarlAgent {
     pub fn new(policy: Arc<Policy>, name: impl Into<String>) -> MarlAgent {
-        MarlAgent { policy, name: name.into(), hidden: Vec::new(), last: Vec::new(), layout: None, fits: false, mirror: false, seen: None }
+        MarlAgent {
+            policy,
+            name: name.into(),
+            hidden: Vec::new(),
+            last: Vec::new(),
+            layout: None,
+            slotted: None,
+            fits: false,
+            mirror: false,
+            seen: None,
+        }
     }
     /// Loads the checkpoint in `dir`; the agent is named `marl:DIR`. Image-mode
     /// checkpoints are refused ([`Policy::agent_refusal`]).
@@ -365,7 +378,12 @@ impl Agent for MarlAgent {
         let playable = self.policy.agent_refusal().is_none() || self.policy.seeing_refusal(ctx.team).is_none();
         self.fits = self.policy.check_scenario(&ctx.scenario, ctx.team).is_ok() && playable;
         self.seen = None;
-        self.layout = Some(self.policy.layout(&ctx.scenario, ctx.team));
+        let layout = self.policy.layout(&ctx.scenario, ctx.team);
+        self.slotted = (!self.policy.ability_actions()).then(|| {
+            let wide = SmacLayout::with_abilities(&ctx.scenario, ctx.team, true).with_fov(u8::try_from(layout.fov).unwrap_or(0));
+            (wide.obs_size, wide.n_actions)
+        });
+        self.layout = Some(layout);
         self.mirror = ctx.team == Team::Two;
     }
     fn frames(&self) -> Option<FrameNeed> {
@@ -391,13 +409,12 @@ impl Agent for MarlAgent {
         // A game with the ability slots appends them to SMAC's actions and their readiness to
         // the observation: a policy trained without them reads the part before (its own
         // layout exactly), and acts as it does in a game without them.
-        let plain = !self.policy.ability_actions();
         let rows: Vec<_> = g
             .controlled
             .iter()
             .filter(|c| {
-                let (f, a) = (c.features.len(), c.avail_actions.len());
-                c.agent < sh.n_agents && (f == sh.obs || plain && f > sh.obs) && (a == sh.n_actions || plain && a > sh.n_actions)
+                let sizes = (c.features.len(), c.avail_actions.len());
+                c.agent < sh.n_agents && (sizes == (sh.obs, sh.n_actions) || Some(sizes) == self.slotted)
             })
             .collect();
         if rows.is_empty() {
