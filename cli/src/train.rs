@@ -315,6 +315,15 @@ fn run_plan(path: &std::path::Path, shard: Option<avacraft_eval::Shard>, threads
         let cfg = Config::for_algo(&job.algo, &job.overrides).with_context(|| format!("run {}", job.id))?;
         // Resolved before comparing with a saved run, which names the set it played.
         let (cfg, scenario) = cfg.resolved(Arc::new(Scenario::load(&job.scenario)?)).with_context(|| format!("run {}", job.id))?;
+        if let Some(src) = &job.from
+            && !job.dir.join("resume").join("state.json").is_file()
+        {
+            if !(src.dir.join(DONE_FILE).is_file() || reached_budget(&src.dir, src.steps)) {
+                rows.push((job.id.clone(), format!("waiting for {}", src.id), 0, None));
+                continue;
+            }
+            continue_from(&src.dir, &job.dir, &cfg).with_context(|| format!("run {}: going on from {}", job.id, src.id))?;
+        }
         let start = if job.dir.join("resume").join("state.json").is_file() {
             let (saved, state) = avacraft_marl::resume::load(&job.dir).with_context(|| format!("resuming run {}", job.id))?;
             if saved != cfg {
@@ -347,6 +356,40 @@ fn run_plan(path: &std::path::Path, shard: Option<avacraft_eval::Shard>, threads
         t.add_row([id, status, steps.to_string(), wr.map_or_else(|| "-".to_owned(), |w| format!("{w:.2}"))]);
     }
     writeln!(out, "{t}")?;
+    Ok(())
+}
+
+/// A plan's run that goes on from another (`from`): the other's folder copied into `dir` (all
+/// but its summary; aside first, so a kill never leaves half a copy that looks like a run),
+/// its checkpoint given this run's settings, which the resume then finds.
+fn continue_from(src: &std::path::Path, dir: &std::path::Path, cfg: &Config) -> Result<()> {
+    let tmp = dir.with_extension("copy");
+    if tmp.exists() {
+        std::fs::remove_dir_all(&tmp).with_context(|| format!("removing {}", tmp.display()))?;
+    }
+    copy_dir(src, &tmp)?;
+    avacraft_marl::checkpoint::restate(&tmp, cfg).with_context(|| format!("{}: its weights and this run's settings", src.display()))?;
+    if dir.exists() {
+        // A folder without a saved state holds nothing a resume could use.
+        std::fs::remove_dir_all(dir).with_context(|| format!("removing {}", dir.display()))?;
+    }
+    std::fs::rename(&tmp, dir).with_context(|| format!("renaming {} to {}", tmp.display(), dir.display()))
+}
+
+fn copy_dir(from: &std::path::Path, to: &std::path::Path) -> Result<()> {
+    std::fs::create_dir_all(to).with_context(|| format!("creating {}", to.display()))?;
+    for e in std::fs::read_dir(from).with_context(|| format!("reading {}", from.display()))? {
+        let e = e?;
+        if e.file_name() == DONE_FILE {
+            continue;
+        }
+        let (a, b) = (e.path(), to.join(e.file_name()));
+        if e.file_type()?.is_dir() {
+            copy_dir(&a, &b)?;
+        } else {
+            std::fs::copy(&a, &b).with_context(|| format!("copying {} to {}", a.display(), b.display()))?;
+        }
+    }
     Ok(())
 }
 

@@ -34,7 +34,7 @@ mod shard_tests;
 pub use results::{Appender, EpisodeResult, Loaded, ModelUse, RESULTS_FILE, ResultsError, merge, read};
 pub use run::{EpisodeError, Progress, RunOptions, RunStats, play_job, replay_job, run};
 pub use stats::{CellStats, CostStats, MeanStd, wilson95};
-pub use train_plan::{TrainJob, TrainPlan, TrainPlanError, load_train_plan, parse_train_plan};
+pub use train_plan::{Source, TrainJob, TrainPlan, TrainPlanError, load_train_plan, parse_train_plan};
 
 use std::path::PathBuf;
 

@@ -18,6 +18,12 @@
 //! opponent = "focus-fire"        # who plays team 2 of the PvP scenarios
 //! ```
 //!
+//! A run with `from = "<name>"` goes on from an earlier run's last state (a curriculum: the
+//! same network, trained further with other settings): once that run has reached its budget,
+//! its folder is copied into this run's and training resumes there with the earlier run's
+//! settings, this run's `set` on top, to this run's (larger) budget. Its log, test history and
+//! `best/` pick therefore cover both stages.
+//!
 //! Jobs run in the order of the `[[runs]]` tables, then scenarios, then seeds; with
 //! `order = "scenarios"` at the top, scenario by scenario instead (every run of the first
 //! scenario, then of the next), so a plan cut short leaves complete scenarios.
@@ -74,6 +80,17 @@ struct RawRun {
     #[serde(default)]
     set: Vec<String>,
     opponent: Option<String>,
+    from: Option<String>,
+}
+
+/// The run a plan's run goes on from (its `from`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Source {
+    /// The earlier job's id (`<scenario>/<run>-s<seed>`).
+    pub id: String,
+    pub dir: PathBuf,
+    /// Its budget: it must have reached it before this run starts.
+    pub steps: u64,
 }
 
 /// One training run of a plan.
@@ -90,6 +107,8 @@ pub struct TrainJob {
     /// The run's budget of environment steps (its config's `t_max`).
     pub steps: u64,
     pub dir: PathBuf,
+    /// The earlier run this one goes on from (`from`).
+    pub from: Option<Source>,
 }
 
 /// A validated training plan.
@@ -165,20 +184,52 @@ pub fn parse_train_plan(file: &str, text: &str, base: Option<&Path>) -> Result<T
             })
         };
         check(&base)?;
+        if let Some(src) = &r.from {
+            let Some(earlier) = raw.runs[..i].iter().find(|e| e.name == *src) else {
+                return Err(err(f("from"), format!("{src:?}"), "names no [[runs]] table above this one"));
+            };
+            if earlier.algo != r.algo {
+                return Err(err(f("from"), format!("{src:?}"), &format!("a {} run cannot go on from a {} run", r.algo, earlier.algo)));
+            }
+        }
         for sc in &scenarios {
-            let mut overrides = base.clone();
+            let mut own = base.clone();
             if sc.mode == Mode::Pvp {
-                let Some(o) = &r.opponent else {
-                    return Err(err(f("opponent"), "none".into(), &format!("PvP scenario `{}` needs who plays team 2", sc.name)));
-                };
-                overrides.push(format!("opponent={o:?}"));
-                check(&overrides)?;
+                match (&r.opponent, &r.from) {
+                    (Some(o), _) => own.push(format!("opponent={o:?}")),
+                    // A continuation keeps its source's opponent unless it names one.
+                    (None, Some(_)) => {}
+                    (None, None) => {
+                        return Err(err(f("opponent"), "none".into(), &format!("PvP scenario `{}` needs who plays team 2", sc.name)));
+                    }
+                }
             }
             for &seed in &seeds {
                 let id = format!("{}/{}-s{seed}", sc.name, r.name);
                 if jobs.iter().any(|j| j.id == id) {
                     return Err(err(f("name"), format!("{:?}", r.name), &format!("run `{id}` is planned twice")));
                 }
+                let (overrides, from) = match &r.from {
+                    None => (own.clone(), None),
+                    Some(src) => {
+                        let src_id = format!("{}/{src}-s{seed}", sc.name);
+                        let Some(s) = jobs.iter().find(|j| j.id == src_id) else {
+                            return Err(err(f("from"), format!("{src:?}"), &format!("run `{src_id}` is not planned above")));
+                        };
+                        if s.steps >= steps {
+                            return Err(err(
+                                f("steps"),
+                                steps.to_string(),
+                                &format!("must be above the budget of `{src_id}` it goes on from ({})", s.steps),
+                            ));
+                        }
+                        // The source's settings, then this run's: later keys win.
+                        let mut o: Vec<String> = s.overrides.iter().filter(|k| !k.starts_with("t_max=")).cloned().collect();
+                        o.extend(own.iter().cloned());
+                        (o, Some(Source { id: src_id, dir: s.dir.clone(), steps: s.steps }))
+                    }
+                };
+                check(&overrides)?;
                 jobs.push(TrainJob {
                     dir: out.join(&id),
                     id,
@@ -186,8 +237,9 @@ pub fn parse_train_plan(file: &str, text: &str, base: Option<&Path>) -> Result<T
                     scenario: sc.name.clone(),
                     algo: r.algo.clone(),
                     seed,
-                    overrides: overrides.clone(),
+                    overrides,
                     steps,
+                    from,
                 });
             }
         }
@@ -367,6 +419,30 @@ opponent = "focus-fire"
                 assert!(job.overrides.contains(&budget), "{name} {run}: {:?}", job.overrides);
             }
         }
+    }
+
+    /// `from`: the earlier run's settings (its opponent among them), this run's on top, the
+    /// earlier job named; a source that is not above, another algorithm or a budget not above
+    /// the source's is refused, naming the field.
+    #[test]
+    fn a_run_goes_on_from_an_earlier_one() {
+        let more = "\n[[runs]]\nname = \"mappo-more\"\nalgo = \"mappo\"\nscenarios = [\"pvp\"]\nsteps = 3000\nfrom = \"mappo\"\nset = [\"lr=0.0001\"]\n";
+        let p = parse_train_plan("t.toml", &format!("{PLAN}{more}"), Some(Path::new("/plans"))).unwrap_or_else(|e| panic!("{e}"));
+        let job = p.jobs.iter().find(|j| j.run == "mappo-more").unwrap_or_else(|| panic!("no mappo-more job"));
+        let src = job.from.as_ref().unwrap_or_else(|| panic!("no source"));
+        assert_eq!(src.id, format!("{}/mappo-s1", job.scenario));
+        assert_eq!(src.dir, Path::new("/plans/runs").join(&src.id));
+        assert_eq!((src.steps, job.steps), (1000, 3000));
+        let o = &job.overrides;
+        assert!(o.contains(&"opponent=\"focus-fire\"".to_owned()) && o.contains(&"lr=0.0001".to_owned()), "{o:?}");
+        assert_eq!(o.iter().filter(|k| k.starts_with("t_max=")).collect::<Vec<_>>(), ["t_max=3000"]);
+        assert!(p.jobs.iter().filter(|j| j.run != "mappo-more").all(|j| j.from.is_none()));
+        let e = |t: &str| parse_train_plan("t.toml", &format!("{PLAN}{t}"), None).err().map(|e| e.to_string()).unwrap_or_default();
+        let bad = |from: &str, to: &str| e(&more.replacen(from, to, 1));
+        assert!(bad("from = \"mappo\"", "from = \"later\"").contains("runs[2].from"));
+        assert!(bad("algo = \"mappo\"", "algo = \"qmix\"").contains("a qmix run cannot go on from a mappo run"));
+        assert!(bad("steps = 3000", "steps = 1000").contains("runs[2].steps"));
+        assert!(bad("scenarios = [\"pvp\"]", "scenarios = [\"3m_vlm\"]").contains("3m_vlm/mappo-s1"));
     }
 
     #[test]

@@ -127,6 +127,46 @@ fn a_run_resumed_by_hand_ships_at_the_plans_budget() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A plan's run with `from` goes on from an earlier run once that one reaches its budget: its
+/// log starts with the earlier run's rows, its checkpoint has its own settings, the earlier run
+/// is left as it was; a shard without the earlier run waits for it.
+#[test]
+fn a_plan_run_goes_on_from_an_earlier_one() {
+    let dir = tmp("plan-from");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("dir");
+    let small = "\"batch_size=4\", \"test_interval=200\", \"test_nepisode=2\", \"episode_limit=60\", \"envs=2\"";
+    let plan = dir.join("plan.toml");
+    std::fs::write(
+        &plan,
+        format!(
+            "name = \"p\"\nout = \"runs\"\nsteps = 200\nseeds = [1]\n[[runs]]\nname = \"a\"\nalgo = \"vdn\"\nscenarios = [\"3m_vlm\"]\nset = [{small}]\n\
+             [[runs]]\nname = \"b\"\nalgo = \"vdn\"\nscenarios = [\"3m_vlm\"]\nsteps = 400\nfrom = \"a\"\nset = [\"lr=0.0001\"]\n"
+        ),
+    )
+    .expect("plan");
+    let p = plan.to_str().expect("utf-8");
+    let out = train(&["--plan", p, "--shard", "2/2"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("waiting for 3m_vlm/a-s1"));
+    assert!(!dir.join("runs/3m_vlm/b-s1").exists(), "nothing trained before its source");
+    let out = train(&["--plan", p]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (a, b) = (dir.join("runs/3m_vlm/a-s1"), dir.join("runs/3m_vlm/b-s1"));
+    let read = |f: &std::path::Path| std::fs::read_to_string(f).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+    let (log_a, log_b) = (read(&a.join("log.csv")), read(&b.join("log.csv")));
+    assert!(log_b.starts_with(&log_a) && log_b.lines().count() > log_a.lines().count(), "{log_a}\n---\n{log_b}");
+    assert!(log_b.lines().last().is_some_and(|l| l.starts_with("400,")), "{log_b}");
+    let lr = |d: &std::path::Path| read(&d.join("config.json")).lines().find(|l| l.contains("\"lr\"")).map(str::trim).map(str::to_owned);
+    assert_eq!(lr(&b).as_deref(), Some("\"lr\": 0.0001,"));
+    assert_ne!(lr(&a), lr(&b), "the earlier run keeps its settings");
+    assert!(!b.join("done.json").exists() || read(&b.join("done.json")).contains("400"));
+    let out = train(&["--plan", p]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(text.matches("done before").count(), 2, "{text}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `avacraft smac-report`: a run's log beside the published numbers, one row per SMAC map, the
 /// gap computed, the table written into a document's marked section, the figure drawn; a
 /// published file naming a map SMAC lacks is refused, naming it.

@@ -79,3 +79,28 @@ fn a_killed_and_resumed_qmix_run_writes_the_uninterrupted_log() -> R {
     let extra = ["t_max=1400", "envs=4", "batch_size=8", "buffer_size=40", "epsilon_anneal_time=600", "episode_limit=25"];
     killed_and_resumed_runs_write_the_uninterrupted_log("qmix", "3m", &extra, &[0, 3, 5])
 }
+
+/// A checkpoint given other settings (a plan's run going on from another) resumes under them;
+/// settings its weights do not fit are refused, the checkpoint left as it was.
+#[test]
+fn a_checkpoint_takes_other_settings_its_weights_fit() -> R {
+    let small = ["t_max=200", "envs=2", "batch_size=4", "test_interval=200", "test_nepisode=2", "episode_limit=25"];
+    let cfg = Config::for_algo("vdn", &small.map(String::from))?;
+    let scenario = Arc::new(Scenario::load("3m")?);
+    let dir = scratch("restate");
+    let opts = RunOptions { scenario, seed: 3, threads: 1, out: Some(dir.clone()) };
+    train(&cfg, &opts, &mut |_| {})?;
+    let before = std::fs::read_to_string(dir.join("config.json"))?;
+    let wider = cfg.overridden(&["rnn_hidden_dim=32".into()])?;
+    let err = avacraft_marl::checkpoint::restate(&dir, &wider).err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(!err.is_empty(), "a network of another width was taken");
+    assert_eq!(std::fs::read_to_string(dir.join("config.json"))?, before, "a refused config leaves the checkpoint");
+    let slower = cfg.overridden(&["lr=0.0001".into(), "t_max=400".into()])?;
+    avacraft_marl::checkpoint::restate(&dir, &slower)?;
+    let (saved, state) = avacraft_marl::resume::load(&dir)?;
+    assert_eq!(saved, slower);
+    let (_, summary) = train_from(&slower, &opts, Some(state), &mut |_| {})?;
+    assert_eq!(summary.t_env, 400);
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
