@@ -90,20 +90,24 @@ fn flags_win_over_set_and_bad_ones_are_refused_by_name() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A fresh folder `name` with `plan.toml`: a plan of `steps` a run into `runs/`, its `runs`
+/// tables with `SMALL` standing for a tiny run's settings.
+fn small_plan(name: &str, steps: u64, runs: &str) -> (std::path::PathBuf, std::path::PathBuf) {
+    let dir = tmp(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("dir");
+    let small = "[\"batch_size=4\", \"test_interval=200\", \"test_nepisode=2\", \"episode_limit=60\", \"envs=2\"]";
+    let plan = dir.join("plan.toml");
+    let text = format!("name = \"p\"\nout = \"runs\"\nsteps = {steps}\nseeds = [1]\n{}", runs.replace("SMALL", small));
+    std::fs::write(&plan, text).expect("plan");
+    (dir, plan)
+}
+
 /// `train --plan P --ship DIR` ships a plan's run resumed by hand (`train --resume`) once it
 /// reaches the plan's budget, and not before.
 #[test]
 fn a_run_resumed_by_hand_ships_at_the_plans_budget() {
-    let dir = tmp("ship-by-hand");
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("dir");
-    let small = "\"batch_size=4\", \"test_interval=200\", \"test_nepisode=2\", \"episode_limit=60\", \"envs=2\"";
-    let plan = dir.join("plan.toml");
-    std::fs::write(
-        &plan,
-        format!("name = \"p\"\nout = \"runs\"\nsteps = 400\nseeds = [1]\n[[runs]]\nname = \"vdn\"\nalgo = \"vdn\"\nscenarios = [\"3m_vlm\"]\nset = [{small}]\n"),
-    )
-    .expect("plan");
+    let (dir, plan) = small_plan("ship-by-hand", 400, "[[runs]]\nname = \"vdn\"\nalgo = \"vdn\"\nscenarios = [\"3m_vlm\"]\nset = SMALL\n");
     let run = dir.join("runs/3m_vlm/vdn-s1");
     let r = run.to_str().expect("utf-8");
     let set = ["--set", "batch_size=4", "--set", "test_interval=200", "--set", "test_nepisode=2", "--set", "episode_limit=60"];
@@ -132,19 +136,12 @@ fn a_run_resumed_by_hand_ships_at_the_plans_budget() {
 /// is left as it was; a shard without the earlier run waits for it.
 #[test]
 fn a_plan_run_goes_on_from_an_earlier_one() {
-    let dir = tmp("plan-from");
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("dir");
-    let small = "\"batch_size=4\", \"test_interval=200\", \"test_nepisode=2\", \"episode_limit=60\", \"envs=2\"";
-    let plan = dir.join("plan.toml");
-    std::fs::write(
-        &plan,
-        format!(
-            "name = \"p\"\nout = \"runs\"\nsteps = 200\nseeds = [1]\n[[runs]]\nname = \"a\"\nalgo = \"vdn\"\nscenarios = [\"3m_vlm\"]\nset = [{small}]\n\
-             [[runs]]\nname = \"b\"\nalgo = \"vdn\"\nscenarios = [\"3m_vlm\"]\nsteps = 400\nfrom = \"a\"\nset = [\"lr=0.0001\"]\n"
-        ),
-    )
-    .expect("plan");
+    let (dir, plan) = small_plan(
+        "plan-from",
+        200,
+        "[[runs]]\nname = \"a\"\nalgo = \"vdn\"\nscenarios = [\"3m_vlm\"]\nset = SMALL\n\
+         [[runs]]\nname = \"b\"\nalgo = \"vdn\"\nscenarios = [\"3m_vlm\"]\nsteps = 400\nfrom = \"a\"\nset = [\"lr=0.0001\"]\n",
+    );
     let p = plan.to_str().expect("utf-8");
     let out = train(&["--plan", p, "--shard", "2/2"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
