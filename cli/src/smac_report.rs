@@ -2,7 +2,10 @@
 //! results. It reads the training runs of eval/plans/smac.toml (`<runs>/<map>/<run>-s1/log.csv`,
 //! and `heldout.json`, an `avacraft episode --json` report on held-out seeds, where one was
 //! played) and the published numbers (eval/smac/published.toml), and writes the comparison
-//! table (Markdown) and the learning curves of every map in one figure.
+//! table (Markdown) and the learning curves of every map in one figure. A run whose training
+//! folder is gone (another machine's, or removed) is read from its shipped copy under
+//! `baselines/`, whose log it carries; its held-out games are played again from the shipped
+//! checkpoint, as `avacraft episode` plays them (seeded: the same games).
 
 use anyhow::{Context, Result, bail};
 use avacraft_engine::smac_names;
@@ -22,6 +25,10 @@ pub struct SmacReportArgs {
     /// `mappo` = { value, check }).
     #[arg(long, default_value = "eval/smac/published.toml")]
     published: PathBuf,
+    /// The shipped baselines (`<map>/<run>/`, `<run>-s<seed>` past seed 1): a run without a
+    /// training folder under `--runs` is read from here.
+    #[arg(long, default_value = "baselines")]
+    baselines: PathBuf,
     /// Where the figure goes (`curves.png`) and the table (`table.md`).
     #[arg(long, default_value = "docs/smac")]
     out: PathBuf,
@@ -117,6 +124,47 @@ fn ours(dir: &Path) -> Result<Option<Ours>> {
     Ok(Some(Ours { steps: last.t_env, final_rate: median(tail), heldout, running: !dir.join("done.json").is_file(), rows }))
 }
 
+/// Held-out games: seeds 9000-9099, SMAC's passive allies, the checkpoint playing greedily.
+const HELDOUT: [&str; 7] = ["--passive-agents", "--episodes", "100", "--seed", "9000", "--json", "--agent"];
+
+/// A learner's run on `map` (`seed`): its training folder under `runs`, else its shipped copy
+/// under `baselines`, with the held-out games played again from the shipped checkpoint.
+fn find_run(runs: &Path, baselines: &Path, map: &str, run: &str, seed: u64) -> Result<Option<Ours>> {
+    let dir = runs.join(map).join(format!("{run}-s{seed}"));
+    if dir.join("log.csv").is_file() {
+        return ours(&dir);
+    }
+    let shipped = baselines.join(map).join(if seed == 1 { run.to_owned() } else { format!("{run}-s{seed}") });
+    if !shipped.join("log.csv").is_file() {
+        return Ok(None);
+    }
+    let rows = read_log(&shipped)?;
+    let Some(last) = rows.last() else { return Ok(None) };
+    let path = shipped.join("config.json");
+    let text = std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let meta: serde_json::Value = serde_json::from_str(&text).with_context(|| format!("{}", path.display()))?;
+    let t_max = meta["config"]["t_max"].as_u64().with_context(|| format!("{}: no config.t_max", path.display()))?;
+    #[derive(clap::Parser)]
+    struct Episode {
+        #[command(flatten)]
+        args: crate::episode::EpisodeArgs,
+    }
+    let agent = format!("marl:{}", shipped.display());
+    let argv = ["episode", "--scenario", map].into_iter().chain(HELDOUT).chain([agent.as_str()]);
+    let e = <Episode as clap::Parser>::try_parse_from(argv)?;
+    let mut json = Vec::new();
+    crate::episode::run(&e.args, &mut json).with_context(|| format!("playing {}'s held-out games", shipped.display()))?;
+    let r: crate::Report = serde_json::from_slice(&json).with_context(|| format!("{}: the held-out report", shipped.display()))?;
+    let tail: Vec<f64> = rows.iter().rev().take(LAST_ROUNDS).map(|r| r.test_win_rate).collect();
+    Ok(Some(Ours {
+        steps: last.t_env,
+        final_rate: median(tail),
+        heldout: Some((r.summary.win.mean, r.episodes.len())),
+        running: last.t_env < t_max,
+        rows,
+    }))
+}
+
 fn pct(x: f64) -> String {
     format!("{:.0}", 100.0 * x)
 }
@@ -134,11 +182,11 @@ fn show_ours(o: Option<&Ours>) -> String {
 
 /// Maps where more than one seed of a learner ran: each seed's result, so a reader sees how far
 /// one seed is from another.
-fn seeds_line(runs: &Path) -> Result<String> {
+fn seeds_line(a: &SmacReportArgs) -> Result<String> {
     let mut parts = Vec::new();
     for map in smac_names() {
         for r in RUNS {
-            let seeds: Vec<Option<Ours>> = (1..=3).map(|k| ours(&runs.join(map).join(format!("{r}-s{k}")))).collect::<Result<_>>()?;
+            let seeds: Vec<Option<Ours>> = (1..=3).map(|k| find_run(&a.runs, &a.baselines, map, r, k)).collect::<Result<_>>()?;
             if seeds.iter().filter(|o| o.is_some()).count() < 2 {
                 continue;
             }
@@ -168,7 +216,7 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
     for map in smac_names() {
         let p = published.maps.get(map).with_context(|| format!("{}: no entry for `{map}`", a.published.display()))?;
         let runs: Vec<(&str, Option<Ours>)> =
-            RUNS.iter().map(|r| Ok((*r, ours(&a.runs.join(map).join(format!("{r}-s1")))?))).collect::<Result<_>>()?;
+            RUNS.iter().map(|r| Ok((*r, find_run(&a.runs, &a.baselines, map, r, 1)?))).collect::<Result<_>>()?;
         // Runs still training are shown, not compared.
         let best_ours = runs.iter().filter_map(|(_, o)| o.as_ref().filter(|o| !o.running).map(|o| o.final_rate)).fold(f64::NAN, f64::max);
         let best_pub = [p.qmix_smac, p.qmix_tuned, p.mappo].iter().flatten().map(|c| c.value).fold(f64::NAN, f64::max);
@@ -211,7 +259,7 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
     let easy_held: Vec<String> =
         easy.iter().map(|(m, h)| if h.is_finite() { format!("{m} {}", pct(*h)) } else { format!("{m} –") }).collect();
     table.push_str(&format!("Easy maps, best held-out win rate (%): {}.\n", easy_held.join(", ")));
-    table.push_str(&seeds_line(&a.runs)?);
+    table.push_str(&seeds_line(a)?);
     std::fs::create_dir_all(&a.out).with_context(|| format!("{}", a.out.display()))?;
     std::fs::write(a.out.join("table.md"), &table).with_context(|| format!("{}/table.md", a.out.display()))?;
     let names: Vec<&str> = RUNS.to_vec();

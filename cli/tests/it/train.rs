@@ -193,6 +193,8 @@ fn smac_report_sets_runs_beside_published_results() {
             .arg(p)
             .arg("--out")
             .arg(dir.join("out"))
+            .arg("--baselines")
+            .arg(dir.join("baselines"))
             .arg("--doc")
             .arg(&doc);
         c.output().expect("run avacraft smac-report")
@@ -226,6 +228,31 @@ fn smac_report_sets_runs_beside_published_results() {
         "{page}"
     );
     assert!(dir.join("out/curves.png").is_file() && dir.join("out/table.md").is_file());
+    // A run whose training folder is gone is read from its shipped copy, its held-out games
+    // played again (seed 2 of QMIX on 3m: a short run, shipped by hand).
+    let trained = dir.join("trained");
+    let small = ["--set", "batch_size=4", "--set", "test_interval=200", "--set", "test_nepisode=2", "--envs", "2"];
+    let mut first = vec!["--algo", "qmix", "--scenario", "3m", "--steps", "200", "--out", trained.to_str().expect("utf-8")];
+    first.extend(small);
+    let out = train(&first);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let shipped = dir.join("baselines/3m/qmix-s2");
+    std::fs::create_dir_all(&shipped).expect("shipped");
+    for f in ["log.csv", "config.json", "agent.safetensors"] {
+        std::fs::copy(trained.join(f), shipped.join(f)).expect("copy");
+    }
+    let out = args(&published);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let table = String::from_utf8_lossy(&out.stdout);
+    let line = table.lines().find(|l| l.starts_with("Seeds 1, 2 and 3")).unwrap_or_else(|| panic!("no seeds line: {table}"));
+    let seed2 = line.split("; ").nth(1).unwrap_or_else(|| panic!("{line}"));
+    assert!(seed2.contains(" / ") && seed2.contains("@ 0.0M") && !seed2.contains("unfinished"), "{line}");
+    // Its budget, from the shipped config: short of it, unfinished.
+    let config = std::fs::read_to_string(shipped.join("config.json")).expect("config");
+    std::fs::write(shipped.join("config.json"), config.replace("\"t_max\": 200", "\"t_max\": 2000000")).expect("config");
+    let out = args(&published);
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(table.lines().any(|l| l.starts_with("Seeds 1, 2 and 3") && l.contains("@ 0.0M (unfinished)")), "{table}");
     // A map SMAC does not have.
     std::fs::write(&published, format!("{all}[maps.4m]\nclass = \"easy\"\n")).expect("published");
     let out = args(&published);
