@@ -322,7 +322,7 @@ fn run_plan(path: &std::path::Path, shard: Option<avacraft_eval::Shard>, threads
                 rows.push((job.id.clone(), format!("waiting for {}", src.id), 0, None));
                 continue;
             }
-            continue_from(&src.dir, &job.dir, &cfg).with_context(|| format!("run {}: going on from {}", job.id, src.id))?;
+            continue_from(&src.dir, &job.dir, &cfg, &scenario).with_context(|| format!("run {}: going on from {}", job.id, src.id))?;
         }
         let start = if job.dir.join("resume").join("state.json").is_file() {
             let (saved, state) = avacraft_marl::resume::load(&job.dir).with_context(|| format!("resuming run {}", job.id))?;
@@ -361,14 +361,19 @@ fn run_plan(path: &std::path::Path, shard: Option<avacraft_eval::Shard>, threads
 
 /// A plan's run that goes on from another (`from`): the other's folder copied into `dir` (all
 /// but its summary; aside first, so a kill never leaves half a copy that looks like a run),
-/// its checkpoint given this run's settings, which the resume then finds.
-fn continue_from(src: &std::path::Path, dir: &std::path::Path, cfg: &Config) -> Result<()> {
-    let tmp = dir.with_extension("copy");
+/// made ready to resume under this run's settings (`resume::continue_as`).
+fn continue_from(src: &std::path::Path, dir: &std::path::Path, cfg: &Config, scenario: &Arc<Scenario>) -> Result<()> {
+    if !src.join("resume").join("state.json").is_file() {
+        bail!("{} has no resume/state.json to go on from", src.display());
+    }
+    let name = dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = dir.with_file_name(format!("{name}.copy"));
     if tmp.exists() {
         std::fs::remove_dir_all(&tmp).with_context(|| format!("removing {}", tmp.display()))?;
     }
     copy_dir(src, &tmp)?;
-    avacraft_marl::checkpoint::restate(&tmp, cfg).with_context(|| format!("{}: its weights and this run's settings", src.display()))?;
+    avacraft_marl::resume::continue_as(&tmp, cfg, scenario)
+        .with_context(|| format!("{}: its networks under this run's settings", src.display()))?;
     if dir.exists() {
         // A folder without a saved state holds nothing a resume could use.
         std::fs::remove_dir_all(dir).with_context(|| format!("removing {}", dir.display()))?;

@@ -121,9 +121,16 @@ pub struct TrainPlan {
 }
 
 impl TrainPlan {
-    /// The jobs `shard` takes (all without one), in the plan's order.
+    /// The jobs `shard` takes (all without one), in the plan's order. A run that goes on from
+    /// another is in that run's shard, so it starts in the same process once that one ends.
     pub fn shard(&self, shard: Option<Shard>) -> Vec<&TrainJob> {
-        self.jobs.iter().enumerate().filter(|(i, _)| shard.is_none_or(|s| s.takes(*i))).map(|(_, j)| j).collect()
+        let root = |mut i: usize| {
+            while let Some(k) = self.jobs[i].from.as_ref().and_then(|s| self.jobs.iter().position(|j| j.id == s.id)) {
+                i = k;
+            }
+            i
+        };
+        self.jobs.iter().enumerate().filter(|(i, _)| shard.is_none_or(|s| s.takes(root(*i)))).map(|(_, j)| j).collect()
     }
 }
 
@@ -184,13 +191,10 @@ pub fn parse_train_plan(file: &str, text: &str, base: Option<&Path>) -> Result<T
             })
         };
         check(&base)?;
-        if let Some(src) = &r.from {
-            let Some(earlier) = raw.runs[..i].iter().find(|e| e.name == *src) else {
-                return Err(err(f("from"), format!("{src:?}"), "names no [[runs]] table above this one"));
-            };
-            if earlier.algo != r.algo {
-                return Err(err(f("from"), format!("{src:?}"), &format!("a {} run cannot go on from a {} run", r.algo, earlier.algo)));
-            }
+        if let Some(src) = &r.from
+            && !raw.runs[..i].iter().any(|e| e.name == *src)
+        {
+            return Err(err(f("from"), format!("{src:?}"), "names no [[runs]] table above this one"));
         }
         for sc in &scenarios {
             let mut own = base.clone();
@@ -216,6 +220,13 @@ pub fn parse_train_plan(file: &str, text: &str, base: Option<&Path>) -> Result<T
                         let Some(s) = jobs.iter().find(|j| j.id == src_id) else {
                             return Err(err(f("from"), format!("{src:?}"), &format!("run `{src_id}` is not planned above")));
                         };
+                        if s.algo != r.algo {
+                            return Err(err(
+                                f("from"),
+                                format!("{src:?}"),
+                                &format!("a {} run cannot go on from a {} run", r.algo, s.algo),
+                            ));
+                        }
                         if s.steps >= steps {
                             return Err(err(
                                 f("steps"),
@@ -226,6 +237,17 @@ pub fn parse_train_plan(file: &str, text: &str, base: Option<&Path>) -> Result<T
                         // The source's settings, then this run's: later keys win.
                         let mut o: Vec<String> = s.overrides.iter().filter(|k| !k.starts_with("t_max=")).cloned().collect();
                         o.extend(own.iter().cloned());
+                        // The log's columns and the `best/` pick stand on the test opponents:
+                        // both stages must test the same ones.
+                        let tests = |o: &[String]| check(o).map(|c| (c.fixed_test_opponents(), c.self_play()));
+                        let (before, after) = (tests(&s.overrides)?, tests(&o)?);
+                        if before != after {
+                            return Err(err(
+                                f("set"),
+                                format!("{:?}", r.set),
+                                &format!("`{src_id}` tested against {:?}; a run that goes on from it must test the same", before.0),
+                            ));
+                        }
                         (o, Some(Source { id: src_id, dir: s.dir.clone(), steps: s.steps }))
                     }
                 };
@@ -448,6 +470,16 @@ opponent = "focus-fire"
         assert!(bad("algo = \"mappo\"", "algo = \"qmix\"").contains("a qmix run cannot go on from a mappo run"));
         assert!(bad("steps = 3000", "steps = 1000").contains("runs[2].steps"));
         assert!(bad("scenarios = [\"pvp\"]", "scenarios = [\"3m_vlm\"]").contains("3m_vlm/mappo-s1"));
+        let other_tests = bad("set = [\"lr=0.0001\"]", "set = [\"test_opponents=[\\\"kite\\\"]\"]");
+        assert!(other_tests.contains("runs[2].set") && other_tests.contains("must test the same"), "{other_tests}");
+        // Each continuation lands in its source's shard.
+        let shards: Vec<Shard> = ["1/3", "2/3", "3/3"].iter().filter_map(|s| s.parse().ok()).collect();
+        for s in shards {
+            let ids: Vec<&str> = p.shard(Some(s)).iter().map(|j| j.id.as_str()).collect();
+            for j in p.shard(Some(s)).iter().filter_map(|j| j.from.as_ref()) {
+                assert!(ids.contains(&j.id.as_str()), "{} without its source in shard {s:?}", j.id);
+            }
+        }
     }
 
     #[test]

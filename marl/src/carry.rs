@@ -22,7 +22,7 @@ use candle_core::{DType, Device, Tensor};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-const FILE: &str = "carry.safetensors";
+pub(crate) const FILE: &str = "carry.safetensors";
 
 /// Named arrays, written and read as one safetensors file.
 #[derive(Debug, Default)]

@@ -62,10 +62,9 @@ pub fn save(dir: &Path, nets: &Nets, cfg: &Config, shape: &Shape, scenario: &str
     std::fs::write(&path, text).map_err(|source| Error::Io { path, source })
 }
 
-/// Gives the checkpoint in `dir` another config: a run that goes on with other settings (a
-/// training plan's `from`) resumes under them. Refused, and the checkpoint left as it was,
-/// when its weights do not fit the network `cfg` describes.
-pub fn restate(dir: &Path, cfg: &Config) -> Result<(), Error> {
+/// Gives the checkpoint in `dir` another config (see [`crate::resume::continue_as`]). Refused,
+/// and the checkpoint left as it was, when its weights do not fit the network `cfg` describes.
+pub(crate) fn restate(dir: &Path, cfg: &Config) -> Result<(), Error> {
     let path = dir.join("config.json");
     let old = std::fs::read_to_string(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
     let mut meta: Meta = serde_json::from_str(&old).map_err(|source| Error::Json { path: path.clone(), source })?;

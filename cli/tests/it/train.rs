@@ -133,7 +133,7 @@ fn a_run_resumed_by_hand_ships_at_the_plans_budget() {
 
 /// A plan's run with `from` goes on from an earlier run once that one reaches its budget: its
 /// log starts with the earlier run's rows, its checkpoint has its own settings, the earlier run
-/// is left as it was; a shard without the earlier run waits for it.
+/// is left as it was; it is in the earlier run's shard.
 #[test]
 fn a_plan_run_goes_on_from_an_earlier_one() {
     let (dir, plan) = small_plan(
@@ -143,11 +143,12 @@ fn a_plan_run_goes_on_from_an_earlier_one() {
          [[runs]]\nname = \"b\"\nalgo = \"vdn\"\nscenarios = [\"3m_vlm\"]\nsteps = 400\nfrom = \"a\"\nset = [\"lr=0.0001\"]\n",
     );
     let p = plan.to_str().expect("utf-8");
+    // The continuation is in its source's shard (the first of two): the second has nothing.
     let out = train(&["--plan", p, "--shard", "2/2"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(String::from_utf8_lossy(&out.stdout).contains("waiting for 3m_vlm/a-s1"));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("0 runs of shard 2/2"), "{}", String::from_utf8_lossy(&out.stdout));
     assert!(!dir.join("runs/3m_vlm/b-s1").exists(), "nothing trained before its source");
-    let out = train(&["--plan", p]);
+    let out = train(&["--plan", p, "--shard", "1/2"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let (a, b) = (dir.join("runs/3m_vlm/a-s1"), dir.join("runs/3m_vlm/b-s1"));
     let read = |f: &std::path::Path| std::fs::read_to_string(f).unwrap_or_else(|e| panic!("{}: {e}", f.display()));

@@ -24,4 +24,5 @@ mod train;
 pub use crate::value_norm::ValueNorm;
 pub use learner::{CriticInput, Gradients, Losses, PpoLearner, PpoStats, StepReport, masked_log_softmax, sample_actions};
 pub use rollout::{CriticRows, FlatBatch, MASKED, PpoBatch, Rollout, gae, to_chunks};
+pub(crate) use train::restore;
 pub use train::{train, train_from};

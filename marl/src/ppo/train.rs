@@ -319,7 +319,7 @@ fn checkpoint(
 }
 
 /// Loads the checkpoint's actor and critic and the state's value statistics into `learner`.
-fn restore(dir: &std::path::Path, learner: &mut PpoLearner, state: &RunState) -> Result<(), Error> {
+pub(crate) fn restore(dir: &std::path::Path, learner: &mut PpoLearner, state: &RunState) -> Result<(), Error> {
     let policy = crate::Policy::load(dir)?;
     learner.actor.agent_params.copy_from(&policy.nets.agent_params)?;
     learner.critic_params.load_map(&resume::load_tensors(&dir.join("critic.safetensors"))?, "critic.safetensors")?;

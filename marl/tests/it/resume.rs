@@ -80,8 +80,8 @@ fn a_killed_and_resumed_qmix_run_writes_the_uninterrupted_log() -> R {
     killed_and_resumed_runs_write_the_uninterrupted_log("qmix", "3m", &extra, &[0, 3, 5])
 }
 
-/// A checkpoint given other settings (a plan's run going on from another) resumes under them;
-/// settings its weights do not fit are refused, the checkpoint left as it was.
+/// A run given other settings (a plan's run going on from another) resumes under them;
+/// settings its networks or game sizes do not fit are refused, the checkpoint left as it was.
 #[test]
 fn a_checkpoint_takes_other_settings_its_weights_fit() -> R {
     let small = ["t_max=200", "envs=2", "batch_size=4", "test_interval=200", "test_nepisode=2", "episode_limit=25"];
@@ -91,12 +91,17 @@ fn a_checkpoint_takes_other_settings_its_weights_fit() -> R {
     let opts = RunOptions { scenario, seed: 3, threads: 1, out: Some(dir.clone()) };
     train(&cfg, &opts, &mut |_| {})?;
     let before = std::fs::read_to_string(dir.join("config.json"))?;
-    let wider = cfg.overridden(&["rnn_hidden_dim=32".into()])?;
-    let err = avacraft_marl::checkpoint::restate(&dir, &wider).err().map(|e| e.to_string()).unwrap_or_default();
-    assert!(!err.is_empty(), "a network of another width was taken");
-    assert_eq!(std::fs::read_to_string(dir.join("config.json"))?, before, "a refused config leaves the checkpoint");
-    let slower = cfg.overridden(&["lr=0.0001".into(), "t_max=400".into()])?;
-    avacraft_marl::checkpoint::restate(&dir, &slower)?;
+    let scenario = Arc::clone(&opts.scenario);
+    // Another network, another game size (the ability slots): refused, the checkpoint kept.
+    for other in ["rnn_hidden_dim=32", "ability_actions=true"] {
+        let c = cfg.overridden(&[other.into()])?;
+        let err = avacraft_marl::resume::continue_as(&dir, &c, &scenario).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(!err.is_empty(), "{other} was taken");
+        assert_eq!(std::fs::read_to_string(dir.join("config.json"))?, before, "{other}: a refused config leaves the checkpoint");
+    }
+    let slower = cfg.overridden(&["lr=0.0001".into(), "t_max=400".into(), "optimizer=\"adam\"".into()])?;
+    avacraft_marl::resume::continue_as(&dir, &slower, &scenario)?;
+    assert!(!dir.join("resume/optim.safetensors").exists(), "another optimiser starts afresh");
     let (saved, state) = avacraft_marl::resume::load(&dir)?;
     assert_eq!(saved, slower);
     let (_, summary) = train_from(&slower, &opts, Some(state), &mut |_| {})?;
