@@ -196,7 +196,9 @@ pub(crate) fn optim_mismatch(dir: &Path, name: &str, why: &str) -> Error {
 pub fn continue_as(dir: &Path, cfg: &Config, scenario: &std::sync::Arc<avacraft_engine::Scenario>) -> Result<(), Error> {
     let (saved, state) = load(dir)?;
     let old = crate::Policy::load(dir)?.shape;
-    let shape = crate::evaluation::shape_of(cfg, scenario)?;
+    // The game's sizes do not depend on who plays team 2; a snapshot pool does not exist yet.
+    let sizes = Config { opponent: crate::Opponent::Idle, ..cfg.clone() };
+    let shape = crate::evaluation::shape_of(&sizes, scenario)?;
     if shape != old {
         return Err(Error::Checkpoint {
             message: format!("{}: trained on a game of {old:?}; these settings play one of {shape:?}", dir.display()),

@@ -176,3 +176,23 @@ fn a_league_mixes_scripted_agents_with_snapshots() -> R {
     assert!(e.contains("self_play_scripts[0]") && e.contains("kyte"), "{e}");
     Ok(())
 }
+
+/// A self-play run goes on under other settings (a plan's `from`): the game's sizes are
+/// checked without a snapshot pool, and the continuation trains on from the copy.
+#[test]
+fn a_self_play_run_goes_on_under_other_settings() -> R {
+    let scenario = arena()?;
+    let cfg = config(&["t_max=800"])?;
+    let dir = std::env::temp_dir().join(format!("avacraft-selfplay-more-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let opts = RunOptions { scenario: Arc::clone(&scenario), seed: 5, threads: 1, out: Some(dir.clone()) };
+    train(&cfg, &opts, &mut |_| {})?;
+    let more = cfg.overridden(&["lr=0.0001".into(), "t_max=1600".into()])?;
+    avacraft_marl::resume::continue_as(&dir, &more, &scenario)?;
+    let (saved, state) = avacraft_marl::resume::load(&dir)?;
+    assert_eq!(saved, more);
+    let (_, summary) = avacraft_marl::train_from(&more, &opts, Some(state), &mut |_| {})?;
+    assert_eq!(summary.t_env, 1600);
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
