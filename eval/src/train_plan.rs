@@ -405,9 +405,9 @@ opponent = "focus-fire"
         // The PvP league: both learners on the six PvP scenarios, self-play with scripts, and
         // MAPPO's with units that acquire targets by themselves.
         let league = load_train_plan(&dir.join("pvp_league.toml")).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(league.jobs.len(), 18 + 3 + 3);
+        assert_eq!(league.jobs.len(), 18 + 3 + 3 + 1);
         let active = league.jobs.iter().filter(|j| j.overrides.contains(&"passive_agents=false".to_owned())).count();
-        assert_eq!(active, 6 + 3 + 3, "mappo-league-active on each PvP scenario, mappo-league-pfsp on three, the three with abilities");
+        assert_eq!(active, 6 + 3 + 4, "mappo-league-active on each PvP scenario, mappo-league-pfsp on three, the four with abilities");
         // The Stalkers with Blink as an action: both learners, over the scripts alone.
         let abilities: Vec<&str> =
             league.jobs.iter().filter(|j| j.overrides.contains(&"ability_actions=true".to_owned())).map(|j| j.id.as_str()).collect();
@@ -416,7 +416,8 @@ opponent = "focus-fire"
             [
                 "8s_vs_8m3mr1mv1st_pvp/mappo-league-abilities-s1",
                 "8s_vs_8m3mr1mv1st_pvp/qmix-league-abilities-s1",
-                "8s_vs_8m3mr1mv1st_pvp/qmix-am-abilities-s1"
+                "8s_vs_8m3mr1mv1st_pvp/qmix-am-abilities-s1",
+                "8s_vs_8m3mr1mv1st_pvp/qmix-am-abilities-more-s1"
             ]
         );
         let pfsp: Vec<&TrainJob> = league.jobs.iter().filter(|j| j.run == "mappo-league-pfsp").collect();
@@ -428,7 +429,17 @@ opponent = "focus-fire"
         assert_eq!(budget("8m3mr1mv1st_mirror_pvp/mappo-league-pfsp-s1"), Some((2_000_000, true)));
         let four = |j: &&TrainJob| j.overrides.iter().any(|o| o.starts_with("self_play_scripts=[\"focus-fire\""));
         let specialists: Vec<&str> = league.jobs.iter().filter(|j| !four(j)).map(|j| j.id.as_str()).collect();
-        assert_eq!(specialists, ["8s_vs_8m3mr1mv1st_pvp/qmix-am-abilities-s1"], "every other run meets the four scripts");
+        assert_eq!(
+            specialists,
+            ["8s_vs_8m3mr1mv1st_pvp/qmix-am-abilities-s1", "8s_vs_8m3mr1mv1st_pvp/qmix-am-abilities-more-s1"],
+            "every other run meets the four scripts"
+        );
+        // The specialist's second stage goes on from its first, with its settings.
+        let more = league.jobs.iter().find(|j| j.run == "qmix-am-abilities-more").map(|j| (j.from.clone(), j.steps));
+        assert_eq!(
+            more.and_then(|(f, s)| f.map(|f| (f.id, f.steps, s))),
+            Some(("8s_vs_8m3mr1mv1st_pvp/qmix-am-abilities-s1".into(), 2_000_000, 3_000_000))
+        );
         // SMAC's 23 maps: QMIX and MAPPO on each at SMAC's budgets (10M on the super-hard ones).
         let smac = load_train_plan(&dir.join("smac.toml")).unwrap_or_else(|e| panic!("{e}"));
         // Seeds 2 and 3 of QMIX on five maps beside them.
