@@ -168,19 +168,22 @@ pub struct Panel {
     pub budget: u64,
 }
 
-/// At most this many points a run draws in a [`grid`] panel: a longer run draws the median of
-/// each stretch of consecutive test rounds, so a 10M-step run (1,000 rounds) reads as well as
-/// a 2M-step one instead of filling its panel with noise.
+/// At most this many points a run draws in a [`grid`] panel, one per stretch of the panel's x
+/// axis: a longer run draws the median of each stretch's test rounds, so a 10M-step run (1,000
+/// rounds) reads as well as a 2M-step one instead of filling its panel with noise, and a run
+/// stopped at a tenth of its axis is not drawn as a hundred points in a few pixels (whose
+/// zigzag the stroke's joins turned into spikes across neighbouring panels).
 pub const MAX_PANEL_POINTS: usize = 200;
 
-/// `pts` (in step order) with at most [`MAX_PANEL_POINTS`]: each stretch of `k` consecutive
-/// points becomes its last step and the median of its values.
-pub fn thin(pts: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
-    let k = pts.len().div_ceil(MAX_PANEL_POINTS).max(1);
-    if k == 1 {
-        return pts;
-    }
-    pts.chunks(k)
+/// `pts` (in step order) on an axis from 0 to `x_max`, with at most [`MAX_PANEL_POINTS`]: the
+/// points of each of that many equal stretches of the axis become their last step and the
+/// median of their values.
+pub fn thin(pts: Vec<(f64, f64)>, x_max: f64) -> Vec<(f64, f64)> {
+    let stretch = |x: f64| {
+        let at = if x_max > 0.0 { x / x_max * MAX_PANEL_POINTS as f64 } else { 0.0 };
+        (at.max(0.0) as usize).min(MAX_PANEL_POINTS - 1)
+    };
+    pts.chunk_by(|a, b| stretch(a.0) == stretch(b.0))
         .filter_map(|c| {
             let mut ys: Vec<f64> = c.iter().map(|p| p.1).collect();
             ys.sort_by(f64::total_cmp);
@@ -239,7 +242,7 @@ pub fn grid(path: &Path, title: &str, names: &[&str], panels: &[Panel], cols: us
             for (name, rows) in &p.runs {
                 let c = COLORS[names.iter().position(|n| n == name).unwrap_or(names.len()) % COLORS.len()];
                 let pts: Vec<(f64, f64)> = rows.iter().map(|r| (r.t_env as f64, r.test_win_rate)).filter(|(_, v)| v.is_finite()).collect();
-                chart.draw_series(LineSeries::new(thin(pts), c.stroke_width(2))).map_err(err)?;
+                chart.draw_series(LineSeries::new(thin(pts, x_max), c.stroke_width(2))).map_err(err)?;
             }
         }
         root.present().map_err(err)?;
@@ -275,15 +278,21 @@ mod tests {
     #[test]
     fn long_runs_are_thinned_to_medians_and_short_ones_kept() {
         let short: Vec<(f64, f64)> = (0..150).map(|i| (i as f64, (i % 2) as f64)).collect();
-        assert_eq!(thin(short.clone()), short);
+        assert_eq!(thin(short.clone(), 149.0), short);
         // 1,000 rounds: stretches of 5, each its last step and its median.
         let long: Vec<(f64, f64)> = (0..1000).map(|i| (i as f64, if i % 5 == 0 { 1.0 } else { 0.0 })).collect();
-        let t = thin(long);
+        let t = thin(long, 999.0);
         assert_eq!(t.len(), 200);
         assert_eq!(t[0], (4.0, 0.0));
         assert_eq!(t[199], (999.0, 0.0));
         let noisy: Vec<(f64, f64)> = (0..1000).map(|i| (i as f64, if i % 5 < 3 { 0.8 } else { 0.2 })).collect();
-        assert!(thin(noisy).iter().all(|p| p.1 == 0.8));
+        assert!(thin(noisy, 999.0).iter().all(|p| p.1 == 0.8));
+        // A run stopped at a tenth of its panel's axis: about a tenth of the points (20
+        // stretches of 5 rounds, and the last round starts the 21st).
+        let stopped: Vec<(f64, f64)> = (1..=100).map(|i| (i as f64 * 1e4, (i % 2) as f64)).collect();
+        let t = thin(stopped, 1e7);
+        assert_eq!(t.len(), 21);
+        assert_eq!((t[0], t[20]), ((4e4, 1.0), (1e6, 0.0)));
     }
 
     fn text(rows: &[LogRow]) -> String {
