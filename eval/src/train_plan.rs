@@ -442,11 +442,13 @@ opponent = "focus-fire"
         );
         // SMAC's 23 maps: QMIX and MAPPO on each at SMAC's budgets (10M on the super-hard ones).
         let smac = load_train_plan(&dir.join("smac.toml")).unwrap_or_else(|e| panic!("{e}"));
-        // Seeds 2 and 3 of QMIX on five maps beside them.
-        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 5);
+        // Seeds 2 and 3 of QMIX and MAPPO on five maps beside them.
+        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5);
         for name in ["3m", "2s3z", "3s_vs_5z", "5m_vs_6m", "MMM"] {
             for seed in [2, 3] {
-                assert!(smac.jobs.iter().any(|j| j.id == format!("{name}/qmix-s{seed}")), "{name} seed {seed}");
+                for run in ["qmix", "mappo"] {
+                    assert!(smac.jobs.iter().any(|j| j.id == format!("{name}/{run}-s{seed}")), "{name} {run} seed {seed}");
+                }
             }
         }
         for name in smac_names() {
