@@ -361,7 +361,7 @@ fn run_plan(path: &std::path::Path, shard: Option<avacraft_eval::Shard>, threads
 
 /// A plan's run that goes on from another (`from`): the other's folder copied into `dir` (all
 /// but its summary; aside first, so a kill never leaves half a copy that looks like a run),
-/// made ready to resume under this run's settings (`resume::continue_as`).
+/// made ready to resume under this run's settings (`continuation::continue_as`).
 fn continue_from(src: &std::path::Path, dir: &std::path::Path, cfg: &Config, scenario: &Arc<Scenario>) -> Result<()> {
     if !src.join("resume").join("state.json").is_file() {
         bail!("{} has no resume/state.json to go on from", src.display());
@@ -372,7 +372,7 @@ fn continue_from(src: &std::path::Path, dir: &std::path::Path, cfg: &Config, sce
         std::fs::remove_dir_all(&tmp).with_context(|| format!("removing {}", tmp.display()))?;
     }
     copy_dir(src, &tmp)?;
-    avacraft_marl::resume::continue_as(&tmp, cfg, scenario)
+    avacraft_marl::continuation::continue_as(&tmp, cfg, scenario)
         .with_context(|| format!("{}: its networks under this run's settings", src.display()))?;
     if dir.exists() {
         // A folder without a saved state holds nothing a resume could use.

@@ -215,41 +215,7 @@ pub fn parse_train_plan(file: &str, text: &str, base: Option<&Path>) -> Result<T
                 }
                 let (overrides, from) = match &r.from {
                     None => (own.clone(), None),
-                    Some(src) => {
-                        let src_id = format!("{}/{src}-s{seed}", sc.name);
-                        let Some(s) = jobs.iter().find(|j| j.id == src_id) else {
-                            return Err(err(f("from"), format!("{src:?}"), &format!("run `{src_id}` is not planned above")));
-                        };
-                        if s.algo != r.algo {
-                            return Err(err(
-                                f("from"),
-                                format!("{src:?}"),
-                                &format!("a {} run cannot go on from a {} run", r.algo, s.algo),
-                            ));
-                        }
-                        if s.steps >= steps {
-                            return Err(err(
-                                f("steps"),
-                                steps.to_string(),
-                                &format!("must be above the budget of `{src_id}` it goes on from ({})", s.steps),
-                            ));
-                        }
-                        // The source's settings, then this run's: later keys win.
-                        let mut o: Vec<String> = s.overrides.iter().filter(|k| !k.starts_with("t_max=")).cloned().collect();
-                        o.extend(own.iter().cloned());
-                        // The log's columns and the `best/` pick stand on the test opponents:
-                        // both stages must test the same ones.
-                        let tests = |o: &[String]| check(o).map(|c| (c.fixed_test_opponents(), c.self_play()));
-                        let (before, after) = (tests(&s.overrides)?, tests(&o)?);
-                        if before != after {
-                            return Err(err(
-                                f("set"),
-                                format!("{:?}", r.set),
-                                &format!("`{src_id}` tested against {:?}; a run that goes on from it must test the same", before.0),
-                            ));
-                        }
-                        (o, Some(Source { id: src_id, dir: s.dir.clone(), steps: s.steps }))
-                    }
+                    Some(src) => continuation(&jobs, r, src, &own, (&sc.name, seed), steps, (&err, &f, &check))?,
                 };
                 check(&overrides)?;
                 jobs.push(TrainJob {
@@ -282,6 +248,49 @@ pub fn parse_train_plan(file: &str, text: &str, base: Option<&Path>) -> Result<T
     }
     let name = raw.name.unwrap_or_else(|| Path::new(file).file_stem().map_or_else(|| "plan".into(), |s| s.to_string_lossy().into()));
     Ok(TrainPlan { file: file.to_owned(), name, out, jobs })
+}
+
+/// A `from` run's settings and source: the source job's settings (budget aside), then the
+/// run's own (later keys win), checked against the source's algorithm, budget and test
+/// opponents.
+#[allow(clippy::type_complexity)]
+fn continuation(
+    jobs: &[TrainJob],
+    r: &RawRun,
+    src: &str,
+    own: &[String],
+    (scenario, seed): (&str, u64),
+    steps: u64,
+    (err, f, check): (
+        &dyn Fn(String, String, &str) -> TrainPlanError,
+        &dyn Fn(&str) -> String,
+        &dyn Fn(&[String]) -> Result<avacraft_marl::Config, TrainPlanError>,
+    ),
+) -> Result<(Vec<String>, Option<Source>), TrainPlanError> {
+    let src_id = format!("{scenario}/{src}-s{seed}");
+    let Some(s) = jobs.iter().find(|j| j.id == src_id) else {
+        return Err(err(f("from"), format!("{src:?}"), &format!("run `{src_id}` is not planned above")));
+    };
+    if s.algo != r.algo {
+        return Err(err(f("from"), format!("{src:?}"), &format!("a {} run cannot go on from a {} run", r.algo, s.algo)));
+    }
+    if s.steps >= steps {
+        return Err(err(f("steps"), steps.to_string(), &format!("must be above the budget of `{src_id}` it goes on from ({})", s.steps)));
+    }
+    let mut o: Vec<String> = s.overrides.iter().filter(|k| !k.starts_with("t_max=")).cloned().collect();
+    o.extend(own.iter().cloned());
+    // The log's columns and the `best/` pick stand on the test opponents: both stages must
+    // test the same ones.
+    let tests = |o: &[String]| check(o).map(|c| (c.fixed_test_opponents(), c.self_play()));
+    let (before, after) = (tests(&s.overrides)?, tests(&o)?);
+    if before != after {
+        return Err(err(
+            f("set"),
+            format!("{:?}", r.set),
+            &format!("`{src_id}` tested against {:?}; a run that goes on from it must test the same", before.0),
+        ));
+    }
+    Ok((o, Some(Source { id: src_id, dir: s.dir.clone(), steps: s.steps })))
 }
 
 fn check_seeds(field: &str, seeds: &[u64], err: &dyn Fn(String, String, &str) -> TrainPlanError) -> Result<(), TrainPlanError> {

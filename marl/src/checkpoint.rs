@@ -62,7 +62,7 @@ pub fn save(dir: &Path, nets: &Nets, cfg: &Config, shape: &Shape, scenario: &str
     std::fs::write(&path, text).map_err(|source| Error::Io { path, source })
 }
 
-/// Gives the checkpoint in `dir` another config (see [`crate::resume::continue_as`]). Refused,
+/// Gives the checkpoint in `dir` another config (a run going on under other settings). Refused,
 /// and the checkpoint left as it was, when its weights do not fit the network `cfg` describes.
 pub(crate) fn restate(dir: &Path, cfg: &Config) -> Result<(), Error> {
     let path = dir.join("config.json");

@@ -43,7 +43,7 @@
 //! 4. networks: `encoders`, `nets`, `qtran`, `observe`
 //! 5. acting: `acting`, `checkpoint`, `evaluation`, `selfplay`
 //! 6. learning: `learner`, `carry`, `resume`, `monitor`, `ppo`
-//! 7. training: `train`, `ship`
+//! 7. training: `train`, `ship`, `continuation`
 
 // Denied (not forbidden) so that `kernels::gemm`, the one call into a matrix-product kernel
 // by pointer, can allow it behind a bounds-checked safe function.
@@ -55,6 +55,7 @@ pub mod buffer;
 mod carry;
 pub mod checkpoint;
 pub mod config;
+pub mod continuation;
 pub mod encoders;
 mod error;
 pub mod evaluation;

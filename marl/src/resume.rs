@@ -33,7 +33,7 @@ use std::path::Path;
 const FORMAT: u32 = 1;
 
 /// The optimisers' states, beside `state.json`.
-const OPTIM_FILE: &str = "optim.safetensors";
+pub(crate) const OPTIM_FILE: &str = "optim.safetensors";
 
 /// Writes named optimiser states into `dir/resume` (aside, then renamed).
 pub(crate) fn save_moments(dir: &Path, moments: &[(&str, Moments)]) -> Result<(), Error> {
@@ -183,51 +183,6 @@ pub(crate) fn load_tensors(path: &Path) -> Result<std::collections::HashMap<Stri
 
 pub(crate) fn optim_mismatch(dir: &Path, name: &str, why: &str) -> Error {
     Error::Checkpoint { message: format!("{}: the `{name}` optimiser's state: {why}", dir.join("resume").join(OPTIM_FILE).display()) }
-}
-
-/// Prepares the run in `dir`, a copy of a finished run, to go on under other settings `cfg` (a
-/// training plan's `from`; `cfg` resolved for `scenario`). What was kept for the old settings
-/// goes: the episodes under way and the replay buffer (the continuation starts fresh episodes
-/// on seeds past the ones played, and a Q-learner fills a new buffer), and the optimiser's
-/// moments when the optimiser changes. The checkpoint then takes `cfg`, and the networks,
-/// target networks, critic and moments are loaded as a resume loads them. Refused, the
-/// checkpoint's config left as it was, where they do not fit: another game size (observation,
-/// actions, agents) or another network (meant for a copy: what went stays gone).
-pub fn continue_as(dir: &Path, cfg: &Config, scenario: &std::sync::Arc<avacraft_engine::Scenario>) -> Result<(), Error> {
-    let (saved, state) = load(dir)?;
-    let old = crate::Policy::load(dir)?.shape;
-    // The game's sizes do not depend on who plays team 2; a snapshot pool does not exist yet.
-    let sizes = Config { opponent: crate::Opponent::Idle, ..cfg.clone() };
-    let shape = crate::evaluation::shape_of(&sizes, scenario)?;
-    if shape != old {
-        return Err(Error::Checkpoint {
-            message: format!("{}: trained on a game of {old:?}; these settings play one of {shape:?}", dir.display()),
-        });
-    }
-    let d = dir.join("resume");
-    let gone = |path: std::path::PathBuf| -> Result<(), Error> {
-        let r = if path.is_dir() { std::fs::remove_dir_all(&path) } else { std::fs::remove_file(&path) };
-        match r {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(Error::Io { path, source: e }),
-            _ => Ok(()),
-        }
-    };
-    gone(d.join(crate::carry::FILE))?;
-    gone(d.join("buffer"))?;
-    if saved.optimizer != cfg.optimizer {
-        gone(d.join(OPTIM_FILE))?;
-    }
-    crate::checkpoint::restate(dir, cfg)?;
-    let fits = if cfg.is_ppo() {
-        crate::ppo::PpoLearner::new(cfg, shape, state.seed).and_then(|mut l| crate::ppo::restore(dir, &mut l, &state))
-    } else {
-        Learner::new(cfg, shape, state.seed).and_then(|mut l| restore(dir, &mut l, &state))
-    };
-    if let Err(e) = fits {
-        crate::checkpoint::restate(dir, &saved)?;
-        return Err(e);
-    }
-    Ok(())
 }
 
 /// Loads the checkpoint's and the saved targets' weights into `learner`.

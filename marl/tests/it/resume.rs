@@ -95,12 +95,12 @@ fn a_checkpoint_takes_other_settings_its_weights_fit() -> R {
     // Another network, another game size (the ability slots): refused, the checkpoint kept.
     for other in ["rnn_hidden_dim=32", "ability_actions=true"] {
         let c = cfg.overridden(&[other.into()])?;
-        let err = avacraft_marl::resume::continue_as(&dir, &c, &scenario).err().map(|e| e.to_string()).unwrap_or_default();
+        let err = avacraft_marl::continuation::continue_as(&dir, &c, &scenario).err().map(|e| e.to_string()).unwrap_or_default();
         assert!(!err.is_empty(), "{other} was taken");
         assert_eq!(std::fs::read_to_string(dir.join("config.json"))?, before, "{other}: a refused config leaves the checkpoint");
     }
     let slower = cfg.overridden(&["lr=0.0001".into(), "t_max=400".into(), "optimizer=\"adam\"".into()])?;
-    avacraft_marl::resume::continue_as(&dir, &slower, &scenario)?;
+    avacraft_marl::continuation::continue_as(&dir, &slower, &scenario)?;
     assert!(!dir.join("resume/optim.safetensors").exists(), "another optimiser starts afresh");
     let (saved, state) = avacraft_marl::resume::load(&dir)?;
     assert_eq!(saved, slower);

@@ -188,7 +188,7 @@ fn a_self_play_run_goes_on_under_other_settings() -> R {
     let opts = RunOptions { scenario: Arc::clone(&scenario), seed: 5, threads: 1, out: Some(dir.clone()) };
     train(&cfg, &opts, &mut |_| {})?;
     let more = cfg.overridden(&["lr=0.0001".into(), "t_max=1600".into()])?;
-    avacraft_marl::resume::continue_as(&dir, &more, &scenario)?;
+    avacraft_marl::continuation::continue_as(&dir, &more, &scenario)?;
     let (saved, state) = avacraft_marl::resume::load(&dir)?;
     assert_eq!(saved, more);
     let (_, summary) = avacraft_marl::train_from(&more, &opts, Some(state), &mut |_| {})?;
