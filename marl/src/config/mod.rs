@@ -8,6 +8,7 @@
 //! uses, and an override of a key the file lacks is refused like a typo.
 
 use crate::Error;
+mod env;
 mod league;
 mod obs;
 
@@ -270,16 +271,6 @@ fn legacy_data() -> String {
     DataSet::Legacy.name().to_owned()
 }
 
-/// The environment's SMACv2 and ability options, off unless set: keys every config has (the
-/// built-in files and saved configs leave them out at their defaults).
-fn add_env_keys(table: &mut toml::Table) {
-    table.entry("prob_obs_enemy").or_insert(toml::Value::Float(1.0));
-    table.entry("action_mask").or_insert(toml::Value::Boolean(true));
-    table.entry("conic_fov").or_insert(toml::Value::Boolean(false));
-    table.entry("num_fov_actions").or_insert(toml::Value::Integer(12));
-    table.entry("ability_actions").or_insert(toml::Value::Boolean(false));
-}
-
 impl Config {
     /// Whether team 2 is the learner's own snapshot pool (`opponent = "self"`).
     pub fn self_play(&self) -> bool {
@@ -306,7 +297,7 @@ impl Config {
         let mut table: toml::Table =
             toml::from_str(text).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
         obs::add_defaults(&mut table)?;
-        add_env_keys(&mut table);
+        env::add_default_keys(&mut table);
         table.entry("data").or_insert(toml::Value::String(MAP_DATA.to_owned()));
         league::add_default_keys(&mut table);
         Self::apply(table, overrides)
@@ -318,7 +309,7 @@ impl Config {
         let mut table = toml::Table::try_from(self).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
         // A saved config leaves the league's and the environment's options out at their
         // defaults; `--set` may name them.
-        add_env_keys(&mut table);
+        env::add_default_keys(&mut table);
         league::add_default_keys(&mut table);
         Self::apply(table, overrides)
     }
