@@ -414,9 +414,9 @@ opponent = "focus-fire"
         // The PvP league: both learners on the six PvP scenarios, self-play with scripts, and
         // MAPPO's with units that acquire targets by themselves.
         let league = load_train_plan(&dir.join("pvp_league.toml")).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(league.jobs.len(), 18 + 3 + 3 + 1);
+        assert_eq!(league.jobs.len(), 18 + 3 + 3 + 1 + 1);
         let active = league.jobs.iter().filter(|j| j.overrides.contains(&"passive_agents=false".to_owned())).count();
-        assert_eq!(active, 6 + 3 + 4, "mappo-league-active on each PvP scenario, mappo-league-pfsp on three, the four with abilities");
+        assert_eq!(active, 6 + 3 + 5, "mappo-league-active on each PvP scenario, mappo-league-pfsp on three, the five with abilities");
         // The Stalkers with Blink as an action: both learners, over the scripts alone.
         let abilities: Vec<&str> =
             league.jobs.iter().filter(|j| j.overrides.contains(&"ability_actions=true".to_owned())).map(|j| j.id.as_str()).collect();
@@ -426,7 +426,8 @@ opponent = "focus-fire"
                 "8s_vs_8m3mr1mv1st_pvp/mappo-league-abilities-s1",
                 "8s_vs_8m3mr1mv1st_pvp/qmix-league-abilities-s1",
                 "8s_vs_8m3mr1mv1st_pvp/qmix-am-abilities-s1",
-                "8s_vs_8m3mr1mv1st_pvp/qmix-am-abilities-more-s1"
+                "8s_vs_8m3mr1mv1st_pvp/qmix-am-abilities-more-s1",
+                "8s_vs_8m3mr1mv1st_pvp/mappo-am-abilities-s1"
             ]
         );
         let pfsp: Vec<&TrainJob> = league.jobs.iter().filter(|j| j.run == "mappo-league-pfsp").collect();
@@ -440,7 +441,11 @@ opponent = "focus-fire"
         let specialists: Vec<&str> = league.jobs.iter().filter(|j| !four(j)).map(|j| j.id.as_str()).collect();
         assert_eq!(
             specialists,
-            ["8s_vs_8m3mr1mv1st_pvp/qmix-am-abilities-s1", "8s_vs_8m3mr1mv1st_pvp/qmix-am-abilities-more-s1"],
+            [
+                "8s_vs_8m3mr1mv1st_pvp/qmix-am-abilities-s1",
+                "8s_vs_8m3mr1mv1st_pvp/qmix-am-abilities-more-s1",
+                "8s_vs_8m3mr1mv1st_pvp/mappo-am-abilities-s1"
+            ],
             "every other run meets the four scripts"
         );
         // The specialist's second stage goes on from its first, with its settings.
