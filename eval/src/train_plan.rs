@@ -414,9 +414,9 @@ opponent = "focus-fire"
         // The PvP league: both learners on the six PvP scenarios, self-play with scripts, and
         // MAPPO's with units that acquire targets by themselves.
         let league = load_train_plan(&dir.join("pvp_league.toml")).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(league.jobs.len(), 18 + 3 + 3 + 1 + 1);
+        assert_eq!(league.jobs.len(), 18 + 3 + 3 + 1 + 1 + 1);
         let active = league.jobs.iter().filter(|j| j.overrides.contains(&"passive_agents=false".to_owned())).count();
-        assert_eq!(active, 6 + 3 + 5, "mappo-league-active on each PvP scenario, mappo-league-pfsp on three, the five with abilities");
+        assert_eq!(active, 6 + 3 + 6, "mappo-league-active on each PvP scenario, mappo-league-pfsp on three, the six with abilities");
         // The Stalkers with Blink as an action: both learners, over the scripts alone.
         let abilities: Vec<&str> =
             league.jobs.iter().filter(|j| j.overrides.contains(&"ability_actions=true".to_owned())).map(|j| j.id.as_str()).collect();
@@ -427,7 +427,8 @@ opponent = "focus-fire"
                 "8s_vs_8m3mr1mv1st_pvp/qmix-league-abilities-s1",
                 "8s_vs_8m3mr1mv1st_pvp/qmix-am-abilities-s1",
                 "8s_vs_8m3mr1mv1st_pvp/qmix-am-abilities-more-s1",
-                "8s_vs_8m3mr1mv1st_pvp/mappo-am-abilities-s1"
+                "8s_vs_8m3mr1mv1st_pvp/mappo-am-abilities-s1",
+                "8s_vs_8m3mr1mv1st_pvp/mappo-am-abilities-pfsp-s1"
             ]
         );
         let pfsp: Vec<&TrainJob> = league.jobs.iter().filter(|j| j.run == "mappo-league-pfsp").collect();
@@ -454,6 +455,14 @@ opponent = "focus-fire"
             more.and_then(|(f, s)| f.map(|f| (f.id, f.steps, s))),
             Some(("8s_vs_8m3mr1mv1st_pvp/qmix-am-abilities-s1".into(), 2_000_000, 3_000_000))
         );
+        // MAPPO's specialist goes on against the four scripts, drawn by PFSP, its own set last.
+        let pfsp_stage = league.jobs.iter().find(|j| j.run == "mappo-am-abilities-pfsp").expect("planned");
+        assert_eq!(pfsp_stage.from.as_ref().map(|f| f.id.as_str()), Some("8s_vs_8m3mr1mv1st_pvp/mappo-am-abilities-s1"));
+        let scripts: Vec<&String> = pfsp_stage.overrides.iter().filter(|o| o.starts_with("self_play_scripts=")).collect();
+        assert_eq!(scripts.len(), 2);
+        assert!(scripts[1].contains("focus-fire") && pfsp_stage.overrides.contains(&"self_play_script_draw=\"pfsp\"".to_owned()));
+        let cfg = avacraft_marl::Config::for_algo("mappo", &pfsp_stage.overrides).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(cfg.self_play_scripts, ["focus-fire", "kite", "attack-move", "random"], "the stage's own scripts win");
         // SMAC's 23 maps: QMIX and MAPPO on each at SMAC's budgets (10M on the super-hard ones).
         let smac = load_train_plan(&dir.join("smac.toml")).unwrap_or_else(|e| panic!("{e}"));
         // Seeds 2 and 3 of QMIX and MAPPO on five maps beside them.
