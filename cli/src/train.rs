@@ -24,7 +24,8 @@ pub struct TrainArgs {
     /// Instead: every run of a training plan (TOML: scenarios x algorithms x seeds x
     /// observation mode x budget; see eval/plans/baselines.toml), each in its folder under the
     /// plan's `out`. Runs already done are skipped and interrupted ones resume, so the plan
-    /// can be started again after a kill.
+    /// can be started again after a kill; a run's `steps` raised in the plan takes it on to the
+    /// new budget, finished or not.
     #[arg(long, value_name = "FILE", conflicts_with_all = ["scenario", "resume", "config", "out", "obs", "steps", "seed", "envs", "set", "opponent"])]
     pub plan: Option<PathBuf>,
     /// With --plan: only the runs of shard i of n (run k goes to shard k mod n + 1), for a
@@ -309,8 +310,11 @@ fn run_plan(path: &std::path::Path, shard: Option<avacraft_eval::Shard>, threads
             let text = std::fs::read_to_string(&done_path).with_context(|| format!("reading {}", done_path.display()))?;
             let d: Done = serde_json::from_str(&text)
                 .with_context(|| format!("{}: not a finished run's summary (remove it to run again)", done_path.display()))?;
-            rows.push((job.id.clone(), "done before".to_owned(), d.t_env, d.final_test_win_rate));
-            continue;
+            // A budget raised after the run finished: it goes on from its last state.
+            if d.t_env >= job.steps || !job.dir.join("resume").join("state.json").is_file() {
+                rows.push((job.id.clone(), "done before".to_owned(), d.t_env, d.final_test_win_rate));
+                continue;
+            }
         }
         let cfg = Config::for_algo(&job.algo, &job.overrides).with_context(|| format!("run {}", job.id))?;
         // Resolved before comparing with a saved run, which names the set it played.
@@ -326,11 +330,24 @@ fn run_plan(path: &std::path::Path, shard: Option<avacraft_eval::Shard>, threads
         }
         let start = if job.dir.join("resume").join("state.json").is_file() {
             let (saved, state) = avacraft_marl::resume::load(&job.dir).with_context(|| format!("resuming run {}", job.id))?;
-            if saved != cfg {
+            // The budget may change (the run goes on to the plan's, as `--resume --steps`
+            // does); every other setting must be the saved run's.
+            let mut budgeted = saved.clone();
+            budgeted.t_max = cfg.t_max;
+            if budgeted != cfg {
                 bail!(
                     "run {}: {} holds a run of another config than the plan's (move it away to start afresh, or restore the plan)",
                     job.id,
                     job.dir.display()
+                );
+            }
+            if state.t_env > cfg.t_max {
+                bail!(
+                    "run {}: {} has trained {} steps, past the plan's budget of {} (raise the plan's `steps`, or move the run away)",
+                    job.id,
+                    job.dir.display(),
+                    state.t_env,
+                    cfg.t_max
                 );
             }
             Some(state)

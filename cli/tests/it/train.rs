@@ -259,3 +259,39 @@ fn smac_report_sets_runs_beside_published_results() {
     let out = args(&published);
     assert!(String::from_utf8_lossy(&out.stderr).contains("`4m` is not one of SMAC's maps"), "{}", String::from_utf8_lossy(&out.stderr));
 }
+
+/// A plan's budget may change under a run: raised, the run goes on to it (finished or not, as
+/// `train --resume --steps` would); lowered below what the run has trained, the plan is refused
+/// naming both numbers, and the run is left as it was.
+#[test]
+fn a_plans_budget_changed_under_a_run() {
+    let runs = "[[runs]]\nname = \"vdn\"\nalgo = \"vdn\"\nscenarios = [\"3m_vlm\"]\nset = SMALL\n";
+    let (dir, plan) = small_plan("plan-budget", 200, runs);
+    let run = dir.join("runs/3m_vlm/vdn-s1");
+    let r = run.to_str().expect("utf-8");
+    let mut first = vec!["--algo", "vdn", "--scenario", "3m_vlm", "--steps", "400", "--envs", "2", "--out", r];
+    first.extend(["--set", "batch_size=4", "--set", "test_interval=200", "--set", "test_nepisode=2", "--set", "episode_limit=60"]);
+    let out = train(&first);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let log = || std::fs::read_to_string(run.join("log.csv")).expect("log.csv");
+    let before = log();
+    let p = plan.to_str().expect("utf-8");
+    let out = train(&["--plan", p]);
+    assert!(!out.status.success(), "400 steps trained, a plan of 200");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("has trained 400 steps") && err.contains("budget of 200"), "{err}");
+    assert_eq!(log(), before, "a refused plan leaves the run as it was");
+    for steps in [600, 800] {
+        let text = std::fs::read_to_string(&plan).expect("plan");
+        let old = text.lines().find(|l| l.starts_with("steps = ")).expect("steps line").to_owned();
+        std::fs::write(&plan, text.replace(&old, &format!("steps = {steps}"))).expect("plan");
+        let out = train(&["--plan", p]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(text.contains("resumed"), "{steps}: {text}");
+        assert!(log().starts_with(&before), "the log goes on");
+        assert!(log().lines().last().is_some_and(|l| l.starts_with(&format!("{steps},"))), "{}", log());
+        assert!(std::fs::read_to_string(run.join("done.json")).is_ok_and(|d| d.contains(&steps.to_string())));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
