@@ -40,6 +40,9 @@ pub struct SmacReportArgs {
 
 /// The learners compared, as the plan names their runs.
 const RUNS: [&str; 2] = ["qmix", "mappo"];
+/// Runs of the plan with other settings than the compared learners' (seed 1, on the maps
+/// where they ran): listed under the table and drawn beside them, not compared.
+const VARIANTS: [&str; 1] = ["mappo-ff"];
 /// Test rounds whose median is a run's final win rate (the MAPPO paper's rule).
 const LAST_ROUNDS: usize = 10;
 const BEGIN: &str = "<!-- smac-report:begin -->";
@@ -213,6 +216,7 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
     let mut panels = Vec::new();
     let mut gaps = Vec::new();
     let mut easy = Vec::new();
+    let mut variants = Vec::new();
     for map in smac_names() {
         let p = published.maps.get(map).with_context(|| format!("{}: no entry for `{map}`", a.published.display()))?;
         let runs: Vec<(&str, Option<Ours>)> =
@@ -242,7 +246,13 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
             cell(p.mappo),
         ));
         let best_pub_rate = best_pub.is_finite().then_some(best_pub / 100.0);
-        let run_rows: Vec<(String, Vec<LogRow>)> = runs.into_iter().filter_map(|(r, o)| o.map(|o| (r.to_owned(), o.rows))).collect();
+        let mut run_rows: Vec<(String, Vec<LogRow>)> = runs.into_iter().filter_map(|(r, o)| o.map(|o| (r.to_owned(), o.rows))).collect();
+        for v in VARIANTS {
+            if let Some(o) = find_run(&a.runs, &a.baselines, map, v, 1)? {
+                variants.push(format!("{map} {v}: {}", show_ours(Some(&o))));
+                run_rows.push((v.to_owned(), o.rows));
+            }
+        }
         if !run_rows.is_empty() {
             let budget = if p.class == "super-hard" { 10_000_000 } else { 2_000_000 };
             panels.push(Panel { title: map.to_owned(), runs: run_rows, reference: best_pub_rate, budget });
@@ -260,9 +270,12 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
         easy.iter().map(|(m, h)| if h.is_finite() { format!("{m} {}", pct(*h)) } else { format!("{m} –") }).collect();
     table.push_str(&format!("Easy maps, best held-out win rate (%): {}.\n", easy_held.join(", ")));
     table.push_str(&seeds_line(a)?);
+    if !variants.is_empty() {
+        table.push_str(&format!("Other settings, not compared (test / held-out @ steps): {}.\n", variants.join(" | ")));
+    }
     std::fs::create_dir_all(&a.out).with_context(|| format!("{}", a.out.display()))?;
     std::fs::write(a.out.join("table.md"), &table).with_context(|| format!("{}/table.md", a.out.display()))?;
-    let names: Vec<&str> = RUNS.to_vec();
+    let names: Vec<&str> = RUNS.iter().chain(&VARIANTS).copied().collect();
     if !panels.is_empty() {
         grid(&a.out.join("curves.png"), "SMAC's maps: greedy test win rate against environment steps", &names, &panels, 5)?;
     }

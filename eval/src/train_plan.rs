@@ -465,8 +465,12 @@ opponent = "focus-fire"
         assert_eq!(cfg.self_play_scripts, ["focus-fire", "kite", "attack-move", "random"], "the stage's own scripts win");
         // SMAC's 23 maps: QMIX and MAPPO on each at SMAC's budgets (10M on the super-hard ones).
         let smac = load_train_plan(&dir.join("smac.toml")).unwrap_or_else(|e| panic!("{e}"));
-        // Seeds 2 and 3 of QMIX and MAPPO on five maps beside them.
-        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5);
+        // Seeds 2 and 3 of QMIX and MAPPO on five maps beside them, and the feed-forward MAPPO
+        // on 6h_vs_8z.
+        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 1);
+        let ff = smac.jobs.iter().find(|j| j.id == "6h_vs_8z/mappo-ff-s1").expect("the feed-forward MAPPO");
+        let cfg = avacraft_marl::Config::for_algo("mappo", &ff.overrides).unwrap_or_else(|e| panic!("{e}"));
+        assert!(!cfg.use_rnn && cfg.ppo_epochs == 5 && ff.steps == 10_000_000);
         for name in ["3m", "2s3z", "3s_vs_5z", "5m_vs_6m", "MMM"] {
             for seed in [2, 3] {
                 for run in ["qmix", "mappo"] {

@@ -229,6 +229,14 @@ fn smac_report_sets_runs_beside_published_results() {
         "{page}"
     );
     assert!(dir.join("out/curves.png").is_file() && dir.join("out/table.md").is_file());
+    assert!(!table.contains("Other settings"), "{table}");
+    // A run with other settings (the feed-forward MAPPO) is listed under the table, not compared.
+    let variant = dir.join("runs/3m/mappo-ff-s1");
+    std::fs::create_dir_all(&variant).expect("variant dir");
+    std::fs::copy(run.join("log.csv"), variant.join("log.csv")).expect("variant log");
+    let table = String::from_utf8_lossy(&args(&published).stdout).into_owned();
+    assert!(table.contains("| 3m | easy | 90 @ 0.1M | not run | – | – | 100 ᵘ | -10 |"), "{table}");
+    assert!(table.contains("Other settings, not compared (test / held-out @ steps): 3m mappo-ff: 90 @ 0.1M (unfinished)."), "{table}");
     // A run whose training folder is gone is read from its shipped copy, its held-out games
     // played again (seed 2 of QMIX on 3m: a short run, shipped by hand).
     let trained = dir.join("trained");

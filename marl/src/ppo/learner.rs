@@ -223,7 +223,14 @@ impl PpoLearner {
         let (critic, critic_layout) = if cfg.shared_trunk {
             (Critic::Head(Linear::new(&mut critic_params, "value", cfg.rnn_hidden_dim, 1, &mut rng)?), None)
         } else {
-            let net = AgentNet::new(&mut critic_params, critic_input.width(&shape), cfg.rnn_hidden_dim, 1, &mut rng)?;
+            let (input, hidden) = (critic_input.width(&shape), cfg.rnn_hidden_dim);
+            // The critic is built as the actor is: recurrent (the MAPPO repository's `rmappo`)
+            // or feed-forward (its `mappo`, which its scripts run on some maps).
+            let net = if cfg.use_rnn {
+                AgentNet::new(&mut critic_params, input, hidden, 1, &mut rng)?
+            } else {
+                AgentNet::feed_forward(&mut critic_params, input, hidden, 1, &mut rng)?
+            };
             let layout = net.layout();
             (Critic::Own(net), Some(layout))
         };

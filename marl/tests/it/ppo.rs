@@ -215,6 +215,8 @@ fn fused_gradients_match_the_candle_reference() -> R {
         ("ippo", vec!["huber_delta=0.3", "entropy_coef=0.2"]),
         ("ippo", vec!["shared_trunk=true"]),
         ("ippo", vec!["shared_trunk=true", "value_loss_coef=0.5", "clip_value_loss=false"]),
+        ("mappo", vec!["use_rnn=false"]),
+        ("ippo", vec!["use_rnn=false", "shared_trunk=true"]),
     ] {
         let c = ppo_cfg(algo, &extra)?;
         let mut rng = ChaCha8Rng::seed_from_u64(11);
@@ -354,6 +356,38 @@ fn short(algo: &str) -> Result<Config, avacraft_marl::Error> {
         &["t_max=2000", "envs=4", "rollout_len=20", "test_interval=1000", "test_nepisode=4", "episode_limit=60", "ppo_epochs=4"]
             .map(String::from),
     )
+}
+
+/// The feed-forward MAPPO (`use_rnn = false`, the MAPPO repository's `mappo`): neither
+/// network carries anything from one step to the next, its checkpoint says so and plays as
+/// the trainer's greedy tests do.
+#[test]
+fn a_feed_forward_mappo_run_keeps_no_state_and_its_checkpoint_plays_alike() -> R {
+    let c = ppo_cfg("mappo", &["use_rnn=false"])?;
+    let l = PpoLearner::new(&c, SMALL, 4)?;
+    assert!(!l.actor.agent.is_recurrent());
+    let rows = 6;
+    let xa: Vec<f32> = (0..rows * SMALL.input(true, true)).map(|i| (i as f32 * 0.3).cos()).collect();
+    let xc = vec![0.5f32; rows * CriticInput::of(&c).width(&SMALL)];
+    let h = |k: f32| vec![k; rows * c.rnn_hidden_dim];
+    let (a, b) = (l.act(&xa, &h(0.0), Input::Rows(&xc), &h(0.0))?, l.act(&xa, &h(0.7), Input::Rows(&xc), &h(-0.7))?);
+    assert_eq!((a.logits, a.values), (b.logits, b.values), "a feed-forward step read the state it was given");
+
+    let scenario = Arc::new(Scenario::load("3m_vlm")?);
+    let dir = std::env::temp_dir().join(format!("avacraft-ppo-ff-{}", std::process::id()));
+    let c = Config { use_rnn: false, ..short("mappo")? };
+    let opts = RunOptions { scenario: Arc::clone(&scenario), seed: 3, threads: 2, out: Some(dir.clone()) };
+    let (trained, summary) = train(&c, &opts, &mut |_| {})?;
+    assert!(summary.last_loss.is_finite() && summary.updates == 25, "{summary:?}");
+    let agent = MarlAgent::load(&dir)?;
+    assert!(!agent.policy().cfg.use_rnn && !agent.policy().nets.agent.is_recurrent());
+    for seed in 1..=2 {
+        let r = train::test(trained.nets(), &c, &scenario, &[seed], 1)?;
+        let p = common::play(agent.policy(), &scenario, &c, seed);
+        assert!((f64::from(p.ret) - r.mean_return).abs() < 1e-4, "seed {seed}: agent {}, trainer {}", p.ret, r.mean_return);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
 }
 
 #[test]
