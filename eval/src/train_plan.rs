@@ -466,11 +466,13 @@ opponent = "focus-fire"
         // SMAC's 23 maps: QMIX and MAPPO on each at SMAC's budgets (10M on the super-hard ones).
         let smac = load_train_plan(&dir.join("smac.toml")).unwrap_or_else(|e| panic!("{e}"));
         // Seeds 2 and 3 of QMIX and MAPPO on five maps beside them, and the feed-forward MAPPO
-        // on 6h_vs_8z.
-        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 1);
-        let ff = smac.jobs.iter().find(|j| j.id == "6h_vs_8z/mappo-ff-s1").expect("the feed-forward MAPPO");
-        let cfg = avacraft_marl::Config::for_algo("mappo", &ff.overrides).unwrap_or_else(|e| panic!("{e}"));
-        assert!(!cfg.use_rnn && cfg.ppo_epochs == 5 && ff.steps == 10_000_000);
+        // on 6h_vs_8z, its critic reading the state alone and with each agent's observation.
+        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 2);
+        for (run, agent_obs) in [("mappo-ff", false), ("mappo-ff-obs", true)] {
+            let ff = smac.jobs.iter().find(|j| j.id == format!("6h_vs_8z/{run}-s1")).expect("the feed-forward MAPPO");
+            let cfg = avacraft_marl::Config::for_algo("mappo", &ff.overrides).unwrap_or_else(|e| panic!("{e}"));
+            assert!(!cfg.use_rnn && cfg.ppo_epochs == 5 && ff.steps == 10_000_000 && cfg.critic_agent_obs == agent_obs, "{run}");
+        }
         for name in ["3m", "2s3z", "3s_vs_5z", "5m_vs_6m", "MMM"] {
             for seed in [2, 3] {
                 for run in ["qmix", "mappo"] {

@@ -59,6 +59,19 @@ impl Png {
 }
 
 /// The series' legend in a corner of a chart, in one style for every plot of the project.
+/// An environment-step axis label, short enough not to run off a panel's edge: `750k`,
+/// `2.5M`, `10M`.
+pub fn steps_label(v: f64) -> String {
+    if v >= 1e6 {
+        let m = format!("{:.1}", v / 1e6);
+        format!("{}M", m.strip_suffix(".0").unwrap_or(&m))
+    } else if v >= 1e3 {
+        format!("{:.0}k", v / 1e3)
+    } else {
+        format!("{v:.0}")
+    }
+}
+
 pub fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
     chart: &mut ChartContext<'a, DB, CT>,
     corner: SeriesLabelPosition,
@@ -119,7 +132,14 @@ pub fn curves(path: &Path, title: &str, points: &[CurvePoint], vs: &[String]) ->
                 .y_label_area_size(60)
                 .build_cartesian_2d(0u64..x_max, y)
                 .map_err(err)?;
-            chart.configure_mesh().x_desc("environment steps").y_desc(label).label_style(("sans-serif", 14)).draw().map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_desc("environment steps")
+                .y_desc(label)
+                .x_label_formatter(&|v: &u64| steps_label(*v as f64))
+                .label_style(("sans-serif", 14))
+                .draw()
+                .map_err(err)?;
             for (name, pts, color) in series {
                 chart
                     .draw_series(LineSeries::new(pts, color.stroke_width(2)))
@@ -137,6 +157,12 @@ pub fn curves(path: &Path, title: &str, points: &[CurvePoint], vs: &[String]) ->
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn step_labels_are_short() {
+        let got: Vec<String> = [0.0, 500.0, 40_000.0, 1e6, 2.5e6, 1e7].into_iter().map(steps_label).collect();
+        assert_eq!(got, ["0", "500", "40k", "1M", "2.5M", "10M"]);
+    }
 
     #[test]
     fn curves_are_drawn_into_a_png_of_their_size() {

@@ -127,7 +127,7 @@ pub fn compare(path: &Path, title: &str, groups: &[Group]) -> Result<(), Error> 
                 .build_cartesian_2d(0.0..x_max, 0.0..1.02)
                 .map_err(err)?;
             let steps = x_label.starts_with("env");
-            let fmt_x = move |v: &f64| if steps { format!("{:.0}k", v / 1000.0) } else { format!("{v:.0}") };
+            let fmt_x = move |v: &f64| if steps { crate::plot::steps_label(*v) } else { format!("{v:.0}") };
             chart
                 .configure_mesh()
                 .x_desc(x_label)
@@ -228,7 +228,7 @@ pub fn grid(path: &Path, title: &str, names: &[&str], panels: &[Panel], cols: us
                 .configure_mesh()
                 .x_labels(4)
                 .y_labels(3)
-                .x_label_formatter(&|v: &f64| if *v >= 1e6 { format!("{:.0}M", v / 1e6) } else { format!("{:.0}k", v / 1e3) })
+                .x_label_formatter(&|v: &f64| crate::plot::steps_label(*v))
                 .label_style(("sans-serif", 12))
                 .draw()
                 .map_err(err)?;

@@ -187,6 +187,11 @@ pub struct Config {
     /// rather than a network of its own.
     #[serde(default)]
     pub shared_trunk: bool,
+    /// MAPPO: the critic reads the agent's own observation beside the global state, a stand-in
+    /// for the MAPPO repository's agent-specific state (`use_state_agent`). Left out of saved
+    /// configs when false, so that runs from before it read as they were.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub critic_agent_obs: bool,
     // The observation mode and its encoder (`configs/obs.toml`, merged into every config;
     // the defaults let checkpoints older than these keys load as `features` runs).
     #[serde(default)]
@@ -464,6 +469,14 @@ impl Config {
                 "shared_trunk",
                 true,
                 "only IPPO's critic can share the actor's trunk: MAPPO's critic reads the global state, which the actor never sees",
+                false,
+            ));
+        }
+        if self.critic_agent_obs && self.algo != "mappo" {
+            return Err(bad(
+                "critic_agent_obs",
+                true,
+                "only MAPPO's critic reads the global state; IPPO's reads the observation alone",
                 false,
             ));
         }

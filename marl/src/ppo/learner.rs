@@ -27,11 +27,17 @@ pub enum CriticInput {
     Obs,
     /// The global state (MAPPO: centralised).
     State,
+    /// The global state, then the agent's own observation (MAPPO with `critic_agent_obs`).
+    StateObs,
 }
 
 impl CriticInput {
     pub fn of(cfg: &Config) -> CriticInput {
-        if cfg.algo == "mappo" { CriticInput::State } else { CriticInput::Obs }
+        match (cfg.algo.as_str(), cfg.critic_agent_obs) {
+            ("mappo", false) => CriticInput::State,
+            ("mappo", true) => CriticInput::StateObs,
+            _ => CriticInput::Obs,
+        }
     }
     /// The input's width: the observation or state, then the agent id's one-hot.
     pub fn width(self, shape: &Shape) -> usize {
@@ -42,6 +48,7 @@ impl CriticInput {
         match self {
             CriticInput::Obs => shape.obs,
             CriticInput::State => shape.state,
+            CriticInput::StateObs => shape.state + shape.obs,
         }
     }
     /// The critic's input rows (`envs x agents`) of a vector step's observations and states,
@@ -51,11 +58,20 @@ impl CriticInput {
         let a = shape.n_agents.max(1);
         let rows = envs * shape.n_agents;
         let (table, idx) = match self {
-            CriticInput::Obs => (&obs[..rows * shape.obs], (0..rows as u32).collect()),
-            CriticInput::State => (&state[..envs * shape.state], (0..rows).map(|r| (r / a) as u32).collect()),
+            CriticInput::Obs => (obs[..rows * shape.obs].to_vec(), (0..rows as u32).collect()),
+            CriticInput::State => (state[..envs * shape.state].to_vec(), (0..rows).map(|r| (r / a) as u32).collect()),
+            // One row per agent: its environment's state, then its observation.
+            CriticInput::StateObs => {
+                let mut t = Vec::with_capacity(rows * (shape.state + shape.obs));
+                for r in 0..rows {
+                    t.extend_from_slice(&state[(r / a) * shape.state..(r / a + 1) * shape.state]);
+                    t.extend_from_slice(&obs[r * shape.obs..(r + 1) * shape.obs]);
+                }
+                (t, (0..rows as u32).collect())
+            }
         };
         CriticRows {
-            table: std::sync::Arc::new(table.to_vec()),
+            table: std::sync::Arc::new(table),
             width: self.seen(shape),
             n_ids: shape.n_agents,
             idx,

@@ -168,6 +168,34 @@ fn ppo_configs_take_only_their_keys() {
     assert!(err("mappo", "rollout_len=15").contains("rollout_len"));
     assert!(err("qmix", "clip_param=0.1").contains("clip_param"));
     assert!(Config::for_algo("mappo", &["clip_param=0.1".into()]).is_ok_and(|c| c.clip_param == 0.1 && c.is_ppo()));
+    // MAPPO's critic may read each agent's observation beside the state; IPPO's reads nothing
+    // else. Off, the key stays out of a saved config, as in runs from before it.
+    assert!(err("ippo", "critic_agent_obs=true").contains("critic_agent_obs"));
+    let plain = Config::for_algo("mappo", &[]).map(|c| serde_json::to_string(&c).unwrap_or_default()).unwrap_or_default();
+    assert!(plain.contains("\"algo\"") && !plain.contains("critic_agent_obs"), "{plain}");
+}
+
+/// `critic_agent_obs`: each agent's critic row is its environment's state, then its own
+/// observation, then (as always) its id.
+#[test]
+fn a_critic_with_the_agents_observation_reads_state_then_observation() -> R {
+    let c = ppo_cfg("mappo", &["critic_agent_obs=true"])?;
+    let input = CriticInput::of(&c);
+    assert_eq!(input, CriticInput::StateObs);
+    let envs = 2;
+    let obs: Vec<f32> = (0..envs * SMALL.n_agents * SMALL.obs).map(|i| i as f32).collect();
+    let state: Vec<f32> = (0..envs * SMALL.state).map(|i| -1.0 - i as f32).collect();
+    let rows = input.rows(&SMALL, &obs, &state, envs).dense();
+    let w = SMALL.state + SMALL.obs + SMALL.n_agents;
+    assert_eq!((input.width(&SMALL), rows.len()), (w, envs * SMALL.n_agents * w));
+    for (r, row) in rows.chunks_exact(w).enumerate() {
+        let (env, agent) = (r / SMALL.n_agents, r % SMALL.n_agents);
+        assert_eq!(row[..SMALL.state], state[env * SMALL.state..(env + 1) * SMALL.state], "row {r}: state");
+        assert_eq!(row[SMALL.state..SMALL.state + SMALL.obs], obs[r * SMALL.obs..(r + 1) * SMALL.obs], "row {r}: observation");
+        let id: Vec<f32> = (0..SMALL.n_agents).map(|k| if k == agent { 1.0 } else { 0.0 }).collect();
+        assert_eq!(row[SMALL.state + SMALL.obs..], id[..], "row {r}: id");
+    }
+    Ok(())
 }
 
 #[test]
@@ -216,6 +244,8 @@ fn fused_gradients_match_the_candle_reference() -> R {
         ("ippo", vec!["shared_trunk=true"]),
         ("ippo", vec!["shared_trunk=true", "value_loss_coef=0.5", "clip_value_loss=false"]),
         ("mappo", vec!["use_rnn=false"]),
+        ("mappo", vec!["critic_agent_obs=true"]),
+        ("mappo", vec!["critic_agent_obs=true", "use_rnn=false"]),
         ("ippo", vec!["use_rnn=false", "shared_trunk=true"]),
     ] {
         let c = ppo_cfg(algo, &extra)?;
