@@ -11,6 +11,7 @@ use crate::Error;
 mod env;
 mod league;
 mod obs;
+mod ppo;
 
 pub use crate::opponent::Opponent;
 use avacraft_engine::{DataSet, EnvConfig, EnvOptions, RewardMode, Scenario};
@@ -433,75 +434,6 @@ impl Config {
             ));
         }
         at_least("target_update_interval", self.target_update_interval, 1)?;
-        validate_obs(self)?;
-        Ok(())
-    }
-
-    fn validate_ppo(&self, def: &dyn Fn(fn(&Config) -> f64, f64) -> f64) -> Result<(), Error> {
-        positive("critic_lr", self.critic_lr, def(|c| c.critic_lr, 5e-4))?;
-        at_least("data_chunk_length", self.data_chunk_length, 1)?;
-        at_least("rollout_len", self.rollout_len, self.data_chunk_length)?;
-        if !self.rollout_len.is_multiple_of(self.data_chunk_length) {
-            let c = self.data_chunk_length;
-            let down = self.rollout_len / c * c;
-            let nearest = if self.rollout_len - down <= c / 2 { down } else { down + c };
-            return Err(bad(
-                "rollout_len",
-                self.rollout_len,
-                &format!("must be a multiple of data_chunk_length ({c})"),
-                format!("{nearest} (or data_chunk_length = a divisor of {})", self.rollout_len),
-            ));
-        }
-        at_least("ppo_epochs", self.ppo_epochs, 1)?;
-        at_least("num_mini_batch", self.num_mini_batch, 1)?;
-        let chunks = self.envs * self.rollout_len / self.data_chunk_length;
-        if self.num_mini_batch > chunks {
-            return Err(bad(
-                "num_mini_batch",
-                self.num_mini_batch,
-                &format!("at most the number of chunks, envs x rollout_len / data_chunk_length = {chunks}"),
-                chunks,
-            ));
-        }
-        positive("clip_param", self.clip_param, def(|c| c.clip_param, 0.2))?;
-        if self.shared_trunk && self.algo != "ippo" {
-            return Err(bad(
-                "shared_trunk",
-                true,
-                "only IPPO's critic can share the actor's trunk: MAPPO's critic reads the global state, which the actor never sees",
-                false,
-            ));
-        }
-        if self.critic_agent_obs && self.algo != "mappo" {
-            return Err(bad(
-                "critic_agent_obs",
-                true,
-                "only MAPPO's critic reads the global state; IPPO's reads the observation alone",
-                false,
-            ));
-        }
-        if self.shared_trunk && self.obs != ObsKind::Features {
-            return Err(bad(
-                "shared_trunk",
-                true,
-                &format!(
-                    "a shared trunk reads SMAC's features only (obs = \"{}\" has an image encoder in front of the actor)",
-                    self.obs.name()
-                ),
-                false,
-            ));
-        }
-        unit("gae_lambda", self.gae_lambda)?;
-        for (key, v) in [
-            ("huber_delta", self.huber_delta),
-            ("entropy_coef", self.entropy_coef),
-            ("value_loss_coef", self.value_loss_coef),
-            ("actor_out_gain", self.actor_out_gain),
-        ] {
-            if v.is_nan() || v < 0.0 {
-                return Err(bad(key, v, "must not be negative", 0.0));
-            }
-        }
         validate_obs(self)?;
         Ok(())
     }

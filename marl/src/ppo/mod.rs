@@ -17,12 +17,14 @@
 //! (see its `main.rs`) for those. The example `ppo_update_bench` times candle's update against
 //! the fused one.
 
+mod critic_input;
 pub mod learner;
 pub mod rollout;
 mod train;
 
 pub use crate::value_norm::ValueNorm;
-pub use learner::{CriticInput, Gradients, Losses, PpoLearner, PpoStats, StepReport, masked_log_softmax, sample_actions};
+pub use critic_input::CriticInput;
+pub use learner::{Gradients, Losses, PpoLearner, PpoStats, StepReport, masked_log_softmax, sample_actions};
 pub use rollout::{CriticRows, FlatBatch, MASKED, PpoBatch, Rollout, gae, to_chunks};
 pub(crate) use train::restore;
 pub use train::{train, train_from};
