@@ -231,7 +231,9 @@ fn ship_plan(
         let trained = if done { "to its budget".to_owned() } else { format!("unfinished: {} steps", last_t_env(&job.dir)?) };
         let name = if job.seed == 1 { job.run.clone() } else { format!("{}-s{}", job.run, job.seed) };
         let dest = to.join(&job.scenario).join(&name);
-        let r = avacraft_marl::ship::ship(&job.dir, &dest, SHIP_RUN_BYTES).with_context(|| format!("shipping {}", job.id))?;
+        let total = avacraft_marl::ship::Total { root: to, max_bytes: SHIP_TOTAL_BYTES };
+        let r = avacraft_marl::ship::ship_under(&job.dir, &dest, SHIP_RUN_BYTES, Some(total))
+            .with_context(|| format!("shipping {}", job.id))?;
         t.add_row([
             job.id.clone(),
             dest.display().to_string(),
@@ -247,7 +249,7 @@ fn ship_plan(
         shipped += 1;
     }
     writeln!(out, "{t}")?;
-    let total = dir_bytes(to)?;
+    let total = avacraft_marl::ship::dir_bytes(to)?;
     writeln!(
         out,
         "{shipped} runs shipped into {} ({:.1} MB in all); not finished yet: {}",
@@ -255,9 +257,6 @@ fn ship_plan(
         total as f64 / 1e6,
         if waiting.is_empty() { "none".to_owned() } else { waiting.join(", ") }
     )?;
-    if total > SHIP_TOTAL_BYTES {
-        bail!("{} holds {total} bytes, over the {SHIP_TOTAL_BYTES} allowed for shipped baselines", to.display());
-    }
     Ok(())
 }
 
@@ -273,20 +272,6 @@ fn last_t_env(dir: &std::path::Path) -> Result<u64> {
     let last = text.lines().skip(1).filter(|l| !l.trim().is_empty()).last();
     let steps = last.and_then(|l| l.split(',').next()).and_then(|f| f.trim().parse().ok());
     steps.with_context(|| format!("{}: no logged row with a step count", path.display()))
-}
-
-/// Bytes of the files under `dir` (0 if it does not exist).
-fn dir_bytes(dir: &std::path::Path) -> Result<u64> {
-    if !dir.exists() {
-        return Ok(0);
-    }
-    let mut total = 0;
-    for e in std::fs::read_dir(dir).with_context(|| format!("reading {}", dir.display()))? {
-        let e = e?;
-        let ty = e.file_type()?;
-        total += if ty.is_dir() { dir_bytes(&e.path())? } else { e.metadata()?.len() };
-    }
-    Ok(total)
 }
 
 /// `train --plan`: the plan's runs (of one shard) one after another, each using every core.

@@ -49,6 +49,20 @@ fn small_png(from: &Path, to: &Path, size: u32) -> Result<(), Error> {
 /// change a greedy policy's games, so the one that plays keeps full precision as long as
 /// it can); still past it, nothing is left half-written and the error names the run.
 pub fn ship(run: &Path, to: &Path, max_bytes: u64) -> Result<Shipped, Error> {
+    ship_under(run, to, max_bytes, None)
+}
+
+/// All shipped runs' size budget: the folder that holds them and the bytes it may take.
+#[derive(Clone, Copy, Debug)]
+pub struct Total<'a> {
+    pub root: &'a Path,
+    pub max_bytes: u64,
+}
+
+/// [`ship`], refusing (with nothing changed under `total.root`, the run `to` replaces left as
+/// it was) a run that would take the folder past its budget: checked on the finished copy,
+/// before it replaces anything.
+pub fn ship_under(run: &Path, to: &Path, max_bytes: u64, total: Option<Total<'_>>) -> Result<Shipped, Error> {
     let ckpt = if run.join("best").join("config.json").is_file() { run.join("best") } else { run.to_path_buf() };
     // Loads as a check: a checkpoint that does not load is not shipped.
     let policy = Policy::load(&ckpt)?;
@@ -113,7 +127,37 @@ pub fn ship(run: &Path, to: &Path, max_bytes: u64) -> Result<Shipped, Error> {
     if last.is_some() {
         Policy::load(&last_dir)?;
     }
+    if let Some(total) = total {
+        // The copy sits beside `to`, under the root: counted once, the run it replaces not.
+        let after = dir_bytes(total.root)?.saturating_sub(dir_bytes(to)?);
+        if after > total.max_bytes {
+            let _ = std::fs::remove_dir_all(&tmp);
+            return Err(Error::Checkpoint {
+                message: format!(
+                    "{}: shipped, {} would hold {after} bytes, over the {} allowed for shipped runs (nothing changed)",
+                    run.display(),
+                    total.root.display(),
+                    total.max_bytes
+                ),
+            });
+        }
+    }
     let _ = std::fs::remove_dir_all(to);
     std::fs::rename(&tmp, to).map_err(io(to))?;
     Ok(Shipped { bytes, half, last_half })
+}
+
+/// Bytes of the files under `dir` (0 if it does not exist).
+pub fn dir_bytes(dir: &Path) -> Result<u64, Error> {
+    if !dir.exists() {
+        return Ok(0);
+    }
+    let io = |source| Error::Io { path: dir.to_path_buf(), source };
+    let mut total = 0;
+    for e in std::fs::read_dir(dir).map_err(io)? {
+        let e = e.map_err(io)?;
+        let ty = e.file_type().map_err(io)?;
+        total += if ty.is_dir() { dir_bytes(&e.path())? } else { e.metadata().map_err(io)?.len() };
+    }
+    Ok(total)
 }

@@ -376,6 +376,17 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
     assert!(half.half && half.last_half, "{half:?}");
     assert!(avacraft_marl::ship::ship(&dir, &root.join("3m_vlm/none"), 100).is_err(), "nothing fits 100 bytes");
     assert!(!root.join("3m_vlm/none").exists(), "nothing half-written is left");
+    // Under a budget for all shipped runs: the run a ship replaces is not counted twice, and a
+    // ship past the budget changes nothing.
+    let held = avacraft_marl::ship::dir_bytes(&root)?;
+    let total = |max_bytes| Some(avacraft_marl::ship::Total { root: &root, max_bytes });
+    avacraft_marl::ship::ship_under(&dir, &root.join("3m_vlm/half"), full.bytes - agent_bytes * 3 / 4, total(held))?;
+    assert_eq!(avacraft_marl::ship::dir_bytes(&root)?, held, "the same run shipped again takes the same room");
+    let over = avacraft_marl::ship::ship_under(&dir, &root.join("3m_vlm/extra"), 10_000_000, total(held + 10));
+    let message = over.err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(message.contains("over the") && message.contains("nothing changed"), "{message}");
+    assert!(!root.join("3m_vlm/extra").exists() && !root.join("3m_vlm/extra.partial").exists());
+    assert_eq!(avacraft_marl::ship::dir_bytes(&root)?, held, "nothing changed under the root");
     let last = avacraft_marl::baselines::dir(&root, "3m_vlm", "qmix@last")?;
     assert_eq!(std::fs::read(best.join("config.json"))?, std::fs::read(dir.join("best/config.json"))?);
     assert_eq!(std::fs::read(last.join("config.json"))?, std::fs::read(dir.join("config.json"))?);
