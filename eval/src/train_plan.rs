@@ -465,9 +465,18 @@ opponent = "focus-fire"
         assert_eq!(cfg.self_play_scripts, ["focus-fire", "kite", "attack-move", "random"], "the stage's own scripts win");
         // SMAC's 23 maps: QMIX and MAPPO on each at SMAC's budgets (10M on the super-hard ones).
         let smac = load_train_plan(&dir.join("smac.toml")).unwrap_or_else(|e| panic!("{e}"));
-        // Seeds 2 and 3 of QMIX and MAPPO on five maps beside them, and the feed-forward MAPPO
-        // on 6h_vs_8z, its critic reading the state alone and with each agent's observation.
-        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 2);
+        // Seeds 2 and 3 of QMIX and MAPPO on five maps beside them, and on 6h_vs_8z the
+        // feed-forward MAPPO, its critic reading the state alone and with each agent's
+        // observation, and QMIX with pymarl2's settings for the map; QMIX on 2s_vs_1sc with
+        // the Void data set's Spine Crawler.
+        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 4);
+        let void = smac.jobs.iter().find(|j| j.id == "2s_vs_1sc/qmix-void-s1").expect("QMIX on Void data");
+        let cfg = avacraft_marl::Config::for_algo("qmix", &void.overrides).unwrap_or_else(|e| panic!("{e}"));
+        assert!(cfg.data == "void" && !cfg.use_rnn && void.steps == 2_000_000, "{cfg:?}");
+        let tuned = smac.jobs.iter().find(|j| j.id == "6h_vs_8z/qmix-pymarl2-s1").expect("pymarl2's QMIX");
+        let cfg = avacraft_marl::Config::for_algo("qmix", &tuned.overrides).unwrap_or_else(|e| panic!("{e}"));
+        assert!(cfg.use_rnn && cfg.td_lambda == 0.3 && cfg.epsilon_anneal_time == 500_000 && tuned.steps == 10_000_000);
+        assert!(cfg.batch_size == 128 && cfg.episodes_per_update == 4 && cfg.lr == 0.001, "{cfg:?}");
         for (run, agent_obs) in [("mappo-ff", false), ("mappo-ff-obs", true)] {
             let ff = smac.jobs.iter().find(|j| j.id == format!("6h_vs_8z/{run}-s1")).expect("the feed-forward MAPPO");
             let cfg = avacraft_marl::Config::for_algo("mappo", &ff.overrides).unwrap_or_else(|e| panic!("{e}"));
