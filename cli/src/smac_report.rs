@@ -200,6 +200,42 @@ fn seeds_line(a: &SmacReportArgs) -> Result<String> {
     Ok(if parts.is_empty() { String::new() } else { format!("Seeds 1, 2 and 3 (test / held-out @ steps): {}.\n", parts.join(" | ")) })
 }
 
+/// The must-hold shortfall the median gap may reach (points below the best published result).
+const MEDIAN_GAP_FLOOR: f64 = -10.0;
+
+/// The page's first lines: how many runs reached their budget, and where the issue's two
+/// must-holds stand (easy maps won on at least 90% of held-out episodes; the median gap to
+/// the best published result at most 10 points short).
+fn glance(tally: &[[usize; 3]; RUNS.len()], easy: &[(&str, f64)], gaps: &[f64]) -> String {
+    let runs: Vec<String> =
+        RUNS.iter().zip(tally).map(|(r, [done, short, none])| format!("{r} on {done} ({short} stopped short, {none} not run)")).collect();
+    let won = easy.iter().filter(|(_, h)| *h >= 0.9).count();
+    let below: Vec<String> = easy.iter().filter(|(_, h)| *h < 0.9).map(|(m, h)| format!("{m} {}%", pct(*h))).collect();
+    let unplayed = easy.iter().filter(|(_, h)| !h.is_finite()).count();
+    let mut short = Vec::new();
+    if !below.is_empty() {
+        short.push(format!("below: {}", below.join(", ")));
+    }
+    if unplayed > 0 {
+        short.push(format!("not played: {unplayed}"));
+    }
+    let short = if short.is_empty() { String::new() } else { format!(" ({})", short.join("; ")) };
+    let med = median(gaps.to_vec());
+    let gap = if med.is_finite() {
+        let verdict = if med >= MEDIAN_GAP_FLOOR { "holds" } else { "falls short" };
+        format!("{med:+.1} points over {} maps: the must-hold (at least {MEDIAN_GAP_FLOOR:.0}) {verdict}", gaps.len())
+    } else {
+        "no finished run with a published number yet".to_owned()
+    };
+    format!(
+        "**At a glance.** Runs at SMAC's budget, of {} maps: {}. Easy maps won on at least 90% of held-out episodes: {won} of {}{short}. \
+         Median gap between our best finished run and the best published result: {gap}.\n",
+        smac_names().count(),
+        runs.join("; "),
+        easy.len()
+    )
+}
+
 pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
     let text = std::fs::read_to_string(&a.published).with_context(|| format!("{}", a.published.display()))?;
     let published: Published = toml::from_str(&text).with_context(|| format!("{}", a.published.display()))?;
@@ -217,10 +253,19 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
     let mut gaps = Vec::new();
     let mut easy = Vec::new();
     let mut variants = Vec::new();
+    // Per learner: runs at their budget, stopped short, not run.
+    let mut tally = [[0usize; 3]; RUNS.len()];
     for map in smac_names() {
         let p = published.maps.get(map).with_context(|| format!("{}: no entry for `{map}`", a.published.display()))?;
         let runs: Vec<(&str, Option<Ours>)> =
             RUNS.iter().map(|r| Ok((*r, find_run(&a.runs, &a.baselines, map, r, 1)?))).collect::<Result<_>>()?;
+        for (k, (_, o)) in runs.iter().enumerate() {
+            tally[k][match o {
+                Some(o) if !o.running => 0,
+                Some(_) => 1,
+                None => 2,
+            }] += 1;
+        }
         // Runs still training are shown, not compared.
         let best_ours = runs.iter().filter_map(|(_, o)| o.as_ref().filter(|o| !o.running).map(|o| o.final_rate)).fold(f64::NAN, f64::max);
         let best_pub = [p.qmix_smac, p.qmix_tuned, p.mappo].iter().flatten().map(|c| c.value).fold(f64::NAN, f64::max);
@@ -273,6 +318,7 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
     if !variants.is_empty() {
         table.push_str(&format!("Other settings, not compared (test / held-out @ steps): {}.\n", variants.join(" | ")));
     }
+    let table = format!("{}\n{table}", glance(&tally, &easy, &gaps));
     std::fs::create_dir_all(&a.out).with_context(|| format!("{}", a.out.display()))?;
     std::fs::write(a.out.join("table.md"), &table).with_context(|| format!("{}/table.md", a.out.display()))?;
     let names: Vec<&str> = RUNS.iter().chain(&VARIANTS).copied().collect();

@@ -185,7 +185,7 @@ fn smac_report_sets_runs_beside_published_results() {
     let published = dir.join("published.toml");
     std::fs::write(&published, "[maps.3m]\nclass = \"easy\"\nmappo = { value = 100.0, check = \"u\" }\n").expect("published");
     let doc = dir.join("page.md");
-    std::fs::write(&doc, "# page\n<!-- smac-report:begin -->\nold\n<!-- smac-report:end -->\ntail\n").expect("doc");
+    std::fs::write(&doc, "# page\n<!-- smac-report:begin -->\nstale table\n<!-- smac-report:end -->\ntail\n").expect("doc");
     let args = |p: &std::path::Path| {
         let mut c = Command::new(exe());
         c.args(["smac-report", "--runs"])
@@ -216,16 +216,27 @@ fn smac_report_sets_runs_beside_published_results() {
     // Still training: shown, not compared.
     assert!(table.contains("| 3m | easy | 90 @ 0.1M (unfinished) | not run | – | – | 100 ᵘ | – |"), "{table}");
     assert!(table.contains("maps with a finished run and a published number: none yet"), "{table}");
+    assert!(
+        table.starts_with("**At a glance.** Runs at SMAC's budget, of 23 maps: qmix on 0 (1 stopped short, 22 not run); mappo on 0 (0 stopped short, 23 not run)."),
+        "{table}"
+    );
+    assert!(table.contains("best published result: no finished run with a published number yet."), "{table}");
     std::fs::write(run.join("done.json"), "{}").expect("done");
     let out = args(&published);
     let table = String::from_utf8_lossy(&out.stdout);
     assert!(table.contains("| 3m | easy | 90 @ 0.1M | not run | – | – | 100 ᵘ | -10 |"), "{table}");
     assert!(table.contains("Median gap over the 1 maps with a finished run and a published number: -10.0 points"), "{table}");
+    // The must-holds at a glance: held-out games not played yet on any easy map here; a
+    // median gap of 10 points short still holds.
+    assert!(table.contains("qmix on 1 (0 stopped short, 22 not run)"), "{table}");
+    assert!(table.contains("held-out episodes: 0 of 23 (not played: 23)."), "{table}");
+    assert!(table.contains("-10.0 points over 1 maps: the must-hold (at least -10) holds."), "{table}");
     let page = std::fs::read_to_string(&doc).expect("doc");
     assert!(
-        page.starts_with("# page\n<!-- smac-report:begin -->\n| map |")
+        page.starts_with("# page\n<!-- smac-report:begin -->\n**At a glance.**")
+            && page.contains(".\n\n| map |")
             && page.ends_with("<!-- smac-report:end -->\ntail\n")
-            && !page.contains("old"),
+            && !page.contains("stale table"),
         "{page}"
     );
     assert!(dir.join("out/curves.png").is_file() && dir.join("out/table.md").is_file());
