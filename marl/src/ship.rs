@@ -128,13 +128,18 @@ pub fn ship_under(run: &Path, to: &Path, max_bytes: u64, total: Option<Total<'_>
         Policy::load(&last_dir)?;
     }
     if let Some(total) = total {
-        // The copy sits beside `to`, under the root: counted once, the run it replaces not.
-        let after = dir_bytes(total.root)?.saturating_sub(dir_bytes(to)?);
+        // What the root holds once the copy replaces `to`: the copy counted once (it sits
+        // beside `to`, so usually under the root already), the run it replaces not at all.
+        let within = |p: &Path| p.starts_with(total.root);
+        let staged = dir_bytes(&tmp)?;
+        let held = dir_bytes(total.root)?;
+        let replaced = if within(to) { dir_bytes(to)? } else { 0 };
+        let after = held.saturating_sub(replaced).saturating_sub(if within(&tmp) { staged } else { 0 }) + staged;
         if after > total.max_bytes {
             let _ = std::fs::remove_dir_all(&tmp);
             return Err(Error::Checkpoint {
                 message: format!(
-                    "{}: shipped, {} would hold {after} bytes, over the {} allowed for shipped runs (nothing changed)",
+                    "{}: shipping it, {} would hold {after} bytes, over the {} allowed for shipped runs (nothing changed)",
                     run.display(),
                     total.root.display(),
                     total.max_bytes
