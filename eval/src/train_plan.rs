@@ -467,9 +467,12 @@ opponent = "focus-fire"
         let smac = load_train_plan(&dir.join("smac.toml")).unwrap_or_else(|e| panic!("{e}"));
         // Seeds 2 and 3 of QMIX and MAPPO on five maps beside them, and on 6h_vs_8z the
         // feed-forward MAPPO, its critic reading the state alone and with each agent's
-        // observation, and QMIX with pymarl2's settings for the map; QMIX on 2s_vs_1sc with
-        // the Void data set's Spine Crawler.
-        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 4);
+        // observation, and QMIX with pymarl2's settings for the map; on 2s_vs_1sc QMIX with
+        // the Void data set's Spine Crawler and with pymarl2's default settings.
+        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 5);
+        let default = smac.jobs.iter().find(|j| j.id == "2s_vs_1sc/qmix-pymarl2-s1").expect("pymarl2's QMIX on 2s_vs_1sc");
+        let cfg = avacraft_marl::Config::for_algo("qmix", &default.overrides).unwrap_or_else(|e| panic!("{e}"));
+        assert!(cfg.use_rnn && cfg.td_lambda == 0.6 && cfg.epsilon_anneal_time == 100_000 && cfg.batch_size == 128, "{cfg:?}");
         let void = smac.jobs.iter().find(|j| j.id == "2s_vs_1sc/qmix-void-s1").expect("QMIX on Void data");
         let cfg = avacraft_marl::Config::for_algo("qmix", &void.overrides).unwrap_or_else(|e| panic!("{e}"));
         assert!(cfg.data == "void" && !cfg.use_rnn && void.steps == 2_000_000, "{cfg:?}");
