@@ -32,21 +32,23 @@ impl Config {
             ));
         }
         positive("clip_param", self.clip_param, def(|c| c.clip_param, 0.2))?;
-        if self.shared_trunk && self.algo != "ippo" {
-            return Err(bad(
+        // Critic options that one of the two algorithms alone has.
+        let only = [
+            (
                 "shared_trunk",
-                true,
+                self.shared_trunk,
+                "ippo",
                 "only IPPO's critic can share the actor's trunk: MAPPO's critic reads the global state, which the actor never sees",
-                false,
-            ));
-        }
-        if self.critic_agent_obs && self.algo != "mappo" {
-            return Err(bad(
+            ),
+            (
                 "critic_agent_obs",
-                true,
+                self.critic_agent_obs,
+                "mappo",
                 "only MAPPO's critic reads the global state; IPPO's reads the observation alone",
-                false,
-            ));
+            ),
+        ];
+        if let Some((key, _, _, why)) = only.into_iter().find(|(_, on, algo, _)| *on && self.algo != *algo) {
+            return Err(bad(key, true, why, false));
         }
         if self.shared_trunk && self.obs != ObsKind::Features {
             return Err(bad(
