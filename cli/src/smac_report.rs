@@ -98,7 +98,30 @@ struct Ours {
     heldout: Option<(f64, usize)>,
     /// Not finished (no `done.json`): still training, or stopped short of its budget.
     running: bool,
+    /// The steps it was planned for (its config's `t_max`), where its config says.
+    budget: Option<u64>,
     rows: Vec<LogRow>,
+}
+
+impl Ours {
+    /// An unfinished run's steps left to its budget and the hours they take at the pace it
+    /// trained at (its log's steps over its log's wall-clock seconds).
+    fn left(&self) -> Option<(u64, f64)> {
+        let budget = self.budget.filter(|b| self.running && *b > self.steps)?;
+        let (first, last) = (self.rows.first()?, self.rows.last()?);
+        let pace = last.t_env.saturating_sub(first.t_env) as f64 / (last.elapsed_s - first.elapsed_s);
+        let left = budget - self.steps;
+        (pace.is_finite() && pace > 0.0).then(|| (left, left as f64 / pace / 3600.0))
+    }
+}
+
+/// A run's planned steps, from the `config.json` its folder holds (`None` without one).
+fn budget_of(dir: &Path) -> Result<Option<u64>> {
+    let path = dir.join("config.json");
+    let Ok(text) = std::fs::read_to_string(&path) else { return Ok(None) };
+    let meta: serde_json::Value = serde_json::from_str(&text).with_context(|| format!("{}", path.display()))?;
+    let t_max = meta["config"]["t_max"].as_u64().with_context(|| format!("{}: no config.t_max", path.display()))?;
+    Ok(Some(t_max))
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -124,7 +147,8 @@ fn ours(dir: &Path) -> Result<Option<Ours>> {
         }
         Err(_) => None,
     };
-    Ok(Some(Ours { steps: last.t_env, final_rate: median(tail), heldout, running: !dir.join("done.json").is_file(), rows }))
+    let budget = budget_of(dir)?;
+    Ok(Some(Ours { steps: last.t_env, final_rate: median(tail), heldout, running: !dir.join("done.json").is_file(), budget, rows }))
 }
 
 /// Held-out games: seeds 9000-9099, SMAC's passive allies, the checkpoint playing greedily.
@@ -143,10 +167,7 @@ fn find_run(runs: &Path, baselines: &Path, map: &str, run: &str, seed: u64) -> R
     }
     let rows = read_log(&shipped)?;
     let Some(last) = rows.last() else { return Ok(None) };
-    let path = shipped.join("config.json");
-    let text = std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
-    let meta: serde_json::Value = serde_json::from_str(&text).with_context(|| format!("{}", path.display()))?;
-    let t_max = meta["config"]["t_max"].as_u64().with_context(|| format!("{}: no config.t_max", path.display()))?;
+    let t_max = budget_of(&shipped)?.with_context(|| format!("reading {}/config.json", shipped.display()))?;
     #[derive(clap::Parser)]
     struct Episode {
         #[command(flatten)]
@@ -164,6 +185,7 @@ fn find_run(runs: &Path, baselines: &Path, map: &str, run: &str, seed: u64) -> R
         final_rate: median(tail),
         heldout: Some((r.summary.win.mean, r.episodes.len())),
         running: last.t_env < t_max,
+        budget: Some(t_max),
         rows,
     }))
 }
@@ -181,6 +203,20 @@ fn show_ours(o: Option<&Ours>) -> String {
             format!("{}{held} @ {:.1}M{running}", pct(o.final_rate), o.steps as f64 / 1e6)
         }
     }
+}
+
+/// The compared runs stopped short: the steps each has left and the hours they take at its
+/// own pace on the machine it trained on (where the run shares its cores, slower than alone).
+fn left_line(left: &[(String, u64, f64)]) -> String {
+    if left.is_empty() {
+        return String::new();
+    }
+    let parts: Vec<String> = left.iter().map(|(run, steps, hours)| format!("{run} {:.2}M ({hours:.1} h)", *steps as f64 / 1e6)).collect();
+    let total: f64 = left.iter().map(|l| l.2).sum();
+    format!(
+        "Left to SMAC's budget (steps, and hours at the pace each run trained at, one run a core): {}; {total:.0} hours in all.\n",
+        parts.join(", ")
+    )
 }
 
 /// Maps where more than one seed of a learner ran: each seed's result, so a reader sees how far
@@ -253,12 +289,18 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
     let mut gaps = Vec::new();
     let mut easy = Vec::new();
     let mut variants = Vec::new();
+    let mut left = Vec::new();
     // Per learner: runs at their budget, stopped short, not run.
     let mut tally = [[0usize; 3]; RUNS.len()];
     for map in smac_names() {
         let p = published.maps.get(map).with_context(|| format!("{}: no entry for `{map}`", a.published.display()))?;
         let runs: Vec<(&str, Option<Ours>)> =
             RUNS.iter().map(|r| Ok((*r, find_run(&a.runs, &a.baselines, map, r, 1)?))).collect::<Result<_>>()?;
+        for (r, o) in &runs {
+            if let Some((steps, hours)) = o.as_ref().and_then(Ours::left) {
+                left.push((format!("{map} {r}"), steps, hours));
+            }
+        }
         for (k, (_, o)) in runs.iter().enumerate() {
             tally[k][match o {
                 Some(o) if !o.running => 0,
@@ -314,6 +356,7 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
     let easy_held: Vec<String> =
         easy.iter().map(|(m, h)| if h.is_finite() { format!("{m} {}", pct(*h)) } else { format!("{m} –") }).collect();
     table.push_str(&format!("Easy maps, best held-out win rate (%): {}.\n", easy_held.join(", ")));
+    table.push_str(&left_line(&left));
     table.push_str(&seeds_line(a)?);
     if !variants.is_empty() {
         table.push_str(&format!("Other settings, not compared (test / held-out @ steps): {}.\n", variants.join(" | ")));

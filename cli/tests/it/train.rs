@@ -179,9 +179,11 @@ fn smac_report_sets_runs_beside_published_results() {
     for k in 1..=12 {
         // The last 10 test rounds: 0.5 twice, then 0.9 eight times: median 0.9.
         let w = if k <= 4 { 0.5 } else { 0.9 };
-        log.push_str(&format!("{},{k},{k},0.05,0.1,0.1,0.1,0.5,{w},10,{k}\n", k * 10000));
+        log.push_str(&format!("{},{k},{k},0.05,0.1,0.1,0.1,0.5,{w},10,{}\n", k * 10000, k * 100));
     }
     std::fs::write(run.join("log.csv"), log).expect("log");
+    // Planned for 200k steps: 80k left at its pace of 100 steps a second.
+    std::fs::write(run.join("config.json"), r#"{"config": {"t_max": 200000}}"#).expect("config");
     let published = dir.join("published.toml");
     std::fs::write(&published, "[maps.3m]\nclass = \"easy\"\nmappo = { value = 100.0, check = \"u\" }\n").expect("published");
     let doc = dir.join("page.md");
@@ -221,10 +223,15 @@ fn smac_report_sets_runs_beside_published_results() {
         "{table}"
     );
     assert!(table.contains("best published result: no finished run with a published number yet."), "{table}");
+    assert!(
+        table.contains("Left to SMAC's budget (steps, and hours at the pace each run trained at, one run a core): 3m qmix 0.08M (0.2 h); 0 hours in all."),
+        "{table}"
+    );
     std::fs::write(run.join("done.json"), "{}").expect("done");
     let out = args(&published);
     let table = String::from_utf8_lossy(&out.stdout);
     assert!(table.contains("| 3m | easy | 90 @ 0.1M | not run | – | – | 100 ᵘ | -10 |"), "{table}");
+    assert!(!table.contains("Left to SMAC's budget"), "a finished run has nothing left: {table}");
     assert!(table.contains("Median gap over the 1 maps with a finished run and a published number: -10.0 points"), "{table}");
     // The must-holds at a glance: held-out games not played yet on any easy map here; a
     // median gap of 10 points short still holds.
@@ -247,6 +254,7 @@ fn smac_report_sets_runs_beside_published_results() {
     std::fs::copy(run.join("log.csv"), variant.join("log.csv")).expect("variant log");
     let table = String::from_utf8_lossy(&args(&published).stdout).into_owned();
     assert!(table.contains("| 3m | easy | 90 @ 0.1M | not run | – | – | 100 ᵘ | -10 |"), "{table}");
+    assert!(!table.contains("Left to SMAC's budget"), "a finished run has nothing left: {table}");
     assert!(table.contains("Other settings, not compared (test / held-out @ steps): 3m mappo-ff: 90 @ 0.1M (unfinished)."), "{table}");
     // A run whose training folder is gone is read from its shipped copy, its held-out games
     // played again (seed 2 of QMIX on 3m: a short run, shipped by hand).
