@@ -8,6 +8,7 @@
 //! checkpoints and the test episodes all build on it.
 
 use crate::buffer::{Batch, Shape};
+use crate::encoders::layers::LayerNorm;
 use crate::encoders::{NO_FRAME, ObsEncoder, agent_input_width};
 use crate::frames::{FrameTensors, StepFrames};
 use crate::{Config, Error, MixerKind};
@@ -29,6 +30,20 @@ pub struct AgentNet {
     core: Core,
     fc2: Linear,
     pub hidden: usize,
+    /// The MAPPO repository's form ([`AgentNet::normed`]).
+    norms: Option<Norms>,
+}
+
+/// The MAPPO repository's layer norms (its `MLPBase` with `use_feature_normalization`, and
+/// its `RNNLayer`'s norm) and, in the recurrent form, its second hidden layer.
+#[derive(Debug, Clone)]
+struct Norms {
+    input: LayerNorm,
+    fc1: LayerNorm,
+    mid: Option<(Linear, LayerNorm)>,
+    /// After the core: the GRU's hidden state (read by the output layer only), or the
+    /// feed-forward core's output.
+    core: LayerNorm,
 }
 
 #[derive(Debug, Clone)]
@@ -48,7 +63,7 @@ impl AgentNet {
             b_hh: p.uniform("rnn.bias_hh".into(), &[3 * hidden], hidden, rng)?,
         };
         let fc2 = Linear::new(p, "fc2", hidden, n_actions, rng)?;
-        Ok(AgentNet { fc1, core, fc2, hidden })
+        Ok(AgentNet { fc1, core, fc2, hidden, norms: None })
     }
 
     /// The feed-forward agent (EPyMARL's `use_rnn: False`).
@@ -56,19 +71,60 @@ impl AgentNet {
         let fc1 = Linear::new(p, "fc1", input, hidden, rng)?;
         let core = Core::Linear(Linear::new(p, "rnn", hidden, hidden, rng)?);
         let fc2 = Linear::new(p, "fc2", hidden, n_actions, rng)?;
-        Ok(AgentNet { fc1, core, fc2, hidden })
+        Ok(AgentNet { fc1, core, fc2, hidden, norms: None })
+    }
+
+    /// The MAPPO repository's network (`r_actor_critic.py` on `MLPBase` and `RNNLayer`):
+    /// `LN -> fc1 -> ReLU -> LN -> fc -> ReLU -> LN -> GRU -> LN -> fc2`, or feed-forward
+    /// `LN -> fc1 -> ReLU -> LN -> Linear -> ReLU -> LN -> fc2`; orthogonal weights (gain
+    /// sqrt 2 before a ReLU, 1 in the GRU, `out_gain` on the output layer: the repository's
+    /// 0.01 for the policy, 1 for the value) and zero biases.
+    pub fn normed(
+        p: &mut Params,
+        input: usize,
+        hidden: usize,
+        n_actions: usize,
+        recurrent: bool,
+        out_gain: f32,
+        rng: &mut ChaCha8Rng,
+    ) -> Result<AgentNet, Error> {
+        let relu = std::f32::consts::SQRT_2;
+        let input_norm = p.layer_norm("feature_norm", input)?;
+        let fc1 = Linear::orthogonal(p, "fc1", input, hidden, relu, rng)?;
+        let fc1_norm = p.layer_norm("fc1_norm", hidden)?;
+        let mid = if recurrent {
+            Some((Linear::orthogonal(p, "fc_h", hidden, hidden, relu, rng)?, p.layer_norm("fc_h_norm", hidden)?))
+        } else {
+            None
+        };
+        let core = if recurrent {
+            Core::Gru {
+                w_ih: p.orthogonal("rnn.weight_ih".into(), 3 * hidden, hidden, 1.0, rng)?,
+                w_hh: p.orthogonal("rnn.weight_hh".into(), 3 * hidden, hidden, 1.0, rng)?,
+                b_ih: p.constant("rnn.bias_ih".into(), &[3 * hidden], 0.0)?,
+                b_hh: p.constant("rnn.bias_hh".into(), &[3 * hidden], 0.0)?,
+            }
+        } else {
+            Core::Linear(Linear::orthogonal(p, "rnn", hidden, hidden, relu, rng)?)
+        };
+        let core_norm = p.layer_norm("rnn_norm", hidden)?;
+        let fc2 = Linear::orthogonal(p, "fc2", hidden, n_actions, out_gain, rng)?;
+        let norms = Norms { input: input_norm, fc1: fc1_norm, mid, core: core_norm };
+        Ok(AgentNet { fc1, core, fc2, hidden, norms: Some(norms) })
     }
 
     /// The fused kernels' view of this network.
     pub fn layout(&self) -> crate::kernels::NetLayout {
         let (out, _) = self.fc2.weight().dims2().unwrap_or((0, 0));
         let (_, input) = self.fc1.weight().dims2().unwrap_or((0, 0));
-        crate::kernels::NetLayout { input, hidden: self.hidden, out, recurrent: self.is_recurrent() }
+        crate::kernels::NetLayout { input, hidden: self.hidden, out, recurrent: self.is_recurrent(), norm: self.norms.is_some() }
     }
 
     /// How many of its parameter list's variables are this network's (they come first).
     pub fn var_count(&self) -> usize {
-        if self.is_recurrent() { 8 } else { 6 }
+        let base = if self.is_recurrent() { 8 } else { 6 };
+        // Three norms of two variables each, and the recurrent form's second layer and norm.
+        base + self.norms.as_ref().map_or(0, |n| 6 + if n.mid.is_some() { 4 } else { 0 })
     }
 
     /// Whether the output depends on earlier steps.
@@ -80,17 +136,24 @@ impl AgentNet {
     /// and the next hidden state (PyTorch's `GRUCell` equations).
     pub fn step(&self, x: &Tensor, h: &Tensor) -> Result<(Tensor, Tensor), Error> {
         let h2 = self.recur(&self.project(x)?, h)?;
-        Ok((self.fc2.forward(&h2)?, h2))
+        Ok((self.head(&h2)?, h2))
     }
 
     /// The part of a step that does not depend on the hidden state: done for a whole batch
     /// of episodes in one product when learning. GRU: `(N, input)` -> `(N, 3 * hidden)`;
     /// feed-forward: `(N, input)` -> `(N, hidden)`, the whole core.
     pub fn project(&self, x: &Tensor) -> Result<Tensor, Error> {
-        let x = self.fc1.forward(x)?.relu()?;
-        match &self.core {
-            Core::Gru { w_ih, b_ih, .. } => Ok(x.matmul(&w_ih.t()?)?.broadcast_add(b_ih)?),
-            Core::Linear(l) => Ok(l.forward(&x)?.relu()?),
+        let mut x = match &self.norms {
+            Some(n) => n.fc1.forward(&self.fc1.forward(&n.input.forward(x)?)?.relu()?)?,
+            None => self.fc1.forward(x)?.relu()?,
+        };
+        if let Some((l, norm)) = self.norms.as_ref().and_then(|n| n.mid.as_ref()) {
+            x = norm.forward(&l.forward(&x)?.relu()?)?;
+        }
+        match (&self.core, &self.norms) {
+            (Core::Gru { w_ih, b_ih, .. }, _) => Ok(x.matmul(&w_ih.t()?)?.broadcast_add(b_ih)?),
+            (Core::Linear(l), Some(n)) => n.core.forward(&l.forward(&x)?.relu()?),
+            (Core::Linear(l), None) => Ok(l.forward(&x)?.relu()?),
         }
     }
 
@@ -110,7 +173,10 @@ impl AgentNet {
 
     /// Q-values of hidden states, `(N, hidden)` -> `(N, n_actions)`.
     pub fn head(&self, h: &Tensor) -> Result<Tensor, Error> {
-        self.fc2.forward(h)
+        match &self.norms {
+            Some(n) if self.is_recurrent() => self.fc2.forward(&n.core.forward(h)?),
+            _ => self.fc2.forward(h),
+        }
     }
 
     /// A zero hidden state for `n` rows.
@@ -285,7 +351,9 @@ impl Nets {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut agent_params = Params::default();
         let input = agent_input_width(cfg, shape);
-        let agent = if cfg.use_rnn {
+        let agent = if cfg.layer_norm {
+            AgentNet::normed(&mut agent_params, input, cfg.rnn_hidden_dim, shape.n_actions, cfg.use_rnn, 1.0, &mut rng)?
+        } else if cfg.use_rnn {
             AgentNet::new(&mut agent_params, input, cfg.rnn_hidden_dim, shape.n_actions, &mut rng)?
         } else {
             AgentNet::feed_forward(&mut agent_params, input, cfg.rnn_hidden_dim, shape.n_actions, &mut rng)?

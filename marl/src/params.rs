@@ -31,6 +31,46 @@ impl Params {
         Ok(t)
     }
 
+    /// A new `(rows, cols)` variable with orthonormal rows or columns (whichever are fewer),
+    /// times `gain`: PyTorch's `orthogonal_`, by Gram-Schmidt on a seeded normal draw.
+    pub(crate) fn orthogonal(&mut self, name: String, rows: usize, cols: usize, gain: f32, rng: &mut ChaCha8Rng) -> Result<Tensor, Error> {
+        // `k` orthonormal vectors of length `len`, one per row of `q`.
+        let (k, len) = (rows.min(cols), rows.max(cols));
+        let mut normal = || {
+            // Box-Muller; `1 - u` keeps the logarithm's argument in (0, 1].
+            let (u, v): (f64, f64) = (rng.random(), rng.random());
+            ((-2.0 * (1.0 - u).ln()).sqrt() * (std::f64::consts::TAU * v).cos()) as f32
+        };
+        let mut q: Vec<f32> = (0..k * len).map(|_| normal()).collect();
+        for a in 0..k {
+            let (done, rest) = q.split_at_mut(a * len);
+            let row = &mut rest[..len];
+            for prev in done.chunks_exact(len) {
+                let dot: f32 = row.iter().zip(prev).map(|(x, y)| x * y).sum();
+                row.iter_mut().zip(prev).for_each(|(x, y)| *x -= dot * y);
+            }
+            let norm = row.iter().map(|x| x * x).sum::<f32>().sqrt().max(f32::MIN_POSITIVE);
+            row.iter_mut().for_each(|x| *x /= norm);
+        }
+        q.iter_mut().for_each(|x| *x *= gain);
+        // `q` is `(k, len)`: the matrix itself when it has fewer rows, else its transpose.
+        let data = if rows <= cols {
+            q
+        } else {
+            let mut t = vec![0f32; rows * cols];
+            for (c, row) in q.chunks_exact(len).enumerate() {
+                for (r, &v) in row.iter().enumerate() {
+                    t[r * cols + c] = v;
+                }
+            }
+            t
+        };
+        let var = Var::from_vec(data, &[rows, cols], &Device::Cpu)?;
+        let t = var.as_tensor().clone();
+        self.vars.push((name, var));
+        Ok(t)
+    }
+
     /// A new variable of `shape` filled with `value` (layer norms' scales and shifts).
     pub(crate) fn constant(&mut self, name: String, shape: &[usize], value: f32) -> Result<Tensor, Error> {
         let n: usize = shape.iter().product();
@@ -152,6 +192,10 @@ impl Linear {
             w: p.uniform(format!("{name}.weight"), &[out, inp], inp, rng)?,
             b: p.uniform(format!("{name}.bias"), &[out], inp, rng)?,
         })
+    }
+    /// Orthogonal weights times `gain` and zero biases (the MAPPO repository's layers).
+    pub(crate) fn orthogonal(p: &mut Params, name: &str, inp: usize, out: usize, gain: f32, rng: &mut ChaCha8Rng) -> Result<Linear, Error> {
+        Ok(Linear { w: p.orthogonal(format!("{name}.weight"), out, inp, gain, rng)?, b: p.constant(format!("{name}.bias"), &[out], 0.0)? })
     }
     pub(crate) fn weight(&self) -> &Tensor {
         &self.w

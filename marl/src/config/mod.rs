@@ -193,6 +193,12 @@ pub struct Config {
     /// configs when false, so that runs from before it read as they were.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub critic_agent_obs: bool,
+    /// PPO: the MAPPO repository's network for actor and critic (layer norms on the inputs
+    /// and after every hidden layer, a second hidden layer before the GRU, orthogonal
+    /// initialisation: [`crate::nets::AgentNet::normed`]). Left out of saved configs when
+    /// false, so that runs from before it read as they were.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub layer_norm: bool,
     // The observation mode and its encoder (`configs/obs.toml`, merged into every config;
     // the defaults let checkpoints older than these keys load as `features` runs).
     #[serde(default)]

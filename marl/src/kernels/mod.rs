@@ -10,6 +10,7 @@ pub mod conv;
 mod gemm;
 pub mod mixer;
 pub mod net;
+mod norm;
 mod pack;
 pub mod ppo_loss;
 

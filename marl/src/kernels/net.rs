@@ -1,6 +1,10 @@
 //! PyMARL's agent network (`fc1 -> ReLU -> GRUCell -> fc2`, or the feed-forward
 //! `fc1 -> ReLU -> Linear -> ReLU -> fc2`) forward and backward over `L` steps of `N`
-//! sequences, by hand, on one flat parameter vector.
+//! sequences, by hand, on one flat parameter vector; or the MAPPO repository's form of either
+//! (`norm`): the inputs and every hidden layer's output layer-normalised, and the recurrent
+//! one with a second hidden layer before its GRU (`LN -> fc1 -> ReLU -> LN -> fc -> ReLU ->
+//! LN -> GRU -> LN -> fc2`; feed-forward: `LN -> fc1 -> ReLU -> LN -> Linear -> ReLU -> LN ->
+//! fc2`).
 //!
 //! Why not candle's autograd: the GRU runs one step at a time, and candle builds and walks a
 //! graph of about twenty tensors per step (each a fresh allocation), then a backward op per
@@ -18,6 +22,7 @@
 
 use super::act::{sigmoid, tanh};
 use super::gemm::{Mat, matmul};
+use super::norm::{NormTape, norm_backward, norm_forward};
 use super::pack::{NONE, Packing, Want};
 use rayon::prelude::*;
 
@@ -29,11 +34,22 @@ pub struct NetLayout {
     pub hidden: usize,
     pub out: usize,
     pub recurrent: bool,
+    /// The MAPPO repository's layer-normalised form (see the module docs).
+    pub norm: bool,
 }
 
-/// Offsets of the parameters.
+/// Offsets of the parameters. A layer norm's scale sits at its offset, its shift right after.
 #[derive(Clone, Copy, Debug)]
 struct Offsets {
+    /// The inputs' layer norm (`norm` only).
+    ln_in: usize,
+    /// The layer norm after `fc1`'s ReLU (`norm` only).
+    ln1: usize,
+    /// The recurrent `norm` form's second hidden layer: weight, bias right after, its norm.
+    mid: usize,
+    ln_mid: usize,
+    /// After the core: the GRU's hidden state's norm, or the feed-forward core's (`norm` only).
+    ln2: usize,
     w1: usize,
     b1: usize,
     /// GRU: `w_ih`; feed-forward: the core layer's weight.
@@ -50,20 +66,27 @@ struct Offsets {
 impl NetLayout {
     fn offsets(&self) -> Offsets {
         let (i, h, o) = (self.input, self.hidden, self.out);
-        let w1 = 0;
-        let b1 = w1 + h * i;
-        let wi = b1 + h;
-        if self.recurrent {
-            let wh = wi + 3 * h * h;
-            let bi = wh + 3 * h * h;
-            let bh = bi + 3 * h;
-            let w2 = bh + 3 * h;
-            Offsets { w1, b1, wi, wh, bi, bh, w2, b2: w2 + o * h, end: w2 + o * h + o }
+        let mut end = 0;
+        let mut take = |n: usize| {
+            end += n;
+            end - n
+        };
+        let ln_in = if self.norm { take(2 * i) } else { 0 };
+        let w1 = take(h * i);
+        let b1 = take(h);
+        let ln1 = if self.norm { take(2 * h) } else { 0 };
+        let (mid, ln_mid) = if self.norm && self.recurrent { (take(h * h + h), take(2 * h)) } else { (0, 0) };
+        let (wi, wh, bi, bh) = if self.recurrent {
+            (take(3 * h * h), take(3 * h * h), take(3 * h), take(3 * h))
         } else {
-            let wh = wi + h * h; // the core's bias
-            let w2 = wh + h;
-            Offsets { w1, b1, wi, wh, bi: wh, bh: wh, w2, b2: w2 + o * h, end: w2 + o * h + o }
-        }
+            // The core's weight, and its bias where the GRU's `w_hh` would be.
+            let (wi, wh) = (take(h * h), take(h));
+            (wi, wh, wh, wh)
+        };
+        let ln2 = if self.norm { take(2 * h) } else { 0 };
+        let w2 = take(o * h);
+        let b2 = take(o);
+        Offsets { ln_in, ln1, mid, ln_mid, ln2, w1, b1, wi, wh, bi, bh, w2, b2, end: take(0) }
     }
 
     /// The number of parameters.
@@ -178,17 +201,41 @@ impl NetLayout {
         let nc = range.1 - range.0;
         let rows = pack.rows();
         let p = |a: usize, len: usize| &theta[a..a + len];
-        // a1 = relu(x W1^T + b1)
+        let norm = |v: &mut Vec<f32>, width: usize, at: usize| norm_forward(v, width, p(at, width), p(at + width, width));
+        let mut c = Chunk { range, ..Chunk::default() };
+        // The normalised form reads each row whole (a shared table's rows are written out).
+        let x = if self.norm {
+            let mut rows_x = x.into_rows(i);
+            c.n_in = norm(&mut rows_x, i, off.ln_in);
+            ChunkIn::Rows(rows_x)
+        } else {
+            x
+        };
+        // a1 = relu(x W1^T + b1), then normalised in the `norm` form (`a1r` keeps the ReLU's).
         let mut a1 = bias_rows(p(off.b1, h), rows);
         x.first_layer(&mut a1, p(off.w1, h * i), i, h);
         relu(&mut a1);
-        let mut c = Chunk { range, x, a1, out: Vec::new(), ..Chunk::default() };
+        if self.norm {
+            c.a1r = a1.clone();
+            c.n1 = norm(&mut a1, h, off.ln1);
+        }
+        c.x = x;
+        c.a1 = a1;
         let steps = &pack.steps;
         if self.recurrent {
             let h3 = 3 * h;
+            if self.norm {
+                let mut am = bias_rows(p(off.mid + h * h, h), rows);
+                matmul(&mut am, h, Mat::rows(&c.a1, rows, h), Mat::t(p(off.mid, h * h), h, h), true);
+                relu(&mut am);
+                c.amr = am.clone();
+                c.n_mid = norm(&mut am, h, off.ln_mid);
+                c.am = am;
+            }
+            let gru_in = if self.norm { &c.am } else { &c.a1 };
             // The input side of every step at once: gi = a1 W_ih^T + b_ih.
             let mut gi = bias_rows(p(off.bi, h3), rows);
-            matmul(&mut gi, h3, Mat::rows(&c.a1, rows, h), Mat::t(p(off.wi, h3 * h), h, h3), true);
+            matmul(&mut gi, h3, Mat::rows(gru_in, rows, h), Mat::t(p(off.wi, h3 * h), h, h3), true);
             let w_hh = Mat::t(p(off.wh, h3 * h), h, h3);
             let b_hh = p(off.bh, h3);
             let mut hs = vec![0f32; rows * h];
@@ -250,15 +297,27 @@ impl NetLayout {
             let mut a2 = bias_rows(p(off.wh, h), rows);
             matmul(&mut a2, h, Mat::rows(&c.a1, rows, h), Mat::t(p(off.wi, h * h), h, h), true);
             relu(&mut a2);
+            if self.norm {
+                c.hr = a2.clone();
+                c.n2 = norm(&mut a2, h, off.ln2);
+            }
             c.hs = a2;
         }
+        // The recurrent `norm` form's output layer reads the normalised hidden state; the
+        // state carried on is the GRU's own.
+        if self.norm && self.recurrent {
+            let mut ho = c.hs.clone();
+            c.n2 = norm(&mut ho, h, off.ln2);
+            c.ho = ho;
+        }
+        let head_in = if self.norm && self.recurrent { &c.ho } else { &c.hs };
         let mut out = bias_rows(p(off.b2, o), rows);
-        matmul(&mut out, o, Mat::rows(&c.hs, rows, h), Mat::t(p(off.w2, o * h), h, o), true);
+        matmul(&mut out, o, Mat::rows(head_in, rows, h), Mat::t(p(off.w2, o * h), h, o), true);
         c.out = out;
         c.pack = pack;
         if !tape {
-            c.x = ChunkIn::default();
-            c.a1 = Vec::new();
+            let hs = std::mem::take(&mut c.hs);
+            c = Chunk { range: c.range, pack: c.pack, out: c.out, hs, ..Chunk::default() };
         }
         c
     }
@@ -312,11 +371,27 @@ impl NetLayout {
         let rows = c.pack.rows();
         let p = |a: usize, len: usize| &theta[a..a + len];
         let mut g = vec![0f32; self.len()];
+        // A layer norm's backward pass: `d` from its outputs' gradient to its inputs', its
+        // scale's and shift's gradients into `g`.
+        let norm_back = |d: &mut [f32], tape: &NormTape, width: usize, at: usize, g: &mut [f32]| {
+            let (dg, db) = g[at..at + 2 * width].split_at_mut(width);
+            norm_backward(d, tape, width, p(at, width), dg, db);
+        };
         // Output layer.
-        matmul(&mut g[off.w2..off.w2 + o * h], h, Mat::t(&dout, o, rows), Mat::rows(&c.hs, rows, h), false);
+        let normed_state = self.norm && self.recurrent;
+        let head_in = if normed_state { &c.ho } else { &c.hs };
+        matmul(&mut g[off.w2..off.w2 + o * h], h, Mat::t(&dout, o, rows), Mat::rows(head_in, rows, h), false);
         col_sums(&dout, o, &mut g[off.b2..off.b2 + o]);
-        let mut dhs = dh_extra.unwrap_or_else(|| vec![0f32; rows * h]);
+        // The loss's own gradient on the hidden states joins after the state's norm, if any.
+        let (mut dhs, extra) =
+            if normed_state { (vec![0f32; rows * h], dh_extra) } else { (dh_extra.unwrap_or_else(|| vec![0f32; rows * h]), None) };
         matmul(&mut dhs, h, Mat::rows(&dout, rows, o), Mat::rows(p(off.w2, o * h), o, h), true);
+        if normed_state {
+            norm_back(&mut dhs, &c.n2, h, off.ln2, &mut g);
+            if let Some(extra) = &extra {
+                dhs.iter_mut().zip(extra).for_each(|(a, b)| *a += b);
+            }
+        }
         // d(pre-activation of a1).
         let mut da1 = vec![0f32; rows * h];
         if self.recurrent {
@@ -363,25 +438,51 @@ impl NetLayout {
             }
             matmul(&mut g[off.wh..off.wh + h3 * h], h, Mat::t(&dgh, h3, rows), Mat::rows(&c.hp, rows, h), false);
             col_sums(&dgh, h3, &mut g[off.bh..off.bh + h3]);
-            matmul(&mut g[off.wi..off.wi + h3 * h], h, Mat::t(&dgi, h3, rows), Mat::rows(&c.a1, rows, h), false);
+            let gru_in = if self.norm { &c.am } else { &c.a1 };
+            matmul(&mut g[off.wi..off.wi + h3 * h], h, Mat::t(&dgi, h3, rows), Mat::rows(gru_in, rows, h), false);
             col_sums(&dgi, h3, &mut g[off.bi..off.bi + h3]);
-            matmul(&mut da1, h, Mat::rows(&dgi, rows, h3), Mat::rows(p(off.wi, h3 * h), h3, h), false);
+            if self.norm {
+                // am = norm(relu(a1 Wm^T + bm)).
+                let mut dam = vec![0f32; rows * h];
+                matmul(&mut dam, h, Mat::rows(&dgi, rows, h3), Mat::rows(p(off.wi, h3 * h), h3, h), false);
+                norm_back(&mut dam, &c.n_mid, h, off.ln_mid, &mut g);
+                relu_grad(&mut dam, &c.amr);
+                matmul(&mut g[off.mid..off.mid + h * h], h, Mat::t(&dam, h, rows), Mat::rows(&c.a1, rows, h), false);
+                col_sums(&dam, h, &mut g[off.mid + h * h..off.mid + h * h + h]);
+                matmul(&mut da1, h, Mat::rows(&dam, rows, h), Mat::rows(p(off.mid, h * h), h, h), false);
+            } else {
+                matmul(&mut da1, h, Mat::rows(&dgi, rows, h3), Mat::rows(p(off.wi, h3 * h), h3, h), false);
+            }
         } else {
-            // hs = relu(a1 Wc^T + bc): dhs through the ReLU.
-            relu_grad(&mut dhs, &c.hs);
+            // hs = relu(a1 Wc^T + bc) (normalised in the `norm` form): dhs through both.
+            if self.norm {
+                norm_back(&mut dhs, &c.n2, h, off.ln2, &mut g);
+                relu_grad(&mut dhs, &c.hr);
+            } else {
+                relu_grad(&mut dhs, &c.hs);
+            }
             matmul(&mut g[off.wi..off.wi + h * h], h, Mat::t(&dhs, h, rows), Mat::rows(&c.a1, rows, h), false);
             col_sums(&dhs, h, &mut g[off.wh..off.wh + h]);
             matmul(&mut da1, h, Mat::rows(&dhs, rows, h), Mat::rows(p(off.wi, h * h), h, h), false);
         }
-        relu_grad(&mut da1, &c.a1);
+        if self.norm {
+            norm_back(&mut da1, &c.n1, h, off.ln1, &mut g);
+            relu_grad(&mut da1, &c.a1r);
+        } else {
+            relu_grad(&mut da1, &c.a1);
+        }
         c.x.first_layer_grad(&mut g[off.w1..off.w1 + h * i], &da1, i, h);
         col_sums(&da1, h, &mut g[off.b1..off.b1 + h]);
-        let dx = want_dx.then(|| {
+        // The inputs' norm has parameters: its gradient is needed whether or not the inputs' is.
+        let dx = (want_dx || self.norm).then(|| {
             let mut dx = vec![0f32; rows * i];
             matmul(&mut dx, i, Mat::rows(&da1, rows, h), Mat::rows(p(off.w1, h * i), h, i), false);
+            if self.norm {
+                norm_back(&mut dx, &c.n_in, i, off.ln_in, &mut g);
+            }
             dx
         });
-        (g, dx)
+        (g, dx.filter(|_| want_dx))
     }
 }
 
@@ -420,6 +521,18 @@ struct Chunk {
     a1: Vec<f32>,
     hs: Vec<f32>,
     out: Vec<f32>,
+    /// The `norm` form's tapes: the inputs' norm, `fc1`'s ReLU output and norm, the second
+    /// hidden layer's (its ReLU output, norm, normalised output), the core's norm (with the
+    /// feed-forward core's ReLU output `hr`, or the GRU's normalised state `ho`).
+    n_in: NormTape,
+    a1r: Vec<f32>,
+    n1: NormTape,
+    amr: Vec<f32>,
+    n_mid: NormTape,
+    am: Vec<f32>,
+    n2: NormTape,
+    hr: Vec<f32>,
+    ho: Vec<f32>,
     hp: Vec<f32>,
     r: Vec<f32>,
     z: Vec<f32>,
@@ -475,6 +588,21 @@ impl Default for ChunkIn {
 }
 
 impl ChunkIn {
+    /// The rows written out `(rows, input)`.
+    fn into_rows(self, input: usize) -> Vec<f32> {
+        match self {
+            ChunkIn::Rows(x) => x,
+            ChunkIn::Shared { table, width, local, ids } => {
+                let mut x = vec![0f32; local.len() * input];
+                for ((row, &l), &id) in x.chunks_exact_mut(input.max(1)).zip(&local).zip(&ids) {
+                    row[..width].copy_from_slice(&table[l as usize * width..][..width]);
+                    row[width + id as usize] = 1.0;
+                }
+                x
+            }
+        }
+    }
+
     fn shared(table: &[f32], width: usize, idx: &[u32], ids: Vec<u32>) -> ChunkIn {
         let mut distinct = idx.to_vec();
         distinct.sort_unstable();

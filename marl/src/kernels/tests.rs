@@ -25,12 +25,26 @@ struct Case {
     w_hid: Vec<f32>,
 }
 
-fn case(recurrent: bool, rng: &mut ChaCha8Rng) -> (Case, AgentNet, Params) {
+/// The networks checked: (recurrent, the MAPPO repository's layer-normalised form).
+const KINDS: [(bool, bool); 4] = [(true, false), (false, false), (true, true), (false, true)];
+
+fn case((recurrent, norm): (bool, bool), rng: &mut ChaCha8Rng) -> (Case, AgentNet, Params) {
     let (input, hidden, out, l, n) = (7, 5, 4, 6, 50);
     let mut p = Params::default();
-    let net =
-        if recurrent { AgentNet::new(&mut p, input, hidden, out, rng) } else { AgentNet::feed_forward(&mut p, input, hidden, out, rng) }
-            .unwrap_or_else(|e| panic!("{e}"));
+    let net = match (recurrent, norm) {
+        // A gain of 1 on the output layer: the policy's 0.01 would leave its gradients tiny.
+        (_, true) => AgentNet::normed(&mut p, input, hidden, out, recurrent, 1.0, rng),
+        (true, false) => AgentNet::new(&mut p, input, hidden, out, rng),
+        (false, false) => AgentNet::feed_forward(&mut p, input, hidden, out, rng),
+    }
+    .unwrap_or_else(|e| panic!("{e}"));
+    if norm {
+        // Random weights in place of the zero biases and unit scales it starts with: with
+        // those, a row whose ReLUs are all off feeds exact zeros to the next layer, where
+        // candle's ReLU has slope 1 (PyTorch's and the kernel's: 0).
+        let theta = random(net.layout().len(), rng);
+        p.set_flat(net.var_count(), &theta).unwrap_or_else(|e| panic!("{e}"));
+    }
     let keep = (0..l * n).map(|_| if rng.random_bool(0.2) { 0.0 } else { 1.0 }).collect();
     let c = Case {
         layout: net.layout(),
@@ -117,8 +131,8 @@ fn close(what: &str, got: &[f32], want: &[f32], tol: f32) {
 #[test]
 fn fused_passes_match_candles_autograd() -> Result<(), Error> {
     let mut rng = ChaCha8Rng::seed_from_u64(3);
-    for recurrent in [true, false] {
-        let (c, net, p) = case(recurrent, &mut rng);
+    for kind in KINDS {
+        let (c, net, p) = case(kind, &mut rng);
         let theta = p.flat(net.var_count())?;
         assert_eq!(theta.len(), c.layout.len());
         let f = c.layout.forward(&theta, &c.x, &c.h0, Some(&c.keep), Want::All, c.l, c.n, true);
@@ -126,7 +140,7 @@ fn fused_passes_match_candles_autograd() -> Result<(), Error> {
         close("outputs", &f.out, &out, 1e-5);
         let mut g = vec![0f32; c.layout.len()];
         let dx = c.layout.backward(&theta, &f, &c.w_out, Some(&c.w_hid), &mut g, true).unwrap_or_default();
-        close(&format!("parameter gradients (recurrent {recurrent})"), &g, &g_ref, 2e-5);
+        close(&format!("parameter gradients ({kind:?})"), &g, &g_ref, 2e-5);
         close("input gradients", &dx, &dx_ref, 2e-5);
         // Padding skipped (in any order of lengths), the padded rows' loss weights 0.
         let lens: Vec<usize> = (0..c.n).map(|_| rng.random_range(1..=c.l)).collect();
@@ -137,7 +151,7 @@ fn fused_passes_match_candles_autograd() -> Result<(), Error> {
         close("outputs of real steps", &fp.out, &zero_rows(&out_all, cp.layout.out, &padding), 1e-5);
         let mut g = vec![0f32; cp.layout.len()];
         cp.layout.backward(&theta, &fp, &cp.w_out, Some(&cp.w_hid), &mut g, false);
-        close(&format!("parameter gradients without padding (recurrent {recurrent})"), &g, &g_ref, 2e-5);
+        close(&format!("parameter gradients without padding ({kind:?})"), &g, &g_ref, 2e-5);
         // A single step without a tape gives the same outputs as the first step with one.
         let one = c.layout.forward(&theta, &c.x[..c.n * c.layout.input], &c.h0, None, Want::All, 1, c.n, false);
         close("one step", &one.out, &f.out[..c.n * c.layout.out], 1e-6);
@@ -151,8 +165,8 @@ fn fused_passes_match_candles_autograd() -> Result<(), Error> {
 #[test]
 fn masked_rows_are_skipped_and_the_rest_match_candle() -> Result<(), Error> {
     let mut rng = ChaCha8Rng::seed_from_u64(11);
-    for recurrent in [true, false] {
-        let (c, net, p) = case(recurrent, &mut rng);
+    for kind in KINDS {
+        let (c, net, p) = case(kind, &mut rng);
         let theta = p.flat(net.var_count())?;
         // Each sequence dies at a random step and stays dead until an episode starts (keep 0);
         // a few rows in between are left out too, while later rows still read them.
@@ -183,7 +197,7 @@ fn masked_rows_are_skipped_and_the_rest_match_candle() -> Result<(), Error> {
             })
         };
         let (out, g, dx) = run(1);
-        let what = format!("recurrent {recurrent}");
+        let what = format!("{kind:?}");
         let o = cm.layout.out;
         close(&format!("outputs read ({what})"), &zero_rows(&out, o, &unread), &zero_rows(&out_ref, o, &unread), 1e-5);
         close(&format!("parameter gradients ({what})"), &g, &g_ref, 2e-5);
@@ -204,8 +218,8 @@ fn masked_rows_are_skipped_and_the_rest_match_candle() -> Result<(), Error> {
 fn shared_table_rows_match_the_rows_written_out() -> Result<(), Error> {
     use super::Input;
     let mut rng = ChaCha8Rng::seed_from_u64(8);
-    for recurrent in [true, false] {
-        let (c, net, p) = case(recurrent, &mut rng);
+    for kind in KINDS {
+        let (c, net, p) = case(kind, &mut rng);
         let theta = p.flat(net.var_count())?;
         let (i, ids_n) = (c.layout.input, 3);
         let width = i - ids_n;
@@ -236,7 +250,7 @@ fn shared_table_rows_match_the_rows_written_out() -> Result<(), Error> {
                 })
             };
             let (out, hidden, g, dx) = run(1);
-            let what = format!("recurrent {recurrent}, padding {}", matches!(want, Want::Lens(_)));
+            let what = format!("{kind:?}, padding {}", matches!(want, Want::Lens(_)));
             close(&format!("outputs ({what})"), &out, &dense.out, 1e-5);
             close(&format!("hidden states ({what})"), &hidden, &dense.hidden_states(), 1e-5);
             close(&format!("parameter gradients ({what})"), &g, &g_dense, 1e-5);
@@ -250,7 +264,7 @@ fn shared_table_rows_match_the_rows_written_out() -> Result<(), Error> {
 #[test]
 fn results_do_not_depend_on_the_thread_count() -> Result<(), Error> {
     let mut rng = ChaCha8Rng::seed_from_u64(4);
-    let (c, net, p) = case(true, &mut rng);
+    let (c, net, p) = case((true, true), &mut rng);
     let theta = p.flat(net.var_count())?;
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap_or_else(|e| panic!("{e}"));

@@ -183,7 +183,9 @@ impl PpoLearner {
             let (input, hidden) = (critic_input.width(&shape), cfg.rnn_hidden_dim);
             // The critic is built as the actor is: recurrent (the MAPPO repository's `rmappo`)
             // or feed-forward (its `mappo`, which its scripts run on some maps).
-            let net = if cfg.use_rnn {
+            let net = if cfg.layer_norm {
+                AgentNet::normed(&mut critic_params, input, hidden, 1, cfg.use_rnn, 1.0, &mut rng)?
+            } else if cfg.use_rnn {
                 AgentNet::new(&mut critic_params, input, hidden, 1, &mut rng)?
             } else {
                 AgentNet::feed_forward(&mut critic_params, input, hidden, 1, &mut rng)?

@@ -250,6 +250,9 @@ fn fused_gradients_match_the_candle_reference() -> R {
         ("mappo", vec!["critic_agent_obs=true"]),
         ("mappo", vec!["critic_agent_obs=true", "use_rnn=false"]),
         ("ippo", vec!["use_rnn=false", "shared_trunk=true"]),
+        ("mappo", vec!["layer_norm=true"]),
+        ("mappo", vec!["layer_norm=true", "use_rnn=false", "critic_agent_obs=true"]),
+        ("ippo", vec!["layer_norm=true"]),
     ] {
         let c = ppo_cfg(algo, &extra)?;
         let mut rng = ChaCha8Rng::seed_from_u64(11);
@@ -420,6 +423,58 @@ fn a_feed_forward_mappo_run_keeps_no_state_and_its_checkpoint_plays_alike() -> R
         assert!((f64::from(p.ret) - r.mean_return).abs() < 1e-4, "seed {seed}: agent {}, trainer {}", p.ret, r.mean_return);
     }
     let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
+
+/// The MAPPO repository's network (`layer_norm`): the key is saved only when on, the
+/// networks start as that repository's do (unit-scale norms, zero biases, orthogonal weights
+/// scaled by sqrt 2, the policy's output layer by 0.01), and a short run's checkpoint loads
+/// into the same network and plays as the trainer's greedy tests do, recurrent or not.
+#[test]
+fn a_layer_normed_mappo_run_starts_as_the_repositorys_and_its_checkpoint_plays_alike() -> R {
+    let plain = serde_json::to_string(&ppo_cfg("mappo", &[])?)?;
+    assert!(!plain.contains("layer_norm"), "{plain}");
+    let c = ppo_cfg("mappo", &["layer_norm=true"])?;
+    assert!(serde_json::to_string(&c)?.contains("\"layer_norm\":true"));
+    let l = PpoLearner::new(&c, SMALL, 4)?;
+    let vars = l.actor.agent_params.to_map();
+    let get = |k: &str| -> Result<Vec<f32>, Box<dyn std::error::Error>> {
+        Ok(vars.get(k).ok_or(format!("no {k}"))?.flatten_all()?.to_vec1::<f32>()?)
+    };
+    assert!(get("feature_norm.weight")?.iter().all(|&v| v == 1.0) && get("fc1_norm.bias")?.iter().all(|&v| v == 0.0));
+    assert!(get("fc1.bias")?.iter().chain(&get("rnn.bias_hh")?).all(|&v| v == 0.0));
+    // fc1 `(64, input)`, here `input` < 64: orthonormal columns times sqrt 2.
+    let w1 = get("fc1.weight")?;
+    let input = w1.len() / c.rnn_hidden_dim;
+    assert!(input < c.rnn_hidden_dim, "{input}");
+    let dot = |a: usize, b: usize| -> f32 { (0..c.rnn_hidden_dim).map(|r| w1[r * input + a] * w1[r * input + b]).sum() };
+    assert!((dot(0, 0) - 2.0).abs() < 1e-4 && (dot(5, 5) - 2.0).abs() < 1e-4 && dot(0, 5).abs() < 1e-4, "{} {}", dot(0, 0), dot(0, 5));
+    // The policy's output layer: orthonormal rows of norm 0.01 (its 10 rows of 64).
+    let w2 = get("fc2.weight")?;
+    let row: f32 = w2[..c.rnn_hidden_dim].iter().map(|v| v * v).sum();
+    assert!((row.sqrt() - 0.01).abs() < 1e-5, "{}", row.sqrt());
+
+    let scenario = Arc::new(Scenario::load("3m_vlm")?);
+    for use_rnn in [true, false] {
+        let dir = std::env::temp_dir().join(format!("avacraft-ppo-ln-{use_rnn}-{}", std::process::id()));
+        let c = Config { use_rnn, layer_norm: true, ..short("mappo")? };
+        let opts = RunOptions { scenario: Arc::clone(&scenario), seed: 3, threads: 2, out: Some(dir.clone()) };
+        let (trained, summary) = train(&c, &opts, &mut |_| {})?;
+        assert!(summary.last_loss.is_finite() && summary.updates == 25, "{summary:?}");
+        let agent = MarlAgent::load(&dir)?;
+        assert!(agent.policy().cfg.layer_norm && agent.policy().nets.agent.layout().norm);
+        for seed in 1..=2 {
+            let r = train::test(trained.nets(), &c, &scenario, &[seed], 1)?;
+            let p = common::play(agent.policy(), &scenario, &c, seed);
+            assert!(
+                (f64::from(p.ret) - r.mean_return).abs() < 1e-4,
+                "rnn {use_rnn}, seed {seed}: agent {}, trainer {}",
+                p.ret,
+                r.mean_return
+            );
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
     Ok(())
 }
 
