@@ -468,8 +468,14 @@ opponent = "focus-fire"
         // Seeds 2 and 3 of QMIX and MAPPO on five maps beside them, and on 6h_vs_8z the
         // feed-forward MAPPO, its critic reading the state alone and with each agent's
         // observation, and QMIX with pymarl2's settings for the map; on 2s_vs_1sc QMIX with
-        // the Void data set's Spine Crawler and with pymarl2's default settings.
-        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 5);
+        // the Void data set's Spine Crawler and with pymarl2's default settings; MAPPO with the
+        // MAPPO repository's network on 2m_vs_1z and (feed-forward) on 6h_vs_8z.
+        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 7);
+        for (id, rnn, steps) in [("2m_vs_1z/mappo-ln-s1", true, 2_000_000), ("6h_vs_8z/mappo-ff-ln-s1", false, 10_000_000)] {
+            let job = smac.jobs.iter().find(|j| j.id == id).unwrap_or_else(|| panic!("{id}"));
+            let cfg = avacraft_marl::Config::for_algo("mappo", &job.overrides).unwrap_or_else(|e| panic!("{e}"));
+            assert!(cfg.layer_norm && cfg.use_rnn == rnn && job.steps == steps, "{id}: {cfg:?}");
+        }
         let default = smac.jobs.iter().find(|j| j.id == "2s_vs_1sc/qmix-pymarl2-s1").expect("pymarl2's QMIX on 2s_vs_1sc");
         let cfg = avacraft_marl::Config::for_algo("qmix", &default.overrides).unwrap_or_else(|e| panic!("{e}"));
         assert!(cfg.use_rnn && cfg.td_lambda == 0.6 && cfg.epsilon_anneal_time == 100_000 && cfg.batch_size == 128, "{cfg:?}");

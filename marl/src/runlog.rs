@@ -88,13 +88,15 @@ pub fn first_reaching(rows: &[LogRow], test: f64, train: f64) -> Option<LogRow> 
     rows.iter().copied().find(|r| r.test_win_rate >= test && r.train_win_rate >= train)
 }
 
-const COLORS: [RGBColor; 6] = [
+const COLORS: [RGBColor; 8] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
     RGBColor(255, 127, 14),
     RGBColor(148, 103, 189),
     RGBColor(23, 190, 207),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
 ];
 
 /// Draws the groups' greedy test and training win rates against environment steps and
