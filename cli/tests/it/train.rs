@@ -228,6 +228,21 @@ fn smac_report_sets_runs_beside_published_results() {
         "{table}"
     );
     std::fs::write(run.join("done.json"), "{}").expect("done");
+    // A finished run with other settings that does better is compared, and named.
+    let other = dir.join("runs/3m/mappo-ln-s1");
+    std::fs::create_dir_all(&other).expect("variant dir");
+    let mut log =
+        String::from("t_env,episodes,updates,epsilon,loss,grad_norm,q_taken,train_win_rate,test_win_rate,test_return,elapsed_s\n");
+    for k in 1..=10 {
+        log.push_str(&format!("{},{k},{k},0,0.1,0.1,0.1,0.9,0.95,19,{k}\n", k * 10000));
+    }
+    std::fs::write(other.join("log.csv"), log).expect("variant log");
+    std::fs::write(other.join("done.json"), "{}").expect("variant done");
+    let out = args(&published);
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(table.contains("| 3m | easy | 90 @ 0.1M | not run | – | – | 100 ᵘ | -5 (mappo-ln) |"), "{table}");
+    assert!(table.contains("3m mappo-ln: 95 @ 0.1M"), "{table}");
+    std::fs::remove_dir_all(&other).expect("variant removed");
     let out = args(&published);
     let table = String::from_utf8_lossy(&out.stdout);
     assert!(table.contains("| 3m | easy | 90 @ 0.1M | not run | – | – | 100 ᵘ | -10 |"), "{table}");
