@@ -224,7 +224,7 @@ fn left_line(left: &[(String, u64, f64)]) -> String {
 fn seeds_line(a: &SmacReportArgs) -> Result<String> {
     let mut parts = Vec::new();
     for map in smac_names() {
-        for r in RUNS {
+        for r in RUNS.iter().chain(&VARIANTS) {
             let seeds: Vec<Option<Ours>> = (1..=3).map(|k| find_run(&a.runs, &a.baselines, map, r, k)).collect::<Result<_>>()?;
             if seeds.iter().filter(|o| o.is_some()).count() < 2 {
                 continue;
@@ -318,7 +318,11 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
         // Our best finished run: the compared learners', or a finished run with other
         // settings (named in the cell). Runs still training are shown, not compared.
         let all = runs.iter().filter_map(|(r, o)| o.as_ref().map(|o| (*r, o))).chain(others.iter().map(|(r, o)| (*r, o)));
-        let best = all.clone().filter(|(_, o)| !o.running).max_by(|a, b| a.1.final_rate.total_cmp(&b.1.final_rate));
+        // The first best: on a tie the compared learners' run, which come first.
+        let best = all.clone().filter(|(_, o)| !o.running).fold(None, |b: Option<(&str, &Ours)>, (r, o)| match b {
+            Some(b) if b.1.final_rate >= o.final_rate => Some(b),
+            _ => Some((r, o)),
+        });
         let best_pub = [p.qmix_smac, p.qmix_tuned, p.mappo].iter().flatten().map(|c| c.value).fold(f64::NAN, f64::max);
         let gap = match best {
             Some((r, o)) if best_pub.is_finite() => {

@@ -242,6 +242,11 @@ fn smac_report_sets_runs_beside_published_results() {
     let table = String::from_utf8_lossy(&out.stdout);
     assert!(table.contains("| 3m | easy | 90 @ 0.1M | not run | – | – | 100 ᵘ | -5 (mappo-ln) |"), "{table}");
     assert!(table.contains("3m mappo-ln: 95 @ 0.1M"), "{table}");
+    // On a tie the compared learner's run is the one compared.
+    let tied = std::fs::read_to_string(other.join("log.csv")).expect("variant log").replace(",0.95,", ",0.9,");
+    std::fs::write(other.join("log.csv"), tied).expect("variant log");
+    let table = String::from_utf8_lossy(&args(&published).stdout).into_owned();
+    assert!(table.contains("| 3m | easy | 90 @ 0.1M | not run | – | – | 100 ᵘ | -10 |"), "{table}");
     std::fs::remove_dir_all(&other).expect("variant removed");
     let out = args(&published);
     let table = String::from_utf8_lossy(&out.stdout);
