@@ -272,6 +272,19 @@ fn glance(tally: &[[usize; 3]; RUNS.len()], easy: &[(&str, f64)], gaps: &[f64]) 
     )
 }
 
+/// Writes `table` into the Markdown file `doc` between its `BEGIN` and `END` lines.
+fn write_into(doc: &Path, table: &str) -> Result<()> {
+    let text = std::fs::read_to_string(doc).with_context(|| format!("{}", doc.display()))?;
+    let (Some(b), Some(e)) = (text.find(BEGIN), text.find(END)) else {
+        bail!("{}: no `{BEGIN}` ... `{END}` section to write the table into", doc.display());
+    };
+    if e < b {
+        bail!("{}: `{END}` comes before `{BEGIN}`", doc.display());
+    }
+    let new = format!("{}{BEGIN}\n{table}{}", &text[..b], &text[e..]);
+    std::fs::write(doc, new).with_context(|| format!("{}", doc.display()))
+}
+
 pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
     let text = std::fs::read_to_string(&a.published).with_context(|| format!("{}", a.published.display()))?;
     let published: Published = toml::from_str(&text).with_context(|| format!("{}", a.published.display()))?;
@@ -382,15 +395,7 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
         grid(&a.out.join("curves.png"), "SMAC's maps: greedy test win rate against environment steps", &names, &panels, 5)?;
     }
     if let Some(doc) = &a.doc {
-        let text = std::fs::read_to_string(doc).with_context(|| format!("{}", doc.display()))?;
-        let (Some(b), Some(e)) = (text.find(BEGIN), text.find(END)) else {
-            bail!("{}: no `{BEGIN}` ... `{END}` section to write the table into", doc.display());
-        };
-        if e < b {
-            bail!("{}: `{END}` comes before `{BEGIN}`", doc.display());
-        }
-        let new = format!("{}{BEGIN}\n{table}{}", &text[..b], &text[e..]);
-        std::fs::write(doc, new).with_context(|| format!("{}", doc.display()))?;
+        write_into(doc, &table)?;
     }
     write!(out, "{table}")?;
     Ok(())

@@ -184,6 +184,72 @@ impl NetLayout {
         f
     }
 
+    /// The layers before the core, on a chunk's `rows` rows: `a1 = relu(x W1^T + b1)`, and in
+    /// the `norm` form the inputs' norm before it, its own norm after (`a1r` keeps the ReLU's
+    /// output) and, recurrent, the second hidden layer (`am`, the GRU's input).
+    fn front(&self, theta: &[f32], x: ChunkIn, rows: usize, c: &mut Chunk) {
+        let (i, h) = (self.input, self.hidden);
+        let off = self.offsets();
+        let p = |a: usize, len: usize| &theta[a..a + len];
+        let norm = |v: &mut Vec<f32>, width: usize, at: usize| norm_forward(v, width, p(at, width), p(at + width, width));
+        // The normalised form reads each row whole (a shared table's rows are written out).
+        let x = if self.norm {
+            let mut rows_x = x.into_rows(i);
+            c.n_in = norm(&mut rows_x, i, off.ln_in);
+            ChunkIn::Rows(rows_x)
+        } else {
+            x
+        };
+        let mut a1 = bias_rows(p(off.b1, h), rows);
+        x.first_layer(&mut a1, p(off.w1, h * i), i, h);
+        relu(&mut a1);
+        if self.norm {
+            c.a1r = a1.clone();
+            c.n1 = norm(&mut a1, h, off.ln1);
+        }
+        if self.norm && self.recurrent {
+            let mut am = bias_rows(p(off.mid + h * h, h), rows);
+            matmul(&mut am, h, Mat::rows(&a1, rows, h), Mat::t(p(off.mid, h * h), h, h), true);
+            relu(&mut am);
+            c.amr = am.clone();
+            c.n_mid = norm(&mut am, h, off.ln_mid);
+            c.am = am;
+        }
+        c.x = x;
+        c.a1 = a1;
+    }
+
+    /// The gradients of [`NetLayout::front`]'s layers from `da1`, the gradient with respect to
+    /// `a1`, into `g`; the inputs' gradient with `want_dx`.
+    fn front_backward(&self, theta: &[f32], c: &Chunk, mut da1: Vec<f32>, g: &mut [f32], want_dx: bool) -> Option<Vec<f32>> {
+        let (i, h) = (self.input, self.hidden);
+        let off = self.offsets();
+        let rows = c.pack.rows();
+        let p = |a: usize, len: usize| &theta[a..a + len];
+        let norm_back = |d: &mut [f32], tape: &NormTape, width: usize, at: usize, g: &mut [f32]| {
+            let (dg, db) = g[at..at + 2 * width].split_at_mut(width);
+            norm_backward(d, tape, width, p(at, width), dg, db);
+        };
+        if self.norm {
+            norm_back(&mut da1, &c.n1, h, off.ln1, g);
+            relu_grad(&mut da1, &c.a1r);
+        } else {
+            relu_grad(&mut da1, &c.a1);
+        }
+        c.x.first_layer_grad(&mut g[off.w1..off.w1 + h * i], &da1, i, h);
+        col_sums(&da1, h, &mut g[off.b1..off.b1 + h]);
+        // The inputs' norm has parameters: its gradient is needed whether or not the inputs' is.
+        let dx = (want_dx || self.norm).then(|| {
+            let mut dx = vec![0f32; rows * i];
+            matmul(&mut dx, i, Mat::rows(&da1, rows, h), Mat::rows(p(off.w1, h * i), h, i), false);
+            if self.norm {
+                norm_back(&mut dx, &c.n_in, i, off.ln_in, g);
+            }
+            dx
+        });
+        dx.filter(|_| want_dx)
+    }
+
     /// One chunk's pass on its packed rows.
     #[allow(clippy::too_many_arguments)]
     fn forward_chunk(
@@ -196,42 +262,17 @@ impl NetLayout {
         tape: bool,
         range: (usize, usize),
     ) -> Chunk {
-        let (i, h, o) = (self.input, self.hidden, self.out);
+        let (h, o) = (self.hidden, self.out);
         let off = self.offsets();
         let nc = range.1 - range.0;
         let rows = pack.rows();
         let p = |a: usize, len: usize| &theta[a..a + len];
         let norm = |v: &mut Vec<f32>, width: usize, at: usize| norm_forward(v, width, p(at, width), p(at + width, width));
         let mut c = Chunk { range, ..Chunk::default() };
-        // The normalised form reads each row whole (a shared table's rows are written out).
-        let x = if self.norm {
-            let mut rows_x = x.into_rows(i);
-            c.n_in = norm(&mut rows_x, i, off.ln_in);
-            ChunkIn::Rows(rows_x)
-        } else {
-            x
-        };
-        // a1 = relu(x W1^T + b1), then normalised in the `norm` form (`a1r` keeps the ReLU's).
-        let mut a1 = bias_rows(p(off.b1, h), rows);
-        x.first_layer(&mut a1, p(off.w1, h * i), i, h);
-        relu(&mut a1);
-        if self.norm {
-            c.a1r = a1.clone();
-            c.n1 = norm(&mut a1, h, off.ln1);
-        }
-        c.x = x;
-        c.a1 = a1;
+        self.front(theta, x, rows, &mut c);
         let steps = &pack.steps;
         if self.recurrent {
             let h3 = 3 * h;
-            if self.norm {
-                let mut am = bias_rows(p(off.mid + h * h, h), rows);
-                matmul(&mut am, h, Mat::rows(&c.a1, rows, h), Mat::t(p(off.mid, h * h), h, h), true);
-                relu(&mut am);
-                c.amr = am.clone();
-                c.n_mid = norm(&mut am, h, off.ln_mid);
-                c.am = am;
-            }
             let gru_in = if self.norm { &c.am } else { &c.a1 };
             // The input side of every step at once: gi = a1 W_ih^T + b_ih.
             let mut gi = bias_rows(p(off.bi, h3), rows);
@@ -365,7 +406,7 @@ impl NetLayout {
         dh_extra: Option<Vec<f32>>,
         want_dx: bool,
     ) -> (Vec<f32>, Option<Vec<f32>>) {
-        let (i, h, o) = (self.input, self.hidden, self.out);
+        let (h, o) = (self.hidden, self.out);
         let off = self.offsets();
         let nc = c.range.1 - c.range.0;
         let rows = c.pack.rows();
@@ -465,24 +506,8 @@ impl NetLayout {
             col_sums(&dhs, h, &mut g[off.wh..off.wh + h]);
             matmul(&mut da1, h, Mat::rows(&dhs, rows, h), Mat::rows(p(off.wi, h * h), h, h), false);
         }
-        if self.norm {
-            norm_back(&mut da1, &c.n1, h, off.ln1, &mut g);
-            relu_grad(&mut da1, &c.a1r);
-        } else {
-            relu_grad(&mut da1, &c.a1);
-        }
-        c.x.first_layer_grad(&mut g[off.w1..off.w1 + h * i], &da1, i, h);
-        col_sums(&da1, h, &mut g[off.b1..off.b1 + h]);
-        // The inputs' norm has parameters: its gradient is needed whether or not the inputs' is.
-        let dx = (want_dx || self.norm).then(|| {
-            let mut dx = vec![0f32; rows * i];
-            matmul(&mut dx, i, Mat::rows(&da1, rows, h), Mat::rows(p(off.w1, h * i), h, i), false);
-            if self.norm {
-                norm_back(&mut dx, &c.n_in, i, off.ln_in, &mut g);
-            }
-            dx
-        });
-        (g, dx.filter(|_| want_dx))
+        let dx = self.front_backward(theta, c, da1, &mut g, want_dx);
+        (g, dx)
     }
 }
 
