@@ -1,7 +1,8 @@
 //! Elementwise activations for the fused networks, written so the compiler vectorises them
 //! (no calls into libm in the loops): `exp` by range reduction to `[-ln2/2, ln2/2]` and a
 //! degree-6 polynomial (relative error about 2e-7, as libm's within a few ulp), and the
-//! logistic and hyperbolic tangent from it.
+//! logistic and hyperbolic tangent from it; and [`simd`], which compiles such loops for the
+//! processor's best instruction set.
 
 const LOG2E: f32 = std::f32::consts::LOG2_E;
 const LN2_HI: f32 = 0.693_145_75;
@@ -38,6 +39,13 @@ pub(crate) fn tanh(x: f32) -> f32 {
     let small = a * (1.0 - x2 * (1.0 / 3.0 - x2 * (2.0 / 15.0)));
     let t = if a < 0.02 { small } else { big };
     t.copysign(x)
+}
+
+/// Runs `f` compiled for the best instruction set this processor has (AVX-512, AVX2+FMA,
+/// else baseline), so the elementwise loops inlined into it are vectorised for it.
+#[inline(always)]
+pub(super) fn simd<R>(f: impl FnOnce() -> R) -> R {
+    pulp::Arch::new().dispatch(f)
 }
 
 #[cfg(test)]

@@ -36,8 +36,9 @@
 //! Checked against candle's autograd on the reference encoder ([`crate::ObsEncoder`]) by
 //! the tests in `conv_tests.rs`.
 
+use super::act::simd;
 use super::gemm::{Mat, matmul};
-use super::net::{col_sums, relu_grad, simd};
+use super::net::{col_sums, relu_grad};
 use crate::Error;
 use rayon::prelude::*;
 

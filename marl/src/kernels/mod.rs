@@ -6,6 +6,7 @@
 
 mod act;
 pub mod adam;
+mod chunk_in;
 pub mod conv;
 mod gemm;
 pub mod mixer;

@@ -20,9 +20,10 @@
 //! Checked against candle's autograd (the crate's reference networks, [`crate::nets`]) by
 //! the tests below.
 
-use super::act::{sigmoid, tanh};
+use super::act::{sigmoid, simd, tanh};
+use super::chunk_in::ChunkIn;
 use super::gemm::{Mat, matmul};
-use super::norm::{NormTape, norm_backward, norm_forward};
+use super::norm::{NormTape, norm_backward_at, norm_forward};
 use super::pack::{NONE, Packing, Want};
 use rayon::prelude::*;
 
@@ -226,12 +227,8 @@ impl NetLayout {
         let off = self.offsets();
         let rows = c.pack.rows();
         let p = |a: usize, len: usize| &theta[a..a + len];
-        let norm_back = |d: &mut [f32], tape: &NormTape, width: usize, at: usize, g: &mut [f32]| {
-            let (dg, db) = g[at..at + 2 * width].split_at_mut(width);
-            norm_backward(d, tape, width, p(at, width), dg, db);
-        };
         if self.norm {
-            norm_back(&mut da1, &c.n1, h, off.ln1, g);
+            norm_backward_at(theta, &mut da1, &c.n1, h, off.ln1, g);
             relu_grad(&mut da1, &c.a1r);
         } else {
             relu_grad(&mut da1, &c.a1);
@@ -243,7 +240,7 @@ impl NetLayout {
             let mut dx = vec![0f32; rows * i];
             matmul(&mut dx, i, Mat::rows(&da1, rows, h), Mat::rows(p(off.w1, h * i), h, i), false);
             if self.norm {
-                norm_back(&mut dx, &c.n_in, i, off.ln_in, g);
+                norm_backward_at(theta, &mut dx, &c.n_in, i, off.ln_in, g);
             }
             dx
         });
@@ -412,12 +409,6 @@ impl NetLayout {
         let rows = c.pack.rows();
         let p = |a: usize, len: usize| &theta[a..a + len];
         let mut g = vec![0f32; self.len()];
-        // A layer norm's backward pass: `d` from its outputs' gradient to its inputs', its
-        // scale's and shift's gradients into `g`.
-        let norm_back = |d: &mut [f32], tape: &NormTape, width: usize, at: usize, g: &mut [f32]| {
-            let (dg, db) = g[at..at + 2 * width].split_at_mut(width);
-            norm_backward(d, tape, width, p(at, width), dg, db);
-        };
         // Output layer.
         let normed_state = self.norm && self.recurrent;
         let head_in = if normed_state { &c.ho } else { &c.hs };
@@ -428,7 +419,7 @@ impl NetLayout {
             if normed_state { (vec![0f32; rows * h], dh_extra) } else { (dh_extra.unwrap_or_else(|| vec![0f32; rows * h]), None) };
         matmul(&mut dhs, h, Mat::rows(&dout, rows, o), Mat::rows(p(off.w2, o * h), o, h), true);
         if normed_state {
-            norm_back(&mut dhs, &c.n2, h, off.ln2, &mut g);
+            norm_backward_at(theta, &mut dhs, &c.n2, h, off.ln2, &mut g);
             if let Some(extra) = &extra {
                 dhs.iter_mut().zip(extra).for_each(|(a, b)| *a += b);
             }
@@ -486,7 +477,7 @@ impl NetLayout {
                 // am = norm(relu(a1 Wm^T + bm)).
                 let mut dam = vec![0f32; rows * h];
                 matmul(&mut dam, h, Mat::rows(&dgi, rows, h3), Mat::rows(p(off.wi, h3 * h), h3, h), false);
-                norm_back(&mut dam, &c.n_mid, h, off.ln_mid, &mut g);
+                norm_backward_at(theta, &mut dam, &c.n_mid, h, off.ln_mid, &mut g);
                 relu_grad(&mut dam, &c.amr);
                 matmul(&mut g[off.mid..off.mid + h * h], h, Mat::t(&dam, h, rows), Mat::rows(&c.a1, rows, h), false);
                 col_sums(&dam, h, &mut g[off.mid + h * h..off.mid + h * h + h]);
@@ -497,7 +488,7 @@ impl NetLayout {
         } else {
             // hs = relu(a1 Wc^T + bc) (normalised in the `norm` form): dhs through both.
             if self.norm {
-                norm_back(&mut dhs, &c.n2, h, off.ln2, &mut g);
+                norm_backward_at(theta, &mut dhs, &c.n2, h, off.ln2, &mut g);
                 relu_grad(&mut dhs, &c.hr);
             } else {
                 relu_grad(&mut dhs, &c.hs);
@@ -596,115 +587,6 @@ impl Input<'_> {
     }
 }
 
-/// A chunk's inputs, kept for the backward pass.
-#[derive(Debug)]
-enum ChunkIn {
-    /// Packed rows `(rows, input)`.
-    Rows(Vec<f32>),
-    /// The distinct table rows the chunk reads (`(U, width)`, in table order), each packed
-    /// row's index among them, and its id.
-    Shared { table: Vec<f32>, width: usize, local: Vec<u32>, ids: Vec<u32> },
-}
-
-impl Default for ChunkIn {
-    fn default() -> ChunkIn {
-        ChunkIn::Rows(Vec::new())
-    }
-}
-
-impl ChunkIn {
-    /// The rows written out `(rows, input)`.
-    fn into_rows(self, input: usize) -> Vec<f32> {
-        match self {
-            ChunkIn::Rows(x) => x,
-            ChunkIn::Shared { table, width, local, ids } => {
-                let mut x = vec![0f32; local.len() * input];
-                for ((row, &l), &id) in x.chunks_exact_mut(input.max(1)).zip(&local).zip(&ids) {
-                    row[..width].copy_from_slice(&table[l as usize * width..][..width]);
-                    row[width + id as usize] = 1.0;
-                }
-                x
-            }
-        }
-    }
-
-    fn shared(table: &[f32], width: usize, idx: &[u32], ids: Vec<u32>) -> ChunkIn {
-        let mut distinct = idx.to_vec();
-        distinct.sort_unstable();
-        distinct.dedup();
-        // Every index is among the distinct ones, so the search finds it.
-        let local = idx.iter().map(|i| distinct.binary_search(i).unwrap_or_else(|at| at) as u32).collect();
-        let mut rows = Vec::with_capacity(distinct.len() * width);
-        for &d in &distinct {
-            rows.extend_from_slice(&table[d as usize * width..(d as usize + 1) * width]);
-        }
-        ChunkIn::Shared { table: rows, width, local, ids }
-    }
-
-    /// Adds `x W1^T` to `a1` (`(rows, h)`, the biases in), `w1` `(h, input)` row-major.
-    fn first_layer(&self, a1: &mut [f32], w1: &[f32], input: usize, h: usize) {
-        let rows = a1.len() / h.max(1);
-        match self {
-            ChunkIn::Rows(x) => matmul(a1, h, Mat::rows(x, rows, input), Mat::t(w1, input, h), true),
-            ChunkIn::Shared { table, width, local, ids } => {
-                let w = *width;
-                let distinct = table.len() / w.max(1);
-                // Each distinct row's product once: `table W_s^T`, `W_s` the first `w` columns.
-                let mut proj = vec![0f32; distinct * h];
-                matmul(&mut proj, h, Mat::rows(table, distinct, w), Mat::strided(w1, w, h, 1, input), false);
-                // The one-hot's product is the id's column of `W1`.
-                let id_cols = transpose_cols(w1, input, h, w);
-                simd(|| {
-                    for (r, row) in a1.chunks_exact_mut(h.max(1)).enumerate() {
-                        let pr = &proj[local[r] as usize * h..][..h];
-                        let ir = &id_cols[ids[r] as usize * h..][..h];
-                        row.iter_mut().zip(pr.iter().zip(ir)).for_each(|(a, (p, c))| *a += p + c);
-                    }
-                });
-            }
-        }
-    }
-
-    /// Writes `W1`'s gradient (`(h, input)` row-major, into `g`) from `da1` `(rows, h)`.
-    fn first_layer_grad(&self, g: &mut [f32], da1: &[f32], input: usize, h: usize) {
-        let rows = da1.len() / h.max(1);
-        match self {
-            ChunkIn::Rows(x) => matmul(g, input, Mat::t(da1, h, rows), Mat::rows(x, rows, input), false),
-            ChunkIn::Shared { table, width, local, ids } => {
-                let w = *width;
-                let distinct = table.len() / w.max(1);
-                // The rows' gradients summed per distinct table row and per id, then one product.
-                let (mut per_row, mut per_id) = (vec![0f32; distinct * h], vec![0f32; (input - w) * h]);
-                simd(|| {
-                    for (r, d) in da1.chunks_exact(h.max(1)).enumerate() {
-                        let pr = &mut per_row[local[r] as usize * h..][..h];
-                        pr.iter_mut().zip(d).for_each(|(a, &b)| *a += b);
-                        let ir = &mut per_id[ids[r] as usize * h..][..h];
-                        ir.iter_mut().zip(d).for_each(|(a, &b)| *a += b);
-                    }
-                });
-                matmul(g, input, Mat::t(&per_row, h, distinct), Mat::rows(table, distinct, w), false);
-                for (id, col) in per_id.chunks_exact(h.max(1)).enumerate() {
-                    for (j, &v) in col.iter().enumerate() {
-                        g[j * input + w + id] = v;
-                    }
-                }
-            }
-        }
-    }
-}
-
-/// Columns `from..input` of a row-major `(h, input)` matrix, as rows `(input - from, h)`.
-fn transpose_cols(m: &[f32], input: usize, h: usize, from: usize) -> Vec<f32> {
-    let mut out = vec![0f32; (input - from) * h];
-    for (j, row) in m.chunks_exact(input.max(1)).take(h).enumerate() {
-        for (c, &v) in row[from..].iter().enumerate() {
-            out[c * h + j] = v;
-        }
-    }
-    out
-}
-
 fn bias_rows(b: &[f32], rows: usize) -> Vec<f32> {
     let mut out = Vec::with_capacity(rows * b.len());
     for _ in 0..rows {
@@ -715,13 +597,6 @@ fn bias_rows(b: &[f32], rows: usize) -> Vec<f32> {
 
 fn relu(x: &mut [f32]) {
     simd(|| x.iter_mut().for_each(|v| *v = v.max(0.0)));
-}
-
-/// Runs `f` compiled for the best instruction set this processor has (AVX-512, AVX2+FMA,
-/// else baseline), so the elementwise loops inlined into it are vectorised for it.
-#[inline(always)]
-pub(super) fn simd<R>(f: impl FnOnce() -> R) -> R {
-    pulp::Arch::new().dispatch(f)
 }
 
 /// One GRU step's gates for `nc` rows (PyTorch's `GRUCell`): `gi` and `gh` the input and

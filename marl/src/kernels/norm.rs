@@ -52,6 +52,13 @@ pub(super) fn norm_backward(d: &mut [f32], tape: &NormTape, width: usize, gamma:
     }
 }
 
+/// [`norm_backward`] for a norm whose scale sits at `at` in the flat parameters `theta` and its
+/// shift right after, its gradients added to the same places of `g`.
+pub(super) fn norm_backward_at(theta: &[f32], d: &mut [f32], tape: &NormTape, width: usize, at: usize, g: &mut [f32]) {
+    let (dg, db) = g[at..at + 2 * width].split_at_mut(width);
+    norm_backward(d, tape, width, &theta[at..at + width], dg, db);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
