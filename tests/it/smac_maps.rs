@@ -1,9 +1,9 @@
 //! SMAC's 23 maps as scenario files (engine/scenarios/smac/, tools/gen_smac.py): every map's
 //! armies, episode limit, unit data and fog as SMAC's map files and registry have them, armies
 //! created at one point spread over free ground, and SMAC's interface sizes where SMAC's
-//! layout documents them.
+//! layout documents them; and that 2s_vs_1sc can be won with SMAC's actions.
 
-use avacraft_engine::{DataSet, Env, EnvConfig, Scenario, Team};
+use avacraft_engine::{DataSet, Env, EnvConfig, Outcome, Scenario, Team, Vec2};
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -156,4 +156,72 @@ fn no_fog_shows_every_unit_from_the_start() {
     let w = env.world();
     let spine = w.units().iter().find(|u| u.team == Team::Two).map(|u| u.id).expect("the Crawler");
     assert!(w.visible_to(Team::One, spine));
+}
+
+/// 2s_vs_1sc can be won with SMAC's actions alone (no learner has won it here: docs/smac.md),
+/// and not by standing and shooting. The script reads the game state: a Stalker the Spine
+/// Crawler shoots steps out of its reach once its shields are gone, so the Crawler turns on
+/// the other and the first comes back to shoot; when both are bare, both stand off out of
+/// reach until their shields are whole again (regeneration starts 10 s after the last hit)
+/// and go back in; near the end they finish the Crawler instead. About 250 of the 300 steps.
+#[test]
+fn two_stalkers_beat_the_spine_crawler_with_smacs_actions_by_standing_off() {
+    let s = map("2s_vs_1sc");
+    let wins = |stand_off| (9000..9010).filter(|&seed| stalker_script(&s, seed, stand_off) == Some(Outcome::Win)).count();
+    assert!(wins(true) >= 9, "standing off won {} of 10", wins(true));
+    assert_eq!(wins(false), 0, "standing and shooting won");
+}
+
+fn stalker_script(s: &Arc<Scenario>, seed: u64, stand_off: bool) -> Option<Outcome> {
+    const ATTACK: usize = 6;
+    let step = |d: Vec2| {
+        if d.x.abs() >= d.y.abs() {
+            if d.x > 0.0 { 4 } else { 5 }
+        } else if d.y > 0.0 {
+            2
+        } else {
+            3
+        }
+    };
+    let mut env = Env::new(Arc::clone(s), EnvConfig::smac(), seed);
+    env.reset(seed);
+    let (mut dodging, mut resting) = ([false; 2], false);
+    while !env.done() {
+        let w = env.world();
+        let crawler = w.alive(Team::Two).next().expect("the Crawler stands until the end").clone();
+        let stalkers: Vec<_> = env.agents(Team::One).iter().map(|&id| w.unit(id).filter(|u| u.alive).cloned()).collect();
+        if resting && stalkers.iter().flatten().all(|u| u.shield >= 80.0) {
+            resting = false;
+            dodging = [false; 2];
+        }
+        let mut actions = Vec::new();
+        for (i, u) in stalkers.iter().enumerate() {
+            let Some(u) = u else {
+                actions.push(0);
+                continue;
+            };
+            let shot_at = crawler.target == Some(u.id);
+            if stand_off && !resting && shot_at && u.shield < 10.0 && crawler.hp > 60.0 {
+                if stalkers[1 - i].as_ref().is_none_or(|o| o.shield < 10.0) {
+                    resting = true;
+                } else {
+                    dodging[i] = true;
+                }
+            }
+            dodging[i] &= shot_at;
+            let away = u.pos - crawler.pos;
+            let mut avail = [0u8; 7];
+            env.avail_agent(Team::One, i, &mut avail);
+            actions.push(if resting || dodging[i] {
+                if away.len() < 9.5 { step(away) } else { 1 }
+            } else if avail[ATTACK] == 1 {
+                ATTACK
+            } else {
+                step(-away)
+            });
+        }
+        env.submit_indices(Team::One, &actions).into_iter().for_each(|r| r.expect("the script's actions are available"));
+        env.step();
+    }
+    env.outcome()
 }
