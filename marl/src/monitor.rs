@@ -267,7 +267,7 @@ impl<'a> Monitor<'a> {
         self.curve.push(CurvePoint { t_env, test_win_rate: r.win_rate, train_win_rate, test_return: r.mean_return, loss: last.loss, vs });
         (self.wins_since, self.eps_since, self.return_since) = (0, 0, 0.0);
         if let Some(dir) = &self.opts.out {
-            let title = format!("{} on {} (seed {})", cfg.algo, self.opts.scenario.name, self.opts.seed);
+            let title = format!("{} on {} (seed {})", run_label(dir, &cfg.algo, self.opts.seed), self.opts.scenario.name, self.opts.seed);
             crate::plot::curves(&dir.join("curves.png"), &title, &self.curve, &self.fixed)?;
             save(dir)?;
             // Greedy win rates swing while the policy explores: keep the best one's weights too.
@@ -375,6 +375,16 @@ fn scalars(
     out
 }
 
+/// A plan names a run's folder `<run>-s<seed>`: where the run's name is not its algorithm's
+/// (a variant such as `mappo-ln`), the figure names both, so variants' figures tell apart.
+fn run_label(dir: &std::path::Path, algo: &str, seed: u64) -> String {
+    let run = dir.file_name().and_then(|n| n.to_str()).and_then(|n| n.strip_suffix(&format!("-s{seed}")));
+    match run {
+        Some(run) if run != algo && !run.is_empty() => format!("{run} ({algo})"),
+        _ => algo.to_string(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::{best_score, truncate_log};
@@ -411,5 +421,14 @@ mod tests {
             assert_eq!(std::fs::read_to_string(&path).expect("read"), want, "resumed at {t}");
         }
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_variants_figure_names_the_run_and_its_algorithm() {
+        use std::path::Path;
+        assert_eq!(super::run_label(Path::new("runs/smac/2m_vs_1z/mappo-ln-s1"), "mappo", 1), "mappo-ln (mappo)");
+        assert_eq!(super::run_label(Path::new("runs/smac/3m/mappo-s2"), "mappo", 2), "mappo");
+        assert_eq!(super::run_label(Path::new("runs/smac/3m/mappo-ln-s1"), "mappo", 2), "mappo");
+        assert_eq!(super::run_label(Path::new("/tmp/out"), "qmix", 1), "qmix");
     }
 }
