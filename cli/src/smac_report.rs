@@ -42,7 +42,7 @@ pub struct SmacReportArgs {
 const RUNS: [&str; 2] = ["qmix", "mappo"];
 /// Runs of the plan with other settings than the compared learners' (seed 1, on the maps
 /// where they ran): listed under the table and drawn beside them, not compared.
-const VARIANTS: [&str; 6] = ["mappo-ff", "mappo-ff-obs", "mappo-ln", "mappo-ff-ln", "qmix-pymarl2", "qmix-void"];
+const VARIANTS: [&str; 7] = ["mappo-ff", "mappo-ff-obs", "mappo-ln", "mappo-ln-10m", "mappo-ff-ln", "qmix-pymarl2", "qmix-void"];
 /// Test rounds whose median is a run's final win rate (the MAPPO paper's rule).
 const LAST_ROUNDS: usize = 10;
 const BEGIN: &str = "<!-- smac-report:begin -->";

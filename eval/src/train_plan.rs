@@ -469,12 +469,13 @@ opponent = "focus-fire"
         // feed-forward MAPPO, its critic reading the state alone and with each agent's
         // observation, and QMIX with pymarl2's settings for the map; on 2s_vs_1sc QMIX with
         // the Void data set's Spine Crawler and with pymarl2's default settings; MAPPO with the
-        // MAPPO repository's network on 2m_vs_1z, 2s_vs_1sc, 3s_vs_5z (seeds 1-3) and
-        // (feed-forward) on 6h_vs_8z.
-        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 11);
+        // MAPPO repository's network on 2m_vs_1z, 2s_vs_1sc (2M and the MAPPO paper's 10M),
+        // 3s_vs_5z (seeds 1-3) and (feed-forward) on 6h_vs_8z.
+        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 12);
         for (id, rnn, steps) in [
             ("2m_vs_1z/mappo-ln-s1", true, 2_000_000),
             ("2s_vs_1sc/mappo-ln-s1", true, 2_000_000),
+            ("2s_vs_1sc/mappo-ln-10m-s1", true, 10_000_000),
             ("3s_vs_5z/mappo-ln-s3", true, 2_000_000),
             ("6h_vs_8z/mappo-ff-ln-s1", false, 10_000_000),
         ] {

@@ -88,7 +88,7 @@ pub fn first_reaching(rows: &[LogRow], test: f64, train: f64) -> Option<LogRow> 
     rows.iter().copied().find(|r| r.test_win_rate >= test && r.train_win_rate >= train)
 }
 
-const COLORS: [RGBColor; 8] = [
+const COLORS: [RGBColor; 9] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
@@ -97,6 +97,7 @@ const COLORS: [RGBColor; 8] = [
     RGBColor(23, 190, 207),
     RGBColor(140, 86, 75),
     RGBColor(227, 119, 194),
+    RGBColor(188, 189, 34),
 ];
 
 /// Draws the groups' greedy test and training win rates against environment steps and
