@@ -105,11 +105,20 @@ struct Ours {
 
 impl Ours {
     /// An unfinished run's steps left to its budget and the hours they take at the pace it
-    /// trained at (its log's steps over its log's wall-clock seconds).
+    /// trained at: the median over its log's rows of steps per wall-clock second, so that a
+    /// stretch the run stood paused (its clock runs on) does not slow the estimate.
     fn left(&self) -> Option<(u64, f64)> {
         let budget = self.budget.filter(|b| self.running && *b > self.steps)?;
-        let (first, last) = (self.rows.first()?, self.rows.last()?);
-        let pace = last.t_env.saturating_sub(first.t_env) as f64 / (last.elapsed_s - first.elapsed_s);
+        let mut rates: Vec<f64> = self
+            .rows
+            .windows(2)
+            .filter_map(|w| {
+                let (steps, secs) = (w[1].t_env.saturating_sub(w[0].t_env), w[1].elapsed_s - w[0].elapsed_s);
+                (steps > 0 && secs > 0.0).then(|| steps as f64 / secs)
+            })
+            .collect();
+        rates.sort_by(f64::total_cmp);
+        let pace = *rates.get(rates.len() / 2)?;
         let left = budget - self.steps;
         (pace.is_finite() && pace > 0.0).then(|| (left, left as f64 / pace / 3600.0))
     }

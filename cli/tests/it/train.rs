@@ -179,10 +179,12 @@ fn smac_report_sets_runs_beside_published_results() {
     for k in 1..=12 {
         // The last 10 test rounds: 0.5 twice, then 0.9 eight times: median 0.9.
         let w = if k <= 4 { 0.5 } else { 0.9 };
-        log.push_str(&format!("{},{k},{k},0.05,0.1,0.1,0.1,0.5,{w},10,{}\n", k * 10000, k * 100));
+        // Stood paused for 10,000 s after its sixth row: its clock ran on.
+        let secs = k * 100 + if k > 6 { 10_000 } else { 0 };
+        log.push_str(&format!("{},{k},{k},0.05,0.1,0.1,0.1,0.5,{w},10,{secs}\n", k * 10000));
     }
     std::fs::write(run.join("log.csv"), log).expect("log");
-    // Planned for 200k steps: 80k left at its pace of 100 steps a second.
+    // Planned for 200k steps: 80k left at its pace of 100 steps a second (the pause aside).
     std::fs::write(run.join("config.json"), r#"{"config": {"t_max": 200000}}"#).expect("config");
     let published = dir.join("published.toml");
     std::fs::write(&published, "[maps.3m]\nclass = \"easy\"\nmappo = { value = 100.0, check = \"u\" }\n").expect("published");
