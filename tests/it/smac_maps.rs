@@ -160,10 +160,11 @@ fn no_fog_shows_every_unit_from_the_start() {
 
 /// 2s_vs_1sc can be won with SMAC's actions alone (no learner has won it here: docs/smac.md),
 /// and not by standing and shooting. The script reads the game state: a Stalker the Spine
-/// Crawler shoots steps out of its reach once its shields are gone, so the Crawler turns on
-/// the other and the first comes back to shoot; when both are bare, both stand off out of
+/// Crawler shoots steps out of its reach once its shields are under 10, so the Crawler turns
+/// on the other and the first comes back to shoot; when both are bare, both stand off out of
 /// reach until their shields are whole again (regeneration starts 10 s after the last hit)
-/// and go back in; near the end they finish the Crawler instead. About 250 of the 300 steps.
+/// and go back in; under 60 life the Crawler is finished instead. Won in 150-270 of the 300
+/// steps. Actions are SMAC's indices (1 stop, 2-5 move north/south/east/west, 6 attack).
 #[test]
 fn two_stalkers_beat_the_spine_crawler_with_smacs_actions_by_standing_off() {
     let s = map("2s_vs_1sc");
