@@ -2,11 +2,14 @@
 
 use anyhow::{Context, Result, bail};
 use avacraft_msgs::{ActionBatch, Header, Image};
-use avacraft_nodes::{Node, NodeArgs, Qos, SessionMode, Topic, now_ns};
+use avacraft_nodes::{AgentId, FrameKind, Node, NodeArgs, Qos, SessionMode, TeamNo, Topics, now_ns};
 use avacraft_sim_node::{EpisodeSummary, RoundTripParts};
 use std::io::Write;
 use std::process::Command;
 use std::time::{Duration, Instant};
+
+/// The namespace the deployment benchmarks' nodes and topics live in.
+const BENCH: &str = "/bench";
 
 fn free_port() -> Result<u16> {
     Ok(std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?.port())
@@ -88,7 +91,7 @@ fn ping_pong(path: Path, n: usize) -> Result<[u64; 2]> {
     let name = |n: &str| avacraft_nodes::NodeName::tool(n);
     let router = || -> Result<Node> {
         let args = NodeArgs { mode: SessionMode::Router, listen: vec![endpoint.clone()], ..NodeArgs::default() };
-        Ok(Node::open(&args, "/bench", &name("router")?)?)
+        Ok(Node::open(&args, BENCH, &name("router")?)?)
     };
     let (_router, a_args, b_args) = match path {
         Path::Direct => {
@@ -104,8 +107,10 @@ fn ping_pong(path: Path, n: usize) -> Result<[u64; 2]> {
             (Some(router()?), c.clone(), c)
         }
     };
-    let (a, b) = (Node::open(&a_args, "/bench", &name("ping")?)?, Node::open(&b_args, "/bench", &name("pong")?)?);
-    let (ping, pong) = (Topic::parse("/bench/ping")?, Topic::parse("/bench/pong")?);
+    let (a, b) = (Node::open(&a_args, BENCH, &name("ping")?)?, Node::open(&b_args, BENCH, &name("pong")?)?);
+    // The two directions as two agent nodes' action topics, the shape an episode's take.
+    let topics = Topics::new(BENCH)?;
+    let (ping, pong) = (topics.actions(&AgentId::parse("ping")?), topics.actions(&AgentId::parse("pong")?));
     let qos = Qos::Reliable { depth: 10 };
     let (mut tx, rx_b) = (a.publisher::<ActionBatch>(&ping, qos)?, b.subscriber::<ActionBatch>(&ping, qos)?);
     let (mut tx_b, rx) = (b.publisher::<ActionBatch>(&pong, qos)?, a.subscriber::<ActionBatch>(&pong, qos)?);
@@ -141,15 +146,15 @@ fn frame_latency(w: u32, h: u32, n: usize) -> Result<[u64; 2]> {
     let endpoint = format!("tcp/127.0.0.1:{port}");
     let _router = Node::open(
         &NodeArgs { mode: SessionMode::Router, connect: vec![], listen: vec![endpoint.clone()], ..NodeArgs::default() },
-        "/bench",
+        BENCH,
         &avacraft_nodes::NodeName::tool("router")?,
     )?;
     let args = NodeArgs { connect: vec![endpoint], ..NodeArgs::default() };
     let (a, b) = (
-        Node::open(&args, "/bench", &avacraft_nodes::NodeName::tool("camera")?)?,
-        Node::open(&args, "/bench", &avacraft_nodes::NodeName::tool("viewer")?)?,
+        Node::open(&args, BENCH, &avacraft_nodes::NodeName::tool("camera")?)?,
+        Node::open(&args, BENCH, &avacraft_nodes::NodeName::tool("viewer")?)?,
     );
-    let topic = Topic::parse("/bench/frames")?;
+    let topic = Topics::new(BENCH)?.frames(TeamNo::new(1)?, FrameKind::Screen);
     let sub = b.subscriber::<Image>(&topic, Qos::Reliable { depth: 10 })?;
     let mut p = a.publisher::<Image>(&topic, Qos::Reliable { depth: 10 })?;
     std::thread::sleep(Duration::from_millis(500));
@@ -185,8 +190,8 @@ fn frame_latency(w: u32, h: u32, n: usize) -> Result<[u64; 2]> {
 /// The same through iceoryx2 shared memory, publisher and subscriber in two threads.
 fn frame_latency_shm(w: u32, h: u32, n: usize) -> Result<[u64; 2]> {
     use avacraft_nodes::frames::{Encoding, FrameHeader, FramePublisher, FrameSubscriber};
-    let topics = avacraft_nodes::Topics::new(&format!("/bench_{}_{w}x{h}", std::process::id()))?;
-    let service = topics.frame_service(avacraft_nodes::TeamNo::new(1)?, avacraft_nodes::FrameKind::Screen);
+    let topics = Topics::new(&format!("/bench_{}_{w}x{h}", std::process::id()))?;
+    let service = topics.frame_service(TeamNo::new(1)?, FrameKind::Screen);
     let bytes = (w * h * 3) as usize;
     let mut p = FramePublisher::open(&service, FrameHeader::SIZE + bytes, 2)?;
     let mut s = FrameSubscriber::open(&service, 2)?;

@@ -6,7 +6,7 @@
 //! topics, so a recording replays with nothing else.
 
 use anyhow::{Context, Result};
-use avacraft_msgs::{EMBEDDED_TYPES, RosMessage, embedded_registry};
+use avacraft_msgs::{EMBEDDED_TYPES, EpisodeStatus, RosMessage, embedded_registry};
 use avacraft_nodes::{Node, NodeArgs, Qos, Shutdown, Topic, TopicKind, Topics, now_ns};
 use clap::Args;
 use std::collections::BTreeMap;
@@ -188,7 +188,8 @@ pub fn run(a: &RecordArgs, shutdown: &Shutdown) -> Result<RecordStats> {
     let node =
         Node::open(&a.node, &a.node.namespace, &avacraft_nodes::NodeName::recorder()).context("recorder: opening the Zenoh session")?;
     let mut sink = McapSink::create(&a.out, &a.node.namespace)?;
-    let pattern = format!("{}/{}/**", a.node.domain, a.node.namespace.trim_matches('/'));
+    let topics = Topics::new(&a.node.namespace)?;
+    let pattern = avacraft_nodes::ros::pattern_space(a.node.domain, &topics.all());
     let sub = node
         .session()
         .declare_subscriber(pattern.clone())
@@ -196,10 +197,8 @@ pub fn run(a: &RecordArgs, shutdown: &Shutdown) -> Result<RecordStats> {
         .wait()
         .map_err(|e| anyhow::anyhow!("recorder: subscribing to {pattern}: {e}"))?;
     // Announced after subscribing, so a simulator waiting for it misses nothing.
-    let topics = Topics::new(&a.node.namespace)?;
     let status = topics.status();
-    let _token =
-        node.announce_subscription(&status, "avacraft_msgs::msg::dds_::EpisodeStatus_", avacraft_msgs::EpisodeStatus::type_hash())?;
+    let _token = node.announce_subscription(&status, EpisodeStatus::dds_type_name(), EpisodeStatus::type_hash())?;
     tracing::info!(out = %a.out.display(), %pattern, "recording");
     // After a stop request, keep taking what is already on its way until 200 ms pass quietly.
     let mut quiet_since: Option<std::time::Instant> = None;

@@ -218,7 +218,7 @@ impl VecEnv {
             return Err(VecEnvError::Count { given: actions.len(), envs: 1, agents: a, needed: actions.len().div_ceil(a) * a });
         }
         let episode = episode.max(1);
-        let seed = self.seeds[i].wrapping_add((episode - 1) * e as u64);
+        let seed = self.seeds[i].wrapping_add((episode - 1).wrapping_mul(e as u64));
         let env = &mut self.envs[i];
         env.reset(seed);
         let mut opponent = self.opponents.get_mut(i);
@@ -395,7 +395,7 @@ impl Lane<'_> {
         *self.info = self.env.info(Team::One);
         if r.done {
             fill(self.env, self.final_obs, self.final_state, self.final_avail);
-            let s = self.base_seed.wrapping_add(*self.started * stride);
+            let s = self.base_seed.wrapping_add(self.started.wrapping_mul(stride));
             *self.started += 1;
             self.env.reset(s);
             if let Some(o) = self.opponent.as_deref_mut() {

@@ -92,6 +92,36 @@ impl Episode {
     }
 }
 
+impl Episode {
+    /// Whether the arrays hold what `len` steps of a team of `shape` hold (with the closing
+    /// row when `closed`, and at most one step's outcome missing when not), every action one
+    /// of the team's: an episode read back from a resume's files is checked before a batch
+    /// indexes with it. The error says what does not fit.
+    pub(crate) fn check(&self, shape: &Shape, closed: bool) -> Result<(), String> {
+        let (a, o, s, na) = (shape.n_agents, shape.obs, shape.state, shape.n_actions);
+        let rows = self.len + usize::from(closed);
+        let want = [
+            ("observations", self.obs.len(), rows * a * o),
+            ("states", self.state.len(), rows * s),
+            ("masks", self.avail.len(), rows * a * na),
+            ("actions", self.actions.len(), self.len * a),
+        ];
+        for (what, got, wanted) in want {
+            if got != wanted {
+                return Err(format!("an episode of {} steps has {got} values of {what}, not {wanted}", self.len));
+            }
+        }
+        let outcomes = if closed { self.len..=self.len } else { self.len.saturating_sub(1)..=self.len };
+        if self.reward.len() != self.terminated.len() || !outcomes.contains(&self.reward.len()) {
+            return Err(format!("an episode of {} steps has {} rewards and {} ends", self.len, self.reward.len(), self.terminated.len()));
+        }
+        if let Some(x) = self.actions.iter().find(|&&x| x as usize >= na) {
+            return Err(format!("an episode holds action {x}; the team has {na}"));
+        }
+        Ok(())
+    }
+}
+
 /// A ring of finished episodes.
 #[derive(Debug, PartialEq)]
 pub struct ReplayBuffer {
@@ -115,6 +145,13 @@ impl ReplayBuffer {
             }
         }
         ReplayBuffer { episodes: slots.into_iter().flatten().collect(), capacity, next: (inserted % capacity as u64) as usize }
+    }
+    /// [`Episode::check`] on every (closed) episode; the error names the first that fails.
+    pub(crate) fn check(&self, shape: &Shape) -> Result<(), String> {
+        self.episodes
+            .iter()
+            .enumerate()
+            .try_for_each(|(i, ep)| ep.check(shape, true).map_err(|e| format!("episode {i} of the buffer: {e}")))
     }
     pub fn len(&self) -> usize {
         self.episodes.len()

@@ -173,9 +173,10 @@ impl Carry {
 
     /// Splits `data` into pieces of `lens[i] * per` items, checking the total.
     fn split<T: Clone>(&self, name: &str, data: Vec<T>, lens: &[u64], per: usize) -> Result<Vec<Vec<T>>, Error> {
-        let total: u64 = lens.iter().sum::<u64>() * per as u64;
-        if total != data.len() as u64 {
-            return Err(self.bad(format!("`{name}` holds {} items, its lengths say {total}", data.len())));
+        let total = lens.iter().try_fold(0u64, |acc, &l| acc.checked_add(l)).and_then(|n| n.checked_mul(per as u64));
+        if total != Some(data.len() as u64) {
+            let said = total.map_or("more than a count holds".to_string(), |t| t.to_string());
+            return Err(self.bad(format!("`{name}` holds {} items, its lengths say {said}", data.len())));
         }
         let mut out = Vec::with_capacity(lens.len());
         let mut at = 0usize;

@@ -191,6 +191,31 @@ fn learn(
     learner.train(batch, episodes)
 }
 
+/// What a QMIX-family resume kept beside its journal, put back: the environments, the
+/// episodes under way, the acting state; checked against the run's team (a resume's files
+/// may have been cut short or changed), with the buffer the journal gave back.
+fn restore_q(
+    carry: &Carry,
+    buffer: &ReplayBuffer,
+    env: &mut avacraft_engine::VecEnv,
+    actor: &mut Actor,
+    shape: &Shape,
+    resume: &std::path::Path,
+) -> Result<(Vec<Episode>, u64, crate::UpdateStats), Error> {
+    let bad = |e: String| Error::Checkpoint { message: format!("{}: {e}", resume.display()) };
+    carry.restore_lanes(env)?;
+    let running = carry.get_episodes("running", shape)?;
+    running.iter().try_for_each(|ep| ep.check(shape, false)).map_err(bad)?;
+    buffer.check(shape).map_err(bad)?;
+    let last_actions = carry.get_actions("actor.last")?;
+    if let Some(x) = last_actions.iter().flatten().find(|&&x| x as usize >= shape.n_actions) {
+        return Err(bad(format!("a kept last action is {x}; the team has {}", shape.n_actions)));
+    }
+    actor.set_state(carry.get_f32s("actor.h")?, last_actions)?;
+    let pending = carry.get_u64s("pending")?.first().copied().unwrap_or(0);
+    Ok((running, pending, carry.get_stats("last")?))
+}
+
 /// The Q-learners' loop (IQL, VDN, QMIX).
 fn train_q(
     cfg: &Config,
@@ -240,11 +265,8 @@ fn train_q(
     monitor.start_self_play(&learner.nets, learner.updates, start.is_some(), &mut env)?;
     let mut journal = match kept {
         Some((carry, (journal, kept_buffer))) => {
-            carry.restore_lanes(&mut env)?;
-            running = carry.get_episodes("running", &shape)?;
-            actor.set_state(carry.get_f32s("actor.h")?, carry.get_actions("actor.last")?)?;
-            pending = carry.get_u64s("pending")?.first().copied().unwrap_or(0);
-            last = carry.get_stats("last")?;
+            let resume = exact.map(|d| d.join("resume")).unwrap_or_default();
+            (running, pending, last) = restore_q(&carry, &kept_buffer, &mut env, &mut actor, &shape, &resume)?;
             buffer = kept_buffer;
             Some(journal)
         }

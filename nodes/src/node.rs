@@ -178,7 +178,7 @@ impl Node {
 
     /// Every liveliness token of the domain alive now (nodes and endpoints).
     pub fn alive_tokens(&self, timeout: Duration) -> Result<Vec<String>, NodeError> {
-        let key = format!("@ros2_lv/{}/**", self.id.domain);
+        let key = ros::liveliness_space(self.id.domain);
         let replies = self.session.liveliness().get(key.clone()).timeout(timeout).wait().map_err(|e| NodeError::Declare {
             what: "a liveliness query",
             key,

@@ -249,6 +249,10 @@ impl Topics {
     pub fn model_calls(&self, agent: &AgentId) -> Topic {
         self.make(&format!("agents/{}/model_calls", agent.0))
     }
+    /// Every topic of the namespace (a pattern): what a recorder takes.
+    pub fn all(&self) -> TopicPattern {
+        TopicPattern(self.ns.clone())
+    }
     /// Every agent node's action topic (a pattern: `*` is one segment).
     pub fn any_actions(&self) -> TopicPattern {
         TopicPattern(format!("{}/agents/*/actions", self.ns))

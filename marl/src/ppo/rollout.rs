@@ -107,8 +107,15 @@ impl Rollout {
         c.u32s("roll.critic.ids", &self.critic.ids)
     }
 
-    /// The rollout [`Rollout::keep`] kept.
-    pub(crate) fn kept(c: &crate::carry::Carry) -> Result<Rollout, Error> {
+    /// The rollout [`Rollout::keep`] kept, checked against the run's sizes
+    /// ([`Rollout::check`]).
+    pub(crate) fn kept(c: &crate::carry::Carry, want: &Sizes) -> Result<Rollout, Error> {
+        let roll = Rollout::read(c)?;
+        roll.check(want).map_err(|m| Error::Checkpoint { message: format!("resume/carry.safetensors: {m}") })?;
+        Ok(roll)
+    }
+
+    fn read(c: &crate::carry::Carry) -> Result<Rollout, Error> {
         let dims = c.get_u64s("roll.dims")?;
         let cd = c.get_u64s("roll.critic.dims")?;
         let (&[t, rows, n_agents], &[width, n_ids]) = (&dims[..], &cd[..]) else {
@@ -138,6 +145,84 @@ impl Rollout {
             h_critic: c.get_f32s("roll.h_critic")?,
             frames: Vec::new(),
         })
+    }
+}
+
+/// What a rollout kept for a resume must measure, from the run's own settings.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Sizes {
+    pub rows: usize,
+    pub n_agents: usize,
+    pub envs: usize,
+    pub n_actions: usize,
+    pub rollout_len: usize,
+    pub chunk: usize,
+    pub hidden: usize,
+    pub actor_width: usize,
+    /// The critic's table width and id count; `None` with a shared trunk (no rows of its own).
+    pub critic: Option<(usize, usize)>,
+}
+
+impl Rollout {
+    /// Whether this rollout (read back from a resume's files) fits a run of `want`: every
+    /// array as long as its steps make it, every action and critic row in range. The error
+    /// says what does not fit.
+    pub(crate) fn check(&self, want: &Sizes) -> Result<(), String> {
+        if (self.rows, self.n_agents) != (want.rows, want.n_agents) {
+            return Err(format!(
+                "the rollout kept has {} rows of {} agents; the run has {} of {}",
+                self.rows, self.n_agents, want.rows, want.n_agents
+            ));
+        }
+        if self.t >= want.rollout_len {
+            return Err(format!(
+                "the rollout kept has {} steps; rollout_len is {} (a resume cannot shorten a rollout under way)",
+                self.t, want.rollout_len
+            ));
+        }
+        let n = self.t * want.rows;
+        let hidden = self.t.div_ceil(want.chunk.max(1)) * want.rows * want.hidden;
+        let critic_rows = if want.critic.is_some() { n } else { 0 };
+        let lens = [
+            ("roll.actor_in", self.actor_in.len(), n * want.actor_width),
+            ("roll.mask", self.mask.len(), n * want.n_actions),
+            ("roll.actions", self.actions.len(), n),
+            ("roll.logp", self.logp.len(), n),
+            ("roll.values", self.values.len(), n),
+            ("roll.active", self.active.len(), n),
+            ("roll.keep", self.keep.len(), n),
+            ("roll.reward", self.reward.len(), self.t * want.envs),
+            ("roll.done", self.done.len(), self.t * want.envs),
+            ("roll.h_actor", self.h_actor.len(), hidden),
+            ("roll.h_critic", self.h_critic.len(), if want.critic.is_some() { hidden } else { 0 }),
+            ("roll.critic.idx", self.critic.idx.len(), critic_rows),
+            ("roll.critic.ids", self.critic.ids.len(), critic_rows),
+        ];
+        for (name, got, wanted) in lens {
+            if got != wanted {
+                return Err(format!("`{name}` holds {got} values; {} steps of this run make {wanted}", self.t));
+            }
+        }
+        if let Some(x) = self.actions.iter().find(|&&x| x as usize >= want.n_actions) {
+            return Err(format!("`roll.actions` holds action {x}; the team has {}", want.n_actions));
+        }
+        if let (Some((width, n_ids)), true) = (want.critic, critic_rows > 0) {
+            let c = &self.critic;
+            if (c.width, c.n_ids) != (width, n_ids) {
+                return Err(format!(
+                    "the critic's rows kept are {} wide with {} ids; the run's are {width} with {n_ids}",
+                    c.width, c.n_ids
+                ));
+            }
+            let table_rows = c.table.len() / width.max(1);
+            if !c.table.len().is_multiple_of(width.max(1))
+                || c.idx.iter().any(|&i| i as usize >= table_rows)
+                || c.ids.iter().any(|&i| i as usize >= n_ids)
+            {
+                return Err(format!("the critic's rows kept point past its table of {table_rows} rows or its {n_ids} ids"));
+            }
+        }
+        Ok(())
     }
 }
 

@@ -15,7 +15,7 @@
 //! (features mode, [`crate::carry`]); in the image modes it starts a fresh one.
 
 use super::learner::{PpoLearner, additive_mask, sample_actions};
-use super::rollout::{CriticRows, Rollout};
+use super::rollout::{CriticRows, Rollout, Sizes};
 use crate::buffer::{Shape, act_inputs};
 use crate::carry::Carry;
 use crate::monitor::{Monitor, Progress, RunOptions, Summary};
@@ -78,9 +78,19 @@ pub fn train_from(
     let mut roll = Rollout { rows, n_agents: a, ..Rollout::default() };
     let mut last_stats = UpdateStats::default();
     if let Some(c) = &kept {
-        lanes = Lanes::kept(c, &mut env, (rows, hidden, e))?;
-        roll = Rollout::kept(c)?;
-        last_stats = c.get_stats("last_stats")?;
+        let critic = (!shared).then(|| (learner.critic_input.width(&shape) - shape.n_agents, shape.n_agents));
+        let want = Sizes {
+            rows,
+            n_agents: a,
+            envs: e,
+            n_actions: na,
+            rollout_len: cfg.rollout_len,
+            chunk: cfg.data_chunk_length,
+            hidden,
+            actor_width: shape.input(id, la),
+            critic,
+        };
+        (lanes, roll, last_stats) = (Lanes::kept(c, &mut env, &want)?, Rollout::kept(c, &want)?, c.get_stats("last_stats")?);
     }
     // Wall-clock per phase, for the summary only: nothing learned depends on it.
     let mut time = [Duration::ZERO; 5];
@@ -180,7 +190,8 @@ impl Lanes {
     }
 
     /// The lanes a checkpoint kept, its environments replayed into `env`.
-    fn kept(c: &Carry, env: &mut avacraft_engine::VecEnv, (rows, hidden, envs): (usize, usize, usize)) -> Result<Lanes, Error> {
+    fn kept(c: &Carry, env: &mut avacraft_engine::VecEnv, want: &Sizes) -> Result<Lanes, Error> {
+        let (rows, hidden, envs, n_actions) = (want.rows, want.hidden, want.envs, want.n_actions);
         let lanes = Lanes {
             since: c.restore_lanes(env)?,
             h_actor: c.get_f32s("h_actor")?,
@@ -189,8 +200,15 @@ impl Lanes {
             keep: c.get_f32s("keep")?,
             returns: c.get_f32s("returns")?,
         };
-        if (lanes.h_actor.len(), lanes.last.len(), lanes.keep.len(), lanes.returns.len()) != (rows * hidden, rows, rows, envs) {
+        let h_critic = if want.critic.is_some() { rows * hidden } else { 0 };
+        let sizes = (lanes.h_actor.len(), lanes.h_critic.len(), lanes.last.len(), lanes.keep.len(), lanes.returns.len());
+        if sizes != (rows * hidden, h_critic, rows, rows, envs) {
             return Err(Error::Checkpoint { message: "resume/carry.safetensors: its sizes are not this run's".into() });
+        }
+        if lanes.last.iter().flatten().any(|&x| x as usize >= n_actions) {
+            return Err(Error::Checkpoint {
+                message: format!("resume/carry.safetensors: a kept last action is not one of the team's {n_actions}"),
+            });
         }
         Ok(lanes)
     }

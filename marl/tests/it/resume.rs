@@ -109,3 +109,73 @@ fn a_checkpoint_takes_other_settings_its_weights_fit() -> R {
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }
+
+/// A run killed right after its test round at step 200 (the second), with its config and
+/// options: what the test below changes.
+fn killed_run(algo: &str, extra: &[&str], name: &str) -> Result<(Config, RunOptions, PathBuf), Box<dyn std::error::Error>> {
+    let mut o: Vec<String> = vec!["test_nepisode=2".into(), "test_interval=100".into(), "episode_limit=25".into()];
+    o.extend(extra.iter().map(|s| s.to_string()));
+    let cfg = Config::for_algo(algo, &o)?;
+    let dir = scratch(name);
+    let opts = RunOptions { scenario: Arc::new(Scenario::load("3m")?), seed: 5, threads: 1, out: Some(dir.clone()) };
+    let killed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| train(&cfg, &opts, &mut |p| assert!(p.t_env < 200, "killed"))));
+    assert!(killed.is_err(), "{algo}: the run was to be killed");
+    Ok((cfg, opts, dir))
+}
+
+/// Replaces the array `name` of the run's resume/carry.safetensors with `f` of it.
+fn change_carry(dir: &Path, name: &str, f: impl Fn(Vec<u32>) -> Vec<u32>) -> R {
+    let path = dir.join("resume/carry.safetensors");
+    let mut map = candle_core::safetensors::load(&path, &candle_core::Device::Cpu)?;
+    let old: Vec<u32> = map.get(name).ok_or(format!("no {name} in the carry"))?.to_vec1()?;
+    let new = f(old);
+    let n = new.len();
+    map.insert(name.into(), candle_core::Tensor::from_vec(new, n, &candle_core::Device::Cpu)?);
+    candle_core::safetensors::save(&map, &path)?;
+    Ok(())
+}
+
+fn resume_error(cfg: &Config, opts: &RunOptions, dir: &Path) -> Result<String, Box<dyn std::error::Error>> {
+    let (_, state) = avacraft_marl::resume::load(dir)?;
+    Ok(train_from(cfg, opts, Some(state), &mut |_| {}).err().map(|e| e.to_string()).unwrap_or_default())
+}
+
+/// A resume's files changed after the kill (a cut, an edit, a flipped word) are refused with
+/// an error naming what does not fit, where they used to panic deep in a batch or a kernel.
+#[test]
+fn a_resume_whose_files_were_changed_is_refused_with_what_does_not_fit() -> R {
+    let extra = ["t_max=600", "envs=4", "rollout_len=40"];
+    let (cfg, opts, dir) = killed_run("mappo", &extra, "bad-mappo")?;
+    change_carry(&dir, "roll.actions", |mut v| {
+        v[0] = 999;
+        v
+    })?;
+    let err = resume_error(&cfg, &opts, &dir)?;
+    assert!(err.contains("roll.actions") && err.contains("999"), "mappo, an action out of range: {err:?}");
+    change_carry(&dir, "roll.actions", |mut v| {
+        v.truncate(v.len() - 1);
+        v
+    })?;
+    let err = resume_error(&cfg, &opts, &dir)?;
+    assert!(err.contains("roll.actions"), "mappo, a short rollout: {err:?}");
+    // Killed 10 steps into a rollout (4 envs, step 200, rollouts of 160): a resume with
+    // rollouts of 10 steps would never end the one under way. Refused.
+    let shorter = cfg.overridden(&["rollout_len=10".into()])?;
+    let err = resume_error(&shorter, &opts, &dir)?;
+    assert!(err.contains("rollout_len"), "mappo, rollout_len cut: {err:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+
+    let extra = ["t_max=600", "envs=4", "batch_size=4", "buffer_size=40", "epsilon_anneal_time=300"];
+    let (cfg, opts, dir) = killed_run("qmix", &extra, "bad-qmix")?;
+    // The journal's records end with the episode's actions: the segment's last word is its
+    // last episode's last action.
+    let seg = std::fs::read_dir(dir.join("resume/buffer"))?.flatten().map(|e| e.path()).min().ok_or("no journal segment")?;
+    let mut bytes = std::fs::read(&seg)?;
+    let end = bytes.len();
+    bytes[end - 4..].copy_from_slice(&777u32.to_le_bytes());
+    std::fs::write(&seg, &bytes)?;
+    let err = resume_error(&cfg, &opts, &dir)?;
+    assert!(err.contains("777") && err.contains("episode"), "qmix, a journal's action out of range: {err:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
