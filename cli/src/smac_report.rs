@@ -100,6 +100,9 @@ struct Ours {
     running: bool,
     /// The steps it was planned for (its config's `t_max`), where its config says.
     budget: Option<u64>,
+    /// Its resume state is here (`resume/` in its training folder): an unfinished run goes on
+    /// from where it stopped; without it (a shipped copy) it trains again from the start.
+    resumable: bool,
     rows: Vec<LogRow>,
 }
 
@@ -107,7 +110,7 @@ impl Ours {
     /// An unfinished run's steps left to its budget and the hours they take at the pace it
     /// trained at: the median over its log's rows of steps per wall-clock second, so that a
     /// stretch the run stood paused (its clock runs on) does not slow the estimate.
-    fn left(&self) -> Option<(u64, f64)> {
+    fn left(&self) -> Option<Left> {
         let budget = self.budget.filter(|b| self.running && *b > self.steps)?;
         let mut rates: Vec<f64> = self
             .rows
@@ -119,9 +122,17 @@ impl Ours {
             .collect();
         rates.sort_by(f64::total_cmp);
         let pace = *rates.get(rates.len() / 2)?;
-        let left = budget - self.steps;
-        (pace.is_finite() && pace > 0.0).then(|| (left, left as f64 / pace / 3600.0))
+        let steps = if self.resumable { budget - self.steps } else { budget };
+        (pace.is_finite() && pace > 0.0).then(|| Left { steps, hours: steps as f64 / pace / 3600.0, from_scratch: !self.resumable })
     }
+}
+
+/// What an unfinished run has left to its budget.
+struct Left {
+    steps: u64,
+    hours: f64,
+    /// Its resume state is not on this machine: the whole budget again.
+    from_scratch: bool,
 }
 
 /// A run's planned steps, from the `config.json` its folder holds (`None` without one).
@@ -157,7 +168,8 @@ fn ours(dir: &Path) -> Result<Option<Ours>> {
         Err(_) => None,
     };
     let budget = budget_of(dir)?;
-    Ok(Some(Ours { steps: last.t_env, final_rate: median(tail), heldout, running: !dir.join("done.json").is_file(), budget, rows }))
+    let (running, resumable) = (!dir.join("done.json").is_file(), dir.join("resume").is_dir());
+    Ok(Some(Ours { steps: last.t_env, final_rate: median(tail), heldout, running, budget, resumable, rows }))
 }
 
 /// Held-out games: seeds 9000-9099, SMAC's passive allies, the checkpoint playing greedily.
@@ -195,6 +207,7 @@ fn find_run(runs: &Path, baselines: &Path, map: &str, run: &str, seed: u64) -> R
         heldout: Some((r.summary.win.mean, r.episodes.len())),
         running: last.t_env < t_max,
         budget: Some(t_max),
+        resumable: false,
         rows,
     }))
 }
@@ -216,14 +229,25 @@ fn show_ours(o: Option<&Ours>) -> String {
 
 /// The compared runs stopped short: the steps each has left and the hours they take at its
 /// own pace on the machine it trained on (where the run shares its cores, slower than alone).
-fn left_line(left: &[(String, u64, f64)]) -> String {
+fn left_line(left: &[(String, Left)]) -> String {
     if left.is_empty() {
         return String::new();
     }
-    let parts: Vec<String> = left.iter().map(|(run, steps, hours)| format!("{run} {:.2}M ({hours:.1} h)", *steps as f64 / 1e6)).collect();
-    let total: f64 = left.iter().map(|l| l.2).sum();
+    let parts: Vec<String> = left
+        .iter()
+        .map(|(run, l)| {
+            let scratch = if l.from_scratch { " from scratch" } else { "" };
+            format!("{run} {:.2}M{scratch} ({:.1} h)", l.steps as f64 / 1e6, l.hours)
+        })
+        .collect();
+    let total: f64 = left.iter().map(|(_, l)| l.hours).sum();
+    let why = if left.iter().any(|(_, l)| l.from_scratch) {
+        " (from scratch: the run's resume state is not on this machine, only its shipped copy, so it trains again from step 0)"
+    } else {
+        ""
+    };
     format!(
-        "Left to SMAC's budget (steps, and hours at the pace each run trained at, one run a core): {}; {total:.0} hours in all.\n",
+        "Left to SMAC's budget (steps, and hours at the pace each run trained at, one run a core): {}; {total:.0} hours in all{why}.\n",
         parts.join(", ")
     )
 }
@@ -319,8 +343,8 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
         let runs: Vec<(&str, Option<Ours>)> =
             RUNS.iter().map(|r| Ok((*r, find_run(&a.runs, &a.baselines, map, r, 1)?))).collect::<Result<_>>()?;
         for (r, o) in &runs {
-            if let Some((steps, hours)) = o.as_ref().and_then(Ours::left) {
-                left.push((format!("{map} {r}"), steps, hours));
+            if let Some(l) = o.as_ref().and_then(Ours::left) {
+                left.push((format!("{map} {r}"), l));
             }
         }
         for (k, (_, o)) in runs.iter().enumerate() {

@@ -225,6 +225,13 @@ fn smac_report_sets_runs_beside_published_results() {
         "{table}"
     );
     assert!(table.contains("best published result: no finished run with a published number yet."), "{table}");
+    // Its resume state gone (not on this machine): the whole budget again.
+    assert!(
+        table.contains("Left to SMAC's budget (steps, and hours at the pace each run trained at, one run a core): 3m qmix 0.20M from scratch (0.6 h); 1 hours in all (from scratch: "),
+        "{table}"
+    );
+    std::fs::create_dir_all(run.join("resume")).expect("resume state");
+    let table = String::from_utf8_lossy(&args(&published).stdout).into_owned();
     assert!(
         table.contains("Left to SMAC's budget (steps, and hours at the pace each run trained at, one run a core): 3m qmix 0.08M (0.2 h); 0 hours in all."),
         "{table}"
