@@ -72,6 +72,19 @@ def test_a_fresh_reset_replays_the_episode_and_state_carries_across_steps():
     policy.reset()
     again = [policy.act(env.obs(), env.avail()).tolist() for _ in range(3)]
     assert first == again
+    # What carries (each agent's last action, an input of this checkpoint's network) changes
+    # what it does: over an episode, acting on from the last step and acting afresh at every
+    # step part ways.
+    policy.reset()
+    fresh = avacraft.MarlPolicy(POLICY)
+    env.reset(7)
+    differ = 0
+    while not env.done:
+        carried = policy.act(env.obs(), env.avail())
+        fresh.reset()
+        differ += int((carried != fresh.act(env.obs(), env.avail())).any())
+        env.step(carried)
+    assert differ > 0
 
 
 def test_bad_checkpoints_and_inputs_raise(tmp_path):

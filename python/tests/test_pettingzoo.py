@@ -3,11 +3,12 @@
 import numpy as np
 import pytest
 
-pytest.importorskip("pettingzoo", reason="python3 -m pip install pettingzoo gymnasium")
-from pettingzoo.test import parallel_api_test, parallel_seed_test  # noqa: E402
+# PettingZoo is one of the tests' requirements (python3 -m pip install pettingzoo gymnasium):
+# without it this module fails to import, it is not skipped.
+from pettingzoo.test import parallel_api_test, parallel_seed_test
 
-import avacraft  # noqa: E402
-from avacraft import AvacraftError  # noqa: E402
+import avacraft
+from avacraft import AvacraftError
 
 
 @pytest.mark.parametrize("scenario", ["3m_vlm", "MMM_vs_MMM"])

@@ -94,7 +94,12 @@ def test_smac_shim_subclass_base_and_module_paths(shims):
     from smac.env.starcraft2.starcraft2 import StarCraft2Env as Deep
 
     assert StarCraft2Env is avacraft.StarCraft2Env is Deep
-    assert issubclass(MultiAgentEnv, object) and hasattr(MultiAgentEnv, "get_env_info")
+    # SMAC's base class, with its interface's methods, for code that subclasses it; the
+    # environment has every one of them.
+    for method in ("step", "reset", "get_obs", "get_state", "get_avail_actions", "get_env_info", "close"):
+        assert callable(getattr(MultiAgentEnv, method, None)), method
+    interface = [m for m in vars(MultiAgentEnv) if not m.startswith("_")]
+    assert [m for m in interface if not callable(getattr(StarCraft2Env, m, None))] == []
 
 
 def test_epymarl_sc2v2_protoss_5_vs_5_through_the_smacv2_shim(shims, rng):

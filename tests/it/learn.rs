@@ -52,7 +52,8 @@ fn a_time_out_is_truncated_and_a_wipe_is_terminated() {
     let info = e.info(Team::One);
     assert!(info.episode_limit && !info.battle_won, "{info:?}");
 
-    // Attack-moving Marines against the built-in AI end the episode in the game.
+    // Random actions against the built-in AI's attack-move: the episode ends in the game, one
+    // side wiped out, long before its time limit.
     let mut e = env("3m_vlm", EnvConfig::default(), 2);
     let mut rng = ChaCha8Rng::seed_from_u64(0);
     let n = e.env_info(Team::One).n_actions;
@@ -65,11 +66,9 @@ fn a_time_out_is_truncated_and_a_wipe_is_terminated() {
         }
     };
     let info = e.info(Team::One);
-    assert_eq!(r.terminated, !r.truncated);
-    if r.terminated {
-        assert!(info.dead_allies == 3 || info.dead_enemies == 3, "{info:?}");
-        assert_eq!(info.battle_won, info.dead_enemies == 3 && info.dead_allies < 3, "{info:?}");
-    }
+    assert!(r.terminated && !r.truncated && !info.episode_limit, "a wipe, not a time-out: {r:?} {info:?}");
+    assert!(info.dead_allies == 3 || info.dead_enemies == 3, "{info:?}");
+    assert_eq!(info.battle_won, info.dead_enemies == 3 && info.dead_allies < 3, "{info:?}");
 }
 
 #[test]

@@ -17,8 +17,12 @@ fn low_ground_does_not_see_high_ground() {
     assert!(w.visible_to(Team::One, colossus.id));
     // High ground sees low ground: some Zergling is visible to the Colossi.
     assert!(w.units().iter().any(|u| u.kind == UnitKind::Zergling && w.visible_to(Team::One, u.id)));
-    // Every observation agrees: the unit list, the text and the SMAC features of team 2.
+    // Every observation agrees: team 2's unit list, its text and its groups' unit views.
     assert!(unit_list(w, Team::Two).iter().all(|u| u.kind != UnitKind::Colossus));
+    let text = avacraft_engine::describe(&env, Team::Two);
+    assert!(!text.contains("Colossus") && text.contains("Zergling"), "{text}");
+    let seen = GroupObs::team(&env, Team::Two, 0, avacraft_engine::Reads::UNITS);
+    assert!(seen.enemies().all(|u| u.kind != UnitKind::Colossus), "team 2's group sees a Colossus");
     // Full vision switches it off.
     let cfg = EnvConfig { rules: Rules { full_vision: true, ..Rules::default() }, ..EnvConfig::default() };
     let env = Env::new(s, cfg, 1);

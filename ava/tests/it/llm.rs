@@ -212,6 +212,7 @@ fn realtime_applies_actions_after_the_model_time() {
     let c = &s.run.episodes()[0];
     // Lockstep would decide at steps 0, 2, 4, ...; real time waits for the model.
     assert!(c.decisions <= 4, "decisions wait for the model's answers: {c:?}");
+    assert!(c.decisions >= 1 && c.fallbacks == 0, "the model's answers, slow as they are, are decided on: {c:?}");
     assert_eq!(env.refused()[0], 0);
     let _ = Team::One;
 }

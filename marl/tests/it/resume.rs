@@ -36,7 +36,9 @@ fn killed_and_resumed_runs_write_the_uninterrupted_log(algo: &str, scenario: &st
     assert_eq!(want.len(), 1 + whole.tests.len());
     // The steps of the full run's test rounds picked by `kills` (indices of its rounds).
     let steps: Vec<u64> = want[1..].iter().filter_map(|r| r.split(',').next()?.parse().ok()).collect();
-    for &k in kills.iter().filter_map(|&i| steps.get(i)) {
+    let kill_steps: Vec<u64> = kills.iter().filter_map(|&i| steps.get(i).copied()).collect();
+    assert_eq!(kill_steps.len(), kills.len(), "{algo}: every kill falls on one of the {} test rounds", steps.len());
+    for k in kill_steps {
         let kdir = scratch(&format!("{algo}-{k}"));
         let opts = RunOptions { out: Some(kdir.clone()), ..opts.clone() };
         // Killed right after the test round of step k (the progress callback comes after the

@@ -102,11 +102,13 @@ fn the_pool_keeps_copies_draws_uniformly_and_restores() -> R {
     }
     assert_eq!(pool.updates(), [2, 4, 6]);
     // A snapshot is a copy: the network it came from changing later does not reach it.
-    let before = Policy::of(&nets[1], &cfg, shape, "x")?;
+    // (The agent network's weights: a policy carries no mixer of its source's.)
+    let agent = |n: &Nets| n.agent_params.flat(n.agent_params.vars().count());
+    let before = agent(&nets[1])?;
     let snap = Policy::of(&nets[1], &cfg, shape, "x")?;
     nets[1].agent_params.load_map(&nets[3].agent_params.to_map(), "test")?;
-    assert_eq!(snap.nets.flat()?, before.nets.flat()?);
-    assert_ne!(snap.nets.flat()?, nets[1].flat()?);
+    assert_ne!(agent(&nets[1])?, before, "the source network changed");
+    assert_eq!(agent(&snap.nets)?, before, "the snapshot kept the weights it was taken with");
     // Draws are uniform over the pool and a function of the seed.
     let mut seen: Vec<(Vec<f32>, u32)> = Vec::new();
     for seed in 0..300u64 {
