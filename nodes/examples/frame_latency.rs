@@ -1,6 +1,6 @@
 //! Publish-to-receive latency of the frame transport across two threads.
 //!
-//! `cargo run --release --example latency`
+//! `cargo run --release -p avacraft-nodes --example frame_latency`
 //!
 //! The publisher stamps each frame with the time just before `publish()` (which includes copying
 //! the pixels into shared memory); the subscriber thread computes the latency when
@@ -38,7 +38,9 @@ fn summary(name: &str, mut samples_us: Vec<f64>) {
 }
 
 fn run(width: u32, height: u32, frames: usize) -> AnyResult<()> {
-    let service = format!("avacraft/latency_{}/{width}x{height}", std::process::id());
+    // A namespace of its own per run and size, so concurrent runs do not share a service.
+    let topics = avacraft_nodes::Topics::new(&format!("/latency_{}_{width}x{height}", std::process::id()))?;
+    let service = topics.frame_service(avacraft_nodes::TeamNo::new(1)?, avacraft_nodes::FrameKind::Screen);
     let pixel_bytes = width as usize * height as usize * 3;
     let base = Instant::now();
     let now_ns = move || base.elapsed().as_nanos() as i64;
