@@ -21,7 +21,9 @@ fn main() -> anyhow::Result<()> {
 
 /// The environment `train` runs in, where not set already: the libraries read it once, at
 /// their first use, and safe code cannot set its own process's environment, so `train`
-/// runs as a child process with it. Measured on a 2-core machine shared with other work
+/// runs again with it: on Unix in place of this process (`exec`: the same process id, so a
+/// signal to it, or its training folder's lock, is the training's own), elsewhere as a
+/// child. Measured on a 2-core machine shared with other work
 /// (others' load about 4-5):
 /// - candle runs elementwise operations on tensors of 64k elements or more on its own pool
 ///   of threads, which spin at a barrier after each operation; a descheduled helper leaves
@@ -37,10 +39,18 @@ const TRAIN_ENV: [(&str, &str); 2] =
 fn rerun_with(vars: &[(&str, &str)]) -> anyhow::Result<()> {
     use anyhow::Context;
     let exe = std::env::current_exe().context("train: this program's path")?;
-    let status = std::process::Command::new(exe)
-        .args(std::env::args_os().skip(1))
-        .envs(vars.iter().copied())
-        .status()
-        .context("train: starting it in its tuned environment")?;
-    std::process::exit(status.code().unwrap_or(1))
+    let mut again = std::process::Command::new(exe);
+    again.args(std::env::args_os().skip(1)).envs(vars.iter().copied());
+    #[cfg(unix)]
+    {
+        use std::os::unix::process::CommandExt;
+        // Returns only if the program could not be started.
+        let e = again.exec();
+        Err(e).context("train: starting it in its tuned environment")
+    }
+    #[cfg(not(unix))]
+    {
+        let status = again.status().context("train: starting it in its tuned environment")?;
+        std::process::exit(status.code().unwrap_or(1))
+    }
 }

@@ -14,6 +14,8 @@ use std::path::Path;
 /// checkpoint's config left as it was, where they do not fit: another game size (observation,
 /// actions, agents) or another network (meant for a copy: what went stays gone).
 pub fn continue_as(dir: &Path, cfg: &Config, scenario: &std::sync::Arc<avacraft_engine::Scenario>) -> Result<(), Error> {
+    // Not while another process trains there: what follows deletes its buffer and carry.
+    let _lock = crate::lock::RunLock::acquire(dir)?;
     let (saved, state) = resume::load(dir)?;
     let old = crate::Policy::load(dir)?.shape;
     // The game's sizes do not depend on who plays team 2; a snapshot pool does not exist yet.

@@ -44,6 +44,9 @@ pub enum Error {
     Plot { message: String },
     #[error("checkpoint: {message}")]
     Checkpoint { message: String },
+    /// Another process trains into the same run folder (its `train.lock` is held).
+    #[error("another process is training into {} (it holds {}/train.lock): two runs in one folder overwrite each other's files; wait for it or stop it", dir.display(), dir.display())]
+    RunInUse { dir: std::path::PathBuf },
     #[error("training diverged at update {update}: loss {loss}")]
     Diverged { update: u64, loss: f64 },
     #[error("training diverged: the gradients' norm is {norm}")]

@@ -63,6 +63,7 @@ pub mod frames;
 mod journal;
 pub mod kernels;
 pub mod learner;
+pub mod lock;
 pub mod monitor;
 pub mod nets;
 pub mod observe;

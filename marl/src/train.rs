@@ -76,6 +76,8 @@ pub fn train_from(
     {
         return Err(Error::Checkpoint { message: format!("resuming a run of seed {} with seed {}", st.seed, opts.seed) });
     }
+    // Held until training returns: no second process writes into this run meanwhile.
+    let _lock = opts.out.as_deref().map(crate::lock::RunLock::acquire).transpose()?;
     // The game the run plays, named in its config (so in every checkpoint it writes).
     let (cfg, scenario) = cfg.resolved(std::sync::Arc::clone(&opts.scenario))?;
     let (cfg, opts) = (&cfg, &RunOptions { scenario, ..opts.clone() });

@@ -46,6 +46,31 @@ fn a_short_run_resumes_from_its_directory_alone() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("train-no-run") && err.contains("config.json"), "{err}");
+
+    // While one process trains the run, a second is refused by name and changes nothing;
+    // once the first is gone (killed: the system drops its lock), the run is free again.
+    let mut busy = Command::new(exe())
+        .args(["train", "--resume", d, "--steps", "100000000"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("start a long resume");
+    // Training once its log grows past the rounds it had (so it holds the run's lock).
+    for _ in 0..1200 {
+        if log(&dir) > 4 {
+            break;
+        }
+        assert!(busy.try_wait().expect("poll").is_none(), "the long run ended early");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    let out = train(&["--resume", d, "--steps", "200000000"]);
+    let refused = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success());
+    busy.kill().expect("stop the long run");
+    let _ = busy.wait();
+    assert!(refused.contains("another process is training into") && refused.contains("train.lock"), "{refused}");
+    let out = train(&["--resume", d, "--steps", "800"]);
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("another process"), "{}", String::from_utf8_lossy(&out.stderr));
     let _ = std::fs::remove_dir_all(&dir);
 }
 
