@@ -78,18 +78,7 @@ pub fn train_from(
     let mut roll = Rollout { rows, n_agents: a, ..Rollout::default() };
     let mut last_stats = UpdateStats::default();
     if let Some(c) = &kept {
-        let critic = (!shared).then(|| (learner.critic_input.width(&shape) - shape.n_agents, shape.n_agents));
-        let want = Sizes {
-            rows,
-            n_agents: a,
-            envs: e,
-            n_actions: na,
-            rollout_len: cfg.rollout_len,
-            chunk: cfg.data_chunk_length,
-            hidden,
-            actor_width: shape.input(id, la),
-            critic,
-        };
+        let want = kept_sizes(cfg, &learner, &shape, e);
         (lanes, roll, last_stats) = (Lanes::kept(c, &mut env, &want)?, Rollout::kept(c, &want)?, c.get_stats("last_stats")?);
     }
     // Wall-clock per phase, for the summary only: nothing learned depends on it.
@@ -160,6 +149,23 @@ pub fn train_from(
     let phases = ["act", "env", "record", "update", "test"].iter().zip(time).map(|(n, d)| (n.to_string(), d.as_secs_f64())).collect();
     let summary = Summary { t_env, episodes, updates: learner.updates, last_loss: last_stats.loss, tests: monitor.tests, phases };
     Ok((learner, summary))
+}
+
+/// What a resume's kept rollout and lanes must measure in this run.
+fn kept_sizes(cfg: &Config, learner: &PpoLearner, shape: &Shape, envs: usize) -> Sizes {
+    let a = shape.n_agents;
+    let critic = (!learner.shared()).then(|| (learner.critic_input.width(shape) - a, a));
+    Sizes {
+        rows: envs * a,
+        n_agents: a,
+        envs,
+        n_actions: shape.n_actions,
+        rollout_len: cfg.rollout_len,
+        chunk: cfg.data_chunk_length,
+        hidden: cfg.rnn_hidden_dim,
+        actor_width: shape.input(cfg.obs_agent_id, cfg.obs_last_action),
+        critic,
+    }
 }
 
 /// Each row's recurrent state and each environment's episode so far, as a resume keeps them.
