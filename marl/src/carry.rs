@@ -144,12 +144,17 @@ impl Carry {
         v.into_iter().map(|x| u64::try_from(x).map_err(|_| self.bad(format!("`{name}` holds {x}, not a count")))).collect()
     }
 
-    pub(crate) fn get_actions(&self, name: &str) -> Result<Vec<Option<u32>>, Error> {
+    /// Each row's last action (`None`: none yet), every one below `n_actions`.
+    pub(crate) fn get_actions(&self, name: &str, n_actions: usize) -> Result<Vec<Option<u32>>, Error> {
         let v: Vec<i64> = self.get(name, DType::I64)?.to_vec1()?;
         v.into_iter()
             .map(|x| match x {
                 -1 => Ok(None),
-                x => u32::try_from(x).map(Some).map_err(|_| self.bad(format!("`{name}` holds {x}, not an action"))),
+                x => u32::try_from(x)
+                    .ok()
+                    .filter(|&a| (a as usize) < n_actions)
+                    .map(Some)
+                    .ok_or_else(|| self.bad(format!("`{name}` holds {x}, not one of the team's {n_actions} actions"))),
             })
             .collect()
     }

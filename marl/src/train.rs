@@ -209,11 +209,7 @@ fn restore_q(
     let running = carry.get_episodes("running", shape)?;
     running.iter().try_for_each(|ep| ep.check(shape, false)).map_err(bad)?;
     buffer.check(shape).map_err(bad)?;
-    let last_actions = carry.get_actions("actor.last")?;
-    if let Some(x) = last_actions.iter().flatten().find(|&&x| x as usize >= shape.n_actions) {
-        return Err(bad(format!("a kept last action is {x}; the team has {}", shape.n_actions)));
-    }
-    actor.set_state(carry.get_f32s("actor.h")?, last_actions)?;
+    actor.set_state(carry.get_f32s("actor.h")?, carry.get_actions("actor.last", shape.n_actions)?)?;
     let pending = carry.get_u64s("pending")?.first().copied().unwrap_or(0);
     Ok((running, pending, carry.get_stats("last")?))
 }
