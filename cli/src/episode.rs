@@ -27,7 +27,7 @@ pub struct EpisodeArgs {
     /// (each node's units, policy and seed; `policy: marl:DIR` loads the checkpoint once and
     /// runs one network per node), exactly as `avacraft launch` deploys them, so the
     /// trajectory hashes can be compared with the deployment's.
-    #[arg(long, conflicts_with_all = ["scenario", "data", "agent", "agent2", "opponent", "episodes", "seed", "full_vision", "passive_agents", "no_jitter", "no_abilities"])]
+    #[arg(long, conflicts_with_all = ["scenario", "data", "agent", "agent2", "opponent", "episodes", "seed", "full_vision", "passive_agents", "no_jitter", "no_abilities", "weapon_period"])]
     pub launch: Option<std::path::PathBuf>,
     /// Policy for team 1: focus-fire, kite, attack-move, builtin, aggressive, defensive, focus, random, hold, noop,
     /// marl:DIR, a checkpoint written by `avacraft train --out DIR` (refused if trained on another
@@ -57,6 +57,10 @@ pub struct EpisodeArgs {
     /// Switch unit abilities off (SMAC's ability-less units).
     #[arg(long)]
     pub no_abilities: bool,
+    /// Where weapons' periods are counted from: attack (the engine's reading) or shot (an
+    /// experiment: the period from the damage point; docs/smac.md).
+    #[arg(long, default_value = "attack")]
+    pub weapon_period: avacraft_engine::WeaponPeriod,
     /// Print team 1's text observation to stderr every N steps (0: never).
     #[arg(long, default_value_t = 0)]
     pub trace_every: u32,
@@ -197,7 +201,7 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
                 let make = Arc::clone(&made.factory);
                 Ok(AgentTeam::new(team, Grouping::Team, move || make()))
             }
-            _ => team_agent(&scenario, team, name, flag),
+            _ => team_agent(&scenario, a.weapon_period, team, name, flag),
         }
     };
     // An image-mode checkpoint is not an engine agent: it plays PvE from rendered frames.
@@ -230,6 +234,7 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
         cooldown_jitter: !a.no_jitter,
         passive_allies: a.passive_agents,
         abilities: !a.no_abilities,
+        weapon_period: a.weapon_period,
         reward: RewardMode::Sparse,
         opponent,
         ..EnvOptions::default()
@@ -255,7 +260,7 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
 /// `team` played by one agent of the policy `name` (a scripted agent, `marl:DIR` or
 /// `baseline:NAME`), checked
 /// against the scenario.
-fn team_agent(scenario: &Scenario, team: Team, name: &str, flag: &str) -> Result<AgentTeam> {
+fn team_agent(scenario: &Scenario, period: avacraft_engine::WeaponPeriod, team: Team, name: &str, flag: &str) -> Result<AgentTeam> {
     let spec = PolicySpec::parse(name, None).and_then(|p| p.on(scenario)).with_context(|| format!("{flag} {name}"))?;
     spec.check(scenario, team).with_context(|| format!("{flag} {name}"))?;
     if let Some(trained) = spec.trained_data(scenario).with_context(|| format!("{flag} {name}"))?
@@ -264,6 +269,13 @@ fn team_agent(scenario: &Scenario, team: Team, name: &str, flag: &str) -> Result
         eprintln!(
             "warning: {flag} {name} trained on the {trained} unit data; {} plays on {} here (--data {trained} plays the game it learned)",
             scenario.name, scenario.data
+        );
+    }
+    if let Some(trained) = spec.trained_weapon_period(scenario).with_context(|| format!("{flag} {name}"))?
+        && trained != period
+    {
+        eprintln!(
+            "warning: {flag} {name} learned with weapon periods counted from the {trained}; from the {period} here (--weapon-period {trained} plays the game it learned)"
         );
     }
     let make = spec.factory().with_context(|| format!("{flag} {name}"))?;

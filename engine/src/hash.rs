@@ -123,8 +123,12 @@ impl World {
         } = self;
         h.u32(*tick);
         h.rng(rng);
-        let crate::world::Rules { full_vision, cooldown_jitter, auto_acquire, abilities } = *rules;
+        let crate::world::Rules { full_vision, cooldown_jitter, auto_acquire, abilities, weapon_period } = *rules;
         h.bools([full_vision, cooldown_jitter, auto_acquire[0], auto_acquire[1], abilities].into_iter());
+        // Hashed only when not the default, so every world made before the switch keeps its hash.
+        if weapon_period != crate::world::WeaponPeriod::Attack {
+            h.u32(weapon_period as u32);
+        }
         for team in upgrades {
             h.u32(team.len() as u32);
             team.iter().for_each(|&u| h.u32(u as u32));

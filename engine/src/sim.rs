@@ -5,7 +5,7 @@ use crate::combat::{LEASH, PendingHit, edge_dist, in_heal_range, weapon_for};
 use crate::geom::Vec2;
 use crate::ids::UnitId;
 use crate::units::Attrs;
-use crate::world::{Activity, Intent, Missile, Order, Swing, Unit, World};
+use crate::world::{Activity, Intent, Missile, Order, Swing, Unit, WeaponPeriod, World};
 use rand::Rng;
 
 /// Distance within which a move order counts as arrived.
@@ -247,13 +247,18 @@ impl World {
                 let tick = self.tick;
                 let u = &mut self.units[i];
                 let before = u.cooldown;
-                // The period runs from the start of the attack; the wind-up and the backswing
-                // lie inside it.
-                u.cooldown = w.cooldown / u.status.attack_rate(tick) + jitter + u.cooldown.clamp(-1.0, 0.0);
-                u.activity = Activity::Attacking;
                 // The game acts on loop boundaries: the effect fires on the first loop by which
                 // the damage point has passed (the Spine Crawler's 5.33 loops: on the 6th).
                 let windup = w.timing.damage_point.ceil() as u32;
+                // The engine's reading: the period runs from the start of the attack, the
+                // wind-up and the backswing inside it. Counted from the shot, it starts when
+                // the effect fires (a cancelled swing gives the whole cooldown back either way).
+                let from_shot = match self.rules.weapon_period {
+                    WeaponPeriod::Attack => 0.0,
+                    WeaponPeriod::Shot => windup as f32,
+                };
+                u.cooldown = w.cooldown / u.status.attack_rate(tick) + from_shot + jitter + u.cooldown.clamp(-1.0, 0.0);
+                u.activity = Activity::Attacking;
                 if windup > 0 {
                     u.swing = Some(Swing {
                         target: t,

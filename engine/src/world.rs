@@ -223,6 +223,9 @@ pub struct Rules {
     /// ability-less units, and the baseline the benchmark compares against.
     #[serde(default = "yes")]
     pub abilities: bool,
+    /// Where a weapon's `Period` is counted from (the game's data does not say: docs/smac.md).
+    #[serde(default)]
+    pub weapon_period: WeaponPeriod,
 }
 
 fn yes() -> bool {
@@ -231,7 +234,57 @@ fn yes() -> bool {
 
 impl Default for Rules {
     fn default() -> Self {
-        Self { full_vision: false, cooldown_jitter: true, auto_acquire: [true, true], abilities: true }
+        Self { full_vision: false, cooldown_jitter: true, auto_acquire: [true, true], abilities: true, weapon_period: WeaponPeriod::Attack }
+    }
+}
+
+/// Where a weapon's period (its `Period`, the time between attacks) is counted from. The
+/// game's data files give the period and the damage point but not which event starts the
+/// period; the engine's reading is the start of the attack (Liquipedia's "time between
+/// damage-dealing actions"; SMAC's largest observed cooldowns lean the same way). `Shot`
+/// counts it from the damage point instead, so every cycle is longer by the wind-up: an
+/// experiment, kept off the deployment's wire (the simulator node refuses it).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WeaponPeriod {
+    /// From the start of the attack: wind-up and backswing lie inside the period.
+    #[default]
+    Attack,
+    /// From the shot (the damage point): the cycle is the period plus the wind-up.
+    Shot,
+}
+
+impl WeaponPeriod {
+    pub const ALL: [WeaponPeriod; 2] = [WeaponPeriod::Attack, WeaponPeriod::Shot];
+
+    /// The engine's reading (a saved config leaves it out).
+    pub fn is_attack(&self) -> bool {
+        *self == WeaponPeriod::Attack
+    }
+
+    pub const fn name(self) -> &'static str {
+        match self {
+            WeaponPeriod::Attack => "attack",
+            WeaponPeriod::Shot => "shot",
+        }
+    }
+}
+
+impl std::fmt::Display for WeaponPeriod {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A weapon period reading that is not one of the two.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown weapon period `{0}` (known: attack, shot)")]
+pub struct UnknownWeaponPeriod(pub String);
+
+impl std::str::FromStr for WeaponPeriod {
+    type Err = UnknownWeaponPeriod;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        WeaponPeriod::ALL.into_iter().find(|w| w.name() == s).ok_or_else(|| UnknownWeaponPeriod(s.to_owned()))
     }
 }
 

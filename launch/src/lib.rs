@@ -106,6 +106,9 @@ mod tests {
             ("scenario: 3m_vlm\nenv: {opponent: kite}\nagents:\n  - {id: a, units: [1], policy: noop}\n", "env"),
             ("scenario: 3m_vlm\nenv: {step_mul: 0}\nagents:\n  - {id: a, units: [1], policy: noop}\n", "env.step_mul"),
             ("scenario: 3m_vlm\nenv: [1]\nagents:\n  - {id: a, units: [1], policy: noop}\n", "env"),
+            // Not carried by SessionInfo: a recording could not replay it.
+            ("scenario: 3m_vlm\nenv: {weapon_period: shot}\nagents:\n  - {id: a, units: [1], policy: noop}\n", "env.weapon_period"),
+            ("scenario: 3m_vlm\nenv: {weapon_period: later}\nagents:\n  - {id: a, units: [1], policy: noop}\n", "later"),
         ];
         for (text, field) in cases {
             let e = chain(&parse("bad.yaml", text, None).expect_err(text));

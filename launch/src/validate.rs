@@ -7,7 +7,7 @@ use crate::deploy;
 use crate::error::{Cx, LaunchError};
 use crate::plan::{AgentPlan, ClockMode, CommanderPlan, EncoderPlan, FramePlan, Plan, RawAgent, RawFrames, RawLaunch};
 use avacraft_engine::agent::FrameNeed;
-use avacraft_engine::{Env, EnvConfig, EnvOptions, Mode, OpponentKind, RewardMode, Scenario, Team, UnitId};
+use avacraft_engine::{Env, EnvConfig, EnvOptions, Mode, OpponentKind, RewardMode, Scenario, Team, UnitId, WeaponPeriod};
 use avacraft_nodes::{AgentId, FrameKind, TeamNo, UnitTag};
 use avacraft_policy::{AVA_POLICY, CommanderPolicy, DDS_POLICY, PolicyError, PolicySpec, Resolve, Weights};
 use std::collections::BTreeMap;
@@ -93,6 +93,10 @@ pub(crate) fn validate(file: &str, raw: RawLaunch, how: Resolve<'_>) -> Result<P
         options = options.overlay(over, &["opponent", "data"]).map_err(|why| cx.err("env", over, why))?;
     }
     let env = options.config().map_err(|b| cx.err(format!("env.{}", b.option), b.value, b.supported))?;
+    if env.rules.weapon_period != WeaponPeriod::Attack {
+        let why = "only `attack` in a deployment: the session description (SessionInfo) does not carry another reading, so its recording could not be replayed";
+        return Err(cx.err("env.weapon_period", env.rules.weapon_period, why));
+    }
     // A network trained with the ability slots reads an observation only a game with them
     // gives: without, its node would give no orders at all.
     if !env.ability_actions {

@@ -143,6 +143,12 @@ impl Policy {
         meta.config.data.parse().map_err(|e: avacraft_engine::UnknownDataSet| Error::Checkpoint { message: e.to_string() })
     }
 
+    /// Where the weapons' periods were counted from in the games the network in `dir` learned
+    /// (its `config.json` alone; `attack`, the engine's reading, when the key is absent).
+    pub fn weapon_period_in(dir: &Path) -> Result<avacraft_engine::WeaponPeriod, Error> {
+        Ok(meta_in(dir)?.config.weapon_period)
+    }
+
     /// Whether the network in `dir` reads the ability slots (its `config.json` alone): a
     /// game it plays must have them (`EnvConfig::ability_actions`).
     pub fn ability_actions_in(dir: &Path) -> Result<bool, Error> {

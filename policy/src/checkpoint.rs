@@ -51,6 +51,11 @@ impl MarlCheckpoint {
         Policy::data_in(&self.dir).map_err(|source| PolicyError::Checkpoint { dir: self.dir.clone(), source })
     }
 
+    /// Where weapons' periods were counted from in the games it learned ([`Policy::weapon_period_in`]).
+    pub fn trained_weapon_period(&self) -> Result<avacraft_engine::WeaponPeriod, PolicyError> {
+        Policy::weapon_period_in(&self.dir).map_err(|source| PolicyError::Checkpoint { dir: self.dir.clone(), source })
+    }
+
     /// Whether the network reads the ability slots ([`Policy::ability_actions_in`]).
     pub fn ability_actions(&self) -> Result<bool, PolicyError> {
         Policy::ability_actions_in(&self.dir).map_err(|source| PolicyError::Checkpoint { dir: self.dir.clone(), source })

@@ -173,6 +173,16 @@ impl PolicySpec {
         }
     }
 
+    /// Where weapons' periods were counted from in the games a network learned (`None`: not a
+    /// network).
+    pub fn trained_weapon_period(&self, scenario: &Scenario) -> Result<Option<avacraft_engine::WeaponPeriod>, PolicyError> {
+        match self {
+            PolicySpec::Marl(m) => m.trained_weapon_period().map(Some),
+            PolicySpec::Baseline(b) => b.for_scenario(&scenario.name)?.trained_weapon_period().map(Some),
+            PolicySpec::Scripted(_) | PolicySpec::Dds | PolicySpec::Ava(_) => Ok(None),
+        }
+    }
+
     /// Whether the policy's network reads the ability slots, so that the game it plays in
     /// must have them (`EnvConfig::ability_actions`); every other policy plays with or
     /// without them.

@@ -60,6 +60,7 @@ class Env:
         action_mask: bool = True,
         fov_actions: int = 0,
         data: Optional[str] = None,
+        weapon_period: str = "attack",
     ) -> None: ...
     def reset(self, seed: int) -> None: ...
     @property
@@ -127,6 +128,7 @@ class VecEnv:
         action_mask: bool = True,
         fov_actions: int = 0,
         data: Optional[str] = None,
+        weapon_period: str = "attack",
     ) -> None: ...
     @property
     def num_envs(self) -> int: ...

@@ -47,6 +47,8 @@ class StarCraft2Env:
       ability slots to the actions and observations (SMAC has none; off by default).
     - `passive_allies`: SMAC's passive allied units (on by default: `EnvConfig::smac()`).
     - `cooldown_jitter`: StarCraft II's random attack delay (on).
+    - `weapon_period`: where a weapon's period is counted from: "attack" (the engine's
+      reading, the default) or "shot" (from the damage point: an experiment, docs/smac.md).
     - `episode_limit`: time limit in steps (None: the scenario's); `time_limit_loops` in
       game loops.
     - `prob_obs_enemy`, `action_mask`: SMACv2's extended partial observability (an enemy
@@ -107,6 +109,7 @@ class StarCraft2Env:
         action_mask: bool = True,
         conic_fov: bool = False,
         num_fov_actions: int = 12,
+        weapon_period: str = "attack",
     ) -> None:
         self.map_name = map_name
         self._step_mul = opt.positive_int("step_mul", step_mul)
@@ -167,6 +170,7 @@ class StarCraft2Env:
             action_mask=opt.boolean("action_mask", action_mask),
             fov_actions=opt.fov_actions(conic_fov, num_fov_actions),
             data=data,
+            weapon_period=weapon_period,
         )
         info = self._env.env_info(1)
         self.n_agents: int = info["n_agents"]

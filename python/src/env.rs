@@ -142,7 +142,7 @@ impl Sized2 for Observer {
 impl PyEnv {
     #[new]
     #[pyo3(signature = (scenario, seed=0, step_mul=8, reward="dense", opponent=None, full_vision=false, passive_allies=true,
-        cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None, prob_obs_enemy=1.0, action_mask=true, fov_actions=0, data=None))]
+        cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None, prob_obs_enemy=1.0, action_mask=true, fov_actions=0, data=None, weapon_period="attack"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         scenario: &str,
@@ -160,9 +160,10 @@ impl PyEnv {
         action_mask: bool,
         fov_actions: i64,
         data: Option<String>,
+        weapon_period: &str,
     ) -> PyResult<Self> {
         // Both constructors take EnvOptions' fields, in its order (a Python test holds them to it).
-        let (reward, opponent, data) = options::named(reward, opponent.as_deref(), data.as_deref())?;
+        let (reward, opponent, data, weapon_period) = options::named(reward, opponent.as_deref(), data.as_deref(), weapon_period)?;
         let opts = EnvOptions {
             step_mul,
             reward,
@@ -177,6 +178,7 @@ impl PyEnv {
             action_mask,
             fov_actions,
             data,
+            weapon_period,
         };
         let (scenario, cfg) = options::build(scenario, &opts)?;
         let env = Env::new(scenario, cfg, seed);

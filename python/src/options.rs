@@ -3,7 +3,9 @@
 //! fields (`env_option_names()`; a Python test holds both signatures to it).
 
 use crate::error::Error;
-use avacraft_engine::{BadOption, DataSet, EnvConfig, EnvOptions, OpponentKind, RewardMode, Scenario, ScenarioError, all_names};
+use avacraft_engine::{
+    BadOption, DataSet, EnvConfig, EnvOptions, OpponentKind, RewardMode, Scenario, ScenarioError, WeaponPeriod, all_names,
+};
 use std::sync::Arc;
 
 /// A built-in scenario by name, a scenario TOML file by path, or a scenario's TOML text (what
@@ -28,15 +30,16 @@ impl From<BadOption> for Error {
 
 /// The options Python names by strings, parsed (each refusal names its option): the reward
 /// mode, the opponent and the unit data.
-pub(crate) fn named(reward: &str, opponent: Option<&str>, data: Option<&str>) -> Result<Named, Error> {
+pub(crate) fn named(reward: &str, opponent: Option<&str>, data: Option<&str>, weapon_period: &str) -> Result<Named, Error> {
     Ok((
         EnvOptions::reward_named(reward)?,
         opponent.map(EnvOptions::opponent_named).transpose()?,
         data.map(EnvOptions::data_named).transpose()?,
+        EnvOptions::weapon_period_named(weapon_period)?,
     ))
 }
 
-pub(crate) type Named = (RewardMode, Option<OpponentKind>, Option<DataSet>);
+pub(crate) type Named = (RewardMode, Option<OpponentKind>, Option<DataSet>, WeaponPeriod);
 
 /// The scenario, on the data set `o` asks for, and the engine's configuration.
 pub(crate) fn build(scenario: &str, o: &EnvOptions) -> Result<(Arc<Scenario>, EnvConfig), Error> {

@@ -32,7 +32,7 @@ impl PyVecEnv {
 impl PyVecEnv {
     #[new]
     #[pyo3(signature = (scenario, seeds, threads=None, step_mul=8, reward="dense", opponent=None, full_vision=false,
-        passive_allies=true, cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None, prob_obs_enemy=1.0, action_mask=true, fov_actions=0, data=None))]
+        passive_allies=true, cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None, prob_obs_enemy=1.0, action_mask=true, fov_actions=0, data=None, weapon_period="attack"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         scenario: &str,
@@ -51,9 +51,10 @@ impl PyVecEnv {
         action_mask: bool,
         fov_actions: i64,
         data: Option<String>,
+        weapon_period: &str,
     ) -> PyResult<Self> {
         // Both constructors take EnvOptions' fields, in its order (a Python test holds them to it).
-        let (reward, opponent, data) = options::named(reward, opponent.as_deref(), data.as_deref())?;
+        let (reward, opponent, data, weapon_period) = options::named(reward, opponent.as_deref(), data.as_deref(), weapon_period)?;
         let opts = EnvOptions {
             step_mul,
             reward,
@@ -68,6 +69,7 @@ impl PyVecEnv {
             action_mask,
             fov_actions,
             data,
+            weapon_period,
         };
         let (scenario, cfg) = options::build(scenario, &opts)?;
         let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));

@@ -53,3 +53,5 @@ def test_a_bad_option_is_named():
         _avacraft.Env("3m", data="brood_war")
     with pytest.raises(_avacraft.AvacraftError, match="reward"):
         _avacraft.Env("3m", reward="shaped")
+    with pytest.raises(_avacraft.AvacraftError, match="weapon_period"):
+        _avacraft.Env("3m", weapon_period="later")

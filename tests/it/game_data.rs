@@ -5,7 +5,9 @@
 //! StarCraft II.
 
 use crate::helpers::*;
-use avacraft_engine::{Action, Command, DataSet, Env, EnvConfig, Outcome, Reach, Rules, Scenario, Team, UnitId, UnitKind, Vec2, builtin};
+use avacraft_engine::{
+    Action, Command, DataSet, Env, EnvConfig, Outcome, Reach, Rules, Scenario, Team, UnitId, UnitKind, Vec2, WeaponPeriod, builtin,
+};
 use std::sync::Arc;
 
 const SETS: [DataSet; 3] = [DataSet::Liberty, DataSet::Void, DataSet::Ladder];
@@ -118,6 +120,41 @@ fn every_unit_type_attacks_as_its_row_says_on_every_set() {
     // 21 armed unit types and modes a set on average (the Baneling and the powered Photon
     // Cannon are covered elsewhere).
     assert!(checked >= 60, "only {checked} unit types were checked");
+}
+
+#[test]
+fn a_period_counted_from_the_shot_lengthens_every_cycle_by_the_wind_up() {
+    // The game's data does not say where `Period` starts (docs/smac.md); the engine counts it
+    // from the start of the attack unless told to count it from the shot.
+    for kind in [UnitKind::Stalker, UnitKind::SpineCrawler, UnitKind::Hydralisk] {
+        let w = DataSet::Liberty.spec(kind).weapons[0];
+        let windup = w.timing.damage_point.ceil() as u32;
+        assert!(windup >= 3, "{kind}: a wind-up of {windup} loops tells the readings apart");
+        let tspec = DataSet::Liberty.spec(UnitKind::SpineCrawler);
+        let gap = DataSet::Liberty.spec(kind).radius + tspec.radius + w.range - 0.05;
+        let s = on(DataSet::Liberty, &[(kind.name(), 1, 10.0, 16.0), ("SpineCrawler", 2, 10.0 + gap, 16.0)]);
+        let mut cycles = Vec::new();
+        let mut hashes = Vec::new();
+        for period in WeaponPeriod::ALL {
+            let mut cfg = exact_loop();
+            cfg.rules.weapon_period = period;
+            let mut env = Env::new(s.clone(), cfg, 1);
+            hashes.push(env.world().state_hash());
+            env.submit(Team::One, &[Action::new(uid(0), Command::Attack { target: uid(1) })]);
+            let got = hits(&mut env, uid(1), 200);
+            assert!(got.len() >= 4, "{kind} ({period}): {} hits", got.len());
+            // Without the random delay, every gap is the cycle to within the loop rounding.
+            let gaps: Vec<u32> = got.windows(2).map(|p| p[1].0 - p[0].0).collect();
+            let want = w.cooldown + if period == WeaponPeriod::Shot { windup as f32 } else { 0.0 };
+            assert!(gaps.iter().all(|&g| (g as f32 - want).abs() <= 1.0), "{kind} ({period}): gaps {gaps:?}, want {want}");
+            cycles.push(gaps.iter().sum::<u32>() as f32 / gaps.len() as f32);
+        }
+        assert!(cycles[1] - cycles[0] >= windup as f32 - 1.0, "{kind}: cycles {cycles:?}");
+        // The default reading hashes as every world did before the switch; the other does not.
+        let plain = Env::new(s.clone(), exact_loop(), 1).world().state_hash();
+        assert_eq!(hashes[0], plain, "{kind}");
+        assert_ne!(hashes[1], plain, "{kind}");
+    }
 }
 
 #[test]

@@ -6,6 +6,7 @@
 use super::episode::{EnvConfig, RewardMode, check_fov_actions};
 use crate::scenario::{OpponentKind, Scenario, ScenarioError};
 use crate::units::DataSet;
+use crate::world::WeaponPeriod;
 use serde::{Deserialize, Serialize};
 use std::num::NonZeroU32;
 use std::sync::Arc;
@@ -38,6 +39,9 @@ pub struct EnvOptions {
     pub fov_actions: i64,
     /// The unit data to play on; `None`: the scenario's own.
     pub data: Option<DataSet>,
+    /// Where a weapon's period is counted from: `attack` (the engine's reading) or `shot`
+    /// (an experiment; see [`WeaponPeriod`]).
+    pub weapon_period: WeaponPeriod,
 }
 
 impl Default for EnvOptions {
@@ -56,6 +60,7 @@ impl Default for EnvOptions {
             action_mask: true,
             fov_actions: 0,
             data: None,
+            weapon_period: WeaponPeriod::Attack,
         }
     }
 }
@@ -72,7 +77,7 @@ pub struct BadOption {
 impl EnvOptions {
     /// The options' names, in the order of the Python constructors' keyword arguments (a test
     /// holds both constructors' signatures to it).
-    pub const NAMES: [&'static str; 13] = [
+    pub const NAMES: [&'static str; 14] = [
         "step_mul",
         "reward",
         "opponent",
@@ -86,6 +91,7 @@ impl EnvOptions {
         "action_mask",
         "fov_actions",
         "data",
+        "weapon_period",
     ];
 
     /// The engine's configuration, every option checked.
@@ -99,6 +105,7 @@ impl EnvOptions {
         cfg.rules.full_vision = self.full_vision;
         cfg.rules.cooldown_jitter = self.cooldown_jitter;
         cfg.rules.abilities = self.abilities;
+        cfg.rules.weapon_period = self.weapon_period;
         cfg.ability_actions = self.ability_actions;
         cfg.time_limit_loops = match self.time_limit_loops {
             None => None,
@@ -160,6 +167,13 @@ impl EnvOptions {
             option: "data",
             value: name.into(),
             supported: "one of liberty, void, ladder, legacy (or None: the scenario's own)".into(),
+        })
+    }
+    pub fn weapon_period_named(name: &str) -> Result<WeaponPeriod, BadOption> {
+        name.parse::<WeaponPeriod>().map_err(|_| BadOption {
+            option: "weapon_period",
+            value: name.into(),
+            supported: "one of attack (the engine's reading), shot (an experiment)".into(),
         })
     }
 }

@@ -1,4 +1,4 @@
-//! The environment's SMACv2 and ability options in a config table.
+//! The environment's SMACv2, ability and weapon-period options in a config table.
 
 /// Puts the environment's SMACv2 and ability options, off unless set, into `table` where it
 /// lacks them: keys every config has, which the built-in files and saved configs leave out at
@@ -9,4 +9,5 @@ pub(super) fn add_default_keys(table: &mut toml::Table) {
     table.entry("conic_fov").or_insert(toml::Value::Boolean(false));
     table.entry("num_fov_actions").or_insert(toml::Value::Integer(12));
     table.entry("ability_actions").or_insert(toml::Value::Boolean(false));
+    table.entry("weapon_period").or_insert(toml::Value::String(avacraft_engine::WeaponPeriod::Attack.name().to_owned()));
 }

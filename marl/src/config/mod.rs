@@ -14,7 +14,7 @@ mod obs;
 mod ppo;
 
 pub use crate::opponent::Opponent;
-use avacraft_engine::{DataSet, EnvConfig, EnvOptions, RewardMode, Scenario};
+use avacraft_engine::{DataSet, EnvConfig, EnvOptions, RewardMode, Scenario, WeaponPeriod};
 pub use league::ScriptDraw;
 pub use obs::{Backbone, ObsKind, SwinSizes};
 use serde::{Deserialize, Serialize};
@@ -104,6 +104,10 @@ pub struct Config {
     /// the only game there was before.
     #[serde(default = "legacy_data")]
     pub data: String,
+    /// Where weapons' periods are counted from: `attack` (the engine's reading) or `shot` (an
+    /// experiment on the one mechanic the game's data leaves open: docs/smac.md).
+    #[serde(default, skip_serializing_if = "WeaponPeriod::is_attack")]
+    pub weapon_period: WeaponPeriod,
     /// PvP: team 2's agent while team 1 learns (see the config files); empty: none.
     #[serde(default)]
     pub opponent: Opponent,
@@ -469,6 +473,7 @@ impl Config {
             action_mask: self.action_mask,
             fov_actions: if self.conic_fov { self.num_fov_actions } else { 0 },
             ability_actions: self.ability_actions,
+            weapon_period: self.weapon_period,
             ..EnvOptions::default()
         }
     }
@@ -675,6 +680,16 @@ mod tests {
         assert_eq!(c.env_config()?.fov_actions, 12);
         let text = toml::to_string(&c).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
         assert_eq!(Config::from_toml(&text, &[])?.env_config()?.fov_actions, 12);
+        // The weapon period's reading: the engine's by default and left out of a saved
+        // config; the other one reaches the game and survives a save.
+        let c = Config::for_algo("qmix", &[])?;
+        assert_eq!(c.env_config()?.rules.weapon_period, WeaponPeriod::Attack);
+        let text = toml::to_string(&c).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
+        assert!(!text.contains("weapon_period"), "{text}");
+        let c = Config::for_algo("qmix", &["weapon_period=\"shot\"".into()])?;
+        assert_eq!(c.env_config()?.rules.weapon_period, WeaponPeriod::Shot);
+        let text = toml::to_string(&c).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
+        assert_eq!(Config::from_toml(&text, &[])?.env_config()?.rules.weapon_period, WeaponPeriod::Shot);
         Ok(())
     }
 
@@ -691,6 +706,8 @@ mod tests {
             .map(|e| e.to_string())
             .unwrap_or_default();
         assert!(e.contains("num_fov_actions = 7") && e.contains("even") && e.contains("nearest valid value: 6"), "{e}");
+        let e = Config::for_algo("qmix", &["weapon_period=\"later\"".into()]).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("weapon_period") && e.contains("later"), "{e}");
         let e = Config::for_algo("qmix", &["prob_obs_enemy=1.5".into()]).err().map(|e| e.to_string()).unwrap_or_default();
         assert!(e.contains("prob_obs_enemy = 1.5") && e.contains("[0, 1]"), "{e}");
         let e = Config::for_algo("qmix", &["gamma=2.0".into()]).err().map(|e| e.to_string()).unwrap_or_default();

@@ -3,7 +3,7 @@
 //! so a recording replays with no file and no flag besides itself.
 
 use crate::config::{Clock, SimConfig};
-use avacraft_engine::{EnvConfig, OpponentKind, RewardMode, Rules, Scenario, ScenarioError};
+use avacraft_engine::{EnvConfig, OpponentKind, RewardMode, Rules, Scenario, ScenarioError, WeaponPeriod};
 use avacraft_msgs::{Header, SessionInfo};
 use std::num::NonZeroU32;
 
@@ -49,7 +49,10 @@ pub fn session_info(cfg: &SimConfig, episode: u64, header: Header) -> SessionInf
     // carried here (a replay without it would silently use the default).
     let EnvConfig { step_mul, rules, reward, opponent, time_limit_loops, ability_actions, prob_obs_enemy, action_mask, fov_actions } =
         &cfg.env;
-    let Rules { full_vision, cooldown_jitter, auto_acquire, abilities } = *rules;
+    let Rules { full_vision, cooldown_jitter, auto_acquire, abilities, weapon_period } = *rules;
+    // Not on the wire: a launch is refused any reading but the engine's (launch's validate),
+    // so a replay's default is the session's.
+    debug_assert_eq!(weapon_period, WeaponPeriod::Attack, "launch validation lets only `attack` through");
     let (clock, deadline_ms) = match cfg.clock {
         Clock::Lockstep { deadline } => (SessionInfo::CLOCK_LOCKSTEP, u32::try_from(deadline.as_millis()).unwrap_or(u32::MAX)),
         Clock::RealTime => (SessionInfo::CLOCK_REALTIME, 0),
@@ -108,6 +111,7 @@ pub fn env_config(s: &SessionInfo) -> Result<EnvConfig, SessionError> {
             cooldown_jitter: s.cooldown_jitter,
             auto_acquire: s.auto_acquire,
             abilities: s.abilities,
+            weapon_period: WeaponPeriod::Attack,
         },
         reward,
         opponent: opponent_of(s.opponent)?,
@@ -175,7 +179,7 @@ mod tests {
     fn configurations_survive_the_wire() {
         let odd = EnvConfig {
             step_mul: NonZeroU32::new(3).expect("non-zero"),
-            rules: Rules { full_vision: true, cooldown_jitter: false, auto_acquire: [false, true], abilities: false },
+            rules: Rules { full_vision: true, cooldown_jitter: false, auto_acquire: [false, true], abilities: false, ..Rules::default() },
             reward: RewardMode::Dense,
             opponent: Some(OpponentKind::Defensive),
             time_limit_loops: NonZeroU32::new(900),
