@@ -195,7 +195,12 @@ fn find_run(runs: &Path, baselines: &Path, map: &str, run: &str, seed: u64) -> R
         args: crate::episode::EpisodeArgs,
     }
     let agent = format!("marl:{}", shipped.display());
-    let argv = ["episode", "--scenario", map].into_iter().chain(HELDOUT).chain([agent.as_str()]);
+    // The game the checkpoint learned: its unit data and its reading of weapon periods.
+    let data = avacraft_marl::Policy::data_in(&shipped).with_context(|| format!("{}: the unit data it learned on", shipped.display()))?;
+    let period = avacraft_marl::Policy::weapon_period_in(&shipped).with_context(|| format!("{}: its weapon periods", shipped.display()))?;
+    let (data, period) = (data.to_string(), period.to_string());
+    let game = ["--data", data.as_str(), "--weapon-period", period.as_str()];
+    let argv = ["episode", "--scenario", map].into_iter().chain(game).chain(HELDOUT).chain([agent.as_str()]);
     let e = <Episode as clap::Parser>::try_parse_from(argv)?;
     let mut json = Vec::new();
     crate::episode::run(&e.args, &mut json).with_context(|| format!("playing {}'s held-out games", shipped.display()))?;

@@ -470,8 +470,16 @@ opponent = "focus-fire"
         // observation, and QMIX with pymarl2's settings for the map; on 2s_vs_1sc QMIX with
         // the Void data set's Spine Crawler and with pymarl2's default settings; MAPPO with the
         // MAPPO repository's network on 2m_vs_1z, 2s_vs_1sc (2M and the MAPPO paper's 10M),
-        // 3s_vs_5z (seeds 1-3) and (feed-forward) on 6h_vs_8z.
-        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 12);
+        // 3s_vs_5z (seeds 1-3) and (feed-forward) on 6h_vs_8z; and the weapon period counted
+        // from the shot, QMIX on six maps and MAPPO on 2s_vs_1sc.
+        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 12 + 7);
+        let shot: Vec<&TrainJob> = smac.jobs.iter().filter(|j| j.run.ends_with("-shot")).collect();
+        assert_eq!(shot.len(), 7);
+        assert!(shot.iter().all(|j| j.overrides.contains(&"weapon_period=\"shot\"".to_owned())));
+        for j in &shot {
+            let cfg = avacraft_marl::Config::for_algo(&j.algo, &j.overrides).unwrap_or_else(|e| panic!("{}: {e}", j.id));
+            assert_eq!(cfg.env_config().map(|c| c.rules.weapon_period).ok(), Some(avacraft_engine::WeaponPeriod::Shot), "{}", j.id);
+        }
         for (id, rnn, steps) in [
             ("2m_vs_1z/mappo-ln-s1", true, 2_000_000),
             ("2s_vs_1sc/mappo-ln-s1", true, 2_000_000),
