@@ -195,12 +195,8 @@ fn find_run(runs: &Path, baselines: &Path, map: &str, run: &str, seed: u64) -> R
         args: crate::episode::EpisodeArgs,
     }
     let agent = format!("marl:{}", shipped.display());
-    // The game the checkpoint learned: its unit data and its reading of weapon periods.
-    let data = avacraft_marl::Policy::data_in(&shipped).with_context(|| format!("{}: the unit data it learned on", shipped.display()))?;
-    let period = avacraft_marl::Policy::weapon_period_in(&shipped).with_context(|| format!("{}: its weapon periods", shipped.display()))?;
-    let (data, period) = (data.to_string(), period.to_string());
-    let game = ["--data", data.as_str(), "--weapon-period", period.as_str()];
-    let argv = ["episode", "--scenario", map].into_iter().chain(game).chain(HELDOUT).chain([agent.as_str()]);
+    let game = learned_game(&shipped)?;
+    let argv = ["episode", "--scenario", map].into_iter().chain(game.iter().map(String::as_str)).chain(HELDOUT).chain([agent.as_str()]);
     let e = <Episode as clap::Parser>::try_parse_from(argv)?;
     let mut json = Vec::new();
     crate::episode::run(&e.args, &mut json).with_context(|| format!("playing {}'s held-out games", shipped.display()))?;
@@ -215,6 +211,15 @@ fn find_run(runs: &Path, baselines: &Path, map: &str, run: &str, seed: u64) -> R
         resumable: false,
         rows,
     }))
+}
+
+/// `avacraft episode`'s options for the game the checkpoint in `dir` learned: its unit data and
+/// its reading of weapon periods (not the map's defaults: a run on the Void data or with the
+/// period from the shot is played again on that game).
+fn learned_game(dir: &Path) -> Result<[String; 4]> {
+    let data = avacraft_marl::Policy::data_in(dir).with_context(|| format!("{}: the unit data it learned on", dir.display()))?;
+    let period = avacraft_marl::Policy::weapon_period_in(dir).with_context(|| format!("{}: its weapon periods", dir.display()))?;
+    Ok(["--data".into(), data.to_string(), "--weapon-period".into(), period.to_string()])
 }
 
 fn pct(x: f64) -> String {
@@ -437,4 +442,21 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
     }
     write!(out, "{table}")?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Shipped runs on another game than their map's default are played again on theirs.
+    #[test]
+    fn held_out_games_are_played_on_the_game_the_checkpoint_learned() -> Result<()> {
+        let baselines = Path::new(env!("CARGO_MANIFEST_DIR")).join("../baselines/2s_vs_1sc");
+        assert_eq!(learned_game(&baselines.join("qmix"))?, ["--data", "liberty", "--weapon-period", "attack"]);
+        assert_eq!(learned_game(&baselines.join("qmix-void"))?, ["--data", "void", "--weapon-period", "attack"]);
+        assert_eq!(learned_game(&baselines.join("qmix-shot"))?, ["--data", "liberty", "--weapon-period", "shot"]);
+        let e = learned_game(&baselines.join("no-such-run")).expect_err("no checkpoint");
+        assert!(format!("{e:#}").contains("no-such-run"), "{e:#}");
+        Ok(())
+    }
 }

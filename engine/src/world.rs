@@ -243,7 +243,7 @@ impl Default for Rules {
 /// period; the engine's reading is the start of the attack (Liquipedia's "time between
 /// damage-dealing actions"; SMAC's largest observed cooldowns lean the same way). `Shot`
 /// counts it from the damage point instead, so every cycle is longer by the wind-up: an
-/// experiment, kept off the deployment's wire (the simulator node refuses it).
+/// experiment, kept off the deployment's wire (a launch file asking for it is refused).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum WeaponPeriod {
