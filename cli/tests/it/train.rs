@@ -276,6 +276,16 @@ fn smac_report_sets_runs_beside_published_results() {
     let table = String::from_utf8_lossy(&out.stdout);
     assert!(table.contains("| 3m | easy | 90 @ 0.1M | not run | – | – | 100 ᵘ | -5 (mappo-ln) |"), "{table}");
     assert!(table.contains("3m mappo-ln: 95 @ 0.1M"), "{table}");
+    // A run on another game (the weapon period from the shot) is listed, never compared.
+    let shot = dir.join("runs/3m/qmix-shot-s1");
+    std::fs::create_dir_all(&shot).expect("shot dir");
+    let perfect = std::fs::read_to_string(other.join("log.csv")).expect("variant log").replace(",0.95,", ",1,");
+    std::fs::write(shot.join("log.csv"), perfect).expect("shot log");
+    std::fs::write(shot.join("done.json"), "{}").expect("shot done");
+    let table = String::from_utf8_lossy(&args(&published).stdout).into_owned();
+    assert!(table.contains("3m qmix-shot (period from the shot): 100 @ 0.1M"), "{table}");
+    assert!(table.contains("| 3m | easy | 90 @ 0.1M | not run | – | – | 100 ᵘ | -5 (mappo-ln) |"), "{table}");
+    std::fs::remove_dir_all(&shot).expect("shot removed");
     // On a tie the compared learner's run is the one compared.
     let tied = std::fs::read_to_string(other.join("log.csv")).expect("variant log").replace(",0.95,", ",0.9,");
     std::fs::write(other.join("log.csv"), tied).expect("variant log");
