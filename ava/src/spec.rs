@@ -25,7 +25,6 @@ fn local_n_ctx() -> u32 {
 }
 
 /// Why a local model cannot run in a build without the offline back end.
-#[cfg(not(feature = "local"))]
 const NO_LOCAL: &str =
     "a local model (`kind: local`) needs AVACraft built with the `local` feature: cargo build --release -p avacraft-cli --features local";
 
@@ -91,6 +90,24 @@ impl ModelSpec {
             ModelSpec::Synthetic => "synthetic".into(),
             ModelSpec::Ceiling { script } => format!("ceiling ({})", script.name()),
         }
+    }
+
+    /// Whether this is a local (llama.cpp) model, in a build with or without the back end.
+    pub fn is_local(&self) -> bool {
+        #[cfg(feature = "local")]
+        return matches!(self, ModelSpec::Local { .. });
+        #[cfg(not(feature = "local"))]
+        return matches!(self, ModelSpec::Local(_));
+    }
+
+    /// Refuses a local model when the build has no offline back end (`backend`: whether it
+    /// has one), naming the feature to build with. Every build runs it, with its own answer,
+    /// so the refusal is tested in the workspace's test build too (which has the back end).
+    fn needs_backend(&self, backend: bool) -> Result<(), SpecError> {
+        if self.is_local() && !backend {
+            return Err(SpecError::Model(NO_LOCAL.into()));
+        }
+        Ok(())
     }
 
     /// Whether answers come from a model (an endpoint, a local model or a recording of one),
@@ -186,10 +203,7 @@ impl AvaSpec {
     /// Checks what can be checked without starting anything.
     pub fn validate(&self) -> Result<(), SpecError> {
         self.config.validate()?;
-        #[cfg(not(feature = "local"))]
-        if let ModelSpec::Local(_) = &self.model {
-            return Err(SpecError::Model(NO_LOCAL.into()));
-        }
+        self.model.needs_backend(cfg!(feature = "local"))?;
         if let ModelSpec::Openai { url, model, timeout_s, .. } = &self.model {
             if !(url.starts_with("http://") || url.starts_with("https://")) {
                 return Err(SpecError::Model(format!("url `{url}` must start with http:// or https://")));
@@ -298,10 +312,19 @@ mod tests {
     use super::*;
 
     /// A local model named to a build without the offline back end is read, and refused
-    /// with what is missing; with it, the same settings are a local model.
+    /// with what is missing; with it, the same settings are a local model. Both halves run in
+    /// every build: the refusal is asked of the check `validate` makes, with the back end's
+    /// presence as an argument.
     #[test]
     fn a_local_model_is_read_in_every_build_and_refused_by_name_without_the_feature() {
         let spec: AvaSpec = serde_json::from_str(r#"{"model": {"kind": "local", "path": "smollm2"}}"#).expect("read in every build");
+        assert!(spec.model.is_local());
+        let e = spec.model.needs_backend(false).expect_err("no offline back end").to_string();
+        assert!(e.contains("`local` feature") && e.contains("--features local"), "{e}");
+        spec.model.needs_backend(true).expect("a build with the back end runs it");
+        let other: AvaSpec = serde_json::from_str(r#"{"model": {"kind": "synthetic"}}"#).expect("synthetic");
+        assert!(!other.model.is_local());
+        other.model.needs_backend(false).expect("only a local model needs the back end");
         if cfg!(feature = "local") {
             assert!(spec.model.label().starts_with("local model smollm2"), "{}", spec.model.label());
         } else {

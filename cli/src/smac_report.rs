@@ -42,10 +42,12 @@ pub struct SmacReportArgs {
 const RUNS: [&str; 2] = ["qmix", "mappo"];
 /// Runs of the plan with other settings than the compared learners' (seed 1, on the maps
 /// where they ran): listed under the table and drawn beside them, not compared.
-const VARIANTS: [&str; 7] = ["mappo-ff", "mappo-ff-obs", "mappo-ln", "mappo-ln-10m", "mappo-ff-ln", "qmix-pymarl2", "qmix-void"];
-/// Runs of the plan on another game than the compared learners' (weapon periods counted from
-/// the shot): listed under the table, never compared with the real game's numbers.
-const OTHER_GAMES: [&str; 2] = ["qmix-shot", "mappo-shot"];
+const VARIANTS: [&str; 6] = ["mappo-ff", "mappo-ff-obs", "mappo-ln", "mappo-ln-10m", "mappo-ff-ln", "qmix-pymarl2"];
+/// Runs of the plan on another game than the compared learners' (another data set than the
+/// map's, or weapon periods counted from the shot), with what differs: listed under the
+/// table, never compared with the real game's numbers nor drawn beside them.
+const OTHER_GAMES: [(&str, &str); 3] =
+    [("qmix-void", "the Void data set"), ("qmix-shot", "period from the shot"), ("mappo-shot", "period from the shot")];
 /// Test rounds whose median is a run's final win rate (the MAPPO paper's rule).
 const LAST_ROUNDS: usize = 10;
 const BEGIN: &str = "<!-- smac-report:begin -->";
@@ -374,9 +376,9 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
                 others.push((v, o));
             }
         }
-        for v in OTHER_GAMES {
+        for (v, game) in OTHER_GAMES {
             if let Some(o) = find_run(&a.runs, &a.baselines, map, v, 1)? {
-                variants.push(format!("{map} {v} (period from the shot): {}", show_ours(Some(&o))));
+                variants.push(format!("{map} {v} ({game}): {}", show_ours(Some(&o))));
             }
         }
         // Our best finished run: the compared learners', or a finished run with other

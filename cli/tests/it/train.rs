@@ -276,16 +276,19 @@ fn smac_report_sets_runs_beside_published_results() {
     let table = String::from_utf8_lossy(&out.stdout);
     assert!(table.contains("| 3m | easy | 90 @ 0.1M | not run | – | – | 100 ᵘ | -5 (mappo-ln) |"), "{table}");
     assert!(table.contains("3m mappo-ln: 95 @ 0.1M"), "{table}");
-    // A run on another game (the weapon period from the shot) is listed, never compared.
-    let shot = dir.join("runs/3m/qmix-shot-s1");
-    std::fs::create_dir_all(&shot).expect("shot dir");
+    // Runs on another game (the weapon period from the shot, another data set) are listed
+    // with what differs, never compared.
     let perfect = std::fs::read_to_string(other.join("log.csv")).expect("variant log").replace(",0.95,", ",1,");
-    std::fs::write(shot.join("log.csv"), perfect).expect("shot log");
-    std::fs::write(shot.join("done.json"), "{}").expect("shot done");
-    let table = String::from_utf8_lossy(&args(&published).stdout).into_owned();
-    assert!(table.contains("3m qmix-shot (period from the shot): 100 @ 0.1M"), "{table}");
-    assert!(table.contains("| 3m | easy | 90 @ 0.1M | not run | – | – | 100 ᵘ | -5 (mappo-ln) |"), "{table}");
-    std::fs::remove_dir_all(&shot).expect("shot removed");
+    for (run, game) in [("qmix-shot", "period from the shot"), ("qmix-void", "the Void data set")] {
+        let elsewhere = dir.join("runs/3m").join(format!("{run}-s1"));
+        std::fs::create_dir_all(&elsewhere).expect("other game's dir");
+        std::fs::write(elsewhere.join("log.csv"), &perfect).expect("other game's log");
+        std::fs::write(elsewhere.join("done.json"), "{}").expect("other game's run done");
+        let table = String::from_utf8_lossy(&args(&published).stdout).into_owned();
+        assert!(table.contains(&format!("3m {run} ({game}): 100 @ 0.1M")), "{table}");
+        assert!(table.contains("| 3m | easy | 90 @ 0.1M | not run | – | – | 100 ᵘ | -5 (mappo-ln) |"), "{table}");
+        std::fs::remove_dir_all(&elsewhere).expect("other game's run removed");
+    }
     // On a tie the compared learner's run is the one compared.
     let tied = std::fs::read_to_string(other.join("log.csv")).expect("variant log").replace(",0.95,", ",0.9,");
     std::fs::write(other.join("log.csv"), tied).expect("variant log");
