@@ -465,14 +465,14 @@ opponent = "focus-fire"
         assert_eq!(cfg.self_play_scripts, ["focus-fire", "kite", "attack-move", "random"], "the stage's own scripts win");
         // SMAC's 23 maps: QMIX and MAPPO on each at SMAC's budgets (10M on the super-hard ones).
         let smac = load_train_plan(&dir.join("smac.toml")).unwrap_or_else(|e| panic!("{e}"));
-        // Seeds 2 and 3 of QMIX and MAPPO on five maps beside them, and on 6h_vs_8z the
+        // Seeds 2 and 3 of QMIX and MAPPO on five maps and 6h_vs_8z beside them, and on 6h_vs_8z the
         // feed-forward MAPPO, its critic reading the state alone and with each agent's
         // observation, and QMIX with pymarl2's settings for the map; on 2s_vs_1sc QMIX with
         // the Void data set's Spine Crawler and with pymarl2's default settings; MAPPO with the
         // MAPPO repository's network on 2m_vs_1z, 2s_vs_1sc (2M and the MAPPO paper's 10M),
         // 3s_vs_5z (seeds 1-3) and (feed-forward) on 6h_vs_8z; and the weapon period counted
         // from the shot, QMIX on six maps and MAPPO on 2s_vs_1sc.
-        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 12 + 7);
+        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 2 * 2 + 12 + 7);
         let shot: Vec<&TrainJob> = smac.jobs.iter().filter(|j| j.run.ends_with("-shot")).collect();
         assert_eq!(shot.len(), 7);
         assert!(shot.iter().all(|j| j.overrides.contains(&"weapon_period=\"shot\"".to_owned())));
@@ -506,10 +506,13 @@ opponent = "focus-fire"
             let cfg = avacraft_marl::Config::for_algo("mappo", &ff.overrides).unwrap_or_else(|e| panic!("{e}"));
             assert!(!cfg.use_rnn && cfg.ppo_epochs == 5 && ff.steps == 10_000_000 && cfg.critic_agent_obs == agent_obs, "{run}");
         }
-        for name in ["3m", "2s3z", "3s_vs_5z", "5m_vs_6m", "MMM"] {
+        for name in ["3m", "2s3z", "3s_vs_5z", "5m_vs_6m", "MMM", "6h_vs_8z"] {
             for seed in [2, 3] {
                 for run in ["qmix", "mappo"] {
-                    assert!(smac.jobs.iter().any(|j| j.id == format!("{name}/{run}-s{seed}")), "{name} {run} seed {seed}");
+                    let id = format!("{name}/{run}-s{seed}");
+                    let job = smac.jobs.iter().find(|j| j.id == id).unwrap_or_else(|| panic!("{id}"));
+                    let seed1 = smac.jobs.iter().find(|j| j.id == format!("{name}/{run}-s1")).unwrap_or_else(|| panic!("{name} {run}"));
+                    assert!(job.steps == seed1.steps && job.overrides == seed1.overrides, "{id}: seed 1's settings");
                 }
             }
         }
