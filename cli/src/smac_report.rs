@@ -426,7 +426,7 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
     }
     let med = median(gaps.clone());
     table.push_str(&format!(
-        "\nOurs: the median greedy test win rate (%) of the run's last {LAST_ROUNDS} test rounds (32 episodes each) / the held-out win rate (%) of its best-test checkpoint on seeds 9000-9099 where played, @ the steps trained; where a finished run with other settings (listed under the table) does better, the last column compares it and names it. \
+        "\nOurs: the median greedy test win rate (%) of the run's last {LAST_ROUNDS} test rounds (32 episodes each) / the held-out win rate (%) of its best-test checkpoint on seeds 9000-9099 where played, @ the steps trained; where a finished run with other settings (listed under the table) does better, the last column compares it and names it; runs on another game (another data set than the map's, or the period from the shot) are listed with what differs and never compared. \
          Published: ² seen in a secondary copy, ᵘ unverified (the paper's table could not be read), unmarked read in the authors' repository. \
          Median gap over the {} maps with a finished run and a published number: {}.\n",
         gaps.len(),
