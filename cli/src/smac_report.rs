@@ -41,8 +41,16 @@ pub struct SmacReportArgs {
 /// The learners compared, as the plan names their runs.
 const RUNS: [&str; 2] = ["qmix", "mappo"];
 /// Runs of the plan with other settings than the compared learners' (seed 1, on the maps
-/// where they ran): listed under the table and drawn beside them, not compared.
-const VARIANTS: [&str; 6] = ["mappo-ff", "mappo-ff-obs", "mappo-ln", "mappo-ln-10m", "mappo-ff-ln", "qmix-pymarl2"];
+/// where they ran), with what differs (eval/plans/smac.toml says why each ran): listed under
+/// the table and drawn beside them; a finished one that does better is compared, and named.
+const VARIANTS: [(&str, &str); 6] = [
+    ("mappo-ff", "feed-forward actor and critic, 5 PPO epochs (the MAPPO repository's script)"),
+    ("mappo-ff-obs", "as mappo-ff, the critic also reading each agent's observation"),
+    ("mappo-ln", "the MAPPO repository's network (layer norms, orthogonal initialisation)"),
+    ("mappo-ln-10m", "as mappo-ln, at 10M steps"),
+    ("mappo-ff-ln", "as mappo-ff, on the MAPPO repository's network"),
+    ("qmix-pymarl2", "pymarl2's QMIX settings (recurrent agent, batches of 128 episodes)"),
+];
 /// Runs of the plan on another game than the compared learners' (another data set than the
 /// map's, or weapon periods counted from the shot), with what differs: listed under the
 /// table, never compared with the real game's numbers nor drawn beside them.
@@ -272,16 +280,24 @@ fn left_line(left: &[(String, Left)]) -> String {
 fn seeds_line(a: &SmacReportArgs) -> Result<String> {
     let mut parts = Vec::new();
     for map in smac_names() {
-        for r in RUNS.iter().chain(&VARIANTS) {
+        for r in RUNS.iter().chain(VARIANTS.iter().map(|(v, _)| v)) {
             let seeds: Vec<Option<Ours>> = (1..=3).map(|k| find_run(&a.runs, &a.baselines, map, r, k)).collect::<Result<_>>()?;
             if seeds.iter().filter(|o| o.is_some()).count() < 2 {
                 continue;
             }
             let shown: Vec<String> = seeds.iter().map(|o| o.as_ref().map_or_else(|| "–".to_owned(), |o| show_ours(Some(o)))).collect();
-            parts.push(format!("{map} {r}: {}", shown.join("; ")));
+            parts.push(format!("| {map} | {r} | {} |\n", shown.join(" | ")));
         }
     }
-    Ok(if parts.is_empty() { String::new() } else { format!("Seeds 1, 2 and 3 (test / held-out @ steps): {}.\n", parts.join(" | ")) })
+    Ok(if parts.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "\n**Seeds.** Where more than one seed of a run trained (test / held-out @ steps, as in the table):\n\n\
+             | map | run | seed 1 | seed 2 | seed 3 |\n|---|---|---|---|---|\n{}",
+            parts.concat()
+        )
+    })
 }
 
 /// The must-hold shortfall the median gap may reach (points below the best published result).
@@ -370,15 +386,15 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
             }] += 1;
         }
         let mut others: Vec<(&str, Ours)> = Vec::new();
-        for v in VARIANTS {
+        for (v, what) in VARIANTS {
             if let Some(o) = find_run(&a.runs, &a.baselines, map, v, 1)? {
-                variants.push(format!("{map} {v}: {}", show_ours(Some(&o))));
+                variants.push(format!("| {map} | {v} | {what} | {} |\n", show_ours(Some(&o))));
                 others.push((v, o));
             }
         }
         for (v, game) in OTHER_GAMES {
             if let Some(o) = find_run(&a.runs, &a.baselines, map, v, 1)? {
-                variants.push(format!("{map} {v} ({game}): {}", show_ours(Some(&o))));
+                variants.push(format!("| {map} | {v} | another game: {game}; never compared | {} |\n", show_ours(Some(&o))));
             }
         }
         // Our best finished run: the compared learners', or a finished run with other
@@ -438,12 +454,17 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
     table.push_str(&left_line(&left));
     table.push_str(&seeds_line(a)?);
     if !variants.is_empty() {
-        table.push_str(&format!("Other settings, not compared (test / held-out @ steps): {}.\n", variants.join(" | ")));
+        table.push_str(&format!(
+            "\n**Other settings** (seed 1; test / held-out @ steps, as in the table):\n\n\
+             | map | run | what differs | result |\n|---|---|---|---|\n{}",
+            variants.concat()
+        ));
     }
-    let table = format!("{}\n{table}", glance(&tally, &easy, &gaps));
+    // A blank line last: the page's end marker must not read as a row of the last table.
+    let table = format!("{}\n{table}\n", glance(&tally, &easy, &gaps));
     std::fs::create_dir_all(&a.out).with_context(|| format!("{}", a.out.display()))?;
     std::fs::write(a.out.join("table.md"), &table).with_context(|| format!("{}/table.md", a.out.display()))?;
-    let names: Vec<&str> = RUNS.iter().chain(&VARIANTS).copied().collect();
+    let names: Vec<&str> = RUNS.iter().copied().chain(VARIANTS.iter().map(|(v, _)| *v)).collect();
     if !panels.is_empty() {
         grid(&a.out.join("curves.png"), "SMAC's maps: greedy test win rate against environment steps", &names, &panels, 5)?;
     }

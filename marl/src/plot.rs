@@ -72,6 +72,31 @@ pub fn steps_label(v: f64) -> String {
     }
 }
 
+/// The corner of a chart whose legend would hide the fewest of `points` (fractions of the
+/// chart's width and height, 0 at the lower left): the lower right unless curves lie there
+/// (a win rate that stays low, a falling loss), then the upper right, upper left, lower left.
+pub fn quiet_corner(points: impl IntoIterator<Item = (f64, f64)>) -> SeriesLabelPosition {
+    // About the box a legend of two to four entries covers on the project's panels.
+    const W: f64 = 0.4;
+    const H: f64 = 0.45;
+    type Inside = fn(f64, f64) -> bool;
+    let corners: [(SeriesLabelPosition, Inside); 4] = [
+        (SeriesLabelPosition::LowerRight, |x: f64, y: f64| x >= 1.0 - W && y <= H),
+        (SeriesLabelPosition::UpperRight, |x: f64, y: f64| x >= 1.0 - W && y >= 1.0 - H),
+        (SeriesLabelPosition::UpperLeft, |x: f64, y: f64| x <= W && y >= 1.0 - H),
+        (SeriesLabelPosition::LowerLeft, |x: f64, y: f64| x <= W && y <= H),
+    ];
+    let mut hidden = [0usize; 4];
+    for (x, y) in points {
+        for (k, (_, inside)) in corners.iter().enumerate() {
+            hidden[k] += usize::from(inside(x, y));
+        }
+    }
+    // The first corner with the fewest: a tie keeps the earlier (the lower right first).
+    let best = (0..corners.len()).fold(0, |b, k| if hidden[k] < hidden[b] { k } else { b });
+    corners[best].0.clone()
+}
+
 pub fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
     chart: &mut ChartContext<'a, DB, CT>,
     corner: SeriesLabelPosition,
@@ -126,6 +151,7 @@ pub fn curves(path: &Path, title: &str, points: &[CurvePoint], vs: &[String]) ->
             ("loss", range(|p| p.loss), vec![("last update's loss".into(), line(&|p| p.loss), RED)]),
         ];
         for (area, (label, y, series)) in panels.iter().zip(specs) {
+            let (y_lo, y_span) = (y.start, y.end - y.start);
             let mut chart = ChartBuilder::on(area)
                 .margin(12)
                 .x_label_area_size(36)
@@ -140,6 +166,9 @@ pub fn curves(path: &Path, title: &str, points: &[CurvePoint], vs: &[String]) ->
                 .label_style(("sans-serif", 14))
                 .draw()
                 .map_err(err)?;
+            let corner = quiet_corner(
+                series.iter().flat_map(|(_, pts, _)| pts.iter()).map(|(x, v)| (*x as f64 / x_max as f64, (v - y_lo) / y_span)),
+            );
             for (name, pts, color) in series {
                 chart
                     .draw_series(LineSeries::new(pts, color.stroke_width(2)))
@@ -147,7 +176,7 @@ pub fn curves(path: &Path, title: &str, points: &[CurvePoint], vs: &[String]) ->
                     .label(name)
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
             }
-            legend(&mut chart, SeriesLabelPosition::LowerRight).map_err(err)?;
+            legend(&mut chart, corner).map_err(err)?;
         }
         root.present().map_err(err)?;
     }
@@ -157,6 +186,17 @@ pub fn curves(path: &Path, title: &str, points: &[CurvePoint], vs: &[String]) ->
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_legend_goes_where_no_curve_runs() {
+        let along = |f: fn(f64) -> f64| (0..=50).map(move |i| (i as f64 / 50.0, f(i as f64 / 50.0)));
+        assert!(matches!(quiet_corner(along(|x| x)), SeriesLabelPosition::LowerRight), "a rising win rate");
+        assert!(matches!(quiet_corner(along(|_| 0.05)), SeriesLabelPosition::UpperRight), "a win rate that stays low");
+        assert!(matches!(quiet_corner(along(|x| 1.0 - x)), SeriesLabelPosition::UpperRight), "a falling loss");
+        let both = along(|_| 0.05).chain(along(|_| 0.95));
+        assert!(matches!(quiet_corner(both), SeriesLabelPosition::LowerRight), "every corner covered: the lower right");
+        assert!(matches!(quiet_corner(std::iter::empty()), SeriesLabelPosition::LowerRight));
+    }
 
     #[test]
     fn step_labels_are_short() {

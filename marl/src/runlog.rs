@@ -152,7 +152,9 @@ pub fn compare(path: &Path, title: &str, groups: &[Group]) -> Result<(), Error> 
                     .label(format!("{} ({} runs, mean)", g.name, g.runs.len()))
                     .legend(move |(px, py)| PathElement::new(vec![(px, py), (px + 18, py)], color.stroke_width(3)));
             }
-            crate::plot::legend(&mut chart, SeriesLabelPosition::LowerRight).map_err(crate::plot::err)?;
+            let drawn = groups.iter().flat_map(|g| g.runs.iter().flat_map(|(_, r)| r.iter()));
+            let corner = crate::plot::quiet_corner(drawn.map(|r| (x(r) / x_max, y(r) / 1.02)).filter(|(_, v)| v.is_finite()));
+            crate::plot::legend(&mut chart, corner).map_err(crate::plot::err)?;
         }
         root.present().map_err(err)?;
     }

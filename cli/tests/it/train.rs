@@ -275,7 +275,10 @@ fn smac_report_sets_runs_beside_published_results() {
     let out = args(&published);
     let table = String::from_utf8_lossy(&out.stdout);
     assert!(table.contains("| 3m | easy | 90 @ 0.1M | not run | – | – | 100 ᵘ | -5 (mappo-ln) |"), "{table}");
-    assert!(table.contains("3m mappo-ln: 95 @ 0.1M"), "{table}");
+    assert!(
+        table.contains("| 3m | mappo-ln | the MAPPO repository's network (layer norms, orthogonal initialisation) | 95 @ 0.1M |"),
+        "{table}"
+    );
     // Runs on another game (the weapon period from the shot, another data set) are listed
     // with what differs, never compared.
     let perfect = std::fs::read_to_string(other.join("log.csv")).expect("variant log").replace(",0.95,", ",1,");
@@ -285,7 +288,7 @@ fn smac_report_sets_runs_beside_published_results() {
         std::fs::write(elsewhere.join("log.csv"), &perfect).expect("other game's log");
         std::fs::write(elsewhere.join("done.json"), "{}").expect("other game's run done");
         let table = String::from_utf8_lossy(&args(&published).stdout).into_owned();
-        assert!(table.contains(&format!("3m {run} ({game}): 100 @ 0.1M")), "{table}");
+        assert!(table.contains(&format!("| 3m | {run} | another game: {game}; never compared | 100 @ 0.1M |")), "{table}");
         assert!(table.contains("| 3m | easy | 90 @ 0.1M | not run | – | – | 100 ᵘ | -5 (mappo-ln) |"), "{table}");
         std::fs::remove_dir_all(&elsewhere).expect("other game's run removed");
     }
@@ -322,7 +325,7 @@ fn smac_report_sets_runs_beside_published_results() {
     let table = String::from_utf8_lossy(&args(&published).stdout).into_owned();
     assert!(table.contains("| 3m | easy | 90 @ 0.1M | not run | – | – | 100 ᵘ | -10 |"), "{table}");
     assert!(!table.contains("Left to SMAC's budget"), "a finished run has nothing left: {table}");
-    assert!(table.contains("Other settings, not compared (test / held-out @ steps): 3m mappo-ff: 90 @ 0.1M (unfinished)."), "{table}");
+    assert!(table.contains("**Other settings** (seed 1; test / held-out @ steps, as in the table):\n\n| map | run | what differs | result |\n|---|---|---|---|\n| 3m | mappo-ff | feed-forward actor and critic, 5 PPO epochs (the MAPPO repository's script) | 90 @ 0.1M (unfinished) |\n"), "{table}");
     // A run whose training folder is gone is read from its shipped copy, its held-out games
     // played again (seed 2 of QMIX on 3m: a short run, shipped by hand).
     let trained = dir.join("trained");
@@ -339,15 +342,19 @@ fn smac_report_sets_runs_beside_published_results() {
     let out = args(&published);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let table = String::from_utf8_lossy(&out.stdout);
-    let line = table.lines().find(|l| l.starts_with("Seeds 1, 2 and 3")).unwrap_or_else(|| panic!("no seeds line: {table}"));
-    let seed2 = line.split("; ").nth(1).unwrap_or_else(|| panic!("{line}"));
-    assert!(seed2.contains(" / ") && seed2.contains("@ 0.0M") && !seed2.contains("unfinished"), "{line}");
+    assert!(table.contains("| map | run | seed 1 | seed 2 | seed 3 |\n|---|---|---|---|---|\n"), "no seeds table: {table}");
+    let line = table.lines().find(|l| l.starts_with("| 3m | qmix | ")).unwrap_or_else(|| panic!("no seeds row: {table}"));
+    let cells: Vec<&str> = line.split(" | ").collect();
+    assert_eq!(cells.len(), 5, "{line}");
+    assert!(cells[2].starts_with("90 @ 0.1M"), "seed 1: {line}");
+    assert!(cells[3].contains(" / ") && cells[3].contains("@ 0.0M") && !cells[3].contains("unfinished"), "seed 2: {line}");
+    assert_eq!(cells[4], "– |", "seed 3 never ran: {line}");
     // Its budget, from the shipped config: short of it, unfinished.
     let config = std::fs::read_to_string(shipped.join("config.json")).expect("config");
     std::fs::write(shipped.join("config.json"), config.replace("\"t_max\": 200", "\"t_max\": 2000000")).expect("config");
     let out = args(&published);
     let table = String::from_utf8_lossy(&out.stdout);
-    assert!(table.lines().any(|l| l.starts_with("Seeds 1, 2 and 3") && l.contains("@ 0.0M (unfinished)")), "{table}");
+    assert!(table.lines().any(|l| l.starts_with("| 3m | qmix | ") && l.contains("@ 0.0M (unfinished) | – |")), "{table}");
     // A map SMAC does not have.
     std::fs::write(&published, format!("{all}[maps.4m]\nclass = \"easy\"\n")).expect("published");
     let out = args(&published);
