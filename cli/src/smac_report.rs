@@ -286,7 +286,10 @@ fn seeds_line(a: &SmacReportArgs) -> Result<String> {
                 continue;
             }
             let shown: Vec<String> = seeds.iter().map(|o| o.as_ref().map_or_else(|| "–".to_owned(), |o| show_ours(Some(o)))).collect();
-            parts.push(format!("| {map} | {r} | {} |\n", shown.join(" | ")));
+            // The literature's summary over seeds: the median of each seed's final test rate.
+            let finals: Vec<f64> = seeds.iter().flatten().map(|o| o.final_rate).collect();
+            let partial = if seeds.iter().flatten().any(|o| o.running) { " (a seed unfinished)" } else { "" };
+            parts.push(format!("| {map} | {r} | {} | {}{partial} |\n", shown.join(" | "), pct(median(finals))));
         }
     }
     Ok(if parts.is_empty() {
@@ -294,7 +297,7 @@ fn seeds_line(a: &SmacReportArgs) -> Result<String> {
     } else {
         format!(
             "\n**Seeds.** Where more than one seed of a run trained (test / held-out @ steps, as in the table):\n\n\
-             | map | run | seed 1 | seed 2 | seed 3 |\n|---|---|---|---|---|\n{}",
+             | map | run | seed 1 | seed 2 | seed 3 | median over seeds (test) |\n|---|---|---|---|---|---|\n{}",
             parts.concat()
         )
     })

@@ -342,19 +342,30 @@ fn smac_report_sets_runs_beside_published_results() {
     let out = args(&published);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let table = String::from_utf8_lossy(&out.stdout);
-    assert!(table.contains("| map | run | seed 1 | seed 2 | seed 3 |\n|---|---|---|---|---|\n"), "no seeds table: {table}");
+    assert!(
+        table.contains("| map | run | seed 1 | seed 2 | seed 3 | median over seeds (test) |\n|---|---|---|---|---|---|\n"),
+        "no seeds table: {table}"
+    );
     let line = table.lines().find(|l| l.starts_with("| 3m | qmix | ")).unwrap_or_else(|| panic!("no seeds row: {table}"));
     let cells: Vec<&str> = line.split(" | ").collect();
-    assert_eq!(cells.len(), 5, "{line}");
+    assert_eq!(cells.len(), 6, "{line}");
     assert!(cells[2].starts_with("90 @ 0.1M"), "seed 1: {line}");
     assert!(cells[3].contains(" / ") && cells[3].contains("@ 0.0M") && !cells[3].contains("unfinished"), "seed 2: {line}");
-    assert_eq!(cells[4], "– |", "seed 3 never ran: {line}");
+    assert_eq!(cells[4], "–", "seed 3 never ran: {line}");
+    // The median of two seeds' final rates: their mean.
+    let seed2: f64 = cells[3].split(' ').next().and_then(|v| v.parse().ok()).unwrap_or_else(|| panic!("seed 2's rate: {line}"));
+    assert_eq!(cells[5], format!("{:.0} |", (90.0 + seed2) / 2.0), "{line}");
     // Its budget, from the shipped config: short of it, unfinished.
     let config = std::fs::read_to_string(shipped.join("config.json")).expect("config");
     std::fs::write(shipped.join("config.json"), config.replace("\"t_max\": 200", "\"t_max\": 2000000")).expect("config");
     let out = args(&published);
     let table = String::from_utf8_lossy(&out.stdout);
-    assert!(table.lines().any(|l| l.starts_with("| 3m | qmix | ") && l.contains("@ 0.0M (unfinished) | – |")), "{table}");
+    assert!(
+        table
+            .lines()
+            .any(|l| l.starts_with("| 3m | qmix | ") && l.contains("@ 0.0M (unfinished) | – | ") && l.ends_with(" (a seed unfinished) |")),
+        "{table}"
+    );
     // A map SMAC does not have.
     std::fs::write(&published, format!("{all}[maps.4m]\nclass = \"easy\"\n")).expect("published");
     let out = args(&published);
