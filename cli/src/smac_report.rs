@@ -252,26 +252,21 @@ fn show_ours(o: Option<&Ours>) -> String {
 
 /// The compared runs stopped short: the steps each has left and the hours they take at its
 /// own pace on the machine it trained on (where the run shares its cores, slower than alone).
-fn left_line(left: &[(String, Left)]) -> String {
+fn left_table(left: &[(String, Left)]) -> String {
     if left.is_empty() {
         return String::new();
     }
-    let parts: Vec<String> = left
+    let rows: String = left
         .iter()
         .map(|(run, l)| {
-            let scratch = if l.from_scratch { " from scratch" } else { "" };
-            format!("{run} {:.2}M{scratch} ({:.1} h)", l.steps as f64 / 1e6, l.hours)
+            let from = if l.from_scratch { "step 0 (only its shipped copy is here)" } else { "where it stopped" };
+            format!("| {run} | {:.2}M | {from} | {:.1} |\n", l.steps as f64 / 1e6, l.hours)
         })
         .collect();
     let total: f64 = left.iter().map(|(_, l)| l.hours).sum();
-    let why = if left.iter().any(|(_, l)| l.from_scratch) {
-        " (from scratch: the run's resume state is not on this machine, only its shipped copy, so it trains again from step 0)"
-    } else {
-        ""
-    };
     format!(
-        "Left to SMAC's budget (steps, and hours at the pace each run trained at, one run a core): {}; {total:.0} hours in all{why}.\n",
-        parts.join(", ")
+        "\n**Left to SMAC's budget** ({total:.0} hours of one core in all, at the pace each run trained at):\n\n\
+         | run | steps left | trains on from | hours |\n|---|---|---|---|\n{rows}"
     )
 }
 
@@ -454,7 +449,7 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
     let easy_held: Vec<String> =
         easy.iter().map(|(m, h)| if h.is_finite() { format!("{m} {}", pct(*h)) } else { format!("{m} –") }).collect();
     table.push_str(&format!("Easy maps, best held-out win rate (%): {}.\n", easy_held.join(", ")));
-    table.push_str(&left_line(&left));
+    table.push_str(&left_table(&left));
     table.push_str(&seeds_line(a)?);
     if !variants.is_empty() {
         table.push_str(&format!(
