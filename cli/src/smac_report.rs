@@ -272,7 +272,7 @@ fn left_table(left: &[(String, Left)]) -> String {
 
 /// Maps where more than one seed of a learner ran: each seed's result, so a reader sees how far
 /// one seed is from another.
-fn seeds_line(a: &SmacReportArgs) -> Result<String> {
+fn seeds_table(a: &SmacReportArgs) -> Result<String> {
     let mut parts = Vec::new();
     for map in smac_names() {
         for r in RUNS.iter().chain(VARIANTS.iter().map(|(v, _)| v)) {
@@ -450,7 +450,7 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
         easy.iter().map(|(m, h)| if h.is_finite() { format!("{m} {}", pct(*h)) } else { format!("{m} –") }).collect();
     table.push_str(&format!("Easy maps, best held-out win rate (%): {}.\n", easy_held.join(", ")));
     table.push_str(&left_table(&left));
-    table.push_str(&seeds_line(a)?);
+    table.push_str(&seeds_table(a)?);
     if !variants.is_empty() {
         table.push_str(&format!(
             "\n**Other settings** (seed 1; test / held-out @ steps, as in the table):\n\n\

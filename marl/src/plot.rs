@@ -58,7 +58,6 @@ impl Png {
     }
 }
 
-/// The series' legend in a corner of a chart, in one style for every plot of the project.
 /// An environment-step axis label, short enough not to run off a panel's edge: `750k`,
 /// `2.5M`, `10M`.
 pub fn steps_label(v: f64) -> String {
@@ -97,6 +96,7 @@ pub fn quiet_corner(points: impl IntoIterator<Item = (f64, f64)>) -> SeriesLabel
     corners[best].0.clone()
 }
 
+/// The series' legend in a corner of a chart, in one style for every plot of the project.
 pub fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
     chart: &mut ChartContext<'a, DB, CT>,
     corner: SeriesLabelPosition,
