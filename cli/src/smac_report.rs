@@ -334,6 +334,22 @@ fn glance(tally: &[[usize; 3]; RUNS.len()], easy: &[(&str, f64)], gaps: &[f64]) 
     )
 }
 
+/// The lines under the table: how to read it, the median gap, the easy maps' held-out rates.
+fn notes(gaps: &[f64], easy: &[(&str, f64)]) -> String {
+    let med = median(gaps.to_vec());
+    let easy_held: Vec<String> =
+        easy.iter().map(|(m, h)| if h.is_finite() { format!("{m} {}", pct(*h)) } else { format!("{m} –") }).collect();
+    format!(
+        "\nOurs: the median greedy test win rate (%) of the run's last {LAST_ROUNDS} test rounds (32 episodes each) / the held-out win rate (%) of its best-test checkpoint on seeds 9000-9099 where played, @ the steps trained; where a finished run with other settings (listed under the table) does better, the last column compares it and names it; runs on another game (another data set than the map's, or the period from the shot) are listed with what differs and never compared. \
+         Published: ² seen in a secondary copy, ᵘ unverified (the paper's table could not be read), unmarked read in the authors' repository. \
+         Median gap over the {} maps with a finished run and a published number: {}.\n\
+         Easy maps, best held-out win rate (%): {}.\n",
+        gaps.len(),
+        if med.is_finite() { format!("{med:+.1} points") } else { "none yet".into() },
+        easy_held.join(", ")
+    )
+}
+
 /// Writes `table` into the Markdown file `doc` between its `BEGIN` and `END` lines.
 fn write_into(doc: &Path, table: &str) -> Result<()> {
     let text = std::fs::read_to_string(doc).with_context(|| format!("{}", doc.display()))?;
@@ -438,17 +454,7 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
             panels.push(Panel { title: map.to_owned(), runs: run_rows, reference: best_pub_rate, budget });
         }
     }
-    let med = median(gaps.clone());
-    table.push_str(&format!(
-        "\nOurs: the median greedy test win rate (%) of the run's last {LAST_ROUNDS} test rounds (32 episodes each) / the held-out win rate (%) of its best-test checkpoint on seeds 9000-9099 where played, @ the steps trained; where a finished run with other settings (listed under the table) does better, the last column compares it and names it; runs on another game (another data set than the map's, or the period from the shot) are listed with what differs and never compared. \
-         Published: ² seen in a secondary copy, ᵘ unverified (the paper's table could not be read), unmarked read in the authors' repository. \
-         Median gap over the {} maps with a finished run and a published number: {}.\n",
-        gaps.len(),
-        if med.is_finite() { format!("{med:+.1} points") } else { "none yet".into() }
-    ));
-    let easy_held: Vec<String> =
-        easy.iter().map(|(m, h)| if h.is_finite() { format!("{m} {}", pct(*h)) } else { format!("{m} –") }).collect();
-    table.push_str(&format!("Easy maps, best held-out win rate (%): {}.\n", easy_held.join(", ")));
+    table.push_str(&notes(&gaps, &easy));
     table.push_str(&left_table(&left));
     table.push_str(&seeds_table(a)?);
     if !variants.is_empty() {
