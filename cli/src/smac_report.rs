@@ -188,9 +188,14 @@ fn ours(dir: &Path) -> Result<Option<Ours>> {
 /// Held-out games: seeds 9000-9099, SMAC's passive allies, the checkpoint playing greedily.
 const HELDOUT: [&str; 7] = ["--passive-agents", "--episodes", "100", "--seed", "9000", "--json", "--agent"];
 
+/// Held-out results already played this report, by shipped folder: the seeds table asks for
+/// seed 1's runs again, and 100 games a run is the report's longest work.
+type Played = BTreeMap<PathBuf, (f64, usize)>;
+
 /// A learner's run on `map` (`seed`): its training folder under `runs`, else its shipped copy
-/// under `baselines`, with the held-out games played again from the shipped checkpoint.
-fn find_run(runs: &Path, baselines: &Path, map: &str, run: &str, seed: u64) -> Result<Option<Ours>> {
+/// under `baselines`, with the held-out games played again from the shipped checkpoint (once
+/// a report: `played` keeps them).
+fn find_run(runs: &Path, baselines: &Path, played: &mut Played, map: &str, run: &str, seed: u64) -> Result<Option<Ours>> {
     let dir = runs.join(map).join(format!("{run}-s{seed}"));
     if dir.join("log.csv").is_file() {
         return ours(&dir);
@@ -202,28 +207,42 @@ fn find_run(runs: &Path, baselines: &Path, map: &str, run: &str, seed: u64) -> R
     let rows = read_log(&shipped)?;
     let Some(last) = rows.last() else { return Ok(None) };
     let t_max = budget_of(&shipped)?.with_context(|| format!("reading {}/config.json", shipped.display()))?;
+    let heldout = match played.get(&shipped) {
+        Some(h) => *h,
+        None => {
+            let h = play_heldout(&shipped, map)?;
+            played.insert(shipped.clone(), h);
+            h
+        }
+    };
+    let tail: Vec<f64> = rows.iter().rev().take(LAST_ROUNDS).map(|r| r.test_win_rate).collect();
+    Ok(Some(Ours {
+        steps: last.t_env,
+        final_rate: median(tail),
+        heldout: Some(heldout),
+        running: last.t_env < t_max,
+        budget: Some(t_max),
+        resumable: false,
+        rows,
+    }))
+}
+
+/// Plays the shipped checkpoint in `shipped` on `map`'s held-out seeds, as `avacraft episode`
+/// does: its win rate and the number of games.
+fn play_heldout(shipped: &Path, map: &str) -> Result<(f64, usize)> {
     #[derive(clap::Parser)]
     struct Episode {
         #[command(flatten)]
         args: crate::episode::EpisodeArgs,
     }
     let agent = format!("marl:{}", shipped.display());
-    let game = learned_game(&shipped)?;
+    let game = learned_game(shipped)?;
     let argv = ["episode", "--scenario", map].into_iter().chain(game.iter().map(String::as_str)).chain(HELDOUT).chain([agent.as_str()]);
     let e = <Episode as clap::Parser>::try_parse_from(argv)?;
     let mut json = Vec::new();
     crate::episode::run(&e.args, &mut json).with_context(|| format!("playing {}'s held-out games", shipped.display()))?;
     let r: crate::Report = serde_json::from_slice(&json).with_context(|| format!("{}: the held-out report", shipped.display()))?;
-    let tail: Vec<f64> = rows.iter().rev().take(LAST_ROUNDS).map(|r| r.test_win_rate).collect();
-    Ok(Some(Ours {
-        steps: last.t_env,
-        final_rate: median(tail),
-        heldout: Some((r.summary.win.mean, r.episodes.len())),
-        running: last.t_env < t_max,
-        budget: Some(t_max),
-        resumable: false,
-        rows,
-    }))
+    Ok((r.summary.win.mean, r.episodes.len()))
 }
 
 /// `avacraft episode`'s options for the game the checkpoint in `dir` learned: its unit data and
@@ -272,11 +291,11 @@ fn left_table(left: &[(String, Left)]) -> String {
 
 /// Maps where more than one seed of a learner ran: each seed's result, so a reader sees how far
 /// one seed is from another.
-fn seeds_table(a: &SmacReportArgs) -> Result<String> {
+fn seeds_table(a: &SmacReportArgs, played: &mut Played) -> Result<String> {
     let mut parts = Vec::new();
     for map in smac_names() {
         for r in RUNS.iter().chain(VARIANTS.iter().map(|(v, _)| v)) {
-            let seeds: Vec<Option<Ours>> = (1..=3).map(|k| find_run(&a.runs, &a.baselines, map, r, k)).collect::<Result<_>>()?;
+            let seeds: Vec<Option<Ours>> = (1..=3).map(|k| find_run(&a.runs, &a.baselines, played, map, r, k)).collect::<Result<_>>()?;
             if seeds.iter().filter(|o| o.is_some()).count() < 2 {
                 continue;
             }
@@ -383,10 +402,11 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
     let mut left = Vec::new();
     // Per learner: runs at their budget, stopped short, not run.
     let mut tally = [[0usize; 3]; RUNS.len()];
+    let mut played = Played::new();
     for map in smac_names() {
         let p = published.maps.get(map).with_context(|| format!("{}: no entry for `{map}`", a.published.display()))?;
         let runs: Vec<(&str, Option<Ours>)> =
-            RUNS.iter().map(|r| Ok((*r, find_run(&a.runs, &a.baselines, map, r, 1)?))).collect::<Result<_>>()?;
+            RUNS.iter().map(|r| Ok((*r, find_run(&a.runs, &a.baselines, &mut played, map, r, 1)?))).collect::<Result<_>>()?;
         for (r, o) in &runs {
             if let Some(l) = o.as_ref().and_then(Ours::left) {
                 left.push((format!("{map} {r}"), l));
@@ -401,13 +421,13 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
         }
         let mut others: Vec<(&str, Ours)> = Vec::new();
         for (v, what) in VARIANTS {
-            if let Some(o) = find_run(&a.runs, &a.baselines, map, v, 1)? {
+            if let Some(o) = find_run(&a.runs, &a.baselines, &mut played, map, v, 1)? {
                 variants.push(format!("| {map} | {v} | {what} | {} |\n", show_ours(Some(&o))));
                 others.push((v, o));
             }
         }
         for (v, game) in OTHER_GAMES {
-            if let Some(o) = find_run(&a.runs, &a.baselines, map, v, 1)? {
+            if let Some(o) = find_run(&a.runs, &a.baselines, &mut played, map, v, 1)? {
                 variants.push(format!("| {map} | {v} | another game: {game}; never compared | {} |\n", show_ours(Some(&o))));
             }
         }
@@ -456,7 +476,7 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
     }
     table.push_str(&notes(&gaps, &easy));
     table.push_str(&left_table(&left));
-    table.push_str(&seeds_table(a)?);
+    table.push_str(&seeds_table(a, &mut played)?);
     if !variants.is_empty() {
         table.push_str(&format!(
             "\n**Other settings** (seed 1; test / held-out @ steps, as in the table):\n\n\
