@@ -58,6 +58,18 @@ impl Png {
     }
 }
 
+/// A thick curve as separate two-point strokes: plotters joins a polyline's segments with
+/// mitres, and at a sharp turn (a win rate falling from 0.9 to 0 and back) the mitre runs far
+/// out of the chart, over the title and the next panel. Strokes side by side have no joins.
+pub fn strokes<X: Clone + 'static, Y: Clone + 'static>(
+    points: Vec<(X, Y)>,
+    style: ShapeStyle,
+) -> impl Iterator<Item = PathElement<(X, Y)>> {
+    let single = (points.len() == 1).then(|| PathElement::new(points.clone(), style));
+    let pairs: Vec<PathElement<(X, Y)>> = points.windows(2).map(|w| PathElement::new(w.to_vec(), style)).collect();
+    single.into_iter().chain(pairs)
+}
+
 /// An environment-step axis label, short enough not to run off a panel's edge: `750k`,
 /// `2.5M`, `10M`.
 pub fn steps_label(v: f64) -> String {
@@ -171,7 +183,7 @@ pub fn curves(path: &Path, title: &str, points: &[CurvePoint], vs: &[String]) ->
             );
             for (name, pts, color) in series {
                 chart
-                    .draw_series(LineSeries::new(pts, color.stroke_width(2)))
+                    .draw_series(strokes(pts, color.stroke_width(2)))
                     .map_err(err)?
                     .label(name)
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
@@ -196,6 +208,29 @@ mod tests {
         let both = along(|_| 0.05).chain(along(|_| 0.95));
         assert!(matches!(quiet_corner(both), SeriesLabelPosition::LowerRight), "every corner covered: the lower right");
         assert!(matches!(quiet_corner(std::iter::empty()), SeriesLabelPosition::LowerRight));
+    }
+
+    /// A win rate jumping between 0 and 0.95 draws no stroke out of its panel (over the title).
+    #[test]
+    fn sharp_turns_stay_inside_their_panel() {
+        let path = std::env::temp_dir().join(format!("avacraft-zigzag-{}.png", std::process::id()));
+        let points: Vec<CurvePoint> = (0..1000)
+            .map(|i| CurvePoint {
+                t_env: i * 10_000,
+                test_win_rate: if i % 7 == 3 { 0.0 } else { 0.95 },
+                train_win_rate: Some(0.5),
+                test_return: 10.0,
+                loss: 0.1,
+                vs: Vec::new(),
+            })
+            .collect();
+        curves(&path, "zigzag", &points, &[]).expect("drawn");
+        let img = image::open(&path).expect("a PNG image reads back").to_rgb8();
+        std::fs::remove_file(&path).ok();
+        assert!(img.pixels().any(|p| p.0 == [0, 0, 255]), "the curve is drawn");
+        // The title band, above the top panel: nothing of the curve.
+        let over_title = (0..img.width()).flat_map(|x| (0..28).map(move |y| (x, y))).filter(|&(x, y)| img.get_pixel(x, y).0 == [0, 0, 255]);
+        assert_eq!(over_title.count(), 0, "a stroke runs out over the title");
     }
 
     #[test]

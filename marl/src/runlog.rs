@@ -147,7 +147,7 @@ pub fn compare(path: &Path, title: &str, groups: &[Group]) -> Result<(), Error> 
                 }
                 let mean = mean_curve(&g.runs, x, y);
                 chart
-                    .draw_series(LineSeries::new(mean, color.stroke_width(3)))
+                    .draw_series(crate::plot::strokes(mean, color.stroke_width(3)))
                     .map_err(err)?
                     .label(format!("{} ({} runs, mean)", g.name, g.runs.len()))
                     .legend(move |(px, py)| PathElement::new(vec![(px, py), (px + 18, py)], color.stroke_width(3)));
@@ -247,7 +247,7 @@ pub fn grid(path: &Path, title: &str, names: &[&str], panels: &[Panel], cols: us
             for (name, rows) in &p.runs {
                 let c = COLORS[names.iter().position(|n| n == name).unwrap_or(names.len()) % COLORS.len()];
                 let pts: Vec<(f64, f64)> = rows.iter().map(|r| (r.t_env as f64, r.test_win_rate)).filter(|(_, v)| v.is_finite()).collect();
-                chart.draw_series(LineSeries::new(thin(pts, x_max), c.stroke_width(2))).map_err(err)?;
+                chart.draw_series(crate::plot::strokes(thin(pts, x_max), c.stroke_width(2))).map_err(err)?;
             }
         }
         root.present().map_err(err)?;
