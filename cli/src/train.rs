@@ -217,20 +217,26 @@ fn ship_plan(
     }
     let mut t = comfy_table::Table::new();
     t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header(["run", "shipped to", "kB without curves", "weights", "trained"]);
-    let (mut shipped, mut waiting) = (0, Vec::new());
+    let (mut shipped, mut redrawn, mut waiting) = (0, 0, Vec::new());
     for job in jobs {
         // Finished: through the plan (its summary written), or resumed by hand to the plan's
         // budget (`train --resume DIR --steps N`).
         let done = job.dir.join(DONE_FILE).is_file() || reached_budget(&job.dir, job.steps);
         let started = job.dir.join("config.json").is_file();
         let ship = done || (unfinished.contains(&job.id) && started);
+        let name = if job.seed == 1 { job.run.clone() } else { format!("{}-s{}", job.run, job.seed) };
+        let dest = to.join(&job.scenario).join(&name);
         if !ship {
-            waiting.push(job.id.clone());
+            // A copy shipped from another machine keeps its log: its figure is drawn again
+            // with this build's plotting, as a copy shipped from here is.
+            if !started && avacraft_marl::ship::redraw(&dest, job.seed).with_context(|| format!("redrawing {}", dest.display()))? {
+                redrawn += 1;
+            } else {
+                waiting.push(job.id.clone());
+            }
             continue;
         }
         let trained = if done { "to its budget".to_owned() } else { format!("unfinished: {} steps", last_t_env(&job.dir)?) };
-        let name = if job.seed == 1 { job.run.clone() } else { format!("{}-s{}", job.run, job.seed) };
-        let dest = to.join(&job.scenario).join(&name);
         let total = avacraft_marl::ship::Total { root: to, max_bytes: SHIP_TOTAL_BYTES };
         let r = avacraft_marl::ship::ship_under(&job.dir, &dest, SHIP_RUN_BYTES, Some(total))
             .with_context(|| format!("shipping {}", job.id))?;
@@ -252,7 +258,7 @@ fn ship_plan(
     let total = avacraft_marl::ship::dir_bytes(to)?;
     writeln!(
         out,
-        "{shipped} runs shipped into {} ({:.1} MB in all); not finished yet: {}",
+        "{shipped} runs shipped into {} ({:.1} MB in all); {redrawn} shipped before, their runs not here, had their figures drawn again; not finished yet: {}",
         to.display(),
         total as f64 / 1e6,
         if waiting.is_empty() { "none".to_owned() } else { waiting.join(", ") }

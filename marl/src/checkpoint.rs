@@ -149,6 +149,17 @@ impl Policy {
         Ok(meta_in(dir)?.config.weapon_period)
     }
 
+    /// The algorithm and the scenario (under today's names) of the checkpoint in `dir`, from
+    /// its `config.json` alone.
+    pub fn algo_scenario_in(dir: &Path) -> Result<(String, String), Error> {
+        let meta = meta_in(dir)?;
+        let scenario = match avacraft_engine::renamed(&meta.scenario) {
+            Some(now) if meta.names < NAMES => now.to_owned(),
+            _ => meta.scenario,
+        };
+        Ok((meta.config.algo, scenario))
+    }
+
     /// Whether the network in `dir` reads the ability slots (its `config.json` alone): a
     /// game it plays must have them (`EnvConfig::ability_actions`).
     pub fn ability_actions_in(dir: &Path) -> Result<bool, Error> {

@@ -267,7 +267,7 @@ impl<'a> Monitor<'a> {
         self.curve.push(CurvePoint { t_env, test_win_rate: r.win_rate, train_win_rate, test_return: r.mean_return, loss: last.loss, vs });
         (self.wins_since, self.eps_since, self.return_since) = (0, 0, 0.0);
         if let Some(dir) = &self.opts.out {
-            let title = format!("{} on {} (seed {})", run_label(dir, &cfg.algo, self.opts.seed), self.opts.scenario.name, self.opts.seed);
+            let title = figure_title(dir, &cfg.algo, &self.opts.scenario.name, Some(self.opts.seed));
             crate::plot::curves(&dir.join("curves.png"), &title, &self.curve, &self.fixed)?;
             save(dir)?;
             // Greedy win rates swing while the policy explores: keep the best one's weights too.
@@ -373,6 +373,14 @@ fn scalars(
         out.push((format!("test/return_vs_{}", o.trim()), *ret));
     }
     out
+}
+
+/// A run's figure's title; `seed` where known (a shipped copy's folder may not say it).
+pub(crate) fn figure_title(dir: &std::path::Path, algo: &str, scenario: &str, seed: Option<u64>) -> String {
+    match seed {
+        Some(seed) => format!("{} on {scenario} (seed {seed})", run_label(dir, algo, seed)),
+        None => format!("{algo} on {scenario}"),
+    }
 }
 
 /// A plan names a run's folder `<run>-s<seed>`: where the run's name is not its algorithm's

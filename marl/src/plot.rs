@@ -83,29 +83,47 @@ pub fn steps_label(v: f64) -> String {
     }
 }
 
-/// The corner of a chart whose legend would hide the fewest of `points` (fractions of the
-/// chart's width and height, 0 at the lower left): the lower right unless curves lie there
-/// (a win rate that stays low, a falling loss), then the upper right, upper left, lower left.
-pub fn quiet_corner(points: impl IntoIterator<Item = (f64, f64)>) -> SeriesLabelPosition {
-    // About the box a legend of two to four entries covers on the project's panels.
+/// Where on a chart a legend of `entries` lines would hide the least of `curves` (each a
+/// series of points as fractions of the chart's width and height, 0 at the lower left; the
+/// stretch between two points counts too, so a curve's jump from 0 to 1 is not missed): a
+/// corner, the lower right first, then the middle of a side.
+pub fn quiet_corner(curves: &[Vec<(f64, f64)>], entries: usize) -> SeriesLabelPosition {
+    use SeriesLabelPosition as P;
+    // About the box a legend covers on the project's panels: its lines are some 8% of a
+    // panel's height each.
     const W: f64 = 0.4;
-    const H: f64 = 0.45;
-    type Inside = fn(f64, f64) -> bool;
-    let corners: [(SeriesLabelPosition, Inside); 4] = [
-        (SeriesLabelPosition::LowerRight, |x: f64, y: f64| x >= 1.0 - W && y <= H),
-        (SeriesLabelPosition::UpperRight, |x: f64, y: f64| x >= 1.0 - W && y >= 1.0 - H),
-        (SeriesLabelPosition::UpperLeft, |x: f64, y: f64| x <= W && y >= 1.0 - H),
-        (SeriesLabelPosition::LowerLeft, |x: f64, y: f64| x <= W && y <= H),
+    let h = (0.1 + 0.08 * entries as f64).min(0.9);
+    let (lo, hi) = (0.5 - h / 2.0, 0.5 + h / 2.0);
+    let (left, right) = (0.5 - W / 2.0, 0.5 + W / 2.0);
+    let boxes: [(P, [f64; 4]); 8] = [
+        (P::LowerRight, [1.0 - W, 1.0, 0.0, h]),
+        (P::UpperRight, [1.0 - W, 1.0, 1.0 - h, 1.0]),
+        (P::UpperLeft, [0.0, W, 1.0 - h, 1.0]),
+        (P::LowerLeft, [0.0, W, 0.0, h]),
+        (P::MiddleRight, [1.0 - W, 1.0, lo, hi]),
+        (P::MiddleLeft, [0.0, W, lo, hi]),
+        (P::LowerMiddle, [left, right, 0.0, h]),
+        (P::UpperMiddle, [left, right, 1.0 - h, 1.0]),
     ];
-    let mut hidden = [0usize; 4];
-    for (x, y) in points {
-        for (k, (_, inside)) in corners.iter().enumerate() {
-            hidden[k] += usize::from(inside(x, y));
+    let mut hidden = [0usize; 8];
+    let mut count = |(x, y): (f64, f64)| {
+        for (k, (_, [x0, x1, y0, y1])) in boxes.iter().enumerate() {
+            hidden[k] += usize::from((*x0..=*x1).contains(&x) && (*y0..=*y1).contains(&y));
+        }
+    };
+    for c in curves {
+        c.first().copied().into_iter().for_each(&mut count);
+        for w in c.windows(2) {
+            let ((xa, ya), (xb, yb)) = (w[0], w[1]);
+            for i in 1..=8 {
+                let f = f64::from(i) / 8.0;
+                count((xa + (xb - xa) * f, ya + (yb - ya) * f));
+            }
         }
     }
-    // The first corner with the fewest: a tie keeps the earlier (the lower right first).
-    let best = (0..corners.len()).fold(0, |b, k| if hidden[k] < hidden[b] { k } else { b });
-    corners[best].0.clone()
+    // The first with the fewest: a tie keeps the earlier.
+    let best = (0..boxes.len()).fold(0, |b, k| if hidden[k] < hidden[b] { k } else { b });
+    boxes[best].0.clone()
 }
 
 /// The series' legend in a corner of a chart, in one style for every plot of the project.
@@ -178,9 +196,11 @@ pub fn curves(path: &Path, title: &str, points: &[CurvePoint], vs: &[String]) ->
                 .label_style(("sans-serif", 14))
                 .draw()
                 .map_err(err)?;
-            let corner = quiet_corner(
-                series.iter().flat_map(|(_, pts, _)| pts.iter()).map(|(x, v)| (*x as f64 / x_max as f64, (v - y_lo) / y_span)),
-            );
+            let drawn: Vec<Vec<(f64, f64)>> = series
+                .iter()
+                .map(|(_, pts, _)| pts.iter().map(|(x, v)| (*x as f64 / x_max as f64, (v - y_lo) / y_span)).collect())
+                .collect();
+            let corner = quiet_corner(&drawn, series.len());
             for (name, pts, color) in series {
                 chart
                     .draw_series(strokes(pts, color.stroke_width(2)))
@@ -201,13 +221,23 @@ mod tests {
 
     #[test]
     fn the_legend_goes_where_no_curve_runs() {
-        let along = |f: fn(f64) -> f64| (0..=50).map(move |i| (i as f64 / 50.0, f(i as f64 / 50.0)));
-        assert!(matches!(quiet_corner(along(|x| x)), SeriesLabelPosition::LowerRight), "a rising win rate");
-        assert!(matches!(quiet_corner(along(|_| 0.05)), SeriesLabelPosition::UpperRight), "a win rate that stays low");
-        assert!(matches!(quiet_corner(along(|x| 1.0 - x)), SeriesLabelPosition::UpperRight), "a falling loss");
-        let both = along(|_| 0.05).chain(along(|_| 0.95));
-        assert!(matches!(quiet_corner(both), SeriesLabelPosition::LowerRight), "every corner covered: the lower right");
-        assert!(matches!(quiet_corner(std::iter::empty()), SeriesLabelPosition::LowerRight));
+        use SeriesLabelPosition as P;
+        let along = |f: fn(f64) -> f64| (0..=50).map(|i| (i as f64 / 50.0, f(i as f64 / 50.0))).collect::<Vec<_>>();
+        let at = |curves: &[Vec<(f64, f64)>], entries| quiet_corner(curves, entries);
+        assert!(matches!(at(&[along(|x| x)], 2), P::LowerRight), "a rising win rate");
+        assert!(matches!(at(&[along(|_| 0.05)], 2), P::UpperRight), "a win rate that stays low");
+        assert!(matches!(at(&[along(|x| 1.0 - x)], 2), P::UpperRight), "a falling loss");
+        // Curves along the top and the bottom leave the middle of a side.
+        let both = [along(|_| 0.05), along(|_| 0.95)];
+        assert!(matches!(at(&both, 2), P::MiddleRight), "top and bottom taken: the middle right");
+        // A curve drawn from two points, its jump from 0 to 1 at the right edge.
+        let jump = [vec![(0.0, 0.95), (0.7, 0.95), (0.8, 0.05), (1.0, 0.05)], vec![(0.0, 0.02), (0.7, 0.02), (0.7, 0.98), (1.0, 0.98)]];
+        assert!(matches!(at(&jump, 2), P::MiddleLeft), "the jumps are seen between their points");
+        // A taller legend (six lines) does not fit between curves at a third and two thirds.
+        let thirds = [along(|_| 0.33), along(|_| 0.67)];
+        assert!(matches!(at(&thirds, 2), P::LowerRight));
+        assert!(!matches!(at(&thirds, 6), P::MiddleRight | P::MiddleLeft));
+        assert!(matches!(at(&[], 2), P::LowerRight));
     }
 
     /// A win rate jumping between 0 and 0.95 draws no stroke out of its panel (over the title).

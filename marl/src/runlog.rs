@@ -75,6 +75,37 @@ pub fn read_log(path: &Path) -> Result<Vec<LogRow>, Error> {
     parse_log(&file, &text)
 }
 
+/// A run's `log.csv` as the points of its figure ([`crate::plot::curves`]) and the names of
+/// its fixed test opponents (the `test_win_rate_vs_NAME` columns, in order): a shipped run's
+/// figure is drawn again from its log. A log without the `loss` column draws no loss.
+pub fn curve_points(path: &Path) -> Result<(Vec<crate::plot::CurvePoint>, Vec<String>), Error> {
+    let rows = read_log(path)?;
+    let file = if path.is_dir() { path.join("log.csv") } else { path.to_path_buf() };
+    let text = std::fs::read_to_string(&file).map_err(|source| Error::Io { path: file.clone(), source })?;
+    let mut lines = text.lines().filter(|l| !l.trim().is_empty());
+    let cols: Vec<&str> = lines.next().map(|h| h.split(',').map(str::trim).collect()).unwrap_or_default();
+    let loss_at = cols.iter().position(|c| *c == "loss");
+    let vs: Vec<(String, usize)> =
+        cols.iter().enumerate().filter_map(|(i, c)| c.strip_prefix("test_win_rate_vs_").map(|n| (n.to_owned(), i))).collect();
+    // `read_log` checked every line's field count; a field here that does not parse is a gap.
+    let num = |fields: &[&str], i: usize| fields.get(i).and_then(|f| f.parse::<f64>().ok()).unwrap_or(f64::NAN);
+    let points = lines
+        .zip(&rows)
+        .map(|(line, r)| {
+            let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+            crate::plot::CurvePoint {
+                t_env: r.t_env,
+                test_win_rate: r.test_win_rate,
+                train_win_rate: r.train_win_rate.is_finite().then_some(r.train_win_rate),
+                test_return: r.test_return,
+                loss: loss_at.map_or(f64::NAN, |i| num(&fields, i)),
+                vs: vs.iter().map(|(_, i)| num(&fields, *i)).collect(),
+            }
+        })
+        .collect();
+    Ok((points, vs.into_iter().map(|(n, _)| n).collect()))
+}
+
 /// A named group of runs (e.g. one code version over seeds).
 #[derive(Clone, Debug)]
 pub struct Group {
@@ -152,8 +183,13 @@ pub fn compare(path: &Path, title: &str, groups: &[Group]) -> Result<(), Error> 
                     .label(format!("{} ({} runs, mean)", g.name, g.runs.len()))
                     .legend(move |(px, py)| PathElement::new(vec![(px, py), (px + 18, py)], color.stroke_width(3)));
             }
-            let drawn = groups.iter().flat_map(|g| g.runs.iter().flat_map(|(_, r)| r.iter()));
-            let corner = crate::plot::quiet_corner(drawn.map(|r| (x(r) / x_max, y(r) / 1.02)).filter(|(_, v)| v.is_finite()));
+            let drawn: Vec<Vec<(f64, f64)>> = groups
+                .iter()
+                .flat_map(|g| {
+                    g.runs.iter().map(|(_, r)| r.iter().map(|r| (x(r) / x_max, y(r) / 1.02)).filter(|(_, v)| v.is_finite()).collect())
+                })
+                .collect();
+            let corner = crate::plot::quiet_corner(&drawn, groups.len());
             crate::plot::legend(&mut chart, corner).map_err(crate::plot::err)?;
         }
         root.present().map_err(err)?;
@@ -298,6 +334,32 @@ mod tests {
         let t = thin(stopped, 1e7);
         assert_eq!(t.len(), 21);
         assert_eq!((t[0], t[20]), ((4e4, 1.0), (1e6, 0.0)));
+    }
+
+    #[test]
+    fn a_log_reads_back_as_its_figure_s_points() {
+        let dir = std::env::temp_dir().join(format!("avacraft-curve-points-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let head = "t_env,episodes,updates,epsilon,loss,grad_norm,q_taken,train_win_rate,test_win_rate,test_return,elapsed_s";
+        let vs = ",test_win_rate_vs_focus-fire,test_return_vs_focus-fire";
+        std::fs::write(
+            dir.join("log.csv"),
+            format!("{head}{vs}\n1000,3,2,0.9,0.5,1,0.1,NaN,0.25,7.5,3.0,0.5,9.0\n2000,7,6,0.8,0.25,1,0.1,0.5,1.0,20.0,6.0,NaN,1.0\n"),
+        )
+        .expect("write");
+        let (points, names) = curve_points(&dir).expect("read");
+        assert_eq!(names, ["focus-fire"]);
+        assert_eq!(points.len(), 2);
+        assert_eq!((points[0].t_env, points[0].train_win_rate, points[0].loss, points[0].vs[0]), (1000, None, 0.5, 0.5));
+        assert_eq!((points[1].train_win_rate, points[1].test_return), (Some(0.5), 20.0));
+        assert!(points[1].vs[0].is_nan(), "a gap stays a gap");
+        // Without a loss column the figure draws no loss; a short line is refused.
+        std::fs::write(dir.join("log.csv"), "t_env,episodes,updates,train_win_rate,test_win_rate,test_return,elapsed_s\n10,1,1,0,0,0,1\n")
+            .expect("write");
+        assert!(curve_points(&dir).expect("read").0[0].loss.is_nan());
+        std::fs::write(dir.join("log.csv"), format!("{head}\n10,1\n")).expect("write");
+        assert!(curve_points(&dir).is_err());
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     fn text(rows: &[LogRow]) -> String {

@@ -41,6 +41,46 @@ fn small_png(from: &Path, to: &Path, size: u32) -> Result<(), Error> {
     img.write_with_encoder(enc).map_err(bad)
 }
 
+/// A plan's run folder is `<run>-s<seed>`.
+fn seed_of(run: &Path) -> Option<u64> {
+    let name = run.file_name()?.to_str()?;
+    name.rsplit_once("-s").and_then(|(_, s)| s.parse().ok())
+}
+
+/// The run folder a plan trained the shipped copy `shipped` in (`<run>-s<seed>`): the copy's
+/// folder drops the seed when it is 1.
+fn run_folder(shipped: &Path, seed: u64) -> std::path::PathBuf {
+    let name = shipped.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+    let run = name.strip_suffix(&format!("-s{seed}")).unwrap_or(name);
+    shipped.with_file_name(format!("{run}-s{seed}"))
+}
+
+/// `dir/log.csv` drawn as the training run's figure into `to`, at the shipped size.
+fn draw_from_log(dir: &Path, title: &str, to: &Path) -> Result<(), Error> {
+    let (points, vs) = crate::runlog::curve_points(dir)?;
+    let full = to.with_extension("full.png");
+    crate::plot::curves(&full, title, &points, &vs)?;
+    let small = small_png(&full, to, SHIPPED_CURVES_SIZE);
+    let _ = std::fs::remove_file(&full);
+    small
+}
+
+/// A shipped run's figure drawn again from its shipped log (the run's own folder gone):
+/// `seed` is the plan's, which a seed-1 copy's folder does not name. Written beside the old
+/// figure and renamed over it, so a failure leaves the old one. False where the copy has no
+/// log.
+pub fn redraw(shipped: &Path, seed: u64) -> Result<bool, Error> {
+    if !shipped.join("log.csv").is_file() {
+        return Ok(false);
+    }
+    let (algo, scenario) = Policy::algo_scenario_in(shipped)?;
+    let title = crate::monitor::figure_title(&run_folder(shipped, seed), &algo, &scenario, Some(seed));
+    let new = shipped.join("curves.new.png");
+    draw_from_log(shipped, &title, &new)?;
+    std::fs::rename(&new, shipped.join("curves.png")).map_err(|source| Error::Io { path: shipped.join("curves.png"), source })?;
+    Ok(true)
+}
+
 /// Copies what plays a trained run in `run` (its `best/` checkpoint if it has one, else the
 /// last) into `to`: the agent network's weights (the mixer and critic are not needed to act),
 /// `config.json`, and the run's `log.csv` and `curves.png`; with a `best/` checkpoint, the last
@@ -77,7 +117,12 @@ pub fn ship_under(run: &Path, to: &Path, max_bytes: u64, total: Option<Total<'_>
     if run.join("log.csv").is_file() {
         std::fs::copy(run.join("log.csv"), tmp.join("log.csv")).map_err(io(&run.join("log.csv")))?;
     }
-    if run.join("curves.png").is_file() {
+    // Drawn again from the log, so a figure shows the plotting of the build that ships it
+    // (a run that trained over several builds drew its last figure with the last one only).
+    if run.join("log.csv").is_file() {
+        let title = crate::monitor::figure_title(run, &policy.cfg.algo, &policy.scenario, seed_of(run));
+        draw_from_log(run, &title, &tmp.join("curves.png"))?;
+    } else if run.join("curves.png").is_file() {
         small_png(&run.join("curves.png"), &tmp.join("curves.png"), SHIPPED_CURVES_SIZE)?;
     }
     let weights = policy.nets.agent_params.to_map();

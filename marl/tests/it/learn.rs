@@ -387,6 +387,15 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
     assert!(message.contains("over the") && message.contains("nothing changed"), "{message}");
     assert!(!root.join("3m_vlm/extra").exists() && !root.join("3m_vlm/extra.partial").exists());
     assert_eq!(avacraft_marl::ship::dir_bytes(&root)?, held, "nothing changed under the root");
+    // The shipped figure is drawn from the log; a copy whose run folder is gone draws it again
+    // from its own, and a copy without a log is left alone.
+    let small = image::image_dimensions(best.join("curves.png"))?;
+    assert_eq!(small.0.max(small.1), 600, "{small:?}");
+    std::fs::remove_file(best.join("curves.png"))?;
+    assert!(avacraft_marl::ship::redraw(&best, 1)?);
+    assert_eq!(image::image_dimensions(best.join("curves.png"))?, small);
+    std::fs::remove_file(root.join("3m_vlm/tight/log.csv"))?;
+    assert!(!avacraft_marl::ship::redraw(&root.join("3m_vlm/tight"), 1)?);
     let last = avacraft_marl::baselines::dir(&root, "3m_vlm", "qmix@last")?;
     assert_eq!(std::fs::read(best.join("config.json"))?, std::fs::read(dir.join("best/config.json"))?);
     assert_eq!(std::fs::read(last.join("config.json"))?, std::fs::read(dir.join("config.json"))?);
