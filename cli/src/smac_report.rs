@@ -289,6 +289,46 @@ fn left_table(left: &[(String, Left)]) -> String {
     )
 }
 
+/// How soon each map's QMIX and MAPPO (seed 1, the table's runs) got there: the steps of
+/// their first greedy test round at or above 50% and 90%, and of the rounds from that first 90%
+/// on, the share at or above it (a run that touched 90% once and fell back reads low).
+fn speed_table(panels: &[Panel]) -> String {
+    let first = |rows: &[LogRow], rate: f64| rows.iter().position(|r| r.test_win_rate >= rate);
+    let cells = |rows: &[LogRow]| -> [String; 3] {
+        let at = |i: Option<usize>| i.map_or_else(|| "never".to_owned(), |i| avacraft_marl::plot::steps_label(rows[i].t_env as f64));
+        let held = first(rows, 0.9).map_or_else(
+            || "–".to_owned(),
+            |i| {
+                let after = &rows[i..];
+                let kept = after.iter().filter(|r| r.test_win_rate >= 0.9).count();
+                format!("{}%", pct(kept as f64 / after.len() as f64))
+            },
+        );
+        [at(first(rows, 0.5)), at(first(rows, 0.9)), held]
+    };
+    let rows: String = panels
+        .iter()
+        .map(|p| {
+            let of = |r: &str| {
+                p.runs.iter().find(|(n, _)| n == r).map_or_else(|| ["–".to_owned(), "–".into(), "–".into()], |(_, rows)| cells(rows))
+            };
+            let ([q50, q90, qh], [m50, m90, mh]) = (of(RUNS[0]), of(RUNS[1]));
+            format!(
+                "| {} | {q50} | {q90} | {qh} | {m50} | {m90} | {mh} |
+",
+                p.title
+            )
+        })
+        .collect();
+    format!(
+        "
+**How soon.** Environment steps to the first greedy test round (32 episodes) at or above 50% and 90%, and the share of \
+         the rounds from that first 90% on that stayed at or above it (seed 1, the table's runs):\n\n\
+         | map | QMIX 50% at | QMIX 90% at | QMIX rounds ≥ 90% after | MAPPO 50% at | MAPPO 90% at | MAPPO rounds ≥ 90% after |\n\
+         |---|---|---|---|---|---|---|\n{rows}"
+    )
+}
+
 /// Maps where more than one seed of a learner ran: each seed's result, so a reader sees how far
 /// one seed is from another.
 fn seeds_table(a: &SmacReportArgs, played: &mut Played) -> Result<String> {
@@ -476,6 +516,7 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
     }
     table.push_str(&notes(&gaps, &easy));
     table.push_str(&left_table(&left));
+    table.push_str(&speed_table(&panels));
     table.push_str(&seeds_table(a, &mut played)?);
     if !variants.is_empty() {
         table.push_str(&format!(

@@ -245,6 +245,9 @@ fn smac_report_sets_runs_beside_published_results() {
     // Still training: shown, not compared.
     assert!(table.contains("| 3m | easy | 90 @ 0.1M (unfinished) | not run | – | – | 100 ᵘ | – |"), "{table}");
     assert!(table.contains("maps with a finished run and a published number: none yet"), "{table}");
+    // How soon: 50% at the first round, 90% at the fifth and in every round after.
+    assert!(table.contains("| map | QMIX 50% at | QMIX 90% at | QMIX rounds ≥ 90% after |"), "{table}");
+    assert!(table.contains("\n| 3m | 10k | 50k | 100% | – | – | – |\n"), "{table}");
     assert!(
         table.starts_with("**At a glance.** Runs at SMAC's budget, of 23 maps: qmix on 0 (1 stopped short, 22 not run); mappo on 0 (0 stopped short, 23 not run)."),
         "{table}"
