@@ -121,12 +121,13 @@ struct Ours {
 
 impl Ours {
     /// An unfinished run's steps left to its budget and the hours they take at the pace it
-    /// trained at: the median over its log's rows of steps per wall-clock second, so that a
-    /// stretch the run stood paused (its clock runs on) does not slow the estimate.
+    /// trained at: the median over its log's last rows of steps per wall-clock second, so
+    /// that a stretch the run stood paused (its clock runs on) does not slow the estimate, and
+    /// a run resumed on a faster build is timed at its new pace.
     fn left(&self) -> Option<Left> {
         let budget = self.budget.filter(|b| self.running && *b > self.steps)?;
-        let mut rates: Vec<f64> = self
-            .rows
+        let recent = &self.rows[self.rows.len().saturating_sub(PACE_ROWS)..];
+        let mut rates: Vec<f64> = recent
             .windows(2)
             .filter_map(|w| {
                 let (steps, secs) = (w[1].t_env.saturating_sub(w[0].t_env), w[1].elapsed_s - w[0].elapsed_s);
@@ -139,6 +140,9 @@ impl Ours {
         (pace.is_finite() && pace > 0.0).then(|| Left { steps, hours: steps as f64 / pace / 3600.0, from_scratch: !self.resumable })
     }
 }
+
+/// The log rows (test rounds) whose pace times what a run has left.
+const PACE_ROWS: usize = 50;
 
 /// What an unfinished run has left to its budget.
 struct Left {
@@ -284,7 +288,7 @@ fn left_table(left: &[(String, Left)]) -> String {
         .collect();
     let total: f64 = left.iter().map(|(_, l)| l.hours).sum();
     format!(
-        "\n**Left to SMAC's budget** ({total:.0} hours of one core in all, at the pace each run trained at):\n\n\
+        "\n**Left to SMAC's budget** ({total:.0} hours of one core in all, at the pace of each run's last {PACE_ROWS} test rounds):\n\n\
          | run | steps left | trains on from | hours |\n|---|---|---|---|\n{rows}"
     )
 }
@@ -543,6 +547,31 @@ pub fn run(a: &SmacReportArgs, out: &mut dyn Write) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A run resumed on a faster build: what it has left is timed at its last rounds' pace.
+    #[test]
+    fn what_is_left_is_timed_at_the_recent_pace() {
+        // 50 rounds at 10 steps a second, then 40 at 100.
+        let mut rows = Vec::new();
+        let (mut t, mut secs) = (0u64, 0.0);
+        for k in 0..90 {
+            t += 10_000;
+            secs += if k < 50 { 1_000.0 } else { 100.0 };
+            rows.push(LogRow {
+                t_env: t,
+                episodes: k,
+                updates: k,
+                train_win_rate: 0.5,
+                test_win_rate: 1.0,
+                test_return: 20.0,
+                elapsed_s: secs,
+            });
+        }
+        let ours = Ours { steps: t, final_rate: 1.0, heldout: None, running: true, budget: Some(1_900_000), resumable: true, rows };
+        let left = ours.left().expect("unfinished");
+        assert_eq!(left.steps, 1_000_000);
+        assert!((left.hours - 1_000_000.0 / 100.0 / 3600.0).abs() < 1e-9, "{}", left.hours);
+    }
 
     /// Shipped runs on another game than their map's default are played again on theirs.
     #[test]

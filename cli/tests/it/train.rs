@@ -255,13 +255,13 @@ fn smac_report_sets_runs_beside_published_results() {
     assert!(table.contains("best published result: no finished run with a published number yet."), "{table}");
     // Its resume state gone (not on this machine): the whole budget again.
     assert!(
-        table.contains("**Left to SMAC's budget** (1 hours of one core in all, at the pace each run trained at):\n\n| run | steps left | trains on from | hours |\n|---|---|---|---|\n| 3m qmix | 0.20M | step 0 (only its shipped copy is here) | 0.6 |\n"),
+        table.contains("**Left to SMAC's budget** (1 hours of one core in all, at the pace of each run's last 50 test rounds):\n\n| run | steps left | trains on from | hours |\n|---|---|---|---|\n| 3m qmix | 0.20M | step 0 (only its shipped copy is here) | 0.6 |\n"),
         "{table}"
     );
     std::fs::create_dir_all(run.join("resume")).expect("resume state");
     let table = String::from_utf8_lossy(&args(&published).stdout).into_owned();
     assert!(
-        table.contains("**Left to SMAC's budget** (0 hours of one core in all, at the pace each run trained at):\n\n| run | steps left | trains on from | hours |\n|---|---|---|---|\n| 3m qmix | 0.08M | where it stopped | 0.2 |\n"),
+        table.contains("**Left to SMAC's budget** (0 hours of one core in all, at the pace of each run's last 50 test rounds):\n\n| run | steps left | trains on from | hours |\n|---|---|---|---|\n| 3m qmix | 0.08M | where it stopped | 0.2 |\n"),
         "{table}"
     );
     std::fs::write(run.join("done.json"), "{}").expect("done");
