@@ -141,6 +141,11 @@ pub fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
         .map_err(|e| e.to_string())
 }
 
+/// At most this many lines a legend inside a panel holds; more go in a key beside the panels.
+const KEY_INSIDE_MAX: usize = 4;
+/// The key's width in pixels.
+const KEY_WIDTH: u32 = 200;
+
 /// Draws `points` of the run `title` into `path` (PNG, 900x900).
 pub fn curves(path: &Path, title: &str, points: &[CurvePoint], vs: &[String]) -> Result<(), Error> {
     font()?;
@@ -175,6 +180,10 @@ pub fn curves(path: &Path, title: &str, points: &[CurvePoint], vs: &[String]) ->
         for (i, name) in vs.iter().enumerate() {
             wins.push((format!("greedy vs {name}"), line(&|p| p.vs.get(i).copied().unwrap_or(f64::NAN)), palette[i % palette.len()]));
         }
+        // More lines than a legend inside a panel can hold clear of the curves (a league's
+        // fixed opponents): the key goes beside the panels, which all give it the room so that
+        // their step axes stay aligned.
+        let key_width = if wins.len() > KEY_INSIDE_MAX { KEY_WIDTH } else { 0 };
         let specs: [(&str, std::ops::Range<f64>, Vec<Series>); 3] = [
             ("win rate", 0.0..1.02, wins),
             ("test return", range(|p| p.test_return), vec![("greedy test return".into(), line(&|p| p.test_return), RGBColor(0, 140, 60))]),
@@ -182,7 +191,8 @@ pub fn curves(path: &Path, title: &str, points: &[CurvePoint], vs: &[String]) ->
         ];
         for (area, (label, y, series)) in panels.iter().zip(specs) {
             let (y_lo, y_span) = (y.start, y.end - y.start);
-            let mut chart = ChartBuilder::on(area)
+            let (area, key) = area.split_horizontally(area.dim_in_pixel().0.saturating_sub(key_width));
+            let mut chart = ChartBuilder::on(&area)
                 .margin(12)
                 .x_label_area_size(36)
                 .y_label_area_size(60)
@@ -201,14 +211,21 @@ pub fn curves(path: &Path, title: &str, points: &[CurvePoint], vs: &[String]) ->
                 .map(|(_, pts, _)| pts.iter().map(|(x, v)| (*x as f64 / x_max as f64, (v - y_lo) / y_span)).collect())
                 .collect();
             let corner = quiet_corner(&drawn, series.len());
-            for (name, pts, color) in series {
-                chart
-                    .draw_series(strokes(pts, color.stroke_width(2)))
-                    .map_err(err)?
-                    .label(name)
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
+            let outside = series.len() > KEY_INSIDE_MAX;
+            for (i, (name, pts, color)) in series.into_iter().enumerate() {
+                if outside {
+                    let y = 24 + 22 * i as i32;
+                    key.draw(&PathElement::new(vec![(6, y), (26, y)], color.stroke_width(3))).map_err(err)?;
+                    key.draw(&Text::new(name.clone(), (32, y - 8), ("sans-serif", 14))).map_err(err)?;
+                }
+                let drawn = chart.draw_series(strokes(pts, color.stroke_width(2))).map_err(err)?;
+                if !outside {
+                    drawn.label(name).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
+                }
             }
-            legend(&mut chart, corner).map_err(err)?;
+            if !outside {
+                legend(&mut chart, corner).map_err(err)?;
+            }
         }
         root.present().map_err(err)?;
     }
@@ -290,6 +307,18 @@ mod tests {
         // The greedy test curve is drawn in plotters' blue.
         assert!(img.pixels().any(|p| p.0 == [0, 0, 255]), "the blue test curve is on the canvas");
         assert!(img.pixels().filter(|p| p.0 == [255, 255, 255]).count() > 900 * 900 / 2, "a white background");
+        // A league's five fixed opponents: seven lines, their key beside the panels (right of
+        // every panel's plot), where two lines keep theirs inside.
+        let key_green =
+            |img: &image::RgbImage| (900 - KEY_WIDTH + 4..900).any(|x| (30..300).any(|y| img.get_pixel(x, y).0 == [0, 150, 70]));
+        assert!(!key_green(&img), "two lines: no key beside the panels");
+        let league: Vec<CurvePoint> = points.iter().map(|p| CurvePoint { vs: vec![0.5, 0.6, 0.7, 0.8, 0.9], ..p.clone() }).collect();
+        let names: Vec<String> = ["focus-fire", "kite", "attack-move", "random", "hold"].map(String::from).to_vec();
+        curves(&path, "a league run", &league, &names).expect("drawn");
+        let img = image::open(&path).expect("a PNG image reads back").to_rgb8();
+        assert!(key_green(&img), "the first opponent's line in the key");
+        let right_of_plots = (900 - KEY_WIDTH + 4..900).all(|x| (300..900).all(|y| img.get_pixel(x, y).0 == [255, 255, 255]));
+        assert!(right_of_plots, "the lower panels leave the key's room empty, their axes aligned with the top one's");
         // An unwritable path is an error naming it, not a panic.
         let bad = dir.join("missing-folder").join("curves.png");
         let e = curves(&bad, "a run", &points, &[]).expect_err("no folder to write into").to_string();
