@@ -57,7 +57,8 @@ pub struct TrainArgs {
     /// Environments stepped in parallel (the config's envs).
     #[arg(long)]
     pub envs: Option<usize>,
-    /// Threads stepping environments (default: all cores; results do not depend on it).
+    /// Threads the run uses, stepping environments and in the learner's kernels (default: all
+    /// cores; results do not depend on it).
     #[arg(long)]
     pub threads: Option<usize>,
     /// PvP scenarios: who plays team 2 while team 1 learns: scripted:NAME (or NAME: a
@@ -86,6 +87,13 @@ pub struct TrainArgs {
 pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     if let (Some(plan), Some(to)) = (&a.plan, &a.ship) {
         return ship_plan(plan, a.shard, to, &a.unfinished, out);
+    }
+    if let Some(n) = a.threads {
+        if n == 0 {
+            bail!("--threads 0: a run needs at least one thread");
+        }
+        let learner = avacraft_marl::kernels::use_threads(n);
+        writeln!(out, "threads: {n} stepping environments, {learner} in the learner")?;
     }
     if let Some(plan) = &a.plan {
         return run_plan(plan, a.shard, a.threads, out);

@@ -115,6 +115,39 @@ fn flags_win_over_set_and_bad_ones_are_refused_by_name() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `--threads` sizes the learner's pool as well as the environments' threads, and the run it
+/// trains is the same, byte for byte, on one thread as on two.
+#[test]
+fn threads_change_the_pace_not_the_run() {
+    let small = ["--set", "batch_size=4", "--set", "test_interval=200", "--set", "test_nepisode=2", "--set", "episode_limit=60"];
+    let mut logs = Vec::new();
+    let mut weights = Vec::new();
+    for n in ["1", "2"] {
+        let dir = tmp(&format!("train-threads-{n}"));
+        let _ = std::fs::remove_dir_all(&dir);
+        let mut args = vec!["--algo", "qmix", "--scenario", "3m_vlm", "--steps", "400", "--envs", "2", "--threads", n];
+        args.extend(["--out", dir.to_str().expect("utf-8 temp path")]);
+        args.extend(small);
+        let out = train(&args);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(text.contains(&format!("threads: {n} stepping environments, {n} in the learner")), "{text}");
+        let log = std::fs::read_to_string(dir.join("log.csv")).expect("log.csv");
+        let header: Vec<&str> = log.lines().next().expect("a header").split(',').collect();
+        let elapsed = header.iter().position(|c| *c == "elapsed_s").expect("an elapsed_s column");
+        let rows: Vec<String> = log
+            .lines()
+            .map(|l| l.split(',').enumerate().filter(|(i, _)| *i != elapsed).map(|(_, c)| c).collect::<Vec<_>>().join(","))
+            .collect();
+        assert!(rows.len() >= 3, "a header and two test rounds: {log}");
+        logs.push(rows);
+        weights.push(std::fs::read(dir.join("agent.safetensors")).expect("agent.safetensors"));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    assert_eq!(logs[0], logs[1], "the log but its clock is the same on one thread as on two");
+    assert!(weights[0] == weights[1], "the trained weights are the same on one thread as on two");
+}
+
 /// A fresh folder `name` with `plan.toml`: a plan of `steps` a run into `runs/`, its `runs`
 /// tables with `SMALL` standing for a tiny run's settings.
 fn small_plan(name: &str, steps: u64, runs: &str) -> (std::path::PathBuf, std::path::PathBuf) {
