@@ -79,9 +79,9 @@ pub fn read_log(path: &Path) -> Result<Vec<LogRow>, Error> {
 /// its fixed test opponents (the `test_win_rate_vs_NAME` columns, in order): a shipped run's
 /// figure is drawn again from its log. A log without the `loss` column draws no loss.
 pub fn curve_points(path: &Path) -> Result<(Vec<crate::plot::CurvePoint>, Vec<String>), Error> {
-    let rows = read_log(path)?;
     let file = if path.is_dir() { path.join("log.csv") } else { path.to_path_buf() };
     let text = std::fs::read_to_string(&file).map_err(|source| Error::Io { path: file.clone(), source })?;
+    let rows = parse_log(&file, &text)?;
     let mut lines = text.lines().filter(|l| !l.trim().is_empty());
     let cols: Vec<&str> = lines.next().map(|h| h.split(',').map(str::trim).collect()).unwrap_or_default();
     let loss_at = cols.iter().position(|c| *c == "loss");
