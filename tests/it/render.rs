@@ -295,6 +295,7 @@ fn videos_are_valid_gifs_and_write_errors_surface() {
         .collect_frames()
         .expect("frames");
     assert_eq!(frames.len(), 4);
+    let _ = std::fs::remove_dir_all(&dir);
     // A full disk (Linux's /dev/full): the error reaches the caller instead of a silently
     // truncated file.
     let full = std::path::Path::new("/dev/full");

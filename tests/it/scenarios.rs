@@ -165,6 +165,7 @@ fn load_by_name_or_path() {
     let p = dir.join("mine.toml");
     std::fs::write(&p, arena("pvp", &[("Stalker", 1, 10.0, 16.0), ("Zealot", 2, 14.0, 16.0)])).expect("write");
     let s = Scenario::load(p.to_str().expect("utf8")).expect("load");
+    let _ = std::fs::remove_dir_all(&dir);
     assert_eq!(s.mode, Mode::Pvp);
 }
 
