@@ -27,7 +27,8 @@ pub struct EvalArgs {
     /// i-th (e.g. a cluster array job's index); merge the folders with `eval merge`.
     #[arg(long)]
     shard: Option<Shard>,
-    /// Worker threads (0: one per core).
+    /// Worker threads playing episodes, and the threads trained policies' networks run on
+    /// (0: one per core).
     #[arg(long, default_value_t = 0)]
     threads: usize,
     /// Print the report's Markdown when done (default: only where it was written).
@@ -138,6 +139,9 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
         *per_cell.entry(plan.cells[job.cell].key.clone()).or_insert(0) += 1;
     }
     let bars = Bars { bar, cell, shown, per_cell, tally: Mutex::new(BTreeMap::new()), said: Mutex::new(None) };
+    if a.threads > 0 {
+        avacraft_marl::kernels::use_threads(a.threads);
+    }
     let opts = RunOptions { out: dir.clone(), shard: a.shard, threads: a.threads };
     let stats = avacraft_eval::run(&plan, &opts, &bars).with_context(|| format!("eval: {}", plan.file))?;
     bars.bar.finish_and_clear();
