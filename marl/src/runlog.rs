@@ -119,7 +119,7 @@ pub fn first_reaching(rows: &[LogRow], test: f64, train: f64) -> Option<LogRow> 
     rows.iter().copied().find(|r| r.test_win_rate >= test && r.train_win_rate >= train)
 }
 
-const COLORS: [RGBColor; 9] = [
+const COLORS: [RGBColor; 12] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
@@ -129,6 +129,9 @@ const COLORS: [RGBColor; 9] = [
     RGBColor(140, 86, 75),
     RGBColor(227, 119, 194),
     RGBColor(188, 189, 34),
+    RGBColor(127, 127, 127),
+    RGBColor(0, 0, 128),
+    RGBColor(0, 100, 0),
 ];
 
 /// Draws the groups' greedy test and training win rates against environment steps and
@@ -233,6 +236,28 @@ pub fn thin(pts: Vec<(f64, f64)>, x_max: f64) -> Vec<(f64, f64)> {
         .collect()
 }
 
+/// Height of a line of [`grid`]'s legend, in pixels.
+const LEGEND_LINE: u32 = 26;
+
+/// Where [`grid`]'s legend puts each label in a header `width` pixels wide: its left edge and
+/// its line, filling a line before starting the next (a dozen run names do not fit in one).
+fn legend_layout(labels: &[&str], width: i32) -> Vec<(i32, usize)> {
+    let (mut x, mut line) = (12, 0);
+    labels
+        .iter()
+        .map(|n| {
+            // The stroke, a gap and the text at about 10 pixels a character.
+            let w = 40 + 10 * n.chars().count() as i32;
+            if x > 12 && x + w > width {
+                (x, line) = (12, line + 1);
+            }
+            let at = (x, line);
+            x += w;
+            at
+        })
+        .collect()
+}
+
 /// Small multiples: each panel's greedy test win rates against environment steps, `cols`
 /// panels a row, one legend of run names under the title. For many maps at a glance.
 pub fn grid(path: &Path, title: &str, names: &[&str], panels: &[Panel], cols: usize) -> Result<(), Error> {
@@ -241,21 +266,22 @@ pub fn grid(path: &Path, title: &str, names: &[&str], panels: &[Panel], cols: us
     let cols = cols.max(1);
     let rows = panels.len().div_ceil(cols).max(1);
     let (cell_w, cell_h) = (300u32, 220u32);
-    let mut canvas = Png::new((cell_w * cols as u32, cell_h * rows as u32 + 70));
+    const PUBLISHED: &str = "published (best)";
+    let labels: Vec<&str> = names.iter().copied().chain([PUBLISHED]).collect();
+    let at = legend_layout(&labels, (cell_w * cols as u32) as i32);
+    let head_h = 70 + LEGEND_LINE * at.last().map_or(0, |a| a.1) as u32;
+    let mut canvas = Png::new((cell_w * cols as u32, cell_h * rows as u32 + head_h));
     {
         let root = canvas.area();
         root.fill(&WHITE).map_err(err)?;
-        let (head, body) = root.split_vertically(70);
+        let (head, body) = root.split_vertically(head_h);
         head.draw(&Text::new(title.to_owned(), (12, 8), ("sans-serif", 22))).map_err(err)?;
-        let mut x = 12;
-        for (i, n) in names.iter().enumerate() {
-            let c = COLORS[i % COLORS.len()];
-            head.draw(&PathElement::new(vec![(x, 50), (x + 24, 50)], c.stroke_width(3))).map_err(err)?;
-            head.draw(&Text::new((*n).to_owned(), (x + 30, 41), ("sans-serif", 17))).map_err(err)?;
-            x += 40 + 10 * n.len() as i32;
+        for (i, (n, &(x, line))) in labels.iter().zip(&at).enumerate() {
+            let y = 50 + LEGEND_LINE as i32 * line as i32;
+            let stroke = if *n == PUBLISHED { BLACK.stroke_width(1) } else { COLORS[i % COLORS.len()].stroke_width(3) };
+            head.draw(&PathElement::new(vec![(x, y), (x + 24, y)], stroke)).map_err(err)?;
+            head.draw(&Text::new((*n).to_owned(), (x + 30, y - 9), ("sans-serif", 17))).map_err(err)?;
         }
-        head.draw(&PathElement::new(vec![(x, 50), (x + 24, 50)], BLACK.stroke_width(1))).map_err(err)?;
-        head.draw(&Text::new("published (best)".to_owned(), (x + 30, 41), ("sans-serif", 17))).map_err(err)?;
         for (area, p) in body.split_evenly((rows, cols)).iter().zip(panels) {
             let x_max = p.runs.iter().flat_map(|(_, r)| r.iter().map(|r| r.t_env)).max().unwrap_or(1).max(p.budget).max(1) as f64;
             let mut chart = ChartBuilder::on(area)
@@ -315,6 +341,26 @@ fn mean_curve(runs: &[(PathBuf, Vec<LogRow>)], x: fn(&LogRow) -> f64, y: fn(&Log
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn the_legend_wraps_inside_the_figure_without_overlaps() {
+        let names: Vec<String> = (0..12).map(|i| format!("a-long-run-name-{i}")).collect();
+        let labels: Vec<&str> = names.iter().map(String::as_str).collect();
+        let width = 1500;
+        let at = legend_layout(&labels, width);
+        // About 210 pixels a label: seven to a 1,500-pixel line, the other five on a second.
+        assert_eq!(at.iter().filter(|a| a.1 == 0).count(), 7, "{at:?}");
+        assert_eq!(at.last().map(|a| a.1), Some(1), "{at:?}");
+        for (k, ((x, line), n)) in at.iter().zip(&labels).enumerate() {
+            assert!(*x + 40 + 10 * n.len() as i32 <= width, "label {k} runs off the figure");
+            if let Some((nx, nline)) = at.get(k + 1)
+                && nline == line
+            {
+                assert!(*nx >= x + 40 + 10 * n.len() as i32, "labels {k} and {} overlap", k + 1);
+            }
+        }
+        assert_eq!(legend_layout(&["qmix", "mappo"], width), vec![(12, 0), (92, 0)]);
+    }
 
     #[test]
     fn long_runs_are_thinned_to_medians_and_short_ones_kept() {
