@@ -43,7 +43,9 @@ const RUNS: [&str; 2] = ["qmix", "mappo"];
 /// Runs of the plan with other settings than the compared learners' (seed 1, on the maps
 /// where they ran), with what differs (eval/plans/smac.toml says why each ran): listed under
 /// the table and drawn beside them; a finished one that does better is compared, and named.
-const VARIANTS: [(&str, &str); 6] = [
+const VARIANTS: [(&str, &str); 8] = [
+    ("qmix-epymarl", "EPyMARL's QMIX settings with its recurrent agent (Adam at 5e-4, one-step targets), 300k steps"),
+    ("qmix-pymarl", "PyMARL's QMIX, as the SMAC paper ran it (recurrent agent, RMSprop at 5e-4, one-step targets)"),
     ("mappo-ff", "feed-forward actor and critic, 5 PPO epochs (the MAPPO repository's script)"),
     ("mappo-ff-obs", "as mappo-ff, the critic also reading each agent's observation"),
     ("mappo-ln", "the MAPPO repository's network (layer norms, orthogonal initialisation)"),

@@ -204,10 +204,10 @@ struct Done {
 }
 
 /// A shipped run's size budget without its curves, and all shipped runs' together (a guard on
-/// the repository's size: some 135 policies of the paper's, SMAC's and the PvP leagues' runs
-/// take about 34 MB, a third of it their curves, with room for SMAC's runs still to come).
+/// the repository's size: some 160 policies of the paper's, SMAC's and the PvP leagues' runs
+/// take about 42 MB, a third of it their curves, with room for a few more SMAC runs).
 const SHIP_RUN_BYTES: u64 = 300 * 1024;
-const SHIP_TOTAL_BYTES: u64 = 40 * 1024 * 1024;
+const SHIP_TOTAL_BYTES: u64 = 44 * 1024 * 1024;
 
 /// `train --plan FILE --ship DIR`: the plan's finished runs' policies into `DIR`.
 fn ship_plan(

@@ -471,8 +471,20 @@ opponent = "focus-fire"
         // the Void data set's Spine Crawler and with pymarl2's default settings; MAPPO with the
         // MAPPO repository's network on 2m_vs_1z, 2s_vs_1sc (2M and the MAPPO paper's 10M),
         // 3s_vs_5z (seeds 1-3) and (feed-forward) on 6h_vs_8z; and the weapon period counted
-        // from the shot, QMIX on six maps and MAPPO on 2s_vs_1sc.
-        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 2 * 2 + 12 + 7);
+        // from the shot, QMIX on six maps and MAPPO on 2s_vs_1sc; the SMAC paper's own QMIX
+        // settings on three maps and EPyMARL's on 5m_vs_6m.
+        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 2 * 2 + 12 + 7 + 3 + 1);
+        for map in ["3s5z_vs_3s6z", "5m_vs_6m", "corridor"] {
+            let paper = smac.jobs.iter().find(|j| j.id == format!("{map}/qmix-pymarl-s1")).expect("the SMAC paper's QMIX");
+            let cfg = avacraft_marl::Config::for_algo("qmix", &paper.overrides).unwrap_or_else(|e| panic!("{e}"));
+            let rms = cfg.optimizer == avacraft_marl::OptimizerKind::Rmsprop;
+            assert!(rms && cfg.use_rnn && cfg.td_lambda == 0.0 && cfg.lr == 0.0005 && cfg.epsilon_anneal_time == 50_000, "{cfg:?}");
+            assert!(cfg.batch_size == 32 && cfg.episodes_per_update == 1 && paper.steps == 2_000_000, "{cfg:?}");
+        }
+        let epy = smac.jobs.iter().find(|j| j.id == "5m_vs_6m/qmix-epymarl-s1").expect("EPyMARL's QMIX settings");
+        let cfg = avacraft_marl::Config::for_algo("qmix", &epy.overrides).unwrap_or_else(|e| panic!("{e}"));
+        let adam = cfg.optimizer == avacraft_marl::OptimizerKind::Adam;
+        assert!(adam && cfg.use_rnn && cfg.td_lambda == 0.0 && cfg.lr == 0.0005 && epy.steps == 300_000, "{cfg:?}");
         let shot: Vec<&TrainJob> = smac.jobs.iter().filter(|j| j.run.ends_with("-shot")).collect();
         assert_eq!(shot.len(), 7);
         assert!(shot.iter().all(|j| j.overrides.contains(&"weapon_period=\"shot\"".to_owned())));
