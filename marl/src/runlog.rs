@@ -246,8 +246,7 @@ fn legend_layout(labels: &[&str], width: i32) -> Vec<(i32, usize)> {
     labels
         .iter()
         .map(|n| {
-            // The stroke, a gap and the text at about 10 pixels a character.
-            let w = 40 + 10 * n.chars().count() as i32;
+            let w = label_width(n);
             if x > 12 && x + w > width {
                 (x, line) = (12, line + 1);
             }
@@ -256,6 +255,12 @@ fn legend_layout(labels: &[&str], width: i32) -> Vec<(i32, usize)> {
             at
         })
         .collect()
+}
+
+/// A legend label's width in pixels: the stroke, a gap and the text at about 10 pixels a
+/// character.
+fn label_width(label: &str) -> i32 {
+    40 + 10 * label.chars().count() as i32
 }
 
 /// Small multiples: each panel's greedy test win rates against environment steps, `cols`
@@ -352,11 +357,11 @@ mod tests {
         assert_eq!(at.iter().filter(|a| a.1 == 0).count(), 7, "{at:?}");
         assert_eq!(at.last().map(|a| a.1), Some(1), "{at:?}");
         for (k, ((x, line), n)) in at.iter().zip(&labels).enumerate() {
-            assert!(*x + 40 + 10 * n.len() as i32 <= width, "label {k} runs off the figure");
+            assert!(*x + label_width(n) <= width, "label {k} runs off the figure");
             if let Some((nx, nline)) = at.get(k + 1)
                 && nline == line
             {
-                assert!(*nx >= x + 40 + 10 * n.len() as i32, "labels {k} and {} overlap", k + 1);
+                assert!(*nx >= x + label_width(n), "labels {k} and {} overlap", k + 1);
             }
         }
         assert_eq!(legend_layout(&["qmix", "mappo"], width), vec![(12, 0), (92, 0)]);
