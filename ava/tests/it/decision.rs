@@ -322,3 +322,25 @@ proptest! {
         }
     }
 }
+
+/// A stance gives a morphing unit no order (the engine would refuse it: the proptest above
+/// found a Siege Tank told to hold mid-morph), and none to a channelling one (it would end
+/// the channel).
+#[test]
+fn stances_leave_a_busy_unit_alone() {
+    use avacraft_engine::Buffs;
+    use avacraft_engine::agent::Stance;
+    let mut seen = 0;
+    for steps in 0..12 {
+        let env = state("8m3mr1mv1st_vs_5s2c", 5, steps);
+        let obs = GroupObs::team(&env, Team::One, 0, Reads::ALL);
+        let terrain = env.scenario().terrain.clone();
+        for u in obs.units.iter().filter(|u| [Buffs::MORPHING, Buffs::LIFTED, Buffs::CHANNELLING].iter().any(|b| u.buffs.contains(*b))) {
+            seen += 1;
+            for st in [Stance::Hold, Stance::Focus { target: None }, Stance::Kite { target: None }] {
+                assert_eq!(st.act(&obs, &terrain, u), None, "{st:?} gave busy unit {} an order at step {steps}", u.tag.tag());
+            }
+        }
+    }
+    assert!(seen > 0, "no unit was busy in the first 12 steps: the test checks nothing");
+}

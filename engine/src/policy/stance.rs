@@ -6,7 +6,7 @@
 //! rules as the scripted agents' ([`FocusFire`](super::FocusFire)).
 
 use super::scripted::{kite_step, own_target, weakest_in_sight};
-use super::view::{attacking, id, mobile, radius, range_gap};
+use super::view::{attacking, busy, id, mobile, radius, range_gap};
 use crate::action::{Action, Command};
 use crate::ids::{UnitId, serde_as};
 use crate::obs::GroupObs;
@@ -49,8 +49,12 @@ impl Stance {
     }
 
     /// This step's action for unit `u` under the stance, `None` when its current order
-    /// already does what the stance wants.
+    /// already does what the stance wants or the unit is busy (morphing, lifted or
+    /// channelling: the engine refuses other orders then, or they would end the channel).
     pub fn act(&self, g: &GroupObs, terrain: &Terrain, u: &UnitInfo) -> Option<Action> {
+        if busy(u) {
+            return None;
+        }
         let cmd = match *self {
             Stance::Hold => (u.order != OrderInfo::Hold).then_some(Command::Hold)?,
             Stance::Focus { target } => attack(u, pick(g, u, target)?)?,
