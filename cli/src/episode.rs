@@ -29,7 +29,8 @@ pub struct EpisodeArgs {
     /// trajectory hashes can be compared with the deployment's.
     #[arg(long, conflicts_with_all = ["scenario", "data", "agent", "agent2", "opponent", "episodes", "seed", "full_vision", "passive_agents", "no_jitter", "no_abilities", "weapon_period"])]
     pub launch: Option<std::path::PathBuf>,
-    /// Policy for team 1: focus-fire, kite, attack-move, builtin, aggressive, defensive, focus, random, hold, noop,
+    /// Policy for team 1: focus-fire, kite, attack-move, builtin, aggressive, defensive, focus, smac-heuristic,
+    /// smac-heuristic-rest, random, hold, noop,
     /// marl:DIR, a checkpoint written by `avacraft train --out DIR` (refused if trained on another
     /// scenario or team size), or ava, the VLM agent (see the --llm-* options).
     #[arg(long, default_value = "kite")]

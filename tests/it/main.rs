@@ -13,6 +13,7 @@ mod fov;
 mod game_data;
 mod golden;
 mod helpers;
+mod heuristic;
 mod learn;
 mod movement;
 mod observations;

@@ -17,8 +17,8 @@ pub use crate::obs::{AgentObs, Controlled, EffectInfo, GroupObs, Reads};
 pub use crate::policy::view;
 pub use crate::policy::{
     AGENTS, Agent, AgentCtx, Assignment, AttackMove, Briefing, Commander, Defensive, FocusFire, ForkAgent, FrameNeed, FrameSource,
-    GroupRole, Hold, MakeAgent, MakeCommander, NoOp, Orders, OrdersError, RandomActions, RoleGroupSpec, Rotate, Stance, TeamFrames,
-    UnknownAgent, agent_seed, by_name, check_action, commander_seed, complete, factory, validate_orders,
+    GroupRole, Hold, MakeAgent, MakeCommander, NoOp, Orders, OrdersError, RandomActions, RoleGroupSpec, Rotate, SmacHeuristic, Stance,
+    TeamFrames, UnknownAgent, agent_seed, by_name, check_action, commander_seed, complete, factory, validate_orders,
 };
 pub use commanded::CommandedTeam;
 pub use controllers::Controllers;

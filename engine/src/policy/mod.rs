@@ -7,6 +7,7 @@
 mod check;
 mod command;
 mod contract;
+mod heuristic;
 pub(crate) mod micro;
 mod role;
 mod scripted;
@@ -19,6 +20,7 @@ pub use command::{
     validate as validate_orders,
 };
 pub use contract::{Agent, AgentCtx, ForkAgent, FrameNeed, FrameSource, TeamFrames, agent_seed, complete};
+pub use heuristic::SmacHeuristic;
 pub use role::{Briefing, GroupRole};
 pub(crate) use scripted::opponent;
 pub use scripted::{AGENTS, AttackMove, Defensive, FocusFire, Hold, NoOp, RandomActions, UnknownAgent, by_name, factory};

@@ -32,6 +32,12 @@ pub const SCRIPTED: &[(&str, &str, MakeAgent)] = &[
     ("aggressive", "scripted style: attack-move, everyone on the enemy closest to the army", || Box::new(FocusFire::aggressive())),
     ("defensive", "scripted style: hold ground or high ground, pull back badly hurt units", || Box::new(Defensive::default())),
     ("focus", "scripted style: lowest effective HP in range, ranged units kite slower melee", || Box::new(FocusFire::focus())),
+    ("smac-heuristic", "SMAC's heuristic_ai: each unit on the nearest enemy until it dies, order re-sent each step", || {
+        Box::new(super::SmacHeuristic::new(false))
+    }),
+    ("smac-heuristic-rest", "as smac-heuristic, stepping towards a target beyond SMAC's shoot range (heuristic_rest)", || {
+        Box::new(super::SmacHeuristic::new(true))
+    }),
     ("random", "uniformly random available SMAC action per unit", || Box::new(RandomActions::default())),
     ("hold", "every unit holds its position and fires at what comes in range", || Box::new(Hold)),
     ("noop", "never gives an order", || Box::new(NoOp)),
