@@ -62,6 +62,10 @@ pub struct EpisodeArgs {
     /// experiment: the period from the damage point; docs/smac.md).
     #[arg(long, default_value = "attack")]
     pub weapon_period: avacraft_engine::WeaponPeriod,
+    /// An experiment: melee units walk round those already at their target to a free place
+    /// beside it instead of waiting behind them (the engine's rule is false; docs/smac.md).
+    #[arg(long)]
+    pub melee_surround: Option<bool>,
     /// Print team 1's text observation to stderr every N steps (0: never).
     #[arg(long, default_value_t = 0)]
     pub trace_every: u32,
@@ -242,6 +246,10 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
     }
     .config()
     .context("the episode's options")?;
+    let mut cfg = cfg;
+    if let Some(on) = a.melee_surround {
+        cfg.rules.melee_surround = on;
+    }
     let seeds = (0..a.episodes as u64).map(|k| a.seed.wrapping_add(k)).collect();
     let ava = ava.map(|(made, dir)| (made.run.unwrap_or_else(|| unreachable!("an AVA policy is made with its run")), dir));
     Ok(Setup {

@@ -123,11 +123,14 @@ impl World {
         } = self;
         h.u32(*tick);
         h.rng(rng);
-        let crate::world::Rules { full_vision, cooldown_jitter, auto_acquire, abilities, weapon_period } = *rules;
+        let crate::world::Rules { full_vision, cooldown_jitter, auto_acquire, abilities, weapon_period, melee_surround } = *rules;
         h.bools([full_vision, cooldown_jitter, auto_acquire[0], auto_acquire[1], abilities].into_iter());
         // Hashed only when not the default, so every world made before the switch keeps its hash.
         if weapon_period != crate::world::WeaponPeriod::Attack {
             h.u32(weapon_period as u32);
+        }
+        if melee_surround {
+            h.u32(0x5a);
         }
         for team in upgrades {
             h.u32(team.len() as u32);

@@ -2,6 +2,7 @@
 //! bounds, then a positional pass that pushes apart any ground units still overlapping.
 
 use crate::geom::Vec2;
+use crate::ids::UnitId;
 use crate::orca::{Agent, Neighbour};
 use crate::world::{Activity, Body, Intent, Order, Snap, World};
 
@@ -13,6 +14,12 @@ const MAX_NEIGHBOURS: usize = 10;
 const SLIVER: f32 = 0.02;
 /// Relaxation passes of the overlap resolution per loop.
 const SEPARATION_PASSES: usize = 2;
+/// Places on the ring around a melee unit's target it considers.
+const SLOTS: usize = 16;
+/// Edge distance to its target within which a melee unit looks for a free place beside it.
+const SURROUND_FROM: f32 = 3.0;
+/// Weapons this short are melee (the game's melee weapons reach 0.1 to 1).
+const MELEE_RANGE: f32 = 1.0;
 /// Loops a computed waypoint is reused while the goal stays in place.
 const WAYPOINT_TTL: u32 = 8;
 
@@ -53,6 +60,15 @@ impl World {
                 self.units[i].vel = Vec2::ZERO;
                 continue;
             }
+            // A melee unit close to its target heads for a free place beside it, around
+            // the others already there, instead of queueing behind them.
+            let (goal, remaining) = match intents[i].closing_on {
+                Some(t) if !flying && self.rules.melee_surround => match self.surround_goal(i, t, &snaps) {
+                    Some(g) => (g, pos.dist(g)),
+                    None => (goal, remaining),
+                },
+                _ => (goal, remaining),
+            };
             let waypoint = if flying { Some(goal) } else { self.waypoint_for(i, goal, cliff_walk) };
             let Some(wp) = waypoint else {
                 // No path to the goal at all: the order cannot be carried out.
@@ -149,6 +165,41 @@ impl World {
         } else {
             v
         }
+    }
+
+    /// Where melee unit `i` closing on `t` heads: the free place on the ring of attack
+    /// positions around `t` nearest its side, straight there when that is at most 45
+    /// degrees around, else a point further out a quarter turn round (it walks round the
+    /// units already there). `None` (go straight at the target, or wait behind) when `t` is
+    /// beyond [`SURROUND_FROM`], the weapon is not melee, or no place is free.
+    fn surround_goal(&self, i: usize, t: UnitId, snaps: &[Snap]) -> Option<Vec2> {
+        let (u, tu) = (&self.units[i], self.units.get(t.index())?);
+        let (_, w) = crate::combat::weapon_for(u, tu)?;
+        if w.range > MELEE_RANGE || tu.flying() || crate::combat::edge_dist(u, tu) > SURROUND_FROM {
+            return None;
+        }
+        let (c, ru) = (tu.pos, u.radius);
+        let ring = tu.radius + ru + w.range * 0.5;
+        let base = (u.pos - c).angle();
+        let free = |p: Vec2| {
+            let mut ok = self.terrain.walkable(p);
+            self.grid.for_each_near(p, ru + 1.0, |j| {
+                let o = &snaps[j];
+                if ok && j != i && j != t.index() && o.alive && o.body != Body::Air && o.pos.dist(p) < (ru + o.radius) * 0.9 {
+                    ok = false;
+                }
+            });
+            ok
+        };
+        let step = std::f32::consts::PI / (SLOTS / 2) as f32;
+        let dev = (0..SLOTS)
+            .map(|k| ((k + 1) / 2) as f32 * step * if k % 2 == 1 { 1.0 } else { -1.0 })
+            .find(|&d| free(c + Vec2::from_angle(base + d) * ring))?;
+        if dev.abs() <= std::f32::consts::FRAC_PI_4 {
+            return Some(c + Vec2::from_angle(base + dev) * ring);
+        }
+        let round = base + std::f32::consts::FRAC_PI_4 * dev.signum();
+        Some(c + Vec2::from_angle(round) * (ring + 2.0 * ru))
     }
 
     fn waypoint_for(&mut self, i: usize, goal: Vec2, cliff_walk: bool) -> Option<Vec2> {

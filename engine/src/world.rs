@@ -226,6 +226,11 @@ pub struct Rules {
     /// Where a weapon's `Period` is counted from (the game's data does not say: docs/smac.md).
     #[serde(default)]
     pub weapon_period: WeaponPeriod,
+    /// Melee units near their target walk round the units already at it to a free place
+    /// beside it instead of waiting behind them: an experiment on StarCraft II's surround,
+    /// off by default (docs/smac.md, "The learner or the game?", gives what it changed).
+    #[serde(default)]
+    pub melee_surround: bool,
 }
 
 fn yes() -> bool {
@@ -234,7 +239,14 @@ fn yes() -> bool {
 
 impl Default for Rules {
     fn default() -> Self {
-        Self { full_vision: false, cooldown_jitter: true, auto_acquire: [true, true], abilities: true, weapon_period: WeaponPeriod::Attack }
+        Self {
+            full_vision: false,
+            cooldown_jitter: true,
+            auto_acquire: [true, true],
+            abilities: true,
+            weapon_period: WeaponPeriod::Attack,
+            melee_surround: false,
+        }
     }
 }
 

@@ -163,3 +163,35 @@ fn a_move_into_the_void_goes_as_close_as_it_can() {
     let p = env.world().unit(uid(0)).expect("marine").pos;
     assert!(p.dist(to) < 0.5 && p.dist(start) > 3.0, "{start:?} -> {p:?}, goal {to:?}");
 }
+
+/// The surround experiment (`Rules::melee_surround`, off by default): twelve Zerglings
+/// ordered onto the middle Zealot of a line of three. Off, they queue on the side they came
+/// from; on, more of them reach it by walking round.
+#[test]
+fn the_surround_experiment_brings_more_melee_units_to_a_target() {
+    let mut units: Vec<(&str, u8, f32, f32, &str)> = (0..3).map(|k| ("Zealot", 1, 10.0, 15.0 + k as f32, "")).collect();
+    for i in 0..12 {
+        units.push(("Zergling", 2, 18.0 + (i % 3) as f32 * 0.8, 14.0 + (i / 3) as f32 * 0.8, ""));
+    }
+    let s = load(&arena_units("pvp", &units, ""));
+    let at_it = |surround: bool| {
+        let mut cfg = passive();
+        cfg.rules.melee_surround = surround;
+        let mut env = Env::new(Arc::clone(&s), cfg, 1);
+        env.reset(1);
+        let z = env.world().alive(Team::One).nth(1).expect("middle Zealot").id;
+        let orders: Vec<Action> = env.world().alive(Team::Two).map(|l| Action::new(l.id, Command::Attack { target: z })).collect();
+        env.submit(Team::Two, &orders).into_iter().for_each(|r| r.expect("attack order"));
+        let mut most = 0;
+        for _ in 0..16 {
+            env.step();
+            let w = env.world();
+            let zu = w.unit(z).expect("Zealot");
+            let n = w.alive(Team::Two).filter(|l| l.pos.dist(zu.pos) - l.radius() - zu.radius() <= 0.15).count();
+            most = most.max(n);
+        }
+        most
+    };
+    let (off, on) = (at_it(false), at_it(true));
+    assert!(on > off, "Zerglings at the Zealot at once: {on} with the surround, {off} without");
+}

@@ -49,10 +49,11 @@ pub fn session_info(cfg: &SimConfig, episode: u64, header: Header) -> SessionInf
     // carried here (a replay without it would silently use the default).
     let EnvConfig { step_mul, rules, reward, opponent, time_limit_loops, ability_actions, prob_obs_enemy, action_mask, fov_actions } =
         &cfg.env;
-    let Rules { full_vision, cooldown_jitter, auto_acquire, abilities, weapon_period } = *rules;
+    let Rules { full_vision, cooldown_jitter, auto_acquire, abilities, weapon_period, melee_surround } = *rules;
     // Not on the wire: a launch is refused any reading but the engine's (launch's validate),
     // so a replay's default is the session's.
     debug_assert_eq!(weapon_period, WeaponPeriod::Attack, "launch validation lets only `attack` through");
+    debug_assert_eq!(melee_surround, Rules::default().melee_surround, "launch validation lets only the engine's movement through");
     let (clock, deadline_ms) = match cfg.clock {
         Clock::Lockstep { deadline } => (SessionInfo::CLOCK_LOCKSTEP, u32::try_from(deadline.as_millis()).unwrap_or(u32::MAX)),
         Clock::RealTime => (SessionInfo::CLOCK_REALTIME, 0),
@@ -112,6 +113,7 @@ pub fn env_config(s: &SessionInfo) -> Result<EnvConfig, SessionError> {
             auto_acquire: s.auto_acquire,
             abilities: s.abilities,
             weapon_period: WeaponPeriod::Attack,
+            melee_surround: Rules::default().melee_surround,
         },
         reward,
         opponent: opponent_of(s.opponent)?,
