@@ -193,7 +193,7 @@ impl World {
         };
         let step = std::f32::consts::PI / (SLOTS / 2) as f32;
         let dev = (0..SLOTS)
-            .map(|k| ((k + 1) / 2) as f32 * step * if k % 2 == 1 { 1.0 } else { -1.0 })
+            .map(|k| k.div_ceil(2) as f32 * step * if k % 2 == 1 { 1.0 } else { -1.0 })
             .find(|&d| free(c + Vec2::from_angle(base + d) * ring))?;
         if dev.abs() <= std::f32::consts::FRAC_PI_4 {
             return Some(c + Vec2::from_angle(base + dev) * ring);
