@@ -16,10 +16,6 @@ const SLIVER: f32 = 0.02;
 const SEPARATION_PASSES: usize = 2;
 /// Places on the ring around a melee unit's target it considers.
 const SLOTS: usize = 16;
-/// Edge distance to its target within which a melee unit looks for a free place beside it.
-const SURROUND_FROM: f32 = 3.0;
-/// Weapons this short are melee (the game's melee weapons reach 0.1 to 1).
-const MELEE_RANGE: f32 = 1.0;
 /// Loops a computed waypoint is reused while the goal stays in place.
 const WAYPOINT_TTL: u32 = 8;
 
@@ -62,8 +58,8 @@ impl World {
             }
             // A melee unit close to its target heads for a free place beside it, around
             // the others already there, instead of queueing behind them.
-            let (goal, remaining) = match intents[i].closing_on {
-                Some(t) if !flying && self.rules.melee_surround => match self.surround_goal(i, t, &snaps) {
+            let (goal, remaining) = match (intents[i].closing_on, intents[i].surround) {
+                (Some(t), Some(range)) if !flying => match self.surround_goal(i, t, range, &snaps) {
                     Some(g) => (g, pos.dist(g)),
                     None => (goal, remaining),
                 },
@@ -167,19 +163,15 @@ impl World {
         }
     }
 
-    /// Where melee unit `i` closing on `t` heads: the free place on the ring of attack
-    /// positions around `t` nearest its side, straight there when that is at most 45
-    /// degrees around, else a point further out a quarter turn round (it walks round the
-    /// units already there). `None` (go straight at the target, or wait behind) when `t` is
-    /// beyond [`SURROUND_FROM`], the weapon is not melee, or no place is free.
-    fn surround_goal(&self, i: usize, t: UnitId, snaps: &[Snap]) -> Option<Vec2> {
+    /// Where melee unit `i` closing on `t` with a weapon of `range` heads: the free place on
+    /// the ring of attack positions around `t` nearest its side, straight there when that is
+    /// at most 45 degrees around, else a point further out a quarter turn round (it walks
+    /// round the units already there). `None` (go straight at the target, or wait behind)
+    /// when no place is free.
+    fn surround_goal(&self, i: usize, t: UnitId, range: f32, snaps: &[Snap]) -> Option<Vec2> {
         let (u, tu) = (&self.units[i], self.units.get(t.index())?);
-        let (_, w) = crate::combat::weapon_for(u, tu)?;
-        if w.range > MELEE_RANGE || tu.flying() || crate::combat::edge_dist(u, tu) > SURROUND_FROM {
-            return None;
-        }
         let (c, ru) = (tu.pos, u.radius);
-        let ring = tu.radius + ru + w.range * 0.5;
+        let ring = tu.radius + ru + range * 0.5;
         let base = (u.pos - c).angle();
         let free = |p: Vec2| {
             let mut ok = self.terrain.walkable(p);

@@ -330,6 +330,9 @@ pub(crate) struct Intent {
     pub heal: Option<UnitId>,
     /// Unit to ignore in collision avoidance (the one it is closing on).
     pub closing_on: Option<UnitId>,
+    /// A melee unit near the target it closes on, under `Rules::melee_surround`: its weapon's
+    /// range, so that movement looks for a free place beside the target.
+    pub surround: Option<f32>,
 }
 
 /// A unit as movement sees it at the start of a loop: compact, so neighbour scans stay cheap.
