@@ -92,6 +92,8 @@ class Env:
         """(reward team 1, reward team 2, terminated, truncated, outcome "win"/"loss"/"draw" or None)."""
     def step_smac(self, actions: _Indices) -> tuple[float, bool, bool, dict[str, Any]]:
         """PvE team 1: (reward, terminated, truncated, {battle_won, dead_allies, dead_enemies})."""
+    def step_heuristic(self, rest: bool) -> tuple[float, bool, bool, dict[str, Any]]:
+        """PvE team 1 played by SMAC's heuristic (`rest`: heuristic_rest); as step_smac."""
     def submit_typed(self, actions_json: str, team: int = 1) -> list[Optional[str]]:
         """JSON list of `avacraft.Action` dicts; returns per action None or why the game refused it."""
     def advance(self) -> tuple[float, float, bool, bool, Optional[str]]: ...

@@ -126,8 +126,10 @@ class StarCraft2Env:
         opt.require("reward_win", reward_win, [200], "200 for a win (SMAC's default)")
         opt.require("reward_defeat", reward_defeat, [0], "0 for a defeat (SMAC's default)")
         opt.require("reward_scale", reward_scale, [True], "the dense reward is scaled to reward_scale_rate at most (SMAC's default)")
-        opt.require("heuristic_ai", heuristic_ai, [False], "agents are controlled by your actions")
-        opt.require("heuristic_rest", heuristic_rest, [False], "agents are controlled by your actions")
+        # SMAC's own script plays the agents (the engine's `smac-heuristic`); step() then
+        # takes actions only as SMAC does, for their count.
+        self.heuristic_ai = opt.boolean("heuristic_ai", heuristic_ai)
+        self.heuristic_rest = opt.boolean("heuristic_rest", heuristic_rest)
         # With reward_only_positive (the only supported value) SMAC never reads this scale,
         # so any number behaves exactly as in SMAC.
         if isinstance(reward_negative_scale, bool) or not isinstance(reward_negative_scale, (int, float)):
@@ -206,6 +208,11 @@ class StarCraft2Env:
         number of actions; nothing is applied then."""
         if type(actions) is not list and not isinstance(actions, np.ndarray):
             actions = np.asarray(actions)
+        if self.heuristic_ai:
+            if len(actions) != self.n_agents:
+                raise AvacraftError(f"actions: {len(actions)} given, {self.n_agents} agents")
+            r, terminated, truncated, info = self._env.step_heuristic(self.heuristic_rest)
+            return self._account(r, terminated, truncated, info, actions)
         r, terminated, truncated, info = self._env.step_smac(actions)
         return self._account(r, terminated, truncated, info, actions)
 

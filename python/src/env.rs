@@ -5,6 +5,7 @@ use crate::convert::{image, indices, matrix, to_py};
 use crate::error::{AvacraftError, Error};
 use crate::options;
 use avacraft_engine::EnvOptions;
+use avacraft_engine::agent::{Agent, GroupObs, Reads, SmacHeuristic};
 use avacraft_engine::{Action, Env, LearnError, Mode, Team, UnitId, describe, unit_list};
 use avacraft_render::{ObsMode, Observer, RenderConfig, RgbImage, VideoWriter, VlmOptions};
 use numpy::PyArray1;
@@ -39,6 +40,9 @@ struct Inner {
     env: Env,
     observer: Observer,
     recording: Recording,
+    /// SMAC's heuristic agent while `step_heuristic` plays the episode (its targets last
+    /// until the episode ends).
+    heuristic: Option<SmacHeuristic>,
 }
 
 pub(crate) fn team(t: u8) -> PyResult<Team> {
@@ -183,13 +187,14 @@ impl PyEnv {
         let (scenario, cfg) = options::build(scenario, &opts)?;
         let env = Env::new(scenario, cfg, seed);
         let observer = Observer::new(ObsMode::Features, RenderConfig::default());
-        Ok(Self { inner: Mutex::new(Inner { env, observer, recording: Recording::default() }) })
+        Ok(Self { inner: Mutex::new(Inner { env, observer, recording: Recording::default(), heuristic: None }) })
     }
 
     /// Starts a new episode from `seed`.
     fn reset(&mut self, seed: u64) {
         let s = self.inner();
         s.env.reset(seed);
+        s.heuristic = None;
         if !s.recording.current.is_empty() {
             s.recording.last = std::mem::take(&mut s.recording.current);
         }
@@ -378,6 +383,30 @@ impl PyEnv {
         }
         let a1 = indices(actions, "actions", &[s.env.smac_layout(Team::One).n_agents])?;
         let r = s.env.step_indices(&a1, None).map_err(Error::from)?;
+        s.after_step();
+        let i = s.env.info(Team::One);
+        let d = PyDict::new(py);
+        d.set_item("battle_won", i.battle_won)?;
+        d.set_item("dead_allies", i.dead_allies)?;
+        d.set_item("dead_enemies", i.dead_enemies)?;
+        Ok((r.reward[0], r.terminated, r.truncated, d))
+    }
+
+    /// SMAC's step under `heuristic_ai`: team 1's units are played by SMAC's heuristic
+    /// (`rest`: `heuristic_rest`) instead of actions; returns what `step_smac` does.
+    fn step_heuristic<'py>(&mut self, py: Python<'py>, rest: bool) -> PyResult<(f32, bool, bool, Bound<'py, PyDict>)> {
+        let s = self.inner();
+        if s.env.done() {
+            return Err(AvacraftError::new_err("the episode is over: call reset() first"));
+        }
+        if s.env.scenario().mode == Mode::Pvp {
+            return Err(PyValueError::new_err(format!("{} is PvP: heuristic_ai plays PvE scenarios", s.env.scenario().name)));
+        }
+        let agent = s.heuristic.get_or_insert_with(|| SmacHeuristic::new(rest));
+        let actions = agent.act(&GroupObs::team(&s.env, Team::One, 0, Reads::UNITS));
+        // As SMAC sends them: an order the game refuses is dropped, the unit keeps its own.
+        let _ = s.env.submit(Team::One, &actions);
+        let r = s.env.step();
         s.after_step();
         let i = s.env.info(Team::One);
         let d = PyDict::new(py);
