@@ -59,7 +59,7 @@ impl World {
             // A melee unit close to its target heads for a free place beside it, around
             // the others already there, instead of queueing behind them.
             let (goal, remaining) = match (intents[i].closing_on, intents[i].surround) {
-                (Some(t), Some(range)) if !flying => match self.surround_goal(i, t, range, &snaps) {
+                (Some(t), Some(range)) if !flying => match self.surround_goal(i, t, range) {
                     Some(g) => (g, pos.dist(g)),
                     None => (goal, remaining),
                 },
@@ -168,7 +168,24 @@ impl World {
     /// at most 45 degrees around, else a point further out a quarter turn round (it walks
     /// round the units already there). `None` (go straight at the target, or wait behind)
     /// when no place is free.
-    fn surround_goal(&self, i: usize, t: UnitId, range: f32, snaps: &[Snap]) -> Option<Vec2> {
+    fn surround_goal(&self, i: usize, t: UnitId, range: f32) -> Option<Vec2> {
+        let dev = self.free_place(i, t, range)?;
+        let (u, tu) = (&self.units[i], &self.units[t.index()]);
+        let (c, ru) = (tu.pos, u.radius);
+        let ring = tu.radius + ru + range * 0.5;
+        let base = (u.pos - c).angle();
+        if dev.abs() <= std::f32::consts::FRAC_PI_4 {
+            return Some(c + Vec2::from_angle(base + dev) * ring);
+        }
+        let round = base + std::f32::consts::FRAC_PI_4 * dev.signum();
+        Some(c + Vec2::from_angle(round) * (ring + 2.0 * ru))
+    }
+
+    /// The turn (radians, signed) from `i`'s side of `t` to the nearest free place on the ring
+    /// where `i`'s melee weapon of `range` reaches `t`, or `None` if every place is taken (by
+    /// any ground unit, or unwalkable). Positions as at the start of the loop: nobody has
+    /// moved yet when units decide or choose their velocities.
+    fn free_place(&self, i: usize, t: UnitId, range: f32) -> Option<f32> {
         let (u, tu) = (&self.units[i], self.units.get(t.index())?);
         let (c, ru) = (tu.pos, u.radius);
         let ring = tu.radius + ru + range * 0.5;
@@ -176,22 +193,17 @@ impl World {
         let free = |p: Vec2| {
             let mut ok = self.terrain.walkable(p);
             self.grid.for_each_near(p, ru + 1.0, |j| {
-                let o = &snaps[j];
-                if ok && j != i && j != t.index() && o.alive && o.body != Body::Air && o.pos.dist(p) < (ru + o.radius) * 0.9 {
+                let o = &self.units[j];
+                if ok && j != i && j != t.index() && o.alive && !o.flying() && o.pos.dist(p) < (ru + o.radius) * 0.9 {
                     ok = false;
                 }
             });
             ok
         };
         let step = std::f32::consts::PI / (SLOTS / 2) as f32;
-        let dev = (0..SLOTS)
+        (0..SLOTS)
             .map(|k| k.div_ceil(2) as f32 * step * if k % 2 == 1 { 1.0 } else { -1.0 })
-            .find(|&d| free(c + Vec2::from_angle(base + d) * ring))?;
-        if dev.abs() <= std::f32::consts::FRAC_PI_4 {
-            return Some(c + Vec2::from_angle(base + dev) * ring);
-        }
-        let round = base + std::f32::consts::FRAC_PI_4 * dev.signum();
-        Some(c + Vec2::from_angle(round) * (ring + 2.0 * ru))
+            .find(|&d| free(c + Vec2::from_angle(base + d) * ring))
     }
 
     fn waypoint_for(&mut self, i: usize, goal: Vec2, cliff_walk: bool) -> Option<Vec2> {
