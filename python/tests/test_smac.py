@@ -365,3 +365,9 @@ def test_heuristic_ai_plays_smacs_script():
     env.reset()
     with pytest.raises(AvacraftError, match="actions: 2 given, 5 agents"):
         env.step([1, 1])
+    # The state's last actions are the heuristic's (attacks), not the stops passed in.
+    env.step([1] * env.n_agents)
+    n = env.n_agents * env.n_actions
+    last = np.asarray(env.get_state())[-n:].reshape(env.n_agents, env.n_actions)
+    attack_base = env.n_actions - 5
+    assert (last.argmax(axis=1) >= attack_base).all() and (last.sum(axis=1) == 1).all()
