@@ -1,4 +1,4 @@
-//! The environment's SMACv2, ability and weapon-period options in a config table.
+//! The environment's SMACv2, ability, weapon-period and surround options in a config table.
 
 /// Puts the environment's SMACv2 and ability options, off unless set, into `table` where it
 /// lacks them: keys every config has, which the built-in files and saved configs leave out at
@@ -10,4 +10,5 @@ pub(super) fn add_default_keys(table: &mut toml::Table) {
     table.entry("num_fov_actions").or_insert(toml::Value::Integer(12));
     table.entry("ability_actions").or_insert(toml::Value::Boolean(false));
     table.entry("weapon_period").or_insert(toml::Value::String(avacraft_engine::WeaponPeriod::Attack.name().to_owned()));
+    table.entry("melee_surround").or_insert(toml::Value::Boolean(false));
 }

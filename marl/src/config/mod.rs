@@ -108,6 +108,10 @@ pub struct Config {
     /// experiment on the one mechanic the game's data leaves open: docs/smac.md).
     #[serde(default, skip_serializing_if = "WeaponPeriod::is_attack")]
     pub weapon_period: WeaponPeriod,
+    /// The surround experiment (`Rules::melee_surround`, off): melee units walk round those
+    /// already at their target to a free place beside it (docs/smac.md).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub melee_surround: bool,
     /// PvP: team 2's agent while team 1 learns (see the config files); empty: none.
     #[serde(default)]
     pub opponent: Opponent,
@@ -481,7 +485,9 @@ impl Config {
     /// The engine settings the runs use, checked by [`EnvOptions::config`] (`validate` refuses
     /// every value it would, so only a config built around `validate` gets the error).
     pub fn env_config(&self) -> Result<EnvConfig, Error> {
-        self.env_options().config().map_err(|b| bad(b.option, b.value, &b.supported, "see the rule"))
+        let mut cfg = self.env_options().config().map_err(|b| bad(b.option, b.value, &b.supported, "see the rule"))?;
+        cfg.rules.melee_surround = self.melee_surround;
+        Ok(cfg)
     }
 }
 
@@ -690,6 +696,14 @@ mod tests {
         assert_eq!(c.env_config()?.rules.weapon_period, WeaponPeriod::Shot);
         let text = toml::to_string(&c).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
         assert_eq!(Config::from_toml(&text, &[])?.env_config()?.rules.weapon_period, WeaponPeriod::Shot);
+        // The surround experiment likewise: off and unsaved by default, on when set.
+        let c = Config::for_algo("qmix", &[])?;
+        assert!(!c.env_config()?.rules.melee_surround);
+        let text = toml::to_string(&c).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
+        assert!(!text.contains("melee_surround"), "{text}");
+        let c = Config::for_algo("qmix", &["melee_surround=true".into()])?;
+        let text = toml::to_string(&c).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
+        assert!(Config::from_toml(&text, &[])?.env_config()?.rules.melee_surround);
         Ok(())
     }
 
