@@ -27,7 +27,7 @@ pub struct EpisodeArgs {
     /// (each node's units, policy and seed; `policy: marl:DIR` loads the checkpoint once and
     /// runs one network per node), exactly as `avacraft launch` deploys them, so the
     /// trajectory hashes can be compared with the deployment's.
-    #[arg(long, conflicts_with_all = ["scenario", "data", "agent", "agent2", "opponent", "episodes", "seed", "full_vision", "passive_agents", "no_jitter", "no_abilities", "weapon_period"])]
+    #[arg(long, conflicts_with_all = ["scenario", "data", "agent", "agent2", "opponent", "episodes", "seed", "full_vision", "passive_agents", "no_jitter", "no_abilities", "weapon_period", "melee_surround"])]
     pub launch: Option<std::path::PathBuf>,
     /// Policy for team 1: focus-fire, kite, attack-move, builtin, aggressive, defensive, focus, smac-heuristic,
     /// smac-heuristic-rest, random, hold, noop,
@@ -240,16 +240,13 @@ fn setup(a: &EpisodeArgs) -> Result<Setup> {
         passive_allies: a.passive_agents,
         abilities: !a.no_abilities,
         weapon_period: a.weapon_period,
+        melee_surround: a.melee_surround.unwrap_or(false),
         reward: RewardMode::Sparse,
         opponent,
         ..EnvOptions::default()
     }
     .config()
     .context("the episode's options")?;
-    let mut cfg = cfg;
-    if let Some(on) = a.melee_surround {
-        cfg.rules.melee_surround = on;
-    }
     let seeds = (0..a.episodes as u64).map(|k| a.seed.wrapping_add(k)).collect();
     let ava = ava.map(|(made, dir)| (made.run.unwrap_or_else(|| unreachable!("an AVA policy is made with its run")), dir));
     Ok(Setup {

@@ -109,6 +109,7 @@ mod tests {
             // Not carried by SessionInfo: a recording could not replay it.
             ("scenario: 3m_vlm\nenv: {weapon_period: shot}\nagents:\n  - {id: a, units: [1], policy: noop}\n", "env.weapon_period"),
             ("scenario: 3m_vlm\nenv: {weapon_period: later}\nagents:\n  - {id: a, units: [1], policy: noop}\n", "later"),
+            ("scenario: 3m_vlm\nenv: {melee_surround: true}\nagents:\n  - {id: a, units: [1], policy: noop}\n", "env.melee_surround"),
         ];
         for (text, field) in cases {
             let e = chain(&parse("bad.yaml", text, None).expect_err(text));

@@ -97,6 +97,10 @@ pub(crate) fn validate(file: &str, raw: RawLaunch, how: Resolve<'_>) -> Result<P
         let why = "only `attack` in a deployment: the session description (SessionInfo) does not carry another reading, so its recording could not be replayed";
         return Err(cx.err("env.weapon_period", env.rules.weapon_period, why));
     }
+    if env.rules.melee_surround {
+        let why = "only `false` in a deployment: the session description (SessionInfo) does not carry the surround experiment, so its recording could not be replayed";
+        return Err(cx.err("env.melee_surround", true, why));
+    }
     // A network trained with the ability slots reads an observation only a game with them
     // gives: without, its node would give no orders at all.
     if !env.ability_actions {

@@ -61,6 +61,7 @@ class Env:
         fov_actions: int = 0,
         data: Optional[str] = None,
         weapon_period: str = "attack",
+        melee_surround: bool = False,
     ) -> None: ...
     def reset(self, seed: int) -> None: ...
     @property
@@ -131,6 +132,7 @@ class VecEnv:
         fov_actions: int = 0,
         data: Optional[str] = None,
         weapon_period: str = "attack",
+        melee_surround: bool = False,
     ) -> None: ...
     @property
     def num_envs(self) -> int: ...

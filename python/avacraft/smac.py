@@ -49,6 +49,8 @@ class StarCraft2Env:
     - `cooldown_jitter`: StarCraft II's random attack delay (on).
     - `weapon_period`: where a weapon's period is counted from: "attack" (the engine's
       reading, the default) or "shot" (from the damage point: an experiment, docs/smac.md).
+    - `melee_surround`: the surround experiment (off): melee units walk round those already
+      at their target to a free place beside it (docs/smac.md).
     - `episode_limit`: time limit in steps (None: the scenario's); `time_limit_loops` in
       game loops.
     - `prob_obs_enemy`, `action_mask`: SMACv2's extended partial observability (an enemy
@@ -110,6 +112,7 @@ class StarCraft2Env:
         conic_fov: bool = False,
         num_fov_actions: int = 12,
         weapon_period: str = "attack",
+        melee_surround: bool = False,
     ) -> None:
         self.map_name = map_name
         self._step_mul = opt.positive_int("step_mul", step_mul)
@@ -173,6 +176,7 @@ class StarCraft2Env:
             fov_actions=opt.fov_actions(conic_fov, num_fov_actions),
             data=data,
             weapon_period=weapon_period,
+            melee_surround=opt.boolean("melee_surround", melee_surround),
         )
         info = self._env.env_info(1)
         self.n_agents: int = info["n_agents"]

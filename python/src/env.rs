@@ -146,7 +146,7 @@ impl Sized2 for Observer {
 impl PyEnv {
     #[new]
     #[pyo3(signature = (scenario, seed=0, step_mul=8, reward="dense", opponent=None, full_vision=false, passive_allies=true,
-        cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None, prob_obs_enemy=1.0, action_mask=true, fov_actions=0, data=None, weapon_period="attack"))]
+        cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None, prob_obs_enemy=1.0, action_mask=true, fov_actions=0, data=None, weapon_period="attack", melee_surround=false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         scenario: &str,
@@ -165,6 +165,7 @@ impl PyEnv {
         fov_actions: i64,
         data: Option<String>,
         weapon_period: &str,
+        melee_surround: bool,
     ) -> PyResult<Self> {
         // Both constructors take EnvOptions' fields, in its order (a Python test holds them to it).
         let (reward, opponent, data, weapon_period) = options::named(reward, opponent.as_deref(), data.as_deref(), weapon_period)?;
@@ -183,6 +184,7 @@ impl PyEnv {
             fov_actions,
             data,
             weapon_period,
+            melee_surround,
         };
         let (scenario, cfg) = options::build(scenario, &opts)?;
         let env = Env::new(scenario, cfg, seed);

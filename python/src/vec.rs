@@ -32,7 +32,7 @@ impl PyVecEnv {
 impl PyVecEnv {
     #[new]
     #[pyo3(signature = (scenario, seeds, threads=None, step_mul=8, reward="dense", opponent=None, full_vision=false,
-        passive_allies=true, cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None, prob_obs_enemy=1.0, action_mask=true, fov_actions=0, data=None, weapon_period="attack"))]
+        passive_allies=true, cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None, prob_obs_enemy=1.0, action_mask=true, fov_actions=0, data=None, weapon_period="attack", melee_surround=false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         scenario: &str,
@@ -52,6 +52,7 @@ impl PyVecEnv {
         fov_actions: i64,
         data: Option<String>,
         weapon_period: &str,
+        melee_surround: bool,
     ) -> PyResult<Self> {
         // Both constructors take EnvOptions' fields, in its order (a Python test holds them to it).
         let (reward, opponent, data, weapon_period) = options::named(reward, opponent.as_deref(), data.as_deref(), weapon_period)?;
@@ -70,6 +71,7 @@ impl PyVecEnv {
             fov_actions,
             data,
             weapon_period,
+            melee_surround,
         };
         let (scenario, cfg) = options::build(scenario, &opts)?;
         let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));

@@ -343,6 +343,29 @@ def test_scenario_helpers():
     assert avacraft.scenario_info("3m_vlm")["units"] == (3, 3)
 
 
+def test_the_surround_experiment_changes_the_melee_fight():
+    # corridor's Zealots against Zerglings under SMAC's heuristic: with the experiment on,
+    # Zerglings walk round those at their target, so the same seeds play other games.
+    def games(surround: bool) -> list:
+        env = StarCraft2Env(map_name="corridor", heuristic_ai=True, melee_surround=surround, seed=9000)
+        out = []
+        for _ in range(3):
+            env.reset()
+            terminated, steps, ret = False, 0, 0.0
+            while not terminated:
+                actions = [1 if env.get_avail_agent_actions(a)[1] else 0 for a in range(env.n_agents)]
+                reward, terminated, _ = env.step(actions)
+                steps, ret = steps + 1, ret + reward
+            out.append((steps, round(ret, 4)))
+        env.close()
+        return out
+    off = games(False)
+    assert games(False) == off
+    assert games(True) != off
+    with pytest.raises(AvacraftError, match="melee_surround"):
+        StarCraft2Env(map_name="corridor", melee_surround="yes")
+
+
 def test_heuristic_ai_plays_smacs_script():
     # SMAC's heuristic (each agent on its nearest enemy until it dies) wins 2s3z here 99
     # times in 100 (eval/smac/heuristic.csv); the actions given are not played.

@@ -42,6 +42,9 @@ pub struct EnvOptions {
     /// Where a weapon's period is counted from: `attack` (the engine's reading) or `shot`
     /// (an experiment; see [`WeaponPeriod`]).
     pub weapon_period: WeaponPeriod,
+    /// The surround experiment (off): melee units walk round those already at their target
+    /// to a free place beside it (see [`crate::Rules`]'s `melee_surround`).
+    pub melee_surround: bool,
 }
 
 impl Default for EnvOptions {
@@ -61,6 +64,7 @@ impl Default for EnvOptions {
             fov_actions: 0,
             data: None,
             weapon_period: WeaponPeriod::Attack,
+            melee_surround: false,
         }
     }
 }
@@ -77,7 +81,7 @@ pub struct BadOption {
 impl EnvOptions {
     /// The options' names, in the order of the Python constructors' keyword arguments (a test
     /// holds both constructors' signatures to it).
-    pub const NAMES: [&'static str; 14] = [
+    pub const NAMES: [&'static str; 15] = [
         "step_mul",
         "reward",
         "opponent",
@@ -92,6 +96,7 @@ impl EnvOptions {
         "fov_actions",
         "data",
         "weapon_period",
+        "melee_surround",
     ];
 
     /// The engine's configuration, every option checked.
@@ -106,6 +111,7 @@ impl EnvOptions {
         cfg.rules.cooldown_jitter = self.cooldown_jitter;
         cfg.rules.abilities = self.abilities;
         cfg.rules.weapon_period = self.weapon_period;
+        cfg.rules.melee_surround = self.melee_surround;
         cfg.ability_actions = self.ability_actions;
         cfg.time_limit_loops = match self.time_limit_loops {
             None => None,

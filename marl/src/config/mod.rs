@@ -478,6 +478,7 @@ impl Config {
             fov_actions: if self.conic_fov { self.num_fov_actions } else { 0 },
             ability_actions: self.ability_actions,
             weapon_period: self.weapon_period,
+            melee_surround: self.melee_surround,
             ..EnvOptions::default()
         }
     }
@@ -485,9 +486,7 @@ impl Config {
     /// The engine settings the runs use, checked by [`EnvOptions::config`] (`validate` refuses
     /// every value it would, so only a config built around `validate` gets the error).
     pub fn env_config(&self) -> Result<EnvConfig, Error> {
-        let mut cfg = self.env_options().config().map_err(|b| bad(b.option, b.value, &b.supported, "see the rule"))?;
-        cfg.rules.melee_surround = self.melee_surround;
-        Ok(cfg)
+        self.env_options().config().map_err(|b| bad(b.option, b.value, &b.supported, "see the rule"))
     }
 }
 
