@@ -79,7 +79,10 @@ pub struct TrainArgs {
     pub out: Option<PathBuf>,
     /// Go on with the run in DIR from its last test round, with its config (`--steps` and
     /// `--set` still apply, e.g. to train longer), its optimisers' state and its random
-    /// streams. The replay buffer and the episodes under way start afresh.
+    /// streams. With feature observations and no self-play, the episodes under way (and a
+    /// Q-learner's replay buffer, journalled in DIR/resume) go on as they were, so the run
+    /// goes on as if uninterrupted; otherwise, or where those files are gone, they start
+    /// afresh.
     #[arg(long, value_name = "DIR", conflicts_with_all = ["config", "algo"])]
     pub resume: Option<PathBuf>,
 }
