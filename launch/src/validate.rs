@@ -14,6 +14,26 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Duration;
 
+/// The `env` section over a deployment's defaults (PvP-ready: no passive allies, sparse
+/// reward), refusing the rules a session description cannot carry: its recording could not
+/// be replayed with them.
+fn env_section(cx: &Cx<'_>, over: Option<&serde_json::Value>, opponent: Option<OpponentKind>) -> Result<EnvConfig, LaunchError> {
+    let mut options = EnvOptions { opponent, passive_allies: false, reward: RewardMode::Sparse, ..EnvOptions::default() };
+    if let Some(over) = over {
+        options = options.overlay(over, &["opponent", "data"]).map_err(|why| cx.err("env", over, why))?;
+    }
+    let env = options.config().map_err(|b| cx.err(format!("env.{}", b.option), b.value, b.supported))?;
+    if env.rules.weapon_period != WeaponPeriod::Attack {
+        let why = "only `attack` in a deployment: the session description (SessionInfo) does not carry another reading, so its recording could not be replayed";
+        return Err(cx.err("env.weapon_period", env.rules.weapon_period, why));
+    }
+    if env.rules.melee_surround {
+        let why = "only `false` in a deployment: the session description (SessionInfo) does not carry the surround experiment, so its recording could not be replayed";
+        return Err(cx.err("env.melee_surround", true, why));
+    }
+    Ok(env)
+}
+
 pub(crate) fn validate(file: &str, raw: RawLaunch, how: Resolve<'_>) -> Result<Plan, LaunchError> {
     let cx = Cx(file);
     let scenario_arg = match how.base.map(|b| b.join(&raw.scenario)) {
@@ -88,19 +108,7 @@ pub(crate) fn validate(file: &str, raw: RawLaunch, how: Resolve<'_>) -> Result<P
             Some(plan)
         }
     };
-    let mut options = EnvOptions { opponent, passive_allies: false, reward: RewardMode::Sparse, ..EnvOptions::default() };
-    if let Some(over) = &raw.env {
-        options = options.overlay(over, &["opponent", "data"]).map_err(|why| cx.err("env", over, why))?;
-    }
-    let env = options.config().map_err(|b| cx.err(format!("env.{}", b.option), b.value, b.supported))?;
-    if env.rules.weapon_period != WeaponPeriod::Attack {
-        let why = "only `attack` in a deployment: the session description (SessionInfo) does not carry another reading, so its recording could not be replayed";
-        return Err(cx.err("env.weapon_period", env.rules.weapon_period, why));
-    }
-    if env.rules.melee_surround {
-        let why = "only `false` in a deployment: the session description (SessionInfo) does not carry the surround experiment, so its recording could not be replayed";
-        return Err(cx.err("env.melee_surround", true, why));
-    }
+    let env = env_section(&cx, raw.env.as_ref(), opponent)?;
     // A network trained with the ability slots reads an observation only a game with them
     // gives: without, its node would give no orders at all.
     if !env.ability_actions {
