@@ -98,10 +98,7 @@ impl Carry {
     pub(crate) fn save(&self, dir: &Path) -> Result<(), Error> {
         let d = dir.join("resume");
         std::fs::create_dir_all(&d).map_err(|source| Error::Io { path: d.clone(), source })?;
-        let tmp = d.join(format!("{FILE}.tmp"));
-        candle_core::safetensors::save(&self.map, &tmp)?;
-        let path = d.join(FILE);
-        std::fs::rename(&tmp, &path).map_err(|source| Error::Io { path, source })
+        crate::aside::tensors(&self.map, &d.join(FILE))
     }
 
     /// The carry in `dir/resume/` if there is one taken at step `t_env`.

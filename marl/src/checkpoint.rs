@@ -51,15 +51,15 @@ struct Meta {
 /// Writes a checkpoint of `nets` into `dir` (created if needed).
 pub fn save(dir: &Path, nets: &Nets, cfg: &Config, shape: &Shape, scenario: &str) -> Result<(), Error> {
     std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
-    candle_core::safetensors::save(&nets.agent_params.to_map(), dir.join("agent.safetensors"))?;
+    crate::aside::tensors(&nets.agent_params.to_map(), &dir.join("agent.safetensors"))?;
     let mixer = nets.mixer_params.to_map();
     if !mixer.is_empty() {
-        candle_core::safetensors::save(&mixer, dir.join("mixer.safetensors"))?;
+        crate::aside::tensors(&mixer, &dir.join("mixer.safetensors"))?;
     }
     let meta = Meta { format: FORMAT, names: NAMES, scenario: scenario.to_owned(), shape: *shape, config: cfg.clone() };
     let path = dir.join("config.json");
     let text = serde_json::to_string_pretty(&meta).map_err(|source| Error::Json { path: path.clone(), source })?;
-    std::fs::write(&path, text).map_err(|source| Error::Io { path, source })
+    crate::aside::write(&path, text)
 }
 
 /// Gives the checkpoint in `dir` another config (a run going on under other settings). Refused,
@@ -70,9 +70,9 @@ pub(crate) fn restate(dir: &Path, cfg: &Config) -> Result<(), Error> {
     let mut meta: Meta = serde_json::from_str(&old).map_err(|source| Error::Json { path: path.clone(), source })?;
     meta.config = cfg.clone();
     let text = serde_json::to_string_pretty(&meta).map_err(|source| Error::Json { path: path.clone(), source })?;
-    std::fs::write(&path, text).map_err(|source| Error::Io { path: path.clone(), source })?;
+    crate::aside::write(&path, text)?;
     if let Err(e) = Policy::load(dir) {
-        std::fs::write(&path, old).map_err(|source| Error::Io { path, source })?;
+        crate::aside::write(&path, old)?;
         return Err(e);
     }
     Ok(())

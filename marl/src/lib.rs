@@ -37,7 +37,7 @@
 //! Each module uses only modules of its own layer or a lower one, and no two modules use each
 //! other, directly or around a circle (`tests/it/structure.rs` checks both, from this list):
 //!
-//! 1. foundations: `error`, `params`, `optim`, `opponent`, `value_norm`, `plot`, `tensorboard`, `runlog`, `baselines`, `lock`
+//! 1. foundations: `error`, `aside`, `params`, `optim`, `opponent`, `value_norm`, `plot`, `tensorboard`, `runlog`, `baselines`, `lock`
 //! 2. configuration: `config`
 //! 3. data: `kernels`, `frames`, `buffer`, `journal`, `td`
 //! 4. networks: `encoders`, `nets`, `qtran`, `observe`
@@ -50,6 +50,7 @@
 #![deny(unsafe_code)]
 
 pub mod acting;
+mod aside;
 pub mod baselines;
 pub mod buffer;
 mod carry;

@@ -46,10 +46,7 @@ pub(crate) fn save_moments(dir: &Path, moments: &[(&str, Moments)]) -> Result<()
         }
         map.insert(format!("{name}.steps"), candle_core::Tensor::new(&[f64::from(m.steps)], &Device::Cpu)?);
     }
-    let tmp = d.join("optim.safetensors.tmp");
-    candle_core::safetensors::save(&map, &tmp)?;
-    let path = d.join(OPTIM_FILE);
-    std::fs::rename(&tmp, &path).map_err(|source| Error::Io { path, source })
+    crate::aside::tensors(&map, &d.join(OPTIM_FILE))
 }
 
 /// The optimiser states saved in `dir/resume`, by name, shaped like `like`'s; `None` for a
@@ -142,18 +139,15 @@ impl RunState {
         let d = dir.join("resume");
         std::fs::create_dir_all(&d).map_err(|source| Error::Io { path: d.clone(), source })?;
         if let Some(target) = target {
-            candle_core::safetensors::save(&target.agent_params.to_map(), d.join("target_agent.safetensors"))?;
+            crate::aside::tensors(&target.agent_params.to_map(), &d.join("target_agent.safetensors"))?;
             let mixer = target.mixer_params.to_map();
             if !mixer.is_empty() {
-                candle_core::safetensors::save(&mixer, d.join("target_mixer.safetensors"))?;
+                crate::aside::tensors(&mixer, &d.join("target_mixer.safetensors"))?;
             }
         }
         let path = d.join("state.json");
         let text = serde_json::to_string_pretty(self).map_err(|source| Error::Json { path: path.clone(), source })?;
-        // Written aside and renamed, so an interrupted write never leaves half a state.
-        let tmp = d.join("state.json.tmp");
-        std::fs::write(&tmp, text).map_err(|source| Error::Io { path: tmp.clone(), source })?;
-        std::fs::rename(&tmp, &path).map_err(|source| Error::Io { path, source })
+        crate::aside::write(&path, text)
     }
 }
 

@@ -673,7 +673,7 @@ impl PpoLearner {
 
     pub fn save_critic(&self, dir: &std::path::Path) -> Result<(), Error> {
         std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.to_path_buf(), source })?;
-        Ok(candle_core::safetensors::save(&self.critic_params.to_map(), dir.join("critic.safetensors"))?)
+        crate::aside::tensors(&self.critic_params.to_map(), &dir.join("critic.safetensors"))
     }
 }
 
