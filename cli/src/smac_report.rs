@@ -251,13 +251,15 @@ fn play_heldout(shipped: &Path, map: &str) -> Result<(f64, usize)> {
     Ok((r.summary.win.mean, r.episodes.len()))
 }
 
-/// `avacraft episode`'s options for the game the checkpoint in `dir` learned: its unit data and
-/// its reading of weapon periods (not the map's defaults: a run on the Void data or with the
-/// period from the shot is played again on that game).
-fn learned_game(dir: &Path) -> Result<[String; 4]> {
+/// `avacraft episode`'s options for the game the checkpoint in `dir` learned: its unit data,
+/// its reading of weapon periods and the surround experiment (not the map's defaults: a run on
+/// the Void data, with the period from the shot or under the surround is played again on that
+/// game).
+fn learned_game(dir: &Path) -> Result<[String; 6]> {
     let data = avacraft_marl::Policy::data_in(dir).with_context(|| format!("{}: the unit data it learned on", dir.display()))?;
     let period = avacraft_marl::Policy::weapon_period_in(dir).with_context(|| format!("{}: its weapon periods", dir.display()))?;
-    Ok(["--data".into(), data.to_string(), "--weapon-period".into(), period.to_string()])
+    let surround = avacraft_marl::Policy::melee_surround_in(dir).with_context(|| format!("{}: the surround experiment", dir.display()))?;
+    Ok(["--data".into(), data.to_string(), "--weapon-period".into(), period.to_string(), "--melee-surround".into(), surround.to_string()])
 }
 
 fn pct(x: f64) -> String {
@@ -582,9 +584,20 @@ mod tests {
     #[test]
     fn held_out_games_are_played_on_the_game_the_checkpoint_learned() -> Result<()> {
         let baselines = Path::new(env!("CARGO_MANIFEST_DIR")).join("../baselines/2s_vs_1sc");
-        assert_eq!(learned_game(&baselines.join("qmix"))?, ["--data", "liberty", "--weapon-period", "attack"]);
-        assert_eq!(learned_game(&baselines.join("qmix-void"))?, ["--data", "void", "--weapon-period", "attack"]);
-        assert_eq!(learned_game(&baselines.join("qmix-shot"))?, ["--data", "liberty", "--weapon-period", "shot"]);
+        let game = |data: &'static str, period: &'static str, surround: &'static str| {
+            ["--data", data, "--weapon-period", period, "--melee-surround", surround].map(String::from)
+        };
+        assert_eq!(learned_game(&baselines.join("qmix"))?, game("liberty", "attack", "false"));
+        assert_eq!(learned_game(&baselines.join("qmix-void"))?, game("void", "attack", "false"));
+        assert_eq!(learned_game(&baselines.join("qmix-shot"))?, game("liberty", "shot", "false"));
+        // A run under the surround experiment (its config.json is all this reads).
+        let surround = std::env::temp_dir().join(format!("avacraft-learned-surround-{}", std::process::id()));
+        std::fs::create_dir_all(&surround)?;
+        let mut meta: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(baselines.join("qmix/config.json"))?)?;
+        meta["config"]["melee_surround"] = serde_json::Value::Bool(true);
+        std::fs::write(surround.join("config.json"), meta.to_string())?;
+        assert_eq!(learned_game(&surround)?, game("liberty", "attack", "true"));
+        let _ = std::fs::remove_dir_all(&surround);
         let e = learned_game(&baselines.join("no-such-run")).expect_err("no checkpoint");
         assert!(format!("{e:#}").contains("no-such-run"), "{e:#}");
         Ok(())

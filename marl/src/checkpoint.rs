@@ -149,6 +149,12 @@ impl Policy {
         Ok(meta_in(dir)?.config.weapon_period)
     }
 
+    /// Whether the network in `dir` learned under the surround experiment
+    /// (`Rules::melee_surround`; its `config.json` alone, false when the key is absent).
+    pub fn melee_surround_in(dir: &Path) -> Result<bool, Error> {
+        Ok(meta_in(dir)?.config.melee_surround)
+    }
+
     /// The algorithm and the scenario (under today's names) of the checkpoint in `dir`, from
     /// its `config.json` alone.
     pub fn algo_scenario_in(dir: &Path) -> Result<(String, String), Error> {

@@ -56,6 +56,11 @@ impl MarlCheckpoint {
         Policy::weapon_period_in(&self.dir).map_err(|source| PolicyError::Checkpoint { dir: self.dir.clone(), source })
     }
 
+    /// Whether it learned under the surround experiment ([`Policy::melee_surround_in`]).
+    pub fn trained_melee_surround(&self) -> Result<bool, PolicyError> {
+        Policy::melee_surround_in(&self.dir).map_err(|source| PolicyError::Checkpoint { dir: self.dir.clone(), source })
+    }
+
     /// Whether the network reads the ability slots ([`Policy::ability_actions_in`]).
     pub fn ability_actions(&self) -> Result<bool, PolicyError> {
         Policy::ability_actions_in(&self.dir).map_err(|source| PolicyError::Checkpoint { dir: self.dir.clone(), source })

@@ -183,6 +183,15 @@ impl PolicySpec {
         }
     }
 
+    /// Whether the policy learned under the surround experiment (`None`: not a network).
+    pub fn trained_melee_surround(&self, scenario: &Scenario) -> Result<Option<bool>, PolicyError> {
+        match self {
+            PolicySpec::Marl(m) => m.trained_melee_surround().map(Some),
+            PolicySpec::Baseline(b) => b.for_scenario(&scenario.name)?.trained_melee_surround().map(Some),
+            PolicySpec::Scripted(_) | PolicySpec::Dds | PolicySpec::Ava(_) => Ok(None),
+        }
+    }
+
     /// Whether the policy's network reads the ability slots, so that the game it plays in
     /// must have them (`EnvConfig::ability_actions`); every other policy plays with or
     /// without them.

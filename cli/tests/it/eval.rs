@@ -596,6 +596,47 @@ fn a_baseline_on_other_unit_data_is_played_with_a_warning() {
     assert!(!quiet.contains("warning"), "{quiet}");
 }
 
+/// A network that learned under the surround experiment, played without it (or one that learned
+/// without it, played under it), is played with a warning naming the flag that plays the game it
+/// learned; with that flag it plays quietly.
+#[test]
+fn a_network_played_off_its_surround_rule_is_warned_about() {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let dir = tmp("surround-checkpoint");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("dir");
+    let shipped = repo.join("baselines/3m_vlm/qmix");
+    std::fs::copy(shipped.join("agent.safetensors"), dir.join("agent.safetensors")).expect("weights");
+    if shipped.join("mixer.safetensors").is_file() {
+        std::fs::copy(shipped.join("mixer.safetensors"), dir.join("mixer.safetensors")).expect("mixer");
+    }
+    let text = std::fs::read_to_string(shipped.join("config.json")).expect("config");
+    let mut meta: serde_json::Value = serde_json::from_str(&text).expect("json");
+    meta["config"]["melee_surround"] = serde_json::Value::Bool(true);
+    std::fs::write(dir.join("config.json"), meta.to_string()).expect("write");
+    let run = |agent: &str, extra: &[&str]| {
+        let mut args = vec!["episode", "--scenario", "3m_vlm", "--data", "legacy", "--agent", agent, "--episodes", "1", "--json"];
+        args.extend_from_slice(extra);
+        let o = Command::new(exe()).env("AVACRAFT_BASELINES", repo.join("baselines")).args(&args).output().expect("episode");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let agent = format!("marl:{}", dir.display());
+    let warned = run(&agent, &[]);
+    assert!(
+        warned.contains("learned under the surround experiment and plays without it") && warned.contains("--melee-surround true"),
+        "{warned}"
+    );
+    assert!(!run(&agent, &["--melee-surround", "true"]).contains("warning"));
+    let warned = run("baseline:qmix", &["--melee-surround", "true"]);
+    assert!(
+        warned.contains("learned without the surround experiment and plays under it") && warned.contains("--melee-surround false"),
+        "{warned}"
+    );
+    assert!(!run("baseline:qmix", &[]).contains("warning"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// The shipped SMACv2 baselines (eval/plans/smacv2.toml) on protoss_5_vs_5, whose units and
 /// start positions are drawn every episode, on 200 seeds apart from training's and from
 /// docs/simulator.md's (5001-5200): both beat focus-fire (the bar) and attack-move;
