@@ -112,7 +112,10 @@ impl AvaRun {
         let path = rec.dir().join(COSTS_FILE);
         let io = |source| crate::llm::RecordError::Io { path: path.clone(), what: "cannot write the accounting", source };
         let text = serde_json::to_string_pretty(&g.episodes).map_err(|e| io(std::io::Error::other(e)))?;
-        std::fs::write(&path, text).map_err(io)
+        // Rewritten after every episode: written aside and renamed, so a node killed
+        // mid-write keeps the last whole accounting instead of a torn one.
+        let tmp = path.with_extension("json.tmp");
+        std::fs::write(&tmp, text).and_then(|()| std::fs::rename(&tmp, &path)).map_err(io)
     }
 
     /// One call with retries: transport errors, 429s and 5xxs are tried again after pauses
