@@ -261,7 +261,8 @@ pub fn report(run: &AvaRun, dir: Option<&Path>, out: &mut dyn Write, json: bool)
     let eps = run.episodes();
     if let Some(d) = dir {
         let path = d.join("costs.json");
-        std::fs::write(&path, serde_json::to_string_pretty(&eps)?).with_context(|| format!("writing {}", path.display()))?;
+        avacraft_marl::aside::write_file(&path, serde_json::to_string_pretty(&eps)?)
+            .with_context(|| format!("writing {}", path.display()))?;
     }
     if json {
         return Ok(eps);

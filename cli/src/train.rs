@@ -81,8 +81,8 @@ pub struct TrainArgs {
     /// `--set` still apply, e.g. to train longer), its optimisers' state and its random
     /// streams. With feature observations and no self-play, the episodes under way (and a
     /// Q-learner's replay buffer, journalled in DIR/resume) go on as they were, so the run
-    /// goes on as if uninterrupted; otherwise, or where those files are gone, they start
-    /// afresh.
+    /// goes on as if uninterrupted; otherwise, where those files are gone, or where `--set`
+    /// changes the game (a rule, the unit data, the opponent), they start afresh.
     #[arg(long, value_name = "DIR", conflicts_with_all = ["config", "algo"])]
     pub resume: Option<PathBuf>,
 }
@@ -105,9 +105,17 @@ pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     let mut start = None;
     let mut cfg = match (&a.config, &a.resume) {
         (_, Some(dir)) => {
-            let (cfg, state) = avacraft_marl::resume::load(dir).with_context(|| format!("--resume {}", dir.display()))?;
+            let (saved, state) = avacraft_marl::resume::load(dir).with_context(|| format!("--resume {}", dir.display()))?;
             start = Some(state);
-            cfg.overridden(overrides).with_context(|| format!("--resume {}", dir.display()))?
+            let cfg = saved.overridden(overrides).with_context(|| format!("--resume {}", dir.display()))?;
+            if !saved.same_game(&cfg) {
+                writeln!(
+                    out,
+                    "note: --set changes the game the run in {} plays (a rule, the unit data or the opponent): it goes on with fresh episodes and a new replay buffer",
+                    dir.display()
+                )?;
+            }
+            cfg
         }
         (Some(path), None) => {
             let text = std::fs::read_to_string(path).with_context(|| format!("--config {}", path.display()))?;
@@ -366,7 +374,8 @@ fn run_plan(path: &std::path::Path, shard: Option<avacraft_eval::Shard>, threads
             updates: summary.updates,
             final_test_win_rate: summary.tests.last().map(|t| t.win_rate),
         };
-        std::fs::write(&done_path, serde_json::to_string_pretty(&done)?).with_context(|| format!("writing {}", done_path.display()))?;
+        avacraft_marl::aside::write_file(&done_path, serde_json::to_string_pretty(&done)?)
+            .with_context(|| format!("writing {}", done_path.display()))?;
         rows.push((job.id.clone(), status.to_owned(), summary.t_env, done.final_test_win_rate));
     }
     let mut t = comfy_table::Table::new();
@@ -404,7 +413,9 @@ fn copy_dir(from: &std::path::Path, to: &std::path::Path) -> Result<()> {
     std::fs::create_dir_all(to).with_context(|| format!("creating {}", to.display()))?;
     for e in std::fs::read_dir(from).with_context(|| format!("reading {}", from.display()))? {
         let e = e?;
-        if e.file_name() == DONE_FILE {
+        // A summary is the source run's own; a file left aside by a killed write is no part
+        // of it.
+        if e.file_name() == DONE_FILE || avacraft_marl::aside::is_aside(&e.path()) {
             continue;
         }
         let (a, b) = (e.path(), to.join(e.file_name()));

@@ -195,7 +195,9 @@ pub fn write_meta(dir: &Path, meta: &Meta) -> Result<(), EvalError> {
         }
     }
     let text = serde_json::to_string_pretty(meta).map_err(|e| EvalError::Io { path: path.clone(), source: std::io::Error::other(e) })?;
-    std::fs::write(&path, text).map_err(|source| EvalError::Io { path, source })
+    // Written aside and renamed: a torn plan.json would keep the folder's results from every
+    // later run.
+    avacraft_marl::aside::write_file(&path, text).map_err(|source| EvalError::Io { path, source })
 }
 
 /// Why the plan `new` cannot resume a folder that `old` played (`None`: it can). Every result

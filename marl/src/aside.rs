@@ -26,6 +26,20 @@ pub(crate) fn write(path: &Path, bytes: impl AsRef<[u8]>) -> Result<(), Error> {
     renamed(&tmp, path)
 }
 
+/// [`write`] for the other crates' files a user would lose to a torn write (an evaluation's
+/// plan, a run's summary): the error names the file.
+pub fn write_file(path: &Path, bytes: impl AsRef<[u8]>) -> std::io::Result<()> {
+    write(path, bytes).map_err(|e| match e {
+        Error::Io { source, .. } => source,
+        other => std::io::Error::other(other),
+    })
+}
+
+/// Whether `path` is a file left aside by a write that was killed before its rename.
+pub fn is_aside(path: &Path) -> bool {
+    path.extension().is_some_and(|x| x == "tmp")
+}
+
 /// Saves named tensors to the safetensors file `path` whole or not at all.
 pub(crate) fn tensors(map: &HashMap<String, candle_core::Tensor>, path: &Path) -> Result<(), Error> {
     let tmp = aside(path);

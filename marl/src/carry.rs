@@ -10,6 +10,9 @@
 //!   log's loss columns until the next update).
 //!
 //! The Q-learners' replay buffer is kept apart, episode by episode, in [`crate::journal`].
+//! Neither is used by a resume under another game ([`crate::Config::same_game`]: `--set`
+//! changed a rule, the unit data or the opponent), whose episodes would be replayed into games
+//! they were not played in.
 //!
 //! The carry names the step it was taken at: written before `state.json` (which a resume
 //! starts from), a carry newer than the state (a kill between the two) is not used, and the

@@ -149,6 +149,11 @@ impl Policy {
         Ok(meta_in(dir)?.config.weapon_period)
     }
 
+    /// The config the checkpoint in `dir` was saved with (its `config.json` alone).
+    pub fn config_in(dir: &Path) -> Result<Config, Error> {
+        Ok(meta_in(dir)?.config)
+    }
+
     /// Whether the network in `dir` learned under the surround experiment
     /// (`Rules::melee_surround`; its `config.json` alone, false when the key is absent).
     pub fn melee_surround_in(dir: &Path) -> Result<bool, Error> {

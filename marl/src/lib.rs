@@ -50,7 +50,7 @@
 #![deny(unsafe_code)]
 
 pub mod acting;
-mod aside;
+pub mod aside;
 pub mod baselines;
 pub mod buffer;
 mod carry;

@@ -229,7 +229,13 @@ fn train_q(
     // began, which a resume no longer has.
     let exact = opts.out.as_ref().filter(|_| !cfg.obs.images() && !cfg.self_play());
     let mut kept = None;
-    if let (Some(dir), Some(st)) = (exact, &start)
+    // Under another game (`--set` changed a rule, the data or the opponent) the kept episodes
+    // would be replayed into other games: the run goes on with fresh ones and a new buffer.
+    let same_game = match (exact, &start) {
+        (Some(dir), Some(_)) => crate::Policy::config_in(dir)?.same_game(cfg),
+        _ => true,
+    };
+    if let (Some(dir), Some(st), true) = (exact, &start, same_game)
         && let Some(carry) = Carry::load(dir, st.t_env)?
         && let Some(journal) = Journal::resume(dir, cfg.buffer_size, st.episodes)?
     {

@@ -71,6 +71,15 @@ fn a_short_run_resumes_from_its_directory_alone() {
     assert!(refused.contains("another process is training into") && refused.contains("train.lock"), "{refused}");
     let out = train(&["--resume", d, "--steps", "800"]);
     assert!(!String::from_utf8_lossy(&out.stderr).contains("another process"), "{}", String::from_utf8_lossy(&out.stderr));
+
+    // Another game (here other unit data) is not replayed into: the run goes on, from fresh
+    // episodes and a new buffer, and says so.
+    let rows = log(&dir);
+    let out = train(&["--resume", d, "--steps", "1000", "--set", "data=\"void\""]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("changes the game") && text.contains("fresh episodes"), "{text}");
+    assert!(log(&dir) > rows, "the log goes on");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

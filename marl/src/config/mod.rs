@@ -483,6 +483,13 @@ impl Config {
         }
     }
 
+    /// Whether a run under `other` plays the same games as under `self`: the same environment
+    /// options, unit data and opponent. A resumed run's episodes under way and its replay
+    /// buffer go on only then (replayed under another game, they would be another game's).
+    pub fn same_game(&self, other: &Config) -> bool {
+        self.env_options() == other.env_options() && self.data == other.data && self.opponent == other.opponent
+    }
+
     /// The engine settings the runs use, checked by [`EnvOptions::config`] (`validate` refuses
     /// every value it would, so only a config built around `validate` gets the error).
     pub fn env_config(&self) -> Result<EnvConfig, Error> {

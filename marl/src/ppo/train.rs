@@ -44,8 +44,10 @@ pub fn train_from(
     // the image modes' frames are not kept, and they resume with a fresh rollout; nor does
     // self-play (an episode's opponent was drawn from the pool as it was then).
     let exact = opts.out.as_ref().filter(|_| !cfg.obs.images() && !cfg.self_play());
+    // Under another game (`--set` changed a rule, the data or the opponent) the rollout kept
+    // would be replayed into other games: the run goes on with a fresh one.
     let kept = match (exact, &start) {
-        (Some(dir), Some(st)) => Carry::load(dir, st.t_env)?,
+        (Some(dir), Some(st)) if crate::Policy::config_in(dir)?.same_game(cfg) => Carry::load(dir, st.t_env)?,
         _ => None,
     };
     if kept.is_some() {

@@ -181,3 +181,47 @@ fn a_resume_whose_files_were_changed_is_refused_with_what_does_not_fit() -> R {
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }
+
+/// A resume under another game (`--set` changed a rule) does not replay the kept episodes into
+/// it: it goes on exactly as a resume whose carry and journal are gone (fresh episodes, a new
+/// buffer), for QMIX and MAPPO.
+#[test]
+fn a_resume_under_another_game_goes_on_from_fresh_episodes() -> R {
+    for (algo, extra) in [
+        ("qmix", &["t_max=400", "envs=4", "batch_size=4", "buffer_size=40"][..]),
+        ("mappo", &["t_max=400", "envs=4", "rollout_len=40"][..]),
+    ] {
+        let (cfg, opts, dir) = killed_run(algo, extra, &format!("game-{algo}"))?;
+        let other = cfg.overridden(&["melee_surround=true".into()])?;
+        assert!(!cfg.same_game(&other) && cfg.same_game(&cfg.overridden(&["lr=0.001".into()])?), "{algo}");
+        assert!(dir.join("resume/carry.safetensors").is_file(), "{algo}: the killed run kept its episodes");
+        let fresh = scratch(&format!("game-{algo}-fresh"));
+        copy(&dir, &fresh)?;
+        std::fs::remove_file(fresh.join("resume/carry.safetensors"))?;
+        let _ = std::fs::remove_dir_all(fresh.join("resume/buffer"));
+        let mut logs = Vec::new();
+        for d in [&dir, &fresh] {
+            let (_, state) = avacraft_marl::resume::load(d)?;
+            let o = RunOptions { out: Some(d.clone()), ..opts.clone() };
+            train_from(&other, &o, Some(state), &mut |_| {})?;
+            logs.push(rows(d)?);
+        }
+        assert_eq!(logs[0], logs[1], "{algo}: the resume under another game kept its episodes");
+        let _ = std::fs::remove_dir_all(&dir);
+        let _ = std::fs::remove_dir_all(&fresh);
+    }
+    Ok(())
+}
+
+fn copy(from: &Path, to: &Path) -> R {
+    std::fs::create_dir_all(to)?;
+    for e in std::fs::read_dir(from)? {
+        let e = e?;
+        if e.file_type()?.is_dir() {
+            copy(&e.path(), &to.join(e.file_name()))?;
+        } else {
+            std::fs::copy(e.path(), to.join(e.file_name()))?;
+        }
+    }
+    Ok(())
+}
