@@ -289,6 +289,7 @@ fn team_agent(scenario: &Scenario, rules: (avacraft_engine::WeaponPeriod, bool),
     // surround experiment, corridor's QMIX wins 94 of 100 held out with it and 18 without.
     if let Some(trained) = spec.trained_melee_surround(scenario).with_context(|| format!("{flag} {name}"))?
         && trained != surround
+        && scenario.has_melee()
     {
         let (was, is) = if trained { ("under", "without") } else { ("without", "under") };
         eprintln!(

@@ -11,7 +11,7 @@ use rand::Rng;
 /// Distance within which a move order counts as arrived.
 const ARRIVE: f32 = 0.05;
 /// Weapons this short are melee (the game's melee weapons reach 0.1 to 1).
-const MELEE_RANGE: f32 = 1.0;
+pub(crate) const MELEE_RANGE: f32 = 1.0;
 /// Edge distance to its target within which a melee unit looks for a free place beside it
 /// (`Rules::melee_surround`).
 const SURROUND_FROM: f32 = 3.0;

@@ -195,3 +195,20 @@ fn the_surround_experiment_brings_more_melee_units_to_a_target() {
     let (off, on) = (at_it(false), at_it(true));
     assert!(on > off, "Zerglings at the Zealot at once: {on} with the surround, {off} without");
 }
+
+/// The maps where the surround experiment can change a game: those with a melee unit on either
+/// side, drawn ones included (SMACv2's Protoss draws Zealots; its Terran draws none).
+#[test]
+fn the_maps_with_melee_units_are_named() {
+    for (name, melee) in [
+        ("3m", false),
+        ("2s_vs_1sc", false),
+        ("2s3z", true),
+        ("corridor", true),
+        ("bane_vs_bane", true),
+        ("protoss_5_vs_5", true),
+        ("terran_5_vs_5", false),
+    ] {
+        assert_eq!(builtin(name).expect(name).has_melee(), melee, "{name}");
+    }
+}

@@ -149,6 +149,14 @@ pub struct Scenario {
 }
 
 impl Scenario {
+    /// Whether some unit that may play it fights in melee, so that the surround experiment
+    /// (`Rules::melee_surround`) can change its games; on other maps the rule changes nothing.
+    pub fn has_melee(&self) -> bool {
+        let placed = self.units.iter().map(|u| u.kind);
+        let drawn = self.generator.iter().flat_map(|g| g.kinds());
+        placed.chain(drawn).any(|k| self.data.spec(k).weapons.iter().any(|w| w.range <= crate::sim::MELEE_RANGE))
+    }
+
     /// The scenario an episode of `seed` plays: this one, or for a procedural scenario its
     /// units drawn from `seed` (the same draw wherever the episode runs).
     pub fn episode(self: &Arc<Self>, seed: u64) -> Arc<Scenario> {
