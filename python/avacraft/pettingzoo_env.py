@@ -76,6 +76,9 @@ class AvacraftParallelEnv(ParallelEnv):
         action_mask: bool = True,
         conic_fov: bool = False,
         num_fov_actions: int = 12,
+        data: Optional[str] = None,
+        weapon_period: str = "attack",
+        melee_surround: bool = False,
         screen_size: tuple[int, int] = (160, 120),
         minimap_size: tuple[int, int] = (32, 32),
         vlm_size: tuple[int, int] = (1920, 1080),
@@ -115,6 +118,9 @@ class AvacraftParallelEnv(ParallelEnv):
             prob_obs_enemy=opt.probability("prob_obs_enemy", prob_obs_enemy),
             action_mask=opt.boolean("action_mask", action_mask),
             fov_actions=opt.fov_actions(conic_fov, num_fov_actions),
+            data=data,
+            weapon_period=weapon_period,
+            melee_surround=opt.boolean("melee_surround", melee_surround),
         )
         self.pvp: bool = self._env.pvp
         self.teams = (1, 2) if self.pvp else (1,)

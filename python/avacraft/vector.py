@@ -58,6 +58,9 @@ class VecEnv:
         action_mask: bool = True,
         conic_fov: bool = False,
         num_fov_actions: int = 12,
+        data: Optional[str] = None,
+        weapon_period: str = "attack",
+        melee_surround: bool = False,
     ) -> None:
         if seeds is None:
             if num_envs is None:
@@ -87,6 +90,9 @@ class VecEnv:
             prob_obs_enemy=opt.probability("prob_obs_enemy", prob_obs_enemy),
             action_mask=opt.boolean("action_mask", action_mask),
             fov_actions=opt.fov_actions(conic_fov, num_fov_actions),
+            data=data,
+            weapon_period=weapon_period,
+            melee_surround=opt.boolean("melee_surround", melee_surround),
         )
         self.seeds = list(seeds)
         self.num_envs: int = self._raw.num_envs
