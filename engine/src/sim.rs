@@ -10,8 +10,6 @@ use rand::Rng;
 
 /// Distance within which a move order counts as arrived.
 const ARRIVE: f32 = 0.05;
-/// Weapons this short are melee (the game's melee weapons reach 0.1 to 1).
-pub(crate) const MELEE_RANGE: f32 = 1.0;
 /// Edge distance to its target within which a melee unit looks for a free place beside it
 /// (`Rules::melee_surround`).
 const SURROUND_FROM: f32 = 3.0;
@@ -167,8 +165,8 @@ impl World {
             return Intent { fire: (ready && aimed).then_some((t, wi)), closing_on: Some(t), ..Intent::default() };
         }
         if chase && u.speed > 0.0 && d > w.range {
-            let surround = (self.rules.melee_surround && w.range <= MELEE_RANGE && d <= SURROUND_FROM && !self.units[t.index()].flying())
-                .then_some(w.range);
+            let surround =
+                (self.rules.melee_surround && w.is_melee() && d <= SURROUND_FROM && !self.units[t.index()].flying()).then_some(w.range);
             return Intent { goal: Some((tpos, stop)), closing_on: Some(t), surround, ..Intent::default() };
         }
         Intent::default()

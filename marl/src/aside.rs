@@ -51,16 +51,10 @@ pub(crate) fn tensors(map: &HashMap<String, candle_core::Tensor>, path: &Path) -
 mod tests {
     use super::*;
 
-    fn dir(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("avacraft-aside-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).expect("temp dir");
-        d
-    }
-
     #[test]
     fn a_write_that_fails_leaves_the_old_file_whole() {
-        let d = dir("fail");
+        let d = std::env::temp_dir().join(format!("avacraft-aside-{}", std::process::id()));
+        std::fs::create_dir_all(&d).expect("temp dir");
         let path = d.join("config.json");
         write(&path, "{\"old\": 1}").expect("first write");
         assert_eq!(std::fs::read_to_string(&path).expect("read"), "{\"old\": 1}");

@@ -154,7 +154,7 @@ impl Scenario {
     pub fn has_melee(&self) -> bool {
         let placed = self.units.iter().map(|u| u.kind);
         let drawn = self.generator.iter().flat_map(|g| g.kinds());
-        placed.chain(drawn).any(|k| self.data.spec(k).weapons.iter().any(|w| w.range <= crate::sim::MELEE_RANGE))
+        placed.chain(drawn).any(|k| self.data.spec(k).weapons.iter().any(crate::units::Weapon::is_melee))
     }
 
     /// The scenario an episode of `seed` plays: this one, or for a procedural scenario its

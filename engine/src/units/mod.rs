@@ -214,6 +214,14 @@ pub struct Weapon {
     pub timing: Timing,
 }
 
+impl Weapon {
+    /// Whether it strikes in melee: the game's melee weapons reach 0.1 to 1 (the surround
+    /// experiment, `Rules::melee_surround`, moves only units with such a weapon).
+    pub fn is_melee(&self) -> bool {
+        self.range <= 1.0
+    }
+}
+
 /// Healing beam (Medivac): HP per loop, energy per HP, range, biological targets only.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Heal {
