@@ -123,6 +123,9 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
     }
     let Some(path) = &a.plan else { bail!("eval: name a plan file (or `eval merge`, `eval report`)") };
     let plan = avacraft_eval::load(path)?;
+    for (agent, scenario, what) in &plan.off_rules {
+        eprintln!("warning: {agent} on {scenario} plays under other rules than it learned: {what} (the plan's env sets them)");
+    }
     let dir = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("eval-{}", plan.name)));
     avacraft_eval::write_meta(&dir, &Meta { shard: a.shard, fingerprints: avacraft_eval::fingerprints(&plan)?, ..Meta::of(&plan) })?;
     let shown = std::io::stderr().is_terminal();

@@ -24,6 +24,10 @@ pub struct Meta {
     /// `(agent, scenario)`: shipped baselines missing, so left out.
     #[serde(default)]
     pub unshipped: Vec<(String, String)>,
+    /// `(agent, scenario, what differs)`: networks played under other rules than they learned
+    /// ([`Plan::off_rules`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub off_rules: Vec<(String, String, String)>,
     /// Also written to this Markdown file, with its plots beside it.
     #[serde(default)]
     pub document: Option<PathBuf>,
@@ -70,6 +74,7 @@ impl Meta {
             cells: plan.cells.iter().map(|c| c.key.clone()).collect(),
             shard: None,
             unshipped: plan.unshipped.clone(),
+            off_rules: plan.off_rules.clone(),
             document: plan.document.clone(),
             protocol: plan.protocol.clone(),
             fingerprints: Vec::new(),

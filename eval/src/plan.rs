@@ -183,6 +183,9 @@ pub struct Plan {
     pub curves: Vec<CurveDef>,
     /// `(agent, scenario)` pairs a `baseline:NAME` agent skips: no policy is shipped there.
     pub unshipped: Vec<(String, String)>,
+    /// `(agent, scenario, what differs)`: networks played under other rules than they learned
+    /// (weapon periods, the surround experiment), which the plan's `env` sets for every cell.
+    pub off_rules: Vec<(String, String, String)>,
     /// Where the report is also written (resolved against the plan's folder).
     pub document: Option<PathBuf>,
     pub protocol: String,

@@ -5,7 +5,7 @@
 use crate::plan::{
     AgentDef, AgentKind, Cell, CellKey, CurveDef, Plan, PlanError, RawAgent, RawCurve, RawHeadToHead, RawPlan, eval_env, unshipped,
 };
-use avacraft_engine::{DataSet, Mode, OpponentKind, Scenario, Team, builtin_names, smac_names};
+use avacraft_engine::{DataSet, EnvOptions, Mode, OpponentKind, Scenario, Team, builtin_names, smac_names};
 use avacraft_policy::{PolicyError, PolicySpec, Resolve};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -56,6 +56,7 @@ pub fn parse(file: &str, text: &str, base: Option<&Path>) -> Result<Plan, PlanEr
             "the plan has nothing to play (agents and scenarios, or [[headtohead]])",
         ));
     }
+    let off_rules = cx.off_rules(&cells, &agents, &env)?;
     let curves = raw.curves.iter().enumerate().map(|(i, c)| cx.curve(i, c)).collect::<Result<Vec<_>, _>>()?;
     let name =
         raw.name.unwrap_or_else(|| Path::new(file).file_stem().map_or_else(|| "plan".to_owned(), |s| s.to_string_lossy().into_owned()));
@@ -74,6 +75,7 @@ pub fn parse(file: &str, text: &str, base: Option<&Path>) -> Result<Plan, PlanEr
         seeds,
         curves,
         unshipped: skipped,
+        off_rules,
         document,
         protocol: raw.protocol.unwrap_or_default(),
         env,
@@ -122,6 +124,37 @@ impl Cx<'_> {
             }
             _ => Ok(Arc::clone(sc)),
         }
+    }
+
+    /// The networks that play under other rules than they learned (the plan's `env` sets the
+    /// weapon periods and the surround experiment for every cell): `(agent, scenario, what
+    /// differs)`, each once. They play, and the report says so.
+    fn off_rules(&self, cells: &[Cell], agents: &[AgentDef], env: &EnvOptions) -> Result<Vec<(String, String, String)>, PlanError> {
+        let mut off = Vec::new();
+        for c in cells {
+            for k in std::iter::once(c.agent).chain(c.agent2) {
+                let (a, sc) = (&agents[k], &c.scenario);
+                let field = || format!("agents: {} on {}", a.name, sc.name);
+                let mut what = Vec::new();
+                if let Some(p) = a.policy.trained_weapon_period(sc).map_err(|e| self.policy_err(field(), a.policy.to_string(), e))?
+                    && p != env.weapon_period
+                {
+                    what.push(format!("weapon periods from the {p}, played from the {}", env.weapon_period));
+                }
+                if let Some(m) = a.policy.trained_melee_surround(sc).map_err(|e| self.policy_err(field(), a.policy.to_string(), e))?
+                    && m != env.melee_surround
+                    && sc.has_melee()
+                {
+                    let (was, is) = if m { ("under", "without") } else { ("without", "under") };
+                    what.push(format!("learned {was} the surround experiment, played {is} it"));
+                }
+                let entry = (a.name.clone(), sc.name.clone(), what.join("; "));
+                if !what.is_empty() && !off.contains(&entry) {
+                    off.push(entry);
+                }
+            }
+        }
+        Ok(off)
     }
 
     /// Whether a cell of `policies` on `sc` needs the ability slots: one of its networks

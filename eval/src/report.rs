@@ -228,6 +228,14 @@ The win rate of each training run (PvE: against the scenario's own opponent; PvP
             let pairs: Vec<String> = m.unshipped.iter().map(|(a, sc)| format!("{a} on {sc}")).collect();
             let _ = writeln!(s, "\nNo shipped baseline, so not played: {}.", pairs.join("; "));
         }
+        if !m.off_rules.is_empty() {
+            let cells: Vec<String> = m.off_rules.iter().map(|(a, sc, what)| format!("{a} on {sc} ({what})")).collect();
+            let _ = writeln!(
+                s,
+                "\nPlayed under other rules than they learned (the plan's `env` sets them for every cell): {}.",
+                cells.join("; ")
+            );
+        }
         if !self.missing.is_empty() {
             let _ = writeln!(s, "\nNot played yet: {}.", self.missing.iter().map(|k| k.to_string()).collect::<Vec<_>>().join("; "));
         }

@@ -16,6 +16,7 @@ fn plan(agents: &[(&str, &str)], fingerprints: &[(&str, &str, &str)]) -> Meta {
         cells: agents.iter().flat_map(|(n, _)| [cell("3m_vlm", n), cell("2s3z_vlm", n)]).collect(),
         shard: None,
         unshipped: Vec::new(),
+        off_rules: Vec::new(),
         document: None,
         protocol: String::new(),
         fingerprints: fingerprints.iter().map(|(a, s, f)| ((*a).to_owned(), (*s).to_owned(), (*f).to_owned())).collect(),

@@ -12,6 +12,7 @@ fn meta(name: &str, shard: Option<(usize, usize)>) -> Meta {
         cells: vec![CellKey { scenario: "3m_vlm".into(), agent: "a".into(), against: "opponent:default".into() }],
         shard: shard.map(|(index, count)| Shard { index, count }),
         unshipped: Vec::new(),
+        off_rules: Vec::new(),
         document: None,
         protocol: String::new(),
         fingerprints: Vec::new(),

@@ -641,6 +641,55 @@ fn a_network_played_off_its_surround_rule_is_warned_about() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A plan's `env` sets the weapon periods and the surround experiment for every cell: a network
+/// that learned under others plays, and the plan lists it with what differs (the surround only
+/// on maps with melee units), for the report and the warning `avacraft eval` prints.
+#[test]
+fn a_plan_lists_the_networks_it_plays_off_their_rules() {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let dir = tmp("plan-off-rules");
+    let _ = std::fs::remove_dir_all(&dir);
+    let net = dir.join("shot-surround");
+    std::fs::create_dir_all(&net).expect("dir");
+    let shipped = repo.join("baselines/2s3z/qmix");
+    for f in ["agent.safetensors", "mixer.safetensors"] {
+        if shipped.join(f).is_file() {
+            std::fs::copy(shipped.join(f), net.join(f)).expect("weights");
+        }
+    }
+    let mut meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(shipped.join("config.json")).expect("config")).expect("json");
+    meta["config"]["melee_surround"] = serde_json::Value::Bool(true);
+    meta["config"]["weapon_period"] = serde_json::Value::String("shot".into());
+    std::fs::write(net.join("config.json"), meta.to_string()).expect("write");
+    let text = |env: &str| {
+        format!(
+            "name = \"g\"\nscenarios = [\"2s3z\"]\nseeds = [1]\n{env}\n[[agents]]\nname = \"q\"\npolicy = \"marl:{}\"\n\n[[agents]]\nname = \"ff\"\npolicy = \"focus-fire\"\n",
+            net.display()
+        )
+    };
+    let plan = avacraft_eval::parse("g.toml", &text(""), Some(&repo)).expect("plan");
+    assert_eq!(plan.off_rules.len(), 1, "{:?}", plan.off_rules);
+    let (agent, scenario, what) = &plan.off_rules[0];
+    assert_eq!((agent.as_str(), scenario.as_str()), ("q", "2s3z"));
+    assert!(
+        what.contains("weapon periods from the shot, played from the attack") && what.contains("under the surround experiment"),
+        "{what}"
+    );
+    let only_surround = avacraft_eval::parse("g.toml", &text("[env]\nweapon_period = \"shot\"\n"), Some(&repo)).expect("plan");
+    assert!(only_surround.off_rules.len() == 1 && !only_surround.off_rules[0].2.contains("weapon"), "{:?}", only_surround.off_rules);
+    let its_own = text("[env]\nweapon_period = \"shot\"\nmelee_surround = true\n");
+    assert!(avacraft_eval::parse("g.toml", &its_own, Some(&repo)).expect("plan").off_rules.is_empty());
+    // The report says so.
+    let m = avacraft_eval::Meta::of(&plan);
+    let json = serde_json::to_string(&m).expect("meta json");
+    let back: avacraft_eval::Meta = serde_json::from_str(&json).expect("meta back");
+    assert_eq!(back.off_rules, plan.off_rules);
+    let md = avacraft_eval::Report::build(back, &avacraft_eval::Loaded::default()).markdown();
+    assert!(md.contains("Played under other rules than they learned") && md.contains("q on 2s3z (weapon periods from the shot"), "{md}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// The shipped SMACv2 baselines (eval/plans/smacv2.toml) on protoss_5_vs_5, whose units and
 /// start positions are drawn every episode, on 200 seeds apart from training's and from
 /// docs/simulator.md's (5001-5200): both beat focus-fire (the bar) and attack-move;
