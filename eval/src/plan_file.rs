@@ -457,7 +457,7 @@ mod tests {
     fn the_env_table_sets_the_other_environment_options() {
         let head = "seeds = [1]\nscenarios = [\"3m_vlm\"]\n[[agents]]\nname = \"h\"\npolicy = \"hold\"\n";
         let plan = parse("ok.toml", &format!("{head}[env]\nstep_mul = 4\nfull_vision = true\n"), None).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(plan.env, avacraft_engine::EnvOptions { step_mul: 4, full_vision: true, ..eval_env() });
+        assert_eq!(plan.env, EnvOptions { step_mul: 4, full_vision: true, ..eval_env() });
         assert_eq!(parse("ok.toml", head, None).unwrap_or_else(|e| panic!("{e}")).env, eval_env());
         for (table, want) in [("step_mull = 4", "step_mull"), ("opponent = \"focus\"", "`opponent`"), ("step_mul = 0", "env.step_mul")] {
             let e = parse("bad.toml", &format!("{head}[env]\n{table}\n"), None).expect_err(table).to_string();
