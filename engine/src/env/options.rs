@@ -197,6 +197,10 @@ mod tests {
         let mut sorted = keys.clone();
         sorted.sort_unstable();
         assert_eq!(sorted, names);
+        // The order: a `Value`'s map sorts its keys, the serialised text keeps the fields'.
+        let text = serde_json::to_string(&EnvOptions::default()).expect("json");
+        let at: Vec<usize> = EnvOptions::NAMES.iter().map(|n| text.find(&format!("\"{n}\":")).expect("each name")).collect();
+        assert!(at.windows(2).all(|w| w[0] < w[1]), "NAMES out of the fields' order: {text}");
     }
 
     #[test]
