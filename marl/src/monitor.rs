@@ -319,9 +319,7 @@ fn truncate_log(path: &std::path::Path, t_env: u64) -> Result<(), Error> {
     if kept.len() == text.len() {
         return Ok(());
     }
-    let tmp = path.with_extension("csv.tmp");
-    std::fs::write(&tmp, kept).map_err(io)?;
-    std::fs::rename(&tmp, path).map_err(io)
+    crate::aside::write(path, kept)
 }
 
 /// A test round's counters, for [`scalars`].
