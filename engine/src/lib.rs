@@ -98,5 +98,5 @@ pub use scenario::{
 pub use terrain::{MAX_STEP, Rect, Terrain};
 pub use time::{DEFAULT_STEP_MUL, DEFAULT_TIME_LIMIT_S, LOOPS_PER_NORMAL_SECOND, LOOPS_PER_SECOND, loops_to_seconds, seconds_to_loops};
 pub use units::{Attrs, DataSet, Heal, Race, Reach, Regen, Splash, Timing, UnitKind, UnitSpec, UnknownDataSet, UnknownUnitKind, Weapon};
-pub use vec_env::{OpponentFactory, VecBuffers, VecEnv, VecEnvError};
+pub use vec_env::{OpponentFactory, Replayed, Replayer, VecBuffers, VecEnv, VecEnvError};
 pub use world::{Activity, Body, Order, Rules, Shot, TeamStats, Unit, UnknownWeaponPeriod, WeaponPeriod, World};

@@ -12,6 +12,9 @@ use std::sync::Arc;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
+mod replay;
+pub use replay::{Replayed, Replayer};
+
 /// Why a vector environment refused a call.
 #[derive(Debug, thiserror::Error)]
 pub enum VecEnvError {
@@ -69,8 +72,12 @@ pub type OpponentFactory = Arc<dyn Fn() -> Box<dyn Agent> + Send + Sync>;
 
 pub struct VecEnv {
     envs: Vec<Env>,
+    /// What the environments were made from, for [`VecEnv::replayer`].
+    scenario: Arc<Scenario>,
+    cfg: EnvConfig,
     /// PvP: the agent playing team 2 in each environment (empty when team 2 gets no orders).
     opponents: Vec<AgentTeam>,
+    opponent_make: Option<OpponentFactory>,
     opponent_name: Option<String>,
     /// Episodes started per environment; environment `i`'s episode `k` uses seed
     /// `seeds[i] + k * E`, so distinct base seeds give distinct episodes.
@@ -103,6 +110,7 @@ impl VecEnv {
         }
         let pool = if threads > 1 { Some(rayon::ThreadPoolBuilder::new().num_threads(threads - 1).build()?) } else { None };
         let envs: Vec<Env> = seeds.iter().map(|&s| Env::new(Arc::clone(&scenario), cfg.clone(), s)).collect();
+        let (template, cfg) = (scenario, cfg);
         let l = envs[0].smac_layout(Team::One);
         let (n_agents, obs_size, state_size, n_actions) = (l.n_agents, l.obs_size, l.state_size, l.n_actions);
         let e = envs.len();
@@ -121,7 +129,10 @@ impl VecEnv {
         };
         let mut v = VecEnv {
             envs,
+            scenario: template,
+            cfg,
             opponents: Vec::new(),
+            opponent_make: None,
             opponent_name: None,
             started: vec![1; e],
             seeds: seeds.to_vec(),
@@ -173,6 +184,7 @@ impl VecEnv {
             })
             .collect();
         self.opponent_name = self.opponents.first().map(AgentTeam::name);
+        self.opponent_make = Some(make);
         Ok(self)
     }
 
@@ -235,13 +247,7 @@ impl VecEnv {
             }
             let _ = env.avail_all(Team::One, &mut masks);
             check_against_masks(acts, &masks, self.n_agents, na).map_err(|source| VecEnvError::Action { env: i, source })?;
-            if let Some(o) = opponent.as_deref_mut() {
-                let orders = o.act(env, episode - 1);
-                env.submit(Team::Two, &orders);
-            }
-            let idx: Vec<usize> = acts.iter().map(|&x| x as usize).collect();
-            env.submit_indices(Team::One, &idx);
-            env.step();
+            step_lane(env, opponent.as_deref_mut(), episode, acts);
         }
         if env.done() {
             return Err(VecEnvError::Replay { env: i, episode, steps, given: steps });
@@ -381,14 +387,7 @@ struct Lane<'a> {
 
 impl Lane<'_> {
     fn step(mut self, stride: u64) {
-        // Team 2 chooses on the observation team 1 chose on, then both are submitted.
-        if let Some(o) = self.opponent.as_deref_mut() {
-            let orders = o.act(self.env, *self.started - 1);
-            self.env.submit(Team::Two, &orders);
-        }
-        let idx: Vec<usize> = self.acts.iter().map(|&x| x as usize).collect();
-        self.env.submit_indices(Team::One, &idx);
-        let r = self.env.step();
+        let r = step_lane(self.env, self.opponent.as_deref_mut(), *self.started, self.acts);
         *self.reward = r.reward[0];
         *self.terminated = r.terminated;
         *self.truncated = r.truncated;
@@ -405,6 +404,19 @@ impl Lane<'_> {
         }
         fill(self.env, self.obs, self.state, self.avail);
     }
+}
+
+/// One step of an environment in its episode number `episode`: team 2's agent (if any)
+/// chooses on the observation team 1 chose on, then both are submitted. The one place a
+/// vector step, a restore and a replay step through, so that the three play alike.
+fn step_lane(env: &mut Env, opponent: Option<&mut AgentTeam>, episode: u64, acts: &[i64]) -> crate::env::StepResult {
+    if let Some(o) = opponent {
+        let orders = o.act(env, episode - 1);
+        env.submit(Team::Two, &orders);
+    }
+    let idx: Vec<usize> = acts.iter().map(|&x| x as usize).collect();
+    env.submit_indices(Team::One, &idx);
+    env.step()
 }
 
 fn fill(env: &Env, obs: &mut [f32], state: &mut [f32], avail: &mut [u8]) {

@@ -93,6 +93,34 @@ impl Episode {
 }
 
 impl Episode {
+    /// The episode a lane played, from its replay ([`avacraft_engine::Replayer::replay`]) and
+    /// the actions replayed (`A` a step): its rows and outcomes as the training loop recorded
+    /// them, and, `closed` (it ended with its last step), closed as the loop closed it. An
+    /// episode that ended where it should not have, or not where it should, is refused.
+    pub(crate) fn replayed(r: avacraft_engine::Replayed, actions: Vec<u32>, shape: &Shape, closed: bool) -> Result<Episode, String> {
+        match (&r.last, closed) {
+            (None, true) => return Err(format!("the episode goes on after its {} steps", r.steps)),
+            (Some(_), false) => return Err(format!("the episode ended at its step {}, under way when kept", r.steps)),
+            _ => {}
+        }
+        let (ended_in_game, timed_out) = (r.terminated.last().copied(), r.truncated.last().copied());
+        let mut ep = Episode {
+            len: r.steps,
+            obs: r.obs,
+            state: r.state,
+            avail: r.avail,
+            actions,
+            reward: r.reward,
+            terminated: r.terminated.iter().map(|&t| if t { 1.0 } else { 0.0 }).collect(),
+            frames: Frames::default(),
+        };
+        if let Some((obs, state, avail)) = r.last {
+            let last = (timed_out == Some(true) && ended_in_game != Some(true)).then_some((&obs[..], &state[..], &avail[..]));
+            ep.close(shape, last);
+        }
+        Ok(ep)
+    }
+
     /// Whether the arrays hold what `len` steps of a team of `shape` hold (with the closing
     /// row when `closed`, and at most one step's outcome missing when not), every action one
     /// of the team's: an episode read back from a resume's files is checked before a batch

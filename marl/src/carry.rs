@@ -5,9 +5,10 @@
 //! - each environment's episode number and team 1's actions since that episode began: the
 //!   environments are made again from the run's seeds and replayed to where they were
 //!   ([`VecEnv::restore`]), instead of starting fresh episodes;
-//! - the loop's own state: hidden states and last actions, the episodes running (Q-learners)
-//!   or the rollout under way (PPO), the returns so far, the last update's statistics (the
-//!   log's loss columns until the next update).
+//! - the loop's own state: hidden states and last actions, the rollout under way (PPO), the
+//!   returns so far, the last update's statistics (the log's loss columns until the next
+//!   update). A Q-learner's episodes under way are not kept: they are played again from
+//!   their lanes' actions (carries written before that kept them whole, and are still read).
 //!
 //! The Q-learners' replay buffer is kept apart, episode by episode, in [`crate::journal`].
 //! Neither is used by a resume under another game ([`crate::Config::same_game`]: `--set`
@@ -52,6 +53,7 @@ impl Carry {
         Ok(())
     }
 
+    #[cfg(test)]
     pub(crate) fn u8s(&mut self, name: &str, v: &[u8]) -> Result<(), Error> {
         self.map.insert(name.to_owned(), Tensor::from_slice(v, v.len(), &Device::Cpu)?);
         Ok(())
@@ -78,6 +80,8 @@ impl Carry {
     }
 
     /// Episodes so far (all but their frames): each field concatenated, with the lengths.
+    /// What carries written before episodes were replayed kept; now only their tests write it.
+    #[cfg(test)]
     pub(crate) fn episodes(&mut self, name: &str, eps: &[Episode]) -> Result<(), Error> {
         let cat = |f: &dyn Fn(&Episode) -> &[f32]| eps.iter().flat_map(|e| f(e).iter().copied()).collect::<Vec<f32>>();
         self.u64s(&format!("{name}.len"), &eps.iter().map(|e| e.len as u64).collect::<Vec<_>>())?;
@@ -113,6 +117,11 @@ impl Carry {
         let map = candle_core::safetensors::load(&path, &Device::Cpu)?;
         let c = Carry { map, path };
         Ok((c.get_u64s("t_env")? == [t_env]).then_some(c))
+    }
+
+    /// Whether the carry holds an array `name` (carries of older runs hold others).
+    pub(crate) fn has(&self, name: &str) -> bool {
+        self.map.contains_key(name)
     }
 
     fn bad(&self, what: String) -> Error {
@@ -238,5 +247,37 @@ impl Carry {
             env.restore(i, *k, &acts).map_err(|e| self.bad(e.to_string()))?;
         }
         Ok(since)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Carries written before episodes under way were replayed kept them whole: they read back.
+    #[test]
+    fn episodes_kept_whole_read_back() -> Result<(), Error> {
+        let shape = crate::Shape { n_agents: 2, obs: 3, state: 4, n_actions: 5, n_enemies: 1 };
+        let ep = |len: usize, k: f32| Episode {
+            len,
+            obs: vec![k; len * 6],
+            state: vec![k + 1.0; len * 4],
+            avail: vec![1; len * 10],
+            actions: vec![4; len * 2],
+            reward: vec![k; len],
+            terminated: vec![0.0; len],
+            frames: Default::default(),
+        };
+        let eps = vec![ep(3, 0.5), ep(0, 1.0), ep(7, 2.0)];
+        let dir = std::env::temp_dir().join(format!("avacraft-carry-{}", std::process::id()));
+        let mut c = Carry::new(40)?;
+        c.episodes("running", &eps)?;
+        assert!(c.has("running.len") && !c.has("running.nothing"));
+        c.save(&dir)?;
+        assert!(Carry::load(&dir, 39)?.is_none(), "a carry of another step is not used");
+        let back = Carry::load(&dir, 40)?.expect("kept").get_episodes("running", &shape)?;
+        assert_eq!(back, eps);
+        let _ = std::fs::remove_dir_all(&dir);
+        Ok(())
     }
 }

@@ -5,6 +5,13 @@
 //! left the buffer are deleted at test rounds. A resume reads back the episodes the buffer
 //! held at the state's test round and drops any written after it.
 //!
+//! An episode is kept as where it was played (its environment and that environment's episode
+//! number) and team 1's actions, a byte or two per agent a step, with a digest of the whole
+//! episode: the game is deterministic, so a resume plays it again
+//! ([`avacraft_engine::Replayer`]) and checks the digest. The buffer of a long run on a large
+//! map (gigabytes in memory) keeps in megabytes, small enough to carry a run between
+//! machines. Journals written before kept whole episodes; those are still read.
+//!
 //! Image observations are not journaled: a run in an image mode resumes with a refilled
 //! buffer, as before.
 
@@ -15,8 +22,56 @@ use std::path::{Path, PathBuf};
 
 /// Episodes per segment file.
 const SEGMENT: u64 = 64;
-/// The first bytes of every episode record.
+/// The first bytes of a whole episode's record (journals written before actions-only ones).
 const MAGIC: u32 = 0x4a45_5031;
+/// The first bytes of an episode kept as its actions.
+const MAGIC_PLAYED: u32 = 0x4a45_5032;
+
+/// An episode kept as where it was played and team 1's actions: what
+/// [`avacraft_engine::Replayer::replay`] needs to give it back.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Played {
+    /// The environment (lane) of the run's vector environment it was played in.
+    pub(crate) lane: usize,
+    /// That environment's episode number ([`avacraft_engine::VecEnv::episode_numbers`]).
+    pub(crate) episode: u64,
+    /// Steps.
+    pub(crate) len: usize,
+    /// `len x A` SMAC indices.
+    pub(crate) actions: Vec<u32>,
+    /// [`digest`] of the episode as it was played.
+    pub(crate) digest: u64,
+}
+
+/// An episode record of a segment: whole, or as it was played.
+#[derive(Clone, Debug)]
+enum Record {
+    Whole(Episode),
+    Played(Played),
+}
+
+/// What gives played episodes back (in their order): the run's environments replaying them.
+pub(crate) type Rebuild<'a> = dyn Fn(&[Played]) -> Result<Vec<Episode>, Error> + 'a;
+
+/// A hash of everything an episode holds but its frames: a replayed episode is checked
+/// against the one that was played.
+pub(crate) fn digest(ep: &Episode) -> u64 {
+    let mut h = xxhash_rust::xxh3::Xxh3::new();
+    let mut bytes = Vec::new();
+    h.update(&(ep.len as u64).to_le_bytes());
+    for v in [&ep.obs, &ep.state, &ep.reward, &ep.terminated] {
+        bytes.clear();
+        bytes.extend(v.iter().flat_map(|x| x.to_le_bytes()));
+        h.update(&(v.len() as u64).to_le_bytes());
+        h.update(&bytes);
+    }
+    h.update(&(ep.avail.len() as u64).to_le_bytes());
+    h.update(&ep.avail);
+    bytes.clear();
+    bytes.extend(ep.actions.iter().flat_map(|x| x.to_le_bytes()));
+    h.update(&bytes);
+    h.digest()
+}
 
 pub(crate) struct Journal {
     dir: PathBuf,
@@ -63,31 +118,39 @@ impl Journal {
 
     /// The buffer as it was after `inserted` episodes, and the journal going on from there;
     /// `None` if the journal does not hold those episodes (a run saved before journals).
-    pub(crate) fn resume(run: &Path, capacity: usize, inserted: u64) -> Result<Option<(Journal, ReplayBuffer)>, Error> {
+    /// Episodes kept as played are given back by `rebuild`, and each is checked against its
+    /// digest: one that plays otherwise than it did (another build of the game) is an error
+    /// naming the folder to delete to go on with a fresh buffer.
+    pub(crate) fn resume(
+        run: &Path,
+        capacity: usize,
+        inserted: u64,
+        rebuild: &Rebuild<'_>,
+    ) -> Result<Option<(Journal, ReplayBuffer)>, Error> {
         let dir = run.join("resume").join("buffer");
         let capacity = capacity.max(1) as u64;
         let from = inserted.saturating_sub(capacity);
-        let mut kept: Vec<(u64, Episode)> = Vec::new();
+        let mut kept: Vec<(u64, Record)> = Vec::new();
         let mut first = from / SEGMENT * SEGMENT;
         while first < inserted {
             let path = segment_path(&dir, first);
             if !path.is_file() {
                 return Ok(None);
             }
-            let eps = read_segment(&path)?;
+            let records = read_segment(&path)?;
             // The segment holding episode `inserted` may hold later ones: kept on disk only
             // up to it.
             let upto = (inserted - first).min(SEGMENT) as usize;
-            if eps.len() < upto {
+            if records.len() < upto {
                 return Ok(None);
             }
-            if eps.len() > upto {
-                rewrite_segment(&path, &eps[..upto])?;
+            if records.len() > upto {
+                rewrite_segment(&path, &records[..upto])?;
             }
-            for (k, ep) in eps.into_iter().take(upto).enumerate() {
+            for (k, rec) in records.into_iter().take(upto).enumerate() {
                 let idx = first + k as u64;
                 if idx >= from {
-                    kept.push((idx, ep));
+                    kept.push((idx, rec));
                 }
             }
             first += SEGMENT;
@@ -101,14 +164,17 @@ impl Journal {
                 std::fs::remove_file(e.path()).map_err(io(&e.path()))?;
             }
         }
+        let kept = rebuilt(&dir, kept, rebuild)?;
         let buffer = ReplayBuffer::restored(capacity as usize, kept, inserted);
         let file =
             if inserted.is_multiple_of(SEGMENT) { None } else { Some(open_append(&segment_path(&dir, inserted / SEGMENT * SEGMENT))?) };
         Ok(Some((Journal { dir, capacity, written: inserted, file, synced: inserted, skip_until: 0 }, buffer)))
     }
 
-    /// Appends a finished episode (the one the buffer just took).
-    pub(crate) fn append(&mut self, ep: &Episode) -> Result<(), Error> {
+    /// Appends a finished episode (the one the buffer just took), played in environment
+    /// `lane` as that environment's episode number `episode`: kept as its actions, with its
+    /// digest.
+    pub(crate) fn append(&mut self, ep: &Episode, lane: usize, episode: u64) -> Result<(), Error> {
         if self.written < self.skip_until {
             self.written += 1;
             return Ok(());
@@ -119,8 +185,9 @@ impl Journal {
             self.file = Some(open_append(&path)?);
         }
         let path = segment_path(&self.dir, self.written / SEGMENT * SEGMENT);
+        let played = Played { lane, episode, len: ep.len, actions: ep.actions.clone(), digest: digest(ep) };
         if let Some(f) = &mut self.file {
-            write_episode(f, ep).map_err(io(&path))?;
+            write_played(f, &played).map_err(io(&path))?;
         }
         self.written += 1;
         Ok(())
@@ -164,11 +231,47 @@ fn open_append(path: &Path) -> Result<BufWriter<std::fs::File>, Error> {
     Ok(BufWriter::new(f))
 }
 
-fn rewrite_segment(path: &Path, eps: &[Episode]) -> Result<(), Error> {
+/// The kept records as episodes, the played ones replayed (all at once: `rebuild` may spread
+/// them over threads) and checked against their digests.
+fn rebuilt(dir: &Path, kept: Vec<(u64, Record)>, rebuild: &Rebuild<'_>) -> Result<Vec<(u64, Episode)>, Error> {
+    let played: Vec<Played> = kept.iter().filter_map(|(_, r)| if let Record::Played(p) = r { Some(p.clone()) } else { None }).collect();
+    let mut again = rebuild(&played)?.into_iter();
+    let mut out = Vec::with_capacity(kept.len());
+    for (idx, rec) in kept {
+        let ep = match rec {
+            Record::Whole(ep) => ep,
+            Record::Played(p) => {
+                let ep = again.next().ok_or_else(|| Error::Checkpoint {
+                    message: format!("{}: {} episodes to replay, fewer given back", dir.display(), played.len()),
+                })?;
+                if digest(&ep) != p.digest {
+                    return Err(Error::Checkpoint {
+                        message: format!(
+                            "{}: episode {idx} of the run (environment {}, its episode {}) plays otherwise on this build than \
+                             when it was kept (the game changed): delete that folder to go on with a fresh replay buffer",
+                            dir.display(),
+                            p.lane,
+                            p.episode
+                        ),
+                    });
+                }
+                ep
+            }
+        };
+        out.push((idx, ep));
+    }
+    Ok(out)
+}
+
+fn rewrite_segment(path: &Path, records: &[Record]) -> Result<(), Error> {
     let tmp = path.with_extension("bin.tmp");
     let mut f = BufWriter::new(std::fs::File::create(&tmp).map_err(io(&tmp))?);
-    for ep in eps {
-        write_episode(&mut f, ep).map_err(io(&tmp))?;
+    for rec in records {
+        match rec {
+            Record::Whole(ep) => write_episode(&mut f, ep),
+            Record::Played(p) => write_played(&mut f, p),
+        }
+        .map_err(io(&tmp))?;
     }
     f.flush().map_err(io(&tmp))?;
     drop(f);
@@ -194,26 +297,49 @@ fn write_episode(w: &mut impl Write, ep: &Episode) -> std::io::Result<()> {
     Ok(())
 }
 
-/// Reads every whole episode of a segment; a torn record at its end (a kill mid-write)
-/// ends it.
-fn read_segment(path: &Path) -> Result<Vec<Episode>, Error> {
+/// Bytes per action: the fewest that hold every index.
+fn width(actions: &[u32]) -> u8 {
+    match actions.iter().copied().max().unwrap_or(0) {
+        0..=0xff => 1,
+        0x100..=0xffff => 2,
+        _ => 4,
+    }
+}
+
+fn write_played(w: &mut impl Write, p: &Played) -> std::io::Result<()> {
+    w.write_all(&MAGIC_PLAYED.to_le_bytes())?;
+    w.write_all(&(p.lane as u64).to_le_bytes())?;
+    w.write_all(&p.episode.to_le_bytes())?;
+    w.write_all(&(p.len as u64).to_le_bytes())?;
+    let wd = width(&p.actions);
+    w.write_all(&[wd])?;
+    w.write_all(&(p.actions.len() as u64).to_le_bytes())?;
+    for &x in &p.actions {
+        w.write_all(&x.to_le_bytes()[..wd as usize])?;
+    }
+    w.write_all(&p.digest.to_le_bytes())
+}
+
+/// Reads every whole record of a segment; a torn record at its end (a kill mid-write) ends
+/// it.
+fn read_segment(path: &Path) -> Result<Vec<Record>, Error> {
     let mut bytes = Vec::new();
     std::fs::File::open(path).and_then(|mut f| f.read_to_end(&mut bytes)).map_err(io(path))?;
     let mut r = Reader { bytes: &bytes, at: 0 };
-    let mut eps = Vec::new();
+    let mut records = Vec::new();
     while r.at < bytes.len() {
         let start = r.at;
-        match r.episode() {
-            Some(ep) => eps.push(ep),
+        match r.record() {
+            Some(rec) => records.push(rec),
             None if start == r.at || r.at >= bytes.len() => break,
             None => {
                 return Err(Error::Checkpoint {
-                    message: format!("{}: episode record {} at byte {start} is corrupt", path.display(), eps.len()),
+                    message: format!("{}: episode record {} at byte {start} is corrupt", path.display(), records.len()),
                 });
             }
         }
     }
-    Ok(eps)
+    Ok(records)
 }
 
 struct Reader<'a> {
@@ -240,11 +366,15 @@ impl Reader<'_> {
         let n = self.count(4)?;
         Some(self.take(n * 4)?.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
     }
-    fn episode(&mut self) -> Option<Episode> {
-        let magic = self.take(4)?;
-        if magic != MAGIC.to_le_bytes() {
-            return None;
+    fn record(&mut self) -> Option<Record> {
+        let magic = u32::from_le_bytes(self.take(4)?.try_into().ok()?);
+        match magic {
+            MAGIC => self.episode().map(Record::Whole),
+            MAGIC_PLAYED => self.played().map(Record::Played),
+            _ => None,
         }
+    }
+    fn episode(&mut self) -> Option<Episode> {
         let len = usize::try_from(self.u64()?).ok()?;
         let (obs, state, reward, terminated) = (self.f32s()?, self.f32s()?, self.f32s()?, self.f32s()?);
         let n = self.count(1)?;
@@ -252,6 +382,27 @@ impl Reader<'_> {
         let n = self.count(4)?;
         let actions = self.take(n * 4)?.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
         Some(Episode { len, obs, state, avail, actions, reward, terminated, frames: Default::default() })
+    }
+    fn played(&mut self) -> Option<Played> {
+        let lane = usize::try_from(self.u64()?).ok()?;
+        let episode = self.u64()?;
+        let len = usize::try_from(self.u64()?).ok()?;
+        let wd = *self.take(1)?.first()? as usize;
+        if ![1, 2, 4].contains(&wd) {
+            return None;
+        }
+        let n = self.count(wd)?;
+        let actions = self
+            .take(n * wd)?
+            .chunks_exact(wd)
+            .map(|c| {
+                let mut b = [0u8; 4];
+                b[..wd].copy_from_slice(c);
+                u32::from_le_bytes(b)
+            })
+            .collect();
+        let digest = self.u64()?;
+        Some(Played { lane, episode, len, actions, digest })
     }
 }
 
@@ -274,6 +425,12 @@ mod tests {
         }
     }
 
+    /// Gives back the episodes [`episode`] makes, numbered as they were kept (here: each
+    /// one's number as its "episode").
+    fn replay(ps: &[Played]) -> Result<Vec<Episode>, Error> {
+        Ok(ps.iter().map(|p| episode(p.episode)).collect())
+    }
+
     fn scratch(name: &str) -> PathBuf {
         let d = std::env::temp_dir().join(format!("avacraft-journal-{name}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&d);
@@ -287,7 +444,7 @@ mod tests {
         let mut j = Journal::create(&run, cap)?;
         let mut buf = ReplayBuffer::new(cap);
         for k in 0..250 {
-            j.append(&episode(k))?;
+            j.append(&episode(k), 0, k)?;
             buf.insert(episode(k));
             if k == 180 {
                 j.sync()?;
@@ -297,26 +454,87 @@ mod tests {
         // Segments that had left the buffer at the previous sync (181 - 100) are gone.
         assert!(!segment_path(&run.join("resume/buffer"), 0).exists());
         assert!(segment_path(&run.join("resume/buffer"), 64).exists());
-        let (mut j2, back) = Journal::resume(&run, cap, 250)?.expect("all kept");
+        let (mut j2, back) = Journal::resume(&run, cap, 250, &replay)?.expect("all kept");
         assert_eq!(back, buf);
         // Resumed at the previous sync's state (a kill after the last sync, before its state
         // was saved): that state's buffer, and the later episodes are dropped from disk.
-        let (_, earlier) = Journal::resume(&run, cap, 181)?.expect("kept");
+        let (_, earlier) = Journal::resume(&run, cap, 181, &replay)?.expect("kept");
         let mut want = ReplayBuffer::new(cap);
         (0..181).for_each(|k| want.insert(episode(k)));
         assert_eq!(earlier, want);
         // The journal goes on from there.
-        let (mut j3, _) = Journal::resume(&run, cap, 181)?.expect("kept");
+        let (mut j3, _) = Journal::resume(&run, cap, 181, &replay)?.expect("kept");
         for k in 181..230 {
-            j3.append(&episode(k))?;
+            j3.append(&episode(k), 0, k)?;
             want.insert(episode(k));
         }
         j3.sync()?;
-        let (_, again) = Journal::resume(&run, cap, 230)?.expect("kept");
+        let (_, again) = Journal::resume(&run, cap, 230, &replay)?.expect("kept");
         assert_eq!(again, want);
         // Episodes the journal never held: none to resume from.
-        assert!(Journal::resume(&run, cap, 400)?.is_none());
+        assert!(Journal::resume(&run, cap, 400, &replay)?.is_none());
         j2.sync()?;
+        let _ = std::fs::remove_dir_all(&run);
+        Ok(())
+    }
+
+    #[test]
+    fn an_episode_kept_as_played_is_a_few_bytes_a_step() -> Result<(), Error> {
+        let ep = Episode { len: 100, actions: vec![35; 100 * 27], ..episode(0) };
+        let p = Played { lane: 3, episode: 41, len: 100, actions: ep.actions.clone(), digest: digest(&ep) };
+        let mut bytes = Vec::new();
+        write_played(&mut bytes, &p).map_err(|source| Error::Io { path: PathBuf::new(), source })?;
+        // One byte an action, and 45 for the rest of the record.
+        assert_eq!(bytes.len(), 2700 + 45);
+        let back = Reader { bytes: &bytes, at: 0 }.record();
+        assert!(matches!(back, Some(Record::Played(q)) if q == p));
+        // Wider indices take more bytes, and come back whole.
+        let wide = Played { actions: vec![0, 300, 70_000], len: 1, ..p };
+        let mut bytes = Vec::new();
+        write_played(&mut bytes, &wide).map_err(|source| Error::Io { path: PathBuf::new(), source })?;
+        assert!(matches!(Reader { bytes: &bytes, at: 0 }.record(), Some(Record::Played(q)) if q == wide));
+        Ok(())
+    }
+
+    #[test]
+    fn an_episode_that_plays_otherwise_is_refused_naming_the_folder() -> Result<(), Error> {
+        let run = scratch("otherwise");
+        let mut j = Journal::create(&run, 10)?;
+        for k in 0..5 {
+            j.append(&episode(k), 1, k)?;
+        }
+        j.sync()?;
+        // Another build of the game: the third episode comes back changed.
+        let changed = |ps: &[Played]| -> Result<Vec<Episode>, Error> {
+            let mut eps = replay(ps)?;
+            eps[2].reward[0] = 1.0;
+            Ok(eps)
+        };
+        let Err(e) = Journal::resume(&run, 10, 5, &changed) else { panic!("a changed episode was taken") };
+        let msg = e.to_string();
+        assert!(msg.contains("resume/buffer") && msg.contains("episode 2 ") && msg.contains("delete"), "{msg}");
+        let _ = std::fs::remove_dir_all(&run);
+        Ok(())
+    }
+
+    #[test]
+    fn a_journal_of_whole_episodes_is_still_read_and_goes_on_as_played() -> Result<(), Error> {
+        let run = scratch("whole");
+        let dir = run.join("resume/buffer");
+        std::fs::create_dir_all(&dir).map_err(io(&dir))?;
+        let whole: Vec<Record> = (0..7).map(|k| Record::Whole(episode(k))).collect();
+        rewrite_segment(&segment_path(&dir, 0), &whole)?;
+        let (mut j, buf) = Journal::resume(&run, 100, 7, &replay)?.expect("kept");
+        let mut want = ReplayBuffer::new(100);
+        (0..7).for_each(|k| want.insert(episode(k)));
+        assert_eq!(buf, want);
+        for k in 7..12 {
+            j.append(&episode(k), 0, k)?;
+            want.insert(episode(k));
+        }
+        j.sync()?;
+        let (_, again) = Journal::resume(&run, 100, 12, &replay)?.expect("kept");
+        assert_eq!(again, want);
         let _ = std::fs::remove_dir_all(&run);
         Ok(())
     }
@@ -330,6 +548,8 @@ mod tests {
             let path = dir.join("seg.bin");
             let mut good = Vec::new();
             write_episode(&mut good, &episode(3)).expect("write");
+            let ep = episode(4);
+            write_played(&mut good, &Played { lane: 1, episode: 4, len: ep.len, actions: ep.actions.clone(), digest: digest(&ep) }).expect("write");
             good.truncate(cut.min(good.len()));
             good.extend(&bytes);
             std::fs::write(&path, &good).expect("write");

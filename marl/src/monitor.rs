@@ -166,6 +166,13 @@ impl<'a> Monitor<'a> {
         self.elapsed_before + self.started.elapsed().as_secs_f64()
     }
 
+    /// The training environments as [`Monitor::keep_episodes`] seeds them: those that played
+    /// a resumed run's kept episodes, to play them again (one thread: they are not stepped).
+    pub fn kept_env(&self) -> Result<VecEnv, Error> {
+        let seeds: Vec<u64> = (0..self.cfg.envs as u64).map(|i| self.base.wrapping_add(i)).collect();
+        vec_env_with(self.cfg, &self.opts.scenario, &seeds, 1, self.pool.as_ref().map(Pool::factory))
+    }
+
     /// The training environments, seeded from the run's seed.
     pub fn env(&self) -> Result<VecEnv, Error> {
         let seeds: Vec<u64> = (0..self.cfg.envs as u64).map(|i| self.base.wrapping_add(self.seed_offset).wrapping_add(i)).collect();

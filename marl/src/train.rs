@@ -17,7 +17,7 @@
 use crate::acting::Actor;
 use crate::buffer::{Batch, Episode, FrameBatch, ReplayBuffer, Shape};
 use crate::carry::Carry;
-use crate::journal::Journal;
+use crate::journal::{self, Journal};
 use crate::learner::Learner;
 use crate::monitor::Monitor;
 use crate::nets::Nets;
@@ -119,8 +119,8 @@ fn checkpoint(
         j.sync()?;
         let mut carry = Carry::new(t_env)?;
         let since: Vec<Vec<u32>> = lanes.running.iter().map(|ep| ep.actions.clone()).collect();
+        // The episodes under way are not kept: a resume plays them again from these.
         carry.lanes(lanes.env, &since)?;
-        carry.episodes("running", lanes.running)?;
         let (h, last_acts) = lanes.actor.state();
         carry.f32s("actor.h", h)?;
         carry.actions("actor.last", last_acts)?;
@@ -147,6 +147,7 @@ fn checkpoint(
 /// Returns which lanes ended, and how many.
 fn end_episodes(
     b: &avacraft_engine::VecBuffers,
+    numbers: &[u64],
     shape: &Shape,
     running: &mut [Episode],
     monitor: &mut Monitor,
@@ -166,7 +167,8 @@ fn end_episodes(
             finished.close(shape, last);
             monitor.episode_end(b.info[i].battle_won, finished.reward.iter().map(|&r| f64::from(r)).sum());
             if let Some(j) = journal.as_deref_mut() {
-                j.append(&finished)?;
+                // The lane has started its next episode: this one was the one before.
+                j.append(&finished, i, numbers[i].saturating_sub(1))?;
             }
             buffer.insert(finished);
             ended += 1;
@@ -193,6 +195,50 @@ fn learn(
     learner.train(batch, episodes)
 }
 
+/// Lane `lane`'s episode number `episode` played again with `actions` (`A` a step), as the
+/// training loop recorded it (`closed`: finished with its last step).
+fn replayed(
+    replayer: &avacraft_engine::Replayer,
+    shape: &Shape,
+    lane: usize,
+    episode: u64,
+    actions: Vec<u32>,
+    closed: bool,
+) -> Result<Episode, String> {
+    let acts: Vec<i64> = actions.iter().map(|&x| i64::from(x)).collect();
+    let at = |e: String| format!("environment {lane}, its episode {episode}: {e}");
+    let r = replayer.replay(lane, episode, &acts).map_err(|e| at(e.to_string()))?;
+    Episode::replayed(r, actions, shape, closed).map_err(at)
+}
+
+/// The journal's played episodes given back, spread over `threads` threads (a large map's
+/// buffer is thousands of episodes to play again).
+fn rebuild_episodes(
+    replayer: &avacraft_engine::Replayer,
+    shape: &Shape,
+    ps: &[journal::Played],
+    threads: usize,
+) -> Result<Vec<Episode>, Error> {
+    use rayon::prelude::*;
+    let bad = |e: String| Error::Checkpoint { message: format!("replaying the kept replay buffer: {e}") };
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build().map_err(|e| bad(e.to_string()))?;
+    pool.install(|| {
+        ps.par_iter()
+            .map(|p| {
+                if p.actions.len() != p.len * shape.n_agents {
+                    return Err(bad(format!(
+                        "an episode of {} steps kept with {} actions for {} agents",
+                        p.len,
+                        p.actions.len(),
+                        shape.n_agents
+                    )));
+                }
+                replayed(replayer, shape, p.lane, p.episode, p.actions.clone(), true).map_err(bad)
+            })
+            .collect()
+    })
+}
+
 /// What a QMIX-family resume kept beside its journal, put back: the environments, the
 /// episodes under way, the acting state; checked against the run's team (a resume's files
 /// may have been cut short or changed), with the buffer the journal gave back.
@@ -205,8 +251,19 @@ fn restore_q(
     resume: &std::path::Path,
 ) -> Result<(Vec<Episode>, u64, crate::UpdateStats), Error> {
     let bad = |e: String| Error::Checkpoint { message: format!("{}: {e}", resume.display()) };
-    carry.restore_lanes(env)?;
-    let running = carry.get_episodes("running", shape)?;
+    let since = carry.restore_lanes(env)?;
+    // Carries written before episodes were replayed kept them whole.
+    let running = match carry.has("running.len") {
+        true => carry.get_episodes("running", shape)?,
+        false => {
+            let replayer = env.replayer();
+            let mut eps = Vec::with_capacity(since.len());
+            for (i, acts) in since.into_iter().enumerate() {
+                eps.push(replayed(&replayer, shape, i, env.episode_numbers()[i], acts, false).map_err(|e| bad(e.to_string()))?);
+            }
+            eps
+        }
+    };
     running.iter().try_for_each(|ep| ep.check(shape, false)).map_err(bad)?;
     buffer.check(shape).map_err(bad)?;
     actor.set_state(carry.get_f32s("actor.h")?, carry.get_actions("actor.last", shape.n_actions)?)?;
@@ -237,10 +294,15 @@ fn train_q(
     };
     if let (Some(dir), Some(st), true) = (exact, &start, same_game)
         && let Some(carry) = Carry::load(dir, st.t_env)?
-        && let Some(journal) = Journal::resume(dir, cfg.buffer_size, st.episodes)?
     {
-        monitor.keep_episodes();
-        kept = Some((carry, journal));
+        // The run's environments as they were seeded, which played the kept episodes.
+        let kept_env = monitor.kept_env()?;
+        let (replayer, shape) = (kept_env.replayer(), Shape::of(&kept_env));
+        let rebuild = |ps: &[journal::Played]| rebuild_episodes(&replayer, &shape, ps, opts.threads);
+        if let Some(journal) = Journal::resume(dir, cfg.buffer_size, st.episodes, &rebuild)? {
+            monitor.keep_episodes();
+            kept = Some((carry, journal));
+        }
     }
     let mut env = monitor.env()?;
     let (a, o, s, na) = env.shape();
@@ -301,7 +363,8 @@ fn train_q(
         }
         env.step(&acts.iter().map(|&x| i64::from(x)).collect::<Vec<_>>())?;
         t_env += e as u64;
-        let (done, ended) = end_episodes(&env.buffers, &shape, &mut running, &mut monitor, journal.as_mut(), &mut buffer)?;
+        let (done, ended) =
+            end_episodes(&env.buffers, env.episode_numbers(), &shape, &mut running, &mut monitor, journal.as_mut(), &mut buffer)?;
         episodes += ended;
         pending += ended;
         actor.reset_envs(&done, a);

@@ -169,15 +169,22 @@ fn a_resume_whose_files_were_changed_is_refused_with_what_does_not_fit() -> R {
 
     let extra = ["t_max=600", "envs=4", "batch_size=4", "buffer_size=40", "epsilon_anneal_time=300"];
     let (cfg, opts, dir) = killed_run("qmix", &extra, "bad-qmix")?;
-    // The journal's records end with the episode's actions: the segment's last word is its
-    // last episode's last action.
+    // The journal keeps each episode as its actions, a byte each, then an 8-byte digest: the
+    // segment's last episode's last action is 9 bytes from its end.
     let seg = std::fs::read_dir(dir.join("resume/buffer"))?.flatten().map(|e| e.path()).min().ok_or("no journal segment")?;
-    let mut bytes = std::fs::read(&seg)?;
+    let kept = std::fs::read(&seg)?;
+    let mut bytes = kept.clone();
     let end = bytes.len();
-    bytes[end - 4..].copy_from_slice(&777u32.to_le_bytes());
+    bytes[end - 9] = 200;
     std::fs::write(&seg, &bytes)?;
     let err = resume_error(&cfg, &opts, &dir)?;
-    assert!(err.contains("777") && err.contains("episode"), "qmix, a journal's action out of range: {err:?}");
+    assert!(err.contains("200") && err.contains("episode"), "qmix, a journal's action out of range: {err:?}");
+    // Its digest changed: the episode replays, but not to what was kept.
+    let mut bytes = kept;
+    bytes[end - 1] ^= 0x40;
+    std::fs::write(&seg, &bytes)?;
+    let err = resume_error(&cfg, &opts, &dir)?;
+    assert!(err.contains("plays otherwise") && err.contains("resume/buffer"), "qmix, a journal's digest changed: {err:?}");
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }
