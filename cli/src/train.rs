@@ -32,6 +32,10 @@ pub struct TrainArgs {
     /// cluster's array jobs.
     #[arg(long, value_name = "i/n", requires = "plan")]
     pub shard: Option<avacraft_eval::Shard>,
+    /// With --plan: only these runs (plan ids such as `27m_vs_30m/qmix-s1`), e.g. to go on
+    /// with one unfinished run whose folder came with the repository.
+    #[arg(long, value_name = "RUN", num_args = 1.., requires = "plan", conflicts_with = "ship")]
+    pub only: Vec<String>,
     /// With --plan: train nothing; copy the plan's finished runs' policies into
     /// DIR/<scenario>/<run> (seed 1; other seeds <run>-s<seed>): each one's best checkpoint's
     /// agent network, config, log and curves, at most 300 kB each without the curves.
@@ -99,7 +103,7 @@ pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
         writeln!(out, "threads: {n} stepping environments, {learner} in the learner")?;
     }
     if let Some(plan) = &a.plan {
-        return run_plan(plan, a.shard, a.threads, out);
+        return run_plan(plan, (a.shard, &a.only), a.threads, out);
     }
     let overrides = &a.set;
     let mut start = None;
@@ -300,9 +304,21 @@ fn last_t_env(dir: &std::path::Path) -> Result<u64> {
 }
 
 /// `train --plan`: the plan's runs (of one shard) one after another, each using every core.
-fn run_plan(path: &std::path::Path, shard: Option<avacraft_eval::Shard>, threads: Option<usize>, out: &mut dyn Write) -> Result<()> {
+fn run_plan(
+    path: &std::path::Path,
+    (shard, only): (Option<avacraft_eval::Shard>, &[String]),
+    threads: Option<usize>,
+    out: &mut dyn Write,
+) -> Result<()> {
     let plan = avacraft_eval::load_train_plan(path)?;
-    let jobs = plan.shard(shard);
+    let mut jobs = plan.shard(shard);
+    if let Some(bad) = only.iter().find(|u| !jobs.iter().any(|j| &j.id == *u)) {
+        let ids: Vec<&str> = jobs.iter().map(|j| j.id.as_str()).collect();
+        bail!("--only {bad}: not one of the plan's runs ({})", ids.join(", "));
+    }
+    if !only.is_empty() {
+        jobs.retain(|j| only.contains(&j.id));
+    }
     let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from));
     writeln!(
         out,

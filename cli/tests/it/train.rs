@@ -455,3 +455,23 @@ fn a_plans_budget_changed_under_a_run() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `train --plan P --only RUN` trains that run alone; a run the plan lacks is refused, naming
+/// the plan's.
+#[test]
+fn a_plan_trains_only_the_runs_named() {
+    let runs = "[[runs]]\nname = \"a\"\nalgo = \"vdn\"\nscenarios = [\"3m_vlm\"]\nset = SMALL\n\
+                [[runs]]\nname = \"c\"\nalgo = \"vdn\"\nscenarios = [\"3m_vlm\"]\nset = SMALL\n";
+    let (dir, plan) = small_plan("plan-only", 200, runs);
+    let p = plan.to_str().expect("utf-8");
+    let out = train(&["--plan", p, "--only", "3m_vlm/nope-s1"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--only 3m_vlm/nope-s1") && err.contains("3m_vlm/a-s1, 3m_vlm/c-s1"), "{err}");
+    let out = train(&["--plan", p, "--only", "3m_vlm/c-s1"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("1 runs"), "{}", String::from_utf8_lossy(&out.stdout));
+    assert!(dir.join("runs/3m_vlm/c-s1/done.json").is_file());
+    assert!(!dir.join("runs/3m_vlm/a-s1").exists(), "a run not named was trained");
+    let _ = std::fs::remove_dir_all(&dir);
+}
