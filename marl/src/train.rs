@@ -271,6 +271,33 @@ fn restore_q(
     Ok((running, pending, carry.get_stats("last")?))
 }
 
+/// A Q-learners' resume's carry, and its journal with the buffer it gave back.
+type Kept = (Carry, (Journal, ReplayBuffer));
+
+/// What a Q-learners' resume in `dir` goes on with exactly: its carry, and its journal with
+/// the replay buffer played again from it; `None` where either is gone, or under another game
+/// (`--set` changed a rule, the data or the opponent), whose episodes would be replayed into
+/// other games: the run then goes on with fresh episodes and a new buffer.
+fn kept_q(
+    cfg: &Config,
+    opts: &RunOptions,
+    dir: &std::path::Path,
+    st: &RunState,
+    monitor: &mut Monitor,
+) -> Result<Option<Kept>, Error> {
+    if !crate::Policy::config_in(dir)?.same_game(cfg) {
+        return Ok(None);
+    }
+    let Some(carry) = Carry::load(dir, st.t_env)? else { return Ok(None) };
+    // The run's environments as they were seeded, which played the kept episodes.
+    let kept_env = monitor.kept_env()?;
+    let (replayer, shape) = (kept_env.replayer(), Shape::of(&kept_env));
+    let rebuild = |ps: &[journal::Played]| rebuild_episodes(&replayer, &shape, ps, opts.threads);
+    let Some(journal) = Journal::resume(dir, cfg.buffer_size, st.episodes, &rebuild)? else { return Ok(None) };
+    monitor.keep_episodes();
+    Ok(Some((carry, journal)))
+}
+
 /// The Q-learners' loop (IQL, VDN, QMIX).
 fn train_q(
     cfg: &Config,
@@ -285,25 +312,10 @@ fn train_q(
     // self-play's: an episode's opponent was drawn from the pool as it was when the episode
     // began, which a resume no longer has.
     let exact = opts.out.as_ref().filter(|_| !cfg.obs.images() && !cfg.self_play());
-    let mut kept = None;
-    // Under another game (`--set` changed a rule, the data or the opponent) the kept episodes
-    // would be replayed into other games: the run goes on with fresh ones and a new buffer.
-    let same_game = match (exact, &start) {
-        (Some(dir), Some(_)) => crate::Policy::config_in(dir)?.same_game(cfg),
-        _ => true,
+    let kept = match (exact, &start) {
+        (Some(dir), Some(st)) => kept_q(cfg, opts, dir, st, &mut monitor)?,
+        _ => None,
     };
-    if let (Some(dir), Some(st), true) = (exact, &start, same_game)
-        && let Some(carry) = Carry::load(dir, st.t_env)?
-    {
-        // The run's environments as they were seeded, which played the kept episodes.
-        let kept_env = monitor.kept_env()?;
-        let (replayer, shape) = (kept_env.replayer(), Shape::of(&kept_env));
-        let rebuild = |ps: &[journal::Played]| rebuild_episodes(&replayer, &shape, ps, opts.threads);
-        if let Some(journal) = Journal::resume(dir, cfg.buffer_size, st.episodes, &rebuild)? {
-            monitor.keep_episodes();
-            kept = Some((carry, journal));
-        }
-    }
     let mut env = monitor.env()?;
     let (a, o, s, na) = env.shape();
     let shape = Shape::of(&env);
