@@ -359,8 +359,15 @@ impl Reader<'_> {
     }
     fn count(&mut self, item: usize) -> Option<usize> {
         let n = usize::try_from(self.u64()?).ok()?;
-        // A count past the bytes left is a torn or corrupt record, not an allocation.
-        (n.checked_mul(item)? <= self.bytes.len() - self.at).then_some(n)
+        // A count past the bytes left is a record cut short (a kill mid-write: the reader is
+        // at the end, as a short read leaves it), not an allocation.
+        match n.checked_mul(item) {
+            Some(b) if b <= self.bytes.len() - self.at => Some(n),
+            _ => {
+                self.at = self.bytes.len();
+                None
+            }
+        }
     }
     fn f32s(&mut self) -> Option<Vec<f32>> {
         let n = self.count(4)?;
@@ -536,6 +543,31 @@ mod tests {
         let (_, again) = Journal::resume(&run, 100, 12, &replay)?.expect("kept");
         assert_eq!(again, want);
         let _ = std::fs::remove_dir_all(&run);
+        Ok(())
+    }
+
+    #[test]
+    fn a_segment_cut_anywhere_in_its_last_record_reads_the_records_before_it() -> Result<(), Error> {
+        let dir = scratch("cut");
+        std::fs::create_dir_all(&dir).map_err(io(&dir))?;
+        let path = dir.join("seg.bin");
+        let played = |k: u64| {
+            let ep = episode(k);
+            Played { lane: 0, episode: k, len: ep.len, actions: ep.actions.clone(), digest: digest(&ep) }
+        };
+        for last in [Record::Whole(episode(9)), Record::Played(played(9))] {
+            let records = [Record::Whole(episode(7)), Record::Played(played(8)), last];
+            rewrite_segment(&path, &records)?;
+            let bytes = std::fs::read(&path).map_err(io(&path))?;
+            rewrite_segment(&path, &records[..2])?;
+            let whole = std::fs::metadata(&path).map_err(io(&path))?.len() as usize;
+            for cut in whole..bytes.len() {
+                std::fs::write(&path, &bytes[..cut]).map_err(io(&path))?;
+                let back = read_segment(&path).map_err(|e| Error::Checkpoint { message: format!("cut at {cut}: {e}") })?;
+                assert_eq!(back.len(), 2, "cut at {cut} of {}", bytes.len());
+            }
+        }
+        let _ = std::fs::remove_dir_all(&dir);
         Ok(())
     }
 

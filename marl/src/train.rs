@@ -278,13 +278,7 @@ type Kept = (Carry, (Journal, ReplayBuffer));
 /// the replay buffer played again from it; `None` where either is gone, or under another game
 /// (`--set` changed a rule, the data or the opponent), whose episodes would be replayed into
 /// other games: the run then goes on with fresh episodes and a new buffer.
-fn kept_q(
-    cfg: &Config,
-    opts: &RunOptions,
-    dir: &std::path::Path,
-    st: &RunState,
-    monitor: &mut Monitor,
-) -> Result<Option<Kept>, Error> {
+fn kept_q(cfg: &Config, opts: &RunOptions, dir: &std::path::Path, st: &RunState, monitor: &mut Monitor) -> Result<Option<Kept>, Error> {
     if !crate::Policy::config_in(dir)?.same_game(cfg) {
         return Ok(None);
     }
