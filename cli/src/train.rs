@@ -314,7 +314,8 @@ fn run_plan(
     let mut jobs = plan.shard(shard);
     if let Some(bad) = only.iter().find(|u| !jobs.iter().any(|j| &j.id == *u)) {
         let ids: Vec<&str> = jobs.iter().map(|j| j.id.as_str()).collect();
-        bail!("--only {bad}: not one of the plan's runs ({})", ids.join(", "));
+        let of = shard.map_or_else(String::new, |s| format!(" in shard {}/{}", s.index, s.count));
+        bail!("--only {bad}: not one of the plan's runs{of} ({})", ids.join(", "));
     }
     if !only.is_empty() {
         jobs.retain(|j| only.contains(&j.id));

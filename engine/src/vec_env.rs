@@ -79,8 +79,8 @@ pub struct VecEnv {
     opponents: Vec<AgentTeam>,
     opponent_make: Option<OpponentFactory>,
     opponent_name: Option<String>,
-    /// Episodes started per environment; environment `i`'s episode `k` uses seed
-    /// `seeds[i] + k * E`, so distinct base seeds give distinct episodes.
+    /// Episodes started per environment; environment `i`'s episode `k` (from 1) uses seed
+    /// `seeds[i] + (k - 1) * E`, so distinct base seeds give distinct episodes.
     started: Vec<u64>,
     seeds: Vec<u64>,
     /// Helpers of the calling thread (`threads - 1` of them), which steps lanes too.

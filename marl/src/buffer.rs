@@ -162,17 +162,19 @@ impl ReplayBuffer {
     pub fn new(capacity: usize) -> ReplayBuffer {
         ReplayBuffer { episodes: Vec::new(), capacity: capacity.max(1), next: 0 }
     }
-    /// The buffer after `inserted` insertions, from the last of them (`(insertion index,
-    /// episode)`, in order): each in the slot the ring put it in.
-    pub(crate) fn restored(capacity: usize, kept: Vec<(u64, Episode)>, inserted: u64) -> ReplayBuffer {
+    /// The buffer that started empty at the run's episode `origin` after the run's `inserted`
+    /// insertions, from the last of them (`(the run's insertion index, episode)`, in order):
+    /// each in the slot the ring put it in.
+    pub(crate) fn restored(capacity: usize, kept: Vec<(u64, Episode)>, (origin, inserted): (u64, u64)) -> ReplayBuffer {
         let capacity = capacity.max(1);
+        let slot = |idx: u64| (idx.saturating_sub(origin) % capacity as u64) as usize;
         let mut slots: Vec<Option<Episode>> = vec![None; kept.len().min(capacity)];
         for (idx, ep) in kept {
-            if let Some(slot) = slots.get_mut((idx % capacity as u64) as usize) {
-                *slot = Some(ep);
+            if let Some(s) = slots.get_mut(slot(idx)) {
+                *s = Some(ep);
             }
         }
-        ReplayBuffer { episodes: slots.into_iter().flatten().collect(), capacity, next: (inserted % capacity as u64) as usize }
+        ReplayBuffer { episodes: slots.into_iter().flatten().collect(), capacity, next: slot(inserted) }
     }
     /// [`Episode::check`] on every (closed) episode; the error names the first that fails.
     pub(crate) fn check(&self, shape: &Shape) -> Result<(), String> {

@@ -202,7 +202,8 @@ impl Carry {
         Ok(out)
     }
 
-    /// The episodes [`Carry::episodes`] wrote, shaped by `shape` (per step: `A x obs`
+    /// The episodes `Carry::episodes` wrote (carries written before episodes under way were
+    /// replayed), shaped by `shape` (per step: `A x obs`
     /// observations, the state, `A x n_actions` masks, `A` actions).
     pub(crate) fn get_episodes(&self, name: &str, shape: &crate::Shape) -> Result<Vec<Episode>, Error> {
         let (a, o, s, na) = (shape.n_agents, shape.obs, shape.state, shape.n_actions);
@@ -231,6 +232,15 @@ impl Carry {
             });
         }
         Ok(eps)
+    }
+
+    /// Whether the carry kept `envs` environments, as the run steps.
+    pub(crate) fn check_lanes(&self, envs: usize) -> Result<(), Error> {
+        let kept = self.get_u64s("lanes.episode")?.len();
+        if kept != envs {
+            return Err(self.bad(format!("{kept} environments kept, the run has {envs}")));
+        }
+        Ok(())
     }
 
     /// Puts each environment of `env` back where [`Carry::lanes`] found it; returns the

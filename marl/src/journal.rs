@@ -22,6 +22,9 @@ use std::path::{Path, PathBuf};
 
 /// Episodes per segment file.
 const SEGMENT: u64 = 64;
+/// The run's episode count when the buffer started (0, or where a resume started a new one):
+/// the ring's slots count from it.
+const ORIGIN_FILE: &str = "origin";
 /// The first bytes of a whole episode's record (journals written before actions-only ones).
 const MAGIC: u32 = 0x4a45_5031;
 /// The first bytes of an episode kept as its actions.
@@ -104,7 +107,27 @@ impl Journal {
             std::fs::remove_dir_all(&dir).map_err(io(&dir))?;
         }
         std::fs::create_dir_all(&dir).map_err(io(&dir))?;
-        Ok(Journal { dir, capacity: capacity.max(1) as u64, written: 0, file: None, synced: 0, skip_until: 0 })
+        let j = Journal { dir, capacity: capacity.max(1) as u64, written: 0, file: None, synced: 0, skip_until: 0 };
+        j.write_origin(0)?;
+        Ok(j)
+    }
+
+    fn write_origin(&self, origin: u64) -> Result<(), Error> {
+        crate::aside::write(&self.dir.join(ORIGIN_FILE), origin.to_string())
+    }
+
+    /// Where the buffer the journal keeps started (0 for journals written before it was kept,
+    /// which started with their runs).
+    fn read_origin(dir: &Path) -> Result<u64, Error> {
+        let path = dir.join(ORIGIN_FILE);
+        match std::fs::read_to_string(&path) {
+            Ok(text) => text
+                .trim()
+                .parse()
+                .map_err(|_| Error::Checkpoint { message: format!("{}: `{}` is not an episode count", path.display(), text.trim()) }),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(0),
+            Err(source) => Err(Error::Io { path, source }),
+        }
     }
 
     /// A new, empty journal whose next episode is the run's `inserted`-th: a run resumed
@@ -113,6 +136,7 @@ impl Journal {
         let mut j = Journal::create(run, capacity)?;
         (j.written, j.synced) = (inserted, inserted);
         j.skip_until = inserted.div_ceil(SEGMENT) * SEGMENT;
+        j.write_origin(inserted)?;
         Ok(j)
     }
 
@@ -137,14 +161,23 @@ impl Journal {
             if !path.is_file() {
                 return Ok(None);
             }
-            let records = read_segment(&path)?;
-            // The segment holding episode `inserted` may hold later ones: kept on disk only
-            // up to it.
+            let (records, cut) = read_segment(&path)?;
+            // The segment holding episode `inserted` may hold later ones, the last perhaps
+            // cut short by a kill: kept on disk only up to it.
             let upto = (inserted - first).min(SEGMENT) as usize;
             if records.len() < upto {
-                return Ok(None);
+                // Written and flushed before the state was saved: cut or damaged since.
+                return Err(Error::Checkpoint {
+                    message: format!(
+                        "{}: {} whole episode records where the run's state needs {upto}: cut short or damaged \
+                         (delete {} to go on with a fresh replay buffer)",
+                        path.display(),
+                        records.len(),
+                        dir.display()
+                    ),
+                });
             }
-            if records.len() > upto {
+            if records.len() > upto || cut {
                 rewrite_segment(&path, &records[..upto])?;
             }
             for (k, rec) in records.into_iter().take(upto).enumerate() {
@@ -165,7 +198,13 @@ impl Journal {
             }
         }
         let kept = rebuilt(&dir, kept, rebuild)?;
-        let buffer = ReplayBuffer::restored(capacity as usize, kept, inserted);
+        let origin = Journal::read_origin(&dir)?;
+        if origin > inserted {
+            return Err(Error::Checkpoint {
+                message: format!("{}: the buffer starts at episode {origin}, after the state's {inserted}", dir.display()),
+            });
+        }
+        let buffer = ReplayBuffer::restored(capacity as usize, kept, (origin, inserted));
         let file =
             if inserted.is_multiple_of(SEGMENT) { None } else { Some(open_append(&segment_path(&dir, inserted / SEGMENT * SEGMENT))?) };
         Ok(Some((Journal { dir, capacity, written: inserted, file, synced: inserted, skip_until: 0 }, buffer)))
@@ -247,8 +286,9 @@ fn rebuilt(dir: &Path, kept: Vec<(u64, Record)>, rebuild: &Rebuild<'_>) -> Resul
                 if digest(&ep) != p.digest {
                     return Err(Error::Checkpoint {
                         message: format!(
-                            "{}: episode {idx} of the run (environment {}, its episode {}) plays otherwise on this build than \
-                             when it was kept (the game changed): delete that folder to go on with a fresh replay buffer",
+                            "{}: episode {idx} of the run (environment {}, its episode {}) plays otherwise than when it was \
+                             kept (another build of the game, or changed files): delete that folder to go on with a fresh \
+                             replay buffer",
                             dir.display(),
                             p.lane,
                             p.episode
@@ -320,18 +360,22 @@ fn write_played(w: &mut impl Write, p: &Played) -> std::io::Result<()> {
     w.write_all(&p.digest.to_le_bytes())
 }
 
-/// Reads every whole record of a segment; a torn record at its end (a kill mid-write) ends
-/// it.
-fn read_segment(path: &Path) -> Result<Vec<Record>, Error> {
+/// Reads every whole record of a segment, and whether a record cut short (a kill mid-write)
+/// ends it.
+fn read_segment(path: &Path) -> Result<(Vec<Record>, bool), Error> {
     let mut bytes = Vec::new();
     std::fs::File::open(path).and_then(|mut f| f.read_to_end(&mut bytes)).map_err(io(path))?;
     let mut r = Reader { bytes: &bytes, at: 0 };
     let mut records = Vec::new();
+    let mut cut = false;
     while r.at < bytes.len() {
         let start = r.at;
         match r.record() {
             Some(rec) => records.push(rec),
-            None if start == r.at || r.at >= bytes.len() => break,
+            None if start == r.at || r.at >= bytes.len() => {
+                cut = true;
+                break;
+            }
             None => {
                 return Err(Error::Checkpoint {
                     message: format!("{}: episode record {} at byte {start} is corrupt", path.display(), records.len()),
@@ -339,7 +383,7 @@ fn read_segment(path: &Path) -> Result<Vec<Record>, Error> {
             }
         }
     }
-    Ok(records)
+    Ok((records, cut))
 }
 
 struct Reader<'a> {
@@ -563,8 +607,8 @@ mod tests {
             let whole = std::fs::metadata(&path).map_err(io(&path))?.len() as usize;
             for cut in whole..bytes.len() {
                 std::fs::write(&path, &bytes[..cut]).map_err(io(&path))?;
-                let back = read_segment(&path).map_err(|e| Error::Checkpoint { message: format!("cut at {cut}: {e}") })?;
-                assert_eq!(back.len(), 2, "cut at {cut} of {}", bytes.len());
+                let (back, was_cut) = read_segment(&path).map_err(|e| Error::Checkpoint { message: format!("cut at {cut}: {e}") })?;
+                assert_eq!((back.len(), was_cut), (2, cut > whole), "cut at {cut} of {}", bytes.len());
             }
         }
         let _ = std::fs::remove_dir_all(&dir);

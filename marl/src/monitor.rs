@@ -79,6 +79,8 @@ pub(crate) struct Monitor<'a> {
     elapsed_before: f64,
     /// Episodes already played before a resume: the environments start past them.
     seed_offset: u64,
+    /// The offset the resumed run's environments had, which played its kept episodes.
+    kept_offset: u64,
     /// Self-play: the learner's snapshots team 2 plays.
     pool: Option<Arc<Pool>>,
     /// Fixed opponents each test round also plays ([`Config::fixed_test_opponents`]).
@@ -141,6 +143,7 @@ impl<'a> Monitor<'a> {
             return_since: 0.0,
             elapsed_before: 0.0,
             seed_offset: 0,
+            kept_offset: 0,
             pool,
             fixed: cfg.fixed_test_opponents(),
             prune_below: None,
@@ -151,14 +154,20 @@ impl<'a> Monitor<'a> {
             (m.test_round, m.last_test_t, m.elapsed_before) = (st.test_round, st.t_env, st.elapsed_s);
             m.last_rate = (st.t_env, st.elapsed_s);
             m.seed_offset = st.episodes + cfg.envs as u64;
+            m.kept_offset = st.seed_offset;
         }
         Ok(m)
     }
 
     /// A resume that puts the environments back where they were ([`crate::carry`]): they
-    /// are made from the run's own seeds, not from seeds past the episodes played.
+    /// are seeded as the saved run's were, not past the episodes played.
     pub fn keep_episodes(&mut self) {
-        self.seed_offset = 0;
+        self.seed_offset = self.kept_offset;
+    }
+
+    /// How far past the run's base seeds its environments are seeded (kept in its state).
+    pub fn seed_offset(&self) -> u64 {
+        self.seed_offset
     }
 
     /// Seconds of training so far (across resumes).
@@ -169,7 +178,7 @@ impl<'a> Monitor<'a> {
     /// The training environments as [`Monitor::keep_episodes`] seeds them: those that played
     /// a resumed run's kept episodes, to play them again (one thread: they are not stepped).
     pub fn kept_env(&self) -> Result<VecEnv, Error> {
-        let seeds: Vec<u64> = (0..self.cfg.envs as u64).map(|i| self.base.wrapping_add(i)).collect();
+        let seeds: Vec<u64> = (0..self.cfg.envs as u64).map(|i| self.base.wrapping_add(self.kept_offset).wrapping_add(i)).collect();
         vec_env_with(self.cfg, &self.opts.scenario, &seeds, 1, self.pool.as_ref().map(Pool::factory))
     }
 

@@ -94,6 +94,11 @@ pub struct RunState {
     /// PPO's return statistics (absent for the Q-learners).
     #[serde(default)]
     pub value_norm: Option<ValueNorm>,
+    /// How far past the run's base seeds its environments were seeded (a resume that started
+    /// fresh episodes seeds them past the episodes already played): what a later resume
+    /// replays the kept episodes from. 0 in states written before it was kept.
+    #[serde(default)]
+    pub seed_offset: u64,
 }
 
 impl RunState {
@@ -123,6 +128,7 @@ impl RunState {
             tests: tests.to_vec(),
             curve: curve.to_vec(),
             value_norm: None,
+            seed_offset: 0,
         }
     }
 

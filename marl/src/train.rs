@@ -128,7 +128,7 @@ fn checkpoint(
         carry.stats("last", lanes.last)?;
         carry.save(dir)?;
     }
-    RunState::new(
+    let mut state = RunState::new(
         seed,
         t_env,
         episodes,
@@ -138,8 +138,9 @@ fn checkpoint(
         monitor.elapsed(),
         &monitor.tests,
         &monitor.curve,
-    )
-    .save(dir, Some(&learner.target))
+    );
+    state.seed_offset = monitor.seed_offset();
+    state.save(dir, Some(&learner.target))
 }
 
 /// Each lane's reward this step; the episodes that ended are closed (a truncated one with its
@@ -225,7 +226,7 @@ fn rebuild_episodes(
     pool.install(|| {
         ps.par_iter()
             .map(|p| {
-                if p.actions.len() != p.len * shape.n_agents {
+                if Some(p.actions.len()) != p.len.checked_mul(shape.n_agents) {
                     return Err(bad(format!(
                         "an episode of {} steps kept with {} actions for {} agents",
                         p.len,
@@ -240,8 +241,9 @@ fn rebuild_episodes(
 }
 
 /// What a QMIX-family resume kept beside its journal, put back: the environments, the
-/// episodes under way, the acting state; checked against the run's team (a resume's files
-/// may have been cut short or changed), with the buffer the journal gave back.
+/// episodes under way (played again from their actions), the acting state; checked against
+/// the run's team (a resume's files may have been cut short or changed), with the buffer the
+/// journal gave back.
 fn restore_q(
     carry: &Carry,
     buffer: &ReplayBuffer,
@@ -283,6 +285,8 @@ fn kept_q(cfg: &Config, opts: &RunOptions, dir: &std::path::Path, st: &RunState,
         return Ok(None);
     }
     let Some(carry) = Carry::load(dir, st.t_env)? else { return Ok(None) };
+    // Checked before thousands of episodes are played again on the wrong lanes.
+    carry.check_lanes(cfg.envs)?;
     // The run's environments as they were seeded, which played the kept episodes.
     let kept_env = monitor.kept_env()?;
     let (replayer, shape) = (kept_env.replayer(), Shape::of(&kept_env));

@@ -328,6 +328,7 @@ fn checkpoint(
         &monitor.curve,
     );
     state.value_norm = Some(learner.value_norm.clone());
+    state.seed_offset = monitor.seed_offset();
     resume::save_moments(dir, &learner.moments())?;
     if let Some((env, roll, lanes)) = carry {
         let mut c = Carry::new(t_env)?;

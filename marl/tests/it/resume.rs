@@ -171,7 +171,12 @@ fn a_resume_whose_files_were_changed_is_refused_with_what_does_not_fit() -> R {
     let (cfg, opts, dir) = killed_run("qmix", &extra, "bad-qmix")?;
     // The journal keeps each episode as its actions, a byte each, then an 8-byte digest: the
     // segment's last episode's last action is 9 bytes from its end.
-    let seg = std::fs::read_dir(dir.join("resume/buffer"))?.flatten().map(|e| e.path()).min().ok_or("no journal segment")?;
+    let seg = std::fs::read_dir(dir.join("resume/buffer"))?
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("seg-")))
+        .min()
+        .ok_or("no journal segment")?;
     let kept = std::fs::read(&seg)?;
     let mut bytes = kept.clone();
     let end = bytes.len();
@@ -229,6 +234,46 @@ fn copy(from: &Path, to: &Path) -> R {
         } else {
             std::fs::copy(e.path(), to.join(e.file_name()))?;
         }
+    }
+    Ok(())
+}
+
+/// A run that once went on from fresh episodes (its carry and journal gone) seeds its
+/// environments past the episodes it had played. Killed again later, it resumes exactly, from
+/// the seeds it then had: its log is the one it writes uninterrupted after the fresh start.
+/// (The Q-learner's buffer is small enough that the journal holds all of it by the kill, so the
+/// kept episodes are played again.)
+#[test]
+fn a_run_that_went_on_from_fresh_episodes_resumes_exactly_later() -> R {
+    for (algo, extra, kill) in [
+        // The journal started after the fresh start holds whole segments of episodes (64
+        // each): by the kill it holds the buffer.
+        ("qmix", &["t_max=3000", "envs=4", "batch_size=4", "buffer_size=20"][..], 2600),
+        ("mappo", &["t_max=800", "envs=4", "rollout_len=40"][..], 600),
+    ] {
+        let (cfg, opts, dir) = killed_run(algo, extra, &format!("fresh-{algo}"))?;
+        std::fs::remove_file(dir.join("resume/carry.safetensors"))?;
+        let _ = std::fs::remove_dir_all(dir.join("resume/buffer"));
+        let once = scratch(&format!("fresh-{algo}-once"));
+        copy(&dir, &once)?;
+        let (_, state) = avacraft_marl::resume::load(&once)?;
+        train_from(&cfg, &RunOptions { out: Some(once.clone()), ..opts.clone() }, Some(state), &mut |_| {})?;
+        let o = RunOptions { out: Some(dir.clone()), ..opts.clone() };
+        let (_, state) = avacraft_marl::resume::load(&dir)?;
+        let killed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            train_from(&cfg, &o, Some(state), &mut |p| assert!(p.t_env < kill || p.last_test.is_none(), "killed"))
+        }));
+        assert!(killed.is_err(), "{algo}: the run was to be killed at {kill}");
+        let (_, state) = avacraft_marl::resume::load(&dir)?;
+        assert!(state.seed_offset > 0 && dir.join("resume/carry.safetensors").is_file(), "{algo}: {}", state.seed_offset);
+        if algo == "qmix" {
+            let segs = std::fs::read_dir(dir.join("resume/buffer"))?.count();
+            assert!(segs >= 1 && state.episodes >= 64 + 20, "{algo}: {} episodes, {segs} segments", state.episodes);
+        }
+        train_from(&cfg, &o, Some(state), &mut |_| {})?;
+        assert_eq!(rows(&dir)?, rows(&once)?, "{algo}: the second resume differs from the run after the fresh start");
+        let _ = std::fs::remove_dir_all(&dir);
+        let _ = std::fs::remove_dir_all(&once);
     }
     Ok(())
 }
