@@ -221,16 +221,8 @@ impl VecEnv {
     /// exactly as the uninterrupted one). Actions that end the episode early, or that its
     /// masks refuse, are not that episode's: an error.
     pub fn restore(&mut self, i: usize, episode: u64, actions: &[i64]) -> Result<(), VecEnvError> {
-        let e = self.envs.len();
-        if i >= e {
-            return Err(VecEnvError::NoEnv { env: i, envs: e });
-        }
+        let (episode, seed) = episode_seed(&self.seeds, i, episode, (actions.len(), self.n_agents))?;
         let a = self.n_agents.max(1);
-        if !actions.len().is_multiple_of(a) {
-            return Err(VecEnvError::Count { given: actions.len(), envs: 1, agents: a, needed: actions.len().div_ceil(a) * a });
-        }
-        let episode = episode.max(1);
-        let seed = self.seeds[i].wrapping_add((episode - 1).wrapping_mul(e as u64));
         let env = &mut self.envs[i];
         env.reset(seed);
         let mut opponent = self.opponents.get_mut(i);
@@ -404,6 +396,21 @@ impl Lane<'_> {
         }
         fill(self.env, self.obs, self.state, self.avail);
     }
+}
+
+/// Environment `i`'s episode number `episode` (from 1) and its seed, for `given` actions of
+/// `agents` agents a step: the one place the seed of a lane's episode is worked out.
+fn episode_seed(seeds: &[u64], i: usize, episode: u64, (given, agents): (usize, usize)) -> Result<(u64, u64), VecEnvError> {
+    let e = seeds.len();
+    if i >= e {
+        return Err(VecEnvError::NoEnv { env: i, envs: e });
+    }
+    let a = agents.max(1);
+    if !given.is_multiple_of(a) {
+        return Err(VecEnvError::Count { given, envs: 1, agents: a, needed: given.div_ceil(a) * a });
+    }
+    let episode = episode.max(1);
+    Ok((episode, seeds[i].wrapping_add((episode - 1).wrapping_mul(e as u64))))
 }
 
 /// One step of an environment in its episode number `episode`: team 2's agent (if any)

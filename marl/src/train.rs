@@ -212,32 +212,25 @@ fn replayed(
     Episode::replayed(r, actions, shape, closed).map_err(at)
 }
 
-/// The journal's played episodes given back, spread over `threads` threads (a large map's
-/// buffer is thousands of episodes to play again).
-fn rebuild_episodes(
-    replayer: &avacraft_engine::Replayer,
-    shape: &Shape,
-    ps: &[journal::Played],
-    threads: usize,
-) -> Result<Vec<Episode>, Error> {
-    use rayon::prelude::*;
+/// The journal's played episodes given back, in order, on the calling thread: the buffer is
+/// most of a run's memory, and episodes made on helper threads stay in those threads'
+/// allocator arenas when the training loop replaces them (a 27m_vs_30m run rebuilt on two
+/// threads grew from 12 to 24 GB and was killed for memory).
+fn rebuild_episodes(replayer: &avacraft_engine::Replayer, shape: &Shape, ps: &[journal::Played]) -> Result<Vec<Episode>, Error> {
     let bad = |e: String| Error::Checkpoint { message: format!("replaying the kept replay buffer: {e}") };
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build().map_err(|e| bad(e.to_string()))?;
-    pool.install(|| {
-        ps.par_iter()
-            .map(|p| {
-                if Some(p.actions.len()) != p.len.checked_mul(shape.n_agents) {
-                    return Err(bad(format!(
-                        "an episode of {} steps kept with {} actions for {} agents",
-                        p.len,
-                        p.actions.len(),
-                        shape.n_agents
-                    )));
-                }
-                replayed(replayer, shape, p.lane, p.episode, p.actions.clone(), true).map_err(bad)
-            })
-            .collect()
-    })
+    ps.iter()
+        .map(|p| {
+            if Some(p.actions.len()) != p.len.checked_mul(shape.n_agents) {
+                return Err(bad(format!(
+                    "an episode of {} steps kept with {} actions for {} agents",
+                    p.len,
+                    p.actions.len(),
+                    shape.n_agents
+                )));
+            }
+            replayed(replayer, shape, p.lane, p.episode, p.actions.clone(), true).map_err(bad)
+        })
+        .collect()
 }
 
 /// What a QMIX-family resume kept beside its journal, put back: the environments, the
@@ -280,7 +273,7 @@ type Kept = (Carry, (Journal, ReplayBuffer));
 /// the replay buffer played again from it; `None` where either is gone, or under another game
 /// (`--set` changed a rule, the data or the opponent), whose episodes would be replayed into
 /// other games: the run then goes on with fresh episodes and a new buffer.
-fn kept_q(cfg: &Config, opts: &RunOptions, dir: &std::path::Path, st: &RunState, monitor: &mut Monitor) -> Result<Option<Kept>, Error> {
+fn kept_q(cfg: &Config, dir: &std::path::Path, st: &RunState, monitor: &mut Monitor) -> Result<Option<Kept>, Error> {
     if !crate::Policy::config_in(dir)?.same_game(cfg) {
         return Ok(None);
     }
@@ -290,7 +283,7 @@ fn kept_q(cfg: &Config, opts: &RunOptions, dir: &std::path::Path, st: &RunState,
     // The run's environments as they were seeded, which played the kept episodes.
     let kept_env = monitor.kept_env()?;
     let (replayer, shape) = (kept_env.replayer(), Shape::of(&kept_env));
-    let rebuild = |ps: &[journal::Played]| rebuild_episodes(&replayer, &shape, ps, opts.threads);
+    let rebuild = |ps: &[journal::Played]| rebuild_episodes(&replayer, &shape, ps);
     let Some(journal) = Journal::resume(dir, cfg.buffer_size, st.episodes, &rebuild)? else { return Ok(None) };
     monitor.keep_episodes();
     Ok(Some((carry, journal)))
@@ -311,7 +304,7 @@ fn train_q(
     // began, which a resume no longer has.
     let exact = opts.out.as_ref().filter(|_| !cfg.obs.images() && !cfg.self_play());
     let kept = match (exact, &start) {
-        (Some(dir), Some(st)) => kept_q(cfg, opts, dir, st, &mut monitor)?,
+        (Some(dir), Some(st)) => kept_q(cfg, dir, st, &mut monitor)?,
         _ => None,
     };
     let mut env = monitor.env()?;

@@ -5,7 +5,7 @@
 //! actions (a few bytes a step) and rebuilds the rest when it needs it, as a resumed run's
 //! replay buffer does.
 
-use super::{OpponentFactory, VecEnv, VecEnvError, fill, step_lane};
+use super::{OpponentFactory, VecEnv, VecEnvError, episode_seed, fill, step_lane};
 use crate::agent::{AgentTeam, Grouping};
 use crate::env::{Env, EnvConfig};
 use crate::ids::Team;
@@ -75,16 +75,8 @@ impl Replayer {
     /// The episode may still be under way after the last step (an episode a run was in the
     /// middle of).
     pub fn replay(&self, i: usize, episode: u64, actions: &[i64]) -> Result<Replayed, VecEnvError> {
-        let e = self.seeds.len();
-        if i >= e {
-            return Err(VecEnvError::NoEnv { env: i, envs: e });
-        }
+        let (episode, seed) = episode_seed(&self.seeds, i, episode, (actions.len(), self.n_agents))?;
         let a = self.n_agents.max(1);
-        if !actions.len().is_multiple_of(a) {
-            return Err(VecEnvError::Count { given: actions.len(), envs: 1, agents: a, needed: actions.len().div_ceil(a) * a });
-        }
-        let episode = episode.max(1);
-        let seed = self.seeds[i].wrapping_add((episode - 1).wrapping_mul(e as u64));
         // Made as the vector environment made its own, then reset to the episode's seed as
         // its lanes are.
         let mut env = Env::new(Arc::clone(&self.scenario), self.cfg.clone(), self.seeds[i]);
