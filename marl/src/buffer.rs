@@ -89,6 +89,15 @@ impl Episode {
                 }
             }
         }
+        // A finished episode lives in the replay buffer for thousands of episodes: without
+        // the slack its arrays grew by, a large map's buffer takes its data's size, not up to
+        // twice it.
+        self.obs.shrink_to_fit();
+        self.state.shrink_to_fit();
+        self.avail.shrink_to_fit();
+        self.actions.shrink_to_fit();
+        self.reward.shrink_to_fit();
+        self.terminated.shrink_to_fit();
     }
 }
 
@@ -394,4 +403,34 @@ pub fn act_inputs(obs: &[f32], agents: &[usize], last: &[Option<u32>], shape: &S
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A closed episode keeps no slack: the replay buffer holds thousands of them.
+    #[test]
+    fn a_closed_episode_holds_its_data_and_no_more() {
+        let shape = Shape { n_agents: 3, obs: 7, state: 5, n_actions: 4, n_enemies: 2 };
+        for timed_out in [false, true] {
+            let mut ep = Episode::default();
+            for t in 0..13 {
+                ep.push_step(&[t as f32; 21], &[0.5; 5], &[1; 12], &[1, 2, 3]);
+                ep.push_outcome(0.25, t == 12 && !timed_out);
+            }
+            let last = ([9.0; 21], [9.0; 5], [1u8; 12]);
+            ep.close(&shape, timed_out.then_some((&last.0[..], &last.1[..], &last.2[..])));
+            assert_eq!(ep.check(&shape, true), Ok(()));
+            let slack = [
+                ep.obs.capacity() - ep.obs.len(),
+                ep.state.capacity() - ep.state.len(),
+                ep.avail.capacity() - ep.avail.len(),
+                ep.actions.capacity() - ep.actions.len(),
+                ep.reward.capacity() - ep.reward.len(),
+                ep.terminated.capacity() - ep.terminated.len(),
+            ];
+            assert_eq!(slack, [0; 6], "timed out: {timed_out}");
+        }
+    }
 }
