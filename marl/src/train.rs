@@ -213,9 +213,9 @@ fn replayed(
 }
 
 /// The journal's played episodes given back, in order, on the calling thread: the buffer is
-/// most of a run's memory, and episodes made on helper threads stay in those threads'
-/// allocator arenas when the training loop replaces them (a 27m_vs_30m run rebuilt on two
-/// threads grew from 12 to 24 GB and was killed for memory).
+/// most of a run's memory, and one rebuilt on two threads left a 27m_vs_30m run growing to
+/// 24 GB (killed for memory), where on the training thread it grew half as fast; memory made
+/// on a helper thread is not reused by the loop's own allocations.
 fn rebuild_episodes(replayer: &avacraft_engine::Replayer, shape: &Shape, ps: &[journal::Played]) -> Result<Vec<Episode>, Error> {
     let bad = |e: String| Error::Checkpoint { message: format!("replaying the kept replay buffer: {e}") };
     ps.iter()
