@@ -53,8 +53,8 @@ enum Record {
     Played(Played),
 }
 
-/// What gives played episodes back (in their order): the run's environments replaying them.
-pub(crate) type Rebuild<'a> = dyn Fn(&[Played]) -> Result<Vec<Episode>, Error> + 'a;
+/// What gives a played episode back: the run's environments replaying it.
+pub(crate) type Rebuild<'a> = dyn Fn(&Played) -> Result<Episode, Error> + 'a;
 
 /// A hash of everything an episode holds but its frames: a replayed episode is checked
 /// against the one that was played.
@@ -270,37 +270,30 @@ fn open_append(path: &Path) -> Result<BufWriter<std::fs::File>, Error> {
     Ok(BufWriter::new(f))
 }
 
-/// The kept records as episodes, the played ones replayed (all at once: `rebuild` may spread
-/// them over threads) and checked against their digests.
+/// The kept records as episodes, the played ones replayed and checked against their digests.
 fn rebuilt(dir: &Path, kept: Vec<(u64, Record)>, rebuild: &Rebuild<'_>) -> Result<Vec<(u64, Episode)>, Error> {
-    let played: Vec<Played> = kept.iter().filter_map(|(_, r)| if let Record::Played(p) = r { Some(p.clone()) } else { None }).collect();
-    let mut again = rebuild(&played)?.into_iter();
-    let mut out = Vec::with_capacity(kept.len());
-    for (idx, rec) in kept {
-        let ep = match rec {
-            Record::Whole(ep) => ep,
-            Record::Played(p) => {
-                let ep = again.next().ok_or_else(|| Error::Checkpoint {
-                    message: format!("{}: {} episodes to replay, fewer given back", dir.display(), played.len()),
-                })?;
-                if digest(&ep) != p.digest {
-                    return Err(Error::Checkpoint {
-                        message: format!(
-                            "{}: episode {idx} of the run (environment {}, its episode {}) plays otherwise than when it was \
-                             kept (another build of the game, or changed files): delete that folder to go on with a fresh \
-                             replay buffer",
-                            dir.display(),
-                            p.lane,
-                            p.episode
-                        ),
-                    });
-                }
-                ep
+    kept.into_iter()
+        .map(|(idx, rec)| {
+            let p = match rec {
+                Record::Whole(ep) => return Ok((idx, ep)),
+                Record::Played(p) => p,
+            };
+            let ep = rebuild(&p)?;
+            if digest(&ep) != p.digest {
+                return Err(Error::Checkpoint {
+                    message: format!(
+                        "{}: episode {idx} of the run (environment {}, its episode {}) plays otherwise than when it was \
+                         kept (another build of the game, or changed files): delete that folder to go on with a fresh \
+                         replay buffer",
+                        dir.display(),
+                        p.lane,
+                        p.episode
+                    ),
+                });
             }
-        };
-        out.push((idx, ep));
-    }
-    Ok(out)
+            Ok((idx, ep))
+        })
+        .collect()
 }
 
 fn rewrite_segment(path: &Path, records: &[Record]) -> Result<(), Error> {
@@ -478,8 +471,8 @@ mod tests {
 
     /// Gives back the episodes [`episode`] makes, numbered as they were kept (here: each
     /// one's number as its "episode").
-    fn replay(ps: &[Played]) -> Result<Vec<Episode>, Error> {
-        Ok(ps.iter().map(|p| episode(p.episode)).collect())
+    fn replay(p: &Played) -> Result<Episode, Error> {
+        Ok(episode(p.episode))
     }
 
     fn scratch(name: &str) -> PathBuf {
@@ -556,10 +549,12 @@ mod tests {
         }
         j.sync()?;
         // Another build of the game: the third episode comes back changed.
-        let changed = |ps: &[Played]| -> Result<Vec<Episode>, Error> {
-            let mut eps = replay(ps)?;
-            eps[2].reward[0] = 1.0;
-            Ok(eps)
+        let changed = |p: &Played| -> Result<Episode, Error> {
+            let mut ep = replay(p)?;
+            if p.episode == 2 {
+                ep.reward[0] = 1.0;
+            }
+            Ok(ep)
         };
         let Err(e) = Journal::resume(&run, 10, 5, &changed) else { panic!("a changed episode was taken") };
         let msg = e.to_string();

@@ -212,25 +212,16 @@ fn replayed(
     Episode::replayed(r, actions, shape, closed).map_err(at)
 }
 
-/// The journal's played episodes given back, in order, on the calling thread: the buffer is
-/// most of a run's memory, and one rebuilt on two threads left a 27m_vs_30m run growing to
-/// 24 GB (killed for memory), where on the training thread it grew half as fast; memory made
-/// on a helper thread is not reused by the loop's own allocations.
-fn rebuild_episodes(replayer: &avacraft_engine::Replayer, shape: &Shape, ps: &[journal::Played]) -> Result<Vec<Episode>, Error> {
+/// A journal's played episode given back, on the calling thread: the buffer is most of a
+/// run's memory, and one rebuilt on two threads left a 27m_vs_30m run growing to 24 GB
+/// (killed for memory), where on the training thread it grew half as fast; memory made on a
+/// helper thread is not reused by the loop's own allocations.
+fn rebuild_episode(replayer: &avacraft_engine::Replayer, shape: &Shape, p: &journal::Played) -> Result<Episode, Error> {
     let bad = |e: String| Error::Checkpoint { message: format!("replaying the kept replay buffer: {e}") };
-    ps.iter()
-        .map(|p| {
-            if Some(p.actions.len()) != p.len.checked_mul(shape.n_agents) {
-                return Err(bad(format!(
-                    "an episode of {} steps kept with {} actions for {} agents",
-                    p.len,
-                    p.actions.len(),
-                    shape.n_agents
-                )));
-            }
-            replayed(replayer, shape, p.lane, p.episode, p.actions.clone(), true).map_err(bad)
-        })
-        .collect()
+    if Some(p.actions.len()) != p.len.checked_mul(shape.n_agents) {
+        return Err(bad(format!("an episode of {} steps kept with {} actions for {} agents", p.len, p.actions.len(), shape.n_agents)));
+    }
+    replayed(replayer, shape, p.lane, p.episode, p.actions.clone(), true).map_err(bad)
 }
 
 /// What a QMIX-family resume kept beside its journal, put back: the environments, the
@@ -283,7 +274,7 @@ fn kept_q(cfg: &Config, dir: &std::path::Path, st: &RunState, monitor: &mut Moni
     // The run's environments as they were seeded, which played the kept episodes.
     let kept_env = monitor.kept_env()?;
     let (replayer, shape) = (kept_env.replayer(), Shape::of(&kept_env));
-    let rebuild = |ps: &[journal::Played]| rebuild_episodes(&replayer, &shape, ps);
+    let rebuild = |p: &journal::Played| rebuild_episode(&replayer, &shape, p);
     let Some(journal) = Journal::resume(dir, cfg.buffer_size, st.episodes, &rebuild)? else { return Ok(None) };
     monitor.keep_episodes();
     Ok(Some((carry, journal)))
