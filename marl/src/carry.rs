@@ -1,5 +1,5 @@
 //! What a training loop carries from one vector step to the next, kept at each test round in
-//! `resume/carry.safetensors` so that a resumed run goes on exactly as the uninterrupted one
+//! the round's resume folder (`resume/round-NNNNNN/carry.safetensors`) so that a resumed run goes on exactly as the uninterrupted one
 //! would have (its log row for row, elapsed time aside):
 //!
 //! - each environment's episode number and team 1's actions since that episode began: the
@@ -15,9 +15,11 @@
 //! changed a rule, the unit data or the opponent), whose episodes would be replayed into games
 //! they were not played in.
 //!
-//! The carry names the step it was taken at: written before `state.json` (which a resume
-//! starts from), a carry newer than the state (a kill between the two) is not used, and the
-//! run resumes with fresh episodes as runs saved before carries existed do.
+//! The carry names the step it was taken at, and a resume checks it: the state names its
+//! round's folder, so the carry a resume reads is that round's, but a state written before
+//! rounds had folders shares `resume/` with a carry perhaps newer (a kill between the two),
+//! which is not used: that run resumes with fresh episodes as runs saved before carries
+//! existed do.
 
 use crate::learner::UpdateStats;
 use crate::{Episode, Error};
@@ -101,16 +103,16 @@ impl Carry {
         self.u32s("lanes.actions", &since.concat())
     }
 
-    /// Written aside and renamed into `dir/resume/`.
-    pub(crate) fn save(&self, dir: &Path) -> Result<(), Error> {
-        let d = dir.join("resume");
-        std::fs::create_dir_all(&d).map_err(|source| Error::Io { path: d.clone(), source })?;
-        crate::aside::tensors(&self.map, &d.join(FILE))
+    /// Written aside and renamed into `files`, a round's resume folder.
+    pub(crate) fn save(&self, files: &Path) -> Result<(), Error> {
+        std::fs::create_dir_all(files).map_err(|source| Error::Io { path: files.to_path_buf(), source })?;
+        crate::aside::tensors(&self.map, &files.join(FILE))
     }
 
-    /// The carry in `dir/resume/` if there is one taken at step `t_env`.
-    pub(crate) fn load(dir: &Path, t_env: u64) -> Result<Option<Carry>, Error> {
-        let path = dir.join("resume").join(FILE);
+    /// The carry in `files` (a state's [`crate::resume::RunState::files`]) if there is one
+    /// taken at step `t_env`.
+    pub(crate) fn load(files: &Path, t_env: u64) -> Result<Option<Carry>, Error> {
+        let path = files.join(FILE);
         if !path.is_file() {
             return Ok(None);
         }

@@ -94,6 +94,12 @@ pub struct Policy {
 
 impl Policy {
     pub fn load(dir: &Path) -> Result<Policy, Error> {
+        Policy::load_from(dir, dir)
+    }
+
+    /// The policy of the checkpoint in `dir` with the weights in `weights` (a resume's round
+    /// keeps its own copy of them: [`crate::resume`]).
+    pub(crate) fn load_from(dir: &Path, weights: &Path) -> Result<Policy, Error> {
         let path = dir.join("config.json");
         let text = std::fs::read_to_string(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
         let meta: Meta = serde_json::from_str(&text).map_err(|source| Error::Json { path: path.clone(), source })?;
@@ -109,7 +115,7 @@ impl Policy {
         }
         let nets = Nets::new(&meta.config, &meta.shape, 0)?;
         let load = |name: &str| -> Result<_, Error> {
-            let p = dir.join(name);
+            let p = weights.join(name);
             if !p.is_file() {
                 return Err(Error::Checkpoint { message: format!("{} is missing", p.display()) });
             }
@@ -118,7 +124,7 @@ impl Policy {
         nets.agent_params.load_map(&load("agent.safetensors")?, "agent.safetensors")?;
         // A shipped policy ([`ship`]) has no mixer: acting never reads it (resuming a run
         // reads the run's own folder, which has it).
-        if nets.mixer_params.vars().next().is_some() && dir.join("mixer.safetensors").is_file() {
+        if nets.mixer_params.vars().next().is_some() && weights.join("mixer.safetensors").is_file() {
             nets.mixer_params.load_map(&load("mixer.safetensors")?, "mixer.safetensors")?;
         }
         let theta = nets.agent_params.flat(nets.agent.var_count())?;

@@ -26,7 +26,7 @@ pub fn continue_as(dir: &Path, cfg: &Config, scenario: &std::sync::Arc<avacraft_
             message: format!("{}: trained on a game of {old:?}; these settings play one of {shape:?}", dir.display()),
         });
     }
-    let d = dir.join("resume");
+    let d = state.files(dir);
     let gone = |path: std::path::PathBuf| -> Result<(), Error> {
         let r = if path.is_dir() { std::fs::remove_dir_all(&path) } else { std::fs::remove_file(&path) };
         match r {
@@ -35,7 +35,7 @@ pub fn continue_as(dir: &Path, cfg: &Config, scenario: &std::sync::Arc<avacraft_
         }
     };
     gone(d.join(crate::carry::FILE))?;
-    gone(d.join("buffer"))?;
+    gone(dir.join("resume").join("buffer"))?;
     if saved.optimizer != cfg.optimizer {
         gone(d.join(resume::OPTIM_FILE))?;
     }

@@ -6,6 +6,15 @@
 //! round: the log and the curves continue, epsilon and the target copies keep their schedule,
 //! and the environments start fresh episodes (from seeds past the ones already played).
 //!
+//! A test round's resume files (the online networks' weights as the checkpoint then held them,
+//! the targets, the optimisers, the carry) go into a folder of their own,
+//! `resume/round-NNNNNN/`, and `state.json`, written last and renamed into place, names it; the
+//! folder of the round before is removed only after. A run killed anywhere in a checkpoint
+//! therefore resumes from one round's files, all of them: before, the checkpoint's weights
+//! could be a round newer than the state (a kill between the two), and the resumed run was
+//! no longer the uninterrupted one. States written before keep their files in `resume/` and
+//! the weights in the checkpoint, and are read as they were.
+//!
 //! The optimisers' running states (Adam's moments and step count, RMSprop's averages) are
 //! kept too, in `resume/optim.safetensors`: a fresh Adam's bias correction makes its first
 //! steps full-size, which jolted a resumed policy. A run saved before they were kept resumes
@@ -35,10 +44,38 @@ const FORMAT: u32 = 1;
 /// The optimisers' states, beside `state.json`.
 pub(crate) const OPTIM_FILE: &str = "optim.safetensors";
 
-/// Writes named optimiser states into `dir/resume` (aside, then renamed).
-pub(crate) fn save_moments(dir: &Path, moments: &[(&str, Moments)]) -> Result<(), Error> {
-    let d = dir.join("resume");
-    std::fs::create_dir_all(&d).map_err(|source| Error::Io { path: d.clone(), source })?;
+/// The checkpoint's files a round's resume folder keeps (hard links: the next checkpoint
+/// renames new files over the checkpoint's, and the round keeps its own).
+const WEIGHTS: [&str; 3] = ["agent.safetensors", "mixer.safetensors", "critic.safetensors"];
+
+const ROUND_PREFIX: &str = "round-";
+
+/// A fresh folder for test round `round`'s resume files in `dir/resume`, holding the
+/// checkpoint's weights as they are now (the round's): what [`RunState::save`] then names.
+pub(crate) fn begin_round(dir: &Path, round: u64) -> Result<std::path::PathBuf, Error> {
+    let files = dir.join("resume").join(format!("{ROUND_PREFIX}{round:06}"));
+    let io = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| Error::Io { path, source }
+    };
+    // Left by a kill before its state was written: never named, so nothing reads it.
+    if files.exists() {
+        std::fs::remove_dir_all(&files).map_err(io(&files))?;
+    }
+    std::fs::create_dir_all(&files).map_err(io(&files))?;
+    for name in WEIGHTS {
+        let (from, to) = (dir.join(name), files.join(name));
+        if from.is_file() && std::fs::hard_link(&from, &to).is_err() {
+            std::fs::copy(&from, &to).map_err(io(&to))?;
+        }
+    }
+    Ok(files)
+}
+
+/// Writes named optimiser states into `files`, a round's resume folder (aside, then renamed).
+pub(crate) fn save_moments(files: &Path, moments: &[(&str, Moments)]) -> Result<(), Error> {
+    let d = files;
+    std::fs::create_dir_all(d).map_err(|source| Error::Io { path: d.to_path_buf(), source })?;
     let mut map = std::collections::HashMap::new();
     for (name, m) in moments {
         for (i, v) in m.vectors.iter().enumerate() {
@@ -49,10 +86,10 @@ pub(crate) fn save_moments(dir: &Path, moments: &[(&str, Moments)]) -> Result<()
     crate::aside::tensors(&map, &d.join(OPTIM_FILE))
 }
 
-/// The optimiser states saved in `dir/resume`, by name, shaped like `like`'s; `None` for a
-/// run saved before they were kept.
-pub(crate) fn load_moments(dir: &Path, like: &[(&str, Moments)]) -> Result<Option<Vec<Moments>>, Error> {
-    let path = dir.join("resume").join(OPTIM_FILE);
+/// The optimiser states saved in `files` (a state's [`RunState::files`]), by name, shaped like
+/// `like`'s; `None` for a run saved before they were kept.
+pub(crate) fn load_moments(files: &Path, like: &[(&str, Moments)]) -> Result<Option<Vec<Moments>>, Error> {
+    let path = files.join(OPTIM_FILE);
     if !path.is_file() {
         return Ok(None);
     }
@@ -99,6 +136,10 @@ pub struct RunState {
     /// replays the kept episodes from. 0 in states written before it was kept.
     #[serde(default)]
     pub seed_offset: u64,
+    /// The folder in `resume/` holding this state's files (its round's); absent in states
+    /// written before rounds had one, whose files are in `resume/` itself.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub files: Option<String>,
 }
 
 impl RunState {
@@ -129,6 +170,7 @@ impl RunState {
             curve: curve.to_vec(),
             value_norm: None,
             seed_offset: 0,
+            files: None,
         }
     }
 
@@ -139,22 +181,62 @@ impl RunState {
         Ok((parse(&self.act_rng)?, parse(&self.sample_rng)?))
     }
 
-    /// Writes the state and the target networks, if any, into `dir/resume` (the online
-    /// networks are the checkpoint in `dir`).
-    pub(crate) fn save(&self, dir: &Path, target: Option<&Nets>) -> Result<(), Error> {
-        let d = dir.join("resume");
-        std::fs::create_dir_all(&d).map_err(|source| Error::Io { path: d.clone(), source })?;
+    /// The folder holding this state's resume files (the carry, the optimisers, the targets).
+    pub fn files(&self, dir: &Path) -> std::path::PathBuf {
+        let resume = dir.join("resume");
+        match &self.files {
+            Some(name) => resume.join(name),
+            None => resume,
+        }
+    }
+
+    /// The folder holding the online networks' weights this state goes on from: its round's
+    /// copy, or for a state written before rounds had one, the checkpoint itself.
+    pub(crate) fn weights(&self, dir: &Path) -> std::path::PathBuf {
+        if self.files.is_some() { self.files(dir) } else { dir.to_path_buf() }
+    }
+
+    /// Writes the target networks, if any, into `files` (the round's folder from
+    /// [`begin_round`], which holds the round's other files by now), then the state naming
+    /// it, then removes what earlier rounds left in `dir/resume` (the journal stays).
+    pub(crate) fn save(&mut self, dir: &Path, target: Option<&Nets>, files: &Path) -> Result<(), Error> {
         if let Some(target) = target {
-            crate::aside::tensors(&target.agent_params.to_map(), &d.join("target_agent.safetensors"))?;
+            crate::aside::tensors(&target.agent_params.to_map(), &files.join("target_agent.safetensors"))?;
             let mixer = target.mixer_params.to_map();
             if !mixer.is_empty() {
-                crate::aside::tensors(&mixer, &d.join("target_mixer.safetensors"))?;
+                crate::aside::tensors(&mixer, &files.join("target_mixer.safetensors"))?;
             }
         }
+        let name = files.file_name().map(|n| n.to_string_lossy().into_owned());
+        self.files = name.clone();
+        let d = dir.join("resume");
         let path = d.join("state.json");
         let text = serde_json::to_string_pretty(self).map_err(|source| Error::Json { path: path.clone(), source })?;
-        crate::aside::write(&path, text)
+        crate::aside::write(&path, text)?;
+        prune(&d, name.as_deref())
     }
+}
+
+/// Removes from `resume` every round's folder but `keep`, and the files states written before
+/// rounds had folders kept there.
+fn prune(resume: &Path, keep: Option<&str>) -> Result<(), Error> {
+    let entries = std::fs::read_dir(resume).map_err(|source| Error::Io { path: resume.to_path_buf(), source })?;
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let path = e.path();
+        let r = if name.starts_with(ROUND_PREFIX) && Some(name.as_str()) != keep {
+            std::fs::remove_dir_all(&path)
+        } else if [OPTIM_FILE, crate::carry::FILE, "target_agent.safetensors", "target_mixer.safetensors"].contains(&name.as_str()) {
+            std::fs::remove_file(&path)
+        } else {
+            continue;
+        };
+        match r {
+            Err(source) if source.kind() != std::io::ErrorKind::NotFound => return Err(Error::Io { path, source }),
+            _ => {}
+        }
+    }
+    Ok(())
 }
 
 /// The config and state of the run in `dir`, to go on with [`crate::train::train_from`].
@@ -181,21 +263,22 @@ pub(crate) fn load_tensors(path: &Path) -> Result<std::collections::HashMap<Stri
     Ok(candle_core::safetensors::load(path, &Device::Cpu)?)
 }
 
-pub(crate) fn optim_mismatch(dir: &Path, name: &str, why: &str) -> Error {
-    Error::Checkpoint { message: format!("{}: the `{name}` optimiser's state: {why}", dir.join("resume").join(OPTIM_FILE).display()) }
+pub(crate) fn optim_mismatch(files: &Path, name: &str, why: &str) -> Error {
+    Error::Checkpoint { message: format!("{}: the `{name}` optimiser's state: {why}", files.join(OPTIM_FILE).display()) }
 }
 
-/// Loads the checkpoint's and the saved targets' weights into `learner`.
+/// Loads the state's online and target networks' weights into `learner`.
 pub(crate) fn restore(dir: &Path, learner: &mut Learner, state: &RunState) -> Result<(), Error> {
-    let policy = crate::Policy::load(dir)?;
-    if learner.nets.mixer_params.vars().next().is_some() && !dir.join("mixer.safetensors").is_file() {
+    let weights = state.weights(dir);
+    let policy = crate::Policy::load_from(dir, &weights)?;
+    if learner.nets.mixer_params.vars().next().is_some() && !weights.join("mixer.safetensors").is_file() {
         return Err(Error::Checkpoint {
-            message: format!("{}: no mixer.safetensors to resume from (a shipped policy only acts)", dir.display()),
+            message: format!("{}: no mixer.safetensors to resume from (a shipped policy only acts)", weights.display()),
         });
     }
     learner.nets.agent_params.copy_from(&policy.nets.agent_params)?;
     learner.nets.mixer_params.copy_from(&policy.nets.mixer_params)?;
-    let d = dir.join("resume");
+    let d = state.files(dir);
     let load = |name: &str| load_tensors(&d.join(name));
     learner.target.agent_params.load_map(&load("target_agent.safetensors")?, "target_agent.safetensors")?;
     if learner.target.mixer_params.vars().next().is_some() {
@@ -205,9 +288,9 @@ pub(crate) fn restore(dir: &Path, learner: &mut Learner, state: &RunState) -> Re
     learner.last_target_update = state.last_target_update;
     learner.reload()?;
     if let Some(like) = learner.moments()
-        && let Some(saved) = load_moments(dir, &[("q", like)])?.and_then(|v| v.into_iter().next())
+        && let Some(saved) = load_moments(&d, &[("q", like)])?.and_then(|v| v.into_iter().next())
     {
-        learner.set_moments(saved).map_err(|e| optim_mismatch(dir, "q", &e))?;
+        learner.set_moments(saved).map_err(|e| optim_mismatch(&d, "q", &e))?;
     }
     Ok(())
 }
@@ -257,7 +340,7 @@ mod tests {
         let mut map = std::collections::HashMap::new();
         map.insert("q.0".to_owned(), candle_core::Tensor::new(&[1f32, 2.0, 3.0], &Device::Cpu)?);
         map.insert("q.steps".to_owned(), candle_core::Tensor::new(&[2.5f64], &Device::Cpu)?);
-        candle_core::safetensors::save(&map, dir.join("resume").join(OPTIM_FILE))?;
+        candle_core::safetensors::save(&map, dir.join(OPTIM_FILE))?;
         let e = load_moments(&dir, &[("q", rms.moments())]).err().map(|e| e.to_string()).unwrap_or_default();
         assert!(e.contains("`q.steps` = [2.5], not a step count") && e.contains(OPTIM_FILE), "{e}");
         let _ = std::fs::remove_dir_all(&dir);

@@ -99,8 +99,9 @@ struct Lanes<'a> {
     last: &'a crate::UpdateStats,
 }
 
-/// A test round's checkpoint of the Q-learners' loop: the optimiser's state, then (features
-/// mode) the journal and the lanes, then `state.json`, what a resume starts from.
+/// A test round's checkpoint of the Q-learners' loop, into the round's resume folder: the
+/// online weights, the optimiser's state, then (features mode) the journal and the lanes,
+/// then `state.json` naming the folder, what a resume starts from.
 #[allow(clippy::too_many_arguments)]
 fn checkpoint(
     dir: &std::path::Path,
@@ -112,8 +113,9 @@ fn checkpoint(
     journal: Option<&mut Journal>,
     lanes: &Lanes<'_>,
 ) -> Result<(), Error> {
+    let files = crate::resume::begin_round(dir, monitor.test_round)?;
     if let Some(m) = learner.moments() {
-        crate::resume::save_moments(dir, &[("q", m)])?;
+        crate::resume::save_moments(&files, &[("q", m)])?;
     }
     if let Some(j) = journal {
         j.sync()?;
@@ -126,7 +128,7 @@ fn checkpoint(
         carry.actions("actor.last", last_acts)?;
         carry.u64s("pending", &[lanes.pending])?;
         carry.stats("last", lanes.last)?;
-        carry.save(dir)?;
+        carry.save(&files)?;
     }
     let mut state = RunState::new(
         seed,
@@ -140,7 +142,7 @@ fn checkpoint(
         &monitor.curve,
     );
     state.seed_offset = monitor.seed_offset();
-    state.save(dir, Some(&learner.target))
+    state.save(dir, Some(&learner.target), &files)
 }
 
 /// Each lane's reward this step; the episodes that ended are closed (a truncated one with its
@@ -268,7 +270,7 @@ fn kept_q(cfg: &Config, dir: &std::path::Path, st: &RunState, monitor: &mut Moni
     if !crate::Policy::config_in(dir)?.same_game(cfg) {
         return Ok(None);
     }
-    let Some(carry) = Carry::load(dir, st.t_env)? else { return Ok(None) };
+    let Some(carry) = Carry::load(&st.files(dir), st.t_env)? else { return Ok(None) };
     // Checked before thousands of episodes are played again on the wrong lanes.
     carry.check_lanes(cfg.envs)?;
     // The run's environments as they were seeded, which played the kept episodes.
@@ -325,7 +327,7 @@ fn train_q(
     monitor.start_self_play(&learner.nets, learner.updates, start.is_some(), &mut env)?;
     let mut journal = match kept {
         Some((carry, (journal, kept_buffer))) => {
-            let resume = exact.map(|d| d.join("resume")).unwrap_or_default();
+            let resume = exact.zip(start.as_ref()).map(|(d, st)| st.files(d)).unwrap_or_default();
             (running, pending, last) = restore_q(&carry, &kept_buffer, &mut env, &mut actor, &shape, &resume)?;
             buffer = kept_buffer;
             Some(journal)

@@ -47,7 +47,7 @@ pub fn train_from(
     // Under another game (`--set` changed a rule, the data or the opponent) the rollout kept
     // would be replayed into other games: the run goes on with a fresh one.
     let kept = match (exact, &start) {
-        (Some(dir), Some(st)) if crate::Policy::config_in(dir)?.same_game(cfg) => Carry::load(dir, st.t_env)?,
+        (Some(dir), Some(st)) if crate::Policy::config_in(dir)?.same_game(cfg) => Carry::load(&st.files(dir), st.t_env)?,
         _ => None,
     };
     if kept.is_some() {
@@ -303,8 +303,9 @@ fn update(
     })
 }
 
-/// A test round's checkpoint: the optimisers' state, then (features mode) the environments,
-/// the rollout under way and the lanes, then `state.json`, what a resume starts from.
+/// A test round's checkpoint, into the round's resume folder: the online weights, the
+/// optimisers' state, then (features mode) the environments, the rollout under way and the
+/// lanes, then `state.json` naming the folder, what a resume starts from.
 #[allow(clippy::too_many_arguments)]
 fn checkpoint(
     dir: &std::path::Path,
@@ -329,22 +330,24 @@ fn checkpoint(
     );
     state.value_norm = Some(learner.value_norm.clone());
     state.seed_offset = monitor.seed_offset();
-    resume::save_moments(dir, &learner.moments())?;
+    let files = resume::begin_round(dir, monitor.test_round)?;
+    resume::save_moments(&files, &learner.moments())?;
     if let Some((env, roll, lanes)) = carry {
         let mut c = Carry::new(t_env)?;
         lanes.keep_in(&mut c, env)?;
         roll.keep(&mut c)?;
         c.stats("last_stats", last_stats)?;
-        c.save(dir)?;
+        c.save(&files)?;
     }
-    state.save(dir, None)
+    state.save(dir, None, &files)
 }
 
-/// Loads the checkpoint's actor and critic and the state's value statistics into `learner`.
+/// Loads the state's actor, critic and value statistics into `learner`.
 pub(crate) fn restore(dir: &std::path::Path, learner: &mut PpoLearner, state: &RunState) -> Result<(), Error> {
-    let policy = crate::Policy::load(dir)?;
+    let weights = state.weights(dir);
+    let policy = crate::Policy::load_from(dir, &weights)?;
     learner.actor.agent_params.copy_from(&policy.nets.agent_params)?;
-    learner.critic_params.load_map(&resume::load_tensors(&dir.join("critic.safetensors"))?, "critic.safetensors")?;
+    learner.critic_params.load_map(&resume::load_tensors(&weights.join("critic.safetensors"))?, "critic.safetensors")?;
     learner.value_norm = state
         .value_norm
         .clone()
@@ -352,9 +355,10 @@ pub(crate) fn restore(dir: &std::path::Path, learner: &mut PpoLearner, state: &R
     learner.updates = state.updates;
     learner.load_weights()?;
     let like = learner.moments();
-    if let Some(saved) = resume::load_moments(dir, &like)? {
+    let files = state.files(dir);
+    if let Some(saved) = resume::load_moments(&files, &like)? {
         for ((name, _), m) in like.iter().zip(saved) {
-            learner.set_moments(name, m).map_err(|e| resume::optim_mismatch(dir, name, &e))?;
+            learner.set_moments(name, m).map_err(|e| resume::optim_mismatch(&files, name, &e))?;
         }
     }
     Ok(())

@@ -406,7 +406,7 @@ fn a_short_qmix_run_on_3m_trains_checkpoints_and_plays() -> R {
     let (cfg_back, state) = avacraft_marl::resume::load(&dir)?;
     // The run names the unit data it resolved `map` to: 3m_vlm's own, Liberty.
     assert_eq!(cfg_back, Config { data: "liberty".into(), ..c.clone() });
-    assert!(dir.join("resume/optim.safetensors").is_file(), "the optimiser's state is kept");
+    assert!(state.files(&dir).join("optim.safetensors").is_file(), "the optimiser's state is kept");
     assert_eq!((state.t_env, state.tests.clone()), (summary.t_env, summary.tests.clone()));
     let longer = Config { t_max: 600, ..c.clone() };
     let (_, resumed) = avacraft_marl::train_from(&longer, &opts, Some(state), &mut |_| {})?;

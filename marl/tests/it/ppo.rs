@@ -523,7 +523,7 @@ fn short_ippo_and_mappo_runs_on_3m_train_checkpoint_reproduce_and_play() -> R {
             assert_eq!((state.t_env, state.updates, state.seed), (2000, 25, 5));
             let Trained::Ppo(first) = &trained else { unreachable!() };
             assert_eq!(state.value_norm.as_ref(), Some(&first.value_norm));
-            assert!(dir.join("resume/optim.safetensors").is_file(), "the optimisers' state is kept");
+            assert!(state.files(&dir).join("optim.safetensors").is_file(), "the optimisers' state is kept");
             let longer = Config { t_max: 3000, ..cfg_back };
             // A run killed after a test round's log row and before its state: the resumed run
             // writes that round again, so the row left behind must go.

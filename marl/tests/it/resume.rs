@@ -103,8 +103,8 @@ fn a_checkpoint_takes_other_settings_its_weights_fit() -> R {
     }
     let slower = cfg.overridden(&["lr=0.0001".into(), "t_max=400".into(), "optimizer=\"adam\"".into()])?;
     avacraft_marl::continuation::continue_as(&dir, &slower, &scenario)?;
-    assert!(!dir.join("resume/optim.safetensors").exists(), "another optimiser starts afresh");
     let (saved, state) = avacraft_marl::resume::load(&dir)?;
+    assert!(!state.files(&dir).join("optim.safetensors").exists(), "another optimiser starts afresh");
     assert_eq!(saved, slower);
     let (_, summary) = train_from(&slower, &opts, Some(state), &mut |_| {})?;
     assert_eq!(summary.t_env, 400);
@@ -125,9 +125,14 @@ fn killed_run(algo: &str, extra: &[&str], name: &str) -> Result<(Config, RunOpti
     Ok((cfg, opts, dir))
 }
 
-/// Replaces the array `name` of the run's resume/carry.safetensors with `f` of it.
+/// The run's carry: where its state says.
+fn carry(dir: &Path) -> Result<PathBuf, Box<dyn std::error::Error>> {
+    Ok(avacraft_marl::resume::load(dir)?.1.files(dir).join("carry.safetensors"))
+}
+
+/// Replaces the array `name` of the run's carry with `f` of it.
 fn change_carry(dir: &Path, name: &str, f: impl Fn(Vec<u32>) -> Vec<u32>) -> R {
-    let path = dir.join("resume/carry.safetensors");
+    let path = carry(dir)?;
     let mut map = candle_core::safetensors::load(&path, &candle_core::Device::Cpu)?;
     let old: Vec<u32> = map.get(name).ok_or(format!("no {name} in the carry"))?.to_vec1()?;
     let new = f(old);
@@ -206,10 +211,10 @@ fn a_resume_under_another_game_goes_on_from_fresh_episodes() -> R {
         let (cfg, opts, dir) = killed_run(algo, extra, &format!("game-{algo}"))?;
         let other = cfg.overridden(&["melee_surround=true".into()])?;
         assert!(!cfg.same_game(&other) && cfg.same_game(&cfg.overridden(&["lr=0.001".into()])?), "{algo}");
-        assert!(dir.join("resume/carry.safetensors").is_file(), "{algo}: the killed run kept its episodes");
+        assert!(carry(&dir)?.is_file(), "{algo}: the killed run kept its episodes");
         let fresh = scratch(&format!("game-{algo}-fresh"));
         copy(&dir, &fresh)?;
-        std::fs::remove_file(fresh.join("resume/carry.safetensors"))?;
+        std::fs::remove_file(carry(&fresh)?)?;
         let _ = std::fs::remove_dir_all(fresh.join("resume/buffer"));
         let mut logs = Vec::new();
         for d in [&dir, &fresh] {
@@ -252,7 +257,7 @@ fn a_run_that_went_on_from_fresh_episodes_resumes_exactly_later() -> R {
         ("mappo", &["t_max=800", "envs=4", "rollout_len=40"][..], 600),
     ] {
         let (cfg, opts, dir) = killed_run(algo, extra, &format!("fresh-{algo}"))?;
-        std::fs::remove_file(dir.join("resume/carry.safetensors"))?;
+        std::fs::remove_file(carry(&dir)?)?;
         let _ = std::fs::remove_dir_all(dir.join("resume/buffer"));
         let once = scratch(&format!("fresh-{algo}-once"));
         copy(&dir, &once)?;
@@ -265,7 +270,7 @@ fn a_run_that_went_on_from_fresh_episodes_resumes_exactly_later() -> R {
         }));
         assert!(killed.is_err(), "{algo}: the run was to be killed at {kill}");
         let (_, state) = avacraft_marl::resume::load(&dir)?;
-        assert!(state.seed_offset > 0 && dir.join("resume/carry.safetensors").is_file(), "{algo}: {}", state.seed_offset);
+        assert!(state.seed_offset > 0 && carry(&dir)?.is_file(), "{algo}: {}", state.seed_offset);
         if algo == "qmix" {
             let segs = std::fs::read_dir(dir.join("resume/buffer"))?.count();
             assert!(segs >= 1 && state.episodes >= 64 + 20, "{algo}: {} episodes, {segs} segments", state.episodes);
@@ -274,6 +279,91 @@ fn a_run_that_went_on_from_fresh_episodes_resumes_exactly_later() -> R {
         assert_eq!(rows(&dir)?, rows(&once)?, "{algo}: the second resume differs from the run after the fresh start");
         let _ = std::fs::remove_dir_all(&dir);
         let _ = std::fs::remove_dir_all(&once);
+    }
+    Ok(())
+}
+
+/// A run killed inside a test round's checkpoint (its weights, optimiser, targets, carry and
+/// journal written, its state not: here a folder in the way of `state.json`'s write stops it
+/// there) resumes from the round before, all of whose files it kept, and writes the
+/// uninterrupted log, for QMIX and MAPPO. (Its checkpoint's weights were the newer round's, and
+/// the resume used to read them with the older state.)
+#[test]
+fn a_run_killed_inside_a_checkpoint_resumes_from_the_round_before() -> R {
+    for (algo, extra) in [
+        ("qmix", &["t_max=500", "envs=4", "batch_size=4", "buffer_size=40"][..]),
+        ("mappo", &["t_max=500", "envs=4", "rollout_len=20"][..]),
+    ] {
+        let (cfg, opts, dir) = killed_run(algo, extra, &format!("mid-{algo}"))?;
+        let whole = scratch(&format!("mid-{algo}-whole"));
+        copy(&dir, &whole)?;
+        let (_, state) = avacraft_marl::resume::load(&whole)?;
+        train_from(&cfg, &RunOptions { out: Some(whole.clone()), ..opts.clone() }, Some(state), &mut |_| {})?;
+
+        let (_, before) = avacraft_marl::resume::load(&dir)?;
+        let blocker = dir.join("resume/state.json.tmp");
+        std::fs::create_dir_all(blocker.join("x"))?;
+        let o = RunOptions { out: Some(dir.clone()), ..opts.clone() };
+        let err = train_from(&cfg, &o, Some(before.clone()), &mut |_| {}).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(err.contains("state.json"), "{algo}: the checkpoint was to fail at its state: {err:?}");
+        std::fs::remove_dir_all(&blocker)?;
+        let (_, state) = avacraft_marl::resume::load(&dir)?;
+        assert_eq!(state, before, "{algo}: the state is the round before's");
+        assert_ne!(
+            std::fs::read(dir.join("agent.safetensors"))?,
+            std::fs::read(state.files(&dir).join("agent.safetensors"))?,
+            "{algo}: the checkpoint moved on a round"
+        );
+        train_from(&cfg, &o, Some(state), &mut |_| {})?;
+        assert_eq!(rows(&dir)?, rows(&whole)?, "{algo}: the resume after a kill inside a checkpoint differs");
+        let rounds =
+            std::fs::read_dir(dir.join("resume"))?.flatten().filter(|e| e.file_name().to_string_lossy().starts_with("round-")).count();
+        assert_eq!(rounds, 1, "{algo}: the earlier rounds' folders are gone");
+        let _ = std::fs::remove_dir_all(&dir);
+        let _ = std::fs::remove_dir_all(&whole);
+    }
+    Ok(())
+}
+
+/// A state written before rounds had folders (its files in `resume/`, the weights in the
+/// checkpoint: the layout of runs kept from then) resumes as it did, exactly, and its next
+/// round moves to the new layout.
+#[test]
+fn a_state_written_before_round_folders_resumes_exactly() -> R {
+    for (algo, extra) in [
+        ("qmix", &["t_max=400", "envs=4", "batch_size=4", "buffer_size=40"][..]),
+        ("mappo", &["t_max=400", "envs=4", "rollout_len=20"][..]),
+    ] {
+        let (cfg, opts, dir) = killed_run(algo, extra, &format!("flat-{algo}"))?;
+        let whole = scratch(&format!("flat-{algo}-whole"));
+        copy(&dir, &whole)?;
+        let (_, state) = avacraft_marl::resume::load(&whole)?;
+        train_from(&cfg, &RunOptions { out: Some(whole.clone()), ..opts.clone() }, Some(state), &mut |_| {})?;
+
+        // The old layout: the round's files moved up into resume/, the state naming none.
+        let (_, state) = avacraft_marl::resume::load(&dir)?;
+        let round = state.files(&dir);
+        for e in std::fs::read_dir(&round)?.flatten() {
+            let name = e.file_name();
+            if !["agent.safetensors", "mixer.safetensors", "critic.safetensors"].contains(&name.to_string_lossy().as_ref()) {
+                std::fs::rename(e.path(), dir.join("resume").join(&name))?;
+            }
+        }
+        std::fs::remove_dir_all(&round)?;
+        let path = dir.join("resume/state.json");
+        let mut json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path)?)?;
+        json.as_object_mut().ok_or("state.json is an object")?.remove("files");
+        std::fs::write(&path, serde_json::to_string(&json)?)?;
+        let (_, flat) = avacraft_marl::resume::load(&dir)?;
+        assert_eq!((flat.files.as_deref(), flat.files(&dir)), (None, dir.join("resume")), "{algo}");
+
+        train_from(&cfg, &RunOptions { out: Some(dir.clone()), ..opts.clone() }, Some(flat), &mut |_| {})?;
+        assert_eq!(rows(&dir)?, rows(&whole)?, "{algo}: the old layout's resume differs");
+        let (_, after) = avacraft_marl::resume::load(&dir)?;
+        assert!(after.files(&dir).join("agent.safetensors").is_file(), "{algo}: the next round has its folder");
+        assert!(!dir.join("resume/carry.safetensors").exists(), "{algo}: the old layout's files are gone");
+        let _ = std::fs::remove_dir_all(&dir);
+        let _ = std::fs::remove_dir_all(&whole);
     }
     Ok(())
 }
