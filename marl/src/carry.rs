@@ -126,7 +126,8 @@ impl Carry {
         self.map.contains_key(name)
     }
 
-    fn bad(&self, what: String) -> Error {
+    /// An error about the carry, naming its file.
+    pub(crate) fn bad(&self, what: String) -> Error {
         Error::Checkpoint { message: format!("{}: {what}", self.path.display()) }
     }
 

@@ -16,7 +16,7 @@
 //! the weights in the checkpoint, and are read as they were.
 //!
 //! The optimisers' running states (Adam's moments and step count, RMSprop's averages) are
-//! kept too, in `resume/optim.safetensors`: a fresh Adam's bias correction makes its first
+//! kept too, in the round's `optim.safetensors`: a fresh Adam's bias correction makes its first
 //! steps full-size, which jolted a resumed policy. A run saved before they were kept resumes
 //! with fresh optimisers, as it did then.
 //!
@@ -39,14 +39,21 @@ use candle_core::Device;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-const FORMAT: u32 = 1;
+/// 2 since a state names its round's folder (`files`): a build that reads 1 would look for
+/// the files where states of format 1 kept them, gone, and miss the optimisers' quietly.
+const FORMAT: u32 = 2;
+/// States of format 1, still read.
+const FORMAT_FLAT: u32 = 1;
 
-/// The optimisers' states, beside `state.json`.
+/// The optimisers' states, in a round's folder.
 pub(crate) const OPTIM_FILE: &str = "optim.safetensors";
 
 /// The checkpoint's files a round's resume folder keeps (hard links: the next checkpoint
-/// renames new files over the checkpoint's, and the round keeps its own).
-const WEIGHTS: [&str; 3] = ["agent.safetensors", "mixer.safetensors", "critic.safetensors"];
+/// renames new files over the checkpoint's, and the round keeps its own). The config too: a
+/// resume under another game (`--set`) rewrites the checkpoint's at its first round, and
+/// whether the round's episodes may be replayed is a question about the game they were
+/// played in.
+const KEPT: [&str; 4] = ["agent.safetensors", "mixer.safetensors", "critic.safetensors", "config.json"];
 
 const ROUND_PREFIX: &str = "round-";
 
@@ -63,7 +70,7 @@ pub(crate) fn begin_round(dir: &Path, round: u64) -> Result<std::path::PathBuf, 
         std::fs::remove_dir_all(&files).map_err(io(&files))?;
     }
     std::fs::create_dir_all(&files).map_err(io(&files))?;
-    for name in WEIGHTS {
+    for name in KEPT {
         let (from, to) = (dir.join(name), files.join(name));
         if from.is_file() && std::fs::hard_link(&from, &to).is_err() {
             std::fs::copy(&from, &to).map_err(io(&to))?;
@@ -156,7 +163,7 @@ impl RunState {
         curve: &[CurvePoint],
     ) -> RunState {
         RunState {
-            format: FORMAT,
+            format: FORMAT_FLAT,
             seed,
             t_env,
             episodes,
@@ -196,6 +203,14 @@ impl RunState {
         if self.files.is_some() { self.files(dir) } else { dir.to_path_buf() }
     }
 
+    /// The config of the game this state's round was played in: its round's copy of the
+    /// checkpoint's (a state written before rounds had folders: the checkpoint's).
+    pub(crate) fn played_config(&self, dir: &Path) -> Result<Config, Error> {
+        let round = self.weights(dir);
+        let from = if round.join("config.json").is_file() { round } else { dir.to_path_buf() };
+        crate::Policy::config_in(&from)
+    }
+
     /// Writes the target networks, if any, into `files` (the round's folder from
     /// [`begin_round`], which holds the round's other files by now), then the state naming
     /// it, then removes what earlier rounds left in `dir/resume` (the journal stays).
@@ -209,6 +224,7 @@ impl RunState {
         }
         let name = files.file_name().map(|n| n.to_string_lossy().into_owned());
         self.files = name.clone();
+        self.format = FORMAT;
         let d = dir.join("resume");
         let path = d.join("state.json");
         let text = serde_json::to_string_pretty(self).map_err(|source| Error::Json { path: path.clone(), source })?;
@@ -245,8 +261,27 @@ pub fn load(dir: &Path) -> Result<(Config, RunState), Error> {
     let path = dir.join("resume").join("state.json");
     let text = std::fs::read_to_string(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
     let state: RunState = serde_json::from_str(&text).map_err(|source| Error::Json { path: path.clone(), source })?;
-    if state.format != FORMAT {
-        return Err(Error::Checkpoint { message: format!("{}: format {} (this build reads {FORMAT})", path.display(), state.format) });
+    if state.format != FORMAT && state.format != FORMAT_FLAT {
+        return Err(Error::Checkpoint {
+            message: format!("{}: format {} (this build reads {FORMAT_FLAT} and {FORMAT})", path.display(), state.format),
+        });
+    }
+    if (state.format == FORMAT) != state.files.is_some() {
+        return Err(Error::Checkpoint {
+            message: format!(
+                "{}: format {} names {} round's folder (`files`)",
+                path.display(),
+                state.format,
+                if state.files.is_some() { "a" } else { "no" }
+            ),
+        });
+    }
+    if let Some(name) = &state.files
+        && !name.strip_prefix(ROUND_PREFIX).is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
+    {
+        return Err(Error::Checkpoint {
+            message: format!("{}: `files` = {name:?} is not a round's folder (`{ROUND_PREFIX}` and its number)", path.display()),
+        });
     }
     if policy.cfg.is_ppo() && state.value_norm.is_none() {
         return Err(Error::Checkpoint {

@@ -267,7 +267,7 @@ type Kept = (Carry, (Journal, ReplayBuffer));
 /// (`--set` changed a rule, the data or the opponent), whose episodes would be replayed into
 /// other games: the run then goes on with fresh episodes and a new buffer.
 fn kept_q(cfg: &Config, dir: &std::path::Path, st: &RunState, monitor: &mut Monitor) -> Result<Option<Kept>, Error> {
-    if !crate::Policy::config_in(dir)?.same_game(cfg) {
+    if !st.played_config(dir)?.same_game(cfg) {
         return Ok(None);
     }
     let Some(carry) = Carry::load(&st.files(dir), st.t_env)? else { return Ok(None) };

@@ -111,7 +111,7 @@ impl Rollout {
     /// ([`Rollout::check`]).
     pub(crate) fn kept(c: &crate::carry::Carry, want: &Sizes) -> Result<Rollout, Error> {
         let roll = Rollout::read(c)?;
-        roll.check(want).map_err(|m| Error::Checkpoint { message: format!("resume/carry.safetensors: {m}") })?;
+        roll.check(want).map_err(|m| c.bad(m))?;
         Ok(roll)
     }
 
@@ -119,7 +119,7 @@ impl Rollout {
         let dims = c.get_u64s("roll.dims")?;
         let cd = c.get_u64s("roll.critic.dims")?;
         let (&[t, rows, n_agents], &[width, n_ids]) = (&dims[..], &cd[..]) else {
-            return Err(Error::Checkpoint { message: "resume/carry.safetensors: the rollout's sizes are missing".into() });
+            return Err(c.bad("the rollout's sizes are missing".into()));
         };
         Ok(Rollout {
             t: t as usize,

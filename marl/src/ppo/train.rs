@@ -47,7 +47,7 @@ pub fn train_from(
     // Under another game (`--set` changed a rule, the data or the opponent) the rollout kept
     // would be replayed into other games: the run goes on with a fresh one.
     let kept = match (exact, &start) {
-        (Some(dir), Some(st)) if crate::Policy::config_in(dir)?.same_game(cfg) => Carry::load(&st.files(dir), st.t_env)?,
+        (Some(dir), Some(st)) if st.played_config(dir)?.same_game(cfg) => Carry::load(&st.files(dir), st.t_env)?,
         _ => None,
     };
     if kept.is_some() {
@@ -211,7 +211,7 @@ impl Lanes {
         let h_critic = if want.critic.is_some() { rows * hidden } else { 0 };
         let sizes = (lanes.h_actor.len(), lanes.h_critic.len(), lanes.last.len(), lanes.keep.len(), lanes.returns.len());
         if sizes != (rows * hidden, h_critic, rows, rows, envs) {
-            return Err(Error::Checkpoint { message: "resume/carry.safetensors: its sizes are not this run's".into() });
+            return Err(c.bad("its sizes are not this run's".into()));
         }
         Ok(lanes)
     }

@@ -153,6 +153,17 @@ fn resume_error(cfg: &Config, opts: &RunOptions, dir: &Path) -> Result<String, B
 fn a_resume_whose_files_were_changed_is_refused_with_what_does_not_fit() -> R {
     let extra = ["t_max=600", "envs=4", "rollout_len=40"];
     let (cfg, opts, dir) = killed_run("mappo", &extra, "bad-mappo")?;
+    // The state's round folder is named by the state: a name out of `resume/` is refused.
+    let path = dir.join("resume/state.json");
+    let kept = std::fs::read_to_string(&path)?;
+    for bad in ["../../elsewhere", "round-", "round-12x", ""] {
+        let mut json: serde_json::Value = serde_json::from_str(&kept)?;
+        json["files"] = serde_json::Value::from(bad);
+        std::fs::write(&path, serde_json::to_string(&json)?)?;
+        let err = avacraft_marl::resume::load(&dir).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(err.contains("`files`") && err.contains("state.json"), "{bad:?}: {err:?}");
+    }
+    std::fs::write(&path, kept)?;
     change_carry(&dir, "roll.actions", |mut v| {
         v[0] = 999;
         v
@@ -226,6 +237,40 @@ fn a_resume_under_another_game_goes_on_from_fresh_episodes() -> R {
         assert_eq!(logs[0], logs[1], "{algo}: the resume under another game kept its episodes");
         let _ = std::fs::remove_dir_all(&dir);
         let _ = std::fs::remove_dir_all(&fresh);
+    }
+    Ok(())
+}
+
+/// A resume under another game killed inside its first checkpoint (the checkpoint's config
+/// then the new game's, the state still the round before's) resumes under the new game again
+/// from fresh episodes, not from the round's episodes of the old game: the same log as the
+/// resume under the new game that was not killed.
+#[test]
+fn a_resume_under_another_game_killed_inside_its_checkpoint_still_starts_fresh() -> R {
+    for (algo, extra) in [
+        ("qmix", &["t_max=400", "envs=4", "batch_size=4", "buffer_size=40"][..]),
+        ("mappo", &["t_max=400", "envs=4", "rollout_len=20"][..]),
+    ] {
+        let (cfg, opts, dir) = killed_run(algo, extra, &format!("game-mid-{algo}"))?;
+        let other = cfg.overridden(&["melee_surround=true".into()])?;
+        let straight = scratch(&format!("game-mid-{algo}-straight"));
+        copy(&dir, &straight)?;
+        let (_, state) = avacraft_marl::resume::load(&straight)?;
+        train_from(&other, &RunOptions { out: Some(straight.clone()), ..opts.clone() }, Some(state), &mut |_| {})?;
+
+        let o = RunOptions { out: Some(dir.clone()), ..opts.clone() };
+        let blocker = dir.join("resume/state.json.tmp");
+        std::fs::create_dir_all(blocker.join("x"))?;
+        let (_, state) = avacraft_marl::resume::load(&dir)?;
+        let err = train_from(&other, &o, Some(state), &mut |_| {}).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(err.contains("state.json"), "{algo}: the checkpoint was to fail at its state: {err:?}");
+        std::fs::remove_dir_all(&blocker)?;
+        let (saved, state) = avacraft_marl::resume::load(&dir)?;
+        assert!(saved.melee_surround, "{algo}: the checkpoint took the new game's config");
+        train_from(&other, &o, Some(state), &mut |_| {})?;
+        assert_eq!(rows(&dir)?, rows(&straight)?, "{algo}: the round's episodes of the old game were replayed");
+        let _ = std::fs::remove_dir_all(&dir);
+        let _ = std::fs::remove_dir_all(&straight);
     }
     Ok(())
 }
@@ -353,6 +398,7 @@ fn a_state_written_before_round_folders_resumes_exactly() -> R {
         let path = dir.join("resume/state.json");
         let mut json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path)?)?;
         json.as_object_mut().ok_or("state.json is an object")?.remove("files");
+        json["format"] = serde_json::Value::from(1);
         std::fs::write(&path, serde_json::to_string(&json)?)?;
         let (_, flat) = avacraft_marl::resume::load(&dir)?;
         assert_eq!((flat.files.as_deref(), flat.files(&dir)), (None, dir.join("resume")), "{algo}");
