@@ -247,24 +247,13 @@ fn a_resume_under_another_game_goes_on_from_fresh_episodes() -> R {
 /// resume under the new game that was not killed.
 #[test]
 fn a_resume_under_another_game_killed_inside_its_checkpoint_still_starts_fresh() -> R {
-    for (algo, extra) in [
-        ("qmix", &["t_max=400", "envs=4", "batch_size=4", "buffer_size=40"][..]),
-        ("mappo", &["t_max=400", "envs=4", "rollout_len=20"][..]),
-    ] {
+    for (algo, extra) in SMALL {
         let (cfg, opts, dir) = killed_run(algo, extra, &format!("game-mid-{algo}"))?;
         let other = cfg.overridden(&["melee_surround=true".into()])?;
-        let straight = scratch(&format!("game-mid-{algo}-straight"));
-        copy(&dir, &straight)?;
-        let (_, state) = avacraft_marl::resume::load(&straight)?;
-        train_from(&other, &RunOptions { out: Some(straight.clone()), ..opts.clone() }, Some(state), &mut |_| {})?;
+        let straight = uninterrupted(&other, &opts, &dir, &format!("game-mid-{algo}-straight"))?;
 
         let o = RunOptions { out: Some(dir.clone()), ..opts.clone() };
-        let blocker = dir.join("resume/state.json.tmp");
-        std::fs::create_dir_all(blocker.join("x"))?;
-        let (_, state) = avacraft_marl::resume::load(&dir)?;
-        let err = train_from(&other, &o, Some(state), &mut |_| {}).err().map(|e| e.to_string()).unwrap_or_default();
-        assert!(err.contains("state.json"), "{algo}: the checkpoint was to fail at its state: {err:?}");
-        std::fs::remove_dir_all(&blocker)?;
+        killed_inside_checkpoint(&other, &o)?;
         let (saved, state) = avacraft_marl::resume::load(&dir)?;
         assert!(saved.melee_surround, "{algo}: the checkpoint took the new game's config");
         train_from(&other, &o, Some(state), &mut |_| {})?;
@@ -273,6 +262,34 @@ fn a_resume_under_another_game_killed_inside_its_checkpoint_still_starts_fresh()
         let _ = std::fs::remove_dir_all(&straight);
     }
     Ok(())
+}
+
+/// Resumes the run in `o.out` under `cfg` with a folder in the way of its state's write: the
+/// next test round's checkpoint writes everything but `state.json`, as a kill there would
+/// leave it.
+fn killed_inside_checkpoint(cfg: &Config, o: &RunOptions) -> R {
+    let dir = o.out.clone().ok_or("a run folder")?;
+    let blocker = dir.join("resume/state.json.tmp");
+    std::fs::create_dir_all(blocker.join("x"))?;
+    let (_, state) = avacraft_marl::resume::load(&dir)?;
+    let err = train_from(cfg, o, Some(state), &mut |_| {}).err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(err.contains("state.json"), "{}: the checkpoint was to fail at its state: {err:?}", cfg.algo);
+    std::fs::remove_dir_all(&blocker)?;
+    Ok(())
+}
+
+/// Two small runs (the Q-learners' and PPO's loops) the checkpoint tests below kill.
+const SMALL: [(&str, &[&str]); 2] =
+    [("qmix", &["t_max=400", "envs=4", "batch_size=4", "buffer_size=40"]), ("mappo", &["t_max=400", "envs=4", "rollout_len=20"])];
+
+/// A copy of the killed run in `dir` resumed under `cfg` to its end without a kill: what a
+/// resume after any kill is to write.
+fn uninterrupted(cfg: &Config, opts: &RunOptions, dir: &Path, name: &str) -> Result<PathBuf, Box<dyn std::error::Error>> {
+    let copied = scratch(name);
+    copy(dir, &copied)?;
+    let (_, state) = avacraft_marl::resume::load(&copied)?;
+    train_from(cfg, &RunOptions { out: Some(copied.clone()), ..opts.clone() }, Some(state), &mut |_| {})?;
+    Ok(copied)
 }
 
 fn copy(from: &Path, to: &Path) -> R {
@@ -335,23 +352,13 @@ fn a_run_that_went_on_from_fresh_episodes_resumes_exactly_later() -> R {
 /// the resume used to read them with the older state.)
 #[test]
 fn a_run_killed_inside_a_checkpoint_resumes_from_the_round_before() -> R {
-    for (algo, extra) in [
-        ("qmix", &["t_max=500", "envs=4", "batch_size=4", "buffer_size=40"][..]),
-        ("mappo", &["t_max=500", "envs=4", "rollout_len=20"][..]),
-    ] {
+    for (algo, extra) in SMALL {
         let (cfg, opts, dir) = killed_run(algo, extra, &format!("mid-{algo}"))?;
-        let whole = scratch(&format!("mid-{algo}-whole"));
-        copy(&dir, &whole)?;
-        let (_, state) = avacraft_marl::resume::load(&whole)?;
-        train_from(&cfg, &RunOptions { out: Some(whole.clone()), ..opts.clone() }, Some(state), &mut |_| {})?;
+        let whole = uninterrupted(&cfg, &opts, &dir, &format!("mid-{algo}-whole"))?;
 
         let (_, before) = avacraft_marl::resume::load(&dir)?;
-        let blocker = dir.join("resume/state.json.tmp");
-        std::fs::create_dir_all(blocker.join("x"))?;
         let o = RunOptions { out: Some(dir.clone()), ..opts.clone() };
-        let err = train_from(&cfg, &o, Some(before.clone()), &mut |_| {}).err().map(|e| e.to_string()).unwrap_or_default();
-        assert!(err.contains("state.json"), "{algo}: the checkpoint was to fail at its state: {err:?}");
-        std::fs::remove_dir_all(&blocker)?;
+        killed_inside_checkpoint(&cfg, &o)?;
         let (_, state) = avacraft_marl::resume::load(&dir)?;
         assert_eq!(state, before, "{algo}: the state is the round before's");
         assert_ne!(
@@ -375,15 +382,9 @@ fn a_run_killed_inside_a_checkpoint_resumes_from_the_round_before() -> R {
 /// round moves to the new layout.
 #[test]
 fn a_state_written_before_round_folders_resumes_exactly() -> R {
-    for (algo, extra) in [
-        ("qmix", &["t_max=400", "envs=4", "batch_size=4", "buffer_size=40"][..]),
-        ("mappo", &["t_max=400", "envs=4", "rollout_len=20"][..]),
-    ] {
+    for (algo, extra) in SMALL {
         let (cfg, opts, dir) = killed_run(algo, extra, &format!("flat-{algo}"))?;
-        let whole = scratch(&format!("flat-{algo}-whole"));
-        copy(&dir, &whole)?;
-        let (_, state) = avacraft_marl::resume::load(&whole)?;
-        train_from(&cfg, &RunOptions { out: Some(whole.clone()), ..opts.clone() }, Some(state), &mut |_| {})?;
+        let whole = uninterrupted(&cfg, &opts, &dir, &format!("flat-{algo}-whole"))?;
 
         // The old layout: the round's files moved up into resume/, the state naming none.
         let (_, state) = avacraft_marl::resume::load(&dir)?;
