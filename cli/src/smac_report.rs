@@ -1,7 +1,7 @@
 //! `avacraft smac-report`: SMAC's 23 maps, our learners beside the real game's published
 //! results. It reads the training runs of eval/plans/smac.toml (`<runs>/<map>/<run>-s1/log.csv`,
 //! and `heldout.json`, an `avacraft episode --json` report on held-out seeds, where one was
-//! played) and the published numbers (eval/smac/published.toml), and writes the comparison
+//! played; without one, the folder's checkpoint plays them) and the published numbers (eval/smac/published.toml), and writes the comparison
 //! table (Markdown) and the learning curves of every map in one figure. A run whose training
 //! folder is gone (another machine's, or removed) is read from its shipped copy under
 //! `baselines/`, whose log it carries; its held-out games are played again from the shipped
@@ -194,17 +194,23 @@ fn ours(dir: &Path) -> Result<Option<Ours>> {
 /// Held-out games: seeds 9000-9099, SMAC's passive allies, the checkpoint playing greedily.
 const HELDOUT: [&str; 7] = ["--passive-agents", "--episodes", "100", "--seed", "9000", "--json", "--agent"];
 
-/// Held-out results already played this report, by shipped folder: the seeds table asks for
+/// Held-out results already played this report, by checkpoint folder: the seeds table asks for
 /// seed 1's runs again, and 100 games a run is the report's longest work.
 type Played = BTreeMap<PathBuf, (f64, usize)>;
 
 /// A learner's run on `map` (`seed`): its training folder under `runs`, else its shipped copy
-/// under `baselines`, with the held-out games played again from the shipped checkpoint (once
-/// a report: `played` keeps them).
+/// under `baselines`, with the held-out games played again from the checkpoint where no
+/// report of them is kept (once a report: `played` keeps them).
 fn find_run(runs: &Path, baselines: &Path, played: &mut Played, map: &str, run: &str, seed: u64) -> Result<Option<Ours>> {
     let dir = runs.join(map).join(format!("{run}-s{seed}"));
     if dir.join("log.csv").is_file() {
-        return ours(&dir);
+        let Some(mut o) = ours(&dir)? else { return Ok(None) };
+        // A training folder without a held-out report (an unfinished run's, say) plays them
+        // from its checkpoint, the last test round's policy, as a shipped copy's are played.
+        if o.heldout.is_none() && dir.join("agent.safetensors").is_file() {
+            o.heldout = Some(heldout_of(played, &dir, map)?);
+        }
+        return Ok(Some(o));
     }
     let shipped = baselines.join(map).join(if seed == 1 { run.to_owned() } else { format!("{run}-s{seed}") });
     if !shipped.join("log.csv").is_file() {
@@ -213,14 +219,7 @@ fn find_run(runs: &Path, baselines: &Path, played: &mut Played, map: &str, run: 
     let rows = read_log(&shipped)?;
     let Some(last) = rows.last() else { return Ok(None) };
     let t_max = budget_of(&shipped)?.with_context(|| format!("reading {}/config.json", shipped.display()))?;
-    let heldout = match played.get(&shipped) {
-        Some(h) => *h,
-        None => {
-            let h = play_heldout(&shipped, map)?;
-            played.insert(shipped.clone(), h);
-            h
-        }
-    };
+    let heldout = heldout_of(played, &shipped, map)?;
     let tail: Vec<f64> = rows.iter().rev().take(LAST_ROUNDS).map(|r| r.test_win_rate).collect();
     Ok(Some(Ours {
         steps: last.t_env,
@@ -231,6 +230,16 @@ fn find_run(runs: &Path, baselines: &Path, played: &mut Played, map: &str, run: 
         resumable: false,
         rows,
     }))
+}
+
+/// The held-out games of the checkpoint in `dir`, played once a report.
+fn heldout_of(played: &mut Played, dir: &Path, map: &str) -> Result<(f64, usize)> {
+    if let Some(h) = played.get(dir) {
+        return Ok(*h);
+    }
+    let h = play_heldout(dir, map)?;
+    played.insert(dir.to_path_buf(), h);
+    Ok(h)
 }
 
 /// Plays the shipped checkpoint in `shipped` on `map`'s held-out seeds, as `avacraft episode`

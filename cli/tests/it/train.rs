@@ -403,6 +403,18 @@ fn smac_report_sets_runs_beside_published_results() {
     // The median of two seeds' final rates: their mean.
     let seed2: f64 = cells[3].split(' ').next().and_then(|v| v.parse().ok()).unwrap_or_else(|| panic!("seed 2's rate: {line}"));
     assert_eq!(cells[5], format!("{:.0} |", (90.0 + seed2) / 2.0), "{line}");
+    // A training folder with a checkpoint and no held-out report (an unfinished run here) has
+    // its held-out games played from its checkpoint.
+    let third = dir.join("runs/3m/qmix-s3");
+    std::fs::create_dir_all(&third).expect("seed 3's folder");
+    for f in ["log.csv", "config.json", "agent.safetensors"] {
+        std::fs::copy(trained.join(f), third.join(f)).expect("copy");
+    }
+    let table = String::from_utf8_lossy(&args(&published).stdout).into_owned();
+    let line = table.lines().find(|l| l.starts_with("| 3m | qmix | ")).unwrap_or_else(|| panic!("no seeds row: {table}"));
+    let cells: Vec<&str> = line.split(" | ").collect();
+    assert!(cells[4].contains(" / ") && cells[4].contains("@ 0.0M"), "seed 3, held out from its folder: {line}");
+    std::fs::remove_dir_all(&third).expect("seed 3's folder removed");
     // Its budget, from the shipped config: short of it, unfinished.
     let config = std::fs::read_to_string(shipped.join("config.json")).expect("config");
     std::fs::write(shipped.join("config.json"), config.replace("\"t_max\": 200", "\"t_max\": 2000000")).expect("config");
