@@ -81,8 +81,7 @@ pub(crate) fn begin_round(dir: &Path, round: u64) -> Result<std::path::PathBuf, 
 
 /// Writes named optimiser states into `files`, a round's resume folder (aside, then renamed).
 pub(crate) fn save_moments(files: &Path, moments: &[(&str, Moments)]) -> Result<(), Error> {
-    let d = files;
-    std::fs::create_dir_all(d).map_err(|source| Error::Io { path: d.to_path_buf(), source })?;
+    std::fs::create_dir_all(files).map_err(|source| Error::Io { path: files.to_path_buf(), source })?;
     let mut map = std::collections::HashMap::new();
     for (name, m) in moments {
         for (i, v) in m.vectors.iter().enumerate() {
@@ -90,7 +89,7 @@ pub(crate) fn save_moments(files: &Path, moments: &[(&str, Moments)]) -> Result<
         }
         map.insert(format!("{name}.steps"), candle_core::Tensor::new(&[f64::from(m.steps)], &Device::Cpu)?);
     }
-    crate::aside::tensors(&map, &d.join(OPTIM_FILE))
+    crate::aside::tensors(&map, &files.join(OPTIM_FILE))
 }
 
 /// The optimiser states saved in `files` (a state's [`RunState::files`]), by name, shaped like
