@@ -78,6 +78,18 @@ pub fn train_from(
     }
     // Held until training returns: no second process writes into this run meanwhile.
     let _lock = opts.out.as_deref().map(crate::lock::RunLock::acquire).transpose()?;
+    // `start` was read before the lock was taken: a process that trained there meanwhile has
+    // moved the state on and removed the round folder it names. Going on would mix rounds.
+    if let (Some(st), Some(dir)) = (&start, opts.out.as_deref())
+        && crate::resume::load(dir)?.1 != *st
+    {
+        return Err(Error::Checkpoint {
+            message: format!(
+                "{}: its resume state changed after it was read (another process trained there meanwhile): read it again to resume",
+                dir.display()
+            ),
+        });
+    }
     // The game the run plays, named in its config (so in every checkpoint it writes).
     let (cfg, scenario) = cfg.resolved(std::sync::Arc::clone(&opts.scenario))?;
     let (cfg, opts) = (&cfg, &RunOptions { scenario, ..opts.clone() });

@@ -414,3 +414,22 @@ fn a_state_written_before_round_folders_resumes_exactly() -> R {
     }
     Ok(())
 }
+
+/// A state read before another process trained on in the folder (the CLI reads it before the
+/// trainer takes the run's lock) is refused once the lock is held, naming the change, and what
+/// the other process wrote stays as it was.
+#[test]
+fn a_state_that_moved_on_before_the_lock_is_refused() -> R {
+    let (algo, extra) = SMALL[0];
+    let (cfg, opts, dir) = killed_run(algo, extra, "stale")?;
+    let (_, stale) = avacraft_marl::resume::load(&dir)?;
+    let (_, fresh) = avacraft_marl::resume::load(&dir)?;
+    train_from(&cfg, &opts, Some(fresh), &mut |_| {})?;
+    let (want, state) = (rows(&dir)?, avacraft_marl::resume::load(&dir)?.1);
+    assert!(state.t_env > stale.t_env, "the other process trained on");
+    let err = train_from(&cfg, &opts, Some(stale), &mut |_| {}).err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(err.contains("changed after it was read"), "{err:?}");
+    assert_eq!((rows(&dir)?, avacraft_marl::resume::load(&dir)?.1), (want, state), "the other process's run is untouched");
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
