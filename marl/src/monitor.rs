@@ -98,9 +98,11 @@ impl<'a> Monitor<'a> {
                 std::fs::create_dir_all(dir).map_err(|source| Error::Io { path: dir.clone(), source })?;
                 let path = dir.join("log.csv");
                 let f = if let Some(st) = start {
-                    // A test round writes its row before the state it saves: a run killed in
-                    // between left a row the resumed run writes again.
+                    // A test round writes its row and picks `best/` before the state it saves:
+                    // a run killed in between left a row the resumed run writes again, and a
+                    // `best/` from a round the state does not have.
                     truncate_log(&path, st.t_env)?;
+                    crate::resume::restore_best(dir, st)?;
                     std::fs::OpenOptions::new().append(true).open(&path).map_err(|source| Error::Io { path: path.clone(), source })?
                 } else {
                     let mut f = std::fs::File::create(&path).map_err(|source| Error::Io { path: path.clone(), source })?;

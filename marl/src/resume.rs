@@ -7,7 +7,8 @@
 //! and the environments start fresh episodes (from seeds past the ones already played).
 //!
 //! A test round's resume files (the online networks' weights as the checkpoint then held them,
-//! the targets, the optimisers, the carry) go into a folder of their own,
+//! the `best/` checkpoint as the round left it, the targets, the optimisers, the carry) go
+//! into a folder of their own,
 //! `resume/round-NNNNNN/`, and `state.json`, written last and renamed into place, names it; the
 //! folder of the round before is removed only after. A run killed anywhere in a checkpoint
 //! therefore resumes from one round's files, all of them: before, the checkpoint's weights
@@ -70,13 +71,68 @@ pub(crate) fn begin_round(dir: &Path, round: u64) -> Result<std::path::PathBuf, 
         std::fs::remove_dir_all(&files).map_err(io(&files))?;
     }
     std::fs::create_dir_all(&files).map_err(io(&files))?;
-    for name in KEPT {
-        let (from, to) = (dir.join(name), files.join(name));
-        if from.is_file() && std::fs::hard_link(&from, &to).is_err() {
-            std::fs::copy(&from, &to).map_err(io(&to))?;
-        }
+    link_kept(dir, &files)?;
+    // The monitor has just picked `best/` for this round: kept with it, so a resume from this
+    // round finds the pick the round made (see `restore_best`).
+    let best = dir.join(BEST);
+    if best.join("config.json").is_file() {
+        let kept = files.join(BEST);
+        std::fs::create_dir_all(&kept).map_err(io(&kept))?;
+        link_kept(&best, &kept)?;
     }
     Ok(files)
+}
+
+/// A checkpoint's best-test copy, beside it.
+const BEST: &str = "best";
+
+/// Hard-links (copies where links fail) the checkpoint files [`KEPT`] in `from` into `to`.
+fn link_kept(from: &Path, to: &Path) -> Result<(), Error> {
+    for name in KEPT {
+        let (src, dst) = (from.join(name), to.join(name));
+        if src.is_file() && std::fs::hard_link(&src, &dst).is_err() {
+            std::fs::copy(&src, &dst).map_err(|source| Error::Io { path: dst.clone(), source })?;
+        }
+    }
+    Ok(())
+}
+
+/// Puts back the `best/` checkpoint that the round `state` names kept. The monitor rewrites
+/// `best/` before the round's state is written: a run killed in between has a `best/` from a
+/// round its state does not have (or half written), which a resume in a mode that does not
+/// replay exactly (images, self-play) would keep, though its log never showed that round.
+/// Rounds written before they kept `best/` leave it as it is.
+pub(crate) fn restore_best(dir: &Path, state: &RunState) -> Result<(), Error> {
+    let kept = state.files(dir).join(BEST);
+    if state.files.is_none() || !kept.join("config.json").is_file() {
+        return Ok(());
+    }
+    let best = dir.join(BEST);
+    let io = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| Error::Io { path, source }
+    };
+    std::fs::create_dir_all(&best).map_err(io(&best))?;
+    for name in KEPT {
+        let (from, to) = (kept.join(name), best.join(name));
+        if !from.is_file() {
+            match std::fs::remove_file(&to) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(Error::Io { path: to, source: e }),
+                _ => continue,
+            }
+        }
+        // Beside, then renamed over: a kill here leaves either file whole.
+        let tmp = best.join(format!("{name}.restoring"));
+        let _ = std::fs::remove_file(&tmp);
+        if std::fs::hard_link(&from, &tmp).is_err() {
+            std::fs::copy(&from, &tmp).map_err(io(&tmp))?;
+        }
+        std::fs::rename(&tmp, &to).map_err(io(&to))?;
+        // Left where `to` already was the kept file (a rename between two links of one file
+        // does nothing).
+        let _ = std::fs::remove_file(&tmp);
+    }
+    Ok(())
 }
 
 /// Writes named optimiser states into `files`, a round's resume folder (aside, then renamed).

@@ -433,3 +433,35 @@ fn a_state_that_moved_on_before_the_lock_is_refused() -> R {
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }
+
+/// A `best/` rewritten for a round its state does not have (the monitor picks it before the
+/// round's state is written: a kill in between) or left half written is put back, as the
+/// resume starts, to the pick of the state's round, which the round's folder keeps.
+#[test]
+fn a_resume_puts_back_the_best_checkpoint_its_round_picked() -> R {
+    for (algo, extra) in SMALL {
+        let (cfg, opts, dir) = killed_run(algo, extra, &format!("best-{algo}"))?;
+        let whole = uninterrupted(&cfg, &opts, &dir, &format!("best-{algo}-whole"))?;
+        let (_, state) = avacraft_marl::resume::load(&dir)?;
+        let best = dir.join("best");
+        let picked: Vec<Vec<u8>> =
+            ["agent.safetensors", "config.json"].iter().map(|f| std::fs::read(best.join(f))).collect::<Result<_, _>>()?;
+        // Replaced, as checkpoints write (the round's folder links the file being replaced).
+        std::fs::remove_file(best.join("agent.safetensors"))?;
+        std::fs::write(best.join("agent.safetensors"), b"a later round's weights")?;
+        std::fs::remove_file(best.join("config.json"))?;
+        // Stopped as soon as the resume has started, before it plays anything.
+        let stopped =
+            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| train_from(&cfg, &opts, Some(state), &mut |_| panic!("stopped"))));
+        assert!(stopped.is_err(), "{algo}: the resume was to be stopped");
+        let now: Vec<Vec<u8>> =
+            ["agent.safetensors", "config.json"].iter().map(|f| std::fs::read(best.join(f))).collect::<Result<_, _>>()?;
+        assert!(now == picked, "{algo}: best/ is not the round's pick");
+        let (_, state) = avacraft_marl::resume::load(&dir)?;
+        train_from(&cfg, &opts, Some(state), &mut |_| {})?;
+        assert_eq!(std::fs::read(best.join("agent.safetensors"))?, std::fs::read(whole.join("best/agent.safetensors"))?, "{algo}");
+        let _ = std::fs::remove_dir_all(&dir);
+        let _ = std::fs::remove_dir_all(&whole);
+    }
+    Ok(())
+}
