@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 /// Where `path` is written before it is renamed over: beside it, so the rename stays on one
 /// file system.
-fn aside(path: &Path) -> PathBuf {
+pub(crate) fn aside(path: &Path) -> PathBuf {
     let mut name = path.file_name().map(std::ffi::OsStr::to_os_string).unwrap_or_default();
     name.push(".tmp");
     path.with_file_name(name)

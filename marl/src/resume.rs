@@ -122,7 +122,7 @@ pub(crate) fn restore_best(dir: &Path, state: &RunState) -> Result<(), Error> {
             }
         }
         // Beside, then renamed over: a kill here leaves either file whole.
-        let tmp = best.join(format!("{name}.restoring"));
+        let tmp = crate::aside::aside(&to);
         let _ = std::fs::remove_file(&tmp);
         if std::fs::hard_link(&from, &tmp).is_err() {
             std::fs::copy(&from, &tmp).map_err(io(&tmp))?;
@@ -313,6 +313,18 @@ fn prune(resume: &Path, keep: Option<&str>) -> Result<(), Error> {
 /// The config and state of the run in `dir`, to go on with [`crate::train::train_from`].
 pub fn load(dir: &Path) -> Result<(Config, RunState), Error> {
     let policy = crate::Policy::load(dir)?;
+    let state = load_state(dir)?;
+    if policy.cfg.is_ppo() && state.value_norm.is_none() {
+        let path = dir.join("resume").join("state.json");
+        return Err(Error::Checkpoint {
+            message: format!("{}: a {} run's state has no value statistics", path.display(), policy.cfg.algo),
+        });
+    }
+    Ok((policy.cfg, state))
+}
+
+/// The state in `dir/resume` alone, checked on its own (not against the checkpoint).
+pub(crate) fn load_state(dir: &Path) -> Result<RunState, Error> {
     let path = dir.join("resume").join("state.json");
     let text = std::fs::read_to_string(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
     let state: RunState = serde_json::from_str(&text).map_err(|source| Error::Json { path: path.clone(), source })?;
@@ -338,12 +350,7 @@ pub fn load(dir: &Path) -> Result<(Config, RunState), Error> {
             message: format!("{}: `files` = {name:?} is not a round's folder (`{ROUND_PREFIX}` and its number)", path.display()),
         });
     }
-    if policy.cfg.is_ppo() && state.value_norm.is_none() {
-        return Err(Error::Checkpoint {
-            message: format!("{}: a {} run's state has no value statistics", path.display(), policy.cfg.algo),
-        });
-    }
-    Ok((policy.cfg, state))
+    Ok(state)
 }
 
 pub(crate) fn load_tensors(path: &Path) -> Result<std::collections::HashMap<String, candle_core::Tensor>, Error> {

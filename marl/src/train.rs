@@ -81,7 +81,7 @@ pub fn train_from(
     // `start` was read before the lock was taken: a process that trained there meanwhile has
     // moved the state on and removed the round folder it names. Going on would mix rounds.
     if let (Some(st), Some(dir)) = (&start, opts.out.as_deref())
-        && crate::resume::load(dir)?.1 != *st
+        && crate::resume::load_state(dir)? != *st
     {
         return Err(Error::Checkpoint {
             message: format!(

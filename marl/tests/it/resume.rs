@@ -391,7 +391,10 @@ fn a_state_written_before_round_folders_resumes_exactly() -> R {
         let round = state.files(&dir);
         for e in std::fs::read_dir(&round)?.flatten() {
             let name = e.file_name();
-            if !["agent.safetensors", "mixer.safetensors", "critic.safetensors"].contains(&name.to_string_lossy().as_ref()) {
+            // The round's `best/` pick came with round folders: the old layout had none.
+            if name == "best" {
+                std::fs::remove_dir_all(e.path())?;
+            } else if !["agent.safetensors", "mixer.safetensors", "critic.safetensors"].contains(&name.to_string_lossy().as_ref()) {
                 std::fs::rename(e.path(), dir.join("resume").join(&name))?;
             }
         }
@@ -457,6 +460,9 @@ fn a_resume_puts_back_the_best_checkpoint_its_round_picked() -> R {
         let now: Vec<Vec<u8>> =
             ["agent.safetensors", "config.json"].iter().map(|f| std::fs::read(best.join(f))).collect::<Result<_, _>>()?;
         assert!(now == picked, "{algo}: best/ is not the round's pick");
+        // Files that were the round's already (the mixer, the critic) leave no name aside.
+        let left: Vec<String> = std::fs::read_dir(&best)?.flatten().map(|e| e.file_name().to_string_lossy().into_owned()).collect();
+        assert!(left.iter().all(|n| !n.ends_with(".tmp")), "{algo}: {left:?}");
         let (_, state) = avacraft_marl::resume::load(&dir)?;
         train_from(&cfg, &opts, Some(state), &mut |_| {})?;
         assert_eq!(std::fs::read(best.join("agent.safetensors"))?, std::fs::read(whole.join("best/agent.safetensors"))?, "{algo}");
