@@ -27,4 +27,4 @@ pub use critic_input::CriticInput;
 pub use learner::{Gradients, Losses, PpoLearner, PpoStats, StepReport, masked_log_softmax, sample_actions};
 pub use rollout::{CriticRows, FlatBatch, MASKED, PpoBatch, Rollout, gae, to_chunks};
 pub(crate) use train::restore;
-pub use train::{train, train_from};
+pub(crate) use train::train_from;

@@ -25,14 +25,10 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::time::{Duration, Instant};
 
-/// Trains IPPO or MAPPO; returns the learner and how the run went.
-pub fn train(cfg: &Config, opts: &RunOptions, on_progress: &mut dyn FnMut(&Progress)) -> Result<(PpoLearner, Summary), Error> {
-    train_from(cfg, opts, None, on_progress)
-}
-
-/// [`train`], going on from `start` (see [`crate::resume`]): the checkpoint and state in
-/// `opts.out`.
-pub fn train_from(
+/// Trains IPPO or MAPPO, going on from `start` when given (see [`crate::resume`]: the
+/// checkpoint and state in `opts.out`); returns the learner and how the run went. Reached
+/// through [`crate::train_from`], which holds the run folder's lock.
+pub(crate) fn train_from(
     cfg: &Config,
     opts: &RunOptions,
     start: Option<RunState>,
