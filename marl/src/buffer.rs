@@ -295,6 +295,14 @@ fn zeroed<T: Copy + Default>(v: &mut Vec<T>, n: usize) -> &mut [T] {
     v
 }
 
+/// `v` at length `n`, in the memory it has, its values left as they were: for the arrays
+/// [`Batch::refill`] writes whole, row by row (zeroing them first was a pass of its own over
+/// hundreds of MB on large scenarios, every update).
+fn sized<T: Copy + Default>(v: &mut Vec<T>, n: usize) -> &mut [T] {
+    v.resize(n, T::default());
+    v
+}
+
 impl Batch {
     /// Pads and stacks `episodes`.
     pub fn new(episodes: &[&Episode], shape: &Shape, agent_id: bool, last_action: bool) -> Result<Batch, Error> {
@@ -310,10 +318,11 @@ impl Batch {
         let (a, o, s, na) = (shape.n_agents, shape.obs, shape.state, shape.n_actions);
         let width = shape.input(agent_id, last_action);
         self.frames = None;
-        let inputs = zeroed(&mut self.inputs, (t + 1) * b * a * width);
-        let avail = zeroed(&mut self.avail, (t + 1) * b * a * na);
+        // Every row of these three is written below, padding included.
+        let inputs = sized(&mut self.inputs, (t + 1) * b * a * width);
+        let avail = sized(&mut self.avail, (t + 1) * b * a * na);
         let actions = zeroed(&mut self.actions, t * b * a);
-        let state = zeroed(&mut self.state, (t + 1) * b * s);
+        let state = sized(&mut self.state, (t + 1) * b * s);
         let reward = zeroed(&mut self.reward, t * b);
         let terminated = zeroed(&mut self.terminated, t * b);
         let filled = zeroed(&mut self.filled, t * b);
@@ -329,10 +338,13 @@ impl Batch {
                     let av = &mut avail[row * na..(row + 1) * na];
                     if real {
                         inp[..o].copy_from_slice(&ep.obs[(ti * a + ag) * o..(ti * a + ag + 1) * o]);
+                        inp[o..].fill(0.0);
                         for (d, &m) in av.iter_mut().zip(&ep.avail[(ti * a + ag) * na..(ti * a + ag + 1) * na]) {
                             *d = f32::from(m);
                         }
                     } else {
+                        inp.fill(0.0);
+                        av.fill(0.0);
                         av[0] = 1.0;
                     }
                     let mut off = o;
@@ -347,8 +359,11 @@ impl Batch {
                         actions[row] = ep.actions[ti * a + ag];
                     }
                 }
+                let st = &mut state[(ti * b + bi) * s..(ti * b + bi + 1) * s];
                 if real {
-                    state[(ti * b + bi) * s..(ti * b + bi + 1) * s].copy_from_slice(&ep.state[ti * s..(ti + 1) * s]);
+                    st.copy_from_slice(&ep.state[ti * s..(ti + 1) * s]);
+                } else {
+                    st.fill(0.0);
                 }
                 if ti < ep.len {
                     reward[ti * b + bi] = ep.reward[ti];

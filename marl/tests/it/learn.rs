@@ -53,6 +53,19 @@ fn a_refilled_batch_is_a_new_batch() -> R {
     let fresh = Batch::new(&small, &SMALL, true, true)?;
     assert_eq!(format!("{batch:?}"), format!("{fresh:?}"));
     assert!(batch.b == 3 && batch.inputs.len() < Batch::new(&big, &SMALL, true, true)?.inputs.len());
+    // Refilled over memory holding anything at all (a refill writes its arrays whole rather
+    // than zeroing them first): every value is written.
+    for first in [&big[..], &small[..], &big[6..]] {
+        for second in [&small[..], &big[..], &big[3..9]] {
+            let mut batch = Batch::new(first, &SMALL, true, true)?;
+            for v in [&mut batch.inputs, &mut batch.avail, &mut batch.state, &mut batch.reward, &mut batch.terminated, &mut batch.filled] {
+                v.fill(7.0);
+            }
+            batch.actions.fill(7);
+            batch.refill(second, &SMALL, true, true)?;
+            assert_eq!(format!("{batch:?}"), format!("{:?}", Batch::new(second, &SMALL, true, true)?));
+        }
+    }
     Ok(())
 }
 
