@@ -5,7 +5,7 @@ use crate::buffer::{Shape, act_inputs};
 use crate::frames::StepFrames;
 use crate::kernels::Want;
 use crate::nets::Nets;
-use crate::{Config, Error};
+use crate::{Config, Error, Stack};
 use avacraft_engine::VecBuffers;
 use candle_core::{Device, Tensor};
 use rand::Rng;
@@ -38,21 +38,30 @@ pub fn select_actions(q: &[f32], avail: &[u8], n_actions: usize, epsilon: f64, r
         .collect()
 }
 
-/// The acting side of a set of rows (environments x agents): GRU hidden states and last
-/// actions, reset per environment when its episode restarts. It acts through the fused
+/// The acting side of a set of rows (environments x agents): GRU hidden states, last
+/// actions and (`stacked_frames`) the last observations, reset per environment when its
+/// episode restarts. It acts through the fused
 /// network ([`crate::kernels::NetLayout`]) on the flat weights it is handed.
 pub(crate) struct Actor {
     h: Vec<f32>,
     last: Vec<Option<u32>>,
     agents: Vec<usize>,
     hidden: usize,
+    /// Made at the first step, when the config says how many observations it stacks.
+    stack: Option<Stack>,
 }
 
 impl Actor {
     pub(crate) fn new(nets: &Nets, envs: usize, n_agents: usize) -> Actor {
         let rows = envs * n_agents;
         let hidden = nets.agent.hidden;
-        Actor { h: vec![0.0; rows * hidden], last: vec![None; rows], agents: (0..rows).map(|r| r % n_agents.max(1)).collect(), hidden }
+        Actor {
+            h: vec![0.0; rows * hidden],
+            last: vec![None; rows],
+            agents: (0..rows).map(|r| r % n_agents.max(1)).collect(),
+            hidden,
+            stack: None,
+        }
     }
 
     /// Actions for every row, epsilon-greedy over the masks (`frames`: the image modes'),
@@ -70,7 +79,10 @@ impl Actor {
         rng: &mut ChaCha8Rng,
     ) -> Result<Vec<u32>, Error> {
         let rows = self.agents.len();
-        let mut x = act_inputs(&b.obs, &self.agents, &self.last, shape, cfg.obs_agent_id, cfg.obs_last_action);
+        let stack = self.stack.get_or_insert_with(|| Stack::new(cfg.stacked_frames, shape.obs, rows));
+        let obs = stack.push(&b.obs[..rows * shape.obs]);
+        let net = shape.stacked(cfg.stacked_frames);
+        let mut x = act_inputs(&obs, &self.agents, &self.last, &net, cfg.obs_agent_id, cfg.obs_last_action);
         if nets.encoder.is_some() {
             let width = shape.input(cfg.obs_agent_id, cfg.obs_last_action);
             let t = Tensor::from_vec(x, (rows, width), &Device::Cpu)?;
@@ -117,6 +129,9 @@ impl Actor {
                 self.h[rows.start * self.hidden..rows.end * self.hidden].fill(0.0);
                 self.last[rows].iter_mut().for_each(|l| *l = None);
             }
+        }
+        if let Some(s) = &mut self.stack {
+            s.clear(done, n_agents);
         }
     }
 }

@@ -30,6 +30,12 @@ impl Shape {
         Shape { n_agents, obs, state, n_actions, n_enemies }
     }
 
+    /// The sizes the networks read when they stack `k` steps' observations and states
+    /// ([`crate::Stack`]).
+    pub fn stacked(&self, k: usize) -> Shape {
+        Shape { obs: self.obs * k.max(1), state: self.state * k.max(1), ..*self }
+    }
+
     /// The agent network's input width.
     pub fn input(&self, agent_id: bool, last_action: bool) -> usize {
         self.obs + if agent_id { self.n_agents } else { 0 } + if last_action { self.n_actions } else { 0 }

@@ -252,7 +252,14 @@ impl Policy {
         need_of(&self.cfg)
     }
 
-    /// Q-values `(rows x n_actions)` and next hidden states for rows of features.
+    /// What each row carries from one step to the next ([`Policy::q_values`]'s `hidden`): the
+    /// network's hidden state, then (`stacked_frames`) its last observations, oldest first.
+    pub fn memory_width(&self) -> usize {
+        self.nets.agent.hidden + (self.cfg.stacked_frames.max(1) - 1) * self.shape.obs
+    }
+
+    /// Q-values `(rows x n_actions)` and next memories for rows of features: `hidden` and
+    /// what comes back are [`Policy::memory_width`] a row (zeros at an episode's start).
     pub fn q_values(
         &self,
         features: &[f32],
@@ -308,7 +315,33 @@ impl Policy {
     ) -> Result<(Vec<f32>, Vec<f32>), Error> {
         let (id, la) = (self.cfg.obs_agent_id, self.cfg.obs_last_action);
         let rows = agents.len();
-        let mut x = act_inputs(features, agents, last, &self.shape, id, la);
+        let layout = self.nets.agent.layout();
+        let (mw, ow) = (self.memory_width(), self.shape.obs);
+        if hidden.len() != rows * mw || features.len() != rows * ow {
+            return Err(Error::Checkpoint {
+                message: format!(
+                    "{rows} rows with {} memory values and {} features; the network carries {mw} and reads {ow} a row",
+                    hidden.len(),
+                    features.len()
+                ),
+            });
+        }
+        // Each row's memory: the network's hidden state, then its last observations.
+        let kept = mw - layout.hidden;
+        let (h, features) = if kept == 0 {
+            (std::borrow::Cow::Borrowed(hidden), std::borrow::Cow::Borrowed(features))
+        } else {
+            let mut h = Vec::with_capacity(rows * layout.hidden);
+            let mut stacked = Vec::with_capacity(rows * (kept + ow));
+            for (m, f) in hidden.chunks_exact(mw).zip(features.chunks_exact(ow.max(1))) {
+                h.extend_from_slice(&m[..layout.hidden]);
+                stacked.extend_from_slice(&m[layout.hidden..]);
+                stacked.extend_from_slice(f);
+            }
+            (std::borrow::Cow::Owned(h), std::borrow::Cow::Owned(stacked))
+        };
+        let net = self.shape.stacked(self.cfg.stacked_frames);
+        let mut x = act_inputs(&features, agents, last, &net, id, la);
         if let Some(e) = &self.nets.encoder {
             let encoded = match seen {
                 Some(Seen::Frames(f)) => std::borrow::Cow::Owned(self.encode_team(f)?),
@@ -319,18 +352,23 @@ impl Policy {
                 None => return Err(Error::Observation { message: "an image encoder needs one team observation's frames".into() }),
             };
             let feats = Tensor::from_slice(&encoded, (1, e.out), &Device::Cpu)?.broadcast_as((rows, e.out))?.contiguous()?;
-            let base = Tensor::from_vec(x, (rows, self.shape.input(id, la)), &Device::Cpu)?;
+            let base = Tensor::from_vec(x, (rows, net.input(id, la)), &Device::Cpu)?;
             x = e.fuse_rows(feats, &base)?.flatten_all()?.to_vec1()?;
         }
-        let layout = self.nets.agent.layout();
-        if hidden.len() != rows * layout.hidden || x.len() != rows * layout.input {
-            return Err(Error::Checkpoint {
-                message: format!("{rows} rows with {} hidden values and {} inputs for a network of {layout:?}", hidden.len(), x.len()),
-            });
+        if x.len() != rows * layout.input {
+            return Err(Error::Checkpoint { message: format!("{rows} rows with {} inputs for a network of {layout:?}", x.len()) });
         }
-        let f = layout.forward(&self.theta, &x, hidden, None, Want::All, 1, rows, false);
+        let f = layout.forward(&self.theta, &x, &h, None, Want::All, 1, rows, false);
         // A feed-forward network's "hidden state" is its core layer's output, as candle's step gives it.
-        Ok((f.out, f.hidden))
+        if kept == 0 {
+            return Ok((f.out, f.hidden));
+        }
+        let mut memory = Vec::with_capacity(rows * mw);
+        for ((h2, m), x) in f.hidden.chunks_exact(layout.hidden.max(1)).zip(hidden.chunks_exact(mw)).zip(features.chunks_exact(kept + ow)) {
+            memory.extend_from_slice(h2);
+            memory.extend(crate::Stack::advance_row(&m[layout.hidden..], &x[kept..]));
+        }
+        Ok((f.out, memory))
     }
 }
 
@@ -421,7 +459,7 @@ impl Agent for MarlAgent {
     }
     fn reset(&mut self, ctx: &AgentCtx) {
         let n = self.policy.shape.n_agents;
-        self.hidden = vec![vec![0.0; self.policy.nets.agent.hidden]; n];
+        self.hidden = vec![vec![0.0; self.policy.memory_width()]; n];
         self.last = vec![None; n];
         // A network of other sizes would read other features: it then gives no orders (an
         // image mode's too, at the steps whose frames it was not shown).
@@ -482,7 +520,7 @@ impl Agent for MarlAgent {
         let Ok((q, h2)) = self.policy.q_values_seeing(&features, &agents, &last, &hidden, seen.as_ref()) else { return Vec::new() };
         // Greedy: epsilon 0 never draws.
         let acts = select_actions(&q, &avail, sh.n_actions, 0.0, &mut ChaCha8Rng::seed_from_u64(0));
-        let width = self.policy.nets.agent.hidden;
+        let width = self.policy.memory_width();
         let mut out = Vec::new();
         for (k, (c, &a)) in rows.iter().zip(&acts).enumerate() {
             self.hidden[c.agent].copy_from_slice(&h2[k * width..(k + 1) * width]);

@@ -350,6 +350,8 @@ impl Nets {
     pub fn new(cfg: &Config, shape: &Shape, seed: u64) -> Result<Nets, Error> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut agent_params = Params::default();
+        // What the networks read: `stacked_frames` steps of the observation (PPO's option).
+        let shape = &shape.stacked(cfg.stacked_frames);
         let input = agent_input_width(cfg, shape);
         let agent = if cfg.layer_norm {
             AgentNet::normed(&mut agent_params, input, cfg.rnn_hidden_dim, shape.n_actions, cfg.use_rnn, 1.0, &mut rng)?

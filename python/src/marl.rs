@@ -29,7 +29,8 @@ use std::sync::Arc;
 pub struct PyMarlPolicy {
     policy: Arc<Policy>,
     checkpoint: MarlCheckpoint,
-    /// n_agents x hidden, and each agent's last action (none before the first step).
+    /// n_agents x the policy's memory (its hidden state and, stacking, its last observations:
+    /// `Policy::memory_width`), and each agent's last action (none before the first step).
     hidden: Vec<f32>,
     last: Vec<Option<u32>>,
     /// Team 2's layout on the trained scenario, loaded when team 2 first acts (to mirror).
@@ -48,7 +49,7 @@ impl PyMarlPolicy {
     pub(crate) fn from_checkpoint(checkpoint: MarlCheckpoint) -> Result<Self, PolicyError> {
         let policy = Arc::clone(checkpoint.policy()?);
         let n = policy.shape.n_agents;
-        let width = policy.nets.agent.hidden;
+        let width = policy.memory_width();
         Ok(Self { policy, checkpoint, hidden: vec![0.0; n * width], last: vec![None; n], mirror: None, frames: None })
     }
 

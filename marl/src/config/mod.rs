@@ -207,6 +207,12 @@ pub struct Config {
     /// false, so that runs from before it read as they were.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub layer_norm: bool,
+    /// PPO: the networks read each agent's last `stacked_frames` observations (the critic its
+    /// last states), the MAPPO repository's `stacked_frames` ([`crate::Stack`]); 1: this
+    /// step's alone. Left out of saved configs when 1, so that runs from before it read as
+    /// they were.
+    #[serde(default = "one_frame", skip_serializing_if = "is_one_frame")]
+    pub stacked_frames: usize,
     // The observation mode and its encoder (`configs/obs.toml`, merged into every config;
     // the defaults let checkpoints older than these keys load as `features` runs).
     #[serde(default)]
@@ -249,6 +255,14 @@ fn one() -> f64 {
 
 fn is_one(v: &f64) -> bool {
     *v == 1.0
+}
+
+fn one_frame() -> usize {
+    1
+}
+
+fn is_one_frame(v: &usize) -> bool {
+    *v == 1
 }
 
 fn is_false(v: &bool) -> bool {

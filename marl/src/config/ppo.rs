@@ -4,6 +4,9 @@
 use super::{Config, ObsKind, at_least, bad, positive, unit, validate_obs};
 use crate::Error;
 
+/// The most steps `stacked_frames` stacks (the MAPPO repository's scripts use 4).
+const MAX_STACKED: usize = 16;
+
 impl Config {
     pub(super) fn validate_ppo(&self, def: &dyn Fn(fn(&Config) -> f64, f64) -> f64) -> Result<(), Error> {
         positive("critic_lr", self.critic_lr, def(|c| c.critic_lr, 5e-4))?;
@@ -60,6 +63,13 @@ impl Config {
                 ),
                 false,
             ));
+        }
+        if !(1..=MAX_STACKED).contains(&self.stacked_frames) {
+            return Err(bad("stacked_frames", self.stacked_frames, &format!("1 (no stacking) to {MAX_STACKED} steps"), 1));
+        }
+        if self.stacked_frames > 1 && (self.obs != ObsKind::Features || self.self_play()) {
+            let why = "stacking reads SMAC's features under a fixed opponent (not an image mode, not self-play, whose snapshots act without the history)";
+            return Err(bad("stacked_frames", self.stacked_frames, why, 1));
         }
         unit("gae_lambda", self.gae_lambda)?;
         for (key, v) in [

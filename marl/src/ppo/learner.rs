@@ -180,7 +180,7 @@ impl PpoLearner {
         let (critic, critic_layout) = if cfg.shared_trunk {
             (Critic::Head(Linear::new(&mut critic_params, "value", cfg.rnn_hidden_dim, 1, &mut rng)?), None)
         } else {
-            let (input, hidden) = (critic_input.width(&shape), cfg.rnn_hidden_dim);
+            let (input, hidden) = (critic_input.width(&shape.stacked(cfg.stacked_frames)), cfg.rnn_hidden_dim);
             // The critic is built as the actor is: recurrent (the MAPPO repository's `rmappo`)
             // or feed-forward (its `mappo`, which its scripts run on some maps).
             let net = if cfg.layer_norm {
@@ -284,6 +284,11 @@ impl PpoLearner {
             Critic::Own(_) => (actor, critic),
             Critic::Head(_) => (with_value_row(&actor, &critic, self.shape.n_actions), Vec::new()),
         })
+    }
+
+    /// The critic network's sizes (`None`: a value head on the actor's trunk).
+    pub fn critic_layout(&self) -> Option<NetLayout> {
+        self.critic_layout
     }
 
     /// Whether the critic is a head on the actor's trunk.

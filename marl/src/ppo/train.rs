@@ -20,7 +20,7 @@ use crate::buffer::{Shape, act_inputs};
 use crate::carry::Carry;
 use crate::monitor::{Monitor, Progress, RunOptions, Summary};
 use crate::resume::{self, RunState};
-use crate::{Config, Error, UpdateStats, checkpoint};
+use crate::{Config, Error, Stack, UpdateStats, checkpoint};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::time::{Duration, Instant};
@@ -52,6 +52,8 @@ pub(crate) fn train_from(
     let mut env = monitor.env()?;
     let (a, _, _, na) = env.shape();
     let shape = Shape::of(&env);
+    // The networks' sizes: `stacked_frames` steps of observation and state side by side.
+    let net = shape.stacked(cfg.stacked_frames);
     let mut learner = PpoLearner::new(cfg, shape, opts.seed)?;
     let mut act_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x5eed_0001);
     let mut update_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x5eed_0002);
@@ -72,21 +74,23 @@ pub(crate) fn train_from(
     let (id, la) = (cfg.obs_agent_id, cfg.obs_last_action);
     let agents: Vec<usize> = (0..rows).map(|r| r % a.max(1)).collect();
     let shared = learner.shared();
-    let mut lanes = Lanes::new(rows, hidden, shared, e);
+    let stacks = || (Stack::new(cfg.stacked_frames, shape.obs, rows), Stack::new(cfg.stacked_frames, shape.state, e));
+    let mut lanes = Lanes::new(rows, hidden, shared, e, stacks());
     let mut roll = Rollout { rows, n_agents: a, ..Rollout::default() };
     let mut last_stats = UpdateStats::default();
     if let Some(c) = &kept {
-        let want = kept_sizes(cfg, &learner, &shape, e);
-        (lanes, roll, last_stats) = (Lanes::kept(c, &mut env, &want)?, Rollout::kept(c, &want)?, c.get_stats("last_stats")?);
+        let want = kept_sizes(cfg, &learner, &net, e);
+        (lanes, roll, last_stats) = (Lanes::kept(c, &mut env, &want, stacks())?, Rollout::kept(c, &want)?, c.get_stats("last_stats")?);
     }
     // Wall-clock per phase, for the summary only: nothing learned depends on it.
     let mut time = [Duration::ZERO; 5];
     while t_env < cfg.t_max {
         let clock = Instant::now();
         let b = &env.buffers;
-        let x_actor = act_inputs(&b.obs, &agents, &lanes.last, &shape, id, la);
+        let (obs, state) = (lanes.obs_stack.push(&b.obs), lanes.state_stack.push(&b.state));
+        let x_actor = act_inputs(&obs, &agents, &lanes.last, &net, id, la);
         // A shared trunk's critic reads the actor's rows: no rows or states of its own.
-        let x_critic = if shared { CriticRows::default() } else { learner.critic_input.rows(&shape, &b.obs, &b.state, e) };
+        let x_critic = if shared { CriticRows::default() } else { learner.critic_input.rows(&net, &obs, &state, e) };
         if roll.t.is_multiple_of(cfg.data_chunk_length) {
             roll.h_actor.extend_from_slice(&lanes.h_actor);
             roll.h_critic.extend_from_slice(&lanes.h_critic);
@@ -116,7 +120,7 @@ pub(crate) fn train_from(
         lanes.advance(&done, &acts, (out.h_actor, out.h_critic), a, hidden);
         let t_record = clock.elapsed();
         if roll.t == cfg.rollout_len {
-            let rows = Inputs { obs: &b.obs, state: &b.state, agents: &agents, shape: &shape, envs: e };
+            let rows = Inputs { obs: &b.obs, state: &b.state, agents: &agents, shape: &net, envs: e };
             last_stats = update(cfg, &mut learner, &mut roll, &lanes, &rows, &mut update_rng)?;
         }
         let t_update = clock.elapsed();
@@ -179,11 +183,16 @@ struct Lanes {
     returns: Vec<f32>,
     /// Team 1's actions since each environment's episode began (what a resume replays).
     since: Vec<Vec<u32>>,
+    /// Each row's last observations and each environment's last states (`stacked_frames`).
+    obs_stack: Stack,
+    state_stack: Stack,
 }
 
 impl Lanes {
-    fn new(rows: usize, hidden: usize, shared: bool, envs: usize) -> Lanes {
+    fn new(rows: usize, hidden: usize, shared: bool, envs: usize, (obs_stack, state_stack): (Stack, Stack)) -> Lanes {
         Lanes {
+            obs_stack,
+            state_stack,
             h_actor: vec![0f32; rows * hidden],
             h_critic: vec![0f32; if shared { 0 } else { rows * hidden }],
             last: vec![None; rows],
@@ -194,9 +203,20 @@ impl Lanes {
     }
 
     /// The lanes a checkpoint kept, its environments replayed into `env`.
-    fn kept(c: &Carry, env: &mut avacraft_engine::VecEnv, want: &Sizes) -> Result<Lanes, Error> {
+    fn kept(
+        c: &Carry,
+        env: &mut avacraft_engine::VecEnv,
+        want: &Sizes,
+        (mut obs_stack, mut state_stack): (Stack, Stack),
+    ) -> Result<Lanes, Error> {
         let (rows, hidden, envs, n_actions) = (want.rows, want.hidden, want.envs, want.n_actions);
+        if obs_stack.on() {
+            obs_stack.set_history(c.get_f32s("obs_stack")?).map_err(|why| c.bad(why))?;
+            state_stack.set_history(c.get_f32s("state_stack")?).map_err(|why| c.bad(why))?;
+        }
         let lanes = Lanes {
+            obs_stack,
+            state_stack,
             since: c.restore_lanes(env)?,
             h_actor: c.get_f32s("h_actor")?,
             h_critic: c.get_f32s("h_critic")?,
@@ -218,6 +238,10 @@ impl Lanes {
         c.f32s("h_critic", &self.h_critic)?;
         c.actions("last", &self.last)?;
         c.f32s("keep", &self.keep)?;
+        if self.obs_stack.on() {
+            c.f32s("obs_stack", self.obs_stack.history())?;
+            c.f32s("state_stack", self.state_stack.history())?;
+        }
         c.f32s("returns", &self.returns)
     }
 
@@ -259,6 +283,9 @@ impl Lanes {
         for ((l, &act), &k) in self.last.iter_mut().zip(acts).zip(&self.keep) {
             *l = if k > 0.0 { Some(act) } else { None };
         }
+        // The next episode's first step reads no steps of the last one.
+        self.obs_stack.clear(done, a);
+        self.state_stack.clear(done, 1);
     }
 }
 
@@ -267,6 +294,7 @@ struct Inputs<'a> {
     obs: &'a [f32],
     state: &'a [f32],
     agents: &'a [usize],
+    /// The networks' sizes (stacked).
     shape: &'a Shape,
     envs: usize,
 }
@@ -282,9 +310,10 @@ fn update(
     rng: &mut ChaCha8Rng,
 ) -> Result<UpdateStats, Error> {
     let shared = learner.shared();
-    let x_critic = if shared { CriticRows::default() } else { learner.critic_input.rows(x.shape, x.obs, x.state, x.envs) };
-    let x_actor =
-        if shared { act_inputs(x.obs, x.agents, &lanes.last, x.shape, cfg.obs_agent_id, cfg.obs_last_action) } else { Vec::new() };
+    // The states the rollout ended in, after each row's history (which the next step moves on).
+    let (obs, state) = (lanes.obs_stack.peek(x.obs), lanes.state_stack.peek(x.state));
+    let x_critic = if shared { CriticRows::default() } else { learner.critic_input.rows(x.shape, &obs, &state, x.envs) };
+    let x_actor = if shared { act_inputs(&obs, x.agents, &lanes.last, x.shape, cfg.obs_agent_id, cfg.obs_last_action) } else { Vec::new() };
     roll.values.extend(learner.values(&x_actor, &lanes.h_actor, x_critic.input(), &lanes.h_critic));
     let st = learner.update(roll, rng)?;
     roll.clear();

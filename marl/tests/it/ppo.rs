@@ -3,10 +3,10 @@
 
 use crate::common;
 
-use avacraft_engine::Scenario;
+use avacraft_engine::{Env, Scenario, Team};
 use avacraft_marl::kernels::Input;
 use avacraft_marl::ppo::{CriticInput, FlatBatch, MASKED, PpoLearner, Rollout, ValueNorm, gae, masked_log_softmax, sample_actions};
-use avacraft_marl::{Config, MarlAgent, Policy, RunOptions, Shape, Trained, train};
+use avacraft_marl::{Config, FramesActor, MarlAgent, Policy, RunOptions, Shape, Trained, select_actions, train};
 use candle_core::{Device, Tensor};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -423,6 +423,98 @@ fn a_feed_forward_mappo_run_keeps_no_state_and_its_checkpoint_plays_alike() -> R
         assert!((f64::from(p.ret) - r.mean_return).abs() < 1e-4, "seed {seed}: agent {}, trainer {}", p.ret, r.mean_return);
     }
     let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
+
+/// `stacked_frames` (the MAPPO repository's frame stacking): refused where it cannot mean
+/// what it says, saved only when on; the networks read `k` observations (and the critic `k`
+/// states) a row, a short run's checkpoint carries each agent's last observations from step to
+/// step and plays as the trainer's greedy tests do, recurrent or not.
+#[test]
+fn a_frame_stacking_mappo_run_reads_its_last_observations_and_its_checkpoint_plays_alike() -> R {
+    let err =
+        |algo: &str, o: &[&str]| Config::for_algo(algo, &o.iter().map(|s| s.to_string()).collect::<Vec<_>>()).err().map(|e| e.to_string());
+    for (algo, o) in [
+        ("qmix", &["stacked_frames=4"][..]),
+        ("mappo", &["stacked_frames=0"]),
+        ("mappo", &["stacked_frames=17"]),
+        ("ippo", &["stacked_frames=2", "obs=\"rgb\""]),
+    ] {
+        let e = err(algo, o).ok_or(format!("{algo} {o:?} was taken"))?;
+        assert!(e.contains("stacked_frames"), "{algo} {o:?}: {e}");
+    }
+    assert!(!serde_json::to_string(&ppo_cfg("mappo", &[])?)?.contains("stacked_frames"));
+    let c = ppo_cfg("mappo", &["stacked_frames=4"])?;
+    assert!(serde_json::to_string(&c)?.contains("\"stacked_frames\":4"));
+    let l = PpoLearner::new(&c, SMALL, 4)?;
+    assert_eq!(l.actor.agent.layout().input, 4 * SMALL.obs + SMALL.n_agents + SMALL.n_actions);
+    assert_eq!(l.critic_layout().map(|x| x.input), Some(4 * SMALL.state + SMALL.n_agents));
+
+    let scenario = Arc::new(Scenario::load("3m_vlm")?);
+    for use_rnn in [false, true] {
+        let dir = std::env::temp_dir().join(format!("avacraft-ppo-stack-{use_rnn}-{}", std::process::id()));
+        let c = Config { use_rnn, stacked_frames: 3, ..short("mappo")? };
+        let opts = RunOptions { scenario: Arc::clone(&scenario), seed: 3, threads: 2, out: Some(dir.clone()) };
+        let (trained, summary) = train(&c, &opts, &mut |_| {})?;
+        assert!(summary.last_loss.is_finite() && summary.updates == 25, "{summary:?}");
+        let agent = MarlAgent::load(&dir)?;
+        let p = agent.policy();
+        assert_eq!((p.cfg.stacked_frames, p.memory_width()), (3, c.rnn_hidden_dim + 2 * p.shape.obs));
+        for seed in 1..=2 {
+            let r = train::test(trained.nets(), &c, &scenario, &[seed], 1)?;
+            let played = common::play(p, &scenario, &c, seed);
+            assert!(
+                (f64::from(played.ret) - r.mean_return).abs() < 1e-4,
+                "rnn {use_rnn}, seed {seed}: agent {}, trainer {}",
+                played.ret,
+                r.mean_return
+            );
+        }
+        // The memory a step hands back holds the observation it read, after the ones before.
+        let n = p.shape.n_agents;
+        let agents: Vec<usize> = (0..n).collect();
+        let step = |k: f32| -> Vec<f32> { (0..n * p.shape.obs).map(|i| (i as f32 * 0.11 + k).sin()).collect() };
+        let (q0, m1) = p.q_values(&step(0.0), &agents, &vec![None; n], &vec![0.0; n * p.memory_width()])?;
+        let (q1, m2) = p.q_values(&step(1.0), &agents, &vec![None; n], &m1)?;
+        let (q1_fresh, _) = p.q_values(&step(1.0), &agents, &vec![None; n], &vec![0.0; n * p.memory_width()])?;
+        let (h, o) = (c.rnn_hidden_dim, p.shape.obs);
+        for a in 0..n {
+            let row = &m2[a * p.memory_width() + h..(a + 1) * p.memory_width()];
+            assert_eq!(row[..o], step(0.0)[a * o..(a + 1) * o], "agent {a}: the older observation");
+            assert_eq!(row[o..], step(1.0)[a * o..(a + 1) * o], "agent {a}: the newer one");
+        }
+        assert_ne!(q1, q1_fresh, "rnn {use_rnn}: the observations before did not change what it reads");
+        assert_eq!(q0.len(), q1.len());
+        // Step by step through a game, the trainer's acting side (here through `FramesActor`)
+        // and a checkpoint's memory choose alike, where forgetting the history would not (a
+        // fresh network at full output scale, whose choices the history moves).
+        let sharp = Config { actor_out_gain: 1.0, ..c.clone() };
+        let fresh = PpoLearner::new(&sharp, p.shape, 9)?;
+        avacraft_marl::checkpoint::save(&dir, &fresh.actor, &sharp, &p.shape, "3m_vlm")?;
+        let p = &Arc::new(Policy::load(&dir)?);
+        let mut actor = FramesActor::new(Arc::clone(p), &scenario)?;
+        let mut env = Env::new(Arc::clone(&scenario), c.env_config()?, 7);
+        let (mut memory, mut last) = (vec![0.0; n * p.memory_width()], vec![None; n]);
+        let (mut obs, mut avail) = (vec![0.0; n * o], vec![0u8; n * p.shape.n_actions]);
+        let (mut steps, mut forgetful) = (0, 0);
+        let greedy = |q: &[f32], avail: &[u8]| select_actions(q, avail, p.shape.n_actions, 0.0, &mut ChaCha8Rng::seed_from_u64(0));
+        while !env.done() {
+            let acts = actor.choose(&env)?;
+            env.obs_all(Team::One, &mut obs)?;
+            env.avail_all(Team::One, &mut avail)?;
+            let (q, m) = p.q_values(&obs, &agents, &last, &memory)?;
+            let chosen = greedy(&q, &avail);
+            assert_eq!(acts, chosen.iter().map(|&a| a as usize).collect::<Vec<_>>(), "rnn {use_rnn}, step {steps}");
+            let (q_fresh, _) = p.q_values(&obs, &agents, &last, &vec![0.0; n * p.memory_width()])?;
+            forgetful += usize::from(greedy(&q_fresh, &avail) != chosen);
+            (memory, last) = (m, chosen.iter().map(|&a| Some(a)).collect());
+            let _ = env.submit_indices(Team::One, &acts);
+            env.step();
+            steps += 1;
+        }
+        assert!(forgetful > 0, "rnn {use_rnn}: no step of {steps} chose otherwise without its history");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
     Ok(())
 }
 

@@ -23,12 +23,12 @@ fn scratch(name: &str) -> PathBuf {
     d
 }
 
-fn killed_and_resumed_runs_write_the_uninterrupted_log(algo: &str, scenario: &str, extra: &[&str], kills: &[usize]) -> R {
+fn killed_and_resumed_runs_write_the_uninterrupted_log(name: &str, algo: &str, scenario: &str, extra: &[&str], kills: &[usize]) -> R {
     let mut o: Vec<String> = vec!["test_nepisode=4".into(), "test_interval=200".into()];
     o.extend(extra.iter().map(|s| s.to_string()));
     let full = Config::for_algo(algo, &o)?;
     let scenario = Arc::new(Scenario::load(scenario)?);
-    let dir = scratch(&format!("{algo}-full"));
+    let dir = scratch(&format!("{name}-full"));
     let opts = RunOptions { scenario: Arc::clone(&scenario), seed: 3, threads: 2, out: Some(dir.clone()) };
     let (_, whole) = train(&full, &opts, &mut |_| {})?;
     let want = rows(&dir)?;
@@ -39,7 +39,7 @@ fn killed_and_resumed_runs_write_the_uninterrupted_log(algo: &str, scenario: &st
     let kill_steps: Vec<u64> = kills.iter().filter_map(|&i| steps.get(i).copied()).collect();
     assert_eq!(kill_steps.len(), kills.len(), "{algo}: every kill falls on one of the {} test rounds", steps.len());
     for k in kill_steps {
-        let kdir = scratch(&format!("{algo}-{k}"));
+        let kdir = scratch(&format!("{name}-{k}"));
         let opts = RunOptions { out: Some(kdir.clone()), ..opts.clone() };
         // Killed right after the test round of step k (the progress callback comes after the
         // round's checkpoint; a panic stops the run there, as a kill would)...
@@ -72,14 +72,22 @@ fn a_killed_and_resumed_mappo_run_writes_the_uninterrupted_log() -> R {
     // Rollouts of 8 x 30 steps and a test round every 100: the kills fall inside rollouts,
     // and some test rounds come before the resumed run's first update.
     let extra = ["t_max=1200", "envs=8", "rollout_len=30", "episode_limit=25", "test_interval=100"];
-    killed_and_resumed_runs_write_the_uninterrupted_log("mappo", "2s3z", &extra, &[1, 4, 9])
+    killed_and_resumed_runs_write_the_uninterrupted_log("mappo", "mappo", "2s3z", &extra, &[1, 4, 9])
+}
+
+/// With stacked frames (`stacked_frames`) a resume inside a rollout also puts back each row's
+/// last observations and each environment's last states.
+#[test]
+fn a_killed_and_resumed_frame_stacking_mappo_run_writes_the_uninterrupted_log() -> R {
+    let extra = ["t_max=1200", "envs=8", "rollout_len=30", "episode_limit=25", "test_interval=100", "stacked_frames=3", "use_rnn=false"];
+    killed_and_resumed_runs_write_the_uninterrupted_log("mappo-stacked", "mappo", "2s3z", &extra, &[1, 4])
 }
 
 #[test]
 fn a_killed_and_resumed_qmix_run_writes_the_uninterrupted_log() -> R {
     // A buffer smaller than the episodes played, so it has wrapped when resumed.
     let extra = ["t_max=1400", "envs=4", "batch_size=8", "buffer_size=40", "epsilon_anneal_time=600", "episode_limit=25"];
-    killed_and_resumed_runs_write_the_uninterrupted_log("qmix", "3m", &extra, &[0, 3, 5])
+    killed_and_resumed_runs_write_the_uninterrupted_log("qmix", "qmix", "3m", &extra, &[0, 3, 5])
 }
 
 /// A run given other settings (a plan's run going on from another) resumes under them;
