@@ -39,7 +39,7 @@
 //!
 //! 1. foundations: `error`, `aside`, `params`, `optim`, `opponent`, `value_norm`, `plot`, `tensorboard`, `runlog`, `baselines`, `lock`
 //! 2. configuration: `config`
-//! 3. data: `kernels`, `frames`, `buffer`, `journal`, `td`
+//! 3. data: `kernels`, `frames`, `buffer`, `journal`, `td`, `stack`
 //! 4. networks: `encoders`, `nets`, `qtran`, `observe`
 //! 5. acting: `acting`, `checkpoint`, `evaluation`, `selfplay`
 //! 6. learning: `learner`, `carry`, `resume`, `monitor`, `ppo`

@@ -58,17 +58,10 @@ pub(crate) fn train_from(
     let mut act_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x5eed_0001);
     let mut update_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ 0x5eed_0002);
     let mut source = crate::ObsSource::new(cfg)?;
-    let (mut t_env, mut episodes) = (0u64, 0u64);
-    if let Some(st) = &start {
-        let Some(dir) = &opts.out else {
-            return Err(Error::Checkpoint { message: "resuming needs the run's directory".into() });
-        };
-        restore(dir, &mut learner, st)?;
-        let (ap, up) = st.rng_positions()?;
-        act_rng.set_word_pos(ap);
-        update_rng.set_word_pos(up);
-        (t_env, episodes) = (st.t_env, st.episodes);
-    }
+    let (mut t_env, mut episodes) = match &start {
+        Some(st) => resumed(opts, st, &mut learner, (&mut act_rng, &mut update_rng))?,
+        None => (0, 0),
+    };
     monitor.start_self_play(&learner.actor, learner.updates, start.is_some(), &mut env)?;
     let (rows, hidden) = (e * a, cfg.rnn_hidden_dim);
     let (id, la) = (cfg.obs_agent_id, cfg.obs_last_action);
@@ -151,6 +144,23 @@ pub(crate) fn train_from(
     let phases = ["act", "env", "record", "update", "test"].iter().zip(time).map(|(n, d)| (n.to_string(), d.as_secs_f64())).collect();
     let summary = Summary { t_env, episodes, updates: learner.updates, last_loss: last_stats.loss, tests: monitor.tests, phases };
     Ok((learner, summary))
+}
+
+/// Puts a resumed run's learner and random streams back; returns its steps and episodes.
+fn resumed(
+    opts: &RunOptions,
+    st: &RunState,
+    learner: &mut PpoLearner,
+    (act, update): (&mut ChaCha8Rng, &mut ChaCha8Rng),
+) -> Result<(u64, u64), Error> {
+    let Some(dir) = &opts.out else {
+        return Err(Error::Checkpoint { message: "resuming needs the run's directory".into() });
+    };
+    restore(dir, learner, st)?;
+    let (ap, up) = st.rng_positions()?;
+    act.set_word_pos(ap);
+    update.set_word_pos(up);
+    Ok((st.t_env, st.episodes))
 }
 
 /// What a resume's kept rollout and lanes must measure in this run.
