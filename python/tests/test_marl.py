@@ -126,6 +126,32 @@ def test_a_shipped_baseline_by_name_plays_as_its_checkpoint(tmp_path, monkeypatc
 
 
 
+STACKED = pathlib.Path(__file__).resolve().parents[2] / "baselines" / "3s_vs_5z" / "mappo-ff-ln-stack"
+
+
+def test_a_frame_stacking_policy_carries_its_observations_from_step_to_step_as_in_rust():
+    """A shipped MAPPO that reads each agent's last 4 observations (`stacked_frames`) acts from
+    a SMAC loop as the Rust agent plays it, the observations kept in the policy between steps
+    (and dropped by `reset`)."""
+    policy = avacraft.MarlPolicy(STACKED)
+    for seed in (1, 2):
+        env = avacraft.StarCraft2Env("3s_vs_5z", seed=seed)
+        env.reset()
+        policy.reset()
+        done, actions, forgetful = False, [], 0
+        while not done:
+            obs, avail = env.get_obs(), env.get_avail_actions()
+            a = policy.act(obs, avail)
+            actions.append(a.tolist())
+            fresh = avacraft.MarlPolicy(STACKED)
+            forgetful += int((fresh.act(obs, avail) != a).any())
+            _, done, info = env.step(a)
+        ref = policy.play(avacraft.Env("3s_vs_5z"), seed)
+        assert actions == [[x if x >= 0 else 0 for x in step] for step in ref["actions"]], f"seed {seed}"
+        assert info["battle_won"] == (ref["result"] == "win")
+        assert forgetful > 0, f"seed {seed}: acting without the observations before chose the same at every step"
+
+
 PVP = pathlib.Path(__file__).resolve().parents[2] / "baselines" / "terran_mirror" / "mappo"
 
 
