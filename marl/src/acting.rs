@@ -84,7 +84,7 @@ impl Actor {
         let net = shape.stacked(cfg.stacked_frames);
         let mut x = act_inputs(&obs, &self.agents, &self.last, &net, cfg.obs_agent_id, cfg.obs_last_action);
         if nets.encoder.is_some() {
-            let width = shape.input(cfg.obs_agent_id, cfg.obs_last_action);
+            let width = net.input(cfg.obs_agent_id, cfg.obs_last_action);
             let t = Tensor::from_vec(x, (rows, width), &Device::Cpu)?;
             x = nets.step_inputs_pixels(t, frames)?.flatten_all()?.to_vec1()?;
         }

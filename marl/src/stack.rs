@@ -88,7 +88,7 @@ impl Stack {
         Ok(())
     }
 
-    /// Row `r`'s next history after input `x` (one row), for a caller that keeps each row's
+    /// A row's next history after its input `x`, for a caller that keeps each row's
     /// history itself ([`crate::Policy::q_values`]).
     pub(crate) fn advance_row(history: &[f32], x: &[f32]) -> Vec<f32> {
         let mut h = Vec::with_capacity(history.len());
