@@ -442,6 +442,12 @@ impl Config {
         if self.is_ppo() {
             return self.validate_ppo(&def);
         }
+        if self.stacked_frames != 1 {
+            // The replay batch rebuilds each step's inputs unstacked: a stacked agent network would
+            // act through its first episodes and fail at the first update.
+            let why = "stacking is built for IPPO and MAPPO (the Q-learners' replay batch reads one step's observation)";
+            return Err(bad("stacked_frames", self.stacked_frames, why, 1));
+        }
         at_least("batch_size", self.batch_size, 1)?;
         at_least("buffer_size", self.buffer_size, self.batch_size)
             .map_err(|e| rule(e, "must hold at least batch_size episodes (batch_size is the nearest)"))?;

@@ -443,6 +443,9 @@ fn a_frame_stacking_mappo_run_reads_its_last_observations_and_its_checkpoint_pla
         let e = err(algo, o).ok_or(format!("{algo} {o:?} was taken"))?;
         assert!(e.contains("stacked_frames"), "{algo} {o:?}: {e}");
     }
+    // A config file (not `--set`, which qmix.toml refuses for want of the key) reaches validate.
+    let q = Config { stacked_frames: 4, ..Config::for_algo("qmix", &[])? }.validate().err().map(|e| e.to_string());
+    assert!(q.as_deref().is_some_and(|e| e.contains("stacked_frames")), "{q:?}");
     assert!(!serde_json::to_string(&ppo_cfg("mappo", &[])?)?.contains("stacked_frames"));
     let c = ppo_cfg("mappo", &["stacked_frames=4"])?;
     assert!(serde_json::to_string(&c)?.contains("\"stacked_frames\":4"));
