@@ -443,8 +443,6 @@ impl Config {
             return self.validate_ppo(&def);
         }
         if self.stacked_frames != 1 {
-            // The replay batch rebuilds each step's inputs unstacked: a stacked agent network would
-            // act through its first episodes and fail at the first update.
             let why = "stacking is built for IPPO and MAPPO (the Q-learners' replay batch reads one step's observation)";
             return Err(bad("stacked_frames", self.stacked_frames, why, 1));
         }
