@@ -473,8 +473,9 @@ opponent = "focus-fire"
         // 3s_vs_5z (seeds 1-3) and (feed-forward) on 6h_vs_8z; and the weapon period counted
         // from the shot, QMIX on six maps and MAPPO on 2s_vs_1sc; the SMAC paper's own QMIX
         // settings on three maps and EPyMARL's on 5m_vs_6m; the MAPPO repository's 3s_vs_5z
-        // script without and with its stacked frames (seeds 1-3 each).
-        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 2 * 2 + 12 + 7 + 3 + 1 + 2 * 3);
+        // script without and with its stacked frames (seeds 1-3 each); and on 5m_vs_6m the MAPPO
+        // repository's clip and epochs on the plan's recurrent network (seeds 1-3).
+        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 2 * 2 + 12 + 7 + 3 + 1 + 2 * 3 + 3);
         for map in ["3s5z_vs_3s6z", "5m_vs_6m", "corridor"] {
             let paper = smac.jobs.iter().find(|j| j.id == format!("{map}/qmix-pymarl-s1")).expect("the SMAC paper's QMIX");
             let cfg = avacraft_marl::Config::for_algo("qmix", &paper.overrides).unwrap_or_else(|e| panic!("{e}"));
@@ -510,6 +511,13 @@ opponent = "focus-fire"
             let cfg = avacraft_marl::Config::for_algo("mappo", &job.overrides).unwrap_or_else(|e| panic!("{e}"));
             let repo = cfg.layer_norm && !cfg.use_rnn && cfg.clip_param == 0.05 && cfg.ppo_epochs == 15;
             assert!(repo && cfg.stacked_frames == stacked && job.steps == 2_000_000, "{id}: {cfg:?}");
+        }
+        for seed in [1, 2, 3] {
+            let id = format!("5m_vs_6m/mappo-clip-s{seed}");
+            let job = smac.jobs.iter().find(|j| j.id == id).unwrap_or_else(|| panic!("{id}"));
+            let cfg = avacraft_marl::Config::for_algo("mappo", &job.overrides).unwrap_or_else(|e| panic!("{e}"));
+            let repo = cfg.use_rnn && !cfg.layer_norm && cfg.clip_param == 0.05 && cfg.ppo_epochs == 10;
+            assert!(repo && job.steps == 2_000_000, "{id}: {cfg:?}");
         }
         let default = smac.jobs.iter().find(|j| j.id == "2s_vs_1sc/qmix-pymarl2-s1").expect("pymarl2's QMIX on 2s_vs_1sc");
         let cfg = avacraft_marl::Config::for_algo("qmix", &default.overrides).unwrap_or_else(|e| panic!("{e}"));
