@@ -474,8 +474,9 @@ opponent = "focus-fire"
         // from the shot, QMIX on six maps and MAPPO on 2s_vs_1sc; the SMAC paper's own QMIX
         // settings on three maps and EPyMARL's on 5m_vs_6m; the MAPPO repository's 3s_vs_5z
         // script without and with its stacked frames (seeds 1-3 each); and on 5m_vs_6m the MAPPO
-        // repository's clip and epochs on the plan's recurrent network (seeds 1-3).
-        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 2 * 2 + 12 + 7 + 3 + 1 + 2 * 3 + 3);
+        // repository's clip and epochs on the plan's recurrent network (seeds 1-3); on 3s_vs_4z
+        // the repository's script for it (seeds 1-3).
+        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 2 * 2 + 12 + 7 + 3 + 1 + 2 * 3 + 3 + 3);
         for map in ["3s5z_vs_3s6z", "5m_vs_6m", "corridor"] {
             let paper = smac.jobs.iter().find(|j| j.id == format!("{map}/qmix-pymarl-s1")).expect("the SMAC paper's QMIX");
             let cfg = avacraft_marl::Config::for_algo("qmix", &paper.overrides).unwrap_or_else(|e| panic!("{e}"));
@@ -505,11 +506,14 @@ opponent = "focus-fire"
             let cfg = avacraft_marl::Config::for_algo("mappo", &job.overrides).unwrap_or_else(|e| panic!("{e}"));
             assert!(cfg.layer_norm && cfg.use_rnn == rnn && job.steps == steps, "{id}: {cfg:?}");
         }
-        // The MAPPO repository's 3s_vs_5z script, without and with its stacked frames.
-        for (id, stacked) in [("3s_vs_5z/mappo-ff-ln-clip-s2", 1), ("3s_vs_5z/mappo-ff-ln-stack-s3", 4)] {
+        // The MAPPO repository's 3s_vs_5z script, without and with its stacked frames, and its
+        // 3s_vs_4z script (the clip at its default).
+        for (id, stacked, clip) in
+            [("3s_vs_5z/mappo-ff-ln-clip-s2", 1, 0.05), ("3s_vs_5z/mappo-ff-ln-stack-s3", 4, 0.05), ("3s_vs_4z/mappo-stack-s2", 4, 0.2)]
+        {
             let job = smac.jobs.iter().find(|j| j.id == id).unwrap_or_else(|| panic!("{id}"));
             let cfg = avacraft_marl::Config::for_algo("mappo", &job.overrides).unwrap_or_else(|e| panic!("{e}"));
-            let repo = cfg.layer_norm && !cfg.use_rnn && cfg.clip_param == 0.05 && cfg.ppo_epochs == 15;
+            let repo = cfg.layer_norm && !cfg.use_rnn && cfg.clip_param == clip && cfg.ppo_epochs == 15;
             assert!(repo && cfg.stacked_frames == stacked && job.steps == 2_000_000, "{id}: {cfg:?}");
         }
         for seed in [1, 2, 3] {
