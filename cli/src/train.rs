@@ -219,10 +219,10 @@ struct Done {
 }
 
 /// A shipped run's size budget without its curves, and all shipped runs' together (a guard on
-/// the repository's size: some 160 policies of the paper's, SMAC's and the PvP leagues' runs
-/// take about 42 MB, a third of it their curves, with room for a few more SMAC runs).
+/// the repository's size: some 175 policies of the paper's, SMAC's and the PvP leagues' runs
+/// take about 47 MB, a third of it their curves, with room for about ten more runs).
 const SHIP_RUN_BYTES: u64 = 300 * 1024;
-const SHIP_TOTAL_BYTES: u64 = 44 * 1024 * 1024;
+const SHIP_TOTAL_BYTES: u64 = 48 * 1024 * 1024;
 
 /// `train --plan FILE --ship DIR`: the plan's finished runs' policies into `DIR`.
 fn ship_plan(
