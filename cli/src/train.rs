@@ -33,8 +33,9 @@ pub struct TrainArgs {
     #[arg(long, value_name = "i/n", requires = "plan")]
     pub shard: Option<avacraft_eval::Shard>,
     /// With --plan: only these runs (plan ids such as `27m_vs_30m/qmix-s1`), e.g. to go on
-    /// with one unfinished run whose folder came with the repository.
-    #[arg(long, value_name = "RUN", num_args = 1.., requires = "plan", conflicts_with = "ship")]
+    /// with one unfinished run whose folder came with the repository; with --ship, ship these
+    /// alone and leave every other shipped run as it is.
+    #[arg(long, value_name = "RUN", num_args = 1.., requires = "plan")]
     pub only: Vec<String>,
     /// With --plan: train nothing; copy the plan's finished runs' policies into
     /// DIR/<scenario>/<run> (seed 1; other seeds <run>-s<seed>): each one's best checkpoint's
@@ -93,7 +94,7 @@ pub struct TrainArgs {
 
 pub fn run(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     if let (Some(plan), Some(to)) = (&a.plan, &a.ship) {
-        return ship_plan(plan, a.shard, to, &a.unfinished, out);
+        return ship_plan(plan, (a.shard, &a.only), to, &a.unfinished, out);
     }
     if let Some(n) = a.threads {
         if n == 0 {
@@ -224,19 +225,40 @@ struct Done {
 const SHIP_RUN_BYTES: u64 = 300 * 1024;
 const SHIP_TOTAL_BYTES: u64 = 48 * 1024 * 1024;
 
-/// `train --plan FILE --ship DIR`: the plan's finished runs' policies into `DIR`.
+/// The plan's runs of one shard, and of those only the ones named (all when none is), a name
+/// the shard lacks refused with the shard's.
+fn select<'p>(
+    plan: &'p avacraft_eval::TrainPlan,
+    shard: Option<avacraft_eval::Shard>,
+    only: &[String],
+) -> Result<Vec<&'p avacraft_eval::TrainJob>> {
+    let mut jobs = plan.shard(shard);
+    if let Some(bad) = only.iter().find(|u| !jobs.iter().any(|j| &j.id == *u)) {
+        let ids: Vec<&str> = jobs.iter().map(|j| j.id.as_str()).collect();
+        let of = shard.map_or_else(String::new, |s| format!(" in shard {}/{}", s.index, s.count));
+        bail!("--only {bad}: not one of the plan's runs{of} ({})", ids.join(", "));
+    }
+    if !only.is_empty() {
+        jobs.retain(|j| only.contains(&j.id));
+    }
+    Ok(jobs)
+}
+
+/// `train --plan FILE --ship DIR`: the plan's finished runs' policies into `DIR` (with
+/// `--only`, those named alone: no other shipped run is touched, nor its figure redrawn).
 fn ship_plan(
     path: &std::path::Path,
-    shard: Option<avacraft_eval::Shard>,
+    (shard, only): (Option<avacraft_eval::Shard>, &[String]),
     to: &std::path::Path,
     unfinished: &[String],
     out: &mut dyn Write,
 ) -> Result<()> {
     let plan = avacraft_eval::load_train_plan(path)?;
-    let jobs = plan.shard(shard);
+    let jobs = select(&plan, shard, only)?;
     if let Some(bad) = unfinished.iter().find(|u| !jobs.iter().any(|j| &j.id == *u)) {
         let ids: Vec<&str> = jobs.iter().map(|j| j.id.as_str()).collect();
-        bail!("--unfinished {bad}: not one of the plan's runs ({})", ids.join(", "));
+        let what = if only.is_empty() { "the plan's runs" } else { "the runs --only names" };
+        bail!("--unfinished {bad}: not one of {what} ({})", ids.join(", "));
     }
     let mut t = comfy_table::Table::new();
     t.load_preset(comfy_table::presets::UTF8_FULL_CONDENSED).set_header(["run", "shipped to", "kB without curves", "weights", "trained"]);
@@ -311,15 +333,7 @@ fn run_plan(
     out: &mut dyn Write,
 ) -> Result<()> {
     let plan = avacraft_eval::load_train_plan(path)?;
-    let mut jobs = plan.shard(shard);
-    if let Some(bad) = only.iter().find(|u| !jobs.iter().any(|j| &j.id == *u)) {
-        let ids: Vec<&str> = jobs.iter().map(|j| j.id.as_str()).collect();
-        let of = shard.map_or_else(String::new, |s| format!(" in shard {}/{}", s.index, s.count));
-        bail!("--only {bad}: not one of the plan's runs{of} ({})", ids.join(", "));
-    }
-    if !only.is_empty() {
-        jobs.retain(|j| only.contains(&j.id));
-    }
+    let jobs = select(&plan, shard, only)?;
     let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from));
     writeln!(
         out,

@@ -469,7 +469,7 @@ fn a_plans_budget_changed_under_a_run() {
 }
 
 /// `train --plan P --only RUN` trains that run alone; a run the plan lacks is refused, naming
-/// the plan's.
+/// the plan's. With `--ship`, `--only` ships that run alone of two finished ones.
 #[test]
 fn a_plan_trains_only_the_runs_named() {
     let runs = "[[runs]]\nname = \"a\"\nalgo = \"vdn\"\nscenarios = [\"3m_vlm\"]\nset = SMALL\n\
@@ -485,5 +485,17 @@ fn a_plan_trains_only_the_runs_named() {
     assert!(String::from_utf8_lossy(&out.stdout).contains("1 runs"), "{}", String::from_utf8_lossy(&out.stdout));
     assert!(dir.join("runs/3m_vlm/c-s1/done.json").is_file());
     assert!(!dir.join("runs/3m_vlm/a-s1").exists(), "a run not named was trained");
+    let out = train(&["--plan", p]);
+    assert!(out.status.success() && dir.join("runs/3m_vlm/a-s1/done.json").is_file(), "{}", String::from_utf8_lossy(&out.stderr));
+    let shipped = dir.join("shipped");
+    let to = shipped.to_str().expect("utf-8");
+    let out = train(&["--plan", p, "--ship", to, "--only", "3m_vlm/c-s1", "--unfinished", "3m_vlm/a-s1"]);
+    assert!(!out.status.success() && !shipped.exists(), "--unfinished outside --only");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--unfinished 3m_vlm/a-s1: not one of the runs --only names (3m_vlm/c-s1)"), "{err}");
+    let out = train(&["--plan", p, "--ship", to, "--only", "3m_vlm/c-s1"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("1 runs shipped"), "{}", String::from_utf8_lossy(&out.stdout));
+    assert!(shipped.join("3m_vlm/c/config.json").is_file() && !shipped.join("3m_vlm/a").exists(), "only c is shipped");
     let _ = std::fs::remove_dir_all(&dir);
 }
