@@ -119,7 +119,7 @@ pub fn first_reaching(rows: &[LogRow], test: f64, train: f64) -> Option<LogRow> 
     rows.iter().copied().find(|r| r.test_win_rate >= test && r.train_win_rate >= train)
 }
 
-const COLORS: [RGBColor; 14] = [
+const COLORS: [RGBColor; 15] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
@@ -134,6 +134,7 @@ const COLORS: [RGBColor; 14] = [
     RGBColor(0, 100, 0),
     RGBColor(128, 0, 0),
     RGBColor(230, 180, 0),
+    RGBColor(40, 40, 40),
 ];
 
 /// Draws the groups' greedy test and training win rates against environment steps and
