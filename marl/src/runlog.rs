@@ -137,6 +137,17 @@ const COLORS: [RGBColor; 15] = [
     RGBColor(40, 40, 40),
 ];
 
+/// Series `i`'s colour: the palette's, then hues a golden angle apart (a figure with more
+/// series than the palette no longer draws two of them alike, as it did when the index wrapped).
+fn series_color(i: usize) -> RGBColor {
+    if let Some(c) = COLORS.get(i) {
+        return *c;
+    }
+    let k = (i - COLORS.len()) as f64;
+    let RGBAColor(r, g, b, _) = HSLColor((k * 0.618_033_988_75 + 0.13).fract(), 0.75, 0.4 + 0.15 * (k % 2.0)).to_rgba();
+    RGBColor(r, g, b)
+}
+
 /// Draws the groups' greedy test and training win rates against environment steps and
 /// against wall-clock seconds (four panels; each run a thin line, each group's mean over its
 /// runs a thick one) into `path` (PNG).
@@ -177,7 +188,7 @@ pub fn compare(path: &Path, title: &str, groups: &[Group]) -> Result<(), Error> 
                 .draw()
                 .map_err(err)?;
             for (gi, g) in groups.iter().enumerate() {
-                let color = COLORS[gi % COLORS.len()];
+                let color = series_color(gi);
                 for (_, rows) in &g.runs {
                     let pts: Vec<(f64, f64)> = rows.iter().map(|r| (x(r), y(r))).filter(|(_, v)| v.is_finite()).collect();
                     chart.draw_series(LineSeries::new(pts, color.mix(0.35).stroke_width(1))).map_err(err)?;
@@ -203,7 +214,7 @@ pub fn compare(path: &Path, title: &str, groups: &[Group]) -> Result<(), Error> 
     canvas.save(path).map_err(crate::plot::err)
 }
 
-/// One panel of [`grid`]: a title, named runs (one colour per name, in [`COLORS`]' order)
+/// One panel of [`grid`]: a title, named runs (one colour per name, [`series_color`]'s)
 /// and an optional reference level (e.g. a published win rate) drawn dashed.
 #[derive(Clone, Debug)]
 pub struct Panel {
@@ -286,7 +297,7 @@ pub fn grid(path: &Path, title: &str, names: &[&str], panels: &[Panel], cols: us
         head.draw(&Text::new(title.to_owned(), (12, 8), ("sans-serif", 22))).map_err(err)?;
         for (i, (n, &(x, line))) in labels.iter().zip(&at).enumerate() {
             let y = 50 + LEGEND_LINE as i32 * line as i32;
-            let stroke = if *n == PUBLISHED { BLACK.stroke_width(1) } else { COLORS[i % COLORS.len()].stroke_width(3) };
+            let stroke = if *n == PUBLISHED { BLACK.stroke_width(1) } else { series_color(i).stroke_width(3) };
             head.draw(&PathElement::new(vec![(x, y), (x + 24, y)], stroke)).map_err(err)?;
             head.draw(&Text::new((*n).to_owned(), (x + 30, y - 9), ("sans-serif", 17))).map_err(err)?;
         }
@@ -315,7 +326,7 @@ pub fn grid(path: &Path, title: &str, names: &[&str], panels: &[Panel], cols: us
                 chart.draw_series(dashes).map_err(err)?;
             }
             for (name, rows) in &p.runs {
-                let c = COLORS[names.iter().position(|n| n == name).unwrap_or(names.len()) % COLORS.len()];
+                let c = series_color(names.iter().position(|n| n == name).unwrap_or(names.len()));
                 let pts: Vec<(f64, f64)> = rows.iter().map(|r| (r.t_env as f64, r.test_win_rate)).filter(|(_, v)| v.is_finite()).collect();
                 chart.draw_series(crate::plot::strokes(thin(pts, x_max), c.stroke_width(2))).map_err(err)?;
             }
@@ -349,6 +360,18 @@ fn mean_curve(runs: &[(PathBuf, Vec<LogRow>)], x: fn(&LogRow) -> f64, y: fn(&Log
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn series_colours_stay_apart_past_the_palette() {
+        let colours: Vec<(u8, u8, u8)> = (0..40).map(series_color).map(|RGBColor(r, g, b)| (r, g, b)).collect();
+        assert_eq!(colours[..COLORS.len()], COLORS.map(|RGBColor(r, g, b)| (r, g, b)), "the palette comes first");
+        for (i, a) in colours.iter().enumerate() {
+            for (j, b) in colours.iter().enumerate().skip(i + 1) {
+                let d = [a.0.abs_diff(b.0), a.1.abs_diff(b.1), a.2.abs_diff(b.2)].into_iter().max().unwrap_or(0);
+                assert!(d >= 12, "series {i} and {j} look alike: {a:?} {b:?}");
+            }
+        }
+    }
 
     #[test]
     fn the_legend_wraps_inside_the_figure_without_overlaps() {
