@@ -79,7 +79,8 @@ pub use agent::{
 };
 pub use damage::{Dealt, apply_hits, hit_damage};
 pub use env::{
-    BadFovActions, BadOption, Env, EnvConfig, EnvOptions, MAX_FOV_ACTIONS, Outcome, RewardMode, StepResult, check_fov_actions, describe,
+    BadFovActions, BadOption, DenseReward, Env, EnvConfig, EnvOptions, MAX_FOV_ACTIONS, Outcome, RewardMode, StepResult, check_fov_actions,
+    describe,
 };
 pub use geom::Vec2;
 pub use hash::Fnv;

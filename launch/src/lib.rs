@@ -110,6 +110,16 @@ mod tests {
             ("scenario: 3m_vlm\nenv: {weapon_period: shot}\nagents:\n  - {id: a, units: [1], policy: noop}\n", "env.weapon_period"),
             ("scenario: 3m_vlm\nenv: {weapon_period: later}\nagents:\n  - {id: a, units: [1], policy: noop}\n", "later"),
             ("scenario: 3m_vlm\nenv: {melee_surround: true}\nagents:\n  - {id: a, units: [1], policy: noop}\n", "env.melee_surround"),
+            (
+                "scenario: 3m_vlm\nenv: {reward: dense, reward_only_positive: false}\nagents:\n  - {id: a, units: [1], policy: noop}\n",
+                "env.reward_only_positive",
+            ),
+            // Under the deployment's sparse reward the settings are refused by name.
+            ("scenario: 3m_vlm\nenv: {reward_win: 100}\nagents:\n  - {id: a, units: [1], policy: noop}\n", "env.reward_win"),
+            (
+                "scenario: 3m_vlm\nenv: {reward: dense, reward_scale_rate: -1}\nagents:\n  - {id: a, units: [1], policy: noop}\n",
+                "env.reward_scale_rate",
+            ),
         ];
         for (text, field) in cases {
             let e = chain(&parse("bad.yaml", text, None).expect_err(text));

@@ -62,7 +62,15 @@ class Env:
         data: Optional[str] = None,
         weapon_period: str = "attack",
         melee_surround: bool = False,
+        reward_only_positive: bool = True,
+        reward_negative_scale: float = 0.5,
+        reward_death_value: float = 10.0,
+        reward_win: float = 200.0,
+        reward_defeat: float = 0.0,
+        reward_scale: bool = True,
+        reward_scale_rate: float = 20.0,
     ) -> None: ...
+    def max_reward(self, team: int = 1) -> float: ...
     def reset(self, seed: int) -> None: ...
     @property
     def scenario(self) -> str: ...
@@ -133,6 +141,13 @@ class VecEnv:
         data: Optional[str] = None,
         weapon_period: str = "attack",
         melee_surround: bool = False,
+        reward_only_positive: bool = True,
+        reward_negative_scale: float = 0.5,
+        reward_death_value: float = 10.0,
+        reward_win: float = 200.0,
+        reward_defeat: float = 0.0,
+        reward_scale: bool = True,
+        reward_scale_rate: float = 20.0,
     ) -> None: ...
     @property
     def num_envs(self) -> int: ...

@@ -77,3 +77,28 @@ def seed(option: str, value: Any) -> int | None:
     if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < 2**64:
         raise unsupported(option, value, "an integer in 0..2**64 or None")
     return value
+
+
+def number(option: str, value: Any) -> float:
+    """Any real number (the engine refuses the ones it cannot use, naming the option)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise unsupported(option, value, "a number")
+    return float(value)
+
+
+def smac_reward(
+    *, sparse: bool, only_positive: Any, negative_scale: Any, death_value: Any, win: Any, defeat: Any, scale: Any, scale_rate: Any
+) -> dict[str, Any]:
+    """SMAC's reward keywords, type-checked, as the engine's options of the same names (the
+    engine refuses values it cannot use, naming them). Under the sparse reward SMAC reads none
+    of the dense settings, so they are left at the engine's defaults there."""
+    values = {
+        "reward_only_positive": boolean("reward_only_positive", only_positive),
+        "reward_negative_scale": number("reward_negative_scale", negative_scale),
+        "reward_death_value": number("reward_death_value", death_value),
+        "reward_win": number("reward_win", win),
+        "reward_defeat": number("reward_defeat", defeat),
+        "reward_scale": boolean("reward_scale", scale),
+        "reward_scale_rate": number("reward_scale_rate", scale_rate),
+    }
+    return {} if sparse else values

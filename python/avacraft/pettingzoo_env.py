@@ -79,6 +79,13 @@ class AvacraftParallelEnv(ParallelEnv):
         data: Optional[str] = None,
         weapon_period: str = "attack",
         melee_surround: bool = False,
+        reward_only_positive: bool = True,
+        reward_negative_scale: float = 0.5,
+        reward_death_value: float = 10,
+        reward_win: float = 200,
+        reward_defeat: float = 0,
+        reward_scale: bool = True,
+        reward_scale_rate: float = 20,
         screen_size: tuple[int, int] = (160, 120),
         minimap_size: tuple[int, int] = (32, 32),
         vlm_size: tuple[int, int] = (1920, 1080),
@@ -121,6 +128,16 @@ class AvacraftParallelEnv(ParallelEnv):
             data=data,
             weapon_period=weapon_period,
             melee_surround=opt.boolean("melee_surround", melee_surround),
+            **opt.smac_reward(
+                sparse=reward == "sparse",
+                only_positive=reward_only_positive,
+                negative_scale=reward_negative_scale,
+                death_value=reward_death_value,
+                win=reward_win,
+                defeat=reward_defeat,
+                scale=reward_scale,
+                scale_rate=reward_scale_rate,
+            ),
         )
         self.pvp: bool = self._env.pvp
         self.teams = (1, 2) if self.pvp else (1,)

@@ -124,21 +124,26 @@ class StarCraft2Env:
         opt.require("obs_last_action", obs_last_action, [False], "allies' last actions are not in the observation (SMAC's default)")
         opt.require("obs_pathing_grid", obs_pathing_grid, [False], "no pathing-grid features (SMAC's default)")
         opt.require("obs_terrain_height", obs_terrain_height, [False], "no terrain-height features (SMAC's default)")
-        opt.require("reward_only_positive", reward_only_positive, [True], "the dense reward counts damage dealt only (SMAC's default)")
-        opt.require("reward_death_value", reward_death_value, [10], "10 per kill (SMAC's default)")
-        opt.require("reward_win", reward_win, [200], "200 for a win (SMAC's default)")
-        opt.require("reward_defeat", reward_defeat, [0], "0 for a defeat (SMAC's default)")
-        opt.require("reward_scale", reward_scale, [True], "the dense reward is scaled to reward_scale_rate at most (SMAC's default)")
         # SMAC's own script plays the agents (the engine's `smac-heuristic`); step() then
         # takes actions only as SMAC does, for their count.
         self.heuristic_ai = opt.boolean("heuristic_ai", heuristic_ai)
         self.heuristic_rest = opt.boolean("heuristic_rest", heuristic_rest)
-        # With reward_only_positive (the only supported value) SMAC never reads this scale,
-        # so any number behaves exactly as in SMAC.
-        if isinstance(reward_negative_scale, bool) or not isinstance(reward_negative_scale, (int, float)):
-            raise opt.unsupported("reward_negative_scale", reward_negative_scale, "a number")
-        self._rate = opt.positive_number("reward_scale_rate", reward_scale_rate)
         self.reward_sparse = opt.boolean("reward_sparse", reward_sparse)
+        reward_options = opt.smac_reward(
+            sparse=self.reward_sparse,
+            only_positive=reward_only_positive,
+            negative_scale=reward_negative_scale,
+            death_value=reward_death_value,
+            win=reward_win,
+            defeat=reward_defeat,
+            scale=reward_scale,
+            scale_rate=reward_scale_rate,
+        )
+        # SMAC scales the sparse reward too (+1 or -1 divided by max_reward / rate); the
+        # engine's sparse reward is the paper's plain +1 / -1, so that scale is applied here.
+        self._sparse_rate = None
+        if self.reward_sparse and opt.boolean("reward_scale", reward_scale):
+            self._sparse_rate = opt.positive_number("reward_scale_rate", reward_scale_rate)
         self.continuing_episode = opt.boolean("continuing_episode", continuing_episode)
         self.obs_instead_of_state = opt.boolean("obs_instead_of_state", obs_instead_of_state)
         self.obs_timestep_number = opt.boolean("obs_timestep_number", obs_timestep_number)
@@ -177,6 +182,7 @@ class StarCraft2Env:
             data=data,
             weapon_period=weapon_period,
             melee_surround=opt.boolean("melee_surround", melee_surround),
+            **reward_options,
         )
         info = self._env.env_info(1)
         self.n_agents: int = info["n_agents"]
@@ -249,8 +255,8 @@ class StarCraft2Env:
                 self.timeouts += 1
                 if self.continuing_episode:
                     info["episode_limit"] = True
-        if not self.reward_sparse and self._rate != 20.0:
-            r = r * self._rate / 20.0
+        if self._sparse_rate is not None and r != 0:
+            r = r / (self._env.max_reward(1) / self._sparse_rate)
         if self.debug:
             log.debug("step %d: actions %s reward %.4f info %s", self._episode_steps, actions, r, info)
         return r, terminated or truncated, info

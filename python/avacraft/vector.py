@@ -32,8 +32,9 @@ except ImportError:  # pragma: no cover - gymnasium is an optional dependency
 
 class VecEnv:
     """`VecEnv("3m_vlm", num_envs=64)` or `VecEnv("3m_vlm", seeds=[...])`; `threads=None` uses every
-    core. Options are `StarCraft2Env`'s AVACraft options (dense reward and SMAC's passive
-    allies by default, as `StarCraft2Env`)."""
+    core. Options are `StarCraft2Env`'s AVACraft options and SMAC's reward keywords (dense reward
+    and SMAC's passive allies by default, as `StarCraft2Env`; `reward_scale` scales the dense
+    reward only)."""
 
     metadata: dict[str, Any] = {"autoreset_mode": _SAME_STEP}
 
@@ -61,6 +62,13 @@ class VecEnv:
         data: Optional[str] = None,
         weapon_period: str = "attack",
         melee_surround: bool = False,
+        reward_only_positive: bool = True,
+        reward_negative_scale: float = 0.5,
+        reward_death_value: float = 10,
+        reward_win: float = 200,
+        reward_defeat: float = 0,
+        reward_scale: bool = True,
+        reward_scale_rate: float = 20,
     ) -> None:
         if seeds is None:
             if num_envs is None:
@@ -93,6 +101,16 @@ class VecEnv:
             data=data,
             weapon_period=weapon_period,
             melee_surround=opt.boolean("melee_surround", melee_surround),
+            **opt.smac_reward(
+                sparse=opt.boolean("reward_sparse", reward_sparse),
+                only_positive=reward_only_positive,
+                negative_scale=reward_negative_scale,
+                death_value=reward_death_value,
+                win=reward_win,
+                defeat=reward_defeat,
+                scale=reward_scale,
+                scale_rate=reward_scale_rate,
+            ),
         )
         self.seeds = list(seeds)
         self.num_envs: int = self._raw.num_envs

@@ -146,7 +146,9 @@ impl Sized2 for Observer {
 impl PyEnv {
     #[new]
     #[pyo3(signature = (scenario, seed=0, step_mul=8, reward="dense", opponent=None, full_vision=false, passive_allies=true,
-        cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None, prob_obs_enemy=1.0, action_mask=true, fov_actions=0, data=None, weapon_period="attack", melee_surround=false))]
+        cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None, prob_obs_enemy=1.0, action_mask=true, fov_actions=0, data=None, weapon_period="attack", melee_surround=false,
+        reward_only_positive=true, reward_negative_scale=0.5, reward_death_value=10.0, reward_win=200.0, reward_defeat=0.0,
+        reward_scale=true, reward_scale_rate=20.0))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         scenario: &str,
@@ -166,6 +168,13 @@ impl PyEnv {
         data: Option<String>,
         weapon_period: &str,
         melee_surround: bool,
+        reward_only_positive: bool,
+        reward_negative_scale: f64,
+        reward_death_value: f64,
+        reward_win: f64,
+        reward_defeat: f64,
+        reward_scale: bool,
+        reward_scale_rate: f64,
     ) -> PyResult<Self> {
         // Both constructors take EnvOptions' fields, in its order (a Python test holds them to it).
         let (reward, opponent, data, weapon_period) = options::named(reward, opponent.as_deref(), data.as_deref(), weapon_period)?;
@@ -185,6 +194,13 @@ impl PyEnv {
             data,
             weapon_period,
             melee_surround,
+            reward_only_positive,
+            reward_negative_scale,
+            reward_death_value,
+            reward_win,
+            reward_defeat,
+            reward_scale,
+            reward_scale_rate,
         };
         let (scenario, cfg) = options::build(scenario, &opts)?;
         let env = Env::new(scenario, cfg, seed);
@@ -245,6 +261,14 @@ impl PyEnv {
     fn env_info<'py>(&mut self, py: Python<'py>, team: u8) -> PyResult<Bound<'py, PyAny>> {
         let s = self.inner();
         to_py(py, &s.env.env_info(self::team(team)?))
+    }
+
+    /// The most this episode's dense reward can pay a team before scaling (SMAC's
+    /// `max_reward`: the enemies' life and shields, `reward_death_value` each, `reward_win`).
+    #[pyo3(signature = (team=1))]
+    fn max_reward(&mut self, team: u8) -> PyResult<f32> {
+        let s = self.inner();
+        Ok(s.env.max_reward(self::team(team)?))
     }
 
     /// Tags (1-based) of a team's agents, in agent order.

@@ -132,7 +132,8 @@ def test_seed_get_and_set(rng):
 
 
 def test_sparse_reward_and_scale_rate(rng):
-    env = StarCraft2Env(map_name="3m_vlm", seed=4, reward_sparse=True)
+    # Unscaled, SMAC's sparse reward is +1 / -1 / 0 (scaled: below).
+    env = StarCraft2Env(map_name="3m_vlm", seed=4, reward_sparse=True, reward_scale=False)
     rewards, _, info = play(env, rng)
     assert set(rewards[:-1]) <= {0.0}
     assert rewards[-1] == (1.0 if info["battle_won"] else (0.0 if info.get("episode_limit") or info["dead_allies"] < 3 else -1.0))
@@ -176,14 +177,17 @@ def test_pymarl_sc2_yaml_keys_are_accepted():
         ("difficulty", "3", ["difficulty", "'3'", "'7'"]),
         ("obs_last_action", True, ["obs_last_action", "True", "False"]),
         ("obs_pathing_grid", True, ["obs_pathing_grid"]),
-        ("reward_only_positive", False, ["reward_only_positive", "False"]),
-        ("reward_win", 100, ["reward_win", "100", "200"]),
+        ("reward_only_positive", 0, ["reward_only_positive", "True or False"]),
+        ("reward_win", -5, ["reward_win", "-5", "0 or more"]),
+        ("reward_death_value", "10", ["reward_death_value", "a number"]),
+        ("reward_scale_rate", 0, ["reward_scale_rate", "above 0"]),
+        ("reward_negative_scale", "half", ["reward_negative_scale", "a number"]),
         ("move_amount", 3, ["move_amount", "3", "2"]),
         ("game_version", "4.10", ["game_version", "4.10"]),
         ("heuristic_ai", 1, ["heuristic_ai", "True or False"]),
         ("step_mul", 0, ["step_mul", "positive"]),
         ("opponent", "nobody", ["opponent", "nobody", "builtin"]),
-        ("reward_scale", False, ["reward_scale"]),
+        ("reward_scale", 1, ["reward_scale", "True or False"]),
     ],
 )
 def test_unsupported_option_values_raise(key, value, words):
@@ -192,6 +196,84 @@ def test_unsupported_option_values_raise(key, value, words):
     assert isinstance(e.value, AvacraftError)
     for w in words:
         assert w in str(e.value)
+
+
+def _reward_battle_by_hand(env: StarCraft2Env, actions_of, *, neg: float, only_positive: bool, death: float, win: float, defeat: float, rate):
+    """Plays an episode and checks each step's reward against SMAC's `reward_battle` and the
+    end terms of its `step`, computed here from the units' life and shields (a unit gone
+    from the full-vision list is dead). Returns whether the episode was won."""
+    env.reset()
+    units = env._env.units()
+    prev = {u["tag"]: u["hp"] + u["shield"] for u in units}
+    team = {u["tag"]: u["team"] for u in units}
+    max_reward = sum(u["max_hp"] + u["max_shield"] + death for u in units if u["team"] == 2) + win
+    assert env._env.max_reward(1) == pytest.approx(max_reward)
+    while True:
+        r, done, info = env.step(actions_of(env))
+        now = {u["tag"]: u["hp"] + u["shield"] for u in env._env.units()}
+        d_enemy = d_deaths = d_ally = 0.0
+        for tag in list(prev):
+            hp = now.get(tag)
+            if team[tag] == 1:
+                if hp is None:
+                    d_deaths -= 0.0 if only_positive else death * neg
+                    d_ally += prev[tag] * neg
+                else:
+                    d_ally += neg * (prev[tag] - hp)
+            elif hp is None:
+                d_deaths += death
+                d_enemy += prev[tag]
+            else:
+                d_enemy += prev[tag] - hp
+            if hp is None:
+                del prev[tag]
+            else:
+                prev[tag] = hp
+        want = abs(d_enemy + d_deaths) if only_positive else d_enemy + d_deaths - d_ally
+        allies, enemies = (sum(team[t] == k for t in prev) for k in (1, 2))
+        if done and info["battle_won"]:
+            want += win
+        elif done and allies == 0 and enemies > 0:
+            want += defeat
+        if rate is not None:
+            want /= max_reward / rate
+        assert r == pytest.approx(want, rel=1e-4, abs=1e-4), (env._episode_steps, r, want)
+        if done:
+            return info["battle_won"]
+
+
+@pytest.mark.parametrize("only_positive,neg,rate", [(True, 0.5, 20), (False, 0.5, 20), (False, 1.5, None)])
+def test_the_reward_settings_pay_as_smac_computes(only_positive, neg, rate):
+    kw = dict(
+        reward_only_positive=only_positive, reward_negative_scale=neg, reward_scale=rate is not None, reward_scale_rate=rate or 20,
+        reward_death_value=7, reward_win=150, reward_defeat=-3,
+    )
+    check = dict(neg=neg, only_positive=only_positive, death=7, win=150, defeat=-3, rate=rate)
+    rng = np.random.default_rng(0)
+
+    def pick(env):
+        return [int(rng.choice(np.flatnonzero(a))) for a in env.get_avail_actions()]
+
+    # Random agents lose SMAC's 3m; SMAC's own script wins it.
+    lost = StarCraft2Env(map_name="3m", seed=5, full_vision=True, **kw)
+    assert not _reward_battle_by_hand(lost, pick, **check)
+    won = StarCraft2Env(map_name="3m", seed=6, full_vision=True, heuristic_ai=True, **kw)
+    assert _reward_battle_by_hand(won, lambda env: [0] * env.n_agents, **check)
+
+
+def test_the_sparse_reward_is_scaled_as_smac_scales_it():
+    # SMAC divides its sparse +1 by max_reward / reward_scale_rate as well (3m: 3 Marines of
+    # 45 life, 10 a kill, 200 a win: 365).
+    for scale, want in ((True, 20 / 365), (False, 1.0)):
+        env = StarCraft2Env(map_name="3m", seed=6, full_vision=True, heuristic_ai=True, reward_sparse=True, reward_scale=scale)
+        env.reset()
+        total = 0.0
+        while True:
+            r, done, info = env.step([0] * env.n_agents)
+            total += r
+            if done:
+                break
+        assert info["battle_won"] and total == pytest.approx(want), (scale, total)
 
 
 def test_unknown_keyword_and_scenario():

@@ -126,6 +126,90 @@ fn dense_reward_follows_smac() {
     assert!((r.reward[0] - 6.0 / (365.0 / 20.0)).abs() < 1e-5, "{r:?}");
 }
 
+/// Steps `env` with both teams idle (auto-acquire does the fighting) until it ends; each
+/// step's rewards.
+fn rewards_to_the_end(mut env: Env) -> Vec<[f32; 2]> {
+    let mut out = Vec::new();
+    loop {
+        let r = env.step();
+        out.push(r.reward);
+        if r.done {
+            return out;
+        }
+    }
+}
+
+#[test]
+fn signed_reward_takes_the_teams_own_losses_off() {
+    // A passive Marine shot by an enemy Marine (6 damage, no armour): SMAC's only-positive
+    // reward pays nothing for it, the signed one takes off reward_negative_scale of it.
+    let s = load(&arena("pve", &[("Marine", 1, 10.0, 16.0), ("Marine", 2, 14.0, 16.0)]));
+    let mut cfg = EnvConfig { reward: avacraft_engine::RewardMode::Dense, ..passive() };
+    cfg.rules.auto_acquire = [false, true];
+    let signed = avacraft_engine::DenseReward { negative_scale: Some(0.5), ..Default::default() };
+    let (mut pos, mut neg) =
+        (Env::new(s.clone(), one_loop(cfg.clone()), 0), Env::new(s, one_loop(EnvConfig { dense_reward: signed, ..cfg }), 0));
+    for _ in 0..200 {
+        let (a, b) = (pos.step(), neg.step());
+        assert_eq!(a.reward[0], 0.0, "nothing dealt, nothing paid");
+        if b.reward[0] != 0.0 {
+            // One Marine of 45 life against one: max_reward 45 + 10 + 200.
+            assert!((b.reward[0] - -0.5 * 6.0 / (255.0 / 20.0)).abs() < 1e-5, "{b:?}");
+            return;
+        }
+    }
+    panic!("the enemy Marine never hit");
+}
+
+#[test]
+fn signed_unscaled_reward_with_scale_one_is_zero_sum_in_pvp() {
+    // With the team's losses at full weight and no win or defeat terms, what one team is
+    // paid the other loses, step by step; scaling divides by each team's max_reward / rate.
+    let units = [("Marine", 1, 10.0, 16.0), ("Marauder", 1, 10.0, 18.0), ("Zealot", 2, 16.0, 16.0), ("Stalker", 2, 16.0, 18.0)];
+    let s = load(&arena("pvp", &units));
+    let mut cfg = EnvConfig { reward: avacraft_engine::RewardMode::Dense, ..exact() };
+    cfg.rules.full_vision = true;
+    let flat = avacraft_engine::DenseReward { negative_scale: Some(1.0), win: 0.0, defeat: 0.0, scale_rate: None, ..Default::default() };
+    let raw = rewards_to_the_end(Env::new(s.clone(), EnvConfig { dense_reward: flat, ..cfg.clone() }, 3));
+    assert!(raw.len() > 3 && raw.iter().any(|r| r[0] != 0.0), "a fight: {raw:?}");
+    for r in &raw {
+        assert!((r[0] + r[1]).abs() < 1e-3, "{r:?}");
+    }
+    let scaled = rewards_to_the_end(Env::new(
+        s,
+        EnvConfig { dense_reward: avacraft_engine::DenseReward { scale_rate: Some(20.0), ..flat }, ..cfg },
+        3,
+    ));
+    // Team 1's enemies: a Zealot (100 + 50) and a Stalker (80 + 80), 10 a kill each; team 2's:
+    // a Marine (45) and a Marauder (125).
+    let max = [150.0 + 160.0 + 20.0, 45.0 + 125.0 + 20.0];
+    assert_eq!(scaled.len(), raw.len());
+    for (a, b) in raw.iter().zip(&scaled) {
+        for t in 0..2 {
+            assert!((a[t] * 20.0 / max[t] - b[t]).abs() < 1e-4, "{a:?} {b:?}");
+        }
+    }
+}
+
+#[test]
+fn win_and_defeat_are_paid_on_the_last_step_only() {
+    let units = [("Marine", 1, 10.0, 16.0), ("Marine", 1, 10.0, 18.0), ("Marine", 2, 15.0, 16.0)];
+    let s = load(&arena("pvp", &units));
+    let cfg = EnvConfig { reward: avacraft_engine::RewardMode::Dense, ..exact() };
+    let play = |win: f32, defeat: f32| {
+        let r = avacraft_engine::DenseReward { win, defeat, scale_rate: None, ..Default::default() };
+        rewards_to_the_end(Env::new(s.clone(), EnvConfig { dense_reward: r, ..cfg.clone() }, 1))
+    };
+    let (base, paid) = (play(0.0, 0.0), play(200.0, -7.0));
+    assert_eq!(base.len(), paid.len());
+    let last = base.len() - 1;
+    for (i, (a, b)) in base.iter().zip(&paid).enumerate() {
+        // Two Marines beat one: team 1 wins.
+        let want = if i == last { [200.0, -7.0] } else { [0.0, 0.0] };
+        assert!((b[0] - a[0] - want[0]).abs() < 1e-3 && (b[1] - a[1] - want[1]).abs() < 1e-3, "step {i}: {a:?} {b:?}");
+    }
+}
+
 #[test]
 fn layouts_scale_past_256_actions() {
     // 300 Zerglings: 306 actions per agent; observation, mask and indices all work.

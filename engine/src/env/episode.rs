@@ -3,6 +3,7 @@
 //! `Env`) and the step (which builds them for the opponent).
 
 use super::epo::Epo;
+use super::reward::DenseReward;
 use crate::action::{Action, ActionError, Command};
 use crate::builtin_ai::BuiltinAi;
 use crate::hash::Fnv;
@@ -59,6 +60,10 @@ pub struct EnvConfig {
     /// Entry points accept even N from 2 to 64 ([`check_fov_actions`]).
     #[serde(default)]
     pub fov_actions: u8,
+    /// SMAC's shaped-reward settings, read under [`RewardMode::Dense`] (SMAC's defaults by
+    /// default).
+    #[serde(default)]
+    pub dense_reward: DenseReward,
 }
 
 /// The largest number of look actions an entry point accepts.
@@ -114,6 +119,7 @@ impl Default for EnvConfig {
             prob_obs_enemy: 1.0,
             action_mask: true,
             fov_actions: 0,
+            dense_reward: DenseReward::default(),
         }
     }
 }
@@ -196,7 +202,7 @@ pub struct Env {
     /// Actions given for the step being prepared; they become `last_actions` at `step`.
     pub(super) pending_actions: [Vec<Option<usize>>; 2],
     pub(super) dense: DenseTracker,
-    /// SMAC's max_reward per team: 10 per enemy, its full HP and shields, plus 200.
+    /// SMAC's max_reward per team (`Env::max_reward_of`).
     pub(super) max_reward: [f32; 2],
     pub(super) trajectory: Fnv,
     pub(super) layouts: [SmacLayout; 2],
@@ -309,8 +315,7 @@ impl Env {
             dead: vec![false; self.world.units().len()],
         };
         for team in Team::BOTH {
-            let enemies = self.world.units().iter().filter(|u| u.team == team.other());
-            self.max_reward[team.index()] = enemies.map(|u| 10.0 + u.max_hp + u.max_shield).sum::<f32>() + 200.0;
+            self.max_reward[team.index()] = self.max_reward_of(team);
         }
         self.opponent = None;
         self.opponent_kind = None;
@@ -450,8 +455,19 @@ impl Env {
         h.u64(world.state_hash());
         h.u64(*seed);
         // The rules are hashed with the world, which holds a copy.
-        let EnvConfig { step_mul, rules: _, reward, opponent, time_limit_loops, ability_actions, prob_obs_enemy, action_mask, fov_actions } =
-            cfg;
+        // The reward's settings change what is paid, never what happens.
+        let EnvConfig {
+            step_mul,
+            rules: _,
+            reward,
+            opponent,
+            time_limit_loops,
+            ability_actions,
+            prob_obs_enemy,
+            action_mask,
+            fov_actions,
+            dense_reward: _,
+        } = cfg;
         h.u32(step_mul.get());
         h.u32(*reward as u32 | (*ability_actions as u32) << 4);
         h.u32(opponent.map_or(0, |o| o as u32 + 1));

@@ -5,10 +5,12 @@ mod episode;
 mod epo;
 mod observe;
 mod options;
+mod reward;
 mod step;
 mod text;
 
 pub use episode::{BadFovActions, Env, EnvConfig, MAX_FOV_ACTIONS, Outcome, RewardMode, StepResult, check_fov_actions};
 pub use observe::effects;
 pub use options::{BadOption, EnvOptions};
+pub use reward::DenseReward;
 pub use text::describe;

@@ -4,6 +4,7 @@
 //! wherever it is given.
 
 use super::episode::{EnvConfig, RewardMode, check_fov_actions};
+use super::reward::DenseReward;
 use crate::scenario::{OpponentKind, Scenario, ScenarioError};
 use crate::units::DataSet;
 use crate::world::WeaponPeriod;
@@ -45,6 +46,18 @@ pub struct EnvOptions {
     /// The surround experiment (off): melee units walk round those already at their target
     /// to a free place beside it (see [`crate::Rules`]'s `melee_surround`).
     pub melee_surround: bool,
+    /// SMAC's shaped-reward settings under SMAC's keywords and defaults, read with `reward:
+    /// dense` (see [`DenseReward`]): the team's own losses are left out
+    /// (`reward_only_positive`) or taken off at `reward_negative_scale`; paid per kill, on a
+    /// win, on a defeat; scaled (`reward_scale`) so that an episode pays
+    /// `reward_scale_rate` at most.
+    pub reward_only_positive: bool,
+    pub reward_negative_scale: f64,
+    pub reward_death_value: f64,
+    pub reward_win: f64,
+    pub reward_defeat: f64,
+    pub reward_scale: bool,
+    pub reward_scale_rate: f64,
 }
 
 impl Default for EnvOptions {
@@ -65,6 +78,13 @@ impl Default for EnvOptions {
             data: None,
             weapon_period: WeaponPeriod::Attack,
             melee_surround: false,
+            reward_only_positive: true,
+            reward_negative_scale: 0.5,
+            reward_death_value: 10.0,
+            reward_win: 200.0,
+            reward_defeat: 0.0,
+            reward_scale: true,
+            reward_scale_rate: 20.0,
         }
     }
 }
@@ -81,7 +101,7 @@ pub struct BadOption {
 impl EnvOptions {
     /// The options' names, in the order of the Python constructors' keyword arguments (a test
     /// holds both constructors' signatures to it).
-    pub const NAMES: [&'static str; 15] = [
+    pub const NAMES: [&'static str; 22] = [
         "step_mul",
         "reward",
         "opponent",
@@ -97,6 +117,13 @@ impl EnvOptions {
         "data",
         "weapon_period",
         "melee_surround",
+        "reward_only_positive",
+        "reward_negative_scale",
+        "reward_death_value",
+        "reward_win",
+        "reward_defeat",
+        "reward_scale",
+        "reward_scale_rate",
     ];
 
     /// The engine's configuration, every option checked.
@@ -127,7 +154,25 @@ impl EnvOptions {
         cfg.action_mask = self.action_mask;
         cfg.fov_actions = check_fov_actions(self.fov_actions)
             .map_err(|why| bad("num_fov_actions", self.fov_actions.to_string(), &format!("with conic_fov, {why}")))?;
+        cfg.dense_reward = self.dense_reward()?;
+        if let (RewardMode::Sparse, Some((option, value))) = (cfg.reward, cfg.dense_reward.first_change()) {
+            return Err(bad(option, value, "SMAC's default with `reward: sparse` (these settings shape the dense reward)"));
+        }
         Ok(cfg)
+    }
+
+    /// The dense reward's settings, checked. As in SMAC, `reward_negative_scale` is read only
+    /// without `reward_only_positive` and `reward_scale_rate` only with `reward_scale`.
+    fn dense_reward(&self) -> Result<DenseReward, BadOption> {
+        let r = DenseReward {
+            death_value: self.reward_death_value as f32,
+            win: self.reward_win as f32,
+            defeat: self.reward_defeat as f32,
+            negative_scale: (!self.reward_only_positive).then_some(self.reward_negative_scale as f32),
+            scale_rate: self.reward_scale.then_some(self.reward_scale_rate as f32),
+        };
+        r.check().map_err(|(option, v, why)| BadOption { option, value: v.to_string(), supported: why.to_owned() })?;
+        Ok(r)
     }
 
     /// These options with a file's section put over them: `over` names options by their
@@ -214,6 +259,26 @@ mod tests {
         let e = EnvOptions { fov_actions: 3, ..EnvOptions::default() }.config().expect_err("odd");
         assert_eq!(e.option, "num_fov_actions");
         assert_eq!(EnvOptions::reward_named("shaped").expect_err("no such").option, "reward");
+        // SMAC's reward settings: checked by their SMAC names, refused under the sparse reward.
+        let signed = EnvOptions { reward_only_positive: false, reward_scale: false, ..EnvOptions::default() };
+        let want = DenseReward { negative_scale: Some(0.5), scale_rate: None, ..DenseReward::default() };
+        assert_eq!(signed.config().expect("signed, unscaled").dense_reward, want);
+        // Settings SMAC does not read are not checked either.
+        let unread = EnvOptions { reward_negative_scale: f64::NAN, reward_scale_rate: -1.0, ..signed.clone() };
+        assert!(EnvOptions { reward_scale: false, ..unread }.config().is_err(), "read: the negative scale");
+        assert!(EnvOptions { reward_only_positive: true, reward_scale: false, ..unread.clone() }.config().is_ok());
+        for (o, name) in [
+            (EnvOptions { reward_scale_rate: 0.0, ..EnvOptions::default() }, "reward_scale_rate"),
+            (EnvOptions { reward_win: f64::NAN, ..EnvOptions::default() }, "reward_win"),
+            (EnvOptions { reward_death_value: -1.0, ..EnvOptions::default() }, "reward_death_value"),
+            (EnvOptions { reward_negative_scale: f64::INFINITY, ..signed.clone() }, "reward_negative_scale"),
+            (EnvOptions { reward_defeat: 1e300, ..EnvOptions::default() }, "reward_defeat"),
+            (EnvOptions { reward: RewardMode::Sparse, reward_only_positive: false, ..EnvOptions::default() }, "reward_only_positive"),
+            (EnvOptions { reward: RewardMode::Sparse, reward_scale: false, ..EnvOptions::default() }, "reward_scale"),
+        ] {
+            assert_eq!(o.config().expect_err(name).option, name);
+        }
+        assert!(EnvOptions { reward_defeat: -5.0, ..EnvOptions::default() }.config().is_ok(), "a defeat may cost");
         assert_eq!(EnvOptions::data_named("brood_war").expect_err("no such").option, "data");
         // A file naming an unknown option is refused with the name.
         let err = serde_json::from_str::<EnvOptions>(r#"{"step_mull": 8}"#).expect_err("unknown key");

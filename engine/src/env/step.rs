@@ -67,32 +67,4 @@ impl Env {
         let w = &self.world;
         w.rules().abilities && w.alive(Team::Two).any(|u| u.kind.mode_abilities().any(|a| w.can_cast(u, a).is_ok()))
     }
-
-    fn dense_reward(&mut self, outcome: Option<Outcome>) -> [f32; 2] {
-        // SMAC's reward_battle with reward_only_positive: |damage + shield dealt + 10 per kill|.
-        let mut delta = [0.0f32; 2];
-        for (i, u) in self.world.units().iter().enumerate() {
-            if self.dense.dead[i] {
-                continue;
-            }
-            let scorer = u.team.other().index();
-            let now = u.hp.max(0.0) + u.shield.max(0.0);
-            if !u.alive {
-                self.dense.dead[i] = true;
-                delta[scorer] += self.dense.prev[i] + 10.0;
-            } else {
-                delta[scorer] += self.dense.prev[i] - now;
-            }
-            self.dense.prev[i] = now;
-        }
-        let mut out = [0.0; 2];
-        for team in Team::BOTH {
-            let mut r = delta[team.index()].abs();
-            if outcome.map(|o| o.for_team(team)) == Some(Outcome::Win) {
-                r += 200.0;
-            }
-            out[team.index()] = r / (self.max_reward[team.index()] / 20.0);
-        }
-        out
-    }
 }

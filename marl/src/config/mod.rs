@@ -112,6 +112,13 @@ pub struct Config {
     /// already at their target to a free place beside it (docs/smac.md).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub melee_surround: bool,
+    /// SMAC's `reward_only_positive` (the default) and `reward_negative_scale`: false takes
+    /// the team's own losses off the dense reward at that scale (SMAC's signed reward).
+    /// Left out of saved configs at SMAC's defaults.
+    #[serde(default = "yes", skip_serializing_if = "is_true")]
+    pub reward_only_positive: bool,
+    #[serde(default = "half", skip_serializing_if = "is_half")]
+    pub reward_negative_scale: f64,
     /// PvP: team 2's agent while team 1 learns (see the config files); empty: none.
     #[serde(default)]
     pub opponent: Opponent,
@@ -265,6 +272,14 @@ fn is_one_frame(v: &usize) -> bool {
     *v == 1
 }
 
+fn half() -> f64 {
+    0.5
+}
+
+fn is_half(v: &f64) -> bool {
+    *v == 0.5
+}
+
 fn is_false(v: &bool) -> bool {
     !*v
 }
@@ -407,6 +422,10 @@ impl Config {
             let rule = format!("must be an even number from 2 to {} (the look actions of conic_fov)", avacraft_engine::MAX_FOV_ACTIONS);
             return Err(bad("num_fov_actions", self.num_fov_actions, &rule, n - n % 2));
         }
+        // The rest of the engine's checks (SMAC's reward settings among them).
+        if let Err(b) = self.env_options().config() {
+            return Err(bad(b.option, b.value, &b.supported, "SMAC's default"));
+        }
         positive("lr", self.lr, def(|c| c.lr, 5e-4))?;
         for (i, o) in self.test_opponents.iter().enumerate() {
             if let Err(why) = Opponent::parse(o) {
@@ -497,6 +516,8 @@ impl Config {
             ability_actions: self.ability_actions,
             weapon_period: self.weapon_period,
             melee_surround: self.melee_surround,
+            reward_only_positive: self.reward_only_positive,
+            reward_negative_scale: self.reward_negative_scale,
             ..EnvOptions::default()
         }
     }
@@ -728,6 +749,17 @@ mod tests {
         let c = Config::for_algo("qmix", &["melee_surround=true".into()])?;
         let text = toml::to_string(&c).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
         assert!(Config::from_toml(&text, &[])?.env_config()?.rules.melee_surround);
+        // SMAC's signed reward: off and unsaved by default; on, it reaches the game's reward
+        // settings and survives a save; refused with the sparse reward.
+        let text = toml::to_string(&Config::for_algo("qmix", &[])?)
+            .map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
+        assert!(!text.contains("reward_only_positive") && !text.contains("reward_negative_scale"), "{text}");
+        let c = Config::for_algo("qmix", &["reward_only_positive=false".into(), "reward_negative_scale=0.25".into()])?;
+        assert_eq!(c.env_config()?.dense_reward.negative_scale, Some(0.25));
+        let text = toml::to_string(&c).map_err(|e| Error::ConfigParse { what: "config".into(), message: e.to_string() })?;
+        assert_eq!(Config::from_toml(&text, &[])?.env_config()?.dense_reward.negative_scale, Some(0.25));
+        let e = Config::for_algo("qmix", &["reward=\"sparse\"".into(), "reward_only_positive=false".into()]).err().map(|e| e.to_string());
+        assert!(e.as_deref().is_some_and(|e| e.contains("reward_only_positive")), "{e:?}");
         Ok(())
     }
 

@@ -47,13 +47,24 @@ fn opponent_of(code: u8) -> Result<Option<OpponentKind>, SessionError> {
 pub fn session_info(cfg: &SimConfig, episode: u64, header: Header) -> SessionInfo {
     // Destructured in full, so a new configuration field does not compile until it is
     // carried here (a replay without it would silently use the default).
-    let EnvConfig { step_mul, rules, reward, opponent, time_limit_loops, ability_actions, prob_obs_enemy, action_mask, fov_actions } =
-        &cfg.env;
+    let EnvConfig {
+        step_mul,
+        rules,
+        reward,
+        opponent,
+        time_limit_loops,
+        ability_actions,
+        prob_obs_enemy,
+        action_mask,
+        fov_actions,
+        dense_reward,
+    } = &cfg.env;
     let Rules { full_vision, cooldown_jitter, auto_acquire, abilities, weapon_period, melee_surround } = *rules;
     // Not on the wire: a launch is refused any reading but the engine's (launch's validate),
     // so a replay's default is the session's.
     debug_assert_eq!(weapon_period, WeaponPeriod::Attack, "launch validation lets only `attack` through");
     debug_assert_eq!(melee_surround, Rules::default().melee_surround, "launch validation lets only the engine's movement through");
+    debug_assert!(dense_reward.is_smac_default(), "launch validation lets only SMAC's reward settings through");
     let (clock, deadline_ms) = match cfg.clock {
         Clock::Lockstep { deadline } => (SessionInfo::CLOCK_LOCKSTEP, u32::try_from(deadline.as_millis()).unwrap_or(u32::MAX)),
         Clock::RealTime => (SessionInfo::CLOCK_REALTIME, 0),
@@ -122,6 +133,8 @@ pub fn env_config(s: &SessionInfo) -> Result<EnvConfig, SessionError> {
         prob_obs_enemy: s.prob_obs_enemy,
         action_mask: s.action_mask,
         fov_actions: s.fov_actions,
+        // Not on the wire: a launch is refused other settings.
+        dense_reward: avacraft_engine::DenseReward::default(),
     })
 }
 
@@ -189,6 +202,8 @@ mod tests {
             prob_obs_enemy: 0.25,
             action_mask: false,
             fov_actions: 12,
+            // Not on the wire: a launch takes SMAC's reward settings only.
+            dense_reward: avacraft_engine::DenseReward::default(),
         };
         for env in [EnvConfig::default(), EnvConfig::smac(), odd] {
             let cfg = config(env.clone());
