@@ -43,7 +43,7 @@ const RUNS: [&str; 2] = ["qmix", "mappo"];
 /// Runs of the plan with other settings than the compared learners' (seed 1, on the maps
 /// where they ran), with what differs (eval/plans/smac.toml says why each ran): listed under
 /// the table and drawn beside them; a finished one that does better is compared, and named.
-const VARIANTS: [(&str, &str); 13] = [
+const VARIANTS: [(&str, &str); 15] = [
     ("qmix-epymarl", "EPyMARL's QMIX settings with its recurrent agent (Adam at 5e-4, one-step targets), 300k steps"),
     ("qmix-pymarl", "PyMARL's QMIX, as the SMAC paper ran it (recurrent agent, RMSprop at 5e-4, one-step targets)"),
     ("mappo-ff", "feed-forward actor and critic, 5 PPO epochs (the MAPPO repository's script)"),
@@ -60,6 +60,14 @@ const VARIANTS: [(&str, &str); 13] = [
     ("mappo-clip", "the clip at 0.05 and 10 PPO epochs (the MAPPO repository's 5m_vs_6m script, on PyMARL's recurrent network)"),
     ("mappo-stack", "as mappo-ff-ln, 15 PPO epochs and 4 stacked frames: the MAPPO repository's 3s_vs_4z script"),
     ("mappo-clip15", "the clip at 0.05 (the MAPPO repository's 8m_vs_9m script, on PyMARL's recurrent network)"),
+    (
+        "qmix-signed",
+        "SMAC's signed reward (reward_only_positive=False: the team's own losses taken off at 0.5), otherwise the shipped QMIX",
+    ),
+    (
+        "mappo-signed",
+        "SMAC's signed reward (reward_only_positive=False: the team's own losses taken off at 0.5), otherwise the plan's MAPPO",
+    ),
 ];
 /// Runs of the plan on another game than the compared learners' (another data set than the
 /// map's, or weapon periods counted from the shot), with what differs: listed under the

@@ -1,9 +1,8 @@
-//! SMAC's shaped reward: its `reward_battle` (damage and kills dealt, and without
-//! `reward_only_positive` the team's own losses) and the end-of-episode terms of its `step`
-//! (`reward_win`, `reward_defeat`, then `reward_scale`), with SMAC's settings.
+//! The settings of SMAC's shaped reward (paid by `Env::dense_reward`, beside the step): its
+//! `reward_battle` (damage and kills dealt, and without `reward_only_positive` the team's own
+//! losses) and the end-of-episode terms of its `step` (`reward_win`, `reward_defeat`, then
+//! `reward_scale`).
 
-use super::episode::{Env, Outcome};
-use crate::ids::Team;
 use serde::{Deserialize, Serialize};
 
 /// SMAC's dense-reward settings under their SMAC meanings; the default is SMAC's default.
@@ -81,66 +80,5 @@ impl DenseReward {
             }
         }
         Ok(())
-    }
-}
-
-impl Env {
-    /// The most this episode's dense reward can pay `team` before scaling (SMAC's
-    /// `max_reward`, which `reward_scale` divides by over its rate).
-    pub fn max_reward(&self, team: Team) -> f32 {
-        self.max_reward[team.index()]
-    }
-
-    /// SMAC's `max_reward` for `team`: `death_value` per enemy, their full life and
-    /// shields, and `win`.
-    pub(super) fn max_reward_of(&self, team: Team) -> f32 {
-        let r = &self.cfg.dense_reward;
-        let enemies = self.world.units().iter().filter(|u| u.team == team.other());
-        enemies.map(|u| r.death_value + u.max_hp + u.max_shield).sum::<f32>() + r.win
-    }
-
-    /// One step's dense reward per team, and the bookkeeping moved on.
-    pub(super) fn dense_reward(&mut self, outcome: Option<Outcome>) -> [f32; 2] {
-        let r = self.cfg.dense_reward;
-        // Per team: damage and kills dealt (SMAC's delta_enemy + delta_deaths), and its own
-        // losses already scaled (its delta_ally, and the death penalty it takes out of
-        // delta_deaths; only without reward_only_positive).
-        let mut dealt = [0.0f32; 2];
-        let mut lost = [0.0f32; 2];
-        let neg = r.negative_scale.unwrap_or(0.0);
-        for (i, u) in self.world.units().iter().enumerate() {
-            if self.dense.dead[i] {
-                continue;
-            }
-            let (owner, scorer) = (u.team.index(), u.team.other().index());
-            let now = u.hp.max(0.0) + u.shield.max(0.0);
-            let prev = self.dense.prev[i];
-            if !u.alive {
-                self.dense.dead[i] = true;
-                dealt[scorer] += prev + r.death_value;
-                lost[owner] += neg * (prev + r.death_value);
-            } else {
-                dealt[scorer] += prev - now;
-                lost[owner] += neg * (prev - now);
-            }
-            self.dense.prev[i] = now;
-        }
-        let mut out = [0.0; 2];
-        for team in Team::BOTH {
-            let t = team.index();
-            // Only positive: the absolute value, as SMAC takes it (shields coming back on the
-            // enemy count as damage: oxwhirl/smac#72).
-            let mut v = if r.negative_scale.is_none() { dealt[t].abs() } else { dealt[t] - lost[t] };
-            match outcome.map(|o| o.for_team(team)) {
-                Some(Outcome::Win) => v += r.win,
-                Some(Outcome::Loss) => v += r.defeat,
-                _ => {}
-            }
-            out[t] = match r.scale_rate {
-                Some(rate) => v / (self.max_reward[t] / rate),
-                None => v,
-            };
-        }
-        out
     }
 }
