@@ -110,6 +110,7 @@ mod tests {
             ("scenario: 3m_vlm\nenv: {weapon_period: shot}\nagents:\n  - {id: a, units: [1], policy: noop}\n", "env.weapon_period"),
             ("scenario: 3m_vlm\nenv: {weapon_period: later}\nagents:\n  - {id: a, units: [1], policy: noop}\n", "later"),
             ("scenario: 3m_vlm\nenv: {melee_surround: true}\nagents:\n  - {id: a, units: [1], policy: noop}\n", "env.melee_surround"),
+            ("scenario: 3m_vlm\nenv: {state_agent: true}\nagents:\n  - {id: a, units: [1], policy: noop}\n", "env.state_agent"),
             (
                 "scenario: 3m_vlm\nenv: {reward: dense, reward_only_positive: false}\nagents:\n  - {id: a, units: [1], policy: noop}\n",
                 "env.reward_only_positive",

@@ -31,6 +31,10 @@ fn env_section(cx: &Cx<'_>, over: Option<&serde_json::Value>, opponent: Option<O
         let why = "only `false` in a deployment: the session description (SessionInfo) does not carry the surround experiment, so its recording could not be replayed";
         return Err(cx.err("env.melee_surround", true, why));
     }
+    if env.state_agent {
+        let why = "only `false` in a deployment: the session description (SessionInfo) does not carry the agent-specific state, a training option (the critic's input)";
+        return Err(cx.err("env.state_agent", true, why));
+    }
     if let Some((option, value)) = env.dense_reward.first_change() {
         let why = "SMAC's default only in a deployment: the session description (SessionInfo) does not carry other reward settings, so its recording could not be replayed";
         return Err(cx.err(format!("env.{option}"), value, why));

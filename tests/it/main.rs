@@ -26,6 +26,7 @@ mod smac;
 mod smac_maps;
 mod speed;
 mod splash;
+mod state_agent;
 mod structure;
 mod targeting;
 mod unify;

@@ -64,6 +64,11 @@ pub struct EnvConfig {
     /// default).
     #[serde(default)]
     pub dense_reward: DenseReward,
+    /// The MAPPO repository's agent-specific state (`use_state_agent`) in place of SMAC's
+    /// global state: each agent's row of every unit as seen from it, the rows one after
+    /// another (off by default). It changes what the state reads, never what happens.
+    #[serde(default)]
+    pub state_agent: bool,
 }
 
 /// The largest number of look actions an entry point accepts.
@@ -120,6 +125,7 @@ impl Default for EnvConfig {
             action_mask: true,
             fov_actions: 0,
             dense_reward: DenseReward::default(),
+            state_agent: false,
         }
     }
 }
@@ -467,6 +473,8 @@ impl Env {
             action_mask,
             fov_actions,
             dense_reward: _,
+            // What the state reads, not what happens.
+            state_agent: _,
         } = cfg;
         h.u32(step_mul.get());
         h.u32(*reward as u32 | (*ability_actions as u32) << 4);
@@ -632,8 +640,12 @@ impl Env {
 
 /// Both teams' SMAC layouts under `cfg`'s options.
 fn layouts(scenario: &Scenario, cfg: &EnvConfig) -> [SmacLayout; 2] {
-    Team::BOTH
-        .map(|t| SmacLayout::with_abilities(scenario, t, cfg.ability_actions).with_range_mask(cfg.action_mask).with_fov(cfg.fov_actions))
+    Team::BOTH.map(|t| {
+        SmacLayout::with_abilities(scenario, t, cfg.ability_actions)
+            .with_range_mask(cfg.action_mask)
+            .with_fov(cfg.fov_actions)
+            .with_state_agent(cfg.state_agent)
+    })
 }
 
 pub(crate) fn command_index(env: &Env, team: Team, agent: usize, c: &Command) -> Option<usize> {

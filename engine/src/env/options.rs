@@ -58,6 +58,9 @@ pub struct EnvOptions {
     pub reward_defeat: f64,
     pub reward_scale: bool,
     pub reward_scale_rate: f64,
+    /// The MAPPO repository's agent-specific state in place of SMAC's global state (see
+    /// [`EnvConfig`]'s `state_agent`).
+    pub state_agent: bool,
 }
 
 impl Default for EnvOptions {
@@ -85,6 +88,7 @@ impl Default for EnvOptions {
             reward_defeat: 0.0,
             reward_scale: true,
             reward_scale_rate: 20.0,
+            state_agent: false,
         }
     }
 }
@@ -101,7 +105,7 @@ pub struct BadOption {
 impl EnvOptions {
     /// The options' names, in the order of the Python constructors' keyword arguments (a test
     /// holds both constructors' signatures to it).
-    pub const NAMES: [&'static str; 22] = [
+    pub const NAMES: [&'static str; 23] = [
         "step_mul",
         "reward",
         "opponent",
@@ -124,6 +128,7 @@ impl EnvOptions {
         "reward_defeat",
         "reward_scale",
         "reward_scale_rate",
+        "state_agent",
     ];
 
     /// The engine's configuration, every option checked.
@@ -155,6 +160,7 @@ impl EnvOptions {
         cfg.fov_actions = check_fov_actions(self.fov_actions)
             .map_err(|why| bad("num_fov_actions", self.fov_actions.to_string(), &format!("with conic_fov, {why}")))?;
         cfg.dense_reward = self.dense_reward()?;
+        cfg.state_agent = self.state_agent;
         if let (RewardMode::Sparse, Some((option, value))) = (cfg.reward, cfg.dense_reward.first_change()) {
             return Err(bad(option, value, "SMAC's default with `reward: sparse` (these settings shape the dense reward)"));
         }

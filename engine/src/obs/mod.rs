@@ -4,6 +4,7 @@
 mod group;
 mod slots;
 pub(crate) mod smac;
+mod smac_agent_state;
 mod smac_ext;
 mod units;
 

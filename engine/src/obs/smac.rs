@@ -67,10 +67,13 @@ pub struct SmacLayout {
     /// the agent's look direction joins its own features (after its position) and each
     /// ally's state row (after its shield).
     pub fov: usize,
-    map_center: Vec2,
+    /// The MAPPO repository's agent-specific state in place of SMAC's (off by default; see
+    /// [`SmacLayout::with_state_agent`]).
+    pub(super) state_agent: bool,
+    pub(super) map_center: Vec2,
     map_size: Vec2,
-    playable_w: f32,
-    playable_h: f32,
+    pub(super) playable_w: f32,
+    pub(super) playable_h: f32,
     playable: Rect,
 }
 
@@ -153,6 +156,7 @@ impl SmacLayout {
             v2,
             range_mask: true,
             fov: 0,
+            state_agent: false,
             map_center: Vec2::new(scenario.terrain.width() as f32 / 2.0, scenario.terrain.height() as f32 / 2.0),
             map_size: Vec2::new(scenario.terrain.width() as f32, scenario.terrain.height() as f32),
             playable_w: p.width(),
@@ -175,10 +179,19 @@ impl SmacLayout {
         let on = |k: usize| if k > 0 { 2 } else { 0 };
         self.n_actions = self.n_actions - old + n;
         self.obs_size = self.obs_size - on(old) + on(n);
-        let na = 4 + self.shield_ally + self.ally_types.len();
-        let ne = 3 + self.shield_enemy + self.enemy_types.len();
-        self.state_size = self.n_agents * (na + on(n)) + self.n_enemies * ne + self.n_agents * self.n_actions;
+        self.state_size = self.state_width();
         self
+    }
+
+    /// The state's width: SMAC's global state, or every agent's agent-specific row.
+    pub(super) fn state_width(&self) -> usize {
+        if self.state_agent {
+            return self.n_agents * self.agent_state_size();
+        }
+        let look = if self.fov > 0 { 2 } else { 0 };
+        let na = 4 + self.shield_ally + self.ally_types.len() + look;
+        let ne = 3 + self.shield_enemy + self.enemy_types.len();
+        self.n_agents * na + self.n_enemies * ne + self.n_agents * self.n_actions
     }
 
     /// The first attack index: after no-op, stop, the four moves and the look actions.
@@ -221,7 +234,7 @@ impl SmacLayout {
     }
 
     /// How far an agent sees for its features: SMAC's 9, or SMACv2's the unit's own sight.
-    fn sight(&self, u: &Unit) -> f32 {
+    pub(super) fn sight(&self, u: &Unit) -> f32 {
         if self.v2 { u.spec().sight } else { SIGHT_RANGE }
     }
 
@@ -236,7 +249,7 @@ impl SmacLayout {
         reach.max(MIN_ATTACK_RANGE)
     }
 
-    fn one_hot(types: &[UnitKind], kind: UnitKind, out: &mut [f32]) {
+    pub(super) fn one_hot(types: &[UnitKind], kind: UnitKind, out: &mut [f32]) {
         if let Some(i) = types.iter().position(|&k| k == kind.base()) {
             out[i] = 1.0;
         }
@@ -402,6 +415,9 @@ impl SmacLayout {
     }
 
     pub fn state(&self, world: &World, last_actions: &[Option<usize>], out: &mut [f32]) {
+        if self.state_agent {
+            return self.agent_states(world, last_actions, out);
+        }
         out.fill(0.0);
         let tb = self.ally_types.len();
         let look = if self.fov > 0 { 2 } else { 0 };

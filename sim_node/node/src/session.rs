@@ -58,6 +58,7 @@ pub fn session_info(cfg: &SimConfig, episode: u64, header: Header) -> SessionInf
         action_mask,
         fov_actions,
         dense_reward,
+        state_agent,
     } = &cfg.env;
     let Rules { full_vision, cooldown_jitter, auto_acquire, abilities, weapon_period, melee_surround } = *rules;
     // Not on the wire: a launch is refused any reading but the engine's (launch's validate),
@@ -65,6 +66,7 @@ pub fn session_info(cfg: &SimConfig, episode: u64, header: Header) -> SessionInf
     debug_assert_eq!(weapon_period, WeaponPeriod::Attack, "launch validation lets only `attack` through");
     debug_assert_eq!(melee_surround, Rules::default().melee_surround, "launch validation lets only the engine's movement through");
     debug_assert!(dense_reward.is_smac_default(), "launch validation lets only SMAC's reward settings through");
+    debug_assert!(!state_agent, "launch validation lets only SMAC's state through");
     let (clock, deadline_ms) = match cfg.clock {
         Clock::Lockstep { deadline } => (SessionInfo::CLOCK_LOCKSTEP, u32::try_from(deadline.as_millis()).unwrap_or(u32::MAX)),
         Clock::RealTime => (SessionInfo::CLOCK_REALTIME, 0),
@@ -135,6 +137,7 @@ pub fn env_config(s: &SessionInfo) -> Result<EnvConfig, SessionError> {
         fov_actions: s.fov_actions,
         // Not on the wire: a launch is refused other settings.
         dense_reward: avacraft_engine::DenseReward::default(),
+        state_agent: false,
     })
 }
 
@@ -202,8 +205,9 @@ mod tests {
             prob_obs_enemy: 0.25,
             action_mask: false,
             fov_actions: 12,
-            // Not on the wire: a launch takes SMAC's reward settings only.
+            // Not on the wire: a launch takes SMAC's reward settings and state only.
             dense_reward: avacraft_engine::DenseReward::default(),
+            state_agent: false,
         };
         for env in [EnvConfig::default(), EnvConfig::smac(), odd] {
             let cfg = config(env.clone());
