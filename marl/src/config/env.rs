@@ -19,6 +19,7 @@ pub(super) fn add_default_keys(table: &mut toml::Table) {
     table.entry("melee_surround").or_insert(toml::Value::Boolean(false));
     table.entry("reward_only_positive").or_insert(toml::Value::Boolean(true));
     table.entry("reward_negative_scale").or_insert(toml::Value::Float(0.5));
+    table.entry("state_agent").or_insert(toml::Value::Boolean(false));
 }
 
 impl Config {
@@ -38,6 +39,7 @@ impl Config {
             melee_surround: self.melee_surround,
             reward_only_positive: self.reward_only_positive,
             reward_negative_scale: self.reward_negative_scale,
+            state_agent: self.state_agent,
             ..EnvOptions::default()
         }
     }

@@ -208,6 +208,11 @@ pub struct Config {
     /// configs when false, so that runs from before it read as they were.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub critic_agent_obs: bool,
+    /// The MAPPO repository's agent-specific state (`use_state_agent`) in place of SMAC's
+    /// global state: the environment's state is every agent's row of every unit as seen from
+    /// it, and MAPPO's critic reads each agent's own row. Left out of saved configs when false.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub state_agent: bool,
     /// PPO: the MAPPO repository's network for actor and critic (layer norms on the inputs
     /// and after every hidden layer, a second hidden layer before the GRU, orthogonal
     /// initialisation: [`crate::nets::AgentNet::normed`]). Left out of saved configs when

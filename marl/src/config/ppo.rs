@@ -53,6 +53,10 @@ impl Config {
         if let Some((key, _, _, why)) = only.into_iter().find(|(_, on, algo, _)| *on && self.algo != *algo) {
             return Err(bad(key, true, why, false));
         }
+        if self.critic_agent_obs && self.state_agent {
+            let why = "the agent-specific state (`state_agent`) already holds what the agent sees: set one of the two";
+            return Err(bad("critic_agent_obs", true, why, false));
+        }
         if self.shared_trunk && self.obs != ObsKind::Features {
             return Err(bad(
                 "shared_trunk",

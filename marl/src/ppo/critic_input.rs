@@ -1,5 +1,6 @@
 //! What the PPO critic reads besides the agent id: the observation (IPPO), the global state
-//! (MAPPO), or both (MAPPO with `critic_agent_obs`), and the rows it is fed.
+//! (MAPPO), or both (MAPPO with `critic_agent_obs`), or the agent's own row of the
+//! agent-specific state (MAPPO with `state_agent`), and the rows it is fed.
 
 use super::rollout::CriticRows;
 use crate::Config;
@@ -14,13 +15,18 @@ pub enum CriticInput {
     State,
     /// The global state, then the agent's own observation (MAPPO with `critic_agent_obs`).
     StateObs,
+    /// The agent's own row of the agent-specific state (MAPPO with `state_agent`: the
+    /// environment's state is every agent's row, one after another), in each of `frames`
+    /// stacked steps.
+    AgentState { frames: usize },
 }
 
 impl CriticInput {
     pub fn of(cfg: &Config) -> CriticInput {
-        match (cfg.algo.as_str(), cfg.critic_agent_obs) {
-            ("mappo", false) => CriticInput::State,
-            ("mappo", true) => CriticInput::StateObs,
+        match (cfg.algo.as_str(), cfg.critic_agent_obs, cfg.state_agent) {
+            ("mappo", _, true) => CriticInput::AgentState { frames: cfg.stacked_frames.max(1) },
+            ("mappo", false, false) => CriticInput::State,
+            ("mappo", true, false) => CriticInput::StateObs,
             _ => CriticInput::Obs,
         }
     }
@@ -34,6 +40,7 @@ impl CriticInput {
             CriticInput::Obs => shape.obs,
             CriticInput::State => shape.state,
             CriticInput::StateObs => shape.state + shape.obs,
+            CriticInput::AgentState { .. } => shape.state / shape.n_agents.max(1),
         }
     }
     /// The critic's input rows (`envs x agents`) of a vector step's observations and states,
@@ -51,6 +58,21 @@ impl CriticInput {
                 for r in 0..rows {
                     t.extend_from_slice(&state[(r / a) * shape.state..(r / a + 1) * shape.state]);
                     t.extend_from_slice(&obs[r * shape.obs..(r + 1) * shape.obs]);
+                }
+                (t, (0..rows as u32).collect())
+            }
+            // One row per agent: its slice of each stacked step's state.
+            CriticInput::AgentState { frames } => {
+                let (step, w) = (shape.state / frames.max(1), shape.state / (frames.max(1) * a));
+                debug_assert_eq!(step * frames.max(1), shape.state, "a stacked state is whole steps");
+                debug_assert_eq!(w * a, step, "an agent-specific state is whole rows");
+                let mut t = Vec::with_capacity(rows * w * frames);
+                for r in 0..rows {
+                    let env = &state[(r / a) * shape.state..(r / a + 1) * shape.state];
+                    for f in 0..frames {
+                        let from = f * step + (r % a) * w;
+                        t.extend_from_slice(&env[from..from + w]);
+                    }
                 }
                 (t, (0..rows as u32).collect())
             }

@@ -176,6 +176,44 @@ fn ppo_configs_take_only_their_keys() {
     assert!(trunk.contains("unknown config key `shared_trunk`"), "{trunk}");
     let plain = Config::for_algo("mappo", &[]).map(|c| serde_json::to_string(&c).unwrap_or_default()).unwrap_or_default();
     assert!(plain.contains("\"algo\"") && !plain.contains("critic_agent_obs"), "{plain}");
+    assert!(!plain.contains("state_agent"), "{plain}");
+    // The agent-specific state already holds what the agent sees: not both.
+    let both = Config::for_algo("mappo", &["critic_agent_obs=true".into(), "state_agent=true".into()]).err().map(|e| e.to_string());
+    assert!(both.as_deref().is_some_and(|e| e.contains("critic_agent_obs") && e.contains("state_agent")), "{both:?}");
+}
+
+/// `state_agent`: the environment's state is every agent's row one after another; each
+/// agent's critic row is its own row (in each stacked step), then its id.
+#[test]
+fn a_critic_on_the_agent_specific_state_reads_its_own_row() -> R {
+    for frames in [1usize, 2] {
+        let stacked = format!("stacked_frames={frames}");
+        let c = ppo_cfg("mappo", &["state_agent=true", "use_rnn=false", &stacked])?;
+        assert!(c.env_config()?.state_agent);
+        let input = CriticInput::of(&c);
+        assert_eq!(input, CriticInput::AgentState { frames });
+        // Three agents' rows of 4 each, `frames` steps side by side.
+        let (a, row) = (3, 4);
+        let shape = Shape { n_agents: a, obs: 5, state: a * row * frames, n_actions: 4, n_enemies: 2 };
+        let envs = 2;
+        let obs = vec![0.0; envs * a * shape.obs];
+        let state: Vec<f32> = (0..envs * shape.state).map(|i| i as f32).collect();
+        let rows = input.rows(&shape, &obs, &state, envs).dense();
+        let w = row * frames + a;
+        assert_eq!((input.width(&shape), rows.len()), (w, envs * a * w));
+        for (r, got) in rows.chunks_exact(w).enumerate() {
+            let (env, agent) = (r / a, r % a);
+            let want: Vec<f32> = (0..frames)
+                .flat_map(|f| {
+                    let from = env * shape.state + f * a * row + agent * row;
+                    state[from..from + row].to_vec()
+                })
+                .chain((0..a).map(|k| if k == agent { 1.0 } else { 0.0 }))
+                .collect();
+            assert_eq!(got, &want[..], "frames {frames}, row {r}");
+        }
+    }
+    Ok(())
 }
 
 /// `critic_agent_obs`: each agent's critic row is its environment's state, then its own
@@ -382,6 +420,31 @@ fn acting_matches_the_reference_network() -> R {
     {
         assert!((a - b).abs() < 1e-5, "fused {a}, reference {b}");
     }
+    Ok(())
+}
+
+/// A short MAPPO run on the agent-specific state trains (its critic reads one agent's row
+/// and the id), saves a critic of that width, and its policy plays as the trainer tested it.
+#[test]
+fn mappo_on_the_agent_specific_state_trains_and_plays() -> R {
+    let scenario = Arc::new(Scenario::load("3m")?);
+    let dir = std::env::temp_dir().join(format!("avacraft-ppo-as-{}", std::process::id()));
+    let c = Config { use_rnn: false, state_agent: true, ..short("mappo")? };
+    let opts = RunOptions { scenario: Arc::clone(&scenario), seed: 4, threads: 2, out: Some(dir.clone()) };
+    let (trained, summary) = train(&c, &opts, &mut |_| {})?;
+    assert!(summary.last_loss.is_finite() && summary.updates == 25, "{summary:?}");
+    let env = Env::new(Arc::clone(&scenario), c.env_config()?, 0);
+    let row = env.smac_layout(Team::One).agent_state_size();
+    let critic = candle_core::safetensors::load(dir.join("critic.safetensors"), &Device::Cpu)?;
+    let first = critic.get("fc1.weight").ok_or_else(|| format!("no fc1.weight among {:?}", critic.keys().collect::<Vec<_>>()))?;
+    assert_eq!(first.dims(), [c.rnn_hidden_dim, row + 3], "the critic reads one agent's row and its id");
+    let agent = MarlAgent::load(&dir)?;
+    for seed in 1..=2 {
+        let r = train::test(trained.nets(), &c, &scenario, &[seed], 1)?;
+        let p = common::play(agent.policy(), &scenario, &c, seed);
+        assert!((f64::from(p.ret) - r.mean_return).abs() < 1e-4, "seed {seed}: agent {}, trainer {}", p.ret, r.mean_return);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }
 
