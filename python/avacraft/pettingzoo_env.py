@@ -86,6 +86,7 @@ class AvacraftParallelEnv(ParallelEnv):
         reward_defeat: float = 0,
         reward_scale: bool = True,
         reward_scale_rate: float = 20,
+        state_agent: bool = False,
         screen_size: tuple[int, int] = (160, 120),
         minimap_size: tuple[int, int] = (32, 32),
         vlm_size: tuple[int, int] = (1920, 1080),
@@ -128,6 +129,7 @@ class AvacraftParallelEnv(ParallelEnv):
             data=data,
             weapon_period=weapon_period,
             melee_surround=opt.boolean("melee_surround", melee_surround),
+            state_agent=opt.boolean("state_agent", state_agent),
             **opt.smac_reward(
                 sparse=reward == "sparse",
                 only_positive=reward_only_positive,

@@ -51,6 +51,9 @@ class StarCraft2Env:
       reading, the default) or "shot" (from the damage point: an experiment, docs/smac.md).
     - `melee_surround`: the surround experiment (off): melee units walk round those already
       at their target to a free place beside it (docs/smac.md).
+    - `state_agent`: the MAPPO repository's agent-specific state (its `use_state_agent`) in
+      place of SMAC's: `get_state()` is every agent's row one after another, each every unit
+      as seen from that agent with its own features and id; `get_state_agent(i)` gives one.
     - `episode_limit`: time limit in steps (None: the scenario's); `time_limit_loops` in
       game loops.
     - `prob_obs_enemy`, `action_mask`: SMACv2's extended partial observability (an enemy
@@ -113,6 +116,7 @@ class StarCraft2Env:
         num_fov_actions: int = 12,
         weapon_period: str = "attack",
         melee_surround: bool = False,
+        state_agent: bool = False,
     ) -> None:
         self.map_name = map_name
         self._step_mul = opt.positive_int("step_mul", step_mul)
@@ -149,6 +153,12 @@ class StarCraft2Env:
         self.obs_timestep_number = opt.boolean("obs_timestep_number", obs_timestep_number)
         self.state_last_action = opt.boolean("state_last_action", state_last_action)
         self.state_timestep_number = opt.boolean("state_timestep_number", state_timestep_number)
+        self.state_agent = opt.boolean("state_agent", state_agent)
+        if self.state_agent and (self.obs_instead_of_state or not self.state_last_action):
+            raise AvacraftError(
+                "state_agent=True: the MAPPO repository's agent-specific state carries last actions and is read in place of "
+                "the observations; it takes neither obs_instead_of_state=True nor state_last_action=False"
+            )
         self.debug = opt.boolean("debug", debug)
         self.window_size = (opt.positive_int("window_size_x", window_size_x), opt.positive_int("window_size_y", window_size_y))
         self.replay_dir = replay_dir or ""
@@ -182,6 +192,7 @@ class StarCraft2Env:
             data=data,
             weapon_period=weapon_period,
             melee_surround=opt.boolean("melee_surround", melee_surround),
+            state_agent=self.state_agent,
             **reward_options,
         )
         info = self._env.env_info(1)
@@ -280,7 +291,9 @@ class StarCraft2Env:
         return self._obs_size + int(self.obs_timestep_number)
 
     def get_state(self) -> np.ndarray:
-        """SMAC's global state (float32, `get_state_size()`)."""
+        """SMAC's global state (float32, `get_state_size()`). With `state_agent=True`, the MAPPO
+        repository's agent-specific state: every agent's row one after another (`get_state_agent`
+        gives one)."""
         if self.obs_instead_of_state:
             return np.concatenate(self.get_obs(), axis=0).astype(np.float32)
         state = self._env.state(1)
@@ -289,6 +302,17 @@ class StarCraft2Env:
         if self.state_timestep_number:
             state = np.append(state, np.float32(self._episode_steps / self.episode_limit))
         return state
+
+    def get_state_agent(self, agent_id: int) -> np.ndarray:
+        """Agent `agent_id`'s row of the agent-specific state (`state_agent=True`; the MAPPO
+        repository's `get_state_agent`, without its timestep feature)."""
+        if not self.state_agent:
+            raise AvacraftError("get_state_agent: this environment was made without state_agent=True")
+        if isinstance(agent_id, bool) or not isinstance(agent_id, (int, np.integer)) or not 0 <= agent_id < self.n_agents:
+            raise opt.unsupported("agent_id", agent_id, f"an agent index from 0 to {self.n_agents - 1}")
+        i = int(agent_id)
+        w = self._state_size // self.n_agents
+        return self._env.state(1)[i * w : (i + 1) * w]
 
     def get_state_size(self) -> int:
         if self.obs_instead_of_state:

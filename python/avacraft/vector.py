@@ -69,6 +69,7 @@ class VecEnv:
         reward_defeat: float = 0,
         reward_scale: bool = True,
         reward_scale_rate: float = 20,
+        state_agent: bool = False,
     ) -> None:
         if seeds is None:
             if num_envs is None:
@@ -101,6 +102,7 @@ class VecEnv:
             data=data,
             weapon_period=weapon_period,
             melee_surround=opt.boolean("melee_surround", melee_surround),
+            state_agent=opt.boolean("state_agent", state_agent),
             **opt.smac_reward(
                 sparse=opt.boolean("reward_sparse", reward_sparse),
                 only_positive=reward_only_positive,

@@ -34,7 +34,7 @@ impl PyVecEnv {
     #[pyo3(signature = (scenario, seeds, threads=None, step_mul=8, reward="dense", opponent=None, full_vision=false,
         passive_allies=true, cooldown_jitter=true, abilities=true, ability_actions=false, time_limit_loops=None, prob_obs_enemy=1.0, action_mask=true, fov_actions=0, data=None, weapon_period="attack", melee_surround=false,
         reward_only_positive=true, reward_negative_scale=0.5, reward_death_value=10.0, reward_win=200.0, reward_defeat=0.0,
-        reward_scale=true, reward_scale_rate=20.0))]
+        reward_scale=true, reward_scale_rate=20.0, state_agent=false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         scenario: &str,
@@ -62,6 +62,7 @@ impl PyVecEnv {
         reward_defeat: f64,
         reward_scale: bool,
         reward_scale_rate: f64,
+        state_agent: bool,
     ) -> PyResult<Self> {
         // Both constructors take EnvOptions' fields, in its order (a Python test holds them to it).
         let (reward, opponent, data, weapon_period) = options::named(reward, opponent.as_deref(), data.as_deref(), weapon_period)?;
@@ -88,6 +89,7 @@ impl PyVecEnv {
             reward_defeat,
             reward_scale,
             reward_scale_rate,
+            state_agent,
         };
         let (scenario, cfg) = options::build(scenario, &opts)?;
         let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));

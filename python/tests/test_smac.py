@@ -157,6 +157,38 @@ def test_state_and_obs_options():
     assert base.get_env_info()["state_shape"] == 48
 
 
+def test_the_agent_specific_state(rng):
+    """`state_agent=True`: the MAPPO repository's agent-specific state, every agent's row one
+    after another; each row ends in the agent's one-hot id, and the game is the one played
+    without the option."""
+    env = StarCraft2Env(map_name="2s3z", seed=4, state_agent=True)
+    plain = StarCraft2Env(map_name="2s3z", seed=4)
+    n = env.n_agents
+    # 2s3z: 5 agents and enemies, 11 actions, shields and two type bits a side.
+    row = 4 * (8 + 1 + 2 + 11) + 5 * (8 + 1 + 2) + 4 + (7 + 1 + 2 + 11) + n
+    assert env.get_state_size() == n * row == env.get_env_info()["state_shape"]
+    assert plain.get_state_size() != env.get_state_size()
+    _, state = env.reset()
+    plain.reset()
+    for _ in range(5):
+        acts = random_actions(env.get_avail_actions(), rng)
+        assert env.get_avail_actions() == plain.get_avail_actions()
+        env.step(acts)
+        plain.step(acts)
+        assert all(np.array_equal(a, b) for a, b in zip(env.get_obs(), plain.get_obs()))
+    state = env.get_state()
+    rows = [env.get_state_agent(i) for i in range(n)]
+    assert np.array_equal(np.concatenate(rows), state)
+    for i, r in enumerate(rows):
+        assert list(r[-n:]) == [1.0 if k == i else 0.0 for k in range(n)]
+    with pytest.raises(AvacraftError, match="agent_id"):
+        env.get_state_agent(n)
+    with pytest.raises(AvacraftError, match="state_agent"):
+        plain.get_state_agent(0)
+    with pytest.raises(AvacraftError, match="state_last_action"):
+        StarCraft2Env(map_name="2s3z", state_agent=True, state_last_action=False)
+
+
 def test_pymarl_sc2_yaml_keys_are_accepted():
     # PyMARL's src/config/envs/sc2.yaml env_args.
     args = dict(
