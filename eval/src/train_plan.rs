@@ -475,8 +475,9 @@ opponent = "focus-fire"
         // settings on three maps and EPyMARL's on 5m_vs_6m; the MAPPO repository's 3s_vs_5z
         // script without and with its stacked frames (seeds 1-3 each); and on 5m_vs_6m the MAPPO
         // repository's clip and epochs on the plan's recurrent network (seeds 1-3); on 3s_vs_4z
-        // the repository's script for it (seeds 1-3); on 8m_vs_9m its clip (seed 1).
-        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 2 * 2 + 12 + 7 + 3 + 1 + 2 * 3 + 3 + 3 + 1 + 3);
+        // the repository's script for it (seeds 1-3); on 8m_vs_9m its clip (seed 1); its
+        // agent-specific state on 6h_vs_8z (seeds 1-3) and 2s_vs_1sc (seed 1).
+        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 2 * 2 + 12 + 7 + 3 + 1 + 2 * 3 + 3 + 3 + 1 + 3 + 3 + 1);
         // SMAC's signed reward: QMIX on 2s_vs_1sc, MAPPO's seeds 1 and 3 on 3s_vs_5z.
         for (id, algo) in
             [("2s_vs_1sc/qmix-signed-s1", "qmix"), ("3s_vs_5z/mappo-signed-s1", "mappo"), ("3s_vs_5z/mappo-signed-s3", "mappo")]
@@ -546,6 +547,18 @@ opponent = "focus-fire"
             let ff = smac.jobs.iter().find(|j| j.id == format!("6h_vs_8z/{run}-s1")).expect("the feed-forward MAPPO");
             let cfg = avacraft_marl::Config::for_algo("mappo", &ff.overrides).unwrap_or_else(|e| panic!("{e}"));
             assert!(!cfg.use_rnn && cfg.ppo_epochs == 5 && ff.steps == 10_000_000 && cfg.critic_agent_obs == agent_obs, "{run}");
+        }
+        // The repository's agent-specific state, with the rest of its script for each map.
+        for (id, rnn, epochs, steps) in [
+            ("6h_vs_8z/mappo-ff-ln-as-s1", false, 5, 10_000_000),
+            ("6h_vs_8z/mappo-ff-ln-as-s2", false, 5, 10_000_000),
+            ("6h_vs_8z/mappo-ff-ln-as-s3", false, 5, 10_000_000),
+            ("2s_vs_1sc/mappo-ln-as-s1", true, 15, 2_000_000),
+        ] {
+            let job = smac.jobs.iter().find(|j| j.id == id).unwrap_or_else(|| panic!("{id}"));
+            let cfg = avacraft_marl::Config::for_algo("mappo", &job.overrides).unwrap_or_else(|e| panic!("{e}"));
+            let repo = cfg.state_agent && cfg.layer_norm && !cfg.critic_agent_obs && cfg.use_rnn == rnn && cfg.ppo_epochs == epochs;
+            assert!(repo && job.steps == steps, "{id}: {cfg:?}");
         }
         for name in ["3m", "2s3z", "3s_vs_5z", "5m_vs_6m", "MMM", "6h_vs_8z"] {
             for seed in [2, 3] {
