@@ -74,12 +74,7 @@ impl SmacLayout {
             f[2] = d.x / sight;
             f[3] = d.y / sight;
             f[4] = cooldown_feature(au);
-            f[5] = au.hp / au.max_hp;
-            let mut t = 6;
-            if self.shield_ally > 0 {
-                f[t] = shield_fraction(au);
-                t += 1;
-            }
+            let t = 5 + health_shield(au, self.shield_ally > 0, &mut f[5..]);
             f[t..t + 2].copy_from_slice(&centred(au.pos));
             Self::one_hot(&self.ally_types, au.kind, &mut f[t + 2..t + 2 + tb]);
             one_hot_action(a, &mut f[t + 2 + tb..]);
@@ -96,12 +91,7 @@ impl SmacLayout {
             f[2] = d.x / sight;
             f[3] = d.y / sight;
             f[4] = (dist < sight) as u8 as f32;
-            f[5] = eu.hp / eu.max_hp;
-            let mut t = 6;
-            if self.shield_enemy > 0 {
-                f[t] = shield_fraction(eu);
-                t += 1;
-            }
+            let t = 5 + health_shield(eu, self.shield_enemy > 0, &mut f[5..]);
             Self::one_hot(&self.enemy_types, eu.kind, &mut f[t..t + tb]);
             f[t + tb..t + tb + 2].copy_from_slice(&centred(eu.pos));
         }
@@ -112,12 +102,7 @@ impl SmacLayout {
         off += MOVE_FEATS;
         let f = &mut out[off..off + 7 + self.shield_ally + tb + self.n_actions];
         f[0] = 1.0;
-        f[4] = u.hp / u.max_hp;
-        let mut t = 5;
-        if self.shield_ally > 0 {
-            f[t] = shield_fraction(u);
-            t += 1;
-        }
+        let t = 4 + health_shield(u, self.shield_ally > 0, &mut f[4..]);
         f[t..t + 2].copy_from_slice(&centred(u.pos));
         Self::one_hot(&self.ally_types, u.kind, &mut f[t + 2..t + 2 + tb]);
         one_hot_action(agent, &mut f[t + 2 + tb..]);
@@ -140,6 +125,13 @@ fn cooldown_feature(u: &Unit) -> f32 {
     if u.spec().heal.is_some() { u.energy / max } else { u.cooldown.max(0.0) / max }
 }
 
-fn shield_fraction(u: &Unit) -> f32 {
-    if u.max_shield > 0.0 { u.shield / u.max_shield } else { 0.0 }
+/// Writes the unit's health fraction and, where the layout has the feature, its shield
+/// fraction; returns how many features that was.
+fn health_shield(u: &Unit, shield: bool, f: &mut [f32]) -> usize {
+    f[0] = u.hp / u.max_hp;
+    if !shield {
+        return 1;
+    }
+    f[1] = if u.max_shield > 0.0 { u.shield / u.max_shield } else { 0.0 };
+    2
 }

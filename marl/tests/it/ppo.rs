@@ -439,11 +439,7 @@ fn mappo_on_the_agent_specific_state_trains_and_plays() -> R {
     let first = critic.get("fc1.weight").ok_or_else(|| format!("no fc1.weight among {:?}", critic.keys().collect::<Vec<_>>()))?;
     assert_eq!(first.dims(), [c.rnn_hidden_dim, row + 3], "the critic reads one agent's row and its id");
     let agent = MarlAgent::load(&dir)?;
-    for seed in 1..=2 {
-        let r = train::test(trained.nets(), &c, &scenario, &[seed], 1)?;
-        let p = common::play(agent.policy(), &scenario, &c, seed);
-        assert!((f64::from(p.ret) - r.mean_return).abs() < 1e-4, "seed {seed}: agent {}, trainer {}", p.ret, r.mean_return);
-    }
+    common::plays_as_tested(trained.nets(), &agent, &scenario, &c, 1..=2, "mappo on the agent-specific state")?;
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }
@@ -480,11 +476,7 @@ fn a_feed_forward_mappo_run_keeps_no_state_and_its_checkpoint_plays_alike() -> R
     assert!(summary.last_loss.is_finite() && summary.updates == 25, "{summary:?}");
     let agent = MarlAgent::load(&dir)?;
     assert!(!agent.policy().cfg.use_rnn && !agent.policy().nets.agent.is_recurrent());
-    for seed in 1..=2 {
-        let r = train::test(trained.nets(), &c, &scenario, &[seed], 1)?;
-        let p = common::play(agent.policy(), &scenario, &c, seed);
-        assert!((f64::from(p.ret) - r.mean_return).abs() < 1e-4, "seed {seed}: agent {}, trainer {}", p.ret, r.mean_return);
-    }
+    common::plays_as_tested(trained.nets(), &agent, &scenario, &c, 1..=2, "feed-forward mappo")?;
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }

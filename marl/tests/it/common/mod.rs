@@ -93,3 +93,21 @@ print(json.dumps({t: [[e.step, e.value] for e in acc.Scalars(t)] for t in acc.Ta
         );
     }
 }
+
+/// Checks that the saved `agent` plays each of `seeds`' episodes as an engine agent with the
+/// return the trainer's greedy test of `nets` gave it: the checkpoint plays as it was tested.
+pub fn plays_as_tested(
+    nets: &avacraft_marl::Nets,
+    agent: &MarlAgent,
+    scenario: &Arc<Scenario>,
+    cfg: &Config,
+    seeds: std::ops::RangeInclusive<u64>,
+    what: &str,
+) -> Result<(), Box<dyn std::error::Error>> {
+    for seed in seeds {
+        let r = avacraft_marl::train::test(nets, cfg, scenario, &[seed], 1)?;
+        let p = play(agent.policy(), scenario, cfg, seed);
+        assert!((f64::from(p.ret) - r.mean_return).abs() < 1e-4, "{what} seed {seed}: agent {}, trainer {}", p.ret, r.mean_return);
+    }
+    Ok(())
+}
