@@ -1,7 +1,8 @@
 //! `avacraft smac-report`: SMAC's 23 maps, our learners beside the real game's published
 //! results. It reads the training runs of eval/plans/smac.toml (`<runs>/<map>/<run>-s1/log.csv`,
 //! and `heldout.json`, an `avacraft episode --json` report on held-out seeds, where one was
-//! played; without one, the folder's checkpoint plays them) and the published numbers (eval/smac/published.toml), and writes the comparison
+//! played; without one, the folder's best-test checkpoint `best/` plays them, as its shipped
+//! copy would, else its last) and the published numbers (eval/smac/published.toml), and writes the comparison
 //! table (Markdown) and the learning curves of every map in one figure. A run whose training
 //! folder is gone (another machine's, or removed) is read from its shipped copy under
 //! `baselines/`, whose log it carries; its held-out games are played again from the shipped
@@ -223,10 +224,14 @@ fn find_run(runs: &Path, baselines: &Path, played: &mut Played, map: &str, run: 
     let dir = runs.join(map).join(format!("{run}-s{seed}"));
     if dir.join("log.csv").is_file() {
         let Some(mut o) = ours(&dir)? else { return Ok(None) };
-        // A training folder without a held-out report (an unfinished run's, say) plays them
-        // from its checkpoint, the last test round's policy, as a shipped copy's are played.
-        if o.heldout.is_none() && dir.join("agent.safetensors").is_file() {
-            o.heldout = Some(heldout_of(played, &dir, map)?);
+        // A training folder without a held-out report plays them from its best-test
+        // checkpoint, the one a shipped copy carries (so the table reads the same with the
+        // folder or without it), else from its last test round's policy (a run too young to
+        // have a best).
+        let best = dir.join("best");
+        let from = if best.join("agent.safetensors").is_file() { best } else { dir.clone() };
+        if o.heldout.is_none() && from.join("agent.safetensors").is_file() {
+            o.heldout = Some(heldout_of(played, &from, map)?);
         }
         return Ok(Some(o));
     }

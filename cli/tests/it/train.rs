@@ -414,6 +414,18 @@ fn smac_report_sets_runs_beside_published_results() {
     let line = table.lines().find(|l| l.starts_with("| 3m | qmix | ")).unwrap_or_else(|| panic!("no seeds row: {table}"));
     let cells: Vec<&str> = line.split(" | ").collect();
     assert!(cells[4].contains(" / ") && cells[4].contains("@ 0.0M"), "seed 3, held out from its folder: {line}");
+    // With a best-test checkpoint (`best/`), that one plays, as its shipped copy would: the
+    // folder's own (the last round's), made unreadable here, is not read.
+    std::fs::create_dir_all(third.join("best")).expect("seed 3's best");
+    for f in ["config.json", "agent.safetensors"] {
+        std::fs::copy(trained.join(f), third.join("best").join(f)).expect("copy");
+    }
+    std::fs::write(third.join("agent.safetensors"), b"not a checkpoint").expect("spoiled");
+    let out = args(&published);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let table = String::from_utf8_lossy(&out.stdout);
+    let line = table.lines().find(|l| l.starts_with("| 3m | qmix | ")).unwrap_or_else(|| panic!("no seeds row: {table}"));
+    assert!(line.split(" | ").nth(4).is_some_and(|c| c.contains(" / ")), "seed 3, held out from best/: {line}");
     std::fs::remove_dir_all(&third).expect("seed 3's folder removed");
     // Its budget, from the shipped config: short of it, unfinished.
     let config = std::fs::read_to_string(shipped.join("config.json")).expect("config");
