@@ -44,7 +44,7 @@ const RUNS: [&str; 2] = ["qmix", "mappo"];
 /// Runs of the plan with other settings than the compared learners' (seed 1, on the maps
 /// where they ran), with what differs (eval/plans/smac.toml says why each ran): listed under
 /// the table and drawn beside them; a finished one that does better is compared, and named.
-const VARIANTS: [(&str, &str); 17] = [
+const VARIANTS: [(&str, &str); 18] = [
     ("qmix-epymarl", "EPyMARL's QMIX settings with its recurrent agent (Adam at 5e-4, one-step targets), 300k steps"),
     ("qmix-pymarl", "PyMARL's QMIX, as the SMAC paper ran it (recurrent agent, RMSprop at 5e-4, one-step targets)"),
     ("mappo-ff", "feed-forward actor and critic, 5 PPO epochs (the MAPPO repository's script)"),
@@ -71,6 +71,7 @@ const VARIANTS: [(&str, &str); 17] = [
     ),
     ("mappo-ff-ln-as", "as mappo-ff-ln, the critic on the MAPPO repository's agent-specific state (`state_agent`)"),
     ("mappo-ln-as", "as mappo-ln, the critic on the MAPPO repository's agent-specific state (`state_agent`)"),
+    ("mappo-ff-ln-stack-as", "as mappo-ff-ln-stack, the critic on the MAPPO repository's agent-specific state (`state_agent`)"),
 ];
 /// Runs of the plan on another game than the compared learners' (another data set than the
 /// map's, or weapon periods counted from the shot), with what differs: listed under the

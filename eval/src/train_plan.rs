@@ -476,9 +476,9 @@ opponent = "focus-fire"
         // script without and with its stacked frames (seeds 1-3 each); and on 5m_vs_6m the MAPPO
         // repository's clip and epochs on the plan's recurrent network (seeds 1-3); on 3s_vs_4z
         // the repository's script for it (seeds 1-3); on 8m_vs_9m its clip (seed 1); its
-        // agent-specific state on 6h_vs_8z (seeds 1-3, and seeds 2-3 without it) and 2s_vs_1sc
-        // (seed 1).
-        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 2 * 2 + 12 + 7 + 3 + 1 + 2 * 3 + 3 + 3 + 1 + 3 + 3 + 1 + 2);
+        // agent-specific state on 6h_vs_8z (seeds 1-3, and seeds 2-3 without it), 2s_vs_1sc
+        // (seed 1) and with its 3s_vs_5z script (seeds 1-3).
+        assert_eq!(smac.jobs.len(), 2 * 23 + 2 * 2 * 5 + 2 * 2 + 12 + 7 + 3 + 1 + 2 * 3 + 3 + 3 + 1 + 3 + 3 + 1 + 2 + 3);
         // SMAC's signed reward: QMIX on 2s_vs_1sc, MAPPO's seeds 1 and 3 on 3s_vs_5z.
         for (id, algo) in
             [("2s_vs_1sc/qmix-signed-s1", "qmix"), ("3s_vs_5z/mappo-signed-s1", "mappo"), ("3s_vs_5z/mappo-signed-s3", "mappo")]
@@ -555,6 +555,7 @@ opponent = "focus-fire"
             ("6h_vs_8z/mappo-ff-ln-as-s2", false, 5, 10_000_000),
             ("6h_vs_8z/mappo-ff-ln-as-s3", false, 5, 10_000_000),
             ("2s_vs_1sc/mappo-ln-as-s1", true, 15, 2_000_000),
+            ("3s_vs_5z/mappo-ff-ln-stack-as-s3", false, 15, 2_000_000),
         ] {
             let job = smac.jobs.iter().find(|j| j.id == id).unwrap_or_else(|| panic!("{id}"));
             let cfg = avacraft_marl::Config::for_algo("mappo", &job.overrides).unwrap_or_else(|e| panic!("{e}"));
