@@ -70,10 +70,10 @@ pub struct SmacLayout {
     /// The MAPPO repository's agent-specific state in place of SMAC's (off by default; see
     /// [`SmacLayout::with_state_agent`]).
     pub(super) state_agent: bool,
-    pub(super) map_center: Vec2,
+    map_center: Vec2,
     map_size: Vec2,
-    pub(super) playable_w: f32,
-    pub(super) playable_h: f32,
+    playable_w: f32,
+    playable_h: f32,
     playable: Rect,
 }
 
@@ -231,6 +231,11 @@ impl SmacLayout {
     /// cone includes its edge of range) and, under conic fields of view, in the cone.
     fn sees(&self, u: &Unit, p: Vec2) -> bool {
         self.in_view(u, p, self.sight(u), self.fov == 0)
+    }
+
+    /// A position from the map's centre over the playable size, as SMAC's state has it.
+    pub(super) fn centred(&self, p: Vec2) -> [f32; 2] {
+        [(p.x - self.map_center.x) / self.playable_w, (p.y - self.map_center.y) / self.playable_h]
     }
 
     /// How far an agent sees for its features: SMAC's 9, or SMACv2's the unit's own sight.
@@ -426,9 +431,8 @@ impl SmacLayout {
             let f = &mut out[i * na..(i + 1) * na];
             let Some(u) = world.unit(a).filter(|u| u.alive) else { continue };
             f[0] = u.hp / u.max_hp;
-            f[1] = if u.spec().heal.is_some() { u.energy / u.spec().smac_max_cd } else { u.cooldown.max(0.0) / u.spec().smac_max_cd };
-            f[2] = (u.pos.x - self.map_center.x) / self.playable_w;
-            f[3] = (u.pos.y - self.map_center.y) / self.playable_h;
+            f[1] = cooldown_feature(u);
+            f[2..4].copy_from_slice(&self.centred(u.pos));
             if self.shield_ally > 0 && u.max_shield > 0.0 {
                 f[4] = u.shield / u.max_shield;
             }
@@ -445,8 +449,7 @@ impl SmacLayout {
             let f = &mut out[base + j * ne..base + (j + 1) * ne];
             let Some(u) = world.unit(e).filter(|u| u.alive) else { continue };
             f[0] = u.hp / u.max_hp;
-            f[1] = (u.pos.x - self.map_center.x) / self.playable_w;
-            f[2] = (u.pos.y - self.map_center.y) / self.playable_h;
+            f[1..3].copy_from_slice(&self.centred(u.pos));
             if self.shield_enemy > 0 && u.max_shield > 0.0 {
                 f[3] = u.shield / u.max_shield;
             }
@@ -613,4 +616,10 @@ fn fixed_command(i: usize) -> Command {
         4 => Command::MoveDir { dir: Direction::Right },
         _ => Command::MoveDir { dir: Direction::Left },
     }
+}
+
+/// SMAC's cooldown feature: the weapon's cooldown (a healer's energy) over SMAC's maximum.
+pub(super) fn cooldown_feature(u: &Unit) -> f32 {
+    let max = u.spec().smac_max_cd;
+    if u.spec().heal.is_some() { u.energy / max } else { u.cooldown.max(0.0) / max }
 }

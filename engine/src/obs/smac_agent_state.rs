@@ -21,7 +21,7 @@
 //!
 //! A dead agent's row is zeros but for its id (`use_mustalive`).
 
-use super::smac::SmacLayout;
+use super::smac::{SmacLayout, cooldown_feature};
 use crate::world::{Unit, World};
 
 impl SmacLayout {
@@ -53,10 +53,6 @@ impl SmacLayout {
         let Some(u) = self.agents.get(agent).and_then(|&id| world.unit(id)).filter(|u| u.alive) else { return };
         let tb = self.ally_types.len();
         let sight = self.sight(u);
-        let centred = |p: crate::geom::Vec2| {
-            let c = p - self.map_center;
-            [c.x / self.playable_w, c.y / self.playable_h]
-        };
         let one_hot_action = |a: usize, out: &mut [f32]| {
             if let Some(i) = last.get(a).copied().flatten().filter(|&i| i < self.n_actions) {
                 out[i] = 1.0;
@@ -75,7 +71,7 @@ impl SmacLayout {
             f[3] = d.y / sight;
             f[4] = cooldown_feature(au);
             let t = 5 + health_shield(au, self.shield_ally > 0, &mut f[5..]);
-            f[t..t + 2].copy_from_slice(&centred(au.pos));
+            f[t..t + 2].copy_from_slice(&self.centred(au.pos));
             Self::one_hot(&self.ally_types, au.kind, &mut f[t + 2..t + 2 + tb]);
             one_hot_action(a, &mut f[t + 2 + tb..]);
         }
@@ -93,7 +89,7 @@ impl SmacLayout {
             f[4] = (dist < sight) as u8 as f32;
             let t = 5 + health_shield(eu, self.shield_enemy > 0, &mut f[5..]);
             Self::one_hot(&self.enemy_types, eu.kind, &mut f[t..t + tb]);
-            f[t + tb..t + tb + 2].copy_from_slice(&centred(eu.pos));
+            f[t + tb..t + tb + 2].copy_from_slice(&self.centred(eu.pos));
         }
         off += self.n_enemies * we;
         for k in 0..MOVE_FEATS {
@@ -103,7 +99,7 @@ impl SmacLayout {
         let f = &mut out[off..off + 7 + self.shield_ally + tb + self.n_actions];
         f[0] = 1.0;
         let t = 4 + health_shield(u, self.shield_ally > 0, &mut f[4..]);
-        f[t..t + 2].copy_from_slice(&centred(u.pos));
+        f[t..t + 2].copy_from_slice(&self.centred(u.pos));
         Self::one_hot(&self.ally_types, u.kind, &mut f[t + 2..t + 2 + tb]);
         one_hot_action(agent, &mut f[t + 2 + tb..]);
     }
@@ -118,12 +114,6 @@ impl SmacLayout {
 }
 
 const MOVE_FEATS: usize = 4;
-
-/// SMAC's cooldown feature: the weapon's cooldown (a healer's energy) over SMAC's maximum.
-fn cooldown_feature(u: &Unit) -> f32 {
-    let max = u.spec().smac_max_cd;
-    if u.spec().heal.is_some() { u.energy / max } else { u.cooldown.max(0.0) / max }
-}
 
 /// Writes the unit's health fraction and, where the layout has the feature, its shield
 /// fraction; returns how many features that was.
