@@ -119,7 +119,7 @@ pub fn first_reaching(rows: &[LogRow], test: f64, train: f64) -> Option<LogRow> 
     rows.iter().copied().find(|r| r.test_win_rate >= test && r.train_win_rate >= train)
 }
 
-const COLORS: [RGBColor; 15] = [
+const COLORS: [RGBColor; 20] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
@@ -135,6 +135,13 @@ const COLORS: [RGBColor; 15] = [
     RGBColor(128, 0, 0),
     RGBColor(230, 180, 0),
     RGBColor(40, 40, 40),
+    // Picked to stand apart from the fifteen above (the generated hues past the palette
+    // came back near its blue, red and green on SMAC's 23-map figure).
+    RGBColor(200, 0, 200),
+    RGBColor(75, 0, 130),
+    RGBColor(110, 220, 0),
+    RGBColor(0, 150, 130),
+    RGBColor(250, 60, 150),
 ];
 
 /// Series `i`'s colour: the palette's, then hues a golden angle apart (a figure with more
@@ -365,6 +372,13 @@ mod tests {
     fn series_colours_stay_apart_past_the_palette() {
         let colours: Vec<(u8, u8, u8)> = (0..40).map(series_color).map(|RGBColor(r, g, b)| (r, g, b)).collect();
         assert_eq!(colours[..COLORS.len()], COLORS.map(|RGBColor(r, g, b)| (r, g, b)), "the palette comes first");
+        // Within the palette, every two colours differ by at least 40 in some channel.
+        for (i, a) in COLORS.iter().enumerate() {
+            for (j, b) in COLORS.iter().enumerate().skip(i + 1) {
+                let d = [a.0.abs_diff(b.0), a.1.abs_diff(b.1), a.2.abs_diff(b.2)].into_iter().max().unwrap_or(0);
+                assert!(d >= 40, "palette colours {i} and {j} look alike: {a:?} {b:?}");
+            }
+        }
         for (i, a) in colours.iter().enumerate() {
             for (j, b) in colours.iter().enumerate().skip(i + 1) {
                 let d = [a.0.abs_diff(b.0), a.1.abs_diff(b.1), a.2.abs_diff(b.2)].into_iter().max().unwrap_or(0);
